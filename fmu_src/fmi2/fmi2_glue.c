@@ -1,0 +1,456 @@
+/* FMI 2.0 co-simulation glue: the FMI state machine, logging and FMU states over the model API.
+ *
+ * It knows nothing of springs: every model question goes through lattice/model.h, as the Reference FMUs
+ * keep one shared FMI layer beside each model's own folder.
+ */
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../include/fmi2Functions.h"
+#include "../lattice/model.h"
+
+#define MESSAGE_SIZE 1024
+#define STATE_MAGIC 0x4d534c32u /* "MSL2": marks a serialised state of this FMU */
+/* The importer's communication time may drift from ours by rounding; more than this is a real mismatch. */
+#define TIME_MISMATCH_TOLERANCE 1e-9
+
+typedef enum {
+    STATE_INSTANTIATED,
+    STATE_INITIALIZATION_MODE,
+    STATE_STEP_COMPLETE,
+    STATE_TERMINATED,
+    STATE_ERROR
+} InstanceState;
+
+typedef struct {
+    Model *model;
+    fmi2CallbackLogger logger;
+    fmi2ComponentEnvironment environment;
+    char *instance_name;
+    int logging_on;
+    InstanceState state;
+    double start_time, stop_time;
+    int stop_time_defined;
+} Instance;
+
+/* A saved FMU state: the instance's own fields, then the model's bytes. */
+typedef struct {
+    unsigned int magic;
+    InstanceState state;
+    double start_time, stop_time;
+    int stop_time_defined;
+} SavedHeader;
+
+static void log_message(const Instance *instance, fmi2Status status, const char *category, const char *format,
+                        ...) {
+    char message[MESSAGE_SIZE];
+    va_list args;
+    if (!instance || !instance->logger) return;
+    if (status == fmi2OK && !instance->logging_on) return;
+    va_start(args, format);
+    vsnprintf(message, sizeof(message), format, args);
+    va_end(args);
+    /* the logger formats like printf: hand it the message as an argument so a '%' in it is safe */
+    instance->logger(instance->environment, instance->instance_name, status, category, "%s", message);
+}
+
+static fmi2Status error(Instance *instance, const char *function, const char *message) {
+    log_message(instance, fmi2Error, "logStatusError", "%s: %s", function, message);
+    return fmi2Error;
+}
+
+/* Refuses calls the FMI 2.0 state machine does not allow in the current state. */
+static int allowed(Instance *instance, const char *function, unsigned int states) {
+    if (!instance) return 0;
+    if (states & (1u << instance->state)) return 1;
+    error(instance, function, instance->state == STATE_ERROR
+                                  ? "the instance is in the error state: only fmi2Reset and fmi2FreeInstance are allowed"
+                                  : "not allowed in the current state of the instance");
+    return 0;
+}
+
+#define IN(state) (1u << (state))
+#define ANY_STATE (IN(STATE_INSTANTIATED) | IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP_COMPLETE) | IN(STATE_TERMINATED))
+
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
+                               const fmi2String categories[]) {
+    Instance *instance = (Instance *)c;
+    (void)nCategories;
+    (void)categories;
+    if (!instance) return fmi2Error;
+    instance->logging_on = loggingOn;
+    return fmi2OK;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn) {
+    Instance probe, *instance;
+    (void)fmuResourceLocation;
+    (void)visible;
+    memset(&probe, 0, sizeof(probe));
+    probe.logger = functions ? functions->logger : NULL;
+    probe.environment = functions ? functions->componentEnvironment : NULL;
+    probe.instance_name = (char *)(instanceName ? instanceName : "");
+    if (fmuType != fmi2CoSimulation) {
+        error(&probe, "fmi2Instantiate", "this FMU supports co-simulation only (fmuType must be fmi2CoSimulation)");
+        return NULL;
+    }
+    if (!fmuGUID || strcmp(fmuGUID, model_guid()) != 0) {
+        char message[MESSAGE_SIZE];
+        snprintf(message, sizeof(message), "GUID %s does not match this binary's %s (modelDescription.xml and "
+                 "binary come from different builds)", fmuGUID ? fmuGUID : "(null)", model_guid());
+        error(&probe, "fmi2Instantiate", message);
+        return NULL;
+    }
+    instance = (Instance *)calloc(1, sizeof(Instance));
+    if (!instance) return NULL;
+    instance->model = model_new();
+    instance->instance_name = (char *)malloc(strlen(probe.instance_name) + 1);
+    if (!instance->model || !instance->instance_name) {
+        model_free(instance->model);
+        free(instance->instance_name);
+        free(instance);
+        return NULL;
+    }
+    strcpy(instance->instance_name, probe.instance_name);
+    instance->logger = probe.logger;
+    instance->environment = probe.environment;
+    instance->logging_on = loggingOn;
+    instance->state = STATE_INSTANTIATED;
+    return instance;
+}
+
+void fmi2FreeInstance(fmi2Component c) {
+    Instance *instance = (Instance *)c;
+    if (!instance) return;
+    model_free(instance->model);
+    free(instance->instance_name);
+    free(instance);
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+    Instance *instance = (Instance *)c;
+    (void)toleranceDefined; /* the solver's tolerances are the parameters rtol and atol */
+    (void)tolerance;
+    if (!allowed(instance, "fmi2SetupExperiment", IN(STATE_INSTANTIATED))) return fmi2Error;
+    instance->start_time = startTime;
+    instance->stop_time_defined = stopTimeDefined;
+    instance->stop_time = stopTime;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+    Instance *instance = (Instance *)c;
+    if (!allowed(instance, "fmi2EnterInitializationMode", IN(STATE_INSTANTIATED))) return fmi2Error;
+    instance->state = STATE_INITIALIZATION_MODE;
+    return fmi2OK;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi2ExitInitializationMode", IN(STATE_INITIALIZATION_MODE))) return fmi2Error;
+    if (model_initialize(instance->model, instance->start_time, instance->stop_time_defined, instance->stop_time,
+                         message, sizeof(message))) {
+        instance->state = STATE_ERROR;
+        return error(instance, "fmi2ExitInitializationMode", message);
+    }
+    instance->state = STATE_STEP_COMPLETE;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Terminate(fmi2Component c) {
+    Instance *instance = (Instance *)c;
+    if (!allowed(instance, "fmi2Terminate", IN(STATE_STEP_COMPLETE))) return fmi2Error;
+    instance->state = STATE_TERMINATED;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component c) {
+    Instance *instance = (Instance *)c;
+    if (!instance) return fmi2Error;
+    model_reset(instance->model);
+    instance->state = STATE_INSTANTIATED;
+    instance->start_time = 0.0;
+    instance->stop_time_defined = 0;
+    instance->stop_time = 0.0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    if (!allowed(instance, "fmi2GetReal", ANY_STATE)) return fmi2Error;
+    for (i = 0; i < nvr; i++) {
+        if (model_get_real(instance->model, vr[i], &value[i], message, sizeof(message))) {
+            return error(instance, "fmi2GetReal", message);
+        }
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Integer value[]) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    if (!allowed(instance, "fmi2GetInteger", ANY_STATE)) return fmi2Error;
+    for (i = 0; i < nvr; i++) {
+        if (model_get_integer(instance->model, vr[i], &value[i], message, sizeof(message))) {
+            return error(instance, "fmi2GetInteger", message);
+        }
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[]) {
+    Instance *instance = (Instance *)c;
+    (void)vr;
+    (void)value;
+    if (!allowed(instance, "fmi2GetBoolean", ANY_STATE)) return fmi2Error;
+    return nvr == 0 ? fmi2OK : error(instance, "fmi2GetBoolean", "this FMU has no Boolean variables");
+}
+
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[]) {
+    Instance *instance = (Instance *)c;
+    (void)vr;
+    (void)value;
+    if (!allowed(instance, "fmi2GetString", ANY_STATE)) return fmi2Error;
+    return nvr == 0 ? fmi2OK : error(instance, "fmi2GetString", "this FMU has no String variables");
+}
+
+/* Setting: parameters before initialisation only (the model says why it refuses). */
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[]) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    if (!allowed(instance, "fmi2SetReal", ANY_STATE)) return fmi2Error;
+    for (i = 0; i < nvr; i++) {
+        if (model_set_real(instance->model, vr[i], value[i], message, sizeof(message))) {
+            return error(instance, "fmi2SetReal", message);
+        }
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[]) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    if (!allowed(instance, "fmi2SetInteger", ANY_STATE)) return fmi2Error;
+    for (i = 0; i < nvr; i++) {
+        if (model_set_integer(instance->model, vr[i], value[i], message, sizeof(message))) {
+            return error(instance, "fmi2SetInteger", message);
+        }
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[]) {
+    Instance *instance = (Instance *)c;
+    (void)vr;
+    (void)value;
+    if (!allowed(instance, "fmi2SetBoolean", ANY_STATE)) return fmi2Error;
+    return nvr == 0 ? fmi2OK : error(instance, "fmi2SetBoolean", "this FMU has no Boolean variables");
+}
+
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[]) {
+    Instance *instance = (Instance *)c;
+    (void)vr;
+    (void)value;
+    if (!allowed(instance, "fmi2SetString", ANY_STATE)) return fmi2Error;
+    return nvr == 0 ? fmi2OK : error(instance, "fmi2SetString", "this FMU has no String variables");
+}
+
+/* FMU states: a flat copy of the instance's fields and the model (the model holds no pointers). */
+static size_t saved_size(void) { return sizeof(SavedHeader) + model_size(); }
+
+static void save(const Instance *instance, unsigned char *bytes) {
+    SavedHeader header;
+    memset(&header, 0, sizeof(header));
+    header.magic = STATE_MAGIC;
+    header.state = instance->state;
+    header.start_time = instance->start_time;
+    header.stop_time = instance->stop_time;
+    header.stop_time_defined = instance->stop_time_defined;
+    memcpy(bytes, &header, sizeof(header));
+    memcpy(bytes + sizeof(header), instance->model, model_size());
+}
+
+static int restore(Instance *instance, const unsigned char *bytes) {
+    SavedHeader header;
+    memcpy(&header, bytes, sizeof(header));
+    if (header.magic != STATE_MAGIC) return -1;
+    instance->state = header.state;
+    instance->start_time = header.start_time;
+    instance->stop_time = header.stop_time;
+    instance->stop_time_defined = header.stop_time_defined;
+    memcpy(instance->model, bytes + sizeof(header), model_size());
+    return 0;
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
+    Instance *instance = (Instance *)c;
+    unsigned char *bytes;
+    if (!allowed(instance, "fmi2GetFMUstate", ANY_STATE)) return fmi2Error;
+    bytes = (unsigned char *)(*FMUstate ? *FMUstate : malloc(saved_size()));
+    if (!bytes) return error(instance, "fmi2GetFMUstate", "out of memory");
+    save(instance, bytes);
+    *FMUstate = bytes;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
+    Instance *instance = (Instance *)c;
+    if (!allowed(instance, "fmi2SetFMUstate", ANY_STATE)) return fmi2Error;
+    if (!FMUstate || restore(instance, (const unsigned char *)FMUstate)) {
+        return error(instance, "fmi2SetFMUstate", "not a state of this FMU");
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
+    (void)c;
+    if (FMUstate) {
+        free(*FMUstate);
+        *FMUstate = NULL;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size) {
+    (void)c;
+    (void)FMUstate;
+    *size = saved_size();
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[],
+                                 size_t size) {
+    Instance *instance = (Instance *)c;
+    if (!instance) return fmi2Error;
+    if (size < saved_size()) return error(instance, "fmi2SerializeFMUstate", "the buffer is too small");
+    memcpy(serializedState, FMUstate, saved_size());
+    return fmi2OK;
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
+                                   fmi2FMUstate *FMUstate) {
+    Instance *instance = (Instance *)c;
+    SavedHeader header;
+    void *bytes;
+    if (!instance) return fmi2Error;
+    if (size != saved_size()) {
+        return error(instance, "fmi2DeSerializeFMUstate", "the serialised state has the wrong size for this FMU");
+    }
+    memcpy(&header, serializedState, sizeof(header));
+    if (header.magic != STATE_MAGIC) return error(instance, "fmi2DeSerializeFMUstate", "not a state of this FMU");
+    bytes = *FMUstate ? *FMUstate : malloc(size);
+    if (!bytes) return error(instance, "fmi2DeSerializeFMUstate", "out of memory");
+    memcpy(bytes, serializedState, size);
+    *FMUstate = bytes;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
+                                        const fmi2ValueReference vKnown_ref[], size_t nKnown,
+                                        const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
+    (void)vUnknown_ref;
+    (void)nUnknown;
+    (void)vKnown_ref;
+    (void)nKnown;
+    (void)dvKnown;
+    (void)dvUnknown;
+    return error((Instance *)c, "fmi2GetDirectionalDerivative", "not provided by this FMU");
+}
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+    (void)vr;
+    (void)nvr;
+    (void)order;
+    (void)value;
+    return error((Instance *)c, "fmi2SetRealInputDerivatives", "this FMU has no inputs");
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                        const fmi2Integer order[], fmi2Real value[]) {
+    (void)vr;
+    (void)nvr;
+    (void)order;
+    (void)value;
+    return error((Instance *)c, "fmi2GetRealOutputDerivatives", "not provided by this FMU");
+}
+
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
+                      fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    double now;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (!allowed(instance, "fmi2DoStep", IN(STATE_STEP_COMPLETE))) return fmi2Error;
+    now = model_time(instance->model);
+    if (communicationStepSize < 0.0) {
+        return error(instance, "fmi2DoStep", "communicationStepSize must be >= 0");
+    }
+    if (currentCommunicationPoint - now > TIME_MISMATCH_TOLERANCE * (1.0 + now) ||
+        now - currentCommunicationPoint > TIME_MISMATCH_TOLERANCE * (1.0 + now)) {
+        snprintf(message, sizeof(message), "currentCommunicationPoint %.17g does not match the FMU's time %.17g",
+                 currentCommunicationPoint, now);
+        return error(instance, "fmi2DoStep", message);
+    }
+    if (model_advance(instance->model, currentCommunicationPoint + communicationStepSize, message, sizeof(message))) {
+        instance->state = STATE_ERROR;
+        return error(instance, "fmi2DoStep", message);
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c) {
+    return error((Instance *)c, "fmi2CancelStep", "doStep is synchronous in this FMU: there is nothing to cancel");
+}
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
+    (void)s;
+    (void)value;
+    return error((Instance *)c, "fmi2GetStatus", "doStep is synchronous in this FMU: no pending status");
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
+    Instance *instance = (Instance *)c;
+    if (!instance) return fmi2Error;
+    if (s == fmi2LastSuccessfulTime) {
+        *value = model_time(instance->model);
+        return fmi2OK;
+    }
+    return error(instance, "fmi2GetRealStatus", "only fmi2LastSuccessfulTime is provided");
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
+    (void)s;
+    (void)value;
+    return error((Instance *)c, "fmi2GetIntegerStatus", "not provided by this FMU");
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
+    Instance *instance = (Instance *)c;
+    if (!instance) return fmi2Error;
+    if (s == fmi2Terminated) {
+        *value = fmi2False; /* the model never asks to stop early */
+        return fmi2OK;
+    }
+    return error(instance, "fmi2GetBooleanStatus", "only fmi2Terminated is provided");
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
+    (void)s;
+    (void)value;
+    return error((Instance *)c, "fmi2GetStringStatus", "not provided by this FMU");
+}

@@ -1,0 +1,62 @@
+/* The physics of the mass-spring lattice (shared/SPEC.md): the one place where the force law lives.
+ *
+ * Knows nothing of FMI and nothing of solvers: a parameter struct, a right-hand side over the augmented
+ * state, the backplate force and the energies. General in rows x columns at run time (up to
+ * LATTICE_MAX_COLS columns), so the same file serves the FMU (size fixed at build time) and the test
+ * library that checks it against the numpy oracle.
+ *
+ * State layout (shared with reference/lattice.py): N = rows*cols, mass n = (i-1)*cols + (j-1) for row i,
+ * column j (1-based);
+ *   y[0..N)   ux      y[N..2N)  uy      y[2N..3N) vx      y[3N..4N) vy
+ *   y[4N]     W_ext (external work)    y[4N+1] D (dissipated energy)    y[4N+2] W_nr (non-reciprocal work)
+ * The last three are quadratures: integrating them with the state is what closes the energy balance.
+ */
+#ifndef LATTICE_H
+#define LATTICE_H
+
+#define LATTICE_MAX_COLS 64
+#define LATTICE_N_QUADRATURES 3
+#define LATTICE_STATE_SIZE(rows, cols) (4 * (rows) * (cols) + LATTICE_N_QUADRATURES)
+
+typedef enum { DIAGONAL_RECEIVER = 0, DIAGONAL_MEAN = 1 } DiagonalRule;
+typedef enum { SPRING_EXPONENTIAL = 0, SPRING_LINEAR = 1 } SpringLaw;
+
+/* Spring constants of one column, resolved from its material (SPEC section 2). */
+typedef struct {
+    double k_vertical, alpha_vertical, c_vertical; /* up/down neighbours */
+    double k_diagonal, alpha_diagonal;             /* diagonal neighbours (no damping) */
+} ColumnConstants;
+
+/* Flat (no pointers), so a model holding it can be copied with memcpy for FMU states. */
+typedef struct {
+    int rows, cols;
+    double mass;
+    double k_horizontal, alpha_horizontal, c_horizontal; /* left/right neighbours: k0, alpha0, c0 */
+    ColumnConstants column[LATTICE_MAX_COLS];
+    int diagonal_rule; /* DiagonalRule */
+    int spring_law;    /* SpringLaw */
+    double load_total, load_angle_deg, load_duration; /* F_total, theta, t_active */
+    int has_backplate;
+    double k_wall, c_wall, backplate_gap;
+} LatticeParams;
+
+/* dydt = f(y) over the augmented state. load_on says whether the column-1 load acts (decided by the
+ * caller's phase, not by t, so a step that ends exactly on t_active integrates the right side). */
+void lattice_rhs(const LatticeParams *p, int load_on, const double *y, double *dydt);
+
+/* Sum over column-C masses in contact of k_w p + c_w max(vx, 0) (SPEC section 5). */
+double lattice_backplate_force(const LatticeParams *p, const double *y);
+
+/* Backplate force from column C's ux and vx alone, element i at [i * stride] (the interpolated peak
+ * search evaluates it on those 2 * rows components only). */
+double lattice_backplate_force_from_column(const LatticeParams *p, const double *ux_last_column,
+                                           const double *vx_last_column, int stride);
+
+/* Kinetic and potential energy (SPEC section 7; a non-reciprocal pair counts the mean of its ends). */
+void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, double *potential);
+
+/* Magnitude of the spring force and its potential for one end with constants (k, alpha). */
+double lattice_spring_force_magnitude(int spring_law, double k, double alpha, double distance);
+double lattice_spring_potential(int spring_law, double k, double alpha, double distance);
+
+#endif

@@ -1,0 +1,311 @@
+/* DOP853 (adaptive), RK4 and semi-implicit Euler (fixed step), with dense output. See solver.h. */
+#include "solver.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "dop853_coefficients.h"
+
+/* Step-size control as in SciPy's solve_ivp (Hairer's DOP853 with its norms and safety factors). */
+#define SAFETY 0.9
+#define MIN_FACTOR 0.2
+#define MAX_FACTOR 10.0
+#define DOP853_ERROR_ORDER 7
+
+/* A step that would leave less than this fraction of itself before the limit goes to the limit. */
+#define SLIVER 1e-9
+
+/* Workspace rows. */
+#define ROW_Y 0
+#define ROW_Y_OLD 1
+#define ROW_SCRATCH 2
+#define ROW_K 3
+#define ROW_DENSE (ROW_K + SOLVER_STAGE_ROWS)
+#define STAGE_END 12 /* K[12] = f(y_new), the derivative at the end of the last step, in its phase */
+
+static double *row(double *work, int n, int r) { return work + (size_t)r * (size_t)n; }
+static const double *row_const(const double *work, int n, int r) { return work + (size_t)r * (size_t)n; }
+
+const double *solver_state(const double *work) { return work + ROW_Y; }
+
+static void evaluate(Solver *s, OdeFunction f, void *context, const double *y, double *dydt) {
+    f(context, s->phase, y, dydt);
+    s->rhs_evaluations++;
+}
+
+void solver_init(Solver *s, double *work, int method, int n, int n_second_order, double rtol, double atol,
+                 double fixed_step, int phase, const double *y0) {
+    memset(s, 0, sizeof(*s));
+    s->method = method;
+    s->n = n;
+    s->n_second_order = n_second_order;
+    s->rtol = rtol;
+    s->atol = atol;
+    s->fixed_step = fixed_step;
+    s->phase = phase;
+    memset(work, 0, SOLVER_WORKSPACE_SIZE(n) * sizeof(double));
+    memcpy(row(work, n, ROW_Y), y0, (size_t)n * sizeof(double));
+    memcpy(row(work, n, ROW_Y_OLD), y0, (size_t)n * sizeof(double));
+}
+
+void solver_set_phase(Solver *s, int phase) {
+    if (phase != s->phase) {
+        s->phase = phase;
+        s->end_derivative_valid = 0;
+    }
+}
+
+/* Root mean square of v_i / scale_i. */
+static double scaled_rms(const double *v, const double *scale, int n) {
+    double sum = 0.0;
+    int i;
+    for (i = 0; i < n; i++) sum += (v[i] / scale[i]) * (v[i] / scale[i]);
+    return sqrt(sum / n);
+}
+
+/* Hairer's starting step (as SciPy's select_initial_step); K[0] holds f(y0); uses the scratch rows. */
+static double initial_step(Solver *s, double *work, OdeFunction f, void *context, double t_span) {
+    const int n = s->n;
+    const double *y0 = row(work, n, ROW_Y), *f0 = row(work, n, ROW_K);
+    double *scale = row(work, n, ROW_DENSE), *y1 = row(work, n, ROW_DENSE + 1), *f1 = row(work, n, ROW_DENSE + 2);
+    double d0, d1, d2, h0, h1;
+    int i;
+    for (i = 0; i < n; i++) scale[i] = s->atol + fabs(y0[i]) * s->rtol;
+    d0 = scaled_rms(y0, scale, n);
+    d1 = scaled_rms(f0, scale, n);
+    h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    if (h0 > t_span) h0 = t_span;
+    for (i = 0; i < n; i++) y1[i] = y0[i] + h0 * f0[i];
+    evaluate(s, f, context, y1, f1);
+    for (i = 0; i < n; i++) f1[i] -= f0[i];
+    d2 = scaled_rms(f1, scale, n) / h0;
+    if (d1 <= 1e-15 && d2 <= 1e-15) {
+        h1 = fmax(1e-6, h0 * 1e-3);
+    } else {
+        h1 = pow(0.01 / fmax(d1, d2), 1.0 / (DOP853_ERROR_ORDER + 1));
+    }
+    return fmin(100.0 * h0, fmin(h1, t_span));
+}
+
+/* y_out = y + h * sum_q coefficient[q] K[q] for the q < stages with a non-zero coefficient. */
+static void combine(double *y_out, const double *y, double h, const double *coefficient, int stages,
+                    const double *work, int n) {
+    int i, q;
+    memcpy(y_out, y, (size_t)n * sizeof(double));
+    for (q = 0; q < stages; q++) {
+        const double weight = h * coefficient[q];
+        const double *k = row_const(work, n, ROW_K + q);
+        if (weight == 0.0) continue;
+        for (i = 0; i < n; i++) y_out[i] += weight * k[i];
+    }
+}
+
+static int all_finite(const double *v, int n) {
+    int i;
+    for (i = 0; i < n; i++) {
+        if (!isfinite(v[i])) return 0;
+    }
+    return 1;
+}
+
+/* Accepts y_new (in the scratch row) as the state at t + h. */
+static void accept(Solver *s, double *work, double h) {
+    const int n = s->n;
+    memcpy(row(work, n, ROW_Y_OLD), row(work, n, ROW_Y), (size_t)n * sizeof(double));
+    memcpy(row(work, n, ROW_Y), row(work, n, ROW_SCRATCH), (size_t)n * sizeof(double));
+    s->t_old = s->t;
+    s->h_last = h;
+    s->t = s->t + h;
+    s->dense_power = 0;
+    s->steps_accepted++;
+}
+
+/* The step that ends on the limit when the proposal reaches it, or would leave only a sliver. */
+static double clip_to_limit(double t, double h, double t_limit) {
+    if (t + h * (1.0 + SLIVER) >= t_limit) return t_limit - t;
+    return h;
+}
+
+static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
+                       size_t message_size) {
+    const int n = s->n;
+    const double *y = row(work, n, ROW_Y);
+    double *y_new = row(work, n, ROW_SCRATCH);
+    double *scale = row(work, n, ROW_DENSE); /* the dense rows are free until the step is accepted */
+    const double error_exponent = -1.0 / (DOP853_ERROR_ORDER + 1);
+    double h_abs = s->h_next;
+    int rejected = 0, stage, i;
+
+    if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t);
+
+    for (;;) {
+        const double min_step = 10.0 * fabs(nextafter(s->t, INFINITY) - s->t);
+        double h, err5_squared = 0.0, err3_squared = 0.0, error_norm;
+        if (h_abs < min_step) {
+            snprintf(message, message_size,
+                     "step size collapsed to %g s at t = %.9g s (the solution is diverging or too stiff for "
+                     "rtol = %g, atol = %g)",
+                     h_abs, s->t, s->rtol, s->atol);
+            return -1;
+        }
+        h = clip_to_limit(s->t, h_abs, t_limit);
+        h_abs = h;
+        for (stage = 1; stage < DOP853_N_STAGES; stage++) {
+            combine(y_new, y, h, DOP853_A[stage], stage, work, n);
+            evaluate(s, f, context, y_new, row(work, n, ROW_K + stage));
+        }
+        combine(y_new, y, h, DOP853_B, DOP853_N_STAGES, work, n);
+        evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
+
+        for (i = 0; i < n; i++) {
+            double err5 = 0.0, err3 = 0.0;
+            int q;
+            scale[i] = s->atol + fmax(fabs(y[i]), fabs(y_new[i])) * s->rtol;
+            for (q = 0; q <= STAGE_END; q++) {
+                const double k = work[(size_t)(ROW_K + q) * (size_t)n + (size_t)i];
+                err5 += DOP853_E5[q] * k;
+                err3 += DOP853_E3[q] * k;
+            }
+            err5 /= scale[i];
+            err3 /= scale[i];
+            err5_squared += err5 * err5;
+            err3_squared += err3 * err3;
+        }
+        if (err5_squared == 0.0 && err3_squared == 0.0) {
+            error_norm = 0.0;
+        } else {
+            error_norm = h * err5_squared / sqrt((err5_squared + 0.01 * err3_squared) * n);
+        }
+
+        if (error_norm < 1.0 && all_finite(y_new, n)) {
+            double factor = error_norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(error_norm, error_exponent));
+            if (rejected) factor = fmin(1.0, factor);
+            s->h_next = h_abs * factor;
+            accept(s, work, h);
+            return 0;
+        }
+        h_abs *= isfinite(error_norm) ? fmax(MIN_FACTOR, SAFETY * pow(error_norm, error_exponent)) : MIN_FACTOR;
+        rejected = 1;
+        s->steps_rejected++;
+    }
+}
+
+static int fixed_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
+                      size_t message_size) {
+    const int n = s->n, m = s->n_second_order;
+    const double *y = row(work, n, ROW_Y);
+    const double *k1 = row(work, n, ROW_K);
+    double *y_new = row(work, n, ROW_SCRATCH);
+    const double h = clip_to_limit(s->t, s->fixed_step, t_limit);
+    int i;
+
+    if (s->method == SOLVER_RK4) {
+        double *stage_state = row(work, n, ROW_DENSE);
+        double *k2 = row(work, n, ROW_K + 1), *k3 = row(work, n, ROW_K + 2), *k4 = row(work, n, ROW_K + 3);
+        for (i = 0; i < n; i++) stage_state[i] = y[i] + 0.5 * h * k1[i];
+        evaluate(s, f, context, stage_state, k2);
+        for (i = 0; i < n; i++) stage_state[i] = y[i] + 0.5 * h * k2[i];
+        evaluate(s, f, context, stage_state, k3);
+        for (i = 0; i < n; i++) stage_state[i] = y[i] + h * k3[i];
+        evaluate(s, f, context, stage_state, k4);
+        for (i = 0; i < n; i++) y_new[i] = y[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+    } else {
+        /* velocities first with the old forces, then positions with the new velocities */
+        for (i = m; i < n; i++) y_new[i] = y[i] + h * k1[i];
+        for (i = 0; i < m; i++) y_new[i] = y[i] + h * y_new[m + i];
+    }
+    if (!all_finite(y_new, n)) {
+        snprintf(message, message_size,
+                 "state became non-finite at t = %.9g s: fixed_step = %g s is beyond the stability limit of "
+                 "this solver",
+                 s->t + h, s->fixed_step);
+        return -1;
+    }
+    evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
+    accept(s, work, h);
+    return 0;
+}
+
+int solver_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
+                size_t message_size) {
+    const int n = s->n;
+    if (!(t_limit > s->t)) {
+        snprintf(message, message_size, "internal: step requested to t = %.17g from t = %.17g", t_limit, s->t);
+        return -1;
+    }
+    /* K[0] = f(y) in the current phase: reuse the end derivative of the last step when it is still valid. */
+    if (s->end_derivative_valid) {
+        memcpy(row(work, n, ROW_K), row(work, n, ROW_K + STAGE_END), (size_t)n * sizeof(double));
+    } else {
+        evaluate(s, f, context, row(work, n, ROW_Y), row(work, n, ROW_K));
+    }
+    {
+        const int status = s->method == SOLVER_DOP853 ? dop853_step(s, work, f, context, t_limit, message, message_size)
+                                                      : fixed_step(s, work, f, context, t_limit, message, message_size);
+        s->end_derivative_valid = status == 0;
+        return status;
+    }
+}
+
+void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context) {
+    const int n = s->n;
+    const double h = s->h_last;
+    const double *y_old = row(work, n, ROW_Y_OLD), *y = row(work, n, ROW_Y);
+    const double *f_old = row(work, n, ROW_K), *f_new = row(work, n, ROW_K + STAGE_END);
+    double *dense[SOLVER_DENSE_ROWS];
+    int r, i;
+    if (s->dense_power != 0 || s->steps_accepted == 0) return;
+    for (r = 0; r < SOLVER_DENSE_ROWS; r++) dense[r] = row(work, n, ROW_DENSE + r);
+    for (i = 0; i < n; i++) {
+        const double delta = y[i] - y_old[i];
+        dense[0][i] = delta;
+        dense[1][i] = h * f_old[i] - delta;
+        dense[2][i] = 2.0 * delta - h * (f_new[i] + f_old[i]);
+    }
+    if (s->method != SOLVER_DOP853) {
+        s->dense_power = 3; /* cubic Hermite */
+        return;
+    }
+    {
+        double *stage_state = row(work, n, ROW_SCRATCH);
+        int stage;
+        for (stage = DOP853_N_STAGES + 1; stage < DOP853_N_STAGES_EXTENDED; stage++) {
+            combine(stage_state, y_old, h, DOP853_A[stage], stage, work, n);
+            evaluate(s, f, context, stage_state, row(work, n, ROW_K + stage));
+        }
+    }
+    for (r = 0; r < DOP853_INTERPOLATOR_POWER - 3; r++) {
+        int q;
+        memset(dense[3 + r], 0, (size_t)n * sizeof(double));
+        for (q = 0; q < DOP853_N_STAGES_EXTENDED; q++) {
+            const double weight = h * DOP853_D[r][q];
+            const double *k = row(work, n, ROW_K + q);
+            if (weight == 0.0) continue;
+            for (i = 0; i < n; i++) dense[3 + r][i] += weight * k[i];
+        }
+    }
+    s->dense_power = DOP853_INTERPOLATOR_POWER;
+}
+
+double solver_interpolate(const Solver *s, const double *work, int component, double t) {
+    const int n = s->n;
+    const double x = (t - s->t_old) / s->h_last;
+    double value = 0.0;
+    int r;
+    if (t == s->t) return work[(size_t)ROW_Y * (size_t)n + (size_t)component];
+    for (r = s->dense_power - 1; r >= 0; r--) {
+        value += work[(size_t)(ROW_DENSE + r) * (size_t)n + (size_t)component];
+        value *= (r % 2 == 0) ? x : 1.0 - x;
+    }
+    return work[(size_t)ROW_Y_OLD * (size_t)n + (size_t)component] + value;
+}
+
+double solver_interpolate_hermite(const Solver *s, const double *work, int component, double t) {
+    const size_t n = (size_t)s->n, i = (size_t)component;
+    const double h = s->h_last, x = (t - s->t_old) / h;
+    const double y_old = work[ROW_Y_OLD * n + i], delta = work[ROW_Y * n + i] - y_old;
+    const double f_old = work[ROW_K * n + i], f_new = work[(ROW_K + STAGE_END) * n + i];
+    return y_old + x * (delta + (1.0 - x) * ((h * f_old - delta) + x * (2.0 * delta - h * (f_new + f_old))));
+}

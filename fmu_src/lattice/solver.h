@@ -1,0 +1,65 @@
+/* One-step ODE solvers with dense output, kept apart from the physics and from FMI.
+ *
+ * DOP853 (adaptive, 8th order, 7th-order dense output, SciPy's step-size control) is the default; fixed-step
+ * classical RK4 and semi-implicit (symplectic) Euler are there for the stability and work-precision
+ * studies, with cubic Hermite dense output. The solver advances in accepted steps that never cross a
+ * caller's limit (the load switch-off, the stop time); the caller reads any time inside the last step
+ * through the dense output, so where an importer puts its communication points never changes the steps.
+ *
+ * The Solver struct holds no pointers: its workspace is passed in, so a model can copy itself (FMU
+ * states) with memcpy.
+ */
+#ifndef SOLVER_H
+#define SOLVER_H
+
+#include <stddef.h>
+
+typedef enum { SOLVER_DOP853 = 0, SOLVER_RK4 = 1, SOLVER_SEMI_IMPLICIT_EULER = 2 } SolverMethod;
+
+/* dydt = f(y) in the given phase (the model uses it for load on/off); time never enters the physics. */
+typedef void (*OdeFunction)(void *context, int phase, const double *y, double *dydt);
+
+#define SOLVER_STAGE_ROWS 16 /* DOP853's 12 stages, f(y_new), and 3 stages for the dense output */
+#define SOLVER_DENSE_ROWS 7
+#define SOLVER_WORKSPACE_ROWS (3 + SOLVER_STAGE_ROWS + SOLVER_DENSE_ROWS) /* y, y_old, scratch, K, dense */
+#define SOLVER_WORKSPACE_SIZE(n) (SOLVER_WORKSPACE_ROWS * (size_t)(n))
+
+typedef struct {
+    int method;         /* SolverMethod */
+    int n;              /* state size */
+    int n_second_order; /* y[0..m) are positions whose rates are y[m..2m) (semi-implicit Euler needs it) */
+    double rtol, atol, fixed_step;
+    int phase;
+    double t;            /* time of the current state */
+    double t_old, h_last; /* the last accepted step covers [t_old, t_old + h_last] */
+    double h_next;       /* proposed size of the next adaptive step; 0 before the first step */
+    int end_derivative_valid; /* the stage row 12 holds f(y) in the current phase */
+    int dense_power;          /* dense coefficients ready for the last step: 0 (none), 3 or 7 */
+    long rhs_evaluations, steps_accepted, steps_rejected;
+} Solver;
+
+/* The state at s->t (the first row of the workspace). */
+const double *solver_state(const double *work);
+
+void solver_init(Solver *s, double *work, int method, int n, int n_second_order, double rtol, double atol,
+                 double fixed_step, int phase, const double *y0);
+
+/* Changes the phase at the current time (the right-hand side changes there). */
+void solver_set_phase(Solver *s, int phase);
+
+/* Takes one accepted step that ends at or before t_limit. Returns 0, or -1 with a reason in message
+ * (step size collapsed, state not finite). */
+int solver_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
+                size_t message_size);
+
+/* Makes the dense output of the last step available (DOP853 spends 3 evaluations on it, once a step). */
+void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context);
+
+/* Component i at time t inside the last step from the cubic Hermite through both ends (free: no
+ * evaluations); a cheap first look before the accurate dense output is paid for. */
+double solver_interpolate_hermite(const Solver *s, const double *work, int component, double t);
+
+/* Component i of the solution at time t inside the last step (after solver_prepare_dense). */
+double solver_interpolate(const Solver *s, const double *work, int component, double t);
+
+#endif

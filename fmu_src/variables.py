@@ -1,0 +1,208 @@
+"""The one description of the FMU's variables: names, types, defaults, ranges and value references.
+
+`build_fmu.py` turns it into both `modelDescription.xml` and the C header `model_variables.h`, so the two
+cannot drift. A scene (see `scenes/`) decides which parameters a particular FMU exposes; a parameter it
+does not expose is compiled in as a constant with the scene's value ("model no more than a scene needs").
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+REAL = "Real"
+INTEGER = "Integer"
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One scalar variable, or an array flattened into `name[1]` ... `name[size]` for FMI 2."""
+
+    name: str
+    type: str  # REAL or INTEGER
+    causality: str  # "parameter" or "output"
+    description: str
+    start: float | int | tuple | None = None  # a tuple gives one start value per element of an array
+    unit: str | None = None
+    minimum: float | int | None = None
+    maximum: float | int | None = None
+    minimum_exclusive: bool = False  # the C check refuses the minimum itself (rtol > 0, alpha > 0)
+    size: int | None = None  # None: a scalar
+    allowed: str | None = None  # how the C error message states the allowed values, when not a plain range
+
+    @property
+    def c_name(self) -> str:
+        return self.name.upper()
+
+    @property
+    def count(self) -> int:
+        return 1 if self.size is None else self.size
+
+    def element_names(self) -> list[str]:
+        if self.size is None:
+            return [self.name]
+        return [f"{self.name}[{index}]" for index in range(1, self.size + 1)]
+
+    def element_starts(self) -> list:
+        if self.start is None:
+            return [None] * self.count
+        if isinstance(self.start, tuple):
+            return list(self.start)
+        return [self.start] * self.count
+
+    def allowed_text(self) -> str:
+        if self.allowed:
+            return self.allowed
+        low = "-inf" if self.minimum is None else f"{self.minimum:g}"
+        high = "inf" if self.maximum is None else f"{self.maximum:g}"
+        left = "(" if self.minimum_exclusive or self.minimum is None else "["
+        right = ")" if self.maximum is None else "]"
+        return f"a finite number in {left}{low}, {high}{right}" if self.type == REAL else f"an integer in [{low}, {high}]"
+
+
+def material_table(count: int) -> dict[str, tuple[float, ...]]:
+    """SPEC section 3: material m has scale (2/3)^(m-1): k = 100 s, k_diag = 50 s, c = 5 s, alpha = 10."""
+    scale = [(2.0 / 3.0) ** (m - 1) for m in range(1, count + 1)]
+    return {
+        "k": tuple(100.0 * s for s in scale),
+        "k_diag": tuple(50.0 * s for s in scale),
+        "c": tuple(5.0 * s for s in scale),
+        "alpha": tuple(10.0 for _ in scale),
+        "alpha_diag": tuple(10.0 for _ in scale),
+    }
+
+
+def plotted_masses(rows: int, cols: int) -> dict[str, tuple[int, int]]:
+    """The masses whose displacements the study plots, as (row, column), 1-based."""
+    middle_row, middle_col = (rows + 1) // 2, (cols + 1) // 2
+    return {
+        "corner": (1, 1),
+        "left_edge": (middle_row, 1),
+        "centre": (middle_row, middle_col),
+        "right_edge": (middle_row, cols),
+    }
+
+
+def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] | None = None) -> list[Variable]:
+    """Every variable the model knows, in value-reference order, with SPEC's published defaults."""
+    table = materials or material_table(cols)
+    variables = [
+        Variable("material", INTEGER, "parameter", "Material number of each column (a permutation of 1..C)",
+                 start=tuple(range(1, cols + 1)), minimum=1, maximum=cols, size=cols,
+                 allowed=f"a permutation of 1..{cols}"),
+        Variable("k", REAL, "parameter", "Vertical spring constant of each material", start=table["k"], unit="N",
+                 minimum=0.0, size=cols),
+        Variable("k_diag", REAL, "parameter", "Diagonal spring constant of each material", start=table["k_diag"],
+                 unit="N", minimum=0.0, size=cols),
+        Variable("c", REAL, "parameter", "Vertical damping of each material", start=table["c"], unit="N.s/m",
+                 minimum=0.0, size=cols),
+        Variable("alpha", REAL, "parameter", "Vertical spring exponent of each material", start=table["alpha"],
+                 unit="1/m", minimum=0.0, minimum_exclusive=True, size=cols),
+        Variable("alpha_diag", REAL, "parameter", "Diagonal spring exponent of each material",
+                 start=table["alpha_diag"], unit="1/m", minimum=0.0, minimum_exclusive=True, size=cols),
+        Variable("k_horizontal", REAL, "parameter", "Horizontal spring constant k0", start=100.0, unit="N",
+                 minimum=0.0),
+        Variable("alpha_horizontal", REAL, "parameter", "Horizontal spring exponent alpha0", start=10.0,
+                 unit="1/m", minimum=0.0, minimum_exclusive=True),
+        Variable("c_horizontal", REAL, "parameter", "Horizontal damping c0", start=5.0, unit="N.s/m", minimum=0.0),
+        Variable("mass", REAL, "parameter", "Mass of every node", start=1.0, unit="kg", minimum=0.0,
+                 minimum_exclusive=True),
+        Variable("F_total", REAL, "parameter", "Total load on column 1", start=1200.0, unit="N"),
+        Variable("load_angle", REAL, "parameter", "Direction of the load (0 = +x)", start=0.0, unit="deg",
+                 minimum=-360.0, maximum=360.0),
+        Variable("t_active", REAL, "parameter", "The load acts for 0 <= t <= t_active", start=0.15, unit="s",
+                 minimum=0.0),
+        Variable("k_wall", REAL, "parameter", "Backplate stiffness", start=1e4, unit="N/m", minimum=0.0),
+        Variable("c_wall", REAL, "parameter", "Backplate damping (while approaching)", start=10.0, unit="N.s/m",
+                 minimum=0.0),
+        Variable("backplate_gap", REAL, "parameter", "Gap between column C and the backplate", start=1e-3,
+                 unit="m"),
+        Variable("peak_sample_interval", REAL, "parameter",
+                 "Interval of the samples peak_backplate_force is taken over (0.01 s reproduces the study)",
+                 start=0.01, unit="s", minimum=0.0, minimum_exclusive=True),
+        Variable("rtol", REAL, "parameter", "Relative tolerance of the adaptive solver", start=1e-10,
+                 minimum=1e-14, maximum=0.1),
+        Variable("atol", REAL, "parameter", "Absolute tolerance of the adaptive solver", start=1e-12,
+                 minimum=0.0, minimum_exclusive=True, maximum=1.0),
+        Variable("fixed_step", REAL, "parameter", "Step of the fixed-step solvers", start=1e-4, unit="s",
+                 minimum=0.0, minimum_exclusive=True, maximum=1.0),
+        Variable("diagonal_rule", INTEGER, "parameter",
+                 "Diagonal spring constants: 0 = receiver's column (as the study computed), 1 = mean of both",
+                 start=0, minimum=0, maximum=1, allowed="0 (receiver) or 1 (mean)"),
+        Variable("solver", INTEGER, "parameter",
+                 "0 = adaptive DOP853, 1 = fixed-step RK4, 2 = fixed-step semi-implicit Euler", start=0,
+                 minimum=0, maximum=2, allowed="0 (adaptive DOP853), 1 (RK4) or 2 (semi-implicit Euler)"),
+        Variable("spring_law", INTEGER, "parameter", "0 = exponential springs (SPEC), 1 = linear springs F = k r",
+                 start=0, minimum=0, maximum=1, allowed="0 (exponential) or 1 (linear)"),
+        Variable("has_backplate", INTEGER, "parameter", "1 = the backplate is there, 0 = a free lattice",
+                 start=1, minimum=0, maximum=1, allowed="0 or 1"),
+        # outputs
+        Variable("backplate_force", REAL, "output", "Force on the backplate", unit="N"),
+        Variable("peak_backplate_force", REAL, "output",
+                 "Maximum backplate force over the samples every peak_sample_interval so far", unit="N"),
+        Variable("peak_backplate_force_continuous", REAL, "output",
+                 "Maximum backplate force over the continuous solution so far", unit="N"),
+        Variable("peak_time", REAL, "output", "Time of peak_backplate_force_continuous", unit="s"),
+        Variable("kinetic_energy", REAL, "output", "Kinetic energy", unit="J"),
+        Variable("potential_energy", REAL, "output", "Potential energy of the springs and the backplate",
+                 unit="J"),
+        Variable("external_work", REAL, "output", "Work done by the load", unit="J"),
+        Variable("dissipated_energy", REAL, "output", "Energy taken out by the dampers", unit="J"),
+        Variable("nonreciprocal_work", REAL, "output",
+                 "Work of the unequal part of diagonal pairs (receiver rule)", unit="J"),
+        Variable("energy_balance_error", REAL, "output",
+                 "external_work + nonreciprocal_work - kinetic - potential - dissipated", unit="J"),
+    ]
+    for place, (row, col) in plotted_masses(rows, cols).items():
+        for axis in ("x", "y"):
+            variables.append(Variable(f"u{axis}_{place}", REAL, "output",
+                                      f"Displacement {axis} of the mass at row {row}, column {col}", unit="m"))
+    variables += [
+        Variable("rhs_evaluations", INTEGER, "output", "Right-hand-side evaluations so far"),
+        Variable("steps_accepted", INTEGER, "output", "Accepted solver steps so far"),
+        Variable("steps_rejected", INTEGER, "output", "Rejected solver steps so far"),
+    ]
+    return variables
+
+
+@dataclass(frozen=True)
+class Interface:
+    """The variables one FMU exposes, with value references, and the constants it compiles in instead."""
+
+    rows: int
+    cols: int
+    exposed: list[Variable]
+    fixed: list[Variable]  # parameters the scene does not expose; their start is compiled in
+    value_references: dict[str, int] = field(default_factory=dict)  # first element's vr, by variable name
+
+
+def make_interface(rows: int, cols: int, parameters: dict | None = None,
+                   hidden: tuple[str, ...] = ()) -> Interface:
+    """Variables for a rows x cols lattice; `parameters` overrides starts, `hidden` compiles them in."""
+    if rows < 1 or cols < 1 or cols > 64 or rows * cols > 100000:
+        raise ValueError(f"rows and cols: allowed 1 <= rows, 1 <= cols <= 64 (got rows={rows}, cols={cols})")
+    variables = all_variables(rows, cols)
+    known = {v.name for v in variables}
+    unknown = set(parameters or {}) - known | set(hidden) - known
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {sorted(unknown)}; known: {sorted(known)}")
+    exposed, fixed = [], []
+    for variable in variables:
+        if parameters and variable.name in parameters:
+            value = parameters[variable.name]
+            variable = replace(variable, start=tuple(value) if isinstance(value, (list, tuple)) else value)
+            if variable.size is not None and len(variable.element_starts()) != variable.size:
+                raise ValueError(f"parameter {variable.name}: expected {variable.size} values")
+        (fixed if variable.name in hidden else exposed).append(variable)
+    value_references, next_vr = {}, 0
+    for variable in exposed:  # reals and integers share one numbering: unique across types, as FMI 3 needs
+        value_references[variable.name] = next_vr
+        next_vr += variable.count
+    return Interface(rows, cols, exposed, fixed, value_references)
+
+
+def c_literal(variable: Variable, value) -> str:
+    if variable.type == INTEGER:
+        return str(int(value))
+    if math.isinf(value):
+        return "INFINITY" if value > 0 else "-INFINITY"
+    return repr(float(value))
