@@ -101,7 +101,13 @@ static SpringEnds reversed(SpringEnds ends) {
     return swapped;
 }
 
-void lattice_rhs(const LatticeParams *p, int load_on, const double *y, double *dydt) {
+int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
+    if (!p->has_backplate || ux - p->backplate_gap <= 0.0) return WALL_FREE;
+    return vx > 0.0 ? WALL_APPROACHING : WALL_RECEDING;
+}
+
+void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
+                 double *dydt) {
     const int rows = p->rows, cols = p->cols, n = rows * cols, linear = p->spring_law == SPRING_LINEAR;
     const double *ux = y, *uy = y + n, *vx = y + 2 * n, *vy = y + 3 * n;
     double *fx = dydt + 2 * n, *fy = dydt + 3 * n;
@@ -158,10 +164,11 @@ void lattice_rhs(const LatticeParams *p, int load_on, const double *y, double *d
         for (i = 0; i < rows; i++) {
             const int a = i * cols + cols - 1;
             const double penetration = ux[a] - p->backplate_gap;
-            if (penetration > 0.0) {
-                const double approaching = vx[a] > 0.0 ? vx[a] : 0.0;
-                fx[a] -= p->k_wall * penetration + p->c_wall * approaching;
-                power_dissipated += p->c_wall * approaching * vx[a];
+            const int mode = wall_mode ? wall_mode[i] : lattice_wall_mode(p, ux[a], vx[a]);
+            if (mode != WALL_FREE) {
+                const double damped_velocity = mode == WALL_APPROACHING ? vx[a] : 0.0;
+                fx[a] -= p->k_wall * penetration + p->c_wall * damped_velocity;
+                power_dissipated += p->c_wall * damped_velocity * vx[a];
             }
         }
     }

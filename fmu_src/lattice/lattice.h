@@ -40,9 +40,19 @@ typedef struct {
     double k_wall, c_wall, backplate_gap;
 } LatticeParams;
 
+/* How a column-C mass meets the backplate: SPEC section 5 switches the wall force on with penetration
+ * p > 0 and its damping with vx > 0. */
+typedef enum { WALL_FREE = 0, WALL_RECEDING = 1, WALL_APPROACHING = 2 } WallMode;
+
+/* The mode SPEC gives a column-C mass with displacement ux and velocity vx. */
+int lattice_wall_mode(const LatticeParams *p, double ux, double vx);
+
 /* dydt = f(y) over the augmented state. load_on says whether the column-1 load acts (decided by the
- * caller's phase, not by t, so a step that ends exactly on t_active integrates the right side). */
-void lattice_rhs(const LatticeParams *p, int load_on, const double *y, double *dydt);
+ * caller's phase, not by t, so a step that ends exactly on t_active integrates the right side).
+ * wall_mode (one per row) freezes the backplate's switches for a solver step, so the right-hand side is
+ * smooth inside the step and the switches are located as events; NULL takes them from the state. */
+void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
+                 double *dydt);
 
 /* Sum over column-C masses in contact of k_w p + c_w max(vx, 0) (SPEC section 5). */
 double lattice_backplate_force(const LatticeParams *p, const double *y);

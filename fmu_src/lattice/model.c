@@ -6,6 +6,7 @@
  */
 #include "model.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -44,6 +45,7 @@ struct Model {
     LatticeParams params;
     Solver solver;
     int load_on;
+    signed char wall_mode[LATTICE_ROWS]; /* frozen for a step; switched at located events (WallMode) */
     long next_sample;
     double peak_sampled;
     double peak_continuous, peak_continuous_time; /* over what is fully behind the communication time */
@@ -57,7 +59,8 @@ const char *model_guid(void) { return MODEL_GUID; }
 size_t model_size(void) { return sizeof(Model); }
 
 static void model_rhs(void *context, int phase, const double *y, double *dydt) {
-    lattice_rhs(&((const Model *)context)->params, phase, y, dydt);
+    const Model *m = (const Model *)context;
+    lattice_rhs(&m->params, phase, m->wall_mode, y, dydt);
 }
 
 Model *model_new(void) {
@@ -375,6 +378,60 @@ static void update_outputs(Model *m, double t_target) {
     m->integer[VR_STEPS_REJECTED] = (int)s->steps_rejected;
 }
 
+/* The modes SPEC gives the column-C masses in the state at the end of the last step. */
+static void wall_modes_of_state(const Model *m, signed char *modes) {
+    const double *y = solver_state(m->work);
+    int i;
+    for (i = 0; i < LATTICE_ROWS; i++) {
+        const int mass = i * LATTICE_COLS + LATTICE_COLS - 1;
+        modes[i] = (signed char)lattice_wall_mode(&m->params, y[mass], y[2 * N_MASSES + mass]);
+    }
+}
+
+/* Where inside the last step a switching function (component minus offset) takes the sign it has at
+ * the step's end: bisection on the dense output, returning the end of the bracket that already has it. */
+static double locate_switch(Model *m, int component, double offset) {
+    const Solver *s = &m->solver;
+    const int positive_at_end = solver_state(m->work)[component] - offset > 0.0;
+    double low = s->t_old, high = s->t;
+    int i;
+    for (i = 0; i < 200 && high - low > 4.0 * DBL_EPSILON * fmax(fabs(high), 1.0); i++) {
+        const double middle = 0.5 * (low + high);
+        if ((state_component(m, component, middle) - offset > 0.0) == positive_at_end) {
+            high = middle;
+        } else {
+            low = middle;
+        }
+    }
+    return high;
+}
+
+/* The backplate's switches (contact on/off, damping on/off) inside the last step: the step is cut back
+ * to the earliest one and the modes are switched there, so no step integrates across a discontinuity. */
+static void handle_wall_events(Model *m) {
+    Solver *s = &m->solver;
+    signed char at_end[LATTICE_ROWS];
+    double earliest = s->t;
+    int i, changed = 0;
+    wall_modes_of_state(m, at_end);
+    for (i = 0; i < LATTICE_ROWS; i++) changed = changed || at_end[i] != m->wall_mode[i];
+    if (!changed) return;
+    solver_prepare_dense(s, m->work, model_rhs, m); /* in the step's own modes, before they change */
+    for (i = 0; i < LATTICE_ROWS; i++) {
+        const int mass = i * LATTICE_COLS + LATTICE_COLS - 1;
+        const int contact_before = m->wall_mode[i] != WALL_FREE, contact_after = at_end[i] != WALL_FREE;
+        if (at_end[i] == m->wall_mode[i]) continue;
+        if (contact_before != contact_after) {
+            earliest = fmin(earliest, locate_switch(m, mass, m->params.backplate_gap));
+        }
+        if (contact_before && (m->wall_mode[i] == WALL_APPROACHING) != (at_end[i] == WALL_APPROACHING)) {
+            earliest = fmin(earliest, locate_switch(m, 2 * N_MASSES + mass, 0.0));
+        }
+    }
+    if (earliest > s->t_old && earliest < s->t) solver_truncate(s, m->work, model_rhs, m, earliest);
+    wall_modes_of_state(m, m->wall_mode);
+}
+
 int model_initialize(Model *m, double start_time, int stop_time_defined, double stop_time, char *message,
                      size_t message_size) {
     double y0[N_STATE];
@@ -401,6 +458,7 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
     solver_init(&m->solver, m->work, PARAM_SOLVER(m), N_STATE, 2 * N_MASSES, PARAM_RTOL(m), PARAM_ATOL(m),
                 PARAM_FIXED_STEP(m), m->load_on, y0);
     m->solver.t = start_time;
+    wall_modes_of_state(m, m->wall_mode);
     m->next_sample = (long)ceil(start_time / PARAM_PEAK_SAMPLE_INTERVAL(m) - SAMPLE_TIME_SLACK);
     m->initialized = 1;
     process_step(m, start_time);
@@ -464,6 +522,7 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         }
         m->step_peak_known = 0;
         m->step_peak_committed = 0;
+        if (m->params.has_backplate) handle_wall_events(m);
         if (check_divergence(m, message, message_size)) return -1;
         if (m->load_on && s->t >= m->params.load_duration) {
             /* the dense output of this step belongs to the loaded phase: take it before the switch */

@@ -302,10 +302,26 @@ double solver_interpolate(const Solver *s, const double *work, int component, do
     return work[(size_t)ROW_Y_OLD * (size_t)n + (size_t)component] + value;
 }
 
+void solver_truncate(Solver *s, double *work, OdeFunction f, void *context, double t_end) {
+    const int n = s->n;
+    double *scratch = row(work, n, ROW_SCRATCH);
+    int i;
+    if (t_end >= s->t) return;
+    solver_prepare_dense(s, work, f, context);
+    for (i = 0; i < n; i++) scratch[i] = solver_interpolate(s, work, i, t_end);
+    memcpy(row(work, n, ROW_Y), scratch, (size_t)n * sizeof(double));
+    s->t = t_end;
+    s->end_derivative_valid = 0; /* f at the new end is taken afresh, in the new mode */
+}
+
 double solver_interpolate_hermite(const Solver *s, const double *work, int component, double t) {
     const size_t n = (size_t)s->n, i = (size_t)component;
     const double h = s->h_last, x = (t - s->t_old) / h;
-    const double y_old = work[ROW_Y_OLD * n + i], delta = work[ROW_Y * n + i] - y_old;
-    const double f_old = work[ROW_K * n + i], f_new = work[(ROW_K + STAGE_END) * n + i];
+    double y_old, delta, f_old, f_new;
+    if (s->dense_power != 0) return solver_interpolate(s, work, component, t); /* also after a truncation */
+    y_old = work[ROW_Y_OLD * n + i];
+    delta = work[ROW_Y * n + i] - y_old;
+    f_old = work[ROW_K * n + i];
+    f_new = work[(ROW_K + STAGE_END) * n + i];
     return y_old + x * (delta + (1.0 - x) * ((h * f_old - delta) + x * (2.0 * delta - h * (f_new + f_old))));
 }

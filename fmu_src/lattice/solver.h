@@ -59,6 +59,10 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
  * evaluations); a cheap first look before the accurate dense output is paid for. */
 double solver_interpolate_hermite(const Solver *s, const double *work, int component, double t);
 
+/* Ends the last step early at t_end (t_old < t_end <= t), on its dense output: how a step that crossed
+ * an event is cut back to the event. The dense output stays valid on [t_old, t_end]. */
+void solver_truncate(Solver *s, double *work, OdeFunction f, void *context, double t_end);
+
 /* Component i of the solution at time t inside the last step (after solver_prepare_dense). */
 double solver_interpolate(const Solver *s, const double *work, int component, double t);
 
