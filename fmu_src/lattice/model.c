@@ -51,6 +51,7 @@ struct Model {
     double peak_continuous, peak_continuous_time; /* over what is fully behind the communication time */
     int step_peak_known, step_peak_committed;     /* the last step's own maximum, and whether it counts */
     double step_peak, step_peak_time;
+    double last_contact_time; /* latest time a column-C mass was in contact with the backplate */
     double output_state[N_STATE];
     double work[SOLVER_WORKSPACE_SIZE(N_STATE)];
 };
@@ -362,6 +363,7 @@ static void update_outputs(Model *m, double t_target) {
     m->real[VR_PEAK_BACKPLATE_FORCE] = m->peak_sampled;
     m->real[VR_PEAK_BACKPLATE_FORCE_CONTINUOUS] = peak;
     m->real[VR_PEAK_TIME] = peak_time;
+    m->real[VR_LAST_CONTACT_TIME] = fmin(m->last_contact_time, t_target);
     m->real[VR_KINETIC_ENERGY] = kinetic;
     m->real[VR_POTENTIAL_ENERGY] = potential;
     m->real[VR_EXTERNAL_WORK] = y[INDEX_EXTERNAL_WORK];
@@ -429,6 +431,9 @@ static void handle_wall_events(Model *m) {
         }
     }
     if (earliest > s->t_old && earliest < s->t) solver_truncate(s, m->work, model_rhs, m, earliest);
+    for (i = 0; i < LATTICE_ROWS; i++) {
+        if (m->wall_mode[i] != WALL_FREE) m->last_contact_time = s->t; /* in contact up to here at least */
+    }
     wall_modes_of_state(m, m->wall_mode);
 }
 
@@ -522,7 +527,13 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         }
         m->step_peak_known = 0;
         m->step_peak_committed = 0;
-        if (m->params.has_backplate) handle_wall_events(m);
+        if (m->params.has_backplate) {
+            int row;
+            handle_wall_events(m);
+            for (row = 0; row < LATTICE_ROWS; row++) {
+                if (m->wall_mode[row] != WALL_FREE) m->last_contact_time = s->t;
+            }
+        }
         if (check_divergence(m, message, message_size)) return -1;
         if (m->load_on && s->t >= m->params.load_duration) {
             /* the dense output of this step belongs to the loaded phase: take it before the switch */

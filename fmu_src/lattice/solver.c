@@ -89,16 +89,23 @@ static double initial_step(Solver *s, double *work, OdeFunction f, void *context
     return fmin(100.0 * h0, fmin(h1, t_span));
 }
 
-/* y_out = y + h * sum_q coefficient[q] K[q] for the q < stages with a non-zero coefficient. */
-static void combine(double *y_out, const double *y, double h, const double *coefficient, int stages,
+/* y_out = base + h * sum_q coefficient[q] K[q] over the q < stages with a non-zero coefficient (base may
+ * be NULL for zero). One pass over the components with the few stage rows it needs: this and the
+ * right-hand side are where the time goes. */
+static void combine(double *y_out, const double *base, double h, const double *coefficient, int stages,
                     const double *work, int n) {
-    int i, q;
-    memcpy(y_out, y, (size_t)n * sizeof(double));
+    const double *stage[SOLVER_STAGE_ROWS];
+    double weight[SOLVER_STAGE_ROWS];
+    int used = 0, i, q;
     for (q = 0; q < stages; q++) {
-        const double weight = h * coefficient[q];
-        const double *k = row_const(work, n, ROW_K + q);
-        if (weight == 0.0) continue;
-        for (i = 0; i < n; i++) y_out[i] += weight * k[i];
+        if (coefficient[q] == 0.0) continue;
+        stage[used] = row_const(work, n, ROW_K + q);
+        weight[used++] = h * coefficient[q];
+    }
+    for (i = 0; i < n; i++) {
+        double sum = base ? base[i] : 0.0;
+        for (q = 0; q < used; q++) sum += weight[q] * stage[q][i];
+        y_out[i] = sum;
     }
 }
 
@@ -133,7 +140,8 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
     const int n = s->n;
     const double *y = row(work, n, ROW_Y);
     double *y_new = row(work, n, ROW_SCRATCH);
-    double *scale = row(work, n, ROW_DENSE); /* the dense rows are free until the step is accepted */
+    /* the dense rows are free until the step is accepted: the two error estimates go there */
+    double *error5 = row(work, n, ROW_DENSE), *error3 = row(work, n, ROW_DENSE + 1);
     const double error_exponent = -1.0 / (DOP853_ERROR_ORDER + 1);
     double h_abs = s->h_next;
     int rejected = 0, stage, i;
@@ -159,17 +167,12 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
         combine(y_new, y, h, DOP853_B, DOP853_N_STAGES, work, n);
         evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
 
+        /* the two embedded error estimates, as SciPy's DOP853 combines them */
+        combine(error5, NULL, 1.0, DOP853_E5, STAGE_END + 1, work, n);
+        combine(error3, NULL, 1.0, DOP853_E3, STAGE_END + 1, work, n);
         for (i = 0; i < n; i++) {
-            double err5 = 0.0, err3 = 0.0;
-            int q;
-            scale[i] = s->atol + fmax(fabs(y[i]), fabs(y_new[i])) * s->rtol;
-            for (q = 0; q <= STAGE_END; q++) {
-                const double k = work[(size_t)(ROW_K + q) * (size_t)n + (size_t)i];
-                err5 += DOP853_E5[q] * k;
-                err3 += DOP853_E3[q] * k;
-            }
-            err5 /= scale[i];
-            err3 /= scale[i];
+            const double scale = s->atol + fmax(fabs(y[i]), fabs(y_new[i])) * s->rtol;
+            const double err5 = error5[i] / scale, err3 = error3[i] / scale;
             err5_squared += err5 * err5;
             err3_squared += err3 * err3;
         }
@@ -277,14 +280,7 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
         }
     }
     for (r = 0; r < DOP853_INTERPOLATOR_POWER - 3; r++) {
-        int q;
-        memset(dense[3 + r], 0, (size_t)n * sizeof(double));
-        for (q = 0; q < DOP853_N_STAGES_EXTENDED; q++) {
-            const double weight = h * DOP853_D[r][q];
-            const double *k = row(work, n, ROW_K + q);
-            if (weight == 0.0) continue;
-            for (i = 0; i < n; i++) dense[3 + r][i] += weight * k[i];
-        }
+        combine(dense[3 + r], NULL, h, DOP853_D[r], DOP853_N_STAGES_EXTENDED, work, n);
     }
     s->dense_power = DOP853_INTERPOLATOR_POWER;
 }

@@ -1,0 +1,92 @@
+"""ctypes binding to the C physics core (lattice.c) without the FMI layer, for tests and benchmarks.
+
+`LatticeParams` mirrors the C struct in fmu_src/lattice/lattice.h field for field: change both together.
+"""
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+
+import numpy as np
+
+MAX_COLS = 64  # LATTICE_MAX_COLS
+DIAGONAL_RULES = {"receiver": 0, "mean": 1}
+SPRING_LAWS = {"exponential": 0, "linear": 1}
+
+
+class ColumnConstants(ctypes.Structure):
+    _fields_ = [("k_vertical", ctypes.c_double), ("alpha_vertical", ctypes.c_double),
+                ("c_vertical", ctypes.c_double), ("k_diagonal", ctypes.c_double),
+                ("alpha_diagonal", ctypes.c_double)]
+
+
+class LatticeParams(ctypes.Structure):
+    _fields_ = [("rows", ctypes.c_int), ("cols", ctypes.c_int), ("mass", ctypes.c_double),
+                ("k_horizontal", ctypes.c_double), ("alpha_horizontal", ctypes.c_double),
+                ("c_horizontal", ctypes.c_double), ("column", ColumnConstants * MAX_COLS),
+                ("diagonal_rule", ctypes.c_int), ("spring_law", ctypes.c_int),
+                ("load_total", ctypes.c_double), ("load_angle_deg", ctypes.c_double),
+                ("load_duration", ctypes.c_double), ("has_backplate", ctypes.c_int),
+                ("k_wall", ctypes.c_double), ("c_wall", ctypes.c_double), ("backplate_gap", ctypes.c_double)]
+
+
+def params_from_scene(scene) -> LatticeParams:
+    """The C parameters of a `reference.Scene` (the numpy oracle's description of a scene)."""
+    if scene.cols > MAX_COLS:
+        raise ValueError(f"cols: at most {MAX_COLS} columns, got {scene.cols}")
+    p = LatticeParams()
+    p.rows, p.cols, p.mass = scene.rows, scene.cols, scene.mass
+    p.k_horizontal, p.alpha_horizontal, p.c_horizontal = scene.k0, scene.alpha0, scene.c0
+    for j, material in enumerate(scene.order):
+        m = material - 1
+        p.column[j] = ColumnConstants(scene.k[m], scene.alpha[m], scene.c[m], scene.k_diag[m], scene.alpha_diag[m])
+    p.diagonal_rule = DIAGONAL_RULES[scene.diagonal_rule]
+    p.spring_law = SPRING_LAWS[scene.spring_law]
+    p.load_total, p.load_angle_deg, p.load_duration = scene.F_total, scene.load_angle, scene.t_active
+    p.has_backplate = int(scene.wall)
+    p.k_wall, p.c_wall, p.backplate_gap = scene.k_wall, scene.c_wall, scene.backplate_gap
+    return p
+
+
+class Core:
+    """The compiled core (build_fmu.build_core_library) behind numpy-friendly calls."""
+
+    def __init__(self, library_path: str | Path):
+        self.library = ctypes.CDLL(str(library_path))
+        double_p = ctypes.POINTER(ctypes.c_double)
+        self.library.lattice_rhs.argtypes = [ctypes.POINTER(LatticeParams), ctypes.c_int, ctypes.c_char_p,
+                                             double_p, double_p]
+        self.library.lattice_backplate_force.argtypes = [ctypes.POINTER(LatticeParams), double_p]
+        self.library.lattice_backplate_force.restype = ctypes.c_double
+        self.library.lattice_energies.argtypes = [ctypes.POINTER(LatticeParams), double_p, double_p, double_p]
+
+    @staticmethod
+    def _augmented(params: LatticeParams, y) -> np.ndarray:
+        n = 4 * params.rows * params.cols
+        y = np.ascontiguousarray(y, dtype=float)
+        if y.shape == (n,):
+            y = np.concatenate([y, np.zeros(3)])
+        if y.shape != (n + 3,):
+            raise ValueError(f"state: expected {n} or {n + 3} values, got {y.shape}")
+        return y
+
+    def rhs(self, params: LatticeParams, y, load_on: bool) -> tuple[np.ndarray, np.ndarray]:
+        """(dydt over the 4N mechanical states, (P_ext, P_diss, P_nr)) with the wall switches from the state."""
+        y = self._augmented(params, y)
+        dydt = np.empty_like(y)
+        self.library.lattice_rhs(ctypes.byref(params), int(load_on), None,
+                                 y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+                                 dydt.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+        return dydt[:-3], dydt[-3:]
+
+    def backplate_force(self, params: LatticeParams, y) -> float:
+        y = self._augmented(params, y)
+        return self.library.lattice_backplate_force(ctypes.byref(params),
+                                                    y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+
+    def energies(self, params: LatticeParams, y) -> tuple[float, float]:
+        y = self._augmented(params, y)
+        kinetic, potential = ctypes.c_double(), ctypes.c_double()
+        self.library.lattice_energies(ctypes.byref(params), y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+                                      ctypes.byref(kinetic), ctypes.byref(potential))
+        return kinetic.value, potential.value

@@ -1,0 +1,68 @@
+"""The C physics core against the independent numpy oracle (reference/), on random states."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from fmu_src.core import Core, params_from_scene
+from reference import Scene, backplate_force, energies, rhs_with_powers
+
+
+@pytest.fixture(scope="module")
+def core(core_library):
+    return Core(core_library)
+
+
+def random_state(scene, rng, scale=0.05):
+    """Displacements of a few cm (springs well into their exponential range), some masses past the wall."""
+    n = scene.rows * scene.cols
+    y = rng.normal(0.0, scale, 4 * n)
+    y[2 * n:] = rng.normal(0.0, 1.0, 2 * n)  # velocities
+    last_column = np.arange(scene.cols - 1, n, scene.cols)
+    y[last_column] = rng.uniform(-0.01, 0.02, len(last_column))  # straddle the 1 mm gap
+    return y
+
+
+SCENES = [
+    dict(),
+    dict(diagonal_rule="mean"),
+    dict(load_angle=30.0),
+    dict(rows=3, cols=4),
+    dict(rows=1, cols=2, spring_law="linear"),
+    dict(rows=5, cols=5, wall=False),
+    dict(rows=7, cols=9, diagonal_rule="mean", spring_law="linear"),
+]
+
+
+@pytest.mark.parametrize("settings", SCENES, ids=lambda s: ",".join(f"{k}={v}" for k, v in s.items()) or "default")
+@pytest.mark.parametrize("load_on", [True, False])
+def test_right_hand_side_matches_the_oracle(core, settings, load_on):
+    rng = np.random.default_rng(len(str(settings)) + load_on)
+    scene = Scene(**settings)
+    for _ in range(5):
+        scene = dataclasses.replace(scene, order=tuple(int(m) for m in rng.permutation(scene.cols) + 1))
+        params = params_from_scene(scene)
+        y = random_state(scene, rng)
+        expected, expected_powers = rhs_with_powers(scene, 0.0, y, load_on=load_on)
+        got, got_powers = core.rhs(params, y, load_on)
+        scale = np.max(np.abs(expected))
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(got_powers, expected_powers, rtol=1e-11, atol=1e-11 * scale)
+        assert core.backplate_force(params, y) == pytest.approx(backplate_force(scene, y), rel=1e-13, abs=1e-12)
+        kinetic, potential = energies(scene, y)
+        got_kinetic, got_potential = core.energies(params, y)
+        assert got_kinetic == pytest.approx(kinetic, rel=1e-13)
+        assert got_potential == pytest.approx(potential, rel=1e-11)
+
+
+def test_receiver_rule_is_not_reciprocal_and_mean_rule_is(core):
+    rng = np.random.default_rng(7)
+    table = dict(Scene.default_material_table(11), c=np.zeros(11))
+    scene = Scene(order=(1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10), wall=False, c0=0.0,
+                  **table)  # springs only: the internal forces of a reciprocal lattice sum to zero
+    y = random_state(scene, rng)
+    n = scene.rows * scene.cols
+    receiver, _ = core.rhs(params_from_scene(scene), y, load_on=False)
+    mean, _ = core.rhs(params_from_scene(dataclasses.replace(scene, diagonal_rule="mean")), y, load_on=False)
+    assert abs(receiver[2 * n:3 * n].sum()) > 1e-3
+    assert abs(mean[2 * n:3 * n].sum()) < 1e-9 * np.abs(mean).max()
