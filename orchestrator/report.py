@@ -1,0 +1,340 @@
+"""The report folder of a study: results.json, evaluations.csv, the charts and report.html.
+
+Every number shown is computed here or in the study; the study's published figures appear only as
+labelled reference points.
+"""
+from __future__ import annotations
+
+import csv
+import html
+import json
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .simulation import ENERGY_OUTPUTS, LatticeFMU, SimulationError  # noqa: E402
+from .study import STUDY_BEST_ORDER, STUDY_REFERENCE_POINTS, Study  # noqa: E402
+
+METHOD_NAMES = {"cmaes": "CMA-ES", "pso": "particle swarm", "sa": "simulated annealing", "random": "random search",
+                "sequential": "sequential order"}
+COLOURS = {"cmaes": "tab:blue", "pso": "tab:orange", "sa": "tab:green", "random": "tab:gray", "sequential": "black"}
+TIGHT = {"rtol": 1e-12, "atol": 1e-14}
+
+
+def write_report(study: Study) -> Path:
+    out = Path(study.config.out)
+    out.mkdir(parents=True, exist_ok=True)
+    accuracy = measure_accuracy(study)
+    write_results_json(study, accuracy, out / "results.json")
+    write_evaluations_csv(study, out / "evaluations.csv")
+    charts = {
+        "convergence": plot_convergence(study, out / "convergence.png"),
+        "force_energy": plot_force_and_energy(study, out / "force_energy.png"),
+        "lattice": plot_lattice(study, out / "lattice.png"),
+    }
+    (out / "report.html").write_text(render_html(study, accuracy, charts))
+    return out / "report.html"
+
+
+def _parameters(study: Study) -> dict:
+    return {k: v for k, v in study.config.parameters.items() if v is not None}
+
+
+def measure_accuracy(study: Study) -> dict:
+    """How far the reported best is from a 1e-12 reference, and from the search's cheaper objective."""
+    best = study.best_verified()
+    if best is None:
+        return {}
+    with LatticeFMU(study.fmu_path) as fmu:
+        try:
+            tight = fmu.simulate(best.order, horizon=study.horizon, parameters={**_parameters(study), **TIGHT})
+        except SimulationError as exc:
+            return {"error": str(exc)}
+    search_values = [e.peak for run in study.runs for e in run.evaluations if e.ok and e.order == best.order]
+    return {
+        "order": list(best.order),
+        "reference_rtol": TIGHT["rtol"],
+        "sampled_relative_error": abs(best.peak_sampled / tight["peak_backplate_force"] - 1),
+        "continuous_relative_error": abs(best.peak_continuous / tight["peak_backplate_force_continuous"] - 1),
+        "search_objective_relative_difference": (abs(search_values[0] / best.peak(study.config.objective) - 1)
+                                                 if search_values else None),
+        "sampling_shortfall": 1 - best.peak_sampled / best.peak_continuous,
+    }
+
+
+def results_dict(study: Study, accuracy: dict) -> dict:
+    config = study.config
+    runs = []
+    for run in study.runs:
+        answer = study.run_best(run)
+        runs.append({
+            "method": run.method,
+            "seed": run.seed,
+            "budget": run.budget,
+            "objective": config.objective,
+            "best_order": list(answer.order) if answer else None,
+            "best_peak": answer.peak(config.objective) if answer else None,
+            "best_peak_continuous": answer.peak_continuous if answer else None,
+            "evaluations": run.n_evaluations,
+            "wall_seconds": run.wall_seconds,
+            "search_best_order": list(run.best_order) if run.best_order else None,
+            "search_best_peak": run.best_peak,
+            "search_best_index": run.best_index,
+            "failed": run.n_failed,
+            "stalled": run.stalled,
+            "stop_reason": run.stop_reason,
+            "diagnostics": run.diagnostics,
+        })
+    best = study.best_verified()
+    return {
+        "objective": config.objective,
+        "scene": config.scene,
+        "fmu": str(study.fmu_path),
+        "horizon": study.horizon,
+        "search_horizon": min(config.search_horizon or study.horizon, study.horizon),
+        "search_rtol": config.search_rtol,
+        "parameters": _parameters(study),
+        "diagonal_rule": _parameters(study).get("diagonal_rule", "receiver"),
+        "runs": runs,
+        "best": None if best is None else {
+            "order": list(best.order), "peak": best.peak(config.objective), "peak_sampled": best.peak_sampled,
+            "peak_continuous": best.peak_continuous, "peak_time": best.peak_time,
+            "last_contact_time": best.last_contact_time},
+        "verified": [{"order": list(v.order), "peak_sampled": v.peak_sampled, "peak_continuous": v.peak_continuous,
+                      "status": v.status, "message": v.message} for v in study.verified.values()],
+        "finalist_disagreements": study.finalist_disagreements,
+        "local_optimality": study.local_check,
+        "accuracy": accuracy,
+        "study_reference_points": STUDY_REFERENCE_POINTS,
+        "wall_seconds": study.wall_seconds,
+    }
+
+
+def write_results_json(study: Study, accuracy: dict, path: Path) -> None:
+    path.write_text(json.dumps(results_dict(study, accuracy), indent=2, default=_json_default))
+
+
+def _json_default(value):
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (np.floating,)):
+        return float(value)
+    if isinstance(value, (np.ndarray, tuple)):
+        return list(value)
+    return str(value)
+
+
+def write_evaluations_csv(study: Study, path: Path) -> None:
+    fields = ["method", "seed", "index", "order", "peak", "status", "seconds", "objective", "peak_sampled",
+              "peak_continuous", "horizon", "message"]
+    with path.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=fields, extrasaction="ignore")
+        writer.writeheader()
+        for run in study.runs:
+            for index, evaluation in enumerate(run.evaluations, start=1):
+                details = evaluation.details
+                writer.writerow({
+                    "method": run.method, "seed": run.seed, "index": index,
+                    "order": " ".join(str(m) for m in evaluation.order),
+                    "peak": "" if evaluation.peak is None else repr(evaluation.peak),
+                    "status": evaluation.status, "seconds": f"{evaluation.seconds:.6f}",
+                    "objective": study.config.objective,
+                    "peak_sampled": details.get("peak_sampled", ""), "peak_continuous": details.get("peak_continuous", ""),
+                    "horizon": details.get("horizon", ""), "message": evaluation.message,
+                })
+
+
+def best_so_far_matrix(runs) -> np.ndarray:
+    """Rows: seeds; columns: evaluations; NaN before the first good value and after a run ended."""
+    length = max(run.n_evaluations for run in runs)
+    matrix = np.full((len(runs), length), np.nan)
+    for row, run in enumerate(runs):
+        curve = [np.nan if v is None else v for v in run.best_so_far()]
+        matrix[row, :len(curve)] = curve
+        if curve:
+            matrix[row, len(curve):] = curve[-1]
+    return matrix
+
+
+def plot_convergence(study: Study, path: Path) -> str:
+    figure, axis = plt.subplots(figsize=(8, 5))
+    methods = list(dict.fromkeys(run.method for run in study.runs))
+    for method in methods:
+        runs = [run for run in study.runs if run.method == method and run.n_evaluations]
+        if not runs:
+            continue
+        matrix = best_so_far_matrix(runs)
+        x = np.arange(1, matrix.shape[1] + 1)
+        with np.errstate(all="ignore"):
+            median = np.nanmedian(matrix, axis=0)
+            low, high = np.nanpercentile(matrix, 25, axis=0), np.nanpercentile(matrix, 75, axis=0)
+        label = f"{METHOD_NAMES.get(method, method)} (median of {len(runs)})"
+        if method == "sequential":
+            axis.axhline(median[-1], color=COLOURS[method], lw=1, label="sequential order (ours)")
+            continue
+        axis.plot(x, median, color=COLOURS.get(method), label=label)
+        if len(runs) > 1:
+            axis.fill_between(x, low, high, color=COLOURS.get(method), alpha=0.2, lw=0)
+    for (name, value), marker in zip(STUDY_REFERENCE_POINTS.items(), "o^sD"):
+        x_at = 4 if "evaluation 4" in name else 100
+        axis.plot([x_at], [value], marker=marker, color="crimson", ls="none", label=f"{name}: {value:.2f} N")
+    axis.set_xlabel("evaluations (distinct orders)")
+    axis.set_ylabel(f"best peak backplate force so far (N), {study.config.objective} objective")
+    axis.set_title("Convergence: median and quartiles over seeds; search objective "
+                   f"({min(study.config.search_horizon or study.horizon, study.horizon):g} s horizon)", fontsize=9)
+    axis.set_xscale("log")
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=7)
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return path.name
+
+
+def _trajectory(fmu: LatticeFMU, order, horizon, step, parameters):
+    names = ("backplate_force",) + ENERGY_OUTPUTS
+    return fmu.simulate(order, horizon=horizon, parameters=parameters, communication_step=step,
+                        record=names)["trajectory"]
+
+
+def plot_force_and_energy(study: Study, path: Path) -> str:
+    best = study.best_verified()
+    columns = len(best.order) if best else 11
+    orders = {"best found": best.order if best else None, "sequential": tuple(range(1, columns + 1))}
+    if len(STUDY_BEST_ORDER) == columns:
+        orders["study's best"] = STUDY_BEST_ORDER
+    figure, (force_axis, energy_axis) = plt.subplots(1, 2, figsize=(12, 4.5))
+    parameters = _parameters(study)
+    with LatticeFMU(study.fmu_path) as fmu:
+        for (label, order), colour in zip(orders.items(), ("tab:blue", "black", "crimson")):
+            if order is None:
+                continue
+            try:
+                short = _trajectory(fmu, order, min(1.0, study.horizon), 0.001, parameters)
+            except SimulationError:
+                continue
+            force_axis.plot(short.time, short.values["backplate_force"], color=colour,
+                            label=f"{label} {list(order)}: peak {short.values['backplate_force'].max():.1f} N")
+        if best is not None:
+            long = _trajectory(fmu, best.order, study.horizon, 0.01, parameters)
+            for name, style in zip(ENERGY_OUTPUTS, ("-", "-", "-", "-", "-", ":")):
+                energy_axis.plot(long.time, long.values[name], style, label=name.replace("_", " "))
+    force_axis.set_xlabel("time (s)")
+    force_axis.set_ylabel("backplate force (N)")
+    force_axis.legend(fontsize=7)
+    force_axis.grid(alpha=0.3)
+    energy_axis.set_xlabel("time (s)")
+    energy_axis.set_ylabel("energy (J)")
+    energy_axis.set_title("energy balance of the best order: W_ext + W_nr = KE + PE + D", fontsize=9)
+    energy_axis.legend(fontsize=7)
+    energy_axis.grid(alpha=0.3)
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return path.name
+
+
+def plot_lattice(study: Study, path: Path) -> str:
+    best = study.best_verified()
+    columns = len(best.order) if best else 11
+    rows = study.rows
+    orders = [("best found", best.order if best else None), ("sequential", tuple(range(1, columns + 1)))]
+    if len(STUDY_BEST_ORDER) == columns:
+        orders.insert(1, ("study's best", STUDY_BEST_ORDER))
+    orders = [(label, order) for label, order in orders if order is not None]
+    figure, axes = plt.subplots(1, len(orders), figsize=(4 * len(orders), 4), squeeze=False)
+    colour_map = plt.get_cmap("viridis_r")
+    for axis, (label, order) in zip(axes[0], orders):
+        x, y = np.meshgrid(np.arange(columns), np.arange(rows))
+        materials = np.tile(np.array(order), (rows, 1))
+        points = axis.scatter(x, y, c=materials, cmap=colour_map, vmin=1, vmax=columns, s=60, edgecolors="k", lw=0.3)
+        axis.axvline(columns - 1 + 0.5, color="dimgray", lw=4)
+        axis.annotate("", xy=(-0.2, rows / 2 - 0.5), xytext=(-1.2, rows / 2 - 0.5),
+                      arrowprops=dict(arrowstyle="->", lw=2, color="crimson"))
+        axis.set_title(f"{label}\n{list(order)}", fontsize=8)
+        axis.set_xticks(range(columns))
+        axis.set_xticklabels(order, fontsize=7)
+        axis.set_yticks([])
+        axis.set_xlim(-1.5, columns + 0.2)
+    figure.colorbar(points, ax=axes[0].tolist(), label="material (1 = stiffest, k = 100 (2/3)^(m-1))")
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return path.name
+
+
+def _fmt(value, digits=2):
+    return "n/a" if value is None else f"{value:.{digits}f}"
+
+
+def render_html(study: Study, accuracy: dict, charts: dict) -> str:
+    config = study.config
+    data = results_dict(study, accuracy)
+    best = data["best"]
+    study_order = study.verified.get(STUDY_BEST_ORDER)
+    rows = []
+    for run in data["runs"]:
+        rows.append("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in (
+            METHOD_NAMES.get(run["method"], run["method"]), run["seed"], run["evaluations"], run["failed"],
+            run["best_order"], _fmt(run["best_peak"]), _fmt(run["best_peak_continuous"]),
+            _fmt(run["search_best_peak"]), run["search_best_index"], f"{run['wall_seconds']:.1f} s",
+            run["stop_reason"])) + "</tr>")
+    local = study.local_check or {}
+    local_text = ("not run" if not local else
+                  f"{local['swaps_checked']} swaps and {local['insertions_checked']} insertions of the best order "
+                  f"checked on the search objective; {local['better_on_search_objective']} looked better there; "
+                  f"{len(local['improvements'])} confirmed better on the full scene. "
+                  + ("<b>The best order is locally optimal.</b>" if local.get("locally_optimal")
+                     else "<b>The best order is not confirmed locally optimal</b> (see results.json)."))
+    disagreements = ("none: on every run the full scene ranks the finalists as the search objective did"
+                     if not study.finalist_disagreements else
+                     f"{len(study.finalist_disagreements)} run(s) where the full scene reorders the finalists "
+                     "(see results.json: finalist_disagreements)")
+    accuracy_rows = ""
+    if accuracy and "error" not in accuracy:
+        accuracy_rows = (
+            f"<li>Sampled peak of the best order: {accuracy['sampled_relative_error']:.1e} relative to a "
+            f"rtol {accuracy['reference_rtol']:g} reference; continuous peak: "
+            f"{accuracy['continuous_relative_error']:.1e}.</li>"
+            f"<li>The 0.01 s samples miss {100 * accuracy['sampling_shortfall']:.2f}% of the continuous peak: as large "
+            "as the gaps between good orders, which is why both peaks are reported.</li>"
+            + ("" if accuracy["search_objective_relative_difference"] is None else
+               f"<li>The search objective ({data['search_horizon']:g} s horizon, rtol {config.search_rtol}) differs "
+               f"from the full scene by {accuracy['search_objective_relative_difference']:.1e} for the best order."
+               "</li>"))
+    study_line = ("" if study_order is None or study_order.status != "ok" else
+                  f"<p>The study's best order {list(STUDY_BEST_ORDER)}, evaluated here: "
+                  f"{_fmt(study_order.peak(config.objective))} N ({config.objective}), "
+                  f"{_fmt(study_order.peak_continuous)} N continuous (published: 1497.89 N).</p>")
+    headline = ("<p>No order was evaluated successfully.</p>" if best is None else
+                f"<p class='big'>Best order <b>{best['order']}</b>: <b>{_fmt(best['peak'])} N</b> "
+                f"({config.objective} peak over {study.horizon:g} s), {_fmt(best['peak_continuous'])} N continuous "
+                f"peak at t = {_fmt(best['peak_time'], 4)} s.</p>")
+    return f"""<!DOCTYPE html>
+<html><head><meta charset="utf-8"><title>Material order study</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}
+table{{border-collapse:collapse;font-size:12px}}td,th{{border:1px solid #ccc;padding:3px 6px}}
+.big{{font-size:1.3em}}img{{max-width:100%}}</style></head><body>
+<h1>Material order minimising the peak backplate force</h1>
+{headline}
+{study_line}
+<p>Scene {html.escape(config.scene)}, diagonal rule <b>{html.escape(str(data['diagonal_rule']))}</b>,
+objective <b>{config.objective}</b>, FMU {html.escape(str(study.fmu_path))}. Searches ran on a
+{data['search_horizon']:g} s horizon at rtol {config.search_rtol}; every result below is re-evaluated over the
+full {study.horizon:g} s scene at the FMU's default accuracy. Wall time {study.wall_seconds:.1f} s.</p>
+<h2>How accurate these numbers are</h2><ul>{accuracy_rows}
+<li>Finalists: {disagreements}.</li><li>Local optimality: {local_text}</li></ul>
+<h2>Convergence</h2><img src="{charts['convergence']}">
+<h2>Force over time and energy balance</h2><img src="{charts['force_energy']}">
+<h2>The lattices</h2><img src="{charts['lattice']}">
+<h2>Runs</h2>
+<table><tr><th>method</th><th>seed</th><th>evaluations</th><th>failed</th><th>best order (full scene)</th>
+<th>best peak (N)</th><th>continuous (N)</th><th>search value (N)</th><th>found at</th><th>wall</th>
+<th>stopped because</th></tr>
+{''.join(rows)}</table>
+<p>Data: <a href="results.json">results.json</a>, <a href="evaluations.csv">evaluations.csv</a>.</p>
+</body></html>
+"""

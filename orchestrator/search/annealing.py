@@ -1,0 +1,230 @@
+"""Simulated annealing over permutations, with several chains in parallel.
+
+Why several chains: a batch is one proposal per chain, so ``chains``
+evaluations run in parallel and independent chains hedge against one chain
+freezing in a poor basin.
+
+Why an automatic initial temperature: the study's annealing did worse than the
+plain sequential order; a temperature that is too low makes annealing a greedy
+descent from a random start, one that is too high makes it a random walk.  So
+T0 is measured: the chains first take ``calibration`` greedy steps, and T0 is
+chosen so that the mean Metropolis acceptance ``exp(-delta/T0)`` of the
+*worsening* moves seen equals ``initial_acceptance`` (default 0.5, which
+makes the overall acceptance, improving moves included, roughly 0.7-0.8).
+A forced ``t0`` skips this; the acceptance of the first worsening moves is
+checked either way, and ~0 or ~1 is flagged in ``state()["poor_temperature"]``.
+
+Why cooling by budget: the temperature falls geometrically from T0 to
+``t_final_ratio * T0`` as the number of *distinct* orders evaluated goes from
+the end of calibration to ``budget``, so the schedule ends when the budget does
+whatever the cache-hit rate.
+
+Why free steps: the search remembers every value it was told.  A proposal whose
+value is already known is accepted or rejected on the spot (exactly what would
+happen if it were asked and answered from the loop's cache), and the chain
+proposes again; so nearly every asked order is new and costs budget, instead of
+batches of cache hits.  A chain that cannot find an unknown neighbour within
+``max_free`` tries (it sits in a fully explored local optimum) is kicked: a few
+random moves from its current order, accepted unconditionally.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Any
+
+import numpy as np
+
+from ..types import Order
+from .base import FAILURE, Search, random_order
+
+
+class Annealing(Search):
+    """Options (defaults):
+      chains=8               chains; batch size.
+      budget=None            distinct evaluations the loop will allow; scales the
+                             cooling.  Pass the loop's budget (1000 assumed if None).
+      t0=None                force the initial temperature (skips calibration).
+      initial_acceptance=0.5 target acceptance of worsening moves at T0.
+      t_final_ratio=1e-3     final temperature / T0.
+      swap_prob=0.5          probability of a swap move (else an insertion move).
+      calibration=None       worsening/improving deltas sampled before T0 is set
+                             (default max(10, 2 * chains)).
+      window=30              worsening moves after T0 used to check the temperature.
+      poor_low=0.02, poor_high=0.98   acceptance bounds of that check.
+      max_free=500           proposals tried per chain and batch before a kick.
+      kick=3                 random moves in a kick.
+    """
+
+    name = "sa"
+    OPTIONS = {"chains": 8, "budget": None, "t0": None, "initial_acceptance": 0.5,
+               "t_final_ratio": 1e-3, "swap_prob": 0.5, "calibration": None, "window": 30,
+               "poor_low": 0.02, "poor_high": 0.98, "max_free": 500, "kick": 3}
+
+    def __init__(self, n: int, seed: int, **options: Any) -> None:
+        super().__init__(n, seed, **options)
+        o = self.options
+        self.chains = int(o["chains"])
+        if self.chains < 1:
+            raise ValueError("sa: chains must be at least 1")
+        self.budget_assumed = o["budget"] is None
+        self.budget = int(o["budget"] if o["budget"] is not None else 1000)
+        if not 0.0 < float(o["initial_acceptance"]) < 1.0:
+            raise ValueError("sa: initial_acceptance must be in (0, 1)")
+        if not 0.0 < float(o["t_final_ratio"]) <= 1.0:
+            raise ValueError("sa: t_final_ratio must be in (0, 1]")
+        self.calibration = int(o["calibration"] or max(10, 2 * self.chains))
+        self.total_orders = math.factorial(self.n) if self.n <= 12 else None
+        self.memo: dict[Order, float] = {}
+        self.current: list[Order | None] = [None] * self.chains
+        self.current_value = [FAILURE] * self.chains
+        self._proposals: list[tuple[Order, str]] = []
+        self.deltas: list[float] = []
+        self.t0: float | None = None if o["t0"] is None else float(o["t0"])
+        if self.t0 is not None and not self.t0 > 0:
+            raise ValueError("sa: t0 must be positive")
+        self.t0_source = "forced" if self.t0 is not None else "automatic"
+        self.memo_at_t0 = 0
+        # statistics
+        self.steps = self.free_steps = self.accepted = 0
+        self.uphill = self.uphill_accepted = 0
+        self.kicks = 0
+        self.window_uphill: list[bool] = []
+        self.recent: deque[bool] = deque(maxlen=200)
+
+    # -- temperature ------------------------------------------------------
+    @property
+    def temperature(self) -> float | None:
+        if self.t0 is None:
+            return None
+        span = max(1, self.budget - self.memo_at_t0)
+        progress = min(1.0, max(0.0, (len(self.memo) - self.memo_at_t0) / span))
+        return self.t0 * float(self.options["t_final_ratio"]) ** progress
+
+    def _calibrate(self) -> None:
+        """T0 such that mean(exp(-d / T0)) over the worsening deltas = target."""
+        target = float(self.options["initial_acceptance"])
+        up = np.array([d for d in self.deltas if d > 0], dtype=float)
+        if up.size == 0:
+            nonzero = [abs(d) for d in self.deltas if d != 0]
+            t0 = float(np.mean(nonzero)) if nonzero else 1.0
+        else:
+            lo, hi = math.log(up.min()) - 20, math.log(up.max()) + 20
+            for _ in range(200):  # bisection on log T; acceptance increases with T
+                mid = 0.5 * (lo + hi)
+                if np.mean(np.exp(-up / math.exp(mid))) < target:
+                    lo = mid
+                else:
+                    hi = mid
+            t0 = math.exp(0.5 * (lo + hi))
+        self.t0 = t0
+        self.memo_at_t0 = len(self.memo)
+
+    # -- moves ------------------------------------------------------------
+    def _neighbour(self, order: Order) -> Order:
+        n = self.n
+        if n < 2:
+            return order
+        p = list(order)
+        i, j = (int(k) for k in self.rng.choice(n, size=2, replace=False))
+        if self.rng.random() < float(self.options["swap_prob"]):
+            p[i], p[j] = p[j], p[i]
+        else:
+            p.insert(j, p.pop(i))
+        return tuple(p)
+
+    def _step(self, c: int, proposal: Order, value: float, free: bool) -> None:
+        """One Metropolis step of chain c (greedy while calibrating)."""
+        current = self.current_value[c]
+        self.steps += 1
+        self.free_steps += free
+        temperature = self.temperature
+        if value == FAILURE:
+            accept = current == FAILURE  # a failure never replaces a real value
+        elif current == FAILURE:
+            accept = True
+        else:
+            delta = value - current
+            if temperature is None:
+                self.deltas.append(delta)
+                accept = delta <= 0
+            elif delta <= 0:
+                accept = True
+            else:
+                accept = bool(self.rng.random() < math.exp(-delta / temperature))
+                self.uphill += 1
+                self.uphill_accepted += accept
+                if len(self.window_uphill) < int(self.options["window"]):
+                    self.window_uphill.append(accept)
+        self.accepted += accept
+        self.recent.append(accept)
+        if accept:
+            self.current[c], self.current_value[c] = proposal, value
+        if self.t0 is None and len(self.deltas) >= self.calibration:
+            self._calibrate()
+
+    # -- protocol ---------------------------------------------------------
+    def _ask(self) -> list[Order]:
+        self._proposals = []
+        for c in range(self.chains):
+            current = self.current[c]
+            if current is None:
+                self._proposals.append((random_order(self.rng, self.n), "init"))
+                continue
+            for _ in range(int(self.options["max_free"])):
+                proposal = self._neighbour(current)
+                if proposal in self.memo:
+                    self._step(c, proposal, self.memo[proposal], free=True)
+                    current = self.current[c]
+                    continue
+                self._proposals.append((proposal, "move"))
+                break
+            else:
+                kicked = current
+                for _ in range(int(self.options["kick"])):
+                    kicked = self._neighbour(kicked)
+                self.kicks += 1
+                self._proposals.append((kicked, "kick"))
+        return [p for p, _ in self._proposals]
+
+    def _tell(self, orders: list[Order], values: list[float]) -> None:
+        for order, value in zip(orders, values):
+            self.memo[order] = value
+        for c, ((order, kind), value) in enumerate(zip(self._proposals, values)):
+            if kind == "move":
+                self._step(c, order, value, free=False)
+            else:  # "init" or "kick": the chain moves there unconditionally
+                self.current[c], self.current_value[c] = order, value
+
+    def _stop(self) -> bool:
+        return self.total_orders is not None and len(self.memo) >= self.total_orders
+
+    def _state(self) -> dict[str, Any]:
+        low, high = float(self.options["poor_low"]), float(self.options["poor_high"])
+        window = self.window_uphill
+        initial = float(np.mean(window)) if window else None
+        poor = None
+        if initial is not None and len(window) >= min(10, int(self.options["window"])):
+            if initial <= low:
+                poor = (f"poor temperature: too low (T0={self.t0:.4g}, {self.t0_source}); "
+                        f"{initial:.0%} of the first {len(window)} worsening moves accepted, "
+                        "annealing degenerates into greedy descent")
+            elif initial >= high:
+                poor = (f"poor temperature: too high (T0={self.t0:.4g}, {self.t0_source}); "
+                        f"{initial:.0%} of the first {len(window)} worsening moves accepted, "
+                        "annealing degenerates into a random walk")
+        temperature = self.temperature
+        return {
+            "chains": self.chains, "budget": self.budget, "budget_assumed": self.budget_assumed,
+            "t0": self.t0, "t0_source": self.t0_source,
+            "t_final": None if self.t0 is None else self.t0 * float(self.options["t_final_ratio"]),
+            "temperature": temperature,
+            "calibration_deltas": len(self.deltas),
+            "steps": self.steps, "free_steps": self.free_steps, "kicks": self.kicks,
+            "acceptance_rate": self.accepted / self.steps if self.steps else None,
+            "uphill_acceptance_rate": self.uphill_accepted / self.uphill if self.uphill else None,
+            "recent_acceptance_rate": float(np.mean(self.recent)) if self.recent else None,
+            "initial_uphill_acceptance": initial,
+            "poor_temperature": poor,
+            "chain_values": [None if v == FAILURE else v for v in self.current_value],
+        }

@@ -1,0 +1,89 @@
+"""Executors: one seam, identical results whatever runs the work."""
+from __future__ import annotations
+
+import os
+from concurrent.futures import Executor
+
+import pytest
+
+from orchestrator.executors import EXECUTORS, SerialExecutor, make_executor
+from orchestrator.loop import run_search
+from orchestrator.search import SEARCHES, make_search
+from orchestrator.search.problems import Flaky, QuadraticAssignment
+
+METHODS = sorted(SEARCHES)
+# Top-level (picklable) objective: fails on some orders, so failures cross processes too.
+OBJECTIVE = Flaky(QuadraticAssignment.random(7, 11), period=6, mode="raise")
+
+
+def runs_with(executor, budget=40, seed=1):
+    return {m: run_search(make_search(m, 7, seed, budget=budget), OBJECTIVE, budget, executor,
+                          method_name=m, seed=seed)
+            for m in METHODS}
+
+
+def outcomes(runs):
+    return {m: (r.outcome(), r.best_order, r.best_peak, r.n_failed, r.stop_reason) for m, r in runs.items()}
+
+
+@pytest.fixture(scope="module")
+def serial_outcomes():
+    with make_executor("serial") as ex:
+        return outcomes(runs_with(ex))
+
+
+def test_serial_executor_is_an_executor():
+    with make_executor("serial") as ex:
+        assert isinstance(ex, (Executor, SerialExecutor))
+        assert ex.submit(pow, 2, 5).result() == 32
+        assert list(ex.map(abs, [-1, -2])) == [1, 2]
+        with pytest.raises(ZeroDivisionError):
+            ex.submit(divmod, 1, 0).result()
+    with pytest.raises(RuntimeError):
+        ex.submit(abs, 1)
+
+
+def test_unknown_executor_lists_allowed():
+    with pytest.raises(ValueError) as err:
+        make_executor("threads")
+    for kind in EXECUTORS:
+        assert kind in str(err.value)
+    with pytest.raises(ValueError):
+        make_executor("process", workers=0)
+
+
+def test_process_pool_identical_to_serial(serial_outcomes):
+    with make_executor("process", workers=2) as ex:
+        assert outcomes(runs_with(ex)) == serial_outcomes
+        assert any(o[3] for o in serial_outcomes.values())  # failures did cross the process boundary
+
+
+def test_dask_local_cluster_identical_to_serial(serial_outcomes):
+    with make_executor("dask", workers=2) as ex:
+        client = ex._client
+        assert len(client.scheduler_info()["workers"]) == 2
+        assert outcomes(runs_with(ex)) == serial_outcomes
+    assert client.status == "closed"
+
+
+def exit_on_identity(order):
+    """Kills its worker process for the identity order (like a crashing native library)."""
+    if tuple(order) == tuple(range(1, len(order) + 1)):
+        os._exit(3)
+    return float(sum(order))
+
+
+def test_dead_worker_stops_the_run_cleanly():
+    with make_executor("process", workers=2) as ex:
+        run = run_search(make_search("sequential", 5, 0), exit_on_identity, 10, ex,
+                         method_name="sequential", seed=0)
+    assert run.n_failed == 1 and run.evaluations[0].status == "failed"
+    assert "BrokenProcessPool" in run.evaluations[0].message
+
+
+def test_broken_pool_ends_the_run_instead_of_burning_the_budget():
+    with make_executor("process", workers=2) as ex:
+        run = run_search(make_search("random", 5, 0, batch=120), exit_on_identity, 200, ex,
+                         method_name="random", seed=0)
+    assert run.stop_reason.startswith("executor error"), run.stop_reason
+    assert run.n_failed >= 1 and run.n_evaluations <= 120
