@@ -225,12 +225,14 @@ def plot_force_and_energy(study: Study, path: Path) -> str:
                 energy_axis.plot(long.time, long.values[name], style, label=name.replace("_", " "))
     force_axis.set_xlabel("time (s)")
     force_axis.set_ylabel("backplate force (N)")
-    force_axis.legend(fontsize=7)
+    if force_axis.get_legend_handles_labels()[0]:
+        force_axis.legend(fontsize=7)
     force_axis.grid(alpha=0.3)
     energy_axis.set_xlabel("time (s)")
     energy_axis.set_ylabel("energy (J)")
     energy_axis.set_title("energy balance of the best order: W_ext + W_nr = KE + PE + D", fontsize=9)
-    energy_axis.legend(fontsize=7)
+    if energy_axis.get_legend_handles_labels()[0]:
+        energy_axis.legend(fontsize=7)
     energy_axis.grid(alpha=0.3)
     figure.tight_layout()
     figure.savefig(path, dpi=120)
@@ -283,7 +285,10 @@ def render_html(study: Study, accuracy: dict, charts: dict) -> str:
             _fmt(run["search_best_peak"]), run["search_best_index"], f"{run['wall_seconds']:.1f} s",
             run["stop_reason"])) + "</tr>")
     local = study.local_check or {}
-    local_text = ("not run" if not local else
+    descent = local.get("descent", [])
+    moved = ("" if len(descent) < 2 else
+             f"Starting from the searches' best {descent[0]}, {len(descent) - 1} single move(s) improved it. ")
+    local_text = ("not run" if not local else moved +
                   f"{local['swaps_checked']} swaps and {local['insertions_checked']} insertions of the best order "
                   f"checked on the search objective; {local['better_on_search_objective']} looked better there; "
                   f"{len(local['improvements'])} confirmed better on the full scene. "

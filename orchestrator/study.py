@@ -236,9 +236,7 @@ def run_study(config: StudyConfig) -> Study:
         best = min((v for v in verified.values() if v.status == "ok"), key=lambda v: v.peak(config.objective),
                    default=None)
         if config.local_check and best is not None:
-            local = check_local_optimality(executor, cheap, full, best, config.objective)
-            if local["improvements"]:
-                verified.update(verify(executor, full, [tuple(i["order"]) for i in local["improvements"]]))
+            local = polish(executor, cheap, full, best, config.objective, verified)
     return Study(config, fmu_path, horizon, runs, verified, disagreements, local, time.perf_counter() - start,
                  scene.rows)
 
@@ -259,6 +257,23 @@ def finalist_disagreements(runs: list[SearchRun], verified: dict[Order, Verified
             found.append({"method": run.method, "seed": run.seed, "search_ranking": [list(o) for o in search_rank],
                           "full_ranking": [list(o) for o in full_rank], "largest_relative_difference": largest})
     return found
+
+
+def polish(executor, cheap: FMUObjective, full: FMUObjective, best: Verified, objective: str,
+           verified: dict[Order, Verified], max_rounds: int = 10) -> dict:
+    """Descend from the best order by single swaps and insertions until none improves it (at most
+    max_rounds moves); every order met on the way is added to `verified`. Returns the last check."""
+    path = [list(best.order)]
+    for _ in range(max_rounds):
+        local = check_local_optimality(executor, cheap, full, best, objective)
+        if not local["improvements"]:
+            break
+        move = min(local["improvements"], key=lambda i: i["peak"])
+        verified.update(verify(executor, full, [tuple(i["order"]) for i in local["improvements"]]))
+        best = verified[tuple(move["order"])]
+        path.append(list(best.order))
+    local["descent"] = path
+    return local
 
 
 def check_local_optimality(executor, cheap: FMUObjective, full: FMUObjective, best: Verified,

@@ -1,0 +1,114 @@
+"""The orchestrator on the real FMU: objective, study pipeline, CLI and report, executors."""
+import csv
+import json
+import math
+
+import pytest
+
+from conftest import PUBLISHED_BEST, PUBLISHED_PEAKS, PUBLISHED_SEQUENTIAL
+from orchestrator import run as cli
+from orchestrator.evaluate import FMUObjective
+from orchestrator.executors import make_executor
+from orchestrator.loop import run_search
+from orchestrator.search import make_search
+from orchestrator.study import StudyConfig, neighbours, run_study
+
+
+def test_objective_reports_both_peaks_and_reproduces_the_study(fmu_path):
+    objective = FMUObjective(str(fmu_path), horizon=8.0)
+    evaluation = objective(PUBLISHED_BEST)
+    assert evaluation.ok
+    assert evaluation.peak == pytest.approx(PUBLISHED_PEAKS[PUBLISHED_BEST], rel=1e-6)
+    assert evaluation.details["peak_continuous"] > evaluation.details["peak_sampled"] == evaluation.peak
+    continuous = FMUObjective(str(fmu_path), horizon=8.0, objective="continuous")(PUBLISHED_BEST)
+    assert continuous.peak == evaluation.details["peak_continuous"]
+
+
+def test_a_short_horizon_falls_back_to_the_full_one_while_the_lattice_touches_the_plate(fmu_path):
+    short = FMUObjective(str(fmu_path), horizon=0.3, fallback_horizon=8.0)(PUBLISHED_SEQUENTIAL)
+    assert short.details["horizon"] == 8.0  # at 0.3 s the lattice is pressing on the plate
+    assert short.peak == pytest.approx(PUBLISHED_PEAKS[PUBLISHED_SEQUENTIAL], rel=1e-6)
+    safe = FMUObjective(str(fmu_path), horizon=1.0, fallback_horizon=8.0)(PUBLISHED_SEQUENTIAL)
+    assert safe.details["horizon"] == 1.0 and safe.details["last_contact_time"] < 0.9
+
+
+def test_a_failing_fmu_evaluation_is_recorded_not_a_number(fmu_path):
+    diverging = FMUObjective(str(fmu_path), horizon=1.0, parameters=(("fixed_step", 0.05), ("solver", 1)))
+    evaluation = diverging(PUBLISHED_SEQUENTIAL)
+    assert evaluation.status == "failed" and evaluation.peak is None
+    assert "diverged" in evaluation.message or "non-finite" in evaluation.message
+    with make_executor("serial") as executor:
+        run = run_search(make_search("random", 11, seed=0), diverging, 5, executor, method_name="random", seed=0)
+    assert run.n_evaluations == 5 and run.n_failed == 5 and run.best_peak is None
+
+
+def test_neighbours_are_every_distinct_swap_and_insertion():
+    moves = neighbours(tuple(range(1, 12)))
+    assert len(moves["swap"]) == 55
+    everything = set(moves["swap"]) | set(moves["insertion"])
+    assert len(everything) == len(moves["swap"]) + len(moves["insertion"])
+    assert tuple(range(1, 12)) not in everything
+    # an insertion moves one column: (n-1)^2 distinct such orders, adjacent swaps counted once
+    assert len(moves["insertion"]) + 10 == 100
+
+
+def test_dask_gives_the_same_search_as_a_process_pool(fmu_path):
+    objective = FMUObjective(str(fmu_path), horizon=1.0, parameters=(("atol", 1e-8), ("rtol", 1e-6)))
+    results = {}
+    for kind in ("process", "dask"):
+        with make_executor(kind, workers=2) as executor:
+            run = run_search(make_search("cmaes", 11, seed=3), objective, 16, executor, method_name="cmaes", seed=3)
+        results[kind] = [(e.order, e.peak) for e in run.evaluations]
+    assert results["dask"] == results["process"]
+    assert len(results["dask"]) == 16
+
+
+def test_cli_end_to_end_writes_the_report(fmu_path, tmp_path):
+    out = tmp_path / "report"
+    code = cli.main(["--fmu", str(fmu_path), "--method", "cmaes", "sa", "sequential", "--budget", "12",
+                     "--repeats", "2", "--executor", "process", "--workers", "2", "--out", str(out), "--no-progress"])
+    assert code == 0
+    results = json.loads((out / "results.json").read_text())
+    assert {r["method"] for r in results["runs"]} == {"cmaes", "sa", "sequential"}
+    for run in results["runs"]:
+        assert set(run) >= {"method", "seed", "budget", "objective", "best_order", "best_peak",
+                            "best_peak_continuous", "evaluations", "wall_seconds"}
+        assert run["objective"] == "sampled" and run["evaluations"] <= 12
+        assert sorted(run["best_order"]) == list(range(1, 12))
+        assert run["best_peak_continuous"] >= run["best_peak"]
+    best = results["best"]
+    # the final answer is the runs' best, improved by single swaps/insertions until none helps
+    assert best["peak"] <= min(r["best_peak"] for r in results["runs"])
+    local = results["local_optimality"]
+    assert local["swaps_checked"] == 55 and local["insertions_checked"] == 90
+    assert local["order"] == best["order"] and local["descent"][-1] == best["order"]
+    assert local["locally_optimal"] == (not local["improvements"])
+    assert results["accuracy"]["sampled_relative_error"] < 1e-6
+    with open(out / "evaluations.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == sum(r["evaluations"] for r in results["runs"])
+    assert all(row["status"] == "ok" and math.isfinite(float(row["peak"])) for row in rows)
+    for name in ("convergence.png", "force_energy.png", "lattice.png", "report.html"):
+        assert (out / name).stat().st_size > 1000
+    assert "Best order" in (out / "report.html").read_text()
+
+
+def test_a_study_where_everything_fails_still_reports(fmu_path, tmp_path):
+    config = StudyConfig(methods=("random",), budget=3, repeats=1, executor="serial", out=str(tmp_path),
+                         fmu=str(fmu_path), parameters={"F_total": 1200.0, "solver": 1, "fixed_step": 0.05},
+                         search_rtol=None, progress=False)
+    study = run_study(config)
+    assert study.runs[0].n_failed == 3 and study.best_verified() is None
+    from orchestrator.report import write_report
+
+    page = write_report(study).read_text()
+    assert "No order was evaluated successfully" in page
+
+
+def test_bad_cli_values_name_the_parameter(capsys):
+    with pytest.raises(SystemExit):
+        cli.parse_args(["--budget", "0"])
+    assert "budget" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli.parse_args(["--method", "tabu"])
+    assert "tabu" in capsys.readouterr().err
