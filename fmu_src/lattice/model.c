@@ -46,6 +46,7 @@ struct Model {
     Solver solver;
     int load_on;
     signed char wall_mode[LATTICE_ROWS]; /* frozen for a step; switched at located events (WallMode) */
+    int step_contact_free; /* no column-C mass touched the plate during the last step: its force is 0 */
     long next_sample;
     double peak_sampled;
     double peak_continuous, peak_continuous_time; /* over what is fully behind the communication time */
@@ -323,14 +324,20 @@ static void process_step(Model *m, double t_target) {
         const double sample_time = (double)m->next_sample * interval;
         double force;
         if (sample_time > sample_limit) break;
-        force = backplate_force_at(m, sample_time);
+        /* a step without contact needs no dense output for its samples: the force is 0 throughout */
+        force = m->step_contact_free ? 0.0 : backplate_force_at(m, sample_time);
         if (force > m->peak_sampled) m->peak_sampled = force;
         commit_continuous(m, force, sample_time);
         m->next_sample++;
     }
     if (s->steps_accepted == 0 || m->step_peak_committed) return;
     if (!m->step_peak_known) {
-        maximum_in_step(m, s->t_old, s->t, &m->step_peak, &m->step_peak_time);
+        if (m->step_contact_free) {
+            m->step_peak = 0.0;
+            m->step_peak_time = s->t_old;
+        } else {
+            maximum_in_step(m, s->t_old, s->t, &m->step_peak, &m->step_peak_time);
+        }
         m->step_peak_known = 1;
     }
     if (s->t <= t_target) {
@@ -378,6 +385,15 @@ static void update_outputs(Model *m, double t_target) {
     m->integer[VR_RHS_EVALUATIONS] = (int)s->rhs_evaluations;
     m->integer[VR_STEPS_ACCEPTED] = (int)s->steps_accepted;
     m->integer[VR_STEPS_REJECTED] = (int)s->steps_rejected;
+}
+
+/* No column-C mass in contact with the backplate (always so without one). */
+static int wall_free(const Model *m) {
+    int i;
+    for (i = 0; i < LATTICE_ROWS; i++) {
+        if (m->wall_mode[i] != WALL_FREE) return 0;
+    }
+    return 1;
 }
 
 /* The modes SPEC gives the column-C masses in the state at the end of the last step. */
@@ -519,6 +535,7 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
     }
     process_step(m, t_target); /* what remains of the last step up to the new target */
     while (s->t < t_target) {
+        const int free_before = wall_free(m);
         double t_limit = INFINITY;
         if (m->load_on) t_limit = m->params.load_duration;
         if (m->stop_time_defined) t_limit = fmin(t_limit, m->stop_time);
@@ -527,11 +544,15 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         }
         m->step_peak_known = 0;
         m->step_peak_committed = 0;
+        m->step_contact_free = free_before;
         if (m->params.has_backplate) {
             int row;
             handle_wall_events(m);
             for (row = 0; row < LATTICE_ROWS; row++) {
-                if (m->wall_mode[row] != WALL_FREE) m->last_contact_time = s->t;
+                if (m->wall_mode[row] != WALL_FREE) {
+                    m->last_contact_time = s->t;
+                    m->step_contact_free = 0;
+                }
             }
         }
         if (check_divergence(m, message, message_size)) return -1;
