@@ -46,6 +46,8 @@ def test_published_peaks_at_default_settings(lattice, order):
 def test_one_do_step_equals_800_of_them(lattice):
     whole = lattice.simulate(PUBLISHED_BEST, horizon=8.0, outputs=ALL_OUTPUTS)
     stepped = lattice.simulate(PUBLISHED_BEST, horizon=8.0, communication_step=0.01, outputs=ALL_OUTPUTS)
+    # bit for bit the same numbers; only the evaluations spent on dense output at communication points differ
+    assert stepped.pop("rhs_evaluations") >= whole.pop("rhs_evaluations")
     assert stepped == whole
 
 
