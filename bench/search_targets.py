@@ -1,0 +1,98 @@
+"""The orchestrator's targets (issue 3): search quality at 100 and 2000 evaluations, and throughput.
+
+    python bench/search_targets.py --quality 100 --seeds 5       # median best of each search over 5 seeds
+    python bench/search_targets.py --quality 2000 --seeds 3      # does every seed find the best known order?
+    python bench/search_targets.py --throughput 100 100000       # seconds for N evaluations on all cores
+
+Searches use the study's search objective (1 s horizon, rtol 1e-6, sampled peak); every best order is then
+re-evaluated over the full 8 s scene at the FMU's default accuracy, which is the number printed.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from orchestrator.evaluate import FMUObjective  # noqa: E402
+from orchestrator.executors import make_executor  # noqa: E402
+from orchestrator.loop import run_search  # noqa: E402
+from orchestrator.search import make_search  # noqa: E402
+from orchestrator.study import ensure_fmu, polish, verify  # noqa: E402
+
+SEARCHES = ("cmaes", "pso", "sa")
+
+
+def objectives(fmu: Path):
+    search = FMUObjective(str(fmu), 1.0, "sampled", (("atol", 1e-8), ("rtol", 1e-6)), fallback_horizon=8.0)
+    full = FMUObjective(str(fmu), 8.0, "sampled")
+    return search, full
+
+
+def quality(fmu: Path, budget: int, seeds: int, executor_kind: str, workers: int | None) -> None:
+    search_objective, full = objectives(fmu)
+    bests = {}
+    with make_executor(executor_kind, workers) as executor:
+        for method in SEARCHES:
+            values = []
+            for seed in range(seeds):
+                run = run_search(make_search(method, 11, seed, budget=budget), search_objective, budget, executor,
+                                 method_name=method, seed=seed)
+                checked = verify(executor, full, [run.best_order])[run.best_order]
+                values.append((checked.peak_sampled, run.best_order, run.best_index, run.wall_seconds))
+                print(f"{method:6s} seed {seed}: {checked.peak_sampled:9.3f} N  {list(run.best_order)}  found at "
+                      f"evaluation {run.best_index}, {run.wall_seconds:.1f} s", flush=True)
+            median = statistics.median(v[0] for v in values)
+            bests[method] = values
+            print(f"{method:6s} median best over {seeds} seeds at {budget} evaluations: {median:.3f} N", flush=True)
+        best_value, best_order = min((v[0], v[1]) for values in bests.values() for v in values)
+        print(f"\nbest order found: {list(best_order)} at {best_value:.4f} N (8 s, sampled, default accuracy)")
+        # is it a local optimum? (single swaps and insertions, on the search objective, confirmed on 8 s)
+        start = verify(executor, full, [best_order])
+        local = polish(executor, search_objective, full, start[best_order], "sampled", start)
+        final = min((v for v in start.values() if v.status == "ok"), key=lambda v: v.peak_sampled)
+        print(f"after the local descent: {list(final.order)} at {final.peak_sampled:.4f} N; locally optimal: "
+              f"{local['locally_optimal']} ({local['swaps_checked']} swaps, {local['insertions_checked']} insertions)")
+        for method, values in bests.items():
+            hits = sum(1 for v in values if v[1] == final.order)
+            print(f"{method:6s} found that order in {hits} of {len(values)} seeds")
+
+
+def throughput(fmu: Path, counts: list[int], executor_kind: str, workers: int | None) -> None:
+    search_objective, _ = objectives(fmu)
+    for count in counts:
+        with make_executor(executor_kind, workers) as executor:
+            start = time.perf_counter()
+            run = run_search(make_search("random", 11, 0, batch=64), search_objective, count, executor,
+                             method_name="random", seed=0)
+            seconds = time.perf_counter() - start
+        print(f"{run.n_evaluations} evaluations ({run.n_failed} failed) on {workers or os.cpu_count()} workers: "
+              f"{seconds:.1f} s, {seconds / run.n_evaluations * 1e3:.2f} ms per evaluation", flush=True)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--fmu", default=None)
+    parser.add_argument("--quality", type=int, default=None, help="budget per search run")
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--throughput", type=int, nargs="*", default=None, help="evaluation counts to time")
+    parser.add_argument("--executor", default="process")
+    parser.add_argument("--workers", type=int, default=None)
+    args = parser.parse_args(argv)
+    fmu = ensure_fmu("armour_11x11", args.fmu)
+    if args.quality:
+        quality(fmu, args.quality, args.seeds, args.executor, args.workers)
+    if args.throughput:
+        throughput(fmu, args.throughput, args.executor, args.workers)
+    if not args.quality and not args.throughput:
+        parser.error("give --quality BUDGET and/or --throughput N [N ...]")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
