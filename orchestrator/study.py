@@ -37,7 +37,7 @@ class StudyConfig:
     """Everything a study needs; the CLI fills it, tests and benchmarks build it directly."""
 
     methods: tuple = SEARCH_METHODS + BASELINES
-    budget: int = 300
+    budget: int = 200
     seed: int = 0
     repeats: int = 3
     objective: str = "sampled"
