@@ -6,6 +6,7 @@ number.
 """
 from __future__ import annotations
 
+import itertools
 import shutil
 import tempfile
 from ctypes import byref
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
+from fmpy.fmi1 import printLogMessage
 from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
 
@@ -24,6 +26,34 @@ ENERGY_OUTPUTS = ("kinetic_energy", "potential_energy", "external_work", "dissip
 COUNTER_OUTPUTS = ("rhs_evaluations", "steps_accepted", "steps_rejected")
 DIAGONAL_RULES = {"receiver": 0, "mean": 1}
 SOLVERS = {"dop853": 0, "rk4": 1, "semi_implicit_euler": 2}
+
+
+# FMU log messages, routed by instance name to the LatticeFMU that owns the instance. fmpy's logger proxy
+# (which formats the FMU's printf-style message) keeps ONE process-wide pointer to the Python logger, so
+# the callbacks must be registered once and live as long as the process: a per-instance callback would
+# leave the proxy pointing at freed memory once that instance is gone (a segmentation fault later).
+_MESSAGES: dict[str, list[str]] = {}
+_INSTANCE_NUMBERS = itertools.count(1)
+
+
+def _route_log(component, instance_name, status, category, message):
+    sink = _MESSAGES.get(instance_name.decode("utf-8", errors="replace"))
+    if sink is None:  # an FMU instantiated elsewhere with fmpy's default callbacks: print as fmpy would
+        printLogMessage(component, instance_name, status, category, message)
+    else:
+        sink.append(message.decode("utf-8", errors="replace"))
+
+
+_CALLBACKS = fmi2CallbackFunctions()
+_CALLBACKS.logger = fmi2CallbackLoggerTYPE(_route_log)
+_CALLBACKS.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+_CALLBACKS.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+try:
+    from fmpy.logging import addLoggerProxy
+
+    addLoggerProxy(byref(_CALLBACKS))
+except Exception:  # pragma: no cover - without the proxy the raw format string arrives instead
+    pass
 
 
 class SimulationError(RuntimeError):
@@ -52,22 +82,12 @@ class LatticeFMU:
         self.columns = sum(1 for name in self.variables if name.startswith("material["))
         self._unzip_dir = extract(str(self.fmu_path), tempfile.mkdtemp(prefix="lattice_fmu_"))
         self._messages: list[str] = []
-        self._callbacks = fmi2CallbackFunctions()
-        self._callbacks.logger = fmi2CallbackLoggerTYPE(self._log)
-        self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        try:  # fmpy's C proxy formats the FMU's printf-style message before it reaches Python
-            from fmpy.logging import addLoggerProxy
-            addLoggerProxy(byref(self._callbacks))
-        except Exception:  # pragma: no cover - without the proxy the raw format string still arrives
-            pass
+        self._name = f"{instance_name}-{next(_INSTANCE_NUMBERS)}"  # unique: the log is routed by name
+        _MESSAGES[self._name] = self._messages
         self._slave = FMU2Slave(guid=self.model_description.guid, unzipDirectory=self._unzip_dir,
                                 modelIdentifier=self.model_description.coSimulation.modelIdentifier,
-                                instanceName=instance_name)
-        self._slave.instantiate(callbacks=self._callbacks)
-
-    def _log(self, component, instance_name, status, category, message):
-        self._messages.append(message.decode("utf-8", errors="replace"))
+                                instanceName=self._name)
+        self._slave.instantiate(callbacks=_CALLBACKS)
 
     def value_reference(self, name: str) -> int:
         try:
@@ -158,6 +178,7 @@ class LatticeFMU:
                 pass
             self._slave.freeInstance()
             self._slave = None
+            _MESSAGES.pop(self._name, None)
             shutil.rmtree(self._unzip_dir, ignore_errors=True)
 
     def __enter__(self):
