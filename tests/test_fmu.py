@@ -104,6 +104,17 @@ def test_unknown_parameter_and_wrong_order_length_are_refused(lattice):
         lattice.simulate((1, 2, 3), horizon=0.1)
 
 
+def test_outputs_are_defined_right_after_initialisation(fmu_path):
+    description, slave = _slave(fmu_path)
+    try:
+        _start(description, slave, PUBLISHED_BEST)
+        values = slave.getReal([_vr(description, name) for name in ALL_OUTPUTS if name not in COUNTER_OUTPUTS])
+        assert all(math.isfinite(v) for v in values)
+        assert slave.getReal([_vr(description, "kinetic_energy"), _vr(description, "peak_backplate_force")]) == [0, 0]
+    finally:
+        slave.freeInstance()
+
+
 def test_outputs_cannot_be_set(fmu_path):
     description, slave = _slave(fmu_path)
     try:

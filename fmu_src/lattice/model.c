@@ -218,8 +218,9 @@ static void build_params(const Model *m, LatticeParams *p) {
 /* State at time t of the last step (t_old <= t <= t_new); the dense output is paid for only off the ends. */
 static double state_component(Model *m, int component, double t) {
     Solver *s = &m->solver;
-    if (t != s->t && t != s->t_old) solver_prepare_dense(s, m->work, model_rhs, m);
+    if (t == s->t) return solver_state(m->work)[component]; /* also before the first step */
     if (t == s->t_old && s->dense_power == 0) return solver_interpolate_hermite(s, m->work, component, t);
+    solver_prepare_dense(s, m->work, model_rhs, m);
     return solver_interpolate(s, m->work, component, t);
 }
 
