@@ -3,6 +3,7 @@
     python build_fmu.py                      # models/MassSpringLattice.fmu, the 11 x 11 armour scene
     python build_fmu.py --scene free_5x5     # a scene from scenes/ (or a path to a scene file)
     python build_fmu.py --rows 7 --cols 9 -o models/Lattice7x9.fmu
+    python build_fmu.py --fmi-version 3      # models/MassSpringLattice-fmi3.fmu (fmu_src/fmi3_description.py)
 
 One table (fmu_src/variables.py) gives both modelDescription.xml and the C header model_variables.h, so the
 two cannot drift. The FMU carries its C sources (listed in <SourceFiles>) so `fmpy compile` can rebuild it
@@ -34,6 +35,7 @@ DEFAULT_SCENE = "armour_11x11"
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from fmu_src import fmi3_description as fmi3  # noqa: E402
 from fmu_src.variables import INTEGER, REAL, Interface, c_literal, make_interface, plotted_masses  # noqa: E402
 
 C_SOURCES = ["fmi2/fmi2_glue.c", "lattice/lattice.c", "lattice/solver.c", "lattice/model.c"]
@@ -264,8 +266,8 @@ def compile_shared_library(sources: list[Path], output: Path, include_dirs: list
 
 
 def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None = None,
-              rows: int | None = None, cols: int | None = None, werror: bool = False) -> Path:
-    """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path."""
+              rows: int | None = None, cols: int | None = None, werror: bool = False, fmi_version: int = 2) -> Path:
+    """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0)."""
     if not isinstance(scene, Scene):
         scene = Scene.load(scene or DEFAULT_SCENE)
     if rows is not None or cols is not None:
@@ -277,20 +279,30 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
     interface = scene.interface()
     identifier = scene.model_identifier
     guid = model_guid(interface, identifier)
-    output = Path(output) if output else MODELS_DIR / f"{identifier}.fmu"
+    suffix_fmi = fmi3.OUTPUT_SUFFIX if fmi_version == 3 else ""
+    output = Path(output) if output else MODELS_DIR / f"{identifier}{suffix_fmi}.fmu"
     folder, suffix = platform_folder()
+    c_sources, c_headers = C_SOURCES, C_HEADERS
+    if fmi_version == 3:
+        guid = fmi3.instantiation_token(guid, SOURCE_DIR)
+        (folder, suffix), c_sources, c_headers = fmi3.platform_folder(), fmi3.C_SOURCES, fmi3.C_HEADERS
 
     with tempfile.TemporaryDirectory(prefix="build_fmu_") as staging_name:
         staging = Path(staging_name)
         sources = staging / "sources"
-        for name in C_SOURCES + C_HEADERS:
+        for name in c_sources + c_headers:
             (sources / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(SOURCE_DIR / name, sources / name)
         (sources / "lattice" / "model_variables.h").write_text(generate_header(interface, guid))
-        (staging / "modelDescription.xml").write_text(
-            generate_model_description(interface, identifier, guid, scene))
+        if fmi_version == 3:
+            (staging / "modelDescription.xml").write_text(
+                fmi3.generate_model_description(interface, identifier, guid, scene, UNITS))
+            (sources / "buildDescription.xml").write_text(fmi3.generate_build_description(identifier))
+        else:
+            (staging / "modelDescription.xml").write_text(
+                generate_model_description(interface, identifier, guid, scene))
         binary = staging / "binaries" / folder / f"{identifier}{suffix}"
-        compile_shared_library([sources / name for name in C_SOURCES], binary, [sources], werror)
+        compile_shared_library([sources / name for name in c_sources], binary, [sources], werror)
         output.parent.mkdir(parents=True, exist_ok=True)
         partial = output.with_suffix(".fmu.partial")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as archive:
@@ -316,10 +328,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rows", type=int, help="override the scene's number of rows")
     parser.add_argument("--cols", type=int, help="override the scene's number of columns (materials)")
     parser.add_argument("-o", "--output", help="where to write the .fmu (default models/<identifier>.fmu)")
+    parser.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
+                        help="2: FMI 2.0 (default); 3: FMI 3.0, written to models/<identifier>-fmi3.fmu")
     parser.add_argument("--werror", action="store_true", help="fail on any compiler warning (CI does)")
+    parser.add_argument("--reference", action="store_true",
+                        help="build the reference FMU instead (pythonfmu over the numpy/scipy model of reference/): "
+                             "models/MassSpringLatticeReference.fmu, or -o")
     args = parser.parse_args(argv)
+    if args.reference:
+        from reference.fmu import build_reference_fmu
+
+        print(build_reference_fmu(args.output))
+        return 0
     try:
-        path = build_fmu(args.scene, args.output, args.rows, args.cols, werror=args.werror)
+        path = build_fmu(args.scene, args.output, args.rows, args.cols, werror=args.werror,
+                         fmi_version=args.fmi_version)
     except (ValueError, RuntimeError) as exc:
         print(f"build_fmu.py: error: {exc}", file=sys.stderr)
         return 2

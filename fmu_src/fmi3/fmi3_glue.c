@@ -1,0 +1,781 @@
+/* FMI 3.0 co-simulation glue: the FMI 3 state machine, arrays, logging and FMU states over the model API.
+ *
+ * Like fmi2/fmi2_glue.c it knows nothing of springs: every model question goes through lattice/model.h.
+ * What FMI 3 adds here:
+ * - arrays are variables: `material` is one Int32 variable whose value reference is that of its first
+ *   element; model_variable_count(vr) says how many values a get or set of vr moves. Value references in
+ *   the middle of an array are not variables of the FMU and are refused.
+ * - the independent variable `time` (FMI 3 requires one); its value reference is the first one past the
+ *   model's variables.
+ * - Real is Float64 and Integer is Int32; every other FMI 3 type is refused (the FMU has none).
+ */
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../include/fmi3Functions.h"
+#include "../lattice/model.h"
+
+#define MESSAGE_SIZE 1024
+#define STATE_MAGIC 0x4d534c33u /* "MSL3": marks a serialised state of this FMU */
+/* The importer's communication time may drift from ours by rounding; more than this is a real mismatch. */
+#define TIME_MISMATCH_TOLERANCE 1e-9
+
+typedef enum {
+    STATE_INSTANTIATED,
+    STATE_INITIALIZATION_MODE,
+    STATE_STEP_MODE,
+    STATE_TERMINATED,
+    STATE_ERROR
+} InstanceState;
+
+typedef struct {
+    Model *model;
+    fmi3LogMessageCallback logger;
+    fmi3InstanceEnvironment environment;
+    char *instance_name;
+    int logging_on;
+    InstanceState state;
+    double start_time, stop_time;
+    int stop_time_defined;
+} Instance;
+
+/* A saved FMU state: the instance's own fields, then the model's bytes. */
+typedef struct {
+    unsigned int magic;
+    InstanceState state;
+    double start_time, stop_time;
+    int stop_time_defined;
+} SavedHeader;
+
+static void log_message(const Instance *instance, fmi3Status status, const char *category, const char *format,
+                        ...) {
+    char message[MESSAGE_SIZE];
+    va_list args;
+    if (!instance || !instance->logger) return;
+    if (status == fmi3OK && !instance->logging_on) return;
+    va_start(args, format);
+    vsnprintf(message, sizeof(message), format, args);
+    va_end(args);
+    instance->logger(instance->environment, status, category, message);
+}
+
+static fmi3Status error(Instance *instance, const char *function, const char *message) {
+    log_message(instance, fmi3Error, "logStatusError", "%s: %s", function, message);
+    return fmi3Error;
+}
+
+#define IN(state) (1u << (state))
+#define ANY_STATE \
+    (IN(STATE_INSTANTIATED) | IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP_MODE) | IN(STATE_TERMINATED))
+
+/* Refuses calls the FMI 3.0 state machine does not allow in the current state. */
+static int allowed(Instance *instance, const char *function, unsigned int states) {
+    if (!instance) return 0;
+    if (states & (1u << instance->state)) return 1;
+    error(instance, function, instance->state == STATE_ERROR
+                                  ? "the instance is in the error state: only fmi3Reset and fmi3FreeInstance are allowed"
+                                  : "not allowed in the current state of the instance");
+    return 0;
+}
+
+/* The value reference of `time`: the first one past the model's variables. */
+static fmi3ValueReference time_reference(void) {
+    fmi3ValueReference vr = 0;
+    while (model_variable_count(vr) > 0) vr++;
+    return vr;
+}
+
+/* A value reference is a variable of the FMU when it is `time` or the first element of a model variable
+ * (an element in the middle of an array has exactly one element more before it). */
+static int is_variable(fmi3ValueReference vr) {
+    const int count = model_variable_count(vr);
+    if (count <= 0) return 0;
+    return vr == 0 || model_variable_count(vr - 1) != count + 1;
+}
+
+/* Checks a get or set call's value references and that nValues is the sum of their sizes. */
+static int check_values(Instance *instance, const char *function, const fmi3ValueReference vr[], size_t nvr,
+                        size_t nValues, int type, int time_allowed) {
+    char message[MESSAGE_SIZE];
+    const fmi3ValueReference time_vr = time_reference();
+    size_t i, total = 0;
+    for (i = 0; i < nvr; i++) {
+        if (time_allowed && vr[i] == time_vr) {
+            total += 1;
+            continue;
+        }
+        if (!is_variable(vr[i])) {
+            snprintf(message, sizeof(message), "value reference %u is not a variable of this FMU", vr[i]);
+            error(instance, function, message);
+            return -1;
+        }
+        if (model_variable_type(vr[i]) != type) {
+            snprintf(message, sizeof(message), "value reference %u is not a %s variable", vr[i],
+                     type == MODEL_TYPE_REAL ? "Float64" : "Int32");
+            error(instance, function, message);
+            return -1;
+        }
+        total += (size_t)model_variable_count(vr[i]);
+    }
+    if (total != nValues) {
+        snprintf(message, sizeof(message), "nValues is %lu but the %lu value references have %lu values",
+                 (unsigned long)nValues, (unsigned long)nvr, (unsigned long)total);
+        error(instance, function, message);
+        return -1;
+    }
+    return 0;
+}
+
+const char *fmi3GetVersion(void) { return fmi3Version; }
+
+fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean loggingOn, size_t nCategories,
+                               const fmi3String categories[]) {
+    Instance *instance = (Instance *)c;
+    (void)nCategories;
+    (void)categories;
+    if (!instance) return fmi3Error;
+    instance->logging_on = loggingOn;
+    return fmi3OK;
+}
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
+                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                          fmi3InstanceEnvironment instanceEnvironment,
+                                          fmi3LogMessageCallback logMessage) {
+    Instance probe;
+    (void)instantiationToken;
+    (void)resourcePath;
+    (void)visible;
+    (void)loggingOn;
+    memset(&probe, 0, sizeof(probe));
+    probe.logger = logMessage;
+    probe.environment = instanceEnvironment;
+    probe.instance_name = (char *)(instanceName ? instanceName : "");
+    error(&probe, "fmi3InstantiateModelExchange", "this FMU supports co-simulation only");
+    return NULL;
+}
+
+fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
+                                         fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                         fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
+                                         const fmi3ValueReference requiredIntermediateVariables[],
+                                         size_t nRequiredIntermediateVariables,
+                                         fmi3InstanceEnvironment instanceEnvironment,
+                                         fmi3LogMessageCallback logMessage,
+                                         fmi3IntermediateUpdateCallback intermediateUpdate) {
+    Instance probe, *instance;
+    (void)resourcePath;
+    (void)visible;
+    (void)earlyReturnAllowed; /* doStep never returns early */
+    (void)requiredIntermediateVariables;
+    (void)nRequiredIntermediateVariables;
+    (void)intermediateUpdate;
+    memset(&probe, 0, sizeof(probe));
+    probe.logger = logMessage;
+    probe.environment = instanceEnvironment;
+    probe.instance_name = (char *)(instanceName ? instanceName : "");
+    if (eventModeUsed) {
+        error(&probe, "fmi3InstantiateCoSimulation", "this FMU has no event mode (hasEventMode=\"false\")");
+        return NULL;
+    }
+    if (!instantiationToken || strcmp(instantiationToken, model_guid()) != 0) {
+        char message[MESSAGE_SIZE];
+        snprintf(message, sizeof(message), "instantiation token %s does not match this binary's %s "
+                 "(modelDescription.xml and binary come from different builds)",
+                 instantiationToken ? instantiationToken : "(null)", model_guid());
+        error(&probe, "fmi3InstantiateCoSimulation", message);
+        return NULL;
+    }
+    instance = (Instance *)calloc(1, sizeof(Instance));
+    if (!instance) return NULL;
+    instance->model = model_new();
+    instance->instance_name = (char *)malloc(strlen(probe.instance_name) + 1);
+    if (!instance->model || !instance->instance_name) {
+        model_free(instance->model);
+        free(instance->instance_name);
+        free(instance);
+        return NULL;
+    }
+    strcpy(instance->instance_name, probe.instance_name);
+    instance->logger = probe.logger;
+    instance->environment = probe.environment;
+    instance->logging_on = loggingOn;
+    instance->state = STATE_INSTANTIATED;
+    return instance;
+}
+
+fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,
+                                               fmi3String resourcePath, fmi3Boolean visible,
+                                               fmi3Boolean loggingOn, fmi3InstanceEnvironment instanceEnvironment,
+                                               fmi3LogMessageCallback logMessage,
+                                               fmi3ClockUpdateCallback clockUpdate,
+                                               fmi3LockPreemptionCallback lockPreemption,
+                                               fmi3UnlockPreemptionCallback unlockPreemption) {
+    (void)clockUpdate;
+    (void)lockPreemption;
+    (void)unlockPreemption;
+    return fmi3InstantiateModelExchange(instanceName, instantiationToken, resourcePath, visible, loggingOn,
+                                        instanceEnvironment, logMessage);
+}
+
+void fmi3FreeInstance(fmi3Instance c) {
+    Instance *instance = (Instance *)c;
+    if (!instance) return;
+    model_free(instance->model);
+    free(instance->instance_name);
+    free(instance);
+}
+
+fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean toleranceDefined, fmi3Float64 tolerance,
+                                       fmi3Float64 startTime, fmi3Boolean stopTimeDefined, fmi3Float64 stopTime) {
+    Instance *instance = (Instance *)c;
+    (void)toleranceDefined; /* the solver's tolerances are the parameters rtol and atol */
+    (void)tolerance;
+    if (!allowed(instance, "fmi3EnterInitializationMode", IN(STATE_INSTANTIATED))) return fmi3Error;
+    instance->start_time = startTime;
+    instance->stop_time_defined = stopTimeDefined;
+    instance->stop_time = stopTime;
+    instance->state = STATE_INITIALIZATION_MODE;
+    return fmi3OK;
+}
+
+fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi3ExitInitializationMode", IN(STATE_INITIALIZATION_MODE))) return fmi3Error;
+    if (model_initialize(instance->model, instance->start_time, instance->stop_time_defined, instance->stop_time,
+                         message, sizeof(message))) {
+        instance->state = STATE_ERROR;
+        return error(instance, "fmi3ExitInitializationMode", message);
+    }
+    instance->state = STATE_STEP_MODE; /* co-simulation without event mode goes straight to step mode */
+    return fmi3OK;
+}
+
+fmi3Status fmi3EnterEventMode(fmi3Instance c) {
+    return error((Instance *)c, "fmi3EnterEventMode", "this FMU has no event mode");
+}
+
+fmi3Status fmi3Terminate(fmi3Instance c) {
+    Instance *instance = (Instance *)c;
+    if (!allowed(instance, "fmi3Terminate", IN(STATE_STEP_MODE))) return fmi3Error;
+    instance->state = STATE_TERMINATED;
+    return fmi3OK;
+}
+
+fmi3Status fmi3Reset(fmi3Instance c) {
+    Instance *instance = (Instance *)c;
+    if (!instance) return fmi3Error;
+    model_reset(instance->model);
+    instance->state = STATE_INSTANTIATED;
+    instance->start_time = 0.0;
+    instance->stop_time_defined = 0;
+    instance->stop_time = 0.0;
+    return fmi3OK;
+}
+
+/* Float64 and Int32: the model's Real and Integer variables, arrays element by element. */
+fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Float64 values[],
+                          size_t nValues) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    const fmi3ValueReference time_vr = time_reference();
+    size_t i, k = 0;
+    int e;
+    if (!allowed(instance, "fmi3GetFloat64", ANY_STATE)) return fmi3Error;
+    if (check_values(instance, "fmi3GetFloat64", vr, nvr, nValues, MODEL_TYPE_REAL, 1)) return fmi3Error;
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] == time_vr) {
+            values[k++] = model_time(instance->model);
+            continue;
+        }
+        for (e = 0; e < model_variable_count(vr[i]); e++) {
+            if (model_get_real(instance->model, vr[i] + (unsigned int)e, &values[k++], message, sizeof(message))) {
+                return error(instance, "fmi3GetFloat64", message);
+            }
+        }
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Int32 values[],
+                        size_t nValues) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i, k = 0;
+    int e, value;
+    if (!allowed(instance, "fmi3GetInt32", ANY_STATE)) return fmi3Error;
+    if (check_values(instance, "fmi3GetInt32", vr, nvr, nValues, MODEL_TYPE_INTEGER, 0)) return fmi3Error;
+    for (i = 0; i < nvr; i++) {
+        for (e = 0; e < model_variable_count(vr[i]); e++) {
+            if (model_get_integer(instance->model, vr[i] + (unsigned int)e, &value, message, sizeof(message))) {
+                return error(instance, "fmi3GetInt32", message);
+            }
+            values[k++] = (fmi3Int32)value;
+        }
+    }
+    return fmi3OK;
+}
+
+/* Setting: parameters before or during initialisation only (the model says why it refuses). */
+fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Float64 values[],
+                          size_t nValues) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    const fmi3ValueReference time_vr = time_reference();
+    size_t i, k = 0;
+    int e;
+    if (!allowed(instance, "fmi3SetFloat64", ANY_STATE)) return fmi3Error;
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] == time_vr) {
+            return error(instance, "fmi3SetFloat64", "time is the independent variable: it cannot be set");
+        }
+    }
+    if (check_values(instance, "fmi3SetFloat64", vr, nvr, nValues, MODEL_TYPE_REAL, 0)) return fmi3Error;
+    for (i = 0; i < nvr; i++) {
+        for (e = 0; e < model_variable_count(vr[i]); e++) {
+            if (model_set_real(instance->model, vr[i] + (unsigned int)e, values[k++], message, sizeof(message))) {
+                return error(instance, "fmi3SetFloat64", message);
+            }
+        }
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Int32 values[],
+                        size_t nValues) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i, k = 0;
+    int e;
+    if (!allowed(instance, "fmi3SetInt32", ANY_STATE)) return fmi3Error;
+    if (check_values(instance, "fmi3SetInt32", vr, nvr, nValues, MODEL_TYPE_INTEGER, 0)) return fmi3Error;
+    for (i = 0; i < nvr; i++) {
+        for (e = 0; e < model_variable_count(vr[i]); e++) {
+            if (model_set_integer(instance->model, vr[i] + (unsigned int)e, (int)values[k++], message,
+                                  sizeof(message))) {
+                return error(instance, "fmi3SetInt32", message);
+            }
+        }
+    }
+    return fmi3OK;
+}
+
+/* Types this FMU does not have: an empty call is fine, anything else is refused. */
+#define NO_SUCH_TYPE(function, value_type, type_name)                                                         \
+    fmi3Status function(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, value_type values[],      \
+                        size_t nValues) {                                                                     \
+        Instance *instance = (Instance *)c;                                                                   \
+        (void)vr;                                                                                             \
+        (void)values;                                                                                         \
+        (void)nValues;                                                                                        \
+        if (!allowed(instance, #function, ANY_STATE)) return fmi3Error;                                       \
+        return nvr == 0 ? fmi3OK : error(instance, #function, "this FMU has no " type_name " variables");    \
+    }
+
+NO_SUCH_TYPE(fmi3GetFloat32, fmi3Float32, "Float32")
+NO_SUCH_TYPE(fmi3GetInt8, fmi3Int8, "Int8")
+NO_SUCH_TYPE(fmi3GetUInt8, fmi3UInt8, "UInt8")
+NO_SUCH_TYPE(fmi3GetInt16, fmi3Int16, "Int16")
+NO_SUCH_TYPE(fmi3GetUInt16, fmi3UInt16, "UInt16")
+NO_SUCH_TYPE(fmi3GetUInt32, fmi3UInt32, "UInt32")
+NO_SUCH_TYPE(fmi3GetInt64, fmi3Int64, "Int64")
+NO_SUCH_TYPE(fmi3GetUInt64, fmi3UInt64, "UInt64")
+NO_SUCH_TYPE(fmi3GetBoolean, fmi3Boolean, "Boolean")
+NO_SUCH_TYPE(fmi3GetString, fmi3String, "String")
+NO_SUCH_TYPE(fmi3SetFloat32, const fmi3Float32, "Float32")
+NO_SUCH_TYPE(fmi3SetInt8, const fmi3Int8, "Int8")
+NO_SUCH_TYPE(fmi3SetUInt8, const fmi3UInt8, "UInt8")
+NO_SUCH_TYPE(fmi3SetInt16, const fmi3Int16, "Int16")
+NO_SUCH_TYPE(fmi3SetUInt16, const fmi3UInt16, "UInt16")
+NO_SUCH_TYPE(fmi3SetUInt32, const fmi3UInt32, "UInt32")
+NO_SUCH_TYPE(fmi3SetInt64, const fmi3Int64, "Int64")
+NO_SUCH_TYPE(fmi3SetUInt64, const fmi3UInt64, "UInt64")
+NO_SUCH_TYPE(fmi3SetBoolean, const fmi3Boolean, "Boolean")
+NO_SUCH_TYPE(fmi3SetString, const fmi3String, "String")
+
+fmi3Status fmi3GetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, size_t valueSizes[],
+                         fmi3Binary values[], size_t nValues) {
+    Instance *instance = (Instance *)c;
+    (void)vr;
+    (void)valueSizes;
+    (void)values;
+    (void)nValues;
+    if (!allowed(instance, "fmi3GetBinary", ANY_STATE)) return fmi3Error;
+    return nvr == 0 ? fmi3OK : error(instance, "fmi3GetBinary", "this FMU has no Binary variables");
+}
+
+fmi3Status fmi3SetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const size_t valueSizes[],
+                         const fmi3Binary values[], size_t nValues) {
+    Instance *instance = (Instance *)c;
+    (void)vr;
+    (void)valueSizes;
+    (void)values;
+    (void)nValues;
+    if (!allowed(instance, "fmi3SetBinary", ANY_STATE)) return fmi3Error;
+    return nvr == 0 ? fmi3OK : error(instance, "fmi3SetBinary", "this FMU has no Binary variables");
+}
+
+fmi3Status fmi3GetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Clock values[]) {
+    (void)vr;
+    (void)values;
+    return nvr == 0 ? fmi3OK : error((Instance *)c, "fmi3GetClock", "this FMU has no clocks");
+}
+
+fmi3Status fmi3SetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Clock values[]) {
+    (void)vr;
+    (void)values;
+    return nvr == 0 ? fmi3OK : error((Instance *)c, "fmi3SetClock", "this FMU has no clocks");
+}
+
+fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance c, fmi3ValueReference valueReference,
+                                               size_t *nDependencies) {
+    (void)valueReference;
+    (void)nDependencies;
+    return error((Instance *)c, "fmi3GetNumberOfVariableDependencies", "not provided by this FMU");
+}
+
+fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3ValueReference dependent,
+                                       size_t elementIndicesOfDependent[], fmi3ValueReference independents[],
+                                       size_t elementIndicesOfIndependents[], fmi3DependencyKind dependencyKinds[],
+                                       size_t nDependencies) {
+    (void)dependent;
+    (void)elementIndicesOfDependent;
+    (void)independents;
+    (void)elementIndicesOfIndependents;
+    (void)dependencyKinds;
+    (void)nDependencies;
+    return error((Instance *)c, "fmi3GetVariableDependencies", "not provided by this FMU");
+}
+
+/* FMU states: a flat copy of the instance's fields and the model (the model holds no pointers). */
+static size_t saved_size(void) { return sizeof(SavedHeader) + model_size(); }
+
+static void save(const Instance *instance, unsigned char *bytes) {
+    SavedHeader header;
+    memset(&header, 0, sizeof(header));
+    header.magic = STATE_MAGIC;
+    header.state = instance->state;
+    header.start_time = instance->start_time;
+    header.stop_time = instance->stop_time;
+    header.stop_time_defined = instance->stop_time_defined;
+    memcpy(bytes, &header, sizeof(header));
+    memcpy(bytes + sizeof(header), instance->model, model_size());
+}
+
+static int restore(Instance *instance, const unsigned char *bytes) {
+    SavedHeader header;
+    memcpy(&header, bytes, sizeof(header));
+    if (header.magic != STATE_MAGIC) return -1;
+    instance->state = header.state;
+    instance->start_time = header.start_time;
+    instance->stop_time = header.stop_time;
+    instance->stop_time_defined = header.stop_time_defined;
+    memcpy(instance->model, bytes + sizeof(header), model_size());
+    return 0;
+}
+
+fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
+    Instance *instance = (Instance *)c;
+    unsigned char *bytes;
+    if (!allowed(instance, "fmi3GetFMUState", ANY_STATE)) return fmi3Error;
+    bytes = (unsigned char *)(*FMUState ? *FMUState : malloc(saved_size()));
+    if (!bytes) return error(instance, "fmi3GetFMUState", "out of memory");
+    save(instance, bytes);
+    *FMUState = bytes;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState FMUState) {
+    Instance *instance = (Instance *)c;
+    if (!allowed(instance, "fmi3SetFMUState", ANY_STATE)) return fmi3Error;
+    if (!FMUState || restore(instance, (const unsigned char *)FMUState)) {
+        return error(instance, "fmi3SetFMUState", "not a state of this FMU");
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
+    (void)c;
+    if (FMUState) {
+        free(*FMUState);
+        *FMUState = NULL;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState FMUState, size_t *size) {
+    (void)c;
+    (void)FMUState;
+    *size = saved_size();
+    return fmi3OK;
+}
+
+fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState FMUState, fmi3Byte serializedState[], size_t size) {
+    Instance *instance = (Instance *)c;
+    if (!instance) return fmi3Error;
+    if (size < saved_size()) return error(instance, "fmi3SerializeFMUState", "the buffer is too small");
+    memcpy(serializedState, FMUState, saved_size());
+    return fmi3OK;
+}
+
+fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serializedState[], size_t size,
+                                   fmi3FMUState *FMUState) {
+    Instance *instance = (Instance *)c;
+    SavedHeader header;
+    void *bytes;
+    if (!instance) return fmi3Error;
+    if (size != saved_size()) {
+        return error(instance, "fmi3DeserializeFMUState", "the serialised state has the wrong size for this FMU");
+    }
+    memcpy(&header, serializedState, sizeof(header));
+    if (header.magic != STATE_MAGIC) return error(instance, "fmi3DeserializeFMUState", "not a state of this FMU");
+    bytes = *FMUState ? *FMUState : malloc(size);
+    if (!bytes) return error(instance, "fmi3DeserializeFMUState", "out of memory");
+    memcpy(bytes, serializedState, size);
+    *FMUState = bytes;
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                                        const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
+                                        size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity) {
+    (void)unknowns;
+    (void)nUnknowns;
+    (void)knowns;
+    (void)nKnowns;
+    (void)seed;
+    (void)nSeed;
+    (void)sensitivity;
+    (void)nSensitivity;
+    return error((Instance *)c, "fmi3GetDirectionalDerivative", "not provided by this FMU");
+}
+
+fmi3Status fmi3GetAdjointDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                                    const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
+                                    size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity) {
+    (void)unknowns;
+    (void)nUnknowns;
+    (void)knowns;
+    (void)nKnowns;
+    (void)seed;
+    (void)nSeed;
+    (void)sensitivity;
+    (void)nSensitivity;
+    return error((Instance *)c, "fmi3GetAdjointDerivative", "not provided by this FMU");
+}
+
+/* No structural parameters, clocks, event mode or model exchange: these all refuse. */
+fmi3Status fmi3EnterConfigurationMode(fmi3Instance c) {
+    return error((Instance *)c, "fmi3EnterConfigurationMode", "this FMU has no structural parameters");
+}
+
+fmi3Status fmi3ExitConfigurationMode(fmi3Instance c) {
+    return error((Instance *)c, "fmi3ExitConfigurationMode", "this FMU has no structural parameters");
+}
+
+fmi3Status fmi3GetIntervalDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                                  fmi3Float64 intervals[], fmi3IntervalQualifier qualifiers[]) {
+    (void)vr;
+    (void)nvr;
+    (void)intervals;
+    (void)qualifiers;
+    return error((Instance *)c, "fmi3GetIntervalDecimal", "this FMU has no clocks");
+}
+
+fmi3Status fmi3GetIntervalFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                                   fmi3UInt64 counters[], fmi3UInt64 resolutions[],
+                                   fmi3IntervalQualifier qualifiers[]) {
+    (void)vr;
+    (void)nvr;
+    (void)counters;
+    (void)resolutions;
+    (void)qualifiers;
+    return error((Instance *)c, "fmi3GetIntervalFraction", "this FMU has no clocks");
+}
+
+fmi3Status fmi3GetShiftDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Float64 shifts[]) {
+    (void)vr;
+    (void)nvr;
+    (void)shifts;
+    return error((Instance *)c, "fmi3GetShiftDecimal", "this FMU has no clocks");
+}
+
+fmi3Status fmi3GetShiftFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3UInt64 counters[],
+                                fmi3UInt64 resolutions[]) {
+    (void)vr;
+    (void)nvr;
+    (void)counters;
+    (void)resolutions;
+    return error((Instance *)c, "fmi3GetShiftFraction", "this FMU has no clocks");
+}
+
+fmi3Status fmi3SetIntervalDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                                  const fmi3Float64 intervals[]) {
+    (void)vr;
+    (void)nvr;
+    (void)intervals;
+    return error((Instance *)c, "fmi3SetIntervalDecimal", "this FMU has no clocks");
+}
+
+fmi3Status fmi3SetIntervalFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                                   const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]) {
+    (void)vr;
+    (void)nvr;
+    (void)counters;
+    (void)resolutions;
+    return error((Instance *)c, "fmi3SetIntervalFraction", "this FMU has no clocks");
+}
+
+fmi3Status fmi3SetShiftDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                               const fmi3Float64 shifts[]) {
+    (void)vr;
+    (void)nvr;
+    (void)shifts;
+    return error((Instance *)c, "fmi3SetShiftDecimal", "this FMU has no clocks");
+}
+
+fmi3Status fmi3SetShiftFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                                const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]) {
+    (void)vr;
+    (void)nvr;
+    (void)counters;
+    (void)resolutions;
+    return error((Instance *)c, "fmi3SetShiftFraction", "this FMU has no clocks");
+}
+
+fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance c) {
+    return error((Instance *)c, "fmi3EvaluateDiscreteStates", "this FMU has no event mode");
+}
+
+fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesNeedUpdate,
+                                    fmi3Boolean *terminateSimulation, fmi3Boolean *nominalsOfContinuousStatesChanged,
+                                    fmi3Boolean *valuesOfContinuousStatesChanged, fmi3Boolean *nextEventTimeDefined,
+                                    fmi3Float64 *nextEventTime) {
+    (void)discreteStatesNeedUpdate;
+    (void)terminateSimulation;
+    (void)nominalsOfContinuousStatesChanged;
+    (void)valuesOfContinuousStatesChanged;
+    (void)nextEventTimeDefined;
+    (void)nextEventTime;
+    return error((Instance *)c, "fmi3UpdateDiscreteStates", "this FMU has no event mode");
+}
+
+/* Model exchange: not provided (instantiation already refuses it). */
+fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c) {
+    return error((Instance *)c, "fmi3EnterContinuousTimeMode", "this FMU supports co-simulation only");
+}
+
+fmi3Status fmi3CompletedIntegratorStep(fmi3Instance c, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation) {
+    (void)noSetFMUStatePriorToCurrentPoint;
+    (void)enterEventMode;
+    (void)terminateSimulation;
+    return error((Instance *)c, "fmi3CompletedIntegratorStep", "this FMU supports co-simulation only");
+}
+
+fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 time) {
+    (void)time;
+    return error((Instance *)c, "fmi3SetTime", "this FMU supports co-simulation only");
+}
+
+fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 continuousStates[], size_t nContinuousStates) {
+    (void)continuousStates;
+    (void)nContinuousStates;
+    return error((Instance *)c, "fmi3SetContinuousStates", "this FMU supports co-simulation only");
+}
+
+fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 derivatives[], size_t nContinuousStates) {
+    (void)derivatives;
+    (void)nContinuousStates;
+    return error((Instance *)c, "fmi3GetContinuousStateDerivatives", "this FMU supports co-simulation only");
+}
+
+fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 eventIndicators[], size_t nEventIndicators) {
+    (void)eventIndicators;
+    (void)nEventIndicators;
+    return error((Instance *)c, "fmi3GetEventIndicators", "this FMU supports co-simulation only");
+}
+
+fmi3Status fmi3GetContinuousStates(fmi3Instance c, fmi3Float64 continuousStates[], size_t nContinuousStates) {
+    (void)continuousStates;
+    (void)nContinuousStates;
+    return error((Instance *)c, "fmi3GetContinuousStates", "this FMU supports co-simulation only");
+}
+
+fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Float64 nominals[], size_t nContinuousStates) {
+    (void)nominals;
+    (void)nContinuousStates;
+    return error((Instance *)c, "fmi3GetNominalsOfContinuousStates", "this FMU supports co-simulation only");
+}
+
+fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *nEventIndicators) {
+    Instance *instance = (Instance *)c;
+    if (!instance) return fmi3Error;
+    *nEventIndicators = 0;
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *nContinuousStates) {
+    Instance *instance = (Instance *)c;
+    if (!instance) return fmi3Error;
+    *nContinuousStates = 0; /* none that an importer integrates: the FMU integrates its own state */
+    return fmi3OK;
+}
+
+/* Co-simulation. */
+fmi3Status fmi3EnterStepMode(fmi3Instance c) {
+    Instance *instance = (Instance *)c;
+    /* only reached from event mode, which this FMU does not have; step mode is already on after init */
+    if (!allowed(instance, "fmi3EnterStepMode", IN(STATE_STEP_MODE))) return fmi3Error;
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                                    const fmi3Int32 orders[], fmi3Float64 values[], size_t nValues) {
+    (void)vr;
+    (void)nvr;
+    (void)orders;
+    (void)values;
+    (void)nValues;
+    return error((Instance *)c, "fmi3GetOutputDerivatives", "not provided by this FMU");
+}
+
+fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentCommunicationPoint, fmi3Float64 communicationStepSize,
+                      fmi3Boolean noSetFMUStatePriorToCurrentPoint, fmi3Boolean *eventHandlingNeeded,
+                      fmi3Boolean *terminateSimulation, fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    double now;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (eventHandlingNeeded) *eventHandlingNeeded = fmi3False;
+    if (terminateSimulation) *terminateSimulation = fmi3False;
+    if (earlyReturn) *earlyReturn = fmi3False;
+    if (!allowed(instance, "fmi3DoStep", IN(STATE_STEP_MODE))) return fmi3Error;
+    now = model_time(instance->model);
+    if (lastSuccessfulTime) *lastSuccessfulTime = now;
+    if (communicationStepSize < 0.0) {
+        return error(instance, "fmi3DoStep", "communicationStepSize must be >= 0");
+    }
+    if (currentCommunicationPoint - now > TIME_MISMATCH_TOLERANCE * (1.0 + now) ||
+        now - currentCommunicationPoint > TIME_MISMATCH_TOLERANCE * (1.0 + now)) {
+        snprintf(message, sizeof(message), "currentCommunicationPoint %.17g does not match the FMU's time %.17g",
+                 currentCommunicationPoint, now);
+        return error(instance, "fmi3DoStep", message);
+    }
+    if (model_advance(instance->model, currentCommunicationPoint + communicationStepSize, message, sizeof(message))) {
+        instance->state = STATE_ERROR;
+        return error(instance, "fmi3DoStep", message);
+    }
+    if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->model);
+    return fmi3OK;
+}
+
+fmi3Status fmi3ActivateModelPartition(fmi3Instance c, fmi3ValueReference clockReference,
+                                      fmi3Float64 activationTime) {
+    (void)clockReference;
+    (void)activationTime;
+    return error((Instance *)c, "fmi3ActivateModelPartition", "this FMU supports co-simulation only");
+}

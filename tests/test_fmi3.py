@@ -1,0 +1,192 @@
+"""The FMI 3.0 co-simulation FMU (`build_fmu.py --fmi-version 3`): same model code, arrays as variables.
+
+Checked through fmpy: validation, the model description derived from the same table as FMI 2 (names and
+value references kept; `material` one Int32 array), bit-identical peaks and outputs to the FMI 2 FMU, the
+array and error handling of fmi3/fmi3_glue.c, and FMU states. fmi-sim runs it in tests/test_importers.py.
+"""
+from __future__ import annotations
+
+import zipfile
+
+import pytest
+from fmpy import extract, read_model_description, simulate_fmu
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback
+from fmpy.validation import validate_fmu
+
+from conftest import PUBLISHED_BEST, PUBLISHED_SEQUENTIAL
+from orchestrator.simulation import LatticeFMU
+
+HORIZON, STEP = 8.0, 0.01
+
+
+class Instance:
+    """One FMU3Slave with its variables by name and the messages it logged."""
+
+    def __init__(self, fmu3_path, name="lattice3"):
+        self.description = read_model_description(str(fmu3_path))
+        self.variables = {v.name: v for v in self.description.modelVariables}
+        self.messages: list[str] = []
+        self.slave = FMU3Slave(guid=self.description.guid, unzipDirectory=extract(str(fmu3_path)),
+                               modelIdentifier=self.description.coSimulation.modelIdentifier, instanceName=name)
+        self._callback = fmi3LogMessageCallback(self._log)
+        self.slave.instantiate(logMessage=self._callback)
+
+    def _log(self, environment, status, category, message):
+        self.messages.append(message.decode())
+
+    def vr(self, name):
+        return self.variables[name].valueReference
+
+    def start(self, order=None, stop=HORIZON):
+        self.slave.enterInitializationMode(startTime=0.0, stopTime=stop)
+        if order is not None:
+            self.slave.setInt32([self.vr("material")], list(order))
+        self.slave.exitInitializationMode()
+
+    def run(self, order, horizon=HORIZON, step=STEP):
+        self.slave.reset()
+        self.start(order, horizon)
+        steps = round(horizon / step)
+        for i in range(steps):
+            self.slave.doStep(i * step, step)
+        return self.outputs()
+
+    def outputs(self):
+        values = {}
+        for name, variable in self.variables.items():
+            if variable.causality != "output":
+                continue
+            if variable.type == "Int32":
+                values[name] = self.slave.getInt32([variable.valueReference])[0]
+            else:
+                values[name] = self.slave.getFloat64([variable.valueReference])[0]
+        return values
+
+    def close(self):
+        self.slave.freeInstance()
+
+
+@pytest.fixture()
+def instance(fmu3_path):
+    fmu = Instance(fmu3_path)
+    yield fmu
+    fmu.close()
+
+
+def test_fmpy_validation_finds_no_problem(fmu3_path):
+    assert validate_fmu(str(fmu3_path)) == []
+
+
+def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path):
+    fmi2 = {v.name: v for v in read_model_description(str(fmu_path)).modelVariables}
+    description = read_model_description(str(fmu3_path))
+    fmi3 = {v.name: v for v in description.modelVariables}
+    assert description.fmiVersion == "3.0"
+    assert description.coSimulation is not None and description.modelExchange is None
+
+    material = fmi3["material"]
+    assert material.type == "Int32" and material.causality == "parameter"
+    assert [int(d.start) for d in material.dimensions] == [11]
+    assert [int(x) for x in str(material.start).split()] == list(range(1, 12))
+    assert fmi3["k"].type == "Float64" and [int(d.start) for d in fmi3["k"].dimensions] == [11]
+    assert float(str(fmi3["k"].start).split()[1]) == float(fmi2["k[2]"].start)
+    units = {name: fmi3[name].declaredType.unit for name in ("k", "c", "F_total", "peak_backplate_force", "time")}
+    assert units == {"k": fmi2["k[1]"].unit, "c": fmi2["c[1]"].unit, "F_total": fmi2["F_total"].unit,
+                     "peak_backplate_force": fmi2["peak_backplate_force"].unit, "time": "s"}  # via declared types
+
+    expected = {}
+    for name, variable in fmi2.items():  # FMI 2 names stay; an array is named by its first element's vr
+        base, _, index = name.partition("[")
+        if not index or index == "1]":
+            expected[base] = (variable.valueReference, {"Real": "Float64", "Integer": "Int32"}[variable.type],
+                              variable.causality)
+    time = fmi3.pop("time")
+    assert time.causality == "independent" and time.type == "Float64"
+    assert time.valueReference not in {v[0] for v in expected.values()}
+    assert {name: (v.valueReference, v.type, v.causality) for name, v in fmi3.items()} == expected
+
+    with zipfile.ZipFile(fmu3_path) as archive:
+        names = archive.namelist()
+        build_description = archive.read("sources/buildDescription.xml").decode()
+    assert "binaries/x86_64-linux/MassSpringLattice.so" in names
+    assert 'name="fmi3/fmi3_glue.c"' in build_description and 'name="lattice/model.c"' in build_description
+
+
+@pytest.fixture(scope="module")
+def fmi2_results(fmu_path):
+    with LatticeFMU(fmu_path) as fmu:
+        return {order: fmu.simulate(order, horizon=HORIZON, communication_step=STEP,
+                                    outputs=tuple(fmu.variables[n].name for n in fmu.variables
+                                                  if fmu.variables[n].causality == "output"))
+                for order in (PUBLISHED_BEST, PUBLISHED_SEQUENTIAL)}
+
+
+@pytest.mark.parametrize("order", [PUBLISHED_BEST, PUBLISHED_SEQUENTIAL], ids=["published_best", "sequential"])
+def test_same_numbers_as_fmi2_to_the_last_bit(instance, fmi2_results, order):
+    outputs = instance.run(order)
+    assert outputs == fmi2_results[order]  # every output, bit for bit, the peak included
+    assert instance.slave.getFloat64([instance.vr("time")]) == [HORIZON]
+
+
+def test_fmpy_simulate_fmu_takes_the_material_array(fmu3_path, fmi2_results):
+    result = simulate_fmu(str(fmu3_path), stop_time=HORIZON, output_interval=STEP,
+                          start_values={"material": list(PUBLISHED_BEST)}, output=["peak_backplate_force"])
+    assert result["peak_backplate_force"][-1] == fmi2_results[PUBLISHED_BEST]["peak_backplate_force"]
+
+
+def test_arrays_are_read_and_written_whole(instance):
+    vr = instance.vr("material")
+    assert instance.slave.getInt32([vr], 11) == list(range(1, 12))
+    instance.slave.enterInitializationMode(startTime=0.0, stopTime=1.0)
+    instance.slave.setInt32([vr], list(PUBLISHED_BEST))
+    assert instance.slave.getInt32([vr], 11) == list(PUBLISHED_BEST)
+    k, alpha = instance.vr("k"), instance.vr("alpha")
+    values = instance.slave.getFloat64([k, instance.vr("F_total"), alpha], 23)
+    assert values[0] == 100.0 and values[11] == 1200.0 and values[12:] == [10.0] * 11
+    instance.slave.setFloat64([instance.vr("F_total"), k], [600.0] + [50.0] * 11)
+    assert instance.slave.getFloat64([k], 11) == [50.0] * 11
+
+
+@pytest.mark.parametrize("call, expected", [
+    (lambda f: f.slave.getInt32([f.vr("material") + 3], 8), "not a variable"),  # the middle of the array
+    (lambda f: f.slave.getInt32([f.vr("material")], 5), "nValues"),
+    (lambda f: f.slave.getFloat64([f.vr("material")], 11), "not a Float64"),
+    (lambda f: f.slave.setFloat64([f.vr("peak_backplate_force")], [1.0]), "output"),
+    (lambda f: f.slave.setFloat64([f.vr("time")], [1.0]), "independent"),
+    (lambda f: f.slave.getBoolean([0]), "no Boolean"),
+])
+def test_wrong_calls_are_refused_with_a_reason(instance, call, expected):
+    with pytest.raises(FMICallException):
+        call(instance)
+    assert any(expected in message for message in instance.messages), instance.messages
+
+
+def test_a_bad_material_order_is_refused_and_reset_recovers(instance):
+    instance.slave.enterInitializationMode(startTime=0.0, stopTime=1.0)
+    instance.slave.setInt32([instance.vr("material")], [1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11])
+    with pytest.raises(FMICallException):
+        instance.slave.exitInitializationMode()
+    assert any("permutation of 1..11" in message for message in instance.messages), instance.messages
+    assert instance.run(PUBLISHED_SEQUENTIAL, horizon=0.3)["external_work"] > 0
+
+
+def test_get_set_and_serialize_fmu_state(instance):
+    names = ("peak_backplate_force", "kinetic_energy", "external_work")
+    outputs = [instance.vr(name) for name in names]
+    instance.start(PUBLISHED_BEST, stop=1.0)
+    instance.slave.doStep(0.0, 0.2)
+    state = instance.slave.getFMUState()
+    serialized = instance.slave.serializeFMUState(state)
+    instance.slave.doStep(0.2, 0.5)
+    straight = instance.slave.getFloat64(outputs)
+    instance.slave.setFMUState(state)
+    assert instance.slave.getFloat64([instance.vr("time")]) == [0.2]
+    instance.slave.doStep(0.2, 0.5)
+    assert instance.slave.getFloat64(outputs) == straight
+    restored = instance.slave.deserializeFMUState(serialized)
+    instance.slave.setFMUState(restored)
+    instance.slave.doStep(0.2, 0.5)
+    assert instance.slave.getFloat64(outputs) == straight
+    instance.slave.freeFMUState(state)
+    instance.slave.freeFMUState(restored)

@@ -1,0 +1,178 @@
+"""The FMU in importers we did not write: libcosim (every run), FMI4j and fmi-sim (opt-in: -m importers).
+
+Each importer sets a material order, co-simulates 8 s in 0.01 s communication steps, reads
+peak_backplate_force and must agree with fmpy to 1e-9 relative (the FMU is deterministic and independent of
+the communication step, so in practice they agree to the last bit). fmi-sim also runs the FMI 3.0 FMU.
+(The source-only FMU rebuilt by `fmpy compile` is in test_source_fmu.py.)
+
+The heavy toolchains are built once and cached (default ~/.cache/mass-spring-lattice, or $MSL_CACHE_DIR):
+the FMI4j Maven project's classes and dependency jars, keyed by a hash of tests/fmi4j/, and the fmi-sim
+binary installed there by `cargo install fmi-sim` (or $FMI_SIM, or an fmi-sim on PATH).
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from conftest import PUBLISHED_BEST, PUBLISHED_SEQUENTIAL
+from orchestrator.simulation import LatticeFMU
+
+ORDERS = [PUBLISHED_BEST, PUBLISHED_SEQUENTIAL]
+ORDER_IDS = ["published_best", "sequential"]
+HORIZON, STEP = 8.0, 0.01
+RELATIVE_TOLERANCE = 1e-9
+FMI4J_PROJECT = Path(__file__).resolve().parent / "fmi4j"
+CACHE_DIR = Path(os.environ.get("MSL_CACHE_DIR") or Path.home() / ".cache" / "mass-spring-lattice")
+
+
+@pytest.fixture(scope="module")
+def fmpy_peaks(fmu_path):
+    """The reference: fmpy driving the same FMU with the same 800 doSteps of 0.01 s."""
+    with LatticeFMU(fmu_path) as fmu:
+        return {order: fmu.simulate(order, horizon=HORIZON, communication_step=STEP)["peak_backplate_force"]
+                for order in ORDERS}
+
+
+def assert_agrees(peak: float, reference: float, importer: str) -> None:
+    relative = abs(peak - reference) / abs(reference)
+    assert relative <= RELATIVE_TOLERANCE, (
+        f"{importer} gives {peak!r}, fmpy {reference!r}: relative difference {relative:.3g} > {RELATIVE_TOLERANCE}")
+
+
+# ---------------------------------------------------------------------------------------------------- libcosim
+
+def libcosim_peak(fmu_path, order, horizon=HORIZON, step=STEP) -> float:
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.WARNING)
+    execution = CosimExecution.from_step_size(step_size=int(round(step * 1e9)))  # libcosim counts nanoseconds
+    index = execution.add_local_slave(CosimLocalSlave(fmu_path=str(fmu_path), instance_name="lattice"))
+    references = {v.name.decode(): v.reference for v in execution.slave_variables(index)}
+    for column, material in enumerate(order, 1):
+        assert execution.integer_initial_value(index, references[f"material[{column}]"], material)
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    assert execution.simulate_until(target_time=int(round(horizon * 1e9))), execution.status()
+    status = execution.status()
+    assert status.current_time == int(round(horizon * 1e9))
+    return observer.last_real_values(index, [references["peak_backplate_force"]])[0]
+
+
+@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
+def test_libcosim_agrees_with_fmpy(fmu_path, fmpy_peaks, order):
+    assert_agrees(libcosim_peak(fmu_path, order), fmpy_peaks[order], "libcosim")
+
+
+# ------------------------------------------------------------------------------------------------------- FMI4j
+
+def fmi4j_build() -> Path:
+    """Classes and dependency jars of tests/fmi4j, built with Maven once per content of that folder."""
+    digest = hashlib.sha256()
+    for path in sorted(p for p in FMI4J_PROJECT.rglob("*") if p.is_file() and "target" not in p.parts):
+        digest.update(path.relative_to(FMI4J_PROJECT).as_posix().encode())
+        digest.update(path.read_bytes())
+    build = CACHE_DIR / f"fmi4j-{digest.hexdigest()[:16]}"
+    done = build / "BUILD_OK"
+    if done.is_file():
+        return build
+    if shutil.which("mvn") is None:
+        pytest.skip("FMI4j: Maven (mvn) is not installed, and tests/fmi4j has not been built before "
+                    "(apt-get install maven, with Java 17)")
+    command = ["mvn", "-B", "-q", "-f", str(FMI4J_PROJECT / "pom.xml"), "process-classes",
+               f"-Dfmi4j.build.dir={build}"]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=900)
+    assert result.returncode == 0, f"{' '.join(command)} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
+    done.write_text(" ".join(command) + "\n")
+    return build
+
+
+def fmi4j_peaks(fmu_path, orders) -> dict:
+    if shutil.which("java") is None:
+        pytest.skip("FMI4j: java is not installed (apt-get install openjdk-17-jdk-headless)")
+    build = fmi4j_build()
+    classpath = os.pathsep.join([str(build / "classes"), str(build / "dependency" / "*")])
+    arguments = [",".join(map(str, order)) for order in orders]
+    command = ["java", "-cp", classpath, "lattice.PeakForce", str(fmu_path), repr(HORIZON), repr(STEP), *arguments]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, f"FMI4j run failed:\n{result.stdout}\n{result.stderr}"
+    peaks = {}
+    for line in result.stdout.splitlines():
+        if line.startswith("peak "):
+            _, order_text, value = line.split()
+            peaks[tuple(int(m) for m in order_text.split(","))] = float(value)
+    assert set(peaks) == set(orders), result.stdout
+    return peaks
+
+
+@pytest.mark.importers
+def test_fmi4j_agrees_with_fmpy(fmu_path, fmpy_peaks):
+    peaks = fmi4j_peaks(fmu_path, ORDERS)  # one JVM for both orders
+    for order in ORDERS:
+        assert_agrees(peaks[order], fmpy_peaks[order], f"FMI4j, order {order}")
+
+
+# ----------------------------------------------------------------------------------------------------- fmi-sim
+
+FMI_SIM_VERSION = "0.7.0"  # what these tests were written against; FMI 3 notes below are about this version
+
+
+def fmi_sim_binary() -> str:
+    """$FMI_SIM, an fmi-sim on PATH, or the cached one; built with cargo into the cache on first use."""
+    cached = CACHE_DIR / f"fmi-sim-{FMI_SIM_VERSION}" / "bin" / "fmi-sim"
+    for candidate in (os.environ.get("FMI_SIM"), shutil.which("fmi-sim"), str(cached)):
+        if candidate and Path(candidate).is_file() and os.access(candidate, os.X_OK):
+            return candidate
+    if shutil.which("cargo") is None:
+        pytest.skip("fmi-sim: not installed and no cargo to build it (install Rust, then "
+                    f"`cargo install fmi-sim --version {FMI_SIM_VERSION} --locked`, or set FMI_SIM)")
+    if not (os.environ.get("LIBCLANG_PATH") or list(Path("/usr/lib").glob("llvm-*/lib/libclang*.so*"))
+            or list(Path("/usr/lib").glob("*/libclang*.so*"))):
+        pytest.skip("fmi-sim: building it needs libclang (Debian: apt-get install -y libclang-dev)")
+    command = ["cargo", "install", "fmi-sim", "--version", FMI_SIM_VERSION, "--locked",
+               "--root", str(cached.parents[1])]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=3600)  # minutes on 2 cores, once
+    assert result.returncode == 0, f"{' '.join(command)} failed:\n{result.stderr[-5000:]}"
+    return str(cached)
+
+
+def fmi_sim_peak(fmu, csv: Path, init_values=()) -> float:
+    """Runs fmi-sim co-simulation for 8 s in 0.01 s steps; the last row's peak_backplate_force."""
+    command = [fmi_sim_binary(), "--model", str(fmu), "-o", str(csv), "co-simulation", "-f", repr(HORIZON),
+               "--step", repr(STEP)]
+    for name, value in init_values:
+        command += ["--init-values", f"{name}={value}"]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=600,
+                            env={**os.environ, "RUST_BACKTRACE": "0", "RUST_LOG": "warn"})
+    assert result.returncode == 0, f"fmi-sim failed:\n{result.stderr[-5000:]}"
+    lines = csv.read_text().splitlines()
+    header, last = lines[0].split(","), lines[-1].split(",")
+    assert len(lines) == round(HORIZON / STEP) + 2 and float(last[0]) == HORIZON, lines[-1]
+    return float(last[header.index("peak_backplate_force")])
+
+
+@pytest.mark.importers
+@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
+def test_fmi_sim_agrees_with_fmpy(fmu_path, fmpy_peaks, tmp_path, order):
+    init_values = [(f"material[{column}]", material) for column, material in enumerate(order, 1)]
+    assert_agrees(fmi_sim_peak(fmu_path, tmp_path / "out.csv", init_values), fmpy_peaks[order], "fmi-sim (FMI 2.0)")
+
+
+@pytest.mark.importers
+@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
+def test_fmi_sim_runs_the_fmi3_fmu_to_the_same_peak(tmp_path, fmpy_peaks, order):
+    """fmi-sim 0.7 sets one scalar per --init-values, not an FMI 3 array, so the order goes in as the start
+    value of `material` in the FMU itself (a scene parameter of build_fmu.py)."""
+    import build_fmu
+
+    scene = build_fmu.Scene.load(build_fmu.DEFAULT_SCENE)
+    scene.parameters = {**scene.parameters, "material": list(order)}
+    fmu3 = build_fmu.build_fmu(scene, tmp_path / "MassSpringLattice-fmi3.fmu", werror=True, fmi_version=3)
+    assert_agrees(fmi_sim_peak(fmu3, tmp_path / "out.csv"), fmpy_peaks[order], "fmi-sim (FMI 3.0)")
