@@ -4,6 +4,23 @@
 #include <math.h>
 #include <string.h>
 
+/* restrict where the compiler knows it (C99; MSVC spells it __restrict): only an optimisation hint. */
+#if defined(__STDC_VERSION__) && __STDC_VERSION__ >= 199901L
+#define RESTRICT restrict
+#elif defined(_MSC_VER)
+#define RESTRICT __restrict
+#else
+#define RESTRICT
+#endif
+
+/* Keeps a function out of line where inlining it costs GCC (-O2) the vectorisation of the loops around
+ * it. Only an optimisation hint; other compilers ignore it. */
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
@@ -53,42 +70,6 @@ static double row_load_fraction(int rows, int i) {
     return ((i == 0 || i == rows - 1) ? 0.5 : 1.0) / (double)(rows - 1); /* the weights sum to rows - 1 */
 }
 
-/* One spring between masses a and b (r = u_b - u_a), written for speed: this is the hot loop of every
- * simulation. a is pushed by force_per_length_a * r, b by -force_per_length_b * r; the two differ only
- * for a non-reciprocal pair. Returns that pair's power g.(v_a + v_b), g = (f_a - f_b)/2 (0 otherwise). */
-static inline double add_spring(const double *ux, const double *uy, const double *vx, const double *vy,
-                                double *fx, double *fy, int a, int b, int linear, SpringEnds ends) {
-    const double rx = ux[b] - ux[a], ry = uy[b] - uy[a];
-    const double distance_squared = rx * rx + ry * ry;
-    double distance, stretch_a, stretch_b, per_length_a, per_length_b;
-    if (distance_squared < SPRING_MIN_DISTANCE * SPRING_MIN_DISTANCE) return 0.0;
-    distance = sqrt(distance_squared);
-    stretch_a = spring_stretch(linear, ends.alpha_a, distance);
-    stretch_b = ends.alpha_b == ends.alpha_a ? stretch_a : spring_stretch(linear, ends.alpha_b, distance);
-    {
-        const double inverse_distance = 1.0 / distance;
-        per_length_a = ends.k_a * stretch_a * inverse_distance;
-        per_length_b = ends.k_b * stretch_b * inverse_distance;
-    }
-    fx[a] += per_length_a * rx;
-    fy[a] += per_length_a * ry;
-    fx[b] -= per_length_b * rx;
-    fy[b] -= per_length_b * ry;
-    if (per_length_a == per_length_b) return 0.0;
-    return 0.5 * (per_length_a - per_length_b) * (rx * (vx[a] + vx[b]) + ry * (vy[a] + vy[b]));
-}
-
-/* Adds the dashpot F_a = -c (v_a - v_b) between a and b; returns the dissipated power c |v_a - v_b|^2. */
-static inline double add_damper(const double *vx, const double *vy, double *fx, double *fy, int a, int b,
-                                double c) {
-    const double dvx = vx[b] - vx[a], dvy = vy[b] - vy[a];
-    fx[a] += c * dvx;
-    fy[a] += c * dvy;
-    fx[b] -= c * dvx;
-    fy[b] -= c * dvy;
-    return c * (dvx * dvx + dvy * dvy);
-}
-
 /* The two diagonals between columns j and j+1 use these ends: the one in column j, the one in j+1. */
 static SpringEnds diagonal_ends(const LatticeParams *p, int j) {
     const ColumnConstants *left = &p->column[j], *right = &p->column[j + 1];
@@ -101,6 +82,98 @@ static SpringEnds reversed(SpringEnds ends) {
     return swapped;
 }
 
+/* The right-hand side is written for speed: it is most of the cost of a simulation (about 420 springs,
+ * 6000 evaluations per 8 s run). It works one row of masses at a time, on the springs that start in that
+ * row: horizontal (i, j) -> (i, j+1), and down to the next row rising (i, j) -> (i+1, j+1), falling
+ * (i, j+1) -> (i+1, j) and vertical (i, j) -> (i+1, j). Each family's springs sit in local arrays indexed
+ * by j (RowBuffers), and every stage is a plain loop over them:
+ *   1. geometry: r = u_b - u_a and |r|^2;
+ *   2. |r|, 1/|r| and the exponent, then the exponentials in a loop of their own (row_stretches);
+ *   3. the forces of the springs;
+ *   4. each mass of the row gathers the forces of the springs at it (no scatter, so no conflicts); what
+ *      the springs down to the next row do to it is carried over to that row.
+ * No per-spring branches. The loops of stages 1, 3 and 4 run over an even count and then at most one
+ * element more: at -O2 GCC vectorises a loop only when its trip count is known to be a multiple of the
+ * vector length. They read the state and local arrays and write local arrays (or read local arrays and
+ * write the derivative), so the compiler knows nothing overlaps. Vectorised or not, the results are the
+ * same: nothing is reassociated (the powers are summed by column over the rows, then over the columns),
+ * so a build at -O3 gives the same numbers as one at -O2. */
+#define EVEN(count) ((count) & ~1)
+
+/* j over [0, count): BODY(j) in a loop the compiler can vectorise, then the odd one out. even = EVEN(count)
+ * is computed once, outside the loop over rows, and the loop ends on j != even: either way GCC (-O2) can
+ * lose what it knows of the trip count once loops follow one another (it then wants to peel). */
+#define OVER(count, even, BODY)         \
+    {                                   \
+        for (j = 0; j != (even); j++) { \
+            BODY(j)                     \
+        }                               \
+        if (j < (count)) {              \
+            BODY(j)                     \
+        }                               \
+    }
+
+enum { HORIZONTAL = 0, RISING = 1, FALLING = 2, VERTICAL = 3, FAMILIES = 4 };
+
+/* A row's springs by family and column, the constants by column, and the forces by the springs of a row
+ * (x, y): one object, so the compiler addresses them all from one register. The forces are all stored at
+ * [j] (stores at [j + 1] would keep GCC from vectorising); the gather reads some at [j - 1], where a zero
+ * guard stands for the spring that does not exist left of column 0 (those arrays start two elements into
+ * their storage, keeping the alignment), and others at [cols - 1], where a zero guard stands for the one
+ * right of the last column. */
+typedef struct {
+    double rx[FAMILIES][LATTICE_MAX_COLS], ry[FAMILIES][LATTICE_MAX_COLS], squared[FAMILIES][LATTICE_MAX_COLS],
+        stretch[FAMILIES][LATTICE_MAX_COLS], inverse[FAMILIES][LATTICE_MAX_COLS];
+    double stretch_right[2][LATTICE_MAX_COLS], unused[LATTICE_MAX_COLS]; /* right ends of the diagonals */
+    /* a diagonal's left end is the one in column j, its right end the one in j+1 */
+    double alpha[FAMILIES][LATTICE_MAX_COLS], alpha_right[LATTICE_MAX_COLS];
+    double k_vertical[LATTICE_MAX_COLS], c_vertical[LATTICE_MAX_COLS], k_left[LATTICE_MAX_COLS],
+        k_right[LATTICE_MAX_COLS];
+    double dissipated[LATTICE_MAX_COLS], nonreciprocal[LATTICE_MAX_COLS]; /* powers, summed by column */
+    double horizontal[2][LATTICE_MAX_COLS + 2], rising_bottom[2][LATTICE_MAX_COLS + 2],
+        falling_top[2][LATTICE_MAX_COLS + 2];
+    double vertical[2][LATTICE_MAX_COLS], rising_top[2][LATTICE_MAX_COLS], falling_bottom[2][LATTICE_MAX_COLS];
+    /* what the springs from the row above do to a row, and what this row's do to the next */
+    double carried[2][LATTICE_MAX_COLS], next[2][LATTICE_MAX_COLS];
+} RowBuffers;
+
+/* the arrays with a guard at [-1] */
+#define HORIZONTAL_FORCE(c, j) w.horizontal[c][(j) + 2]
+#define RISING_BOTTOM_FORCE(c, j) w.rising_bottom[c][(j) + 2]
+#define FALLING_TOP_FORCE(c, j) w.falling_top[c][(j) + 2]
+
+/* Stage 2 for one family: the stretch (spring_stretch: the force law) and 1/|r|, which is 0 below
+ * SPRING_MIN_DISTANCE: there a spring exerts no force (SPEC section 2). A scalar loop: sqrt and exp are
+ * libm calls (a hand-written vectorised exp saved only 3-5% of a simulation: not worth owning one). */
+static void family_stretches(int linear, const double *RESTRICT squared, const double *RESTRICT alpha, int count,
+                             double *RESTRICT stretch, double *RESTRICT inverse) {
+    int k;
+    for (k = 0; k < count; k++) {
+        const double d = sqrt(squared[k]);
+        stretch[k] = spring_stretch(linear, alpha[k], d);
+        inverse[k] = squared[k] < SPRING_MIN_DISTANCE * SPRING_MIN_DISTANCE ? 0.0 : 1.0 / d;
+    }
+}
+
+/* Stage 2 for the springs of a row: the horizontal ones, and with below the ones down to the next row (and
+ * the diagonals' right ends when their alphas differ from the left ends': SPEC section 2, each end of a
+ * diagonal uses its own alpha). */
+static NOINLINE void row_stretches(int linear, int below, int alphas_differ, int links, int cols,
+                                   RowBuffers *w) {
+    int family;
+    family_stretches(linear, w->squared[HORIZONTAL], w->alpha[HORIZONTAL], links, w->stretch[HORIZONTAL],
+                     w->inverse[HORIZONTAL]);
+    if (!below) return;
+    for (family = RISING; family <= VERTICAL; family++) {
+        family_stretches(linear, w->squared[family], w->alpha[family], family == VERTICAL ? cols : links,
+                         w->stretch[family], w->inverse[family]);
+    }
+    if (alphas_differ) {
+        family_stretches(linear, w->squared[RISING], w->alpha_right, links, w->stretch_right[0], w->unused);
+        family_stretches(linear, w->squared[FALLING], w->alpha_right, links, w->stretch_right[1], w->unused);
+    }
+}
+
 int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
     if (!p->has_backplate || ux - p->backplate_gap <= 0.0) return WALL_FREE;
     return vx > 0.0 ? WALL_APPROACHING : WALL_RECEDING;
@@ -109,43 +182,152 @@ int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
 void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
                  double *dydt) {
     const int rows = p->rows, cols = p->cols, n = rows * cols, linear = p->spring_law == SPRING_LINEAR;
+    const int links = cols - 1; /* horizontal springs in a row, and rising (falling) diagonals below it */
+    const int even_links = EVEN(links), even_cols = EVEN(cols);
     const double *ux = y, *uy = y + n, *vx = y + 2 * n, *vy = y + 3 * n;
     double *fx = dydt + 2 * n, *fy = dydt + 3 * n;
+    const double k_horizontal = p->k_horizontal, c_horizontal = p->c_horizontal;
     double power_external = 0.0, power_dissipated = 0.0, power_nonreciprocal = 0.0;
-    const SpringEnds horizontal = {p->k_horizontal, p->alpha_horizontal, p->k_horizontal, p->alpha_horizontal};
-    int i, j;
+    int alphas_differ = 0; /* some diagonal's right end needs an exponential of its own */
+    RowBuffers w;
+    int i, j, c;
+
+    for (j = 0; j < cols; j++) {
+        const ColumnConstants *column = &p->column[j];
+        w.k_vertical[j] = column->k_vertical;
+        w.c_vertical[j] = column->c_vertical;
+        w.alpha[VERTICAL][j] = column->alpha_vertical;
+        w.carried[0][j] = w.carried[1][j] = 0.0;
+        w.dissipated[j] = w.nonreciprocal[j] = 0.0;
+    }
+    for (j = 0; j < links; j++) {
+        const SpringEnds ends = diagonal_ends(p, j);
+        w.alpha[HORIZONTAL][j] = p->alpha_horizontal;
+        w.alpha[RISING][j] = w.alpha[FALLING][j] = ends.alpha_a;
+        w.alpha_right[j] = ends.alpha_b;
+        w.k_left[j] = ends.k_a;
+        w.k_right[j] = ends.k_b;
+        alphas_differ = alphas_differ || ends.alpha_a != ends.alpha_b;
+    }
+    for (c = 0; c < 2; c++) {
+        HORIZONTAL_FORCE(c, -1) = HORIZONTAL_FORCE(c, links) = 0.0;
+        w.rising_top[c][links] = RISING_BOTTOM_FORCE(c, -1) = 0.0;
+        FALLING_TOP_FORCE(c, -1) = w.falling_bottom[c][links] = 0.0;
+    }
 
     memcpy(dydt, vx, (size_t)n * sizeof(double));
     memcpy(dydt + n, vy, (size_t)n * sizeof(double));
-    memset(fx, 0, 2 * (size_t)n * sizeof(double));
 
-    /* left/right neighbours: k0, alpha0, c0 at both ends */
     for (i = 0; i < rows; i++) {
-        for (j = 0; j + 1 < cols; j++) {
-            const int a = i * cols + j;
-            add_spring(ux, uy, vx, vy, fx, fy, a, a + 1, linear, horizontal);
-            power_dissipated += add_damper(vx, vy, fx, fy, a, a + 1, p->c_horizontal);
+        const size_t top = (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
+        const double *ux0 = ux + top, *uy0 = uy + top, *vx0 = vx + top, *vy0 = vy + top;
+        const double *ux1 = ux + bottom, *uy1 = uy + bottom, *vx1 = vx + bottom, *vy1 = vy + bottom;
+        double *row_fx = fx + top, *row_fy = fy + top;
+
+        /* 1. geometry */
+#define GEOMETRY(family, j, ax, ay, bx, by)              \
+    {                                                    \
+        const double dx = (bx) - (ax), dy = (by) - (ay); \
+        w.rx[family][j] = dx;                            \
+        w.ry[family][j] = dy;                            \
+        w.squared[family][j] = dx * dx + dy * dy;        \
+    }
+#define GEOMETRY_H(j) GEOMETRY(HORIZONTAL, j, ux0[j], uy0[j], ux0[j + 1], uy0[j + 1])
+#define GEOMETRY_HRF(j)                                             \
+    GEOMETRY(HORIZONTAL, j, ux0[j], uy0[j], ux0[j + 1], uy0[j + 1]) \
+    GEOMETRY(RISING, j, ux0[j], uy0[j], ux1[j + 1], uy1[j + 1])     \
+    GEOMETRY(FALLING, j, ux0[j + 1], uy0[j + 1], ux1[j], uy1[j])
+#define GEOMETRY_V(j) GEOMETRY(VERTICAL, j, ux0[j], uy0[j], ux1[j], uy1[j])
+        if (i + 1 < rows) {
+            OVER(links, even_links, GEOMETRY_HRF)
+            OVER(cols, even_cols, GEOMETRY_V)
+        } else {
+            OVER(links, even_links, GEOMETRY_H)
+        }
+
+        /* 2. stretches */
+        row_stretches(linear, i + 1 < rows, alphas_differ, links, cols, &w);
+
+        /* 3. forces. Horizontal and vertical: k stretch r/|r| + c (v_b - v_a) on the a end (the b end gets
+         * the opposite), dissipating c |v_a - v_b|^2. Diagonals: the a end is pushed by per_length_a r,
+         * the b end by -per_length_b r, and the non-reciprocal power is g.(v_a + v_b), g = (f_a - f_b)/2. */
+#define DAMPED(family, j, k, c, avx, avy, bvx, bvy, out_x, out_y)                    \
+    {                                                                                \
+        const double per_length = (k) * w.stretch[family][j] * w.inverse[family][j]; \
+        const double dvx = (bvx) - (avx), dvy = (bvy) - (avy);                       \
+        out_x = per_length * w.rx[family][j] + (c) * dvx;                            \
+        out_y = per_length * w.ry[family][j] + (c) * dvy;                            \
+        w.dissipated[j] += (c) * (dvx * dvx + dvy * dvy);                            \
+    }
+#define DIAGONAL(family, j, k_a, stretch_a, k_b, stretch_b, avx, avy, bvx, bvy, a_x, a_y, b_x, b_y)  \
+    {                                                                                                \
+        const double per_length_a = (k_a) * (stretch_a) * w.inverse[family][j];                      \
+        const double per_length_b = (k_b) * (stretch_b) * w.inverse[family][j];                      \
+        a_x = per_length_a * w.rx[family][j];                                                        \
+        a_y = per_length_a * w.ry[family][j];                                                        \
+        b_x = per_length_b * w.rx[family][j];                                                        \
+        b_y = per_length_b * w.ry[family][j];                                                        \
+        w.nonreciprocal[j] += 0.5 * (per_length_a - per_length_b) *                                  \
+                            (w.rx[family][j] * ((avx) + (bvx)) + w.ry[family][j] * ((avy) + (bvy))); \
+    }
+#define FORCES_H(j)                                                                           \
+    DAMPED(HORIZONTAL, j, k_horizontal, c_horizontal, vx0[j], vy0[j], vx0[j + 1], vy0[j + 1], \
+           HORIZONTAL_FORCE(0, j), HORIZONTAL_FORCE(1, j))
+        /* rising: a = (i, j) is the left end, b = (i+1, j+1) the right; falling: a = (i, j+1) is the
+         * right end, b = (i+1, j) the left (a right end's stretch is the left one's unless the alphas
+         * differ) */
+#define FORCES_HRF(j, rising_right, falling_right)                                                      \
+    FORCES_H(j)                                                                                         \
+    DIAGONAL(RISING, j, w.k_left[j], w.stretch[RISING][j], w.k_right[j], rising_right, vx0[j], vy0[j],  \
+             vx1[j + 1], vy1[j + 1], w.rising_top[0][j], w.rising_top[1][j], RISING_BOTTOM_FORCE(0, j), \
+             RISING_BOTTOM_FORCE(1, j))                                                                 \
+    DIAGONAL(FALLING, j, w.k_right[j], falling_right, w.k_left[j], w.stretch[FALLING][j], vx0[j + 1],   \
+             vy0[j + 1], vx1[j], vy1[j], FALLING_TOP_FORCE(0, j), FALLING_TOP_FORCE(1, j),              \
+             w.falling_bottom[0][j], w.falling_bottom[1][j])
+#define FORCES_HRF_SAME(j) FORCES_HRF(j, w.stretch[RISING][j], w.stretch[FALLING][j])
+#define FORCES_HRF_DIFFERENT(j) FORCES_HRF(j, w.stretch_right[0][j], w.stretch_right[1][j])
+#define FORCES_V(j)                                                                                         \
+    DAMPED(VERTICAL, j, w.k_vertical[j], w.c_vertical[j], vx0[j], vy0[j], vx1[j], vy1[j], w.vertical[0][j], \
+           w.vertical[1][j])
+        if (i + 1 < rows) {
+            if (alphas_differ) {
+                OVER(links, even_links, FORCES_HRF_DIFFERENT)
+            } else {
+                OVER(links, even_links, FORCES_HRF_SAME)
+            }
+            OVER(cols, even_cols, FORCES_V)
+        } else {
+            OVER(links, even_links, FORCES_H)
+        }
+
+        /* 4. gather */
+#define GATHER(j, c, row_force)                                                                      \
+    {                                                                                                \
+        row_force[j] = w.carried[c][j] + (HORIZONTAL_FORCE(c, j) - HORIZONTAL_FORCE(c, j - 1)) +     \
+                       w.vertical[c][j] + w.rising_top[c][j] + FALLING_TOP_FORCE(c, j - 1);          \
+        w.next[c][j] = -(w.vertical[c][j] + RISING_BOTTOM_FORCE(c, j - 1) + w.falling_bottom[c][j]); \
+    }
+#define GATHER_X(j) GATHER(j, 0, row_fx)
+#define GATHER_Y(j) GATHER(j, 1, row_fy)
+#define GATHER_LAST_X(j) row_fx[j] = w.carried[0][j] + (HORIZONTAL_FORCE(0, j) - HORIZONTAL_FORCE(0, j - 1));
+#define GATHER_LAST_Y(j) row_fy[j] = w.carried[1][j] + (HORIZONTAL_FORCE(1, j) - HORIZONTAL_FORCE(1, j - 1));
+        if (i + 1 < rows) {
+            OVER(cols, even_cols, GATHER_X) /* x and y apart: the compiler cannot tell fx and fy apart */
+            OVER(cols, even_cols, GATHER_Y)
+#define CARRY(j)                        \
+    {                                   \
+        w.carried[0][j] = w.next[0][j]; \
+        w.carried[1][j] = w.next[1][j]; \
+    }
+            OVER(cols, even_cols, CARRY)
+        } else {
+            OVER(cols, even_cols, GATHER_LAST_X)
+            OVER(cols, even_cols, GATHER_LAST_Y)
         }
     }
-    /* up/down neighbours: both ends in column j, so its material's constants at both ends */
     for (j = 0; j < cols; j++) {
-        const ColumnConstants *column = &p->column[j];
-        const SpringEnds vertical = {column->k_vertical, column->alpha_vertical, column->k_vertical,
-                                     column->alpha_vertical};
-        for (i = 0; i + 1 < rows; i++) {
-            const int a = i * cols + j;
-            add_spring(ux, uy, vx, vy, fx, fy, a, a + cols, linear, vertical);
-            power_dissipated += add_damper(vx, vy, fx, fy, a, a + cols, column->c_vertical);
-        }
-    }
-    /* diagonals between columns j and j+1: each end with its own column's constants (receiver rule) */
-    for (j = 0; j + 1 < cols; j++) {
-        const SpringEnds rising = diagonal_ends(p, j), falling = reversed(rising);
-        for (i = 0; i + 1 < rows; i++) {
-            const int a = i * cols + j;
-            power_nonreciprocal += add_spring(ux, uy, vx, vy, fx, fy, a, a + cols + 1, linear, rising);
-            power_nonreciprocal += add_spring(ux, uy, vx, vy, fx, fy, a + 1, a + cols, linear, falling);
-        }
+        power_dissipated += w.dissipated[j];
+        power_nonreciprocal += w.nonreciprocal[j];
     }
 
     if (load_on) {
@@ -173,7 +355,7 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
         }
     }
 
-    {
+    if (p->mass != 1.0) { /* (multiplying by 1 changes nothing) */
         const double inverse_mass = 1.0 / p->mass;
         for (i = 0; i < 2 * n; i++) fx[i] *= inverse_mass; /* fx and fy are contiguous */
     }

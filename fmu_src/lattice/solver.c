@@ -89,23 +89,151 @@ static double initial_step(Solver *s, double *work, OdeFunction f, void *context
     return fmin(100.0 * h0, fmin(h1, t_span));
 }
 
+/* restrict where the compiler knows it (C99; MSVC spells it __restrict): only an optimisation hint. */
+#if defined(__STDC_VERSION__) && __STDC_VERSION__ >= 199901L
+#define RESTRICT restrict
+#elif defined(_MSC_VER)
+#define RESTRICT __restrict
+#else
+#define RESTRICT
+#endif
+
+/* The kernels below are kept out of line: inlined into the loop of combine, GCC (-O2) forgets their
+ * RESTRICT and no longer vectorises them. Only an optimisation hint; other compilers ignore it. */
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+
+/* out[i] = start + w0 k0[i] + w1 k1[i] + ... for 1 to 4 stage rows, added one after the other, where start
+ * is base[i] (first pass), out[i] (the next passes) or nothing (no base: 0 + w0 k0[i] is w0 k0[i]). Each
+ * loop runs over an even count, then one element more: at -O2 GCC vectorises a loop only when its trip
+ * count is a multiple of the vector length, and RESTRICT tells it the rows do not overlap. Vectorised or
+ * not, the arithmetic is the same. */
+#define EVEN(count) ((count) & ~1)
+#define OVER_COMPONENTS(statement)            \
+    {                                         \
+        const int even = EVEN(n);             \
+        int i;                                \
+        for (i = 0; i < even; i++) statement; \
+        if (i < n) statement;                 \
+    }
+#define TERMS1 w0 * k0[i]
+#define TERMS2 TERMS1 + w1 * k1[i]
+#define TERMS3 TERMS2 + w2 * k2[i]
+#define TERMS4 TERMS3 + w3 * k3[i]
+#define ROWS1 const double *RESTRICT k0, double w0
+#define ROWS2 ROWS1, const double *RESTRICT k1, double w1
+#define ROWS3 ROWS2, const double *RESTRICT k2, double w2
+#define ROWS4 ROWS3, const double *RESTRICT k3, double w3
+#define DEFINE_KERNELS(terms)                                                                             \
+    static NOINLINE void from_base##terms(double *RESTRICT out, const double *RESTRICT base, ROWS##terms, \
+                                          int n) {                                                        \
+        OVER_COMPONENTS(out[i] = base[i] + TERMS##terms)                                                  \
+    }                                                                                                     \
+    static NOINLINE void from_zero##terms(double *RESTRICT out, ROWS##terms, int n) {                     \
+        OVER_COMPONENTS(out[i] = TERMS##terms)                                                            \
+    }                                                                                                     \
+    static NOINLINE void accumulate##terms(double *RESTRICT out, ROWS##terms, int n) {                    \
+        OVER_COMPONENTS(out[i] = out[i] + TERMS##terms)                                                   \
+    }
+DEFINE_KERNELS(1)
+DEFINE_KERNELS(2)
+DEFINE_KERNELS(3)
+DEFINE_KERNELS(4)
+
+/* Two combinations of the same four stage rows at once (the embedded error estimates), each row read once:
+ * out_a[i] = start_a + a0 k0[i] + ... + a3 k3[i], out_b likewise, start being nothing (first) or out[i]. */
+#define PAIR_TERMS(w) w[0] * k0[i] + w[1] * k1[i] + w[2] * k2[i] + w[3] * k3[i]
+static NOINLINE void pair_from_zero4(double *RESTRICT out_a, double *RESTRICT out_b, const double *RESTRICT k0,
+                                     const double *RESTRICT k1, const double *RESTRICT k2,
+                                     const double *RESTRICT k3, const double *RESTRICT a, const double *RESTRICT b,
+                                     int n) {
+    const double a_[4] = {a[0], a[1], a[2], a[3]}, b_[4] = {b[0], b[1], b[2], b[3]};
+    OVER_COMPONENTS((out_a[i] = PAIR_TERMS(a_), out_b[i] = PAIR_TERMS(b_)))
+}
+static NOINLINE void pair_accumulate4(double *RESTRICT out_a, double *RESTRICT out_b, const double *RESTRICT k0,
+                                      const double *RESTRICT k1, const double *RESTRICT k2,
+                                      const double *RESTRICT k3, const double *RESTRICT a,
+                                      const double *RESTRICT b, int n) {
+    const double a_[4] = {a[0], a[1], a[2], a[3]}, b_[4] = {b[0], b[1], b[2], b[3]};
+    OVER_COMPONENTS((out_a[i] = out_a[i] + PAIR_TERMS(a_), out_b[i] = out_b[i] + PAIR_TERMS(b_)))
+}
+
 /* y_out = base + h * sum_q coefficient[q] K[q] over the q < stages with a non-zero coefficient (base may
- * be NULL for zero). One pass over the components with the few stage rows it needs: this and the
- * right-hand side are where the time goes. */
+ * be NULL for zero), summed in the order of q for every component. This and the right-hand side are where
+ * the time goes: the stage rows are added up to four at a time, in passes the compiler vectorises. y_out
+ * must not be base or a stage row. */
 static void combine(double *y_out, const double *base, double h, const double *coefficient, int stages,
                     const double *work, int n) {
-    const double *stage[SOLVER_STAGE_ROWS];
-    double weight[SOLVER_STAGE_ROWS];
-    int used = 0, i, q;
+    const double *k[SOLVER_STAGE_ROWS];
+    double w[SOLVER_STAGE_ROWS];
+    int used = 0, q;
     for (q = 0; q < stages; q++) {
         if (coefficient[q] == 0.0) continue;
-        stage[used] = row_const(work, n, ROW_K + q);
-        weight[used++] = h * coefficient[q];
+        k[used] = row_const(work, n, ROW_K + q);
+        w[used++] = h * coefficient[q];
     }
-    for (i = 0; i < n; i++) {
-        double sum = base ? base[i] : 0.0;
-        for (q = 0; q < used; q++) sum += weight[q] * stage[q][i];
-        y_out[i] = sum;
+    for (q = 0; q < used; q += 4) {
+        const int terms = used - q < 4 ? used - q : 4;
+        const double *const *r = k + q;
+        const double *c = w + q;
+        if (q == 0 && base) {
+            switch (terms) {
+            case 1: from_base1(y_out, base, r[0], c[0], n); break;
+            case 2: from_base2(y_out, base, r[0], c[0], r[1], c[1], n); break;
+            case 3: from_base3(y_out, base, r[0], c[0], r[1], c[1], r[2], c[2], n); break;
+            default: from_base4(y_out, base, r[0], c[0], r[1], c[1], r[2], c[2], r[3], c[3], n); break;
+            }
+        } else if (q == 0) {
+            switch (terms) {
+            case 1: from_zero1(y_out, r[0], c[0], n); break;
+            case 2: from_zero2(y_out, r[0], c[0], r[1], c[1], n); break;
+            case 3: from_zero3(y_out, r[0], c[0], r[1], c[1], r[2], c[2], n); break;
+            default: from_zero4(y_out, r[0], c[0], r[1], c[1], r[2], c[2], r[3], c[3], n); break;
+            }
+        } else {
+            switch (terms) {
+            case 1: accumulate1(y_out, r[0], c[0], n); break;
+            case 2: accumulate2(y_out, r[0], c[0], r[1], c[1], n); break;
+            case 3: accumulate3(y_out, r[0], c[0], r[1], c[1], r[2], c[2], n); break;
+            default: accumulate4(y_out, r[0], c[0], r[1], c[1], r[2], c[2], r[3], c[3], n); break;
+            }
+        }
+    }
+    if (used == 0) {
+        if (base) {
+            memcpy(y_out, base, (size_t)n * sizeof(double));
+        } else {
+            memset(y_out, 0, (size_t)n * sizeof(double));
+        }
+    }
+}
+
+/* out_a and out_b as combine(out, NULL, 1, coefficient_x, stages, ...) gives them, in one pass per four
+ * stage rows, when both coefficient rows have the same zeros and a multiple of four non-zeros (DOP853's
+ * E5 and E3: eight); otherwise one combine each. */
+static void combine_pair(double *out_a, double *out_b, const double *coefficient_a, const double *coefficient_b,
+                         int stages, const double *work, int n) {
+    const double *k[SOLVER_STAGE_ROWS];
+    double a[SOLVER_STAGE_ROWS], b[SOLVER_STAGE_ROWS];
+    int used = 0, same_zeros = 1, q;
+    for (q = 0; q < stages; q++) {
+        same_zeros = same_zeros && (coefficient_a[q] == 0.0) == (coefficient_b[q] == 0.0);
+        if (coefficient_a[q] == 0.0) continue;
+        k[used] = row_const(work, n, ROW_K + q);
+        a[used] = coefficient_a[q];
+        b[used++] = coefficient_b[q];
+    }
+    if (!same_zeros || used == 0 || used % 4 != 0) {
+        combine(out_a, NULL, 1.0, coefficient_a, stages, work, n);
+        combine(out_b, NULL, 1.0, coefficient_b, stages, work, n);
+        return;
+    }
+    pair_from_zero4(out_a, out_b, k[0], k[1], k[2], k[3], a, b, n);
+    for (q = 4; q < used; q += 4) {
+        pair_accumulate4(out_a, out_b, k[q], k[q + 1], k[q + 2], k[q + 3], a + q, b + q, n);
     }
 }
 
@@ -165,13 +293,13 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
             evaluate(s, f, context, y_new, row(work, n, ROW_K + stage));
         }
         combine(y_new, y, h, DOP853_B, DOP853_N_STAGES, work, n);
-        evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
 
-        /* the two embedded error estimates, as SciPy's DOP853 combines them */
-        combine(error5, NULL, 1.0, DOP853_E5, STAGE_END + 1, work, n);
-        combine(error3, NULL, 1.0, DOP853_E3, STAGE_END + 1, work, n);
+        /* the two embedded error estimates, as SciPy's DOP853 combines them; their weights of f(y_new) (E5[12],
+         * E3[12]) are zero, so f(y_new) is evaluated only once the step is accepted */
+        combine_pair(error5, error3, DOP853_E5, DOP853_E3, DOP853_N_STAGES, work, n);
         for (i = 0; i < n; i++) {
-            const double scale = s->atol + fmax(fabs(y[i]), fabs(y_new[i])) * s->rtol;
+            const double size_old = fabs(y[i]), size_new = fabs(y_new[i]); /* fmax, but not a call */
+            const double scale = s->atol + (size_new > size_old ? size_new : size_old) * s->rtol;
             const double err5 = error5[i] / scale, err3 = error3[i] / scale;
             err5_squared += err5 * err5;
             err3_squared += err3 * err3;
@@ -186,6 +314,7 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
             double factor = error_norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(error_norm, error_exponent));
             if (rejected) factor = fmin(1.0, factor);
             s->h_next = h_abs * factor;
+            evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
             accept(s, work, h);
             return 0;
         }
@@ -252,21 +381,37 @@ int solver_step(Solver *s, double *work, OdeFunction f, void *context, double t_
     }
 }
 
+/* The cubic Hermite part of the dense output (the first three rows of SciPy's dense coefficients). */
+static NOINLINE void hermite_coefficients(const double *RESTRICT y_old, const double *RESTRICT y,
+                                          const double *RESTRICT f_old, const double *RESTRICT f_new, double h, int n,
+                                          double *RESTRICT dense0, double *RESTRICT dense1,
+                                          double *RESTRICT dense2) {
+    const int even = EVEN(n);
+    int i;
+    for (i = 0; i < even; i++) {
+        const double delta = y[i] - y_old[i];
+        dense0[i] = delta;
+        dense1[i] = h * f_old[i] - delta;
+        dense2[i] = 2.0 * delta - h * (f_new[i] + f_old[i]);
+    }
+    for (; i < n; i++) {
+        const double delta = y[i] - y_old[i];
+        dense0[i] = delta;
+        dense1[i] = h * f_old[i] - delta;
+        dense2[i] = 2.0 * delta - h * (f_new[i] + f_old[i]);
+    }
+}
+
 void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context) {
     const int n = s->n;
     const double h = s->h_last;
     const double *y_old = row(work, n, ROW_Y_OLD), *y = row(work, n, ROW_Y);
     const double *f_old = row(work, n, ROW_K), *f_new = row(work, n, ROW_K + STAGE_END);
     double *dense[SOLVER_DENSE_ROWS];
-    int r, i;
+    int r;
     if (s->dense_power != 0 || s->steps_accepted == 0) return;
     for (r = 0; r < SOLVER_DENSE_ROWS; r++) dense[r] = row(work, n, ROW_DENSE + r);
-    for (i = 0; i < n; i++) {
-        const double delta = y[i] - y_old[i];
-        dense[0][i] = delta;
-        dense[1][i] = h * f_old[i] - delta;
-        dense[2][i] = 2.0 * delta - h * (f_new[i] + f_old[i]);
-    }
+    hermite_coefficients(y_old, y, f_old, f_new, h, n, dense[0], dense[1], dense[2]);
     if (s->method != SOLVER_DOP853) {
         s->dense_power = 3; /* cubic Hermite */
         return;
@@ -286,16 +431,30 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
 }
 
 double solver_interpolate(const Solver *s, const double *work, int component, double t) {
-    const int n = s->n;
-    const double x = (t - s->t_old) / s->h_last;
+    const size_t n = (size_t)s->n, i = (size_t)component;
+    const double *dense = work + (size_t)ROW_DENSE * n + i;
+    const double x = (t - s->t_old) / s->h_last, x1 = 1.0 - x;
     double value = 0.0;
     int r;
-    if (t == s->t) return work[(size_t)ROW_Y * (size_t)n + (size_t)component];
-    for (r = s->dense_power - 1; r >= 0; r--) {
-        value += work[(size_t)(ROW_DENSE + r) * (size_t)n + (size_t)component];
-        value *= (r % 2 == 0) ? x : 1.0 - x;
+    if (t == s->t) return work[(size_t)ROW_Y * n + i];
+    /* SciPy's evaluation of the dense output: from the highest row down, add the row, then multiply by x
+     * (even rows) or 1 - x (odd rows); spelled out for the usual powers */
+    switch (s->dense_power) {
+    case 7:
+        value = (((((((value + dense[6 * n]) * x + dense[5 * n]) * x1 + dense[4 * n]) * x + dense[3 * n]) * x1 +
+                   dense[2 * n]) * x + dense[n]) * x1 + dense[0]) * x;
+        break;
+    case 3:
+        value = (((value + dense[2 * n]) * x + dense[n]) * x1 + dense[0]) * x;
+        break;
+    default:
+        for (r = s->dense_power - 1; r >= 0; r--) {
+            value += dense[(size_t)r * n];
+            value *= (r % 2 == 0) ? x : x1;
+        }
+        break;
     }
-    return work[(size_t)ROW_Y_OLD * (size_t)n + (size_t)component] + value;
+    return work[(size_t)ROW_Y_OLD * n + i] + value;
 }
 
 void solver_truncate(Solver *s, double *work, OdeFunction f, void *context, double t_end) {
