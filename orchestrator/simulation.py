@@ -87,7 +87,7 @@ class LatticeFMU:
         self._slave = FMU2Slave(guid=self.model_description.guid, unzipDirectory=self._unzip_dir,
                                 modelIdentifier=self.model_description.coSimulation.modelIdentifier,
                                 instanceName=self._name)
-        self._slave.instantiate(callbacks=_CALLBACKS)
+        self._slave.instantiate(callbacks=_CALLBACKS, loggingOn=True)  # pythonfmu logs nothing without it
 
     def value_reference(self, name: str) -> int:
         try:

@@ -24,6 +24,10 @@
 
 /* Divergence: kinetic energy beyond this multiple of the energy put in ends the run with an error. */
 #define ENERGY_LIMIT_FACTOR 10.0
+/* ... and so does an energy balance off by more than this fraction of the energy put in, checked every
+ * BALANCE_CHECK_STEPS accepted steps. */
+#define BALANCE_LIMIT_FRACTION 0.5
+#define BALANCE_CHECK_STEPS 16
 /* The continuous peak inside a step: a free Hermite look at a few points first; only a step that may
  * come within PEAK_PREFILTER_MARGIN of the running peak pays for the dense output, a grid and a
  * golden-section refinement. */
@@ -33,6 +37,10 @@
 #define PEAK_REFINE_ITERATIONS 80
 /* A sample within this fraction of an interval past the target still belongs to it (rounding of t). */
 #define SAMPLE_TIME_SLACK 1e-9
+/* The shortest part of a step, as a fraction of it, that a located backplate switch may cut it back to. */
+#define MIN_EVENT_FRACTION 1e-6
+/* This many steps in a row that do not move time forward mean the backplate switches chatter. */
+#define MAX_STALLED_STEPS 1000
 #define FAILURE_SIZE 512
 
 struct Model {
@@ -53,6 +61,8 @@ struct Model {
     int step_peak_known, step_peak_committed;     /* the last step's own maximum, and whether it counts */
     double step_peak, step_peak_time;
     double last_contact_time; /* latest time a column-C mass was in contact with the backplate */
+    double initial_energy;    /* potential energy of the start state (a negative gap presses from t = 0) */
+    int stalled_steps;        /* consecutive steps cut back to (almost) nothing by backplate switches */
     double output_state[N_STATE];
     double work[SOLVER_WORKSPACE_SIZE(N_STATE)];
 };
@@ -427,14 +437,14 @@ static double locate_switch(Model *m, int component, double offset) {
 
 /* The backplate's switches (contact on/off, damping on/off) inside the last step: the step is cut back
  * to the earliest one and the modes are switched there, so no step integrates across a discontinuity. */
-static void handle_wall_events(Model *m) {
+static int handle_wall_events(Model *m) {
     Solver *s = &m->solver;
     signed char at_end[LATTICE_ROWS];
     double earliest = s->t;
-    int i, changed = 0;
+    int i, changed = 0, cut = 0;
     wall_modes_of_state(m, at_end);
     for (i = 0; i < LATTICE_ROWS; i++) changed = changed || at_end[i] != m->wall_mode[i];
-    if (!changed) return;
+    if (!changed) return 0;
     solver_prepare_dense(s, m->work, model_rhs, m); /* in the step's own modes, before they change */
     for (i = 0; i < LATTICE_ROWS; i++) {
         const int mass = i * LATTICE_COLS + LATTICE_COLS - 1;
@@ -447,11 +457,20 @@ static void handle_wall_events(Model *m) {
             earliest = fmin(earliest, locate_switch(m, 2 * N_MASSES + mass, 0.0));
         }
     }
-    if (earliest > s->t_old && earliest < s->t) solver_truncate(s, m->work, model_rhs, m, earliest);
+    /* A fixed-step solver takes a switch within MIN_EVENT_FRACTION of its step's start at the step's end
+     * instead: its cubic dense output is too rough to place a switch that close, and cutting back there can
+     * make no progress (near its stability limit it chatters on one switch). The adaptive solver always
+     * cuts back: its error control keeps the steps after an event honest. */
+    const double shortest = s->method == SOLVER_DOP853 ? 0.0 : MIN_EVENT_FRACTION * s->h_last;
+    if (earliest > s->t_old + shortest && earliest < s->t) {
+        solver_truncate(s, m->work, model_rhs, m, earliest);
+        cut = 1;
+    }
     for (i = 0; i < LATTICE_ROWS; i++) {
         if (m->wall_mode[i] != WALL_FREE) m->last_contact_time = s->t; /* in contact up to here at least */
     }
     wall_modes_of_state(m, m->wall_mode);
+    return cut;
 }
 
 int model_initialize(Model *m, double start_time, int stop_time_defined, double stop_time, char *message,
@@ -481,6 +500,10 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
                 PARAM_FIXED_STEP(m), m->load_on, y0);
     m->solver.t = start_time;
     wall_modes_of_state(m, m->wall_mode);
+    {
+        double kinetic;
+        lattice_energies(&m->params, y0, &kinetic, &m->initial_energy);
+    }
     m->next_sample = (long)ceil(start_time / PARAM_PEAK_SAMPLE_INTERVAL(m) - SAMPLE_TIME_SLACK);
     m->initialized = 1;
     process_step(m, start_time);
@@ -492,7 +515,8 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
 static int check_divergence(Model *m, char *message, size_t message_size) {
     const double *y = solver_state(m->work);
     const double *velocity = y + 2 * N_MASSES;
-    const double injected = fabs(y[INDEX_EXTERNAL_WORK]) + fabs(y[INDEX_NONRECIPROCAL_WORK]);
+    const double injected =
+        m->initial_energy + fabs(y[INDEX_EXTERNAL_WORK]) + fabs(y[INDEX_NONRECIPROCAL_WORK]);
     const double impulse = m->params.load_total * fmax(m->params.load_duration, PARAM_PEAK_SAMPLE_INTERVAL(m));
     const double floor = 1e-9 + 1e-6 * impulse * impulse / m->params.mass;
     double speed_squared = 0.0, kinetic;
@@ -500,14 +524,28 @@ static int check_divergence(Model *m, char *message, size_t message_size) {
     int i;
     for (i = 0; i < 2 * N_MASSES; i++) speed_squared += velocity[i] * velocity[i];
     kinetic = 0.5 * m->params.mass * speed_squared;
-    if (isfinite(kinetic) && isfinite(injected) && kinetic <= ENERGY_LIMIT_FACTOR * injected + floor) return 0;
+    if (isfinite(kinetic) && isfinite(injected) && kinetic <= ENERGY_LIMIT_FACTOR * injected + floor) {
+        /* every BALANCE_CHECK_STEPS steps (it costs about one right-hand side): the balance must roughly
+         * close; a solution that makes energy out of nothing is diverging, even while it stays bounded */
+        double potential, balance;
+        if (m->solver.steps_accepted % BALANCE_CHECK_STEPS != 0) return 0;
+        lattice_energies(&m->params, y, &kinetic, &potential);
+        balance = m->initial_energy + y[INDEX_EXTERNAL_WORK] + y[INDEX_NONRECIPROCAL_WORK] - kinetic - potential -
+                  y[INDEX_DISSIPATED];
+        if (isfinite(balance) && fabs(balance) <= BALANCE_LIMIT_FRACTION * injected + floor) return 0;
+        snprintf(reason, sizeof(reason),
+                 "the solution diverged at t = %.9g s: the energy balance is off by %g J of %g J put in (solver %d, "
+                 "fixed_step = %g s, rtol = %g)",
+                 m->solver.t, balance, injected, m->solver.method, m->solver.fixed_step, m->solver.rtol);
+        return fail(m, reason, message, message_size);
+    }
     if (m->solver.method == SOLVER_DOP853) {
         snprintf(reason, sizeof(reason),
-                 "the solution diverged at t = %.9g s: kinetic energy %g J against %g J of work put in (rtol = %g)",
+                 "the solution diverged at t = %.9g s: kinetic energy %g J against %g J of energy put in (rtol = %g)",
                  m->solver.t, kinetic, injected, m->solver.rtol);
     } else {
         snprintf(reason, sizeof(reason),
-                 "the solution diverged at t = %.9g s: kinetic energy %g J against %g J of work put in; "
+                 "the solution diverged at t = %.9g s: kinetic energy %g J against %g J of energy put in; "
                  "fixed_step = %g s is beyond the stability limit of solver %d",
                  m->solver.t, kinetic, injected, m->solver.fixed_step, m->solver.method);
     }
@@ -537,6 +575,7 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
     process_step(m, t_target); /* what remains of the last step up to the new target */
     while (s->t < t_target) {
         const int free_before = wall_free(m);
+        int cut_by_event;
         double t_limit = INFINITY;
         if (m->load_on) t_limit = m->params.load_duration;
         if (m->stop_time_defined) t_limit = fmin(t_limit, m->stop_time);
@@ -546,15 +585,25 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         m->step_peak_known = 0;
         m->step_peak_committed = 0;
         m->step_contact_free = free_before;
+        cut_by_event = 0;
         if (m->params.has_backplate) {
             int row;
-            handle_wall_events(m);
+            cut_by_event = handle_wall_events(m);
             for (row = 0; row < LATTICE_ROWS; row++) {
                 if (m->wall_mode[row] != WALL_FREE) {
                     m->last_contact_time = s->t;
                     m->step_contact_free = 0;
                 }
             }
+        }
+        if (!cut_by_event || s->t - s->t_old > 1e-12 * (1.0 + fabs(s->t))) {
+            m->stalled_steps = 0;
+        } else if (++m->stalled_steps > MAX_STALLED_STEPS) {
+            snprintf(reason, sizeof(reason),
+                     "the backplate switches chatter at t = %.9g s: %d steps in a row made no progress (solver %d, "
+                     "fixed_step = %g s, rtol = %g)",
+                     s->t, MAX_STALLED_STEPS, s->method, s->fixed_step, s->rtol);
+            return fail(m, reason, message, message_size);
         }
         if (check_divergence(m, message, message_size)) return -1;
         if (m->load_on && s->t >= m->params.load_duration) {

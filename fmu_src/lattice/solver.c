@@ -356,6 +356,12 @@ static int fixed_step(Solver *s, double *work, OdeFunction f, void *context, dou
         return -1;
     }
     evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
+    if (s->method == SOLVER_SEMI_IMPLICIT_EULER) {
+        /* the work integrals by the trapezoidal rule: the positions moved with the new velocities, so
+         * work taken with the old ones alone would lag the kinetic energy by a whole step */
+        const double *k_end = row(work, n, ROW_K + STAGE_END);
+        for (i = 2 * m; i < n; i++) y_new[i] = y[i] + 0.5 * h * (k1[i] + k_end[i]);
+    }
     accept(s, work, h);
     return 0;
 }
