@@ -88,7 +88,11 @@ def test_cli_end_to_end_writes_the_report(fmu_path, tmp_path):
         rows = list(csv.DictReader(handle))
     assert len(rows) == sum(r["evaluations"] for r in results["runs"])
     assert all(row["status"] == "ok" and math.isfinite(float(row["peak"])) for row in rows)
-    for name in ("convergence.png", "force_energy.png", "lattice.png", "report.html"):
+    sweep = results["accuracy"]["work_precision"]
+    default = next(p for p in sweep if p["setting"] == "rtol 1e-07")
+    assert default["status"] == "ok" and default["rel_error"] < 1e-6
+    assert any(p["status"].startswith("failed") for p in sweep)  # RK4 at 0.04 s diverges: an FMI error
+    for name in ("convergence.png", "force_energy.png", "lattice.png", "work_precision.png", "report.html"):
         assert (out / name).stat().st_size > 1000
     assert "Best order" in (out / "report.html").read_text()
 
