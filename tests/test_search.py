@@ -11,6 +11,7 @@ from orchestrator.executors import make_executor
 from orchestrator.loop import run_search
 from orchestrator.search import SEARCHES, make_search
 from orchestrator.search.base import keys_to_order, to_internal
+from orchestrator.search.local import Descent, neighbours, order_to_keys, sequential_keys
 from orchestrator.search.problems import QuadraticAssignment, WeightedDistance, brute_force
 
 METHODS = sorted(SEARCHES)
@@ -60,6 +61,15 @@ def test_finds_qap7_optimum(method, budget, qap7_optimum):
     assert sum(hits) >= 2, [(r.best_order, r.best_peak, value) for r in found]
     for r in found:
         assert r.n_evaluations <= budget and r.best_peak >= value - 1e-9
+
+
+@pytest.mark.parametrize("method,budget", [("cmaes", 700), ("pso", 500), ("sa", 400)])
+def test_core_alone_finds_qap7_optimum(method, budget, qap7_optimum):
+    """The same without the polishing phase: the optimiser itself, not only the final descent."""
+    optimum, value = qap7_optimum
+    found = [solve(method, QAP7, 7, budget, seed, polish=0.0) for seed in (0, 1, 2)]
+    assert all(r.diagnostics["phase"] == "search" for r in found)
+    assert sum(r.best_order == optimum for r in found) >= 2, [(r.best_peak, value) for r in found]
 
 
 @pytest.mark.parametrize("method,budget,needed", [("cmaes", 1000, 2), ("pso", 1000, 2), ("sa", 700, 3)])
@@ -168,6 +178,84 @@ def test_sa_cooling_reaches_final_temperature_at_budget():
     d = solve("sa", QAP8, 8, 300, seed=0, t_final_ratio=1e-2).diagnostics
     # the last, budget-cut batch is never told, so the schedule is a few orders short of its end
     assert d["t0"] * 1e-2 <= d["temperature"] <= d["t0"] * 1e-2 * 1.2
+
+
+# ---------------------------------------------------------------- baseline start and polishing
+def test_order_keys_round_trip():
+    rng = np.random.default_rng(0)
+    for n in (1, 2, 5, 11):
+        order = tuple(int(i) + 1 for i in rng.permutation(n))
+        assert keys_to_order(order_to_keys(order)) == order
+        assert keys_to_order(order_to_keys(order, n + 2), n) == order
+    assert keys_to_order(sequential_keys(7)) == tuple(range(1, 8))
+
+
+def test_neighbours_are_the_distinct_swaps_and_insertions():
+    start = tuple(range(1, 12))
+    found = neighbours(start)
+    assert len(found) == len(set(found)) == 55 + 100 - 10  # swaps + insertions, adjacent swaps once
+    assert start not in found and all(sorted(o) == list(start) for o in found)
+    assert all(sum(a != b for a, b in zip(o, start)) >= 2 for o in found)
+
+
+@pytest.mark.parametrize("method", ["pso", "sa"])
+def test_first_batch_holds_the_sequential_order(method):
+    assert make_search(method, 7, 3, budget=100).ask()[0] == tuple(range(1, 8))
+    assert tuple(range(1, 8)) not in make_search(method, 7, 3, budget=100, x0="random").ask()
+
+
+def test_cmaes_first_mean_is_the_sequential_order():
+    assert keys_to_order(make_search("cmaes", 7, 3, budget=100).es.mean, 7) == tuple(range(1, 8))
+
+
+@pytest.mark.parametrize("method,polish", [("cmaes", 0.5), ("pso", 0.7), ("sa", 0.3)])
+def test_polishing_phase_takes_the_end_of_the_budget(method, polish):
+    budget = 300
+    run = solve(method, QAP8, 8, budget, seed=0)
+    d = run.diagnostics
+    start = budget - round(polish * budget)
+    assert d["phase"] == "polish" and d["options"]["polish"] == polish
+    batch = len(make_search(method, 8, 0, budget=budget).ask())  # the switch waits for a batch to end
+    assert start <= d["polish_started_at"] < start + batch
+    assert run.n_evaluations == budget and not run.stalled
+
+
+def test_no_polishing_phase_without_budget_or_with_zero():
+    assert solve("cmaes", QAP8, 8, 200, seed=0, polish=0.0).diagnostics["phase"] == "search"
+    search = make_search("sa", 7, 0)  # no budget: no end to reserve a share of
+    drive(search, QAP7.value, 40)
+    assert search.state()["phase"] == "search"
+    with pytest.raises(ValueError, match="polish"):
+        make_search("pso", 7, 0, polish=1.5)
+
+
+def test_annealing_cools_until_the_polishing_phase():
+    d = solve("sa", QAP8, 8, 300, seed=0, polish=0.5).diagnostics
+    assert d["anneal_budget"] == 150
+    assert d["temperature"] == pytest.approx(d["t0"] * 1e-3)
+
+
+def test_descent_ends_in_a_local_optimum_then_kicks():
+    """Polishing alone (polish=1) with a budget to spare: the best order has no better neighbour,
+    and the descent goes on from kicks instead of stalling."""
+    run = solve("sa", QAP8, 8, 1500, seed=1, polish=1.0)
+    d = run.diagnostics
+    assert d["polish_started_at"] <= 4 and d["polish_state"]["local_optima"] >= 2
+    assert d["polish_state"]["kicks"] >= 1 and run.n_evaluations == 1500 and not run.stalled
+    assert all(QAP8.value(o) >= run.best_peak for o in neighbours(run.best_order))
+
+
+def test_descent_judges_known_neighbours_for_free():
+    descent = Descent(np.random.default_rng(0), batch=3)
+    start = (1, 2, 3, 4, 5)
+    memo = {order: 20.0 for order in neighbours(start)}  # every neighbour known and worse ...
+    memo[start] = 10.0
+    better = neighbours(start)[5]
+    memo[better] = 1.0  # ... but one: the descent moves there without asking anything
+    descent.start(start, 10.0)
+    asked = descent.propose(memo)
+    assert descent.current == better and descent.free_moves == 1
+    assert len(asked) == 3 and better not in asked and not set(asked) & set(memo)
 
 
 # ---------------------------------------------------------------- protocol and options

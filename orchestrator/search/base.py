@@ -16,6 +16,14 @@ internally, i.e. the worst possible value: it is never accepted by annealing,
 never becomes a personal/global best in the swarm, and gets the worst rank in
 CMA-ES.  A failure is never treated as a good number.
 
+Polishing: the optimisers (CMA-ES, PSO, annealing) hand the last ``polish``
+fraction of their ``budget`` to a first-improvement descent by single swaps
+and insertions from the best order found so far (``local.Descent``; why: see
+``local.py``).  The switch happens between two batches, once the number of
+distinct orders told reaches ``budget - round(polish * budget)``; without a
+budget there is no polishing phase.  ``state()["phase"]`` says which phase
+the search is in.
+
 Randomness: every draw comes from ``numpy.random.default_rng(seed)`` (pycma
 additionally through its own ``seed`` option), so given the same told values
 a search makes exactly the same asks.
@@ -28,6 +36,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..types import Order, as_order
+from .local import Descent
 
 FAILURE = math.inf
 """Internal value of a failed evaluation: worse than every real value."""
@@ -71,7 +80,12 @@ class Search:
     Subclasses set ``name`` and ``OPTIONS`` (option -> default) and implement
     ``_ask``, ``_tell`` and optionally ``_stop`` / ``_state``.  Every search
     accepts ``budget`` (the loop's evaluation budget) so that callers can pass
-    it uniformly; only the annealing uses it (to scale its cooling).
+    it uniformly; the optimisers use it to schedule their polishing phase
+    (option ``polish``, the fraction of the budget it gets, and ``polish_batch``,
+    its batch size), the annealing also to scale its cooling.
+
+    ``memo`` holds the value of every distinct order told so far (failures as
+    ``FAILURE``); ``len(memo)`` is the number of evaluations spent.
     """
 
     name = "search"
@@ -97,12 +111,28 @@ class Search:
         self.n_failed = 0
         self.best_value = math.inf
         self.best_order: Order | None = None
+        self.memo: dict[Order, float] = {}
+        self._descent: Descent | None = None
+        self._pending_polish = False
+        self.polish_started_at: int | None = None
+        polish = self.options.get("polish")
+        if polish is not None and not 0.0 <= float(polish) <= 1.0:
+            raise ValueError(f"{self.name}: polish must be a fraction in [0, 1], got {polish!r}")
 
     # -- protocol ---------------------------------------------------------
     def ask(self) -> list[Order]:
         if self._pending is not None:
             raise RuntimeError(f"{self.name}: ask() called twice without tell()")
-        orders = [as_order(o) for o in self._ask()]
+        if self._polish_due():
+            if self._descent is None:
+                self._descent = Descent(self.rng, batch=int(self.options.get("polish_batch") or 4))
+                self._descent.start(self.best_order, self.best_value)
+                self.polish_started_at = len(self.memo)
+            orders = [as_order(o) for o in self._descent.propose(self.memo)]
+            self._pending_polish = True
+        else:
+            orders = [as_order(o) for o in self._ask()]
+            self._pending_polish = False
         self._pending = orders
         return list(orders)
 
@@ -123,7 +153,20 @@ class Search:
                 self.n_failed += 1
             elif value < self.best_value:
                 self.best_value, self.best_order = value, order
-        self._tell(orders, internal)
+            self.memo[order] = value
+        if self._pending_polish:
+            self._descent.update(orders, internal)
+        else:
+            self._tell(orders, internal)
+
+    def _polish_due(self) -> bool:
+        """In the polishing phase (it never ends once begun)?"""
+        if self._descent is not None:
+            return True
+        polish, budget = self.options.get("polish"), self.options.get("budget")
+        if not polish or budget is None or self.best_order is None:
+            return False
+        return len(self.memo) >= int(budget) - round(float(polish) * int(budget))
 
     def stop(self) -> bool:
         if self.n == 1 and self.batches > 0:
@@ -137,7 +180,13 @@ class Search:
             "batches": self.batches, "told": self.told, "failed_told": self.n_failed,
             "best_value": None if self.best_order is None else self.best_value,
             "best_order": None if self.best_order is None else list(self.best_order),
+            "evaluations_told": len(self.memo),
         }
+        if "polish" in self.options:
+            common["phase"] = "polish" if self._descent is not None else "search"
+            common["polish_started_at"] = self.polish_started_at
+            if self._descent is not None:
+                common["polish_state"] = self._descent.state()
         common.update(self._state())
         return common
 
