@@ -35,14 +35,12 @@ DEFAULT_SCENE = "armour_11x11"
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from fmu_src import MODEL_HEADERS, MODEL_SOURCES  # noqa: E402
 from fmu_src import fmi3_description as fmi3  # noqa: E402
 from fmu_src.variables import INTEGER, REAL, Interface, c_literal, make_interface, plotted_masses  # noqa: E402
 
-C_SOURCES = ["fmi2/fmi2_glue.c", "lattice/lattice.c", "lattice/solver.c", "lattice/model.c"]
-C_HEADERS = [
-    "include/fmi2Functions.h", "include/fmi2FunctionTypes.h", "include/fmi2TypesPlatform.h",
-    "lattice/lattice.h", "lattice/solver.h", "lattice/model.h", "lattice/dop853_coefficients.h",
-]
+C_SOURCES = ["fmi2/fmi2_glue.c"] + MODEL_SOURCES
+C_HEADERS = ["include/fmi2Functions.h", "include/fmi2FunctionTypes.h", "include/fmi2TypesPlatform.h"] + MODEL_HEADERS
 CORE_SOURCES = ["lattice/lattice.c", "lattice/solver.c"]
 WARNING_FLAGS = ["-Wall", "-Wextra", "-pedantic"]
 UNITS = ["N", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg"]

@@ -20,13 +20,11 @@ import uuid
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
+from fmu_src import MODEL_HEADERS, MODEL_SOURCES
 from fmu_src.variables import INTEGER, REAL, Interface, Variable, c_literal
 
-C_SOURCES = ["fmi3/fmi3_glue.c", "lattice/lattice.c", "lattice/solver.c", "lattice/model.c"]
-C_HEADERS = [
-    "include/fmi3Functions.h", "include/fmi3FunctionTypes.h", "include/fmi3PlatformTypes.h",
-    "lattice/lattice.h", "lattice/solver.h", "lattice/model.h", "lattice/dop853_coefficients.h",
-]
+C_SOURCES = ["fmi3/fmi3_glue.c"] + MODEL_SOURCES
+C_HEADERS = ["include/fmi3Functions.h", "include/fmi3FunctionTypes.h", "include/fmi3PlatformTypes.h"] + MODEL_HEADERS
 TYPE_NAMES = {REAL: "Float64", INTEGER: "Int32"}
 # A Float64 variable gets its unit through a declared type named after the unit (<Float64Type name="N.s/m"
 # unit="N.s/m"/>), not through a unit attribute: both are FMI 3.0, but fmi-sim 0.7 (Rust) refuses a unit

@@ -4,22 +4,7 @@
 #include <math.h>
 #include <string.h>
 
-/* restrict where the compiler knows it (C99; MSVC spells it __restrict): only an optimisation hint. */
-#if defined(__STDC_VERSION__) && __STDC_VERSION__ >= 199901L
-#define RESTRICT restrict
-#elif defined(_MSC_VER)
-#define RESTRICT __restrict
-#else
-#define RESTRICT
-#endif
-
-/* Keeps a function out of line where inlining it costs GCC (-O2) the vectorisation of the loops around
- * it. Only an optimisation hint; other compilers ignore it. */
-#if defined(__GNUC__)
-#define NOINLINE __attribute__((noinline))
-#else
-#define NOINLINE
-#endif
+#include "compiler.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846

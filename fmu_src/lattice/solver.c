@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "compiler.h"
 #include "dop853_coefficients.h"
 
 /* Step-size control as in SciPy's solve_ivp (Hairer's DOP853 with its norms and safety factors). */
@@ -88,23 +89,6 @@ static double initial_step(Solver *s, double *work, OdeFunction f, void *context
     }
     return fmin(100.0 * h0, fmin(h1, t_span));
 }
-
-/* restrict where the compiler knows it (C99; MSVC spells it __restrict): only an optimisation hint. */
-#if defined(__STDC_VERSION__) && __STDC_VERSION__ >= 199901L
-#define RESTRICT restrict
-#elif defined(_MSC_VER)
-#define RESTRICT __restrict
-#else
-#define RESTRICT
-#endif
-
-/* The kernels below are kept out of line: inlined into the loop of combine, GCC (-O2) forgets their
- * RESTRICT and no longer vectorises them. Only an optimisation hint; other compilers ignore it. */
-#if defined(__GNUC__)
-#define NOINLINE __attribute__((noinline))
-#else
-#define NOINLINE
-#endif
 
 /* out[i] = start + w0 k0[i] + w1 k1[i] + ... for 1 to 4 stage rows, added one after the other, where start
  * is base[i] (first pass), out[i] (the next passes) or nothing (no base: 0 + w0 k0[i] is w0 k0[i]). Each
