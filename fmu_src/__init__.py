@@ -1,5 +1,5 @@
-"""The FMU's C sources: the model (lattice/) shared by every FMI version's glue."""
+"""The FMU's C sources shared by every FMI version's glue: the model (lattice/) and the instance (common/)."""
 
-MODEL_SOURCES = ["lattice/lattice.c", "lattice/solver.c", "lattice/model.c"]
-MODEL_HEADERS = ["lattice/lattice.h", "lattice/solver.h", "lattice/model.h", "lattice/compiler.h",
-                 "lattice/dop853_coefficients.h"]
+MODEL_SOURCES = ["common/instance.c", "lattice/lattice.c", "lattice/solver.c", "lattice/model.c"]
+MODEL_HEADERS = ["common/instance.h", "lattice/lattice.h", "lattice/solver.h", "lattice/model.h",
+                 "lattice/compiler.h", "lattice/dop853_coefficients.h"]

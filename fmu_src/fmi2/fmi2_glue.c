@@ -9,39 +9,19 @@
 #include <string.h>
 
 #include "../include/fmi2Functions.h"
+#include "../common/instance.h"
 #include "../lattice/model.h"
 
 #define MESSAGE_SIZE 1024
 #define STATE_MAGIC 0x4d534c32u /* "MSL2": marks a serialised state of this FMU */
-/* The importer's communication time may drift from ours by rounding; more than this is a real mismatch. */
-#define TIME_MISMATCH_TOLERANCE 1e-9
-
-typedef enum {
-    STATE_INSTANTIATED,
-    STATE_INITIALIZATION_MODE,
-    STATE_STEP_COMPLETE,
-    STATE_TERMINATED,
-    STATE_ERROR
-} InstanceState;
 
 typedef struct {
-    Model *model;
+    InstanceCommon common; /* model, FMI state, experiment: kept alike by both FMI versions */
     fmi2CallbackLogger logger;
     fmi2ComponentEnvironment environment;
     char *instance_name;
     int logging_on;
-    InstanceState state;
-    double start_time, stop_time;
-    int stop_time_defined;
 } Instance;
-
-/* A saved FMU state: the instance's own fields, then the model's bytes. */
-typedef struct {
-    unsigned int magic;
-    InstanceState state;
-    double start_time, stop_time;
-    int stop_time_defined;
-} SavedHeader;
 
 static void log_message(const Instance *instance, fmi2Status status, const char *category, const char *format,
                         ...) {
@@ -64,15 +44,13 @@ static fmi2Status error(Instance *instance, const char *function, const char *me
 /* Refuses calls the FMI 2.0 state machine does not allow in the current state. */
 static int allowed(Instance *instance, const char *function, unsigned int states) {
     if (!instance) return 0;
-    if (states & (1u << instance->state)) return 1;
-    error(instance, function, instance->state == STATE_ERROR
+    if (states & (1u << instance->common.state)) return 1;
+    error(instance, function, instance->common.state == STATE_ERROR
                                   ? "the instance is in the error state: only fmi2Reset and fmi2FreeInstance are allowed"
                                   : "not allowed in the current state of the instance");
     return 0;
 }
 
-#define IN(state) (1u << (state))
-#define ANY_STATE (IN(STATE_INSTANTIATED) | IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP_COMPLETE) | IN(STATE_TERMINATED))
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
@@ -110,10 +88,10 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     }
     instance = (Instance *)calloc(1, sizeof(Instance));
     if (!instance) return NULL;
-    instance->model = model_new();
+    instance->common.model = model_new();
     instance->instance_name = (char *)malloc(strlen(probe.instance_name) + 1);
-    if (!instance->model || !instance->instance_name) {
-        model_free(instance->model);
+    if (!instance->common.model || !instance->instance_name) {
+        model_free(instance->common.model);
         free(instance->instance_name);
         free(instance);
         return NULL;
@@ -122,14 +100,14 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     instance->logger = probe.logger;
     instance->environment = probe.environment;
     instance->logging_on = loggingOn;
-    instance->state = STATE_INSTANTIATED;
+    instance->common.state = STATE_INSTANTIATED;
     return instance;
 }
 
 void fmi2FreeInstance(fmi2Component c) {
     Instance *instance = (Instance *)c;
     if (!instance) return;
-    model_free(instance->model);
+    model_free(instance->common.model);
     free(instance->instance_name);
     free(instance);
 }
@@ -140,16 +118,16 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
     (void)toleranceDefined; /* the solver's tolerances are the parameters rtol and atol */
     (void)tolerance;
     if (!allowed(instance, "fmi2SetupExperiment", IN(STATE_INSTANTIATED))) return fmi2Error;
-    instance->start_time = startTime;
-    instance->stop_time_defined = stopTimeDefined;
-    instance->stop_time = stopTime;
+    instance->common.start_time = startTime;
+    instance->common.stop_time_defined = stopTimeDefined;
+    instance->common.stop_time = stopTime;
     return fmi2OK;
 }
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
     Instance *instance = (Instance *)c;
     if (!allowed(instance, "fmi2EnterInitializationMode", IN(STATE_INSTANTIATED))) return fmi2Error;
-    instance->state = STATE_INITIALIZATION_MODE;
+    instance->common.state = STATE_INITIALIZATION_MODE;
     return fmi2OK;
 }
 
@@ -157,30 +135,26 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     if (!allowed(instance, "fmi2ExitInitializationMode", IN(STATE_INITIALIZATION_MODE))) return fmi2Error;
-    if (model_initialize(instance->model, instance->start_time, instance->stop_time_defined, instance->stop_time,
+    if (model_initialize(instance->common.model, instance->common.start_time, instance->common.stop_time_defined, instance->common.stop_time,
                          message, sizeof(message))) {
-        instance->state = STATE_ERROR;
+        instance->common.state = STATE_ERROR;
         return error(instance, "fmi2ExitInitializationMode", message);
     }
-    instance->state = STATE_STEP_COMPLETE;
+    instance->common.state = STATE_STEP;
     return fmi2OK;
 }
 
 fmi2Status fmi2Terminate(fmi2Component c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi2Terminate", IN(STATE_STEP_COMPLETE))) return fmi2Error;
-    instance->state = STATE_TERMINATED;
+    if (!allowed(instance, "fmi2Terminate", IN(STATE_STEP))) return fmi2Error;
+    instance->common.state = STATE_TERMINATED;
     return fmi2OK;
 }
 
 fmi2Status fmi2Reset(fmi2Component c) {
     Instance *instance = (Instance *)c;
     if (!instance) return fmi2Error;
-    model_reset(instance->model);
-    instance->state = STATE_INSTANTIATED;
-    instance->start_time = 0.0;
-    instance->stop_time_defined = 0;
-    instance->stop_time = 0.0;
+    instance_reset(&instance->common);
     return fmi2OK;
 }
 
@@ -190,7 +164,7 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     size_t i;
     if (!allowed(instance, "fmi2GetReal", ANY_STATE)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
-        if (model_get_real(instance->model, vr[i], &value[i], message, sizeof(message))) {
+        if (model_get_real(instance->common.model, vr[i], &value[i], message, sizeof(message))) {
             return error(instance, "fmi2GetReal", message);
         }
     }
@@ -203,7 +177,7 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
     size_t i;
     if (!allowed(instance, "fmi2GetInteger", ANY_STATE)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
-        if (model_get_integer(instance->model, vr[i], &value[i], message, sizeof(message))) {
+        if (model_get_integer(instance->common.model, vr[i], &value[i], message, sizeof(message))) {
             return error(instance, "fmi2GetInteger", message);
         }
     }
@@ -233,7 +207,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     size_t i;
     if (!allowed(instance, "fmi2SetReal", ANY_STATE)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
-        if (model_set_real(instance->model, vr[i], value[i], message, sizeof(message))) {
+        if (model_set_real(instance->common.model, vr[i], value[i], message, sizeof(message))) {
             return error(instance, "fmi2SetReal", message);
         }
     }
@@ -246,7 +220,7 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
     size_t i;
     if (!allowed(instance, "fmi2SetInteger", ANY_STATE)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
-        if (model_set_integer(instance->model, vr[i], value[i], message, sizeof(message))) {
+        if (model_set_integer(instance->common.model, vr[i], value[i], message, sizeof(message))) {
             return error(instance, "fmi2SetInteger", message);
         }
     }
@@ -269,40 +243,14 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     return nvr == 0 ? fmi2OK : error(instance, "fmi2SetString", "this FMU has no String variables");
 }
 
-/* FMU states: a flat copy of the instance's fields and the model (the model holds no pointers). */
-static size_t saved_size(void) { return sizeof(SavedHeader) + model_size(); }
-
-static void save(const Instance *instance, unsigned char *bytes) {
-    SavedHeader header;
-    memset(&header, 0, sizeof(header));
-    header.magic = STATE_MAGIC;
-    header.state = instance->state;
-    header.start_time = instance->start_time;
-    header.stop_time = instance->stop_time;
-    header.stop_time_defined = instance->stop_time_defined;
-    memcpy(bytes, &header, sizeof(header));
-    memcpy(bytes + sizeof(header), instance->model, model_size());
-}
-
-static int restore(Instance *instance, const unsigned char *bytes) {
-    SavedHeader header;
-    memcpy(&header, bytes, sizeof(header));
-    if (header.magic != STATE_MAGIC) return -1;
-    instance->state = header.state;
-    instance->start_time = header.start_time;
-    instance->stop_time = header.stop_time;
-    instance->stop_time_defined = header.stop_time_defined;
-    memcpy(instance->model, bytes + sizeof(header), model_size());
-    return 0;
-}
-
+/* FMU states: a flat copy of the common fields and the model (the model holds no pointers). */
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     Instance *instance = (Instance *)c;
     unsigned char *bytes;
     if (!allowed(instance, "fmi2GetFMUstate", ANY_STATE)) return fmi2Error;
-    bytes = (unsigned char *)(*FMUstate ? *FMUstate : malloc(saved_size()));
+    bytes = (unsigned char *)(*FMUstate ? *FMUstate : malloc(instance_saved_size()));
     if (!bytes) return error(instance, "fmi2GetFMUstate", "out of memory");
-    save(instance, bytes);
+    instance_save(&instance->common, STATE_MAGIC, bytes);
     *FMUstate = bytes;
     return fmi2OK;
 }
@@ -310,7 +258,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     Instance *instance = (Instance *)c;
     if (!allowed(instance, "fmi2SetFMUstate", ANY_STATE)) return fmi2Error;
-    if (!FMUstate || restore(instance, (const unsigned char *)FMUstate)) {
+    if (!FMUstate || instance_restore(&instance->common, STATE_MAGIC, (const unsigned char *)FMUstate)) {
         return error(instance, "fmi2SetFMUstate", "not a state of this FMU");
     }
     return fmi2OK;
@@ -328,7 +276,7 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size) {
     (void)c;
     (void)FMUstate;
-    *size = saved_size();
+    *size = instance_saved_size();
     return fmi2OK;
 }
 
@@ -336,22 +284,22 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
                                  size_t size) {
     Instance *instance = (Instance *)c;
     if (!instance) return fmi2Error;
-    if (size < saved_size()) return error(instance, "fmi2SerializeFMUstate", "the buffer is too small");
-    memcpy(serializedState, FMUstate, saved_size());
+    if (size < instance_saved_size()) return error(instance, "fmi2SerializeFMUstate", "the buffer is too small");
+    memcpy(serializedState, FMUstate, instance_saved_size());
     return fmi2OK;
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                    fmi2FMUstate *FMUstate) {
     Instance *instance = (Instance *)c;
-    SavedHeader header;
     void *bytes;
     if (!instance) return fmi2Error;
-    if (size != saved_size()) {
+    if (size != instance_saved_size()) {
         return error(instance, "fmi2DeSerializeFMUstate", "the serialised state has the wrong size for this FMU");
     }
-    memcpy(&header, serializedState, sizeof(header));
-    if (header.magic != STATE_MAGIC) return error(instance, "fmi2DeSerializeFMUstate", "not a state of this FMU");
+    if (!instance_is_saved_state(STATE_MAGIC, (const unsigned char *)serializedState, size)) {
+        return error(instance, "fmi2DeSerializeFMUstate", "not a state of this FMU");
+    }
     bytes = *FMUstate ? *FMUstate : malloc(size);
     if (!bytes) return error(instance, "fmi2DeSerializeFMUstate", "out of memory");
     memcpy(bytes, serializedState, size);
@@ -393,21 +341,16 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    double now;
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (!allowed(instance, "fmi2DoStep", IN(STATE_STEP_COMPLETE))) return fmi2Error;
-    now = model_time(instance->model);
+    if (!allowed(instance, "fmi2DoStep", IN(STATE_STEP))) return fmi2Error;
     if (communicationStepSize < 0.0) {
         return error(instance, "fmi2DoStep", "communicationStepSize must be >= 0");
     }
-    if (currentCommunicationPoint - now > TIME_MISMATCH_TOLERANCE * (1.0 + now) ||
-        now - currentCommunicationPoint > TIME_MISMATCH_TOLERANCE * (1.0 + now)) {
-        snprintf(message, sizeof(message), "currentCommunicationPoint %.17g does not match the FMU's time %.17g",
-                 currentCommunicationPoint, now);
+    if (instance_check_time(&instance->common, currentCommunicationPoint, message, sizeof(message))) {
         return error(instance, "fmi2DoStep", message);
     }
-    if (model_advance(instance->model, currentCommunicationPoint + communicationStepSize, message, sizeof(message))) {
-        instance->state = STATE_ERROR;
+    if (model_advance(instance->common.model, currentCommunicationPoint + communicationStepSize, message, sizeof(message))) {
+        instance->common.state = STATE_ERROR;
         return error(instance, "fmi2DoStep", message);
     }
     return fmi2OK;
@@ -427,7 +370,7 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
     Instance *instance = (Instance *)c;
     if (!instance) return fmi2Error;
     if (s == fmi2LastSuccessfulTime) {
-        *value = model_time(instance->model);
+        *value = model_time(instance->common.model);
         return fmi2OK;
     }
     return error(instance, "fmi2GetRealStatus", "only fmi2LastSuccessfulTime is provided");

@@ -15,39 +15,19 @@
 #include <string.h>
 
 #include "../include/fmi3Functions.h"
+#include "../common/instance.h"
 #include "../lattice/model.h"
 
 #define MESSAGE_SIZE 1024
 #define STATE_MAGIC 0x4d534c33u /* "MSL3": marks a serialised state of this FMU */
-/* The importer's communication time may drift from ours by rounding; more than this is a real mismatch. */
-#define TIME_MISMATCH_TOLERANCE 1e-9
-
-typedef enum {
-    STATE_INSTANTIATED,
-    STATE_INITIALIZATION_MODE,
-    STATE_STEP_MODE,
-    STATE_TERMINATED,
-    STATE_ERROR
-} InstanceState;
 
 typedef struct {
-    Model *model;
+    InstanceCommon common; /* model, FMI state, experiment: kept alike by both FMI versions */
     fmi3LogMessageCallback logger;
     fmi3InstanceEnvironment environment;
     char *instance_name;
     int logging_on;
-    InstanceState state;
-    double start_time, stop_time;
-    int stop_time_defined;
 } Instance;
-
-/* A saved FMU state: the instance's own fields, then the model's bytes. */
-typedef struct {
-    unsigned int magic;
-    InstanceState state;
-    double start_time, stop_time;
-    int stop_time_defined;
-} SavedHeader;
 
 static void log_message(const Instance *instance, fmi3Status status, const char *category, const char *format,
                         ...) {
@@ -66,15 +46,12 @@ static fmi3Status error(Instance *instance, const char *function, const char *me
     return fmi3Error;
 }
 
-#define IN(state) (1u << (state))
-#define ANY_STATE \
-    (IN(STATE_INSTANTIATED) | IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP_MODE) | IN(STATE_TERMINATED))
 
 /* Refuses calls the FMI 3.0 state machine does not allow in the current state. */
 static int allowed(Instance *instance, const char *function, unsigned int states) {
     if (!instance) return 0;
-    if (states & (1u << instance->state)) return 1;
-    error(instance, function, instance->state == STATE_ERROR
+    if (states & (1u << instance->common.state)) return 1;
+    error(instance, function, instance->common.state == STATE_ERROR
                                   ? "the instance is in the error state: only fmi3Reset and fmi3FreeInstance are allowed"
                                   : "not allowed in the current state of the instance");
     return 0;
@@ -190,10 +167,10 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     }
     instance = (Instance *)calloc(1, sizeof(Instance));
     if (!instance) return NULL;
-    instance->model = model_new();
+    instance->common.model = model_new();
     instance->instance_name = (char *)malloc(strlen(probe.instance_name) + 1);
-    if (!instance->model || !instance->instance_name) {
-        model_free(instance->model);
+    if (!instance->common.model || !instance->instance_name) {
+        model_free(instance->common.model);
         free(instance->instance_name);
         free(instance);
         return NULL;
@@ -202,7 +179,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     instance->logger = probe.logger;
     instance->environment = probe.environment;
     instance->logging_on = loggingOn;
-    instance->state = STATE_INSTANTIATED;
+    instance->common.state = STATE_INSTANTIATED;
     return instance;
 }
 
@@ -223,7 +200,7 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3Stri
 void fmi3FreeInstance(fmi3Instance c) {
     Instance *instance = (Instance *)c;
     if (!instance) return;
-    model_free(instance->model);
+    model_free(instance->common.model);
     free(instance->instance_name);
     free(instance);
 }
@@ -234,10 +211,10 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean toleranceDefi
     (void)toleranceDefined; /* the solver's tolerances are the parameters rtol and atol */
     (void)tolerance;
     if (!allowed(instance, "fmi3EnterInitializationMode", IN(STATE_INSTANTIATED))) return fmi3Error;
-    instance->start_time = startTime;
-    instance->stop_time_defined = stopTimeDefined;
-    instance->stop_time = stopTime;
-    instance->state = STATE_INITIALIZATION_MODE;
+    instance->common.start_time = startTime;
+    instance->common.stop_time_defined = stopTimeDefined;
+    instance->common.stop_time = stopTime;
+    instance->common.state = STATE_INITIALIZATION_MODE;
     return fmi3OK;
 }
 
@@ -245,12 +222,12 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     if (!allowed(instance, "fmi3ExitInitializationMode", IN(STATE_INITIALIZATION_MODE))) return fmi3Error;
-    if (model_initialize(instance->model, instance->start_time, instance->stop_time_defined, instance->stop_time,
+    if (model_initialize(instance->common.model, instance->common.start_time, instance->common.stop_time_defined, instance->common.stop_time,
                          message, sizeof(message))) {
-        instance->state = STATE_ERROR;
+        instance->common.state = STATE_ERROR;
         return error(instance, "fmi3ExitInitializationMode", message);
     }
-    instance->state = STATE_STEP_MODE; /* co-simulation without event mode goes straight to step mode */
+    instance->common.state = STATE_STEP; /* co-simulation without event mode goes straight to step mode */
     return fmi3OK;
 }
 
@@ -260,19 +237,15 @@ fmi3Status fmi3EnterEventMode(fmi3Instance c) {
 
 fmi3Status fmi3Terminate(fmi3Instance c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi3Terminate", IN(STATE_STEP_MODE))) return fmi3Error;
-    instance->state = STATE_TERMINATED;
+    if (!allowed(instance, "fmi3Terminate", IN(STATE_STEP))) return fmi3Error;
+    instance->common.state = STATE_TERMINATED;
     return fmi3OK;
 }
 
 fmi3Status fmi3Reset(fmi3Instance c) {
     Instance *instance = (Instance *)c;
     if (!instance) return fmi3Error;
-    model_reset(instance->model);
-    instance->state = STATE_INSTANTIATED;
-    instance->start_time = 0.0;
-    instance->stop_time_defined = 0;
-    instance->stop_time = 0.0;
+    instance_reset(&instance->common);
     return fmi3OK;
 }
 
@@ -288,11 +261,11 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     if (check_values(instance, "fmi3GetFloat64", vr, nvr, nValues, MODEL_TYPE_REAL, 1)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] == time_vr) {
-            values[k++] = model_time(instance->model);
+            values[k++] = model_time(instance->common.model);
             continue;
         }
         for (e = 0; e < model_variable_count(vr[i]); e++) {
-            if (model_get_real(instance->model, vr[i] + (unsigned int)e, &values[k++], message, sizeof(message))) {
+            if (model_get_real(instance->common.model, vr[i] + (unsigned int)e, &values[k++], message, sizeof(message))) {
                 return error(instance, "fmi3GetFloat64", message);
             }
         }
@@ -310,7 +283,7 @@ fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
     if (check_values(instance, "fmi3GetInt32", vr, nvr, nValues, MODEL_TYPE_INTEGER, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         for (e = 0; e < model_variable_count(vr[i]); e++) {
-            if (model_get_integer(instance->model, vr[i] + (unsigned int)e, &value, message, sizeof(message))) {
+            if (model_get_integer(instance->common.model, vr[i] + (unsigned int)e, &value, message, sizeof(message))) {
                 return error(instance, "fmi3GetInt32", message);
             }
             values[k++] = (fmi3Int32)value;
@@ -336,7 +309,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     if (check_values(instance, "fmi3SetFloat64", vr, nvr, nValues, MODEL_TYPE_REAL, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         for (e = 0; e < model_variable_count(vr[i]); e++) {
-            if (model_set_real(instance->model, vr[i] + (unsigned int)e, values[k++], message, sizeof(message))) {
+            if (model_set_real(instance->common.model, vr[i] + (unsigned int)e, values[k++], message, sizeof(message))) {
                 return error(instance, "fmi3SetFloat64", message);
             }
         }
@@ -354,7 +327,7 @@ fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
     if (check_values(instance, "fmi3SetInt32", vr, nvr, nValues, MODEL_TYPE_INTEGER, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         for (e = 0; e < model_variable_count(vr[i]); e++) {
-            if (model_set_integer(instance->model, vr[i] + (unsigned int)e, (int)values[k++], message,
+            if (model_set_integer(instance->common.model, vr[i] + (unsigned int)e, (int)values[k++], message,
                                   sizeof(message))) {
                 return error(instance, "fmi3SetInt32", message);
             }
@@ -450,40 +423,14 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3ValueReference depend
     return error((Instance *)c, "fmi3GetVariableDependencies", "not provided by this FMU");
 }
 
-/* FMU states: a flat copy of the instance's fields and the model (the model holds no pointers). */
-static size_t saved_size(void) { return sizeof(SavedHeader) + model_size(); }
-
-static void save(const Instance *instance, unsigned char *bytes) {
-    SavedHeader header;
-    memset(&header, 0, sizeof(header));
-    header.magic = STATE_MAGIC;
-    header.state = instance->state;
-    header.start_time = instance->start_time;
-    header.stop_time = instance->stop_time;
-    header.stop_time_defined = instance->stop_time_defined;
-    memcpy(bytes, &header, sizeof(header));
-    memcpy(bytes + sizeof(header), instance->model, model_size());
-}
-
-static int restore(Instance *instance, const unsigned char *bytes) {
-    SavedHeader header;
-    memcpy(&header, bytes, sizeof(header));
-    if (header.magic != STATE_MAGIC) return -1;
-    instance->state = header.state;
-    instance->start_time = header.start_time;
-    instance->stop_time = header.stop_time;
-    instance->stop_time_defined = header.stop_time_defined;
-    memcpy(instance->model, bytes + sizeof(header), model_size());
-    return 0;
-}
-
+/* FMU states: a flat copy of the common fields and the model (the model holds no pointers). */
 fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
     Instance *instance = (Instance *)c;
     unsigned char *bytes;
     if (!allowed(instance, "fmi3GetFMUState", ANY_STATE)) return fmi3Error;
-    bytes = (unsigned char *)(*FMUState ? *FMUState : malloc(saved_size()));
+    bytes = (unsigned char *)(*FMUState ? *FMUState : malloc(instance_saved_size()));
     if (!bytes) return error(instance, "fmi3GetFMUState", "out of memory");
-    save(instance, bytes);
+    instance_save(&instance->common, STATE_MAGIC, bytes);
     *FMUState = bytes;
     return fmi3OK;
 }
@@ -491,7 +438,7 @@ fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
 fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState FMUState) {
     Instance *instance = (Instance *)c;
     if (!allowed(instance, "fmi3SetFMUState", ANY_STATE)) return fmi3Error;
-    if (!FMUState || restore(instance, (const unsigned char *)FMUState)) {
+    if (!FMUState || instance_restore(&instance->common, STATE_MAGIC, (const unsigned char *)FMUState)) {
         return error(instance, "fmi3SetFMUState", "not a state of this FMU");
     }
     return fmi3OK;
@@ -509,29 +456,29 @@ fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
 fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState FMUState, size_t *size) {
     (void)c;
     (void)FMUState;
-    *size = saved_size();
+    *size = instance_saved_size();
     return fmi3OK;
 }
 
 fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState FMUState, fmi3Byte serializedState[], size_t size) {
     Instance *instance = (Instance *)c;
     if (!instance) return fmi3Error;
-    if (size < saved_size()) return error(instance, "fmi3SerializeFMUState", "the buffer is too small");
-    memcpy(serializedState, FMUState, saved_size());
+    if (size < instance_saved_size()) return error(instance, "fmi3SerializeFMUState", "the buffer is too small");
+    memcpy(serializedState, FMUState, instance_saved_size());
     return fmi3OK;
 }
 
 fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serializedState[], size_t size,
                                    fmi3FMUState *FMUState) {
     Instance *instance = (Instance *)c;
-    SavedHeader header;
     void *bytes;
     if (!instance) return fmi3Error;
-    if (size != saved_size()) {
+    if (size != instance_saved_size()) {
         return error(instance, "fmi3DeserializeFMUState", "the serialised state has the wrong size for this FMU");
     }
-    memcpy(&header, serializedState, sizeof(header));
-    if (header.magic != STATE_MAGIC) return error(instance, "fmi3DeserializeFMUState", "not a state of this FMU");
+    if (!instance_is_saved_state(STATE_MAGIC, (const unsigned char *)serializedState, size)) {
+        return error(instance, "fmi3DeserializeFMUState", "not a state of this FMU");
+    }
     bytes = *FMUState ? *FMUState : malloc(size);
     if (!bytes) return error(instance, "fmi3DeserializeFMUState", "out of memory");
     memcpy(bytes, serializedState, size);
@@ -729,7 +676,7 @@ fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *nContinuousSt
 fmi3Status fmi3EnterStepMode(fmi3Instance c) {
     Instance *instance = (Instance *)c;
     /* only reached from event mode, which this FMU does not have; step mode is already on after init */
-    if (!allowed(instance, "fmi3EnterStepMode", IN(STATE_STEP_MODE))) return fmi3Error;
+    if (!allowed(instance, "fmi3EnterStepMode", IN(STATE_STEP))) return fmi3Error;
     return fmi3OK;
 }
 
@@ -748,28 +695,23 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentCommunicationPoint, fmi
                       fmi3Boolean *terminateSimulation, fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    double now;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (eventHandlingNeeded) *eventHandlingNeeded = fmi3False;
     if (terminateSimulation) *terminateSimulation = fmi3False;
     if (earlyReturn) *earlyReturn = fmi3False;
-    if (!allowed(instance, "fmi3DoStep", IN(STATE_STEP_MODE))) return fmi3Error;
-    now = model_time(instance->model);
-    if (lastSuccessfulTime) *lastSuccessfulTime = now;
+    if (!allowed(instance, "fmi3DoStep", IN(STATE_STEP))) return fmi3Error;
+    if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->common.model);
     if (communicationStepSize < 0.0) {
         return error(instance, "fmi3DoStep", "communicationStepSize must be >= 0");
     }
-    if (currentCommunicationPoint - now > TIME_MISMATCH_TOLERANCE * (1.0 + now) ||
-        now - currentCommunicationPoint > TIME_MISMATCH_TOLERANCE * (1.0 + now)) {
-        snprintf(message, sizeof(message), "currentCommunicationPoint %.17g does not match the FMU's time %.17g",
-                 currentCommunicationPoint, now);
+    if (instance_check_time(&instance->common, currentCommunicationPoint, message, sizeof(message))) {
         return error(instance, "fmi3DoStep", message);
     }
-    if (model_advance(instance->model, currentCommunicationPoint + communicationStepSize, message, sizeof(message))) {
-        instance->state = STATE_ERROR;
+    if (model_advance(instance->common.model, currentCommunicationPoint + communicationStepSize, message, sizeof(message))) {
+        instance->common.state = STATE_ERROR;
         return error(instance, "fmi3DoStep", message);
     }
-    if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->model);
+    if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->common.model);
     return fmi3OK;
 }
 
