@@ -88,6 +88,9 @@ def test_cli_end_to_end_writes_the_report(fmu_path, tmp_path):
         rows = list(csv.DictReader(handle))
     assert len(rows) == sum(r["evaluations"] for r in results["runs"])
     assert all(row["status"] == "ok" and math.isfinite(float(row["peak"])) for row in rows)
+    by_horizon = results["accuracy"]["peak_by_horizon"]
+    assert set(by_horizon) == {"0.5", "0.75", "1.0", "2.0"}
+    assert by_horizon["1.0"] == pytest.approx(best["peak_sampled"], rel=1e-9)  # contact ends before 1 s
     sweep = results["accuracy"]["work_precision"]
     default = next(p for p in sweep if p["setting"] == "rtol 1e-07")
     assert default["status"] == "ok" and default["rel_error"] < 1e-6
