@@ -11,7 +11,6 @@ solve_ivp's default (1e-6), as the issue names the route.
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
 import time
 from pathlib import Path
