@@ -466,9 +466,6 @@ static int handle_wall_events(Model *m) {
         solver_truncate(s, m->work, model_rhs, m, earliest);
         cut = 1;
     }
-    for (i = 0; i < LATTICE_ROWS; i++) {
-        if (m->wall_mode[i] != WALL_FREE) m->last_contact_time = s->t; /* in contact up to here at least */
-    }
     wall_modes_of_state(m, m->wall_mode);
     return cut;
 }
@@ -584,18 +581,10 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         }
         m->step_peak_known = 0;
         m->step_peak_committed = 0;
-        m->step_contact_free = free_before;
-        cut_by_event = 0;
-        if (m->params.has_backplate) {
-            int row;
-            cut_by_event = handle_wall_events(m);
-            for (row = 0; row < LATTICE_ROWS; row++) {
-                if (m->wall_mode[row] != WALL_FREE) {
-                    m->last_contact_time = s->t;
-                    m->step_contact_free = 0;
-                }
-            }
-        }
+        cut_by_event = m->params.has_backplate ? handle_wall_events(m) : 0;
+        /* in contact during the step (its frozen modes) or from its end on (the modes after its events) */
+        m->step_contact_free = free_before && wall_free(m);
+        if (!m->step_contact_free) m->last_contact_time = s->t;
         if (!cut_by_event || s->t - s->t_old > 1e-12 * (1.0 + fabs(s->t))) {
             m->stalled_steps = 0;
         } else if (++m->stalled_steps > MAX_STALLED_STEPS) {
