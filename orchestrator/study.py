@@ -15,6 +15,7 @@ from .evaluate import FMUObjective, objective_output
 from .executors import make_executor
 from .loop import SearchRun, run_search
 from .search import SEARCHES, make_search
+from .search import local as search_local
 from .simulation import LatticeFMU
 from .types import Evaluation, Order
 
@@ -146,22 +147,10 @@ def finalist_orders(run: SearchRun, count: int) -> list[Order]:
 
 
 def neighbours(order: Order) -> dict[str, list[Order]]:
-    """Every order one swap or one insertion (take a column out, put it elsewhere) away."""
-    order = tuple(order)
-    n = len(order)
-    swaps = []
-    for i, j in itertools.combinations(range(n), 2):
-        swapped = list(order)
-        swapped[i], swapped[j] = swapped[j], swapped[i]
-        swaps.append(tuple(swapped))
-    insertions = set()
-    for i in range(n):
-        rest = order[:i] + order[i + 1:]
-        for j in range(n):
-            moved = rest[:j] + (order[i],) + rest[j:]
-            if moved != order and moved not in swaps:
-                insertions.add(moved)
-    return {"swap": swaps, "insertion": sorted(insertions)}
+    """Every order one swap or one insertion (take a column out, put it elsewhere) away, by kind."""
+    moves = search_local.neighbours(order)  # swaps first, then the insertions that are not swaps
+    swaps = len(order) * (len(order) - 1) // 2
+    return {"swap": moves[:swaps], "insertion": moves[swaps:]}
 
 
 def _evaluate_many(executor, objective, orders: list[Order]) -> list[Evaluation]:
