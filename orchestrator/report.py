@@ -107,7 +107,7 @@ def results_dict(study: Study, accuracy: dict) -> dict:
         "scene": config.scene,
         "fmu": str(study.fmu_path),
         "horizon": study.horizon,
-        "search_horizon": min(config.search_horizon or study.horizon, study.horizon),
+        "search_horizon": study.search_horizon,
         "search_rtol": config.search_rtol,
         "parameters": _parameters(study),
         "diagonal_rule": _parameters(study).get("diagonal_rule", "receiver"),
@@ -160,6 +160,15 @@ def write_evaluations_csv(study: Study, path: Path) -> None:
                 })
 
 
+def _save(figure, path: Path, tight: bool = True) -> str:
+    """Writes a chart and frees it; the report links it by file name."""
+    if tight:
+        figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return path.name
+
+
 def best_so_far_matrix(runs) -> np.ndarray:
     """Rows: seeds; columns: evaluations; NaN before the first good value and after a run ended."""
     length = max(run.n_evaluations for run in runs)
@@ -197,14 +206,11 @@ def plot_convergence(study: Study, path: Path) -> str:
     axis.set_xlabel("evaluations (distinct orders)")
     axis.set_ylabel(f"best peak backplate force so far (N), {study.config.objective} objective")
     axis.set_title("Convergence: median and quartiles over seeds; search objective "
-                   f"({min(study.config.search_horizon or study.horizon, study.horizon):g} s horizon)", fontsize=9)
+                   f"({study.search_horizon:g} s horizon)", fontsize=9)
     axis.set_xscale("log")
     axis.grid(alpha=0.3)
     axis.legend(fontsize=7)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path.name
+    return _save(figure, path)
 
 
 def _trajectory(fmu: LatticeFMU, order, horizon, step, parameters):
@@ -246,10 +252,7 @@ def plot_force_and_energy(study: Study, path: Path) -> str:
     if energy_axis.get_legend_handles_labels()[0]:
         energy_axis.legend(fontsize=7)
     energy_axis.grid(alpha=0.3)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path.name
+    return _save(figure, path)
 
 
 def plot_lattice(study: Study, path: Path) -> str:
@@ -275,9 +278,7 @@ def plot_lattice(study: Study, path: Path) -> str:
         axis.set_yticks([])
         axis.set_xlim(-1.5, columns + 0.2)
     figure.colorbar(points, ax=axes[0].tolist(), label="material (1 = stiffest, k = 100 (2/3)^(m-1))")
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path.name
+    return _save(figure, path, tight=False)
 
 
 # The solver settings the report's speed/accuracy chart sweeps, for the best order over the full scene.
@@ -337,10 +338,7 @@ def plot_work_precision(points: list[dict], path: Path) -> str:
     axis.set_title("Speed against accuracy: each solver setting of the FMU against rtol 1e-12", fontsize=9)
     axis.grid(alpha=0.3, which="both")
     axis.legend(fontsize=7)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path.name
+    return _save(figure, path)
 
 
 def _fmt(value, digits=2):

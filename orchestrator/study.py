@@ -102,6 +102,7 @@ class Study:
     local_check: dict | None
     wall_seconds: float
     rows: int
+    search_horizon: float  # the searches' cheaper objective's horizon (at most the full one)
 
     def best_verified(self) -> Verified | None:
         """The best order over every run's finalists, on the full scene, for the optimised objective."""
@@ -227,7 +228,7 @@ def run_study(config: StudyConfig) -> Study:
         if config.local_check and best is not None:
             local = polish(executor, cheap, full, best, config.objective, verified)
     return Study(config, fmu_path, horizon, runs, verified, disagreements, local, time.perf_counter() - start,
-                 scene.rows)
+                 scene.rows, search_horizon)
 
 
 def finalist_disagreements(runs: list[SearchRun], verified: dict[Order, Verified], config: StudyConfig) -> list[dict]:
