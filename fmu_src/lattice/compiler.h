@@ -19,4 +19,17 @@
 #define NOINLINE
 #endif
 
+/* The hot loops compiled three times, for AVX-512 (x86-64-v4), AVX2 (v3) and the baseline; the loader picks
+ * the one the CPU runs (an ifunc: GCC 11+ on x86-64 Linux). The clones compute the same bits as each other
+ * and as any other build of the sources: they never contract a multiply and an add into an FMA (GCC's GNU
+ * modes would, fmpy compile builds in one) and never reassociate. Elsewhere, or with -DLATTICE_NO_CLONES,
+ * one build. */
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 11 && defined(__x86_64__) && defined(__linux__) && \
+    !defined(LATTICE_NO_CLONES)
+#define VECTOR_CLONES \
+    __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), optimize("fp-contract=off")))
+#else
+#define VECTOR_CLONES
+#endif
+
 #endif

@@ -2,6 +2,7 @@
 #include "lattice.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "compiler.h"
@@ -13,11 +14,40 @@
 /* Below this separation a spring exerts no force (SPEC section 2: the direction is undefined). */
 #define SPRING_MIN_DISTANCE 1e-12
 
+/* exp(x) to about 2 ulp, written out so that a loop of them vectorises: libm's exp is a call per spring, and
+ * it was 40% of a simulation. x = k ln2 + r with |r| <= ln2/2, exp(r) by its Taylor polynomial of degree 13
+ * (truncation below 1e-17) in Estrin's scheme (short dependency chains), times 2^k built in the exponent
+ * bits. Nothing but IEEE adds, multiplies and selects: the same bits scalar or vectorised, whatever the
+ * instruction set (C99 forbids contracting them into FMAs unless asked). Overflows to inf above 709 (exp(709)
+ * is 8e307: any spring stretched that far has diverged long before), 0 below -708 (subnormal), NaN stays NaN. */
+static inline double lattice_exp(double x) {
+    const double shift = 0x1.8p52; /* t = x/ln2 + shift rounds x/ln2 to the integer k in t's low bits */
+    const double clamped = x < -708.0 ? -708.0 : (x > 709.0 ? 709.0 : x);
+    const double t = clamped * 1.4426950408889634 + shift, k = t - shift;
+    const double r = (clamped - k * 0x1.62e42fefa3800p-1) - k * 0x1.ef35793c76730p-45; /* ln2 in two parts */
+    const double r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+    const double p01 = 1.0 + r, p23 = 1.0 / 2.0 + r * (1.0 / 6.0), p45 = 1.0 / 24.0 + r * (1.0 / 120.0),
+                 p67 = 1.0 / 720.0 + r * (1.0 / 5040.0), p89 = 1.0 / 40320.0 + r * (1.0 / 362880.0),
+                 p1011 = 1.0 / 3628800.0 + r * (1.0 / 39916800.0),
+                 p1213 = 1.0 / 479001600.0 + r * (1.0 / 6227020800.0);
+    const double polynomial = (p01 + r2 * p23 + r4 * (p45 + r2 * p67)) + r8 * (p89 + r2 * p1011 + r4 * p1213);
+    uint64_t bits, shift_bits;
+    double scale, result;
+    memcpy(&bits, &t, sizeof bits);
+    memcpy(&shift_bits, &shift, sizeof shift_bits);
+    bits = (bits - shift_bits + 1023u) << 52; /* 2^k: k + 1023 in the exponent field */
+    memcpy(&scale, &bits, sizeof scale);
+    result = polynomial * scale;
+    result = x > 709.0 ? HUGE_VAL : result;
+    return x < -708.0 ? 0.0 : result;
+}
+
 /* The force law, f(r; k, alpha) = k * stretch * r/|r| (SPEC section 2): exponential k (exp(alpha |r|) - 1)
- * as SPEC writes it (exp rather than expm1: the cheaper call, and the one the study's numbers came from),
- * or linear k |r| for the two-mass scene. */
+ * as SPEC writes it (exp rather than expm1: the one the study's numbers came from), or linear k |r| for the
+ * two-mass scene. Branch-free, so that the loop over a row's springs vectorises. */
 static inline double spring_stretch(int linear, double alpha, double distance) {
-    return linear ? distance : exp(alpha * distance) - 1.0;
+    const double exponential = lattice_exp(alpha * distance) - 1.0;
+    return linear ? distance : exponential;
 }
 
 double lattice_spring_force_magnitude(int spring_law, double k, double alpha, double distance) {
@@ -73,7 +103,8 @@ static SpringEnds reversed(SpringEnds ends) {
  * (i, j+1) -> (i+1, j) and vertical (i, j) -> (i+1, j). Each family's springs sit in local arrays indexed
  * by j (RowBuffers), and every stage is a plain loop over them:
  *   1. geometry: r = u_b - u_a and |r|^2;
- *   2. |r|, 1/|r| and the exponent, then the exponentials in a loop of their own (row_stretches);
+ *   2. |r|, 1/|r| and the stretch (the exponential) of all the row's springs in one loop (row_stretches):
+ *      their |r|^2 are packed one family after another (SLOT), so the loop is long enough to vectorise;
  *   3. the forces of the springs;
  *   4. each mass of the row gathers the forces of the springs at it (no scatter, so no conflicts); what
  *      the springs down to the next row do to it is carried over to that row.
@@ -100,6 +131,15 @@ static SpringEnds reversed(SpringEnds ends) {
 
 enum { HORIZONTAL = 0, RISING = 1, FALLING = 2, VERTICAL = 3, FAMILIES = 4 };
 
+/* Where spring j of a family sits in the packed arrays of a row: horizontal, rising, falling (links each),
+ * vertical (cols), then the right ends of the rising and falling diagonals (links each; used only when their
+ * alphas differ from the left ends'). Needs links and cols in scope; family is a constant, so this folds. */
+#define SLOT(family, j)                                                                                        \
+    (((family) == HORIZONTAL ? 0 : (family) == RISING ? links : (family) == FALLING ? 2 * links : 3 * links) + \
+     (j))
+#define RIGHT_END_SLOT(diagonal, j) (3 * links + cols + (diagonal) * links + (j)) /* diagonal 0 rising, 1 falling */
+#define PACKED_SPRINGS (6 * LATTICE_MAX_COLS)
+
 /* A row's springs by family and column, the constants by column, and the forces by the springs of a row
  * (x, y): one object, so the compiler addresses them all from one register. The forces are all stored at
  * [j] (stores at [j + 1] would keep GCC from vectorising); the gather reads some at [j - 1], where a zero
@@ -107,11 +147,9 @@ enum { HORIZONTAL = 0, RISING = 1, FALLING = 2, VERTICAL = 3, FAMILIES = 4 };
  * their storage, keeping the alignment), and others at [cols - 1], where a zero guard stands for the one
  * right of the last column. */
 typedef struct {
-    double rx[FAMILIES][LATTICE_MAX_COLS], ry[FAMILIES][LATTICE_MAX_COLS], squared[FAMILIES][LATTICE_MAX_COLS],
-        stretch[FAMILIES][LATTICE_MAX_COLS], inverse[FAMILIES][LATTICE_MAX_COLS];
-    double stretch_right[2][LATTICE_MAX_COLS], unused[LATTICE_MAX_COLS]; /* right ends of the diagonals */
-    /* a diagonal's left end is the one in column j, its right end the one in j+1 */
-    double alpha[FAMILIES][LATTICE_MAX_COLS], alpha_right[LATTICE_MAX_COLS];
+    double rx[FAMILIES][LATTICE_MAX_COLS], ry[FAMILIES][LATTICE_MAX_COLS];
+    /* packed by SLOT; a diagonal's left end is the one in column j, its right end the one in j+1 */
+    double squared[PACKED_SPRINGS], alpha[PACKED_SPRINGS], stretch[PACKED_SPRINGS], inverse[PACKED_SPRINGS];
     double k_vertical[LATTICE_MAX_COLS], c_vertical[LATTICE_MAX_COLS], k_left[LATTICE_MAX_COLS],
         k_right[LATTICE_MAX_COLS];
     double dissipated[LATTICE_MAX_COLS], nonreciprocal[LATTICE_MAX_COLS]; /* powers, summed by column */
@@ -127,36 +165,39 @@ typedef struct {
 #define RISING_BOTTOM_FORCE(c, j) w.rising_bottom[c][(j) + 2]
 #define FALLING_TOP_FORCE(c, j) w.falling_top[c][(j) + 2]
 
-/* Stage 2 for one family: the stretch (spring_stretch: the force law) and 1/|r|, which is 0 below
- * SPRING_MIN_DISTANCE: there a spring exerts no force (SPEC section 2). A scalar loop: sqrt and exp are
- * libm calls (a hand-written vectorised exp saved only 3-5% of a simulation: not worth owning one). */
-static void family_stretches(int linear, const double *RESTRICT squared, const double *RESTRICT alpha, int count,
-                             double *RESTRICT stretch, double *RESTRICT inverse) {
+/* Stage 2 over count packed springs: the stretch (spring_stretch: the force law) and 1/|r|, which is 0 below
+ * SPRING_MIN_DISTANCE: there a spring exerts no force (SPEC section 2). No branches (selects only), so GCC
+ * vectorises it; it is most of the cost of the right-hand side. */
+static NOINLINE VECTOR_CLONES void packed_stretches(int linear, const double *RESTRICT squared,
+                                                   const double *RESTRICT alpha, int count,
+                                                   double *RESTRICT stretch, double *RESTRICT inverse) {
     int k;
     for (k = 0; k < count; k++) {
         const double d = sqrt(squared[k]);
+        const int too_close = squared[k] < SPRING_MIN_DISTANCE * SPRING_MIN_DISTANCE;
+        const double inverse_distance = 1.0 / (too_close ? 1.0 : d);
         stretch[k] = spring_stretch(linear, alpha[k], d);
-        inverse[k] = squared[k] < SPRING_MIN_DISTANCE * SPRING_MIN_DISTANCE ? 0.0 : 1.0 / d;
+        inverse[k] = too_close ? 0.0 : inverse_distance;
     }
 }
 
 /* Stage 2 for the springs of a row: the horizontal ones, and with below the ones down to the next row (and
  * the diagonals' right ends when their alphas differ from the left ends': SPEC section 2, each end of a
  * diagonal uses its own alpha). */
-static NOINLINE void row_stretches(int linear, int below, int alphas_differ, int links, int cols,
-                                   RowBuffers *w) {
-    int family;
-    family_stretches(linear, w->squared[HORIZONTAL], w->alpha[HORIZONTAL], links, w->stretch[HORIZONTAL],
-                     w->inverse[HORIZONTAL]);
-    if (!below) return;
-    for (family = RISING; family <= VERTICAL; family++) {
-        family_stretches(linear, w->squared[family], w->alpha[family], family == VERTICAL ? cols : links,
-                         w->stretch[family], w->inverse[family]);
+static NOINLINE VECTOR_CLONES void row_stretches(int linear, int below, int alphas_differ, int links, int cols,
+                                                 RowBuffers *w) {
+    int count = links, j;
+    if (below) {
+        count = 3 * links + cols;
+        if (alphas_differ) {
+            for (j = 0; j < links; j++) {
+                w->squared[RIGHT_END_SLOT(0, j)] = w->squared[SLOT(RISING, j)];
+                w->squared[RIGHT_END_SLOT(1, j)] = w->squared[SLOT(FALLING, j)];
+            }
+            count += 2 * links;
+        }
     }
-    if (alphas_differ) {
-        family_stretches(linear, w->squared[RISING], w->alpha_right, links, w->stretch_right[0], w->unused);
-        family_stretches(linear, w->squared[FALLING], w->alpha_right, links, w->stretch_right[1], w->unused);
-    }
+    packed_stretches(linear, w->squared, w->alpha, count, w->stretch, w->inverse);
 }
 
 int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
@@ -164,7 +205,7 @@ int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
     return vx > 0.0 ? WALL_APPROACHING : WALL_RECEDING;
 }
 
-void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
+VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
                  double *dydt) {
     const int rows = p->rows, cols = p->cols, n = rows * cols, linear = p->spring_law == SPRING_LINEAR;
     const int links = cols - 1; /* horizontal springs in a row, and rising (falling) diagonals below it */
@@ -181,15 +222,15 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
         const ColumnConstants *column = &p->column[j];
         w.k_vertical[j] = column->k_vertical;
         w.c_vertical[j] = column->c_vertical;
-        w.alpha[VERTICAL][j] = column->alpha_vertical;
+        w.alpha[SLOT(VERTICAL, j)] = column->alpha_vertical;
         w.carried[0][j] = w.carried[1][j] = 0.0;
         w.dissipated[j] = w.nonreciprocal[j] = 0.0;
     }
     for (j = 0; j < links; j++) {
         const SpringEnds ends = diagonal_ends(p, j);
-        w.alpha[HORIZONTAL][j] = p->alpha_horizontal;
-        w.alpha[RISING][j] = w.alpha[FALLING][j] = ends.alpha_a;
-        w.alpha_right[j] = ends.alpha_b;
+        w.alpha[SLOT(HORIZONTAL, j)] = p->alpha_horizontal;
+        w.alpha[SLOT(RISING, j)] = w.alpha[SLOT(FALLING, j)] = ends.alpha_a;
+        w.alpha[RIGHT_END_SLOT(0, j)] = w.alpha[RIGHT_END_SLOT(1, j)] = ends.alpha_b;
         w.k_left[j] = ends.k_a;
         w.k_right[j] = ends.k_b;
         alphas_differ = alphas_differ || ends.alpha_a != ends.alpha_b;
@@ -215,7 +256,7 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
         const double dx = (bx) - (ax), dy = (by) - (ay); \
         w.rx[family][j] = dx;                            \
         w.ry[family][j] = dy;                            \
-        w.squared[family][j] = dx * dx + dy * dy;        \
+        w.squared[SLOT(family, j)] = dx * dx + dy * dy;  \
     }
 #define GEOMETRY_H(j) GEOMETRY(HORIZONTAL, j, ux0[j], uy0[j], ux0[j + 1], uy0[j + 1])
 #define GEOMETRY_HRF(j)                                             \
@@ -238,7 +279,7 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
          * the b end by -per_length_b r, and the non-reciprocal power is g.(v_a + v_b), g = (f_a - f_b)/2. */
 #define DAMPED(family, j, k, c, avx, avy, bvx, bvy, out_x, out_y)                    \
     {                                                                                \
-        const double per_length = (k) * w.stretch[family][j] * w.inverse[family][j]; \
+        const double per_length = (k) * w.stretch[SLOT(family, j)] * w.inverse[SLOT(family, j)]; \
         const double dvx = (bvx) - (avx), dvy = (bvy) - (avy);                       \
         out_x = per_length * w.rx[family][j] + (c) * dvx;                            \
         out_y = per_length * w.ry[family][j] + (c) * dvy;                            \
@@ -246,8 +287,8 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
     }
 #define DIAGONAL(family, j, k_a, stretch_a, k_b, stretch_b, avx, avy, bvx, bvy, a_x, a_y, b_x, b_y)  \
     {                                                                                                \
-        const double per_length_a = (k_a) * (stretch_a) * w.inverse[family][j];                      \
-        const double per_length_b = (k_b) * (stretch_b) * w.inverse[family][j];                      \
+        const double per_length_a = (k_a) * (stretch_a) * w.inverse[SLOT(family, j)];               \
+        const double per_length_b = (k_b) * (stretch_b) * w.inverse[SLOT(family, j)];               \
         a_x = per_length_a * w.rx[family][j];                                                        \
         a_y = per_length_a * w.ry[family][j];                                                        \
         b_x = per_length_b * w.rx[family][j];                                                        \
@@ -263,14 +304,14 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
          * differ) */
 #define FORCES_HRF(j, rising_right, falling_right)                                                      \
     FORCES_H(j)                                                                                         \
-    DIAGONAL(RISING, j, w.k_left[j], w.stretch[RISING][j], w.k_right[j], rising_right, vx0[j], vy0[j],  \
+    DIAGONAL(RISING, j, w.k_left[j], w.stretch[SLOT(RISING, j)], w.k_right[j], rising_right, vx0[j], vy0[j],  \
              vx1[j + 1], vy1[j + 1], w.rising_top[0][j], w.rising_top[1][j], RISING_BOTTOM_FORCE(0, j), \
              RISING_BOTTOM_FORCE(1, j))                                                                 \
-    DIAGONAL(FALLING, j, w.k_right[j], falling_right, w.k_left[j], w.stretch[FALLING][j], vx0[j + 1],   \
+    DIAGONAL(FALLING, j, w.k_right[j], falling_right, w.k_left[j], w.stretch[SLOT(FALLING, j)], vx0[j + 1],   \
              vy0[j + 1], vx1[j], vy1[j], FALLING_TOP_FORCE(0, j), FALLING_TOP_FORCE(1, j),              \
              w.falling_bottom[0][j], w.falling_bottom[1][j])
-#define FORCES_HRF_SAME(j) FORCES_HRF(j, w.stretch[RISING][j], w.stretch[FALLING][j])
-#define FORCES_HRF_DIFFERENT(j) FORCES_HRF(j, w.stretch_right[0][j], w.stretch_right[1][j])
+#define FORCES_HRF_SAME(j) FORCES_HRF(j, w.stretch[SLOT(RISING, j)], w.stretch[SLOT(FALLING, j)])
+#define FORCES_HRF_DIFFERENT(j) FORCES_HRF(j, w.stretch[RIGHT_END_SLOT(0, j)], w.stretch[RIGHT_END_SLOT(1, j)])
 #define FORCES_V(j)                                                                                         \
     DAMPED(VERTICAL, j, w.k_vertical[j], w.c_vertical[j], vx0[j], vy0[j], vx1[j], vy1[j], w.vertical[0][j], \
            w.vertical[1][j])
