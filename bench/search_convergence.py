@@ -5,8 +5,8 @@
     python bench/search_convergence.py --out DIR --budget 300 --seeds 20 --workers 2
 
 The orchestrator's searches (cmaes, pso, sa, random) run through orchestrator.loop.run_search on
-orchestrator.evaluate.FMUObjective with the study pipeline's search settings (orchestrator/study.py): 1 s
-horizon (8 s fallback while the lattice still touches the plate), rtol 1e-6, atol 1e-8, the sampled peak.
+the study pipeline's search objective (orchestrator.study.search_objective): 1 s horizon (8 s fallback while
+the lattice still touches the plate), rtol 1e-5, atol 1e-7, the sampled peak.
 Each run's best order is then re-evaluated over the full 8 s scene at the FMU's default accuracy.
 
 Writes DIR/search_convergence.csv (every evaluation of every run: peak, status, best so far, wall time),
@@ -30,6 +30,8 @@ from orchestrator.evaluate import FMUObjective  # noqa: E402
 from orchestrator.executors import make_executor  # noqa: E402
 from orchestrator.loop import run_search  # noqa: E402
 from orchestrator.search import make_search  # noqa: E402
+from orchestrator.study import SEARCH_HORIZON, SEARCH_RTOL  # noqa: E402
+from orchestrator.study import search_objective as study_search_objective  # noqa: E402
 
 METHODS = ("cmaes", "pso", "sa", "random")
 # what the study published (issue 3): reference points, never results
@@ -62,11 +64,11 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     fmu = Path(args.fmu) if args.fmu else build_fmus(out)["c"]
-    search_objective = FMUObjective(str(fmu), 1.0, "sampled", (("atol", 1e-8), ("rtol", 1e-6)),
-                                    fallback_horizon=8.0)
+    search_objective = study_search_objective(fmu, 8.0)
     full = FMUObjective(str(fmu), 8.0, "sampled")
     print(f"search convergence: {', '.join(args.methods)} x {args.seeds} seeds x {args.budget} evaluations "
-          f"(1 s horizon, rtol 1e-6, sampled peak; {args.workers} worker(s))", flush=True)
+          f"({search_objective.horizon:g} s horizon, rtol {SEARCH_RTOL:g}, sampled peak; {args.workers} worker(s))",
+          flush=True)
 
     started = time.perf_counter()
     evaluations, runs = [], []
@@ -186,7 +188,7 @@ def plot(evaluations, summary, args, path: Path) -> None:
                   xytext=(STUDY_BUDGET - 3, y_high - 45), ha="right", va="center", fontsize=8, color="darkgreen",
                   arrowprops={"arrowstyle": "->", "color": "darkgreen"})
     ax_n.set_xlabel("evaluations (distinct orders)")
-    ax_n.set_ylabel("best peak so far (N; 1 s horizon, rtol 1e-6, sampled)")
+    ax_n.set_ylabel(f"best peak so far (N; {SEARCH_HORIZON:g} s horizon, rtol {SEARCH_RTOL:g}, sampled)")
     ax_n.set_title(f"Best so far against evaluations ({args.seeds} seeds: median, quartiles)")
     ax_n.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=3)
     ax_t.set_xscale("log")

@@ -111,16 +111,16 @@ static double initial_step(Solver *s, double *work, OdeFunction f, void *context
 #define ROWS2 ROWS1, const double *RESTRICT k1, double w1
 #define ROWS3 ROWS2, const double *RESTRICT k2, double w2
 #define ROWS4 ROWS3, const double *RESTRICT k3, double w3
-#define DEFINE_KERNELS(terms)                                                                             \
-    static NOINLINE void from_base##terms(double *RESTRICT out, const double *RESTRICT base, ROWS##terms, \
-                                          int n) {                                                        \
-        OVER_COMPONENTS(out[i] = base[i] + TERMS##terms)                                                  \
-    }                                                                                                     \
-    static NOINLINE void from_zero##terms(double *RESTRICT out, ROWS##terms, int n) {                     \
-        OVER_COMPONENTS(out[i] = TERMS##terms)                                                            \
-    }                                                                                                     \
-    static NOINLINE void accumulate##terms(double *RESTRICT out, ROWS##terms, int n) {                    \
-        OVER_COMPONENTS(out[i] = out[i] + TERMS##terms)                                                   \
+#define DEFINE_KERNELS(terms)                                                                              \
+    static NOINLINE VECTOR_CLONES void from_base##terms(double *RESTRICT out, const double *RESTRICT base, \
+                                                        ROWS##terms, int n) {                              \
+        OVER_COMPONENTS(out[i] = base[i] + TERMS##terms)                                                   \
+    }                                                                                                      \
+    static NOINLINE VECTOR_CLONES void from_zero##terms(double *RESTRICT out, ROWS##terms, int n) {        \
+        OVER_COMPONENTS(out[i] = TERMS##terms)                                                             \
+    }                                                                                                      \
+    static NOINLINE VECTOR_CLONES void accumulate##terms(double *RESTRICT out, ROWS##terms, int n) {       \
+        OVER_COMPONENTS(out[i] = out[i] + TERMS##terms)                                                    \
     }
 DEFINE_KERNELS(1)
 DEFINE_KERNELS(2)
@@ -130,17 +130,17 @@ DEFINE_KERNELS(4)
 /* Two combinations of the same four stage rows at once (the embedded error estimates), each row read once:
  * out_a[i] = start_a + a0 k0[i] + ... + a3 k3[i], out_b likewise, start being nothing (first) or out[i]. */
 #define PAIR_TERMS(w) w[0] * k0[i] + w[1] * k1[i] + w[2] * k2[i] + w[3] * k3[i]
-static NOINLINE void pair_from_zero4(double *RESTRICT out_a, double *RESTRICT out_b, const double *RESTRICT k0,
-                                     const double *RESTRICT k1, const double *RESTRICT k2,
-                                     const double *RESTRICT k3, const double *RESTRICT a, const double *RESTRICT b,
-                                     int n) {
+static NOINLINE VECTOR_CLONES void pair_from_zero4(double *RESTRICT out_a, double *RESTRICT out_b,
+                                                   const double *RESTRICT k0, const double *RESTRICT k1,
+                                                   const double *RESTRICT k2, const double *RESTRICT k3,
+                                                   const double *RESTRICT a, const double *RESTRICT b, int n) {
     const double a_[4] = {a[0], a[1], a[2], a[3]}, b_[4] = {b[0], b[1], b[2], b[3]};
     OVER_COMPONENTS((out_a[i] = PAIR_TERMS(a_), out_b[i] = PAIR_TERMS(b_)))
 }
-static NOINLINE void pair_accumulate4(double *RESTRICT out_a, double *RESTRICT out_b, const double *RESTRICT k0,
-                                      const double *RESTRICT k1, const double *RESTRICT k2,
-                                      const double *RESTRICT k3, const double *RESTRICT a,
-                                      const double *RESTRICT b, int n) {
+static NOINLINE VECTOR_CLONES void pair_accumulate4(double *RESTRICT out_a, double *RESTRICT out_b,
+                                                    const double *RESTRICT k0, const double *RESTRICT k1,
+                                                    const double *RESTRICT k2, const double *RESTRICT k3,
+                                                    const double *RESTRICT a, const double *RESTRICT b, int n) {
     const double a_[4] = {a[0], a[1], a[2], a[3]}, b_[4] = {b[0], b[1], b[2], b[3]};
     OVER_COMPONENTS((out_a[i] = out_a[i] + PAIR_TERMS(a_), out_b[i] = out_b[i] + PAIR_TERMS(b_)))
 }
