@@ -18,6 +18,7 @@ time, with the study's published results as reference points).
 from __future__ import annotations
 
 import argparse
+import ast
 import statistics
 import sys
 import time
@@ -56,19 +57,30 @@ def main(argv=None) -> int:
     parser.add_argument("--budget", type=int, default=100, help="evaluations of distinct orders per run")
     parser.add_argument("--workers", type=int, default=1,
                         help="1: serial in this process (default); more: a process pool of that size")
+    parser.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
+                        help="a search option for every method run (repeatable), e.g. --option polish=0.5")
     parser.add_argument("--fmu", help="use this FMU instead of building models from fmu_src/ into DIR/fmus")
     parser.add_argument("--quick", action="store_true", help="3 seeds, 40 evaluations")
     args = parser.parse_args(argv)
     if args.quick:
         args.seeds, args.budget = min(args.seeds, 3), min(args.budget, 40)
+    options = {}
+    for item in args.option:
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            parser.error(f"--option: expected NAME=VALUE, got {item!r}")
+        try:
+            options[name] = ast.literal_eval(value)
+        except (ValueError, SyntaxError):
+            options[name] = value  # a string option, e.g. x0=random
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     fmu = Path(args.fmu) if args.fmu else build_fmus(out)["c"]
     search_objective = study_search_objective(fmu, 8.0)
     full = FMUObjective(str(fmu), 8.0, "sampled")
     print(f"search convergence: {', '.join(args.methods)} x {args.seeds} seeds x {args.budget} evaluations "
-          f"({search_objective.horizon:g} s horizon, rtol {SEARCH_RTOL:g}, sampled peak; {args.workers} worker(s))",
-          flush=True)
+          f"({search_objective.horizon:g} s horizon, rtol {SEARCH_RTOL:g}, sampled peak; {args.workers} worker(s))"
+          + (f"; options {options}" if options else ""), flush=True)
 
     started = time.perf_counter()
     evaluations, runs = [], []
@@ -82,7 +94,7 @@ def main(argv=None) -> int:
                 def progress(done, stamps=stamps, start=start):
                     stamps.setdefault(done, time.perf_counter() - start)
 
-                run = run_search(make_search(method, 11, seed, budget=args.budget), search_objective, args.budget,
+                run = run_search(make_search(method, 11, seed, budget=args.budget, **options), search_objective, args.budget,
                                  executor, method_name=method, seed=seed, progress=progress)
                 # wall time at which evaluation k's result was in: when the loop had k results
                 known, wall = 0.0, []

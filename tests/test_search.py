@@ -208,7 +208,7 @@ def test_cmaes_first_mean_is_the_sequential_order():
     assert keys_to_order(make_search("cmaes", 7, 3, budget=100).es.mean, 7) == tuple(range(1, 8))
 
 
-@pytest.mark.parametrize("method,polish", [("cmaes", 0.5), ("pso", 0.7), ("sa", 0.3)])
+@pytest.mark.parametrize("method,polish", [("cmaes", 0.7), ("pso", 0.7), ("sa", 0.3)])
 def test_polishing_phase_takes_the_end_of_the_budget(method, polish):
     budget = 300
     run = solve(method, QAP8, 8, budget, seed=0)
