@@ -27,6 +27,7 @@ from orchestrator.executors import make_executor
 from orchestrator.loop import run_search
 from orchestrator.search import make_search
 from orchestrator.simulation import LatticeFMU, SimulationError
+from orchestrator.study import search_objective
 from orchestrator.types import Order
 from reference import Scene
 
@@ -224,7 +225,7 @@ def test_each_instance_gets_its_own_error_message(fmu_path):
                                         "calibration deltas) accepts none of the first 30 worsening moves")
 def test_annealing_automatic_temperature_is_not_poor_on_the_fmu(fmu_path):
     """The study pipeline's search objective and budget 100: the automatic temperature must not be flagged."""
-    objective = FMUObjective(str(fmu_path), 1.0, "sampled", (("atol", 1e-8), ("rtol", 1e-6)), fallback_horizon=8.0)
+    objective = search_objective(str(fmu_path), 8.0)
     with make_executor("serial") as executor:
         run = run_search(make_search("sa", 11, 9, budget=100), objective, 100, executor, method_name="sa", seed=9)
     assert run.diagnostics["t0_source"] == "automatic"
