@@ -17,9 +17,10 @@
 /* exp(x) to about 2 ulp, written out so that a loop of them vectorises: libm's exp is a call per spring, and
  * it was 40% of a simulation. x = k ln2 + r with |r| <= ln2/2, exp(r) by its Taylor polynomial of degree 13
  * (truncation below 1e-17) in Estrin's scheme (short dependency chains), times 2^k built in the exponent
- * bits. Nothing but IEEE adds, multiplies and selects: the same bits scalar or vectorised, whatever the
- * instruction set (C99 forbids contracting them into FMAs unless asked). Overflows to inf above 709 (exp(709)
- * is 8e307: any spring stretched that far has diverged long before), 0 below -708 (subnormal), NaN stays NaN. */
+ * bits. Nothing but IEEE adds, multiplies and selects, so the same bits scalar or vectorised as long as no
+ * multiply and add are contracted into an FMA (GCC does not in ISO C mode, nor in VECTOR_CLONES, whatever
+ * the mode: see compiler.h). Overflows to inf above 709 (exp(709) is 8e307: any spring stretched that far
+ * has diverged long before), 0 below -708 (subnormal), NaN stays NaN. */
 static inline double lattice_exp(double x) {
     const double shift = 0x1.8p52; /* t = x/ln2 + shift rounds x/ln2 to the integer k in t's low bits */
     const double clamped = x < -708.0 ? -708.0 : (x > 709.0 ? 709.0 : x);
@@ -205,8 +206,8 @@ int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
     return vx > 0.0 ? WALL_APPROACHING : WALL_RECEDING;
 }
 
-VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
-                 double *dydt) {
+VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode,
+                               const double *y, double *dydt) {
     const int rows = p->rows, cols = p->cols, n = rows * cols, linear = p->spring_law == SPRING_LINEAR;
     const int links = cols - 1; /* horizontal springs in a row, and rising (falling) diagonals below it */
     const int even_links = EVEN(links), even_cols = EVEN(cols);
@@ -277,18 +278,18 @@ VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed
         /* 3. forces. Horizontal and vertical: k stretch r/|r| + c (v_b - v_a) on the a end (the b end gets
          * the opposite), dissipating c |v_a - v_b|^2. Diagonals: the a end is pushed by per_length_a r,
          * the b end by -per_length_b r, and the non-reciprocal power is g.(v_a + v_b), g = (f_a - f_b)/2. */
-#define DAMPED(family, j, k, c, avx, avy, bvx, bvy, out_x, out_y)                    \
-    {                                                                                \
+#define DAMPED(family, j, k, c, avx, avy, bvx, bvy, out_x, out_y)                                \
+    {                                                                                            \
         const double per_length = (k) * w.stretch[SLOT(family, j)] * w.inverse[SLOT(family, j)]; \
-        const double dvx = (bvx) - (avx), dvy = (bvy) - (avy);                       \
-        out_x = per_length * w.rx[family][j] + (c) * dvx;                            \
-        out_y = per_length * w.ry[family][j] + (c) * dvy;                            \
-        w.dissipated[j] += (c) * (dvx * dvx + dvy * dvy);                            \
+        const double dvx = (bvx) - (avx), dvy = (bvy) - (avy);                                   \
+        out_x = per_length * w.rx[family][j] + (c) * dvx;                                        \
+        out_y = per_length * w.ry[family][j] + (c) * dvy;                                        \
+        w.dissipated[j] += (c) * (dvx * dvx + dvy * dvy);                                        \
     }
 #define DIAGONAL(family, j, k_a, stretch_a, k_b, stretch_b, avx, avy, bvx, bvy, a_x, a_y, b_x, b_y)  \
     {                                                                                                \
-        const double per_length_a = (k_a) * (stretch_a) * w.inverse[SLOT(family, j)];               \
-        const double per_length_b = (k_b) * (stretch_b) * w.inverse[SLOT(family, j)];               \
+        const double per_length_a = (k_a) * (stretch_a) * w.inverse[SLOT(family, j)];                \
+        const double per_length_b = (k_b) * (stretch_b) * w.inverse[SLOT(family, j)];                \
         a_x = per_length_a * w.rx[family][j];                                                        \
         a_y = per_length_a * w.ry[family][j];                                                        \
         b_x = per_length_b * w.rx[family][j];                                                        \
@@ -302,13 +303,13 @@ VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed
         /* rising: a = (i, j) is the left end, b = (i+1, j+1) the right; falling: a = (i, j+1) is the
          * right end, b = (i+1, j) the left (a right end's stretch is the left one's unless the alphas
          * differ) */
-#define FORCES_HRF(j, rising_right, falling_right)                                                      \
-    FORCES_H(j)                                                                                         \
-    DIAGONAL(RISING, j, w.k_left[j], w.stretch[SLOT(RISING, j)], w.k_right[j], rising_right, vx0[j], vy0[j],  \
-             vx1[j + 1], vy1[j + 1], w.rising_top[0][j], w.rising_top[1][j], RISING_BOTTOM_FORCE(0, j), \
-             RISING_BOTTOM_FORCE(1, j))                                                                 \
-    DIAGONAL(FALLING, j, w.k_right[j], falling_right, w.k_left[j], w.stretch[SLOT(FALLING, j)], vx0[j + 1],   \
-             vy0[j + 1], vx1[j], vy1[j], FALLING_TOP_FORCE(0, j), FALLING_TOP_FORCE(1, j),              \
+#define FORCES_HRF(j, rising_right, falling_right)                                                           \
+    FORCES_H(j)                                                                                              \
+    DIAGONAL(RISING, j, w.k_left[j], w.stretch[SLOT(RISING, j)], w.k_right[j], rising_right, vx0[j], vy0[j], \
+             vx1[j + 1], vy1[j + 1], w.rising_top[0][j], w.rising_top[1][j], RISING_BOTTOM_FORCE(0, j),      \
+             RISING_BOTTOM_FORCE(1, j))                                                                      \
+    DIAGONAL(FALLING, j, w.k_right[j], falling_right, w.k_left[j], w.stretch[SLOT(FALLING, j)], vx0[j + 1],  \
+             vy0[j + 1], vx1[j], vy1[j], FALLING_TOP_FORCE(0, j), FALLING_TOP_FORCE(1, j),                   \
              w.falling_bottom[0][j], w.falling_bottom[1][j])
 #define FORCES_HRF_SAME(j) FORCES_HRF(j, w.stretch[SLOT(RISING, j)], w.stretch[SLOT(FALLING, j)])
 #define FORCES_HRF_DIFFERENT(j) FORCES_HRF(j, w.stretch[RIGHT_END_SLOT(0, j)], w.stretch[RIGHT_END_SLOT(1, j)])
