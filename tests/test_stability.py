@@ -221,15 +221,20 @@ def test_each_instance_gets_its_own_error_message(fmu_path):
             first.simulate((1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11), horizon=0.1)
 
 
-@pytest.mark.xfail(strict=False, reason="found by bench/search_convergence.py: seed 9's automatic T0 (46.6, from 10 "
-                                        "calibration deltas) accepts none of the first 30 worsening moves")
 def test_annealing_automatic_temperature_is_not_poor_on_the_fmu(fmu_path):
-    """The study pipeline's search objective and budget 100: the automatic temperature must not be flagged."""
+    """The study pipeline's search objective and budget 100: the automatic temperature must not be flagged.
+
+    Found by bench/search_convergence.py: seed 9's T0 (46.6) accepted none of its first 30 worsening moves, and
+    the check used to call that T0 too low. At T0 those moves' mean acceptance is about a third; at 100
+    evaluations the temperature falls a hundredfold within them, and the large deltas happened to come first.
+    The check now judges T0 by the acceptance those moves would have at T0."""
     objective = search_objective(str(fmu_path), 8.0)
     with make_executor("serial") as executor:
         run = run_search(make_search("sa", 11, 9, budget=100), objective, 100, executor, method_name="sa", seed=9)
     assert run.diagnostics["t0_source"] == "automatic"
     assert run.diagnostics["poor_temperature"] is None, run.diagnostics["poor_temperature"]
+    assert 0.02 < run.diagnostics["initial_acceptance_at_t0"] < 0.98
+    assert run.diagnostics["initial_uphill_acceptance"] < run.diagnostics["initial_acceptance_at_t0"]  # it cooled
 
 
 def test_a_lattice_pressed_against_the_plate_from_the_start_is_not_called_diverged(fmu_path):
