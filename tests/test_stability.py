@@ -237,6 +237,18 @@ def test_annealing_automatic_temperature_is_not_poor_on_the_fmu(fmu_path):
     assert run.diagnostics["initial_uphill_acceptance"] < run.diagnostics["initial_acceptance_at_t0"]  # it cooled
 
 
+def test_annealing_flags_a_poor_automatic_temperature_on_the_fmu(fmu_path):
+    """Seed 2 calibrates on two worsening deltas (0.4 N and 83 N) and gets T0 = 0.45 N, far below the moves it
+    meets next: a real failure of the automatic temperature, which the check must report."""
+    with make_executor("serial") as executor:
+        run = run_search(make_search("sa", 11, 2, budget=100), search_objective(str(fmu_path), 8.0), 100, executor,
+                         method_name="sa", seed=2)
+    state = run.diagnostics
+    assert state["t0_source"] == "automatic" and state["t0"] < 1.0
+    assert state["initial_acceptance_at_t0"] <= 0.02
+    assert state["poor_temperature"] and "too low" in state["poor_temperature"]
+
+
 def test_a_lattice_pressed_against_the_plate_from_the_start_is_not_called_diverged(fmu_path):
     """Found by these tests: with a negative gap the start state holds potential energy, which the
     divergence check must count as energy put in."""
