@@ -200,6 +200,23 @@ def test_get_set_and_serialize_fmu_state(fmu_path):
         slave.freeInstance()
 
 
+def test_a_foreign_or_truncated_serialized_state_is_refused(fmu_path):
+    """A serialised state is checked before it becomes an FMU state: its size, then its magic number."""
+    description, slave = _slave(fmu_path)
+    try:
+        _start(description, slave, PUBLISHED_BEST)
+        state = slave.getFMUstate()
+        serialized = bytes(slave.serializeFMUstate(state))
+        slave.freeFMUstate(state)
+        with pytest.raises(FMICallException):
+            slave.deSerializeFMUstate(serialized[:-1])
+        with pytest.raises(FMICallException):
+            slave.deSerializeFMUstate(bytes(4) + serialized[4:])  # the magic number of another FMU (version)
+        slave.doStep(0.0, 0.1)  # the instance is unharmed
+    finally:
+        slave.freeInstance()
+
+
 def test_a_diverging_fixed_step_solver_ends_in_an_error_not_a_number(lattice):
     with pytest.raises(SimulationError, match="diverged|non-finite"):
         lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters={"solver": "rk4", "fixed_step": 0.05})

@@ -2,6 +2,7 @@
 #include "instance.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* The importer's communication time may drift from ours by rounding; more than this is a real mismatch. */
@@ -53,6 +54,43 @@ int instance_restore(InstanceCommon *common, unsigned int magic, const unsigned 
     common->stop_time_defined = header.stop_time_defined;
     memcpy(common->model, bytes + sizeof(header), model_size());
     return 0;
+}
+
+const char *instance_get_state(const InstanceCommon *common, unsigned int magic, void **state) {
+    unsigned char *bytes = (unsigned char *)(*state ? *state : malloc(instance_saved_size()));
+    if (!bytes) return "out of memory";
+    instance_save(common, magic, bytes);
+    *state = bytes;
+    return NULL;
+}
+
+const char *instance_set_state(InstanceCommon *common, unsigned int magic, const void *state) {
+    if (!state || instance_restore(common, magic, (const unsigned char *)state)) return "not a state of this FMU";
+    return NULL;
+}
+
+void instance_free_state(void **state) {
+    if (state) {
+        free(*state);
+        *state = NULL;
+    }
+}
+
+const char *instance_serialize_state(const void *state, unsigned char *buffer, size_t size) {
+    if (size < instance_saved_size()) return "the buffer is too small";
+    memcpy(buffer, state, instance_saved_size());
+    return NULL;
+}
+
+const char *instance_deserialize_state(unsigned int magic, const unsigned char *buffer, size_t size, void **state) {
+    void *bytes;
+    if (size != instance_saved_size()) return "the serialised state has the wrong size for this FMU";
+    if (!instance_is_saved_state(magic, buffer, size)) return "not a state of this FMU";
+    bytes = *state ? *state : malloc(size);
+    if (!bytes) return "out of memory";
+    memcpy(bytes, buffer, size);
+    *state = bytes;
+    return NULL;
 }
 
 int instance_check_time(const InstanceCommon *common, double communication_point, char *message,

@@ -29,6 +29,14 @@ void instance_save(const InstanceCommon *common, unsigned int magic, unsigned ch
 int instance_restore(InstanceCommon *common, unsigned int magic, const unsigned char *bytes);
 int instance_is_saved_state(unsigned int magic, const unsigned char *bytes, size_t size);
 
+/* The FMU-state calls of both versions (fmi2GetFMUstate, fmi3GetFMUState, ...), behind their FMI types: each
+ * returns NULL on success, or why it failed. *state is the importer's FMU state: reused when not NULL. */
+const char *instance_get_state(const InstanceCommon *common, unsigned int magic, void **state);
+const char *instance_set_state(InstanceCommon *common, unsigned int magic, const void *state);
+void instance_free_state(void **state);
+const char *instance_serialize_state(const void *state, unsigned char *buffer, size_t size);
+const char *instance_deserialize_state(unsigned int magic, const unsigned char *buffer, size_t size, void **state);
+
 /* 0 when the importer's communication point is the FMU's time (up to rounding), else -1 and why. */
 int instance_check_time(const InstanceCommon *common, double communication_point, char *message,
                         size_t message_size);

@@ -243,33 +243,27 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     return nvr == 0 ? fmi2OK : error(instance, "fmi2SetString", "this FMU has no String variables");
 }
 
-/* FMU states: a flat copy of the common fields and the model (the model holds no pointers). */
+/* FMU states: a flat copy of the common fields and the model (the model holds no pointers); common/instance.c
+ * does the work. */
+static fmi2Status outcome(Instance *instance, const char *function, const char *failure) {
+    return failure ? error(instance, function, failure) : fmi2OK;
+}
+
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     Instance *instance = (Instance *)c;
-    unsigned char *bytes;
     if (!allowed(instance, "fmi2GetFMUstate", ANY_STATE)) return fmi2Error;
-    bytes = (unsigned char *)(*FMUstate ? *FMUstate : malloc(instance_saved_size()));
-    if (!bytes) return error(instance, "fmi2GetFMUstate", "out of memory");
-    instance_save(&instance->common, STATE_MAGIC, bytes);
-    *FMUstate = bytes;
-    return fmi2OK;
+    return outcome(instance, "fmi2GetFMUstate", instance_get_state(&instance->common, STATE_MAGIC, FMUstate));
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     Instance *instance = (Instance *)c;
     if (!allowed(instance, "fmi2SetFMUstate", ANY_STATE)) return fmi2Error;
-    if (!FMUstate || instance_restore(&instance->common, STATE_MAGIC, (const unsigned char *)FMUstate)) {
-        return error(instance, "fmi2SetFMUstate", "not a state of this FMU");
-    }
-    return fmi2OK;
+    return outcome(instance, "fmi2SetFMUstate", instance_set_state(&instance->common, STATE_MAGIC, FMUstate));
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     (void)c;
-    if (FMUstate) {
-        free(*FMUstate);
-        *FMUstate = NULL;
-    }
+    instance_free_state(FMUstate);
     return fmi2OK;
 }
 
@@ -284,27 +278,16 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
                                  size_t size) {
     Instance *instance = (Instance *)c;
     if (!instance) return fmi2Error;
-    if (size < instance_saved_size()) return error(instance, "fmi2SerializeFMUstate", "the buffer is too small");
-    memcpy(serializedState, FMUstate, instance_saved_size());
-    return fmi2OK;
+    return outcome(instance, "fmi2SerializeFMUstate",
+                   instance_serialize_state(FMUstate, (unsigned char *)serializedState, size));
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                    fmi2FMUstate *FMUstate) {
     Instance *instance = (Instance *)c;
-    void *bytes;
     if (!instance) return fmi2Error;
-    if (size != instance_saved_size()) {
-        return error(instance, "fmi2DeSerializeFMUstate", "the serialised state has the wrong size for this FMU");
-    }
-    if (!instance_is_saved_state(STATE_MAGIC, (const unsigned char *)serializedState, size)) {
-        return error(instance, "fmi2DeSerializeFMUstate", "not a state of this FMU");
-    }
-    bytes = *FMUstate ? *FMUstate : malloc(size);
-    if (!bytes) return error(instance, "fmi2DeSerializeFMUstate", "out of memory");
-    memcpy(bytes, serializedState, size);
-    *FMUstate = bytes;
-    return fmi2OK;
+    return outcome(instance, "fmi2DeSerializeFMUstate",
+                   instance_deserialize_state(STATE_MAGIC, (const unsigned char *)serializedState, size, FMUstate));
 }
 
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,

@@ -423,33 +423,27 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3ValueReference depend
     return error((Instance *)c, "fmi3GetVariableDependencies", "not provided by this FMU");
 }
 
-/* FMU states: a flat copy of the common fields and the model (the model holds no pointers). */
+/* FMU states: a flat copy of the common fields and the model (the model holds no pointers); common/instance.c
+ * does the work. */
+static fmi3Status outcome(Instance *instance, const char *function, const char *failure) {
+    return failure ? error(instance, function, failure) : fmi3OK;
+}
+
 fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
     Instance *instance = (Instance *)c;
-    unsigned char *bytes;
     if (!allowed(instance, "fmi3GetFMUState", ANY_STATE)) return fmi3Error;
-    bytes = (unsigned char *)(*FMUState ? *FMUState : malloc(instance_saved_size()));
-    if (!bytes) return error(instance, "fmi3GetFMUState", "out of memory");
-    instance_save(&instance->common, STATE_MAGIC, bytes);
-    *FMUState = bytes;
-    return fmi3OK;
+    return outcome(instance, "fmi3GetFMUState", instance_get_state(&instance->common, STATE_MAGIC, FMUState));
 }
 
 fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState FMUState) {
     Instance *instance = (Instance *)c;
     if (!allowed(instance, "fmi3SetFMUState", ANY_STATE)) return fmi3Error;
-    if (!FMUState || instance_restore(&instance->common, STATE_MAGIC, (const unsigned char *)FMUState)) {
-        return error(instance, "fmi3SetFMUState", "not a state of this FMU");
-    }
-    return fmi3OK;
+    return outcome(instance, "fmi3SetFMUState", instance_set_state(&instance->common, STATE_MAGIC, FMUState));
 }
 
 fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
     (void)c;
-    if (FMUState) {
-        free(*FMUState);
-        *FMUState = NULL;
-    }
+    instance_free_state(FMUState);
     return fmi3OK;
 }
 
@@ -460,30 +454,20 @@ fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState FMUState, siz
     return fmi3OK;
 }
 
-fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState FMUState, fmi3Byte serializedState[], size_t size) {
+fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState FMUState, fmi3Byte serializedState[],
+                                 size_t size) {
     Instance *instance = (Instance *)c;
     if (!instance) return fmi3Error;
-    if (size < instance_saved_size()) return error(instance, "fmi3SerializeFMUState", "the buffer is too small");
-    memcpy(serializedState, FMUState, instance_saved_size());
-    return fmi3OK;
+    return outcome(instance, "fmi3SerializeFMUState",
+                   instance_serialize_state(FMUState, (unsigned char *)serializedState, size));
 }
 
 fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serializedState[], size_t size,
                                    fmi3FMUState *FMUState) {
     Instance *instance = (Instance *)c;
-    void *bytes;
     if (!instance) return fmi3Error;
-    if (size != instance_saved_size()) {
-        return error(instance, "fmi3DeserializeFMUState", "the serialised state has the wrong size for this FMU");
-    }
-    if (!instance_is_saved_state(STATE_MAGIC, (const unsigned char *)serializedState, size)) {
-        return error(instance, "fmi3DeserializeFMUState", "not a state of this FMU");
-    }
-    bytes = *FMUState ? *FMUState : malloc(size);
-    if (!bytes) return error(instance, "fmi3DeserializeFMUState", "out of memory");
-    memcpy(bytes, serializedState, size);
-    *FMUState = bytes;
-    return fmi3OK;
+    return outcome(instance, "fmi3DeserializeFMUState",
+                   instance_deserialize_state(STATE_MAGIC, (const unsigned char *)serializedState, size, FMUState));
 }
 
 fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,
