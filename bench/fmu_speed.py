@@ -6,7 +6,7 @@
 Each route's peak is compared with a tight-tolerance reference (the FMU at rtol 1e-13), so every speed
 figure comes with its accuracy. The scipy route is the study's way of computing: solve_ivp(DOP853,
 rtol=1e-8) over the vectorised numpy model (reference/), sampling the force every 0.01 s; atol is
-solve_ivp's default (1e-6), as the issue names the route. That route is 100 to 300 times less accurate
+solve_ivp's default (1e-6), as the issue names the route. That route is 66 to 540 times less accurate
 than the FMU's default, so the scipy route is also run at equal accuracy: the loosest of rtol 1e-8, 1e-9,
 1e-10 (atol = rtol * 1e-2) whose peak error is at most the FMU's (--no-equal-accuracy skips it).
 """

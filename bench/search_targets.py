@@ -70,7 +70,8 @@ def throughput(fmu: Path, counts: list[int], executor_kind: str, workers: int | 
             run = run_search(make_search("random", 11, 0, batch=64), search_objective, count, executor,
                              method_name="random", seed=0)
             seconds = time.perf_counter() - start
-        where = "1 core (serial)" if executor_kind == "serial" else f"{workers or os.cpu_count()} {executor_kind} workers"
+        where = ("1 core (serial)" if executor_kind == "serial"
+                 else f"{workers or os.cpu_count()} {executor_kind} workers")
         good = [e for e in run.evaluations if e.ok]
         inside = sum(e.seconds for e in good) / max(len(good), 1)
         fallbacks = sum(1 for e in good if e.details["horizon"] > search_objective.horizon)
