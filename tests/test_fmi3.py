@@ -162,6 +162,31 @@ def test_wrong_calls_are_refused_with_a_reason(instance, call, expected):
     assert any(expected in message for message in instance.messages), instance.messages
 
 
+def test_a_wrong_step_is_refused_with_a_reason_and_the_instance_steps_on(instance):
+    """communicationStepSize < 0 and a communication point that is not the FMU's time are the importer's
+    mistakes: refused with a reason, without putting the instance in the error state."""
+    instance.start(PUBLISHED_BEST, stop=1.0)
+    with pytest.raises(FMICallException):
+        instance.slave.doStep(0.0, -0.1)
+    with pytest.raises(FMICallException):
+        instance.slave.doStep(0.5, 0.1)
+    assert any("communicationStepSize must be >= 0" in m for m in instance.messages), instance.messages
+    assert any("does not match the FMU's time" in m for m in instance.messages), instance.messages
+    instance.slave.doStep(0.0, 0.1)
+    assert instance.slave.getFloat64([instance.vr("time")]) == [0.1]
+
+
+def test_an_instantiation_token_of_another_build_is_refused(fmu3_path):
+    description = read_model_description(str(fmu3_path))
+    messages = []
+    callback = fmi3LogMessageCallback(lambda environment, status, category, message: messages.append(message.decode()))
+    slave = FMU3Slave(guid="{00000000-0000-0000-0000-000000000000}", unzipDirectory=extract(str(fmu3_path)),
+                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName="stranger")
+    with pytest.raises(Exception, match="Failed to instantiate"):  # fmpy's words for a NULL instance
+        slave.instantiate(logMessage=callback)
+    assert any("instantiation token" in m and "different builds" in m for m in messages), messages
+
+
 def test_a_bad_material_order_is_refused_and_reset_recovers(instance):
     instance.slave.enterInitializationMode(startTime=0.0, stopTime=1.0)
     instance.slave.setInt32([instance.vr("material")], [1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11])

@@ -15,6 +15,33 @@ typedef struct {
     int stop_time_defined;
 } SavedHeader;
 
+int instance_check_token(const char *token, const char *kind, char *message, size_t message_size) {
+    if (token && strcmp(token, model_guid()) == 0) return 0;
+    snprintf(message, message_size, "%s %s does not match this binary's %s (modelDescription.xml and binary come "
+             "from different builds)", kind, token ? token : "(null)", model_guid());
+    return -1;
+}
+
+int instance_open(InstanceCommon *common, const char *instance_name) {
+    memset(common, 0, sizeof(*common));
+    common->model = model_new();
+    common->instance_name = (char *)malloc(strlen(instance_name) + 1);
+    if (!common->model || !common->instance_name) {
+        instance_close(common);
+        return -1;
+    }
+    strcpy(common->instance_name, instance_name);
+    common->state = STATE_INSTANTIATED;
+    return 0;
+}
+
+void instance_close(InstanceCommon *common) {
+    model_free(common->model);
+    free(common->instance_name);
+    common->model = NULL;
+    common->instance_name = NULL;
+}
+
 void instance_reset(InstanceCommon *common) {
     model_reset(common->model);
     common->state = STATE_INSTANTIATED;
@@ -93,13 +120,38 @@ const char *instance_deserialize_state(unsigned int magic, const unsigned char *
     return NULL;
 }
 
-int instance_check_time(const InstanceCommon *common, double communication_point, char *message,
-                        size_t message_size) {
+int instance_initialize(InstanceCommon *common, char *message, size_t message_size) {
+    if (model_initialize(common->model, common->start_time, common->stop_time_defined, common->stop_time, message,
+                         message_size)) {
+        common->state = STATE_ERROR;
+        return -1;
+    }
+    common->state = STATE_STEP;
+    return 0;
+}
+
+/* 0 when the importer's communication point is the FMU's time (up to rounding), else -1 and why. */
+static int check_time(const InstanceCommon *common, double communication_point, char *message,
+                      size_t message_size) {
     const double now = model_time(common->model);
     if (communication_point - now > TIME_MISMATCH_TOLERANCE * (1.0 + now) ||
         now - communication_point > TIME_MISMATCH_TOLERANCE * (1.0 + now)) {
         snprintf(message, message_size, "currentCommunicationPoint %.17g does not match the FMU's time %.17g",
                  communication_point, now);
+        return -1;
+    }
+    return 0;
+}
+
+int instance_do_step(InstanceCommon *common, double communication_point, double step_size, char *message,
+                     size_t message_size) {
+    if (step_size < 0.0) {
+        snprintf(message, message_size, "communicationStepSize must be >= 0");
+        return -1;
+    }
+    if (check_time(common, communication_point, message, message_size)) return -1;
+    if (model_advance(common->model, communication_point + step_size, message, message_size)) {
+        common->state = STATE_ERROR;
         return -1;
     }
     return 0;

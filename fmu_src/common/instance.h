@@ -15,10 +15,20 @@ typedef enum { STATE_INSTANTIATED, STATE_INITIALIZATION_MODE, STATE_STEP, STATE_
 
 typedef struct {
     Model *model;
+    char *instance_name; /* the importer's name for the instance, in every log message */
     InstanceState state;
     double start_time, stop_time;
     int stop_time_defined;
 } InstanceCommon;
+
+/* Instantiation (fmi2Instantiate, fmi3InstantiateCoSimulation): 0 when the importer's token is this binary's,
+ * else -1 and why; `kind` names the token ("GUID", "instantiation token"). */
+int instance_check_token(const char *token, const char *kind, char *message, size_t message_size);
+
+/* A new model and a copy of the name, in the instantiated state; -1 (nothing left allocated) when out of
+ * memory. instance_close frees what instance_open allocated. */
+int instance_open(InstanceCommon *common, const char *instance_name);
+void instance_close(InstanceCommon *common);
 
 /* Back to a fresh instance (fmi2Reset, fmi3Reset). */
 void instance_reset(InstanceCommon *common);
@@ -37,8 +47,14 @@ void instance_free_state(void **state);
 const char *instance_serialize_state(const void *state, unsigned char *buffer, size_t size);
 const char *instance_deserialize_state(unsigned int magic, const unsigned char *buffer, size_t size, void **state);
 
-/* 0 when the importer's communication point is the FMU's time (up to rounding), else -1 and why. */
-int instance_check_time(const InstanceCommon *common, double communication_point, char *message,
-                        size_t message_size);
+/* fmi2ExitInitializationMode, fmi3ExitInitializationMode: initialises the model and enters the step state
+ * (FMI 3 co-simulation without event mode goes straight to step mode);
+ * on failure -1 and why, and the instance is in the error state. */
+int instance_initialize(InstanceCommon *common, char *message, size_t message_size);
+
+/* fmi2DoStep, fmi3DoStep: checks the step against the FMU's time and advances the model; on failure -1 and
+ * why. A step the model fails puts the instance in the error state (a refused argument does not). */
+int instance_do_step(InstanceCommon *common, double communication_point, double step_size, char *message,
+                     size_t message_size);
 
 #endif

@@ -19,7 +19,6 @@ typedef struct {
     InstanceCommon common; /* model, FMI state, experiment: kept alike by both FMI versions */
     fmi2CallbackLogger logger;
     fmi2ComponentEnvironment environment;
-    char *instance_name;
     int logging_on;
 } Instance;
 
@@ -33,7 +32,7 @@ static void log_message(const Instance *instance, fmi2Status status, const char 
     vsnprintf(message, sizeof(message), format, args);
     va_end(args);
     /* the logger formats like printf: hand it the message as an argument so a '%' in it is safe */
-    instance->logger(instance->environment, instance->instance_name, status, category, "%s", message);
+    instance->logger(instance->environment, instance->common.instance_name, status, category, "%s", message);
 }
 
 static fmi2Status error(Instance *instance, const char *function, const char *message) {
@@ -69,46 +68,37 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
                               fmi2Boolean visible, fmi2Boolean loggingOn) {
     Instance probe, *instance;
+    char message[MESSAGE_SIZE];
     (void)fmuResourceLocation;
     (void)visible;
     memset(&probe, 0, sizeof(probe));
     probe.logger = functions ? functions->logger : NULL;
     probe.environment = functions ? functions->componentEnvironment : NULL;
-    probe.instance_name = (char *)(instanceName ? instanceName : "");
+    probe.common.instance_name = (char *)(instanceName ? instanceName : "");
     if (fmuType != fmi2CoSimulation) {
         error(&probe, "fmi2Instantiate", "this FMU supports co-simulation only (fmuType must be fmi2CoSimulation)");
         return NULL;
     }
-    if (!fmuGUID || strcmp(fmuGUID, model_guid()) != 0) {
-        char message[MESSAGE_SIZE];
-        snprintf(message, sizeof(message), "GUID %s does not match this binary's %s (modelDescription.xml and "
-                 "binary come from different builds)", fmuGUID ? fmuGUID : "(null)", model_guid());
+    if (instance_check_token(fmuGUID, "GUID", message, sizeof(message))) {
         error(&probe, "fmi2Instantiate", message);
         return NULL;
     }
     instance = (Instance *)calloc(1, sizeof(Instance));
     if (!instance) return NULL;
-    instance->common.model = model_new();
-    instance->instance_name = (char *)malloc(strlen(probe.instance_name) + 1);
-    if (!instance->common.model || !instance->instance_name) {
-        model_free(instance->common.model);
-        free(instance->instance_name);
+    if (instance_open(&instance->common, probe.common.instance_name)) {
         free(instance);
         return NULL;
     }
-    strcpy(instance->instance_name, probe.instance_name);
     instance->logger = probe.logger;
     instance->environment = probe.environment;
     instance->logging_on = loggingOn;
-    instance->common.state = STATE_INSTANTIATED;
     return instance;
 }
 
 void fmi2FreeInstance(fmi2Component c) {
     Instance *instance = (Instance *)c;
     if (!instance) return;
-    model_free(instance->common.model);
-    free(instance->instance_name);
+    instance_close(&instance->common);
     free(instance);
 }
 
@@ -135,12 +125,9 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     if (!allowed(instance, "fmi2ExitInitializationMode", IN(STATE_INITIALIZATION_MODE))) return fmi2Error;
-    if (model_initialize(instance->common.model, instance->common.start_time, instance->common.stop_time_defined, instance->common.stop_time,
-                         message, sizeof(message))) {
-        instance->common.state = STATE_ERROR;
+    if (instance_initialize(&instance->common, message, sizeof(message))) {
         return error(instance, "fmi2ExitInitializationMode", message);
     }
-    instance->common.state = STATE_STEP;
     return fmi2OK;
 }
 
@@ -326,14 +313,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     char message[MESSAGE_SIZE];
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!allowed(instance, "fmi2DoStep", IN(STATE_STEP))) return fmi2Error;
-    if (communicationStepSize < 0.0) {
-        return error(instance, "fmi2DoStep", "communicationStepSize must be >= 0");
-    }
-    if (instance_check_time(&instance->common, currentCommunicationPoint, message, sizeof(message))) {
-        return error(instance, "fmi2DoStep", message);
-    }
-    if (model_advance(instance->common.model, currentCommunicationPoint + communicationStepSize, message, sizeof(message))) {
-        instance->common.state = STATE_ERROR;
+    if (instance_do_step(&instance->common, currentCommunicationPoint, communicationStepSize, message,
+                         sizeof(message))) {
         return error(instance, "fmi2DoStep", message);
     }
     return fmi2OK;

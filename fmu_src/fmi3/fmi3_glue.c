@@ -25,7 +25,6 @@ typedef struct {
     InstanceCommon common; /* model, FMI state, experiment: kept alike by both FMI versions */
     fmi3LogMessageCallback logger;
     fmi3InstanceEnvironment environment;
-    char *instance_name;
     int logging_on;
 } Instance;
 
@@ -129,7 +128,7 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
     memset(&probe, 0, sizeof(probe));
     probe.logger = logMessage;
     probe.environment = instanceEnvironment;
-    probe.instance_name = (char *)(instanceName ? instanceName : "");
+    probe.common.instance_name = (char *)(instanceName ? instanceName : "");
     error(&probe, "fmi3InstantiateModelExchange", "this FMU supports co-simulation only");
     return NULL;
 }
@@ -143,6 +142,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
                                          fmi3LogMessageCallback logMessage,
                                          fmi3IntermediateUpdateCallback intermediateUpdate) {
     Instance probe, *instance;
+    char message[MESSAGE_SIZE];
     (void)resourcePath;
     (void)visible;
     (void)earlyReturnAllowed; /* doStep never returns early */
@@ -152,34 +152,24 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     memset(&probe, 0, sizeof(probe));
     probe.logger = logMessage;
     probe.environment = instanceEnvironment;
-    probe.instance_name = (char *)(instanceName ? instanceName : "");
+    probe.common.instance_name = (char *)(instanceName ? instanceName : "");
     if (eventModeUsed) {
         error(&probe, "fmi3InstantiateCoSimulation", "this FMU has no event mode (hasEventMode=\"false\")");
         return NULL;
     }
-    if (!instantiationToken || strcmp(instantiationToken, model_guid()) != 0) {
-        char message[MESSAGE_SIZE];
-        snprintf(message, sizeof(message), "instantiation token %s does not match this binary's %s "
-                 "(modelDescription.xml and binary come from different builds)",
-                 instantiationToken ? instantiationToken : "(null)", model_guid());
+    if (instance_check_token(instantiationToken, "instantiation token", message, sizeof(message))) {
         error(&probe, "fmi3InstantiateCoSimulation", message);
         return NULL;
     }
     instance = (Instance *)calloc(1, sizeof(Instance));
     if (!instance) return NULL;
-    instance->common.model = model_new();
-    instance->instance_name = (char *)malloc(strlen(probe.instance_name) + 1);
-    if (!instance->common.model || !instance->instance_name) {
-        model_free(instance->common.model);
-        free(instance->instance_name);
+    if (instance_open(&instance->common, probe.common.instance_name)) {
         free(instance);
         return NULL;
     }
-    strcpy(instance->instance_name, probe.instance_name);
     instance->logger = probe.logger;
     instance->environment = probe.environment;
     instance->logging_on = loggingOn;
-    instance->common.state = STATE_INSTANTIATED;
     return instance;
 }
 
@@ -200,8 +190,7 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3Stri
 void fmi3FreeInstance(fmi3Instance c) {
     Instance *instance = (Instance *)c;
     if (!instance) return;
-    model_free(instance->common.model);
-    free(instance->instance_name);
+    instance_close(&instance->common);
     free(instance);
 }
 
@@ -222,12 +211,9 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     if (!allowed(instance, "fmi3ExitInitializationMode", IN(STATE_INITIALIZATION_MODE))) return fmi3Error;
-    if (model_initialize(instance->common.model, instance->common.start_time, instance->common.stop_time_defined, instance->common.stop_time,
-                         message, sizeof(message))) {
-        instance->common.state = STATE_ERROR;
+    if (instance_initialize(&instance->common, message, sizeof(message))) {
         return error(instance, "fmi3ExitInitializationMode", message);
     }
-    instance->common.state = STATE_STEP; /* co-simulation without event mode goes straight to step mode */
     return fmi3OK;
 }
 
@@ -685,14 +671,8 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentCommunicationPoint, fmi
     if (earlyReturn) *earlyReturn = fmi3False;
     if (!allowed(instance, "fmi3DoStep", IN(STATE_STEP))) return fmi3Error;
     if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->common.model);
-    if (communicationStepSize < 0.0) {
-        return error(instance, "fmi3DoStep", "communicationStepSize must be >= 0");
-    }
-    if (instance_check_time(&instance->common, currentCommunicationPoint, message, sizeof(message))) {
-        return error(instance, "fmi3DoStep", message);
-    }
-    if (model_advance(instance->common.model, currentCommunicationPoint + communicationStepSize, message, sizeof(message))) {
-        instance->common.state = STATE_ERROR;
+    if (instance_do_step(&instance->common, currentCommunicationPoint, communicationStepSize, message,
+                         sizeof(message))) {
         return error(instance, "fmi3DoStep", message);
     }
     if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->common.model);
