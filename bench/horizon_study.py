@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import (IsolatedFMU, ROOT, SEQUENTIAL, STUDY_BEST, build_fmus, order_text,  # noqa: E402
                     random_orders, write_csv)
 
-from orchestrator.study import SEARCH_HORIZON, SEARCH_RTOL  # noqa: E402
+from orchestrator.study import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
 
 HORIZONS = (0.5, 0.75, 1.0, 2.0, 8.0)
 TRUTH_RTOL = 1e-10
@@ -112,7 +112,7 @@ def main(argv=None) -> int:
         fmu = workers[index % len(workers)]
         found = []
         for rtol, horizon in [(TRUTH_RTOL, 8.0)] + [(r, 2.0) for r in rtols]:
-            status, result, seconds = fmu.run(order, horizon, {"rtol": rtol, "atol": rtol * 1e-2}, RECORD,
+            status, result, seconds = fmu.run(order, horizon, search_tolerances(rtol), RECORD,
                                               communication_step=0.25, record=RECORD)
             if status != "ok":
                 failures.append({"order": order, "rtol": rtol, "status": status, "message": result})
@@ -135,7 +135,7 @@ def main(argv=None) -> int:
         direct = []
         horizon, rtol = SEARCH
         for order in order_list[:: max(1, len(order_list) // 12)]:
-            status, result, _ = workers[0].run(order, horizon, {"rtol": rtol, "atol": rtol * 1e-2}, RECORD)
+            status, result, _ = workers[0].run(order, horizon, search_tolerances(rtol), RECORD)
             if status == "ok":
                 direct.append((order, result))
     finally:
