@@ -13,6 +13,9 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
+import sys
+import tempfile
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from typing import Any, Callable, Iterator
 
@@ -25,6 +28,8 @@ class SerialExecutor(Executor):
     Why: the reference executor (no pickling, easy debugging, exceptions with
     their tracebacks), and the baseline the parallel ones must reproduce.
     """
+
+    slots = 1
 
     def __init__(self) -> None:
         self._shutdown = False
@@ -45,13 +50,14 @@ class SerialExecutor(Executor):
         self._shutdown = True
 
 
-def make_executor(kind: str, workers: int | None = None,
-                  scheduler: str | None = None) -> contextlib.AbstractContextManager[Executor]:
+def make_executor(kind: str, workers: int | None = None, scheduler: str | None = None,
+                  temp_root: str | None = None) -> contextlib.AbstractContextManager[Executor]:
     """Context manager yielding an Executor; everything is shut down on exit.
 
     kind:
       "serial"   in this process, one call at a time.
-      "process"  ``ProcessPoolExecutor(workers)``, workers default ``os.cpu_count()``.
+      "process"  a ``ResilientProcessPool`` of ``workers`` processes (default ``os.cpu_count()``),
+                 replaced when a worker dies; its workers ignore Ctrl-C and die with the main process.
       "dask"     ``Client(scheduler).get_executor()``; with no scheduler address, a
                  ``LocalCluster`` of ``workers`` single-threaded worker processes
                  (default ``os.cpu_count()``), closed on exit.  An external
@@ -61,11 +67,71 @@ def make_executor(kind: str, workers: int | None = None,
         raise ValueError(f"unknown executor {kind!r}; allowed: {', '.join(EXECUTORS)}")
     if workers is not None and int(workers) < 1:
         raise ValueError(f"workers must be at least 1, got {workers!r}")
-    return _executor(kind, workers, scheduler)  # bad arguments fail here, not at `with`
+    return _executor(kind, workers, scheduler, temp_root)  # bad arguments fail here, not at `with`
+
+
+def _worker_start(temp_root: str | None) -> None:
+    """Runs first in every pool worker.
+
+    Ctrl-C reaches the whole process group: the main process ends the run, so a worker ignores SIGINT
+    (no traceback from each worker). On Linux a worker also dies with the main process, even a killed
+    one, so no worker outlives its run. Extracted FMUs go under the run's temp root, which the main
+    process removes when the run ends.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        except OSError:  # pragma: no cover - another libc: the pool's own shutdown still applies
+            pass
+    if temp_root:
+        tempfile.tempdir = temp_root
+
+
+class ResilientProcessPool(Executor):
+    """A ``ProcessPoolExecutor`` that can be replaced when a worker dies or hangs.
+
+    Why: a dead worker breaks a ``ProcessPoolExecutor`` for good (every later ``submit`` raises
+    ``BrokenProcessPool``); the evaluator records the evaluations in flight as failed and calls
+    ``renew()`` so the run goes on. ``kill()`` ends the workers at once (a hung evaluation, an
+    interrupted run): ``shutdown`` alone would wait for them.
+    """
+
+    def __init__(self, workers: int, temp_root: str | None = None) -> None:
+        self.slots = int(workers)
+        self.temp_root = temp_root
+        self.renewals = 0
+        self._pool = self._new_pool()
+
+    def _new_pool(self) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(max_workers=self.slots, initializer=_worker_start, initargs=(self.temp_root,))
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
+        return self._pool.submit(fn, *args, **kwargs)
+
+    def kill(self) -> None:
+        processes = list((getattr(self._pool, "_processes", None) or {}).values())
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            if process.is_alive():
+                process.kill()
+        for process in processes:
+            process.join(timeout=5)
+
+    def renew(self) -> None:
+        self.kill()
+        self._pool = self._new_pool()
+        self.renewals += 1
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
 
 
 @contextlib.contextmanager
-def _executor(kind: str, workers: int | None, scheduler: str | None) -> Iterator[Executor]:
+def _executor(kind: str, workers: int | None, scheduler: str | None,
+              temp_root: str | None = None) -> Iterator[Executor]:
     if kind == "serial":
         executor = SerialExecutor()
         try:
@@ -73,11 +139,14 @@ def _executor(kind: str, workers: int | None, scheduler: str | None) -> Iterator
         finally:
             executor.shutdown()
     elif kind == "process":
-        pool = ProcessPoolExecutor(max_workers=int(workers or os.cpu_count() or 1))
+        pool = ResilientProcessPool(int(workers or os.cpu_count() or 1), temp_root)
         try:
             yield pool
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+        except BaseException:
+            pool.kill()  # an interrupt or an error: no worker outlives the run
+            raise
+        else:
+            pool.shutdown(wait=True)
     else:
         yield from _dask(workers, scheduler)
 
@@ -103,3 +172,17 @@ def _dask(workers: int | None, scheduler: str | None) -> Iterator[Executor]:
             raise
         else:
             executor.shutdown(wait=True)
+
+
+def executor_slots(executor: Executor) -> int:
+    """How many evaluations the executor runs at once (what the evaluator keeps in flight)."""
+    slots = getattr(executor, "slots", None)
+    if slots:
+        return int(slots)
+    client = getattr(executor, "_client", None)  # Dask's ClientExecutor
+    if client is not None:
+        try:
+            return max(1, sum(client.nthreads().values()))
+        except Exception:  # noqa: BLE001 - a cluster that cannot say: assume a modest one
+            return os.cpu_count() or 1
+    return getattr(executor, "_max_workers", None) or os.cpu_count() or 1

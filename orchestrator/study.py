@@ -1,21 +1,30 @@
-"""A whole study: searches over seeds, then the finalists verified over the full scene, then a local check.
+"""A whole study: searches over seeds, the finalists verified over the full scene, a final descent, and
+what a designer needs to trust the answer (the other diagonal rule's optimum, the order under changed
+cases).
 
-Searches run on a cheap objective (a short horizon and a looser tolerance, what the ranking needs); every
-number that is reported as a result is re-evaluated on the full scene at the FMU's default accuracy.
+The study only composes: every simulation goes through the objective (what is minimised, at which
+fidelity) and the one Evaluator (cache, journal, guarded execution). Searches rank by the objective's
+search fidelity; every number reported as a result is the objective's full fidelity (the whole scene at
+the FMU's default accuracy).
 """
 from __future__ import annotations
 
 import itertools
+import math
+import shutil
 import sys
+import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from .evaluate import FMUObjective, objective_output
 from .executors import make_executor
-from .loop import SearchRun, run_search
+from .journal import Journal, file_sha256
+from .loop import Evaluator, SearchRun, run_search
+from .objective import (AGGREGATES, FULL, OBJECTIVES, SEARCH, SEARCH_HORIZON, SEARCH_RTOL, PeakObjective,
+                        close_instances, expand_cases, make_objective, search_tolerances)
 from .search import SEARCHES, make_search
-from .search import local as search_local
+from .search.local import neighbours as local_neighbours
 from .simulation import LatticeFMU
 from .types import Evaluation, Order
 
@@ -31,30 +40,14 @@ STUDY_REFERENCE_POINTS = {
     "study simulated annealing": 2912.76,
     "sequential order": 1747.78,
 }
+DIAGONAL_RULES = ("receiver", "mean")
+# The other rule's search in "which model": the two methods that did best there, one seed each.
+WHICH_MODEL_METHODS = ("sa", "cmaes")
+# "How the chosen order holds up": each variation of the scene, as FMU parameters derived from the base.
+SENSITIVITY_METHODS = ("sa",)
+MAX_HORIZON = 3600.0  # s: a longer horizon is refused (one evaluation must end)
 
-
-# The searches' cheaper objective, from bench/horizon_study.py over 257 orders: every order leaves the plate
-# for good before 0.74 s, so 1 s gives the 8 s peak; rtol 1e-5 errs by at most 2.7e-5, a sixteenth of the
-# smallest gap between the best ten orders, and keeps their ranking (1e-4 does not keep that margin).
-SEARCH_HORIZON = 1.0
-SEARCH_RTOL = 1e-5
-
-
-def search_tolerances(rtol: float) -> dict:
-    """The FMU's tolerances for a search at rtol (atol two decades below, as the horizon study ran them)."""
-    return {"rtol": rtol, "atol": rtol * 1e-2}
-
-
-def search_objective(fmu_path, horizon: float, objective: str = "sampled", rtol: float | None = SEARCH_RTOL,
-                     search_horizon: float | None = SEARCH_HORIZON, parameters: dict | None = None):
-    """The objective the searches optimise: a short horizon at a looser tolerance, falling back to the full
-    horizon for an order whose lattice still touches the plate near the end of the short one."""
-    search_parameters = dict(parameters or {})
-    if rtol is not None:
-        search_parameters.update(search_tolerances(rtol))
-    short = min(search_horizon or horizon, horizon)
-    return FMUObjective(str(fmu_path), short, objective, tuple(sorted(search_parameters.items())),
-                        fallback_horizon=horizon)
+__all__ = ["SEARCH_HORIZON", "SEARCH_RTOL", "search_tolerances", "StudyConfig", "Study", "run_study"]
 
 
 @dataclass
@@ -76,8 +69,16 @@ class StudyConfig:
     search_horizon: float | None = SEARCH_HORIZON  # None: search over the full horizon
     search_rtol: float | None = SEARCH_RTOL  # None: the FMU's default tolerance
     parameters: dict = field(default_factory=dict)  # FMU parameters for every run (F_total, diagonal_rule, ...)
+    cases: dict = field(default_factory=dict)  # {"F_total": [600, 1200, 2400], ...}: the product is the cases
+    aggregate: str | None = None  # "worst" (default with cases) or "mean"
     finalists: int = 3  # per run, the best distinct orders re-evaluated over the full scene
     local_check: bool = True
+    which_model: bool = True  # also search under the other diagonal rule, and compare
+    which_model_budget: int = 300
+    sensitivity: bool = True  # the chosen order under standard variations of the case
+    sensitivity_budget: int = 100
+    time_limit: float | None = 120.0  # s per evaluation; a slower one is failed
+    resume: bool = False
     progress: bool = True
 
     def __post_init__(self):
@@ -88,31 +89,41 @@ class StudyConfig:
                 raise ValueError(f"method {method!r}: allowed values are {', '.join(allowed)}")
             methods += list(SEARCH_METHODS + BASELINES) if method == "all" else [method]
         self.methods = tuple(dict.fromkeys(methods))
-        objective_output(self.objective)
-        if int(self.budget) != self.budget or self.budget < 1:
-            raise ValueError(f"budget must be a positive integer, got {self.budget!r}")
-        if int(self.repeats) != self.repeats or self.repeats < 1:
-            raise ValueError(f"repeats must be a positive integer, got {self.repeats!r}")
-        for name in ("horizon", "search_horizon", "search_rtol"):
+        if self.objective not in OBJECTIVES:
+            raise ValueError(f"objective {self.objective!r}: allowed values are {', '.join(OBJECTIVES)}")
+        for name in ("budget", "repeats", "finalists", "which_model_budget", "sensitivity_budget"):
             value = getattr(self, name)
-            if value is not None and not value > 0:
-                raise ValueError(f"{name} must be > 0, got {value!r}")
+            if isinstance(value, bool) or int(value) != value or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if isinstance(self.seed, bool) or int(self.seed) != self.seed or not 0 <= self.seed < 2**32 - 1000:
+            raise ValueError(f"seed must be an integer in [0, {2**32 - 1000}), got {self.seed!r}")
+        for name in ("horizon", "search_horizon", "search_rtol", "time_limit"):
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        if self.horizon is not None and self.horizon > MAX_HORIZON:
+            raise ValueError(f"horizon must be at most {MAX_HORIZON:g} s, got {self.horizon!r}")
+        if self.workers is not None and (int(self.workers) != self.workers or self.workers < 1):
+            raise ValueError(f"workers must be a positive integer, got {self.workers!r}")
+        if self.aggregate is not None:
+            if not self.cases:
+                raise ValueError("aggregate: only with cases (--case NAME=V1,V2,...); allowed values are "
+                                 + ", ".join(AGGREGATES))
+            if self.aggregate not in AGGREGATES:
+                raise ValueError(f"aggregate {self.aggregate!r}: allowed values are {', '.join(AGGREGATES)}")
 
+    @property
+    def diagonal_rule(self) -> str:
+        rule = self.parameters.get("diagonal_rule", "receiver")
+        return DIAGONAL_RULES[rule] if isinstance(rule, int) else str(rule)
 
-@dataclass
-class Verified:
-    """One order on the full scene at the FMU's default accuracy."""
-
-    order: Order
-    peak_sampled: float | None
-    peak_continuous: float | None
-    peak_time: float | None
-    last_contact_time: float | None
-    status: str
-    message: str = ""
-
-    def peak(self, objective: str) -> float | None:
-        return self.peak_sampled if objective == "sampled" else self.peak_continuous
+    def settings(self) -> dict:
+        """What decides the results (a resumed run must match it); not where or how fast it runs."""
+        kept = asdict(self)
+        for name in ("executor", "workers", "scheduler", "out", "resume", "progress", "time_limit"):
+            kept.pop(name)
+        kept["methods"] = list(self.methods)
+        return kept
 
 
 @dataclass
@@ -120,46 +131,81 @@ class Study:
     config: StudyConfig
     fmu_path: Path
     horizon: float
+    objective: PeakObjective
     runs: list[SearchRun]
-    verified: dict[Order, Verified]
+    verified: dict[Order, Evaluation]  # each order at full fidelity
     finalist_disagreements: list[dict]
     local_check: dict | None
     wall_seconds: float
     rows: int
-    search_horizon: float  # the searches' cheaper objective's horizon (at most the full one)
+    which_model: dict | None = None
+    sensitivity: dict | None = None
+    evaluator_state: dict = field(default_factory=dict)
 
-    def best_verified(self) -> Verified | None:
-        """The best order over every run's finalists, on the full scene, for the optimised objective."""
-        good = [v for v in self.verified.values() if v.status == "ok" and v.peak(self.config.objective) is not None]
-        return min(good, key=lambda v: v.peak(self.config.objective)) if good else None
+    @property
+    def search_horizon(self) -> float:
+        return self.objective.search_horizon
 
-    def run_best(self, run: SearchRun) -> Verified | None:
-        """A run's answer: its best finalist on the full scene."""
+    def best_verified(self) -> Evaluation | None:
+        """The best order over every run's finalists and the final descent, at full fidelity."""
+        good = [v for v in self.verified.values() if v.ok]
+        return min(good, key=lambda v: v.peak) if good else None
+
+    def run_best(self, run: SearchRun) -> Evaluation | None:
+        """A run's answer: its best finalist at full fidelity."""
         finalists = [self.verified[o] for o in finalist_orders(run, self.config.finalists) if o in self.verified]
-        good = [v for v in finalists if v.status == "ok"]
-        return min(good, key=lambda v: v.peak(self.config.objective)) if good else None
+        good = [v for v in finalists if v.ok]
+        return min(good, key=lambda v: v.peak) if good else None
 
 
 def ensure_fmu(scene: str, fmu: str | None = None) -> Path:
-    """The FMU to use: the given path, or the scene's FMU in models/, built first when it is missing."""
+    """The FMU to use: the given path, or the scene's FMU in models/, (re)built when missing or stale."""
+    import build_fmu
+
+    loaded = load_scene(scene)
     if fmu:
         path = Path(fmu)
         if not path.is_file():
             raise FileNotFoundError(f"--fmu {fmu}: no such file (build one with `python build_fmu.py`)")
+        check_fmu_matches_scene(path, loaded)
         return path
-    sys.path.insert(0, str(ROOT))
-    import build_fmu
-
-    loaded = build_fmu.Scene.load(scene)
     path = build_fmu.MODELS_DIR / f"{loaded.model_identifier}.fmu"
+    expected = build_fmu.model_guid(loaded.interface(), loaded.model_identifier)
     if not path.is_file():
         print(f"building {path} (scene {scene}) ...", file=sys.stderr)
+        build_fmu.build_fmu(loaded, path)
+    elif stale_fmu(path, expected):
+        print(f"rebuilding {path}: it was built from other sources or for another scene", file=sys.stderr)
         build_fmu.build_fmu(loaded, path)
     return path
 
 
+def stale_fmu(path: Path, expected_guid: str) -> bool:
+    try:
+        from fmpy import read_model_description
+
+        return read_model_description(str(path)).guid != expected_guid
+    except Exception:  # noqa: BLE001
+        return True
+
+
+def check_fmu_matches_scene(path: Path, scene) -> None:
+    """An explicit --fmu must be the scene's model (identifier and lattice size); else a one-line refusal."""
+    from fmpy import read_model_description
+
+    try:
+        description = read_model_description(str(path))
+    except Exception as exc:  # noqa: BLE001
+        raise ValueError(f"--fmu {path}: not a readable FMU ({type(exc).__name__}: {exc})") from None
+    identifier = description.coSimulation.modelIdentifier if description.coSimulation else None
+    names = {v.name for v in description.modelVariables}
+    columns = sum(1 for name in names if name.startswith("material["))
+    if identifier != scene.model_identifier or (columns and columns != scene.cols):
+        raise ValueError(f"--fmu {path}: it is {identifier} with {columns} columns, but scene {scene.name} is "
+                         f"{scene.model_identifier} with {scene.cols}; give the scene's FMU or --scene")
+
+
 def load_scene(scene: str):
-    sys.path.insert(0, str(ROOT))
     import build_fmu
 
     return build_fmu.Scene.load(scene)
@@ -173,27 +219,49 @@ def finalist_orders(run: SearchRun, count: int) -> list[Order]:
 
 def neighbours(order: Order) -> dict[str, list[Order]]:
     """Every order one swap or one insertion (take a column out, put it elsewhere) away, by kind."""
-    moves = search_local.neighbours(order)  # swaps first, then the insertions that are not swaps
+    moves = local_neighbours(order)  # swaps first, then the insertions that are not swaps
     swaps = len(order) * (len(order) - 1) // 2
     return {"swap": moves[:swaps], "insertion": moves[swaps:]}
 
 
-def _evaluate_many(executor, objective, orders: list[Order]) -> list[Evaluation]:
-    from .types import safe_call
+def verify(objective: PeakObjective, evaluator: Evaluator, orders: list[Order]) -> dict[Order, Evaluation]:
+    """Every order at full fidelity; failures stay failures."""
+    orders = list(dict.fromkeys(orders))
+    return dict(zip(orders, objective.evaluate(orders, evaluator, FULL)))
 
-    futures = [executor.submit(safe_call, objective, order) for order in orders]
-    return [future.result() for future in futures]
+
+def plan_runs(config: StudyConfig) -> list[tuple[str, int]]:
+    seeds = [config.seed + r for r in range(config.repeats)]
+    return [(method, seed) for method in config.methods
+            for seed in (seeds[:1] if SEARCHES[method].deterministic else seeds)]
 
 
-def verify(executor, full_objective: FMUObjective, orders: list[Order]) -> dict[Order, Verified]:
-    """Every order on the full scene; failures stay failures."""
-    results = {}
-    for evaluation in _evaluate_many(executor, full_objective, orders):
-        details = evaluation.details
-        results[evaluation.order] = Verified(
-            evaluation.order, details.get("peak_sampled"), details.get("peak_continuous"), details.get("peak_time"),
-            details.get("last_contact_time"), evaluation.status, evaluation.message)
-    return results
+def run_searches(objective: PeakObjective, evaluator: Evaluator, plan, budget: int, bar=None,
+                 label: str = "") -> list[SearchRun]:
+    runs = []
+    done_before = 0
+    for method, seed in plan:
+        search = make_search(method, objective.n_var, seed, budget=budget)
+        cap = min(budget, SEARCHES[method].max_evaluations or budget)
+
+        def progress(done, offset=done_before):
+            if bar is not None:
+                bar.n = offset + done
+                bar.refresh()
+
+        runs.append(run_search(search, objective, budget, evaluator, method_name=method, seed=seed,
+                               progress=progress))
+        done_before += cap
+    return runs
+
+
+def best_of(runs: list[SearchRun], objective: PeakObjective, evaluator: Evaluator, finalists: int,
+            extra: tuple = ()) -> tuple[dict[Order, Evaluation], Evaluation | None]:
+    orders = list(itertools.chain.from_iterable(finalist_orders(run, finalists) for run in runs))
+    orders += [o for o in extra if len(o) == objective.n_var]
+    verified = verify(objective, evaluator, orders)
+    good = [v for v in verified.values() if v.ok]
+    return verified, (min(good, key=lambda v: v.peak) if good else None)
 
 
 def run_study(config: StudyConfig) -> Study:
@@ -205,13 +273,14 @@ def run_study(config: StudyConfig) -> Study:
         raise ValueError(f"{fmu_path} has {columns} column(s): there is no material order to search")
     scene = load_scene(config.scene)
     horizon = config.horizon or scene.horizon
-    base = {k: v for k, v in config.parameters.items() if v is not None}
-    full = FMUObjective(str(fmu_path), horizon, config.objective, tuple(sorted(base.items())))
-    cheap = search_objective(fmu_path, horizon, config.objective, config.search_rtol, config.search_horizon, base)
-    search_horizon = cheap.horizon
-    seeds = [config.seed + r for r in range(config.repeats)]
-    plan = [(method, seed) for method in config.methods for seed in (seeds if method != "sequential" else seeds[:1])]
-    total = sum(1 if method == "sequential" else config.budget for method, _ in plan)
+    objective = make_objective(config.objective, fmu_path, columns, horizon, config.parameters,
+                               expand_cases(config.cases), config.aggregate or "worst",
+                               config.search_horizon, config.search_rtol)
+    plan = plan_runs(config)
+    total = sum(min(config.budget, SEARCHES[m].max_evaluations or config.budget) for m, _ in plan)
+    out = Path(config.out)
+    out.mkdir(parents=True, exist_ok=True)
+    settings = {**config.settings(), "fmu_sha256": file_sha256(fmu_path), "horizon": horizon}
 
     bar = None
     if config.progress:
@@ -219,96 +288,169 @@ def run_study(config: StudyConfig) -> Study:
 
         bar = tqdm(total=total, unit="eval", desc="searching", file=sys.stderr, mininterval=0.5,
                    disable=None)  # None: no bar when stderr is not a terminal (CI logs)
-    runs: list[SearchRun] = []
-    with make_executor(config.executor, config.workers, config.scheduler) as executor:
-        done_before = 0
-        for method, seed in plan:
-            search = make_search(method, columns, seed, budget=config.budget)
+    temp_root = tempfile.mkdtemp(prefix="lattice-run-")
+    previous_tempdir = tempfile.tempdir
+    tempfile.tempdir = temp_root  # this process's extractions too; removed with the run
+    try:
+        with Journal(out, settings, resume=config.resume) as journal, \
+                make_executor(config.executor, config.workers, config.scheduler, temp_root) as executor:
+            evaluator = Evaluator(executor, journal, config.time_limit)
+            runs = run_searches(objective, evaluator, plan, config.budget, bar)
+            if bar is not None:
+                bar.close()
+            extra = (STUDY_BEST_ORDER, tuple(range(1, columns + 1)))
+            verified, best = best_of(runs, objective, evaluator, config.finalists, extra)
+            disagreements = finalist_disagreements(runs, verified, config.finalists)
+            local = None
+            if config.local_check and best is not None:
+                local = final_descent(objective, evaluator, best, verified, seed=config.seed)
+                best = min((v for v in verified.values() if v.ok), key=lambda v: v.peak)
+            which = None
+            if config.which_model and best is not None and not _rule_in_cases(config):
+                which = which_model(objective, evaluator, best.order, config)
+            sensitivity = None
+            if config.sensitivity and best is not None:
+                sensitivity = sensitivity_study(objective, evaluator, best.order, config)
+            state = evaluator.state()
+    finally:
+        tempfile.tempdir = previous_tempdir
+        close_instances()
+        shutil.rmtree(temp_root, ignore_errors=True)
+    return Study(config, fmu_path, horizon, objective, runs, verified, disagreements, local,
+                 time.perf_counter() - start, scene.rows, which, sensitivity, state)
 
-            def progress(done, offset=done_before):
-                if bar is not None:
-                    bar.n = offset + done
-                    bar.refresh()
 
-            run = run_search(search, cheap, config.budget, executor, method_name=method, seed=seed, progress=progress)
-            runs.append(run)
-            done_before += config.budget if method != "sequential" else 1
-        if bar is not None:
-            bar.close()
-
-        finalists = list(dict.fromkeys(itertools.chain.from_iterable(
-            finalist_orders(run, config.finalists) for run in runs)))
-        finalists += [o for o in (STUDY_BEST_ORDER, tuple(range(1, columns + 1)))
-                      if len(o) == columns and o not in finalists]
-        verified = verify(executor, full, finalists)
-        disagreements = finalist_disagreements(runs, verified, config)
-        local = None
-        best = min((v for v in verified.values() if v.status == "ok"), key=lambda v: v.peak(config.objective),
-                   default=None)
-        if config.local_check and best is not None:
-            local = polish(executor, cheap, full, best, config.objective, verified)
-    return Study(config, fmu_path, horizon, runs, verified, disagreements, local, time.perf_counter() - start,
-                 scene.rows, search_horizon)
+def _rule_in_cases(config: StudyConfig) -> bool:
+    return "diagonal_rule" in config.cases
 
 
-def finalist_disagreements(runs: list[SearchRun], verified: dict[Order, Verified], config: StudyConfig) -> list[dict]:
-    """Where the full scene ranks a run's finalists differently from the search's cheaper objective."""
+def finalist_disagreements(runs: list[SearchRun], verified: dict[Order, Evaluation], count: int) -> list[dict]:
+    """Where the full scene ranks a run's finalists differently from the search fidelity."""
     found = []
     for run in runs:
-        orders = finalist_orders(run, config.finalists)
+        orders = finalist_orders(run, count)
         by_search = {e.order: e.peak for e in run.evaluations if e.ok}
-        full = {o: verified[o].peak(config.objective) for o in orders if o in verified and verified[o].status == "ok"}
+        full = {o: verified[o].peak for o in orders if o in verified and verified[o].ok}
         if len(full) < 2:
             continue
         search_rank = sorted(full, key=lambda o: by_search[o])
         full_rank = sorted(full, key=lambda o: full[o])
-        largest = max(abs(full[o] - by_search[o]) / full[o] for o in full)
+        largest = max(abs(full[o] - by_search[o]) / abs(full[o]) if full[o] else 0.0 for o in full)
         if search_rank != full_rank:
             found.append({"method": run.method, "seed": run.seed, "search_ranking": [list(o) for o in search_rank],
                           "full_ranking": [list(o) for o in full_rank], "largest_relative_difference": largest})
     return found
 
 
-def polish(executor, cheap: FMUObjective, full: FMUObjective, best: Verified, objective: str,
-           verified: dict[Order, Verified], max_rounds: int = 10) -> dict:
-    """Descend from the best order by single swaps and insertions until none improves it (at most
-    max_rounds moves); every order met on the way is added to `verified`. Returns the last check."""
-    path = [list(best.order)]
-    for _ in range(max_rounds):
-        local = check_local_optimality(executor, cheap, full, best, objective)
-        if not local["improvements"]:
-            break
-        move = min(local["improvements"], key=lambda i: i["peak"])
-        verified.update(verify(executor, full, [tuple(i["order"]) for i in local["improvements"]]))
-        best = verified[tuple(move["order"])]
-        path.append(list(best.order))
-    local["descent"] = path
-    return local
-
-
-def check_local_optimality(executor, cheap: FMUObjective, full: FMUObjective, best: Verified,
-                           objective: str) -> dict:
-    """No single swap or insertion may improve the best order: checked on the search objective, and any
-    neighbour that looks better there is re-evaluated on the full scene."""
-    moves = neighbours(best.order)
-    candidates = moves["swap"] + moves["insertion"]
-    evaluations = _evaluate_many(executor, cheap, candidates)
-    own = _evaluate_many(executor, cheap, [best.order])[0]
-    better = [e for e in evaluations if e.ok and own.ok and e.peak < own.peak]
-    improvements = []
-    if better:
-        confirmed = verify(executor, full, [e.order for e in better])
-        for order, v in confirmed.items():
-            if v.status == "ok" and v.peak(objective) < best.peak(objective):
-                improvements.append({"order": list(order), "peak": v.peak(objective)})
+def final_descent(objective: PeakObjective, evaluator: Evaluator, best: Evaluation,
+                  verified: dict[Order, Evaluation], seed: int = 0, max_evaluations: int = 5000) -> dict:
+    """The one local search (``local`` method, no kicks) from the best order until no single swap or
+    insertion improves it at the search fidelity; the order it ends at is verified at full fidelity and
+    added to ``verified``. Returns the local-optimality check of the order it ends at."""
+    descent = make_search("local", objective.n_var, seed, start=best.order, kicks=0)
+    run = run_search(descent, objective, max_evaluations, evaluator, method_name="local", seed=seed)
+    end = tuple(run.diagnostics["local_optimum"] or run.best_order or best.order)
+    verified.update(verify(objective, evaluator, [end]))
+    moves = neighbours(end)
+    values = {e.order: e for e in run.evaluations}
+    own = values.get(end)
+    around = [values[o] for o in moves["swap"] + moves["insertion"] if o in values]
+    checked = len(around) == len(moves["swap"]) + len(moves["insertion"])
+    good = [e for e in around if e.ok]
     return {
-        "order": list(best.order),
-        "swaps_checked": len(moves["swap"]),
-        "insertions_checked": len(moves["insertion"]),
-        "failed": sum(1 for e in evaluations if not e.ok),
-        "better_on_search_objective": len(better),
-        "improvements": improvements,
-        "locally_optimal": not improvements and own.ok and all(e.ok for e in evaluations),
-        "nearest_neighbour_gap": (min(e.peak for e in evaluations if e.ok) - own.peak)
-        if own.ok and any(e.ok for e in evaluations) else None,
+        "start": list(best.order),
+        "order": list(end),
+        "descent_evaluations": run.n_evaluations,
+        "moves": run.diagnostics["descent"]["moves"] + run.diagnostics["descent"]["free_moves"],
+        "swaps_checked": sum(1 for o in moves["swap"] if o in values),
+        "insertions_checked": sum(1 for o in moves["insertion"] if o in values),
+        "failed": sum(1 for e in around if not e.ok),
+        "locally_optimal": bool(checked and own is not None and own.ok and len(good) == len(around)
+                                and all(e.peak >= own.peak for e in good)),
+        "nearest_neighbour_gap": (min(e.peak for e in good) - own.peak) if good and own is not None and own.ok
+        else None,
+        "improvement_full": (best.peak - verified[end].peak) if verified[end].ok else None,
+        "stop_reason": run.stop_reason,
     }
+
+
+def _other_rule(rule: str) -> str:
+    return "mean" if rule == "receiver" else "receiver"
+
+
+def which_model(objective: PeakObjective, evaluator: Evaluator, best_order: Order, config: StudyConfig) -> dict:
+    """The optimum under each diagonal rule, each evaluated under both (full fidelity), with the energy
+    flows that explain the difference. The run's own rule has its searches; the other gets a search here."""
+    rule = config.diagonal_rule
+    other = _other_rule(rule)
+    objectives = {rule: objective.with_parameters(diagonal_rule=rule),
+                  other: objective.with_parameters(diagonal_rule=other)}
+    plan = [(method, config.seed) for method in WHICH_MODEL_METHODS]
+    runs = run_searches(objectives[other], evaluator, plan, config.which_model_budget)
+    _, other_best = best_of(runs, objectives[other], evaluator, config.finalists, (tuple(range(1, objective.n_var + 1)),))
+    optima = {rule: tuple(best_order)}
+    if other_best is not None:
+        descent = final_descent(objectives[other], evaluator, other_best, {}, seed=config.seed)
+        optima[other] = tuple(descent["order"])
+    result: dict = {}
+    for name, order in optima.items():
+        entry = {"order": list(order), "found_under": name}
+        for judged_by, judge in objectives.items():
+            evaluation = judge.evaluate([order], evaluator, FULL)[0]
+            entry[f"peak_{judged_by}"] = evaluation.peak
+            entry[f"energy_{judged_by}"] = {k: evaluation.details.get(k) for k in
+                                            ("external_work", "nonreciprocal_work", "dissipated_energy")}
+            if not evaluation.ok:
+                entry[f"error_{judged_by}"] = evaluation.message
+        result[name] = entry
+    result["searches"] = [{"method": r.method, "seed": r.seed, "rule": other, "budget": r.budget,
+                           "best_order": list(r.best_order) if r.best_order else None, "best_peak": r.best_peak}
+                          for r in runs]
+    return result
+
+
+def sensitivity_variations(objective: PeakObjective, config: StudyConfig) -> dict[str, dict]:
+    """The standard variations of the case, as FMU parameters: load 0.5x and 2x, load duration 0.5x and
+    2x, the other diagonal rule, load angle 30 degrees."""
+    with LatticeFMU(objective.fmu_path) as fmu:
+        defaults = {name: v.start for name, v in fmu.variables.items()}
+    load = float(objective.parameters.get("F_total", defaults.get("F_total") or 1200.0))
+    duration = float(objective.parameters.get("t_active", defaults.get("t_active") or 0.15))
+    variations = {
+        "load 0.5x": {"F_total": 0.5 * load},
+        "load 2x": {"F_total": 2.0 * load},
+        "load duration 0.5x": {"t_active": 0.5 * duration},
+        "load duration 2x": {"t_active": 2.0 * duration},
+        "other diagonal rule": {"diagonal_rule": _other_rule(config.diagonal_rule)},
+        "load angle 30 deg": {"load_angle": 30.0},
+    }
+    known = set(defaults)
+    return {name: change for name, change in variations.items() if set(change) <= known}
+
+
+def sensitivity_study(objective: PeakObjective, evaluator: Evaluator, best_order: Order,
+                      config: StudyConfig) -> dict:
+    """The chosen order, the study's and the sequential one under each variation, beside the best order a
+    short search finds for that variation: what keeping the chosen order costs (its regret)."""
+    base = objective.with_cases(None)  # variations change the single case the designer chose
+    columns = objective.n_var
+    compared = {"chosen": tuple(best_order), "sequential": tuple(range(1, columns + 1))}
+    if len(STUDY_BEST_ORDER) == columns:
+        compared["study best"] = STUDY_BEST_ORDER
+    result = {"budget": config.sensitivity_budget, "methods": list(SENSITIVITY_METHODS), "variations": []}
+    for name, change in sensitivity_variations(objective, config).items():
+        varied = base.with_parameters(**change)
+        plan = [(method, config.seed) for method in SENSITIVITY_METHODS]
+        runs = run_searches(varied, evaluator, plan, config.sensitivity_budget)
+        _, found = best_of(runs, varied, evaluator, config.finalists, tuple(compared.values()))
+        full = dict(zip(compared, varied.evaluate(list(compared.values()), evaluator, FULL)))
+        entry = {"variation": name, "parameters": change,
+                 "best_found": {"order": list(found.order), "peak": found.peak} if found else None,
+                 "orders": {}}
+        for label, evaluation in full.items():
+            entry["orders"][label] = {
+                "order": list(compared[label]), "peak": evaluation.peak,
+                "regret": (evaluation.peak - found.peak) if evaluation.ok and found else None,
+                **({"error": evaluation.message} if not evaluation.ok else {})}
+        result["variations"].append(entry)
+    return result

@@ -7,7 +7,7 @@ from concurrent.futures import Executor
 import pytest
 
 from orchestrator.executors import EXECUTORS, SerialExecutor, make_executor
-from orchestrator.loop import run_search
+from orchestrator.loop import Evaluator, run_search
 from orchestrator.search import SEARCHES, make_search
 from orchestrator.search.problems import Flaky, QuadraticAssignment
 
@@ -73,7 +73,7 @@ def exit_on_identity(order):
     return float(sum(order))
 
 
-def test_dead_worker_stops_the_run_cleanly():
+def test_dead_worker_is_a_failed_evaluation():
     with make_executor("process", workers=2) as ex:
         run = run_search(make_search("sequential", 5, 0), exit_on_identity, 10, ex,
                          method_name="sequential", seed=0)
@@ -81,9 +81,36 @@ def test_dead_worker_stops_the_run_cleanly():
     assert "BrokenProcessPool" in run.evaluations[0].message
 
 
-def test_broken_pool_ends_the_run_instead_of_burning_the_budget():
+def test_a_dead_worker_costs_only_its_order_and_the_pool_is_replaced():
+    """Every order in flight when the worker died is tried again alone: only the one that kills its
+    worker fails, and the run spends its whole budget."""
+    evaluator = Evaluator(None)
     with make_executor("process", workers=2) as ex:
-        run = run_search(make_search("random", 5, 0, batch=120), exit_on_identity, 200, ex,
+        evaluator.executor = ex
+        run = run_search(make_search("random", 5, 0, batch=120), exit_on_identity, 120, evaluator,
                          method_name="random", seed=0)
-    assert run.stop_reason.startswith("executor error"), run.stop_reason
-    assert run.n_failed >= 1 and run.n_evaluations <= 120
+    assert run.n_evaluations == 120 and run.n_failed == 1, run.stop_reason
+    failed = next(e for e in run.evaluations if not e.ok)
+    assert failed.order == (1, 2, 3, 4, 5) and "died" in failed.message
+    assert all(e.peak == 15.0 for e in run.evaluations if e.ok)
+    assert evaluator.pool_renewals >= 1
+
+
+def sleep_on_identity(order):
+    """Hangs for the identity order (like a solver that never ends)."""
+    import time
+
+    if tuple(order) == tuple(range(1, len(order) + 1)):
+        time.sleep(60)
+    return float(sum(order))
+
+
+def test_a_hung_evaluation_is_failed_at_the_time_limit_and_the_run_goes_on():
+    with make_executor("process", workers=2) as ex:
+        evaluator = Evaluator(ex, time_limit=1.0)
+        run = run_search(make_search("random", 4, 0, batch=24), sleep_on_identity, 24, evaluator,
+                         method_name="random", seed=0)
+    assert run.n_evaluations == 24 and run.n_failed == 1
+    failed = next(e for e in run.evaluations if not e.ok)
+    assert failed.order == (1, 2, 3, 4) and "time limit of 1 s" in failed.message
+    assert evaluator.timeouts == 1

@@ -7,33 +7,58 @@ import pytest
 
 from conftest import PUBLISHED_BEST, PUBLISHED_PEAKS, PUBLISHED_SEQUENTIAL
 from orchestrator import run as cli
-from orchestrator.evaluate import FMUObjective
 from orchestrator.executors import make_executor
-from orchestrator.loop import run_search
+from orchestrator.loop import Evaluator, run_search
+from orchestrator.objective import FULL, SEARCH, ContinuousPeak, FMURun, SampledPeak
 from orchestrator.search import make_search
 from orchestrator.study import StudyConfig, neighbours, run_study
 
 
 def test_objective_reports_both_peaks_and_reproduces_the_study(fmu_path):
-    objective = FMUObjective(str(fmu_path), horizon=8.0)
-    evaluation = objective(PUBLISHED_BEST)
-    assert evaluation.ok
-    assert evaluation.peak == pytest.approx(PUBLISHED_PEAKS[PUBLISHED_BEST], rel=1e-6)
-    assert evaluation.details["peak_continuous"] > evaluation.details["peak_sampled"] == evaluation.peak
-    continuous = FMUObjective(str(fmu_path), horizon=8.0, objective="continuous")(PUBLISHED_BEST)
-    assert continuous.peak == evaluation.details["peak_continuous"]
+    sampled = SampledPeak(fmu_path, 11, horizon=8.0)
+    with make_executor("serial") as executor:
+        evaluator = Evaluator(executor)
+        evaluation, = sampled.evaluate([PUBLISHED_BEST], evaluator, FULL)
+        assert evaluation.ok and sampled.unit == "N"
+        assert evaluation.peak == pytest.approx(PUBLISHED_PEAKS[PUBLISHED_BEST], rel=1e-6)
+        assert evaluation.details["peak_continuous"] > evaluation.details["peak_sampled"] == evaluation.peak
+        continuous, = ContinuousPeak(fmu_path, 11, horizon=8.0).evaluate([PUBLISHED_BEST], evaluator, FULL)
+        assert continuous.peak == evaluation.details["peak_continuous"]
+        assert evaluator.simulated == 2  # the two objectives are two FMU runs ...
+        sampled.evaluate([PUBLISHED_BEST], evaluator, FULL)
+        assert evaluator.simulated == 2 and evaluator.cache_hits == 1  # ... and asking again costs nothing
+        search, = sampled.evaluate([PUBLISHED_BEST], evaluator, SEARCH)
+        assert search.details["horizon"] == 1.0 and search.peak == pytest.approx(evaluation.peak, rel=1e-4)
 
 
 def test_a_short_horizon_falls_back_to_the_full_one_while_the_lattice_touches_the_plate(fmu_path):
-    short = FMUObjective(str(fmu_path), horizon=0.3, fallback_horizon=8.0)(PUBLISHED_SEQUENTIAL)
+    short = FMURun(str(fmu_path), horizon=0.3, fallback_horizon=8.0)(PUBLISHED_SEQUENTIAL)
     assert short.details["horizon"] == 8.0  # at 0.3 s the lattice is pressing on the plate
     assert short.peak == pytest.approx(PUBLISHED_PEAKS[PUBLISHED_SEQUENTIAL], rel=1e-6)
-    safe = FMUObjective(str(fmu_path), horizon=1.0, fallback_horizon=8.0)(PUBLISHED_SEQUENTIAL)
+    safe = FMURun(str(fmu_path), horizon=1.0, fallback_horizon=8.0)(PUBLISHED_SEQUENTIAL)
     assert safe.details["horizon"] == 1.0 and safe.details["last_contact_time"] < 0.9
 
 
+def test_load_cases_are_one_run_each_and_their_aggregate(fmu_path):
+    worst = SampledPeak(fmu_path, 11, horizon=1.0, cases=[{"F_total": 600.0}, {"F_total": 2400.0}])
+    mean = worst.with_cases([{"F_total": 600.0}, {"F_total": 2400.0}], aggregate="mean")
+    with make_executor("serial") as executor:
+        evaluator = Evaluator(executor)
+        high, = worst.evaluate([PUBLISHED_BEST], evaluator, FULL)
+        average, = mean.evaluate([PUBLISHED_BEST], evaluator, FULL)
+        assert evaluator.simulated == 2  # the mean reused both cases' runs
+    peaks = [case["peak"] for case in high.details["cases"]]
+    assert [case["parameters"] for case in high.details["cases"]] == [{"F_total": 600.0}, {"F_total": 2400.0}]
+    assert peaks[1] > 2 * peaks[0] and high.peak == max(peaks)
+    assert average.peak == pytest.approx(sum(peaks) / 2)
+    failing = worst.with_cases([{"F_total": 600.0}, {"solver": 1, "fixed_step": 0.05}])
+    with make_executor("serial") as executor:
+        broken, = failing.evaluate([PUBLISHED_BEST], Evaluator(executor), FULL)
+    assert not broken.ok and broken.peak is None and "fixed_step" in broken.message
+
+
 def test_a_failing_fmu_evaluation_is_recorded_not_a_number(fmu_path):
-    diverging = FMUObjective(str(fmu_path), horizon=1.0, parameters=(("fixed_step", 0.05), ("solver", 1)))
+    diverging = FMURun(str(fmu_path), horizon=1.0, parameters=(("fixed_step", 0.05), ("solver", 1)))
     evaluation = diverging(PUBLISHED_SEQUENTIAL)
     assert evaluation.status == "failed" and evaluation.peak is None
     assert "diverged" in evaluation.message or "non-finite" in evaluation.message
@@ -53,7 +78,7 @@ def test_neighbours_are_every_distinct_swap_and_insertion():
 
 
 def test_dask_gives_the_same_search_as_a_process_pool(fmu_path):
-    objective = FMUObjective(str(fmu_path), horizon=1.0, parameters=(("atol", 1e-8), ("rtol", 1e-6)))
+    objective = FMURun(str(fmu_path), horizon=1.0, parameters=(("atol", 1e-8), ("rtol", 1e-6)))
     results = {}
     for kind in ("process", "dask"):
         with make_executor(kind, workers=2) as executor:
@@ -66,7 +91,8 @@ def test_dask_gives_the_same_search_as_a_process_pool(fmu_path):
 def test_cli_end_to_end_writes_the_report(fmu_path, tmp_path):
     out = tmp_path / "report"
     code = cli.main(["--fmu", str(fmu_path), "--method", "cmaes", "sa", "sequential", "--budget", "12",
-                     "--repeats", "2", "--executor", "process", "--workers", "2", "--out", str(out), "--no-progress"])
+                     "--repeats", "2", "--executor", "process", "--workers", "2", "--out", str(out), "--no-progress",
+                     "--which-model-budget", "20", "--sensitivity-budget", "10"])
     assert code == 0
     results = json.loads((out / "results.json").read_text())
     assert {r["method"] for r in results["runs"]} == {"cmaes", "sa", "sequential"}
@@ -81,8 +107,27 @@ def test_cli_end_to_end_writes_the_report(fmu_path, tmp_path):
     assert best["peak"] <= min(r["best_peak"] for r in results["runs"])
     local = results["local_optimality"]
     assert local["swaps_checked"] == 55 and local["insertions_checked"] == 90
-    assert local["order"] == best["order"] and local["descent"][-1] == best["order"]
-    assert local["locally_optimal"] == (not local["improvements"])
+    assert local["order"] == best["order"] and local["locally_optimal"]
+    assert local["nearest_neighbour_gap"] >= 0
+    # which model: both rules' optima, each judged by both rules, with the energy flows
+    which = results["which_model"]
+    assert which["receiver"]["order"] == best["order"]
+    for rule in ("receiver", "mean"):
+        for judge in ("receiver", "mean"):
+            assert which[rule][f"peak_{judge}"] > 0
+        assert which[rule]["energy_receiver"]["nonreciprocal_work"] < 0  # the receiver rule's sink
+        assert which[rule]["energy_mean"]["nonreciprocal_work"] == pytest.approx(0, abs=1e-6)
+    assert which["mean"]["peak_mean"] <= which["receiver"]["peak_mean"]
+    # sensitivity: six variations, each with the chosen order's regret against a short search's best
+    variations = {v["variation"]: v for v in results["sensitivity"]["variations"]}
+    assert len(variations) == 6
+    assert variations["load 2x"]["parameters"] == {"F_total": 2400.0}
+    for variation in variations.values():
+        chosen = variation["orders"]["chosen"]
+        assert chosen["regret"] == pytest.approx(chosen["peak"] - variation["best_found"]["peak"])
+        assert variation["best_found"]["peak"] <= min(o["peak"] for o in variation["orders"].values()) + 1e-9
+    page = (out / "report.html").read_text()
+    assert "Which model, which optimum" in page and "How the chosen order holds up" in page
     assert results["accuracy"]["sampled_relative_error"] < 1e-6
     with open(out / "evaluations.csv") as handle:
         rows = list(csv.DictReader(handle))

@@ -205,7 +205,7 @@ def test_first_batch_holds_the_sequential_order(method):
 
 
 def test_cmaes_first_mean_is_the_sequential_order():
-    assert keys_to_order(make_search("cmaes", 7, 3, budget=100).es.mean, 7) == tuple(range(1, 8))
+    assert keys_to_order(make_search("cmaes", 7, 3, budget=100).inner.es.mean, 7) == tuple(range(1, 8))
 
 
 @pytest.mark.parametrize("method,polish", [("cmaes", 0.7), ("pso", 0.7), ("sa", 0.3)])

@@ -51,10 +51,6 @@ static inline double spring_stretch(int linear, double alpha, double distance) {
     return linear ? distance : exponential;
 }
 
-double lattice_spring_force_magnitude(int spring_law, double k, double alpha, double distance) {
-    return k * spring_stretch(spring_law == SPRING_LINEAR, alpha, distance);
-}
-
 /* The potential whose derivative is the force law. */
 double lattice_spring_potential(int spring_law, double k, double alpha, double distance) {
     if (spring_law == SPRING_LINEAR) return 0.5 * k * distance * distance;

@@ -65,8 +65,7 @@ double lattice_backplate_force_from_column(const LatticeParams *p, const double 
 /* Kinetic and potential energy (SPEC section 7; a non-reciprocal pair counts the mean of its ends). */
 void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, double *potential);
 
-/* Magnitude of the spring force and its potential for one end with constants (k, alpha). */
-double lattice_spring_force_magnitude(int spring_law, double k, double alpha, double distance);
+/* The potential of the force law for one end with constants (k, alpha). */
 double lattice_spring_potential(int spring_law, double k, double alpha, double distance);
 
 #endif

@@ -16,6 +16,8 @@ from .annealing import Annealing
 from .base import FAILURE, Search, keys_to_order
 from .baselines import RandomSearch, Sequential
 from .cmaes import CMAES
+from .local import LocalSearch
+from .polish import Polished
 from .pso import PSO
 
 SEARCHES: dict[str, type[Search]] = {
@@ -24,17 +26,38 @@ SEARCHES: dict[str, type[Search]] = {
     "sa": Annealing,
     "random": RandomSearch,
     "sequential": Sequential,
+    "local": LocalSearch,
 }
 
 
 def make_search(name: str, n: int, seed: int, **options: Any) -> Search:
-    """Build a search by name.  Unknown name or option -> ValueError naming the allowed ones."""
+    """Build a search by name, composed with its polishing phase (``polish.Polished``) when it has one.
+
+    ``polish`` (default: the search's ``POLISH``) and ``polish_batch`` configure that phase; the search
+    itself is given ``budget`` minus the polished share.  Unknown name or option -> ValueError naming
+    the allowed ones.
+    """
     try:
         cls = SEARCHES[name]
     except (KeyError, TypeError):
         raise ValueError(f"unknown search {name!r}; allowed: {', '.join(SEARCHES)}") from None
-    return cls(n, seed, **options)
+    if cls.POLISH is None:
+        return cls(n, seed, **options)
+    polish = options.pop("polish", cls.POLISH)
+    polish_batch = options.pop("polish_batch", 4)
+    try:
+        fraction = float(polish)
+    except (TypeError, ValueError):
+        fraction = -1.0
+    if not 0.0 <= fraction <= 1.0:
+        raise ValueError(f"{name}: polish must be a fraction in [0, 1], got {polish!r}")
+    budget = options.get("budget")
+    inner_options = dict(options)
+    if budget is not None:
+        inner_options["budget"] = max(1, int(budget) - round(fraction * int(budget)))
+    inner = cls(n, seed, **inner_options)
+    return Polished(inner, polish=fraction, polish_batch=polish_batch, budget=budget)
 
 
 __all__ = ["SEARCHES", "make_search", "Search", "CMAES", "PSO", "Annealing", "RandomSearch",
-           "Sequential", "FAILURE", "keys_to_order"]
+           "Sequential", "LocalSearch", "Polished", "FAILURE", "keys_to_order"]

@@ -29,7 +29,7 @@ polishing phase continues, which is about as good at that budget.
 Why cooling by budget: the temperature falls geometrically from T0 to
 ``t_final_ratio * T0`` as the number of *distinct* orders evaluated goes from
 the end of calibration to the start of the polishing phase
-(``budget - round(polish * budget)``, see ``base.py``), so the schedule ends
+(``budget - round(polish * budget)``, see ``polish.py``), so the schedule ends
 when the annealing's share of the budget does, whatever the cache-hit rate.
 
 Why free steps: the search remembers every value it was told.  A proposal whose
@@ -72,6 +72,7 @@ import numpy as np
 
 from ..types import Order
 from .base import FAILURE, Search, random_order
+from .local import random_move
 
 
 class Annealing(Search):
@@ -96,10 +97,11 @@ class Annealing(Search):
     """
 
     name = "sa"
+    POLISH = 0.3  # the default share of the budget polished (polish.Polished)
     OPTIONS = {"chains": 4, "budget": None, "t0": None, "initial_acceptance": 0.2,
                "t_final_ratio": 1e-3, "swap_prob": 0.5, "calibration": None, "window": 30,
                "poor_low": 0.02, "poor_high": 0.98, "max_free": 500, "kick": 3,
-               "x0": "sequential", "polish": 0.3, "polish_batch": 4}
+               "x0": "sequential"}
 
     def __init__(self, n: int, seed: int, **options: Any) -> None:
         super().__init__(n, seed, **options)
@@ -111,9 +113,8 @@ class Annealing(Search):
             raise ValueError("sa: chains must be at least 1")
         self.budget_assumed = o["budget"] is None
         self.budget = int(o["budget"] if o["budget"] is not None else 1000)
-        # the annealing proper ends where the polishing phase begins (none without a budget)
-        polish = float(o["polish"] or 0.0) if not self.budget_assumed else 0.0
-        self.anneal_budget = max(1, self.budget - round(polish * self.budget))
+        # the budget is the annealing's own share: Polished hands it the part before its polishing phase
+        self.anneal_budget = max(1, self.budget)
         if not 0.0 < float(o["initial_acceptance"]) < 1.0:
             raise ValueError("sa: initial_acceptance must be in (0, 1)")
         if not 0.0 < float(o["t_final_ratio"]) <= 1.0:
@@ -167,16 +168,7 @@ class Annealing(Search):
 
     # -- moves ------------------------------------------------------------
     def _neighbour(self, order: Order) -> Order:
-        n = self.n
-        if n < 2:
-            return order
-        p = list(order)
-        i, j = (int(k) for k in self.rng.choice(n, size=2, replace=False))
-        if self.rng.random() < float(self.options["swap_prob"]):
-            p[i], p[j] = p[j], p[i]
-        else:
-            p.insert(j, p.pop(i))
-        return tuple(p)
+        return random_move(self.rng, order, float(self.options["swap_prob"]))
 
     def _step(self, c: int, proposal: Order, value: float, free: bool) -> None:
         """One Metropolis step of chain c (greedy while calibrating)."""

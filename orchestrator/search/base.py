@@ -16,13 +16,8 @@ internally, i.e. the worst possible value: it is never accepted by annealing,
 never becomes a personal/global best in the swarm, and gets the worst rank in
 CMA-ES.  A failure is never treated as a good number.
 
-Polishing: the optimisers (CMA-ES, PSO, annealing) hand the last ``polish``
-fraction of their ``budget`` to a first-improvement descent by single swaps
-and insertions from the best order found so far (``local.Descent``; why: see
-``local.py``).  The switch happens between two batches, once the number of
-distinct orders told reaches ``budget - round(polish * budget)``; without a
-budget there is no polishing phase.  ``state()["phase"]`` says which phase
-the search is in.
+Polishing is not in here: ``polish.Polished`` composes any search with the
+one local search (``local.py``) for the end of its budget.
 
 Randomness: every draw comes from ``numpy.random.default_rng(seed)`` (pycma
 additionally through its own ``seed`` option), so given the same told values
@@ -36,7 +31,6 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..types import Order, as_order
-from .local import Descent
 
 FAILURE = math.inf
 """Internal value of a failed evaluation: worse than every real value."""
@@ -82,7 +76,8 @@ class Search:
     accepts ``budget`` (the loop's evaluation budget) so that callers can pass
     it uniformly; the optimisers use it to schedule their polishing phase
     (option ``polish``, the fraction of the budget it gets, and ``polish_batch``,
-    its batch size), the annealing also to scale its cooling.
+    its batch size; see ``polish.Polished``, which ``make_search`` wraps them in),
+    the annealing also to scale its cooling.
 
     ``memo`` holds the value of every distinct order told so far (failures as
     ``FAILURE``); ``len(memo)`` is the number of evaluations spent.
@@ -90,6 +85,9 @@ class Search:
 
     name = "search"
     OPTIONS: dict[str, Any] = {}
+    POLISH: float | None = None  # default share of the budget for the final descent; None: never polished
+    deterministic = False  # the same asks whatever the seed (one run is enough)
+    max_evaluations: int | None = None  # evaluations it can ever ask for (None: unbounded)
 
     def __init__(self, n: int, seed: int, **options: Any) -> None:
         if int(n) != n or n < 1:
@@ -112,27 +110,12 @@ class Search:
         self.best_value = math.inf
         self.best_order: Order | None = None
         self.memo: dict[Order, float] = {}
-        self._descent: Descent | None = None
-        self._pending_polish = False
-        self.polish_started_at: int | None = None
-        polish = self.options.get("polish")
-        if polish is not None and not 0.0 <= float(polish) <= 1.0:
-            raise ValueError(f"{self.name}: polish must be a fraction in [0, 1], got {polish!r}")
 
     # -- protocol ---------------------------------------------------------
     def ask(self) -> list[Order]:
         if self._pending is not None:
             raise RuntimeError(f"{self.name}: ask() called twice without tell()")
-        if self._polish_due():
-            if self._descent is None:
-                self._descent = Descent(self.rng, batch=int(self.options.get("polish_batch") or 4))
-                self._descent.start(self.best_order, self.best_value)
-                self.polish_started_at = len(self.memo)
-            orders = [as_order(o) for o in self._descent.propose(self.memo)]
-            self._pending_polish = True
-        else:
-            orders = [as_order(o) for o in self._ask()]
-            self._pending_polish = False
+        orders = [as_order(o) for o in self._ask()]
         self._pending = orders
         return list(orders)
 
@@ -154,19 +137,7 @@ class Search:
             elif value < self.best_value:
                 self.best_value, self.best_order = value, order
             self.memo[order] = value
-        if self._pending_polish:
-            self._descent.update(orders, internal)
-        else:
-            self._tell(orders, internal)
-
-    def _polish_due(self) -> bool:
-        """In the polishing phase (it never ends once begun)?"""
-        if self._descent is not None:
-            return True
-        polish, budget = self.options.get("polish"), self.options.get("budget")
-        if not polish or budget is None or self.best_order is None:
-            return False
-        return len(self.memo) >= int(budget) - round(float(polish) * int(budget))
+        self._tell(orders, internal)
 
     def stop(self) -> bool:
         if self.n == 1 and self.batches > 0:
@@ -182,11 +153,6 @@ class Search:
             "best_order": None if self.best_order is None else list(self.best_order),
             "evaluations_told": len(self.memo),
         }
-        if "polish" in self.options:
-            common["phase"] = "polish" if self._descent is not None else "search"
-            common["polish_started_at"] = self.polish_started_at
-            if self._descent is not None:
-                common["polish_state"] = self._descent.state()
         common.update(self._state())
         return common
 

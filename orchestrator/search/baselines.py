@@ -12,6 +12,8 @@ class Sequential(Search):
 
     name = "sequential"
     OPTIONS = {"budget": None}
+    deterministic = True
+    max_evaluations = 1
 
     def _ask(self) -> list[Order]:
         return [tuple(range(1, self.n + 1))]

@@ -77,9 +77,10 @@ class CMAES(Search):
     """
 
     name = "cmaes"
+    POLISH = 0.7  # the default share of the budget polished (polish.Polished)
     OPTIONS = {"popsize": None, "sigma0": 0.3, "restarts": True, "incpopsize": 1,
                "cma_options": None, "budget": None, "x0": "sequential", "restart_x0": "random",
-               "restart_sigma0": None, "polish": 0.7, "polish_batch": 4}
+               "restart_sigma0": None}
 
     def __init__(self, n: int, seed: int, **options: Any) -> None:
         super().__init__(n, seed, **options)

@@ -1,4 +1,9 @@
-"""Local search over permutations: the final polishing phase the optimisers share.
+"""The one local search over permutations: swap and insertion neighbourhoods.
+
+It serves three places: the polishing phase that ends every optimiser's budget
+(``polish.Polished``), the study's final descent from its best order
+(``LocalSearch`` with no kicks, which stops at a local optimum), and the
+annealing's moves (``random_move``).
 
 Why a polishing phase: CMA-ES and the particle swarm work on random keys,
 where one small step in key space can change an order in several places at
@@ -24,6 +29,7 @@ from typing import Sequence
 import numpy as np
 
 from ..types import Order
+from .base import Search
 
 
 def neighbours(order: Sequence[int]) -> list[Order]:
@@ -102,8 +108,10 @@ class Descent:
     """
 
     def __init__(self, rng: np.random.Generator, batch: int = 4, kick: int = 3,
-                 max_kick_tries: int = 100) -> None:
+                 max_kick_tries: int = 100, max_kicks: int | None = None) -> None:
         self.rng = rng
+        self.max_kicks = max_kicks  # None: kick for ever; 0: stop at the first local optimum
+        self.finished = False
         self.batch = max(1, int(batch))
         self.kick = max(1, int(kick))
         self.max_kick_tries = int(max_kick_tries)
@@ -138,6 +146,9 @@ class Descent:
                 self.local_optima += 1
                 if self.current_value < self.home_value or self.home is None:
                     self.home, self.home_value = self.current, self.current_value
+                if self.max_kicks is not None and self.kicks >= self.max_kicks:
+                    self.finished = True
+                    return []
                 kicked = self.home
                 for _ in range(self.kick):
                     kicked = random_move(self.rng, kicked)
@@ -177,3 +188,45 @@ class Descent:
                 "moves": self.moves, "free_moves": self.free_moves, "local_optima": self.local_optima,
                 "kicks": self.kicks,
                 "home_value": None if not math.isfinite(self.home_value) else self.home_value}
+
+
+
+class LocalSearch(Search):
+    """The descent as a search of its own (ask/tell): from ``start`` until a local optimum.
+
+    ``kicks``: how many kicks after a local optimum (0: stop at the first one, the study's final descent;
+    None: an iterated local search that never stops, a baseline). Registered as the ``local`` method.
+    """
+
+    name = "local"
+    OPTIONS = {"start": None, "batch": 4, "kicks": None, "budget": None}
+
+    def __init__(self, n: int, seed: int, **options) -> None:
+        super().__init__(n, seed, **options)
+        start = self.options["start"]
+        self.start = tuple(int(m) for m in start) if start is not None else tuple(range(1, self.n + 1))
+        if sorted(self.start) != list(range(1, self.n + 1)):
+            raise ValueError(f"local: start must be a permutation of 1..{self.n}, got {list(self.start)}")
+        kicks = self.options["kicks"]
+        self.descent = Descent(self.rng, batch=int(self.options["batch"]),
+                               max_kicks=None if kicks is None else int(kicks))
+        self._started = False
+
+    def _ask(self) -> list[Order]:
+        if not self._started:
+            return [self.start]
+        return self.descent.propose(self.memo)
+
+    def _tell(self, orders: list[Order], values: list[float]) -> None:
+        if not self._started:
+            self._started = True
+            self.descent.start(orders[0], values[0])
+        else:
+            self.descent.update(orders, values)
+
+    def _stop(self) -> bool:
+        return self.descent.finished
+
+    def _state(self) -> dict:
+        return {"descent": self.descent.state(),
+                "local_optimum": list(self.descent.current) if self.descent.finished else None}

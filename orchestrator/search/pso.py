@@ -74,9 +74,10 @@ class PSO(Search):
     """
 
     name = "pso"
+    POLISH = 0.7  # the default share of the budget polished (polish.Polished)
     OPTIONS = {"swarm": 10, "inertia": 0.7298, "cognitive": 1.49618, "social": 1.49618,
                "vmax": 0.2, "stagnation": 20, "topology": "ring", "budget": None,
-               "x0": "sequential", "spread": 0.3, "rescatter_best": False, "polish": 0.7, "polish_batch": 4}
+               "x0": "sequential", "spread": 0.3, "rescatter_best": False}
 
     def __init__(self, n: int, seed: int, **options: Any) -> None:
         super().__init__(n, seed, **options)

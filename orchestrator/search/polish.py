@@ -1,0 +1,67 @@
+"""A search composed with the one local search for the end of its budget.
+
+Why a polishing phase: CMA-ES and the particle swarm work on random keys, where one small step in key
+space can change an order in several places at once and where, late in a run, most samples decode to
+orders already seen; annealing samples neighbours at random where a descent checks them systematically.
+None is good at the last few improvements, which are single swaps or insertions. So ``make_search`` wraps
+each optimiser in ``Polished``: the optimiser gets the first ``budget - round(polish * budget)`` distinct
+orders, then a ``local.Descent`` (with kicks: an iterated local search) starts at the best order found.
+The switch happens between two batches. ``state()["phase"]`` says which phase the search is in.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from ..types import Order
+from .base import Search
+from .local import Descent
+
+
+class Polished(Search):
+    """``inner`` for its share of ``budget``, then a descent by swaps and insertions from the best order."""
+
+    OPTIONS = {"polish": 0.0, "polish_batch": 4, "budget": None}
+
+    def __init__(self, inner: Search, **options: Any) -> None:
+        self.name = inner.name
+        super().__init__(inner.n, inner.seed, **options)
+        polish = self.options["polish"]
+        if polish is None or not 0.0 <= float(polish) <= 1.0:
+            raise ValueError(f"{self.name}: polish must be a fraction in [0, 1], got {polish!r}")
+        self.inner = inner
+        self.rng = inner.rng  # one stream of draws, as when the descent lived inside the search
+        budget = self.options["budget"]
+        self.switch_at = None if budget is None or not polish else int(budget) - round(float(polish) * int(budget))
+        self.descent: Descent | None = None
+        self.polish_started_at: int | None = None
+        self._polishing_batch = False
+
+    def _ask(self) -> list[Order]:
+        if self.descent is None and self.switch_at is not None and self.best_order is not None \
+                and len(self.memo) >= self.switch_at:
+            self.descent = Descent(self.rng, batch=int(self.options["polish_batch"] or 4))
+            self.descent.start(self.best_order, self.best_value)
+            self.polish_started_at = len(self.memo)
+        self._polishing_batch = self.descent is not None
+        return self.descent.propose(self.memo) if self._polishing_batch else self.inner.ask()
+
+    def _tell(self, orders: list[Order], values: list[float]) -> None:
+        if self._polishing_batch:
+            self.descent.update(orders, values)
+        else:
+            self.inner.tell(orders, values)
+
+    def _stop(self) -> bool:
+        return self.descent is None and self.inner.stop()
+
+    def state(self) -> dict[str, Any]:
+        state = self.inner.state()
+        own = super().state()
+        for key in ("batches", "told", "failed_told", "best_value", "best_order", "evaluations_told"):
+            state[key] = own[key]
+        state["options"] = {**state.get("options", {}), **own["options"]}
+        state["phase"] = "polish" if self.descent is not None else "search"
+        state["polish_started_at"] = self.polish_started_at
+        if self.descent is not None:
+            state["polish_state"] = self.descent.state()
+        return state
