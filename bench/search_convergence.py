@@ -5,7 +5,7 @@
     python bench/search_convergence.py --out DIR --budget 300 --seeds 20 --workers 2
 
 The orchestrator's searches (cmaes, pso, sa, random) run through orchestrator.loop.run_search on
-the study pipeline's search objective (orchestrator.study.search_objective): 1 s horizon (8 s fallback while
+the study pipeline's search objective (orchestrator.objective.SampledPeak at its search fidelity): 1 s horizon (8 s fallback while
 the lattice still touches the plate), rtol 1e-5, atol 1e-7, the sampled peak.
 Each run's best order is then re-evaluated over the full 8 s scene at the FMU's default accuracy.
 
@@ -27,12 +27,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import ROOT, build_fmus, order_text, write_csv  # noqa: E402
 
-from orchestrator.evaluate import FMUObjective  # noqa: E402
 from orchestrator.executors import make_executor  # noqa: E402
-from orchestrator.loop import run_search  # noqa: E402
+from orchestrator.loop import Evaluator, run_search  # noqa: E402
 from orchestrator.search import make_search  # noqa: E402
 from orchestrator.study import SEARCH_HORIZON, SEARCH_RTOL  # noqa: E402
-from orchestrator.study import search_objective as study_search_objective  # noqa: E402
+from orchestrator.objective import FULL, SampledPeak  # noqa: E402
 
 METHODS = ("cmaes", "pso", "sa", "random")
 # what the study published (issue 3): reference points, never results
@@ -76,10 +75,9 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     fmu = Path(args.fmu) if args.fmu else build_fmus(out)["c"]
-    search_objective = study_search_objective(fmu, 8.0)
-    full = FMUObjective(str(fmu), 8.0, "sampled")
+    objective = SampledPeak(fmu, 11, 8.0)  # searches at its search fidelity, results at full (8 s)
     print(f"search convergence: {', '.join(args.methods)} x {args.seeds} seeds x {args.budget} evaluations "
-          f"({search_objective.horizon:g} s horizon, rtol {SEARCH_RTOL:g}, sampled peak; {args.workers} worker(s))"
+          f"({objective.search_horizon:g} s horizon, rtol {SEARCH_RTOL:g}, sampled peak; {args.workers} worker(s))"
           + (f"; options {options}" if options else ""), flush=True)
 
     started = time.perf_counter()
@@ -94,8 +92,8 @@ def main(argv=None) -> int:
                 def progress(done, stamps=stamps, start=start):
                     stamps.setdefault(done, time.perf_counter() - start)
 
-                run = run_search(make_search(method, 11, seed, budget=args.budget, **options), search_objective, args.budget,
-                                 executor, method_name=method, seed=seed, progress=progress)
+                run = run_search(make_search(method, 11, seed, budget=args.budget, **options), objective, args.budget,
+                                 Evaluator(executor), method_name=method, seed=seed, progress=progress)
                 # wall time at which evaluation k's result was in: when the loop had k results
                 known, wall = 0.0, []
                 for k in range(1, run.n_evaluations + 1):
@@ -110,7 +108,8 @@ def main(argv=None) -> int:
                         "wall_seconds": wall[k - 1], "simulation_seconds": simulated,
                         "horizon": evaluation.details.get("horizon"),
                     })
-                check = full(run.best_order) if run.best_order else None
+                check = (objective.evaluate([run.best_order], Evaluator(executor), FULL)[0]
+                         if run.best_order else None)
                 state = run.diagnostics
                 runs.append({
                     "method": method, "seed": seed, "budget": args.budget, "evaluations": run.n_evaluations,

@@ -4,7 +4,7 @@
     python bench/search_targets.py --quality 2000 --seeds 3      # does every seed find the best known order?
     python bench/search_targets.py --throughput 100 100000       # seconds for N evaluations on all cores
 
-Searches use the study's search objective (orchestrator.study.search_objective: 1 s horizon, rtol 1e-5,
+Searches use the study's search objective (orchestrator.objective.SampledPeak at its search fidelity: 1 s horizon, rtol 1e-5,
 sampled peak, 8 s for an order still touching the plate near 1 s); every best order is then
 re-evaluated over the full 8 s scene at the FMU's default accuracy, which is the number printed.
 """
@@ -20,31 +20,33 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from orchestrator.evaluate import FMUObjective  # noqa: E402
 from orchestrator.executors import make_executor  # noqa: E402
-from orchestrator.loop import run_search  # noqa: E402
+from orchestrator.loop import Evaluator, run_search  # noqa: E402
+from orchestrator.objective import FULL, SampledPeak  # noqa: E402
 from orchestrator.search import make_search  # noqa: E402
-from orchestrator.study import ensure_fmu, polish, search_objective, verify  # noqa: E402
+from orchestrator.study import ensure_fmu, final_descent, verify  # noqa: E402
 
 SEARCHES = ("cmaes", "pso", "sa")
 
 
-def objectives(fmu: Path):
-    return search_objective(fmu, 8.0), FMUObjective(str(fmu), 8.0, "sampled")
+def objective_of(fmu: Path) -> SampledPeak:
+    """The study's objective: searches at its search fidelity (1 s, rtol 1e-5), results at full (8 s)."""
+    return SampledPeak(fmu, 11, 8.0)
 
 
 def quality(fmu: Path, budget: int, seeds: int, executor_kind: str, workers: int | None) -> None:
-    search_objective, full = objectives(fmu)
+    objective = objective_of(fmu)
     bests = {}
     with make_executor(executor_kind, workers) as executor:
         for method in SEARCHES:
             values = []
             for seed in range(seeds):
-                run = run_search(make_search(method, 11, seed, budget=budget), search_objective, budget, executor,
+                # a fresh evaluator (no cache shared between seeds): each run pays for its own evaluations
+                run = run_search(make_search(method, 11, seed, budget=budget), objective, budget, Evaluator(executor),
                                  method_name=method, seed=seed)
-                checked = verify(executor, full, [run.best_order])[run.best_order]
-                values.append((checked.peak_sampled, run.best_order, run.best_index, run.wall_seconds))
-                print(f"{method:6s} seed {seed}: {checked.peak_sampled:9.3f} N  {list(run.best_order)}  found at "
+                checked = verify(objective, Evaluator(executor), [run.best_order])[run.best_order]
+                values.append((checked.peak, run.best_order, run.best_index, run.wall_seconds))
+                print(f"{method:6s} seed {seed}: {checked.peak:9.3f} N  {list(run.best_order)}  found at "
                       f"evaluation {run.best_index}, {run.wall_seconds:.1f} s", flush=True)
             median = statistics.median(v[0] for v in values)
             bests[method] = values
@@ -52,10 +54,11 @@ def quality(fmu: Path, budget: int, seeds: int, executor_kind: str, workers: int
         best_value, best_order = min((v[0], v[1]) for values in bests.values() for v in values)
         print(f"\nbest order found: {list(best_order)} at {best_value:.4f} N (8 s, sampled, default accuracy)")
         # is it a local optimum? (single swaps and insertions, on the search objective, confirmed on 8 s)
-        start = verify(executor, full, [best_order])
-        local = polish(executor, search_objective, full, start[best_order], "sampled", start)
-        final = min((v for v in start.values() if v.status == "ok"), key=lambda v: v.peak_sampled)
-        print(f"after the local descent: {list(final.order)} at {final.peak_sampled:.4f} N; locally optimal: "
+        evaluator = Evaluator(executor)
+        start = verify(objective, evaluator, [best_order])
+        local = final_descent(objective, evaluator, start[best_order], start)
+        final = min((v for v in start.values() if v.ok), key=lambda v: v.peak)
+        print(f"after the local descent: {list(final.order)} at {final.peak:.4f} N; locally optimal: "
               f"{local['locally_optimal']} ({local['swaps_checked']} swaps, {local['insertions_checked']} insertions)")
         for method, values in bests.items():
             hits = sum(1 for v in values if v[1] == final.order)
@@ -63,18 +66,18 @@ def quality(fmu: Path, budget: int, seeds: int, executor_kind: str, workers: int
 
 
 def throughput(fmu: Path, counts: list[int], executor_kind: str, workers: int | None) -> None:
-    search_objective, _ = objectives(fmu)
+    objective = objective_of(fmu)
     for count in counts:
         with make_executor(executor_kind, workers) as executor:
             start = time.perf_counter()
-            run = run_search(make_search("random", 11, 0, batch=64), search_objective, count, executor,
+            run = run_search(make_search("random", 11, 0, batch=64), objective, count, executor,
                              method_name="random", seed=0)
             seconds = time.perf_counter() - start
         where = ("1 core (serial)" if executor_kind == "serial"
                  else f"{workers or os.cpu_count()} {executor_kind} workers")
         good = [e for e in run.evaluations if e.ok]
         inside = sum(e.seconds for e in good) / max(len(good), 1)
-        fallbacks = sum(1 for e in good if e.details["horizon"] > search_objective.horizon)
+        fallbacks = sum(1 for e in good if e.details["horizon"] > objective.search_horizon)
         print(f"{run.n_evaluations} evaluations ({run.n_failed} failed) on {where}: "
               f"{seconds:.1f} s, {seconds / run.n_evaluations * 1e3:.2f} ms per evaluation (each {inside * 1e3:.2f} ms "
               f"inside its worker; {fallbacks} fell back to the full horizon)", flush=True)

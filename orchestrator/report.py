@@ -8,6 +8,7 @@ from __future__ import annotations
 import csv
 import html
 import json
+import warnings
 from pathlib import Path
 
 import matplotlib
@@ -71,15 +72,20 @@ def measure_accuracy(study: Study) -> dict:
         "order": list(best.order),
         "reference_rtol": TIGHT["rtol"],
         "reference_peak": tight["peak_backplate_force"],
-        "sampled_relative_error": abs(best.details["peak_sampled"] / tight["peak_backplate_force"] - 1),
-        "continuous_relative_error": abs(best.details["peak_continuous"]
-                                         / tight["peak_backplate_force_continuous"] - 1),
-        "search_objective_relative_difference": (abs(search_values[0] / best.peak - 1)
-                                                 if search_values and best.peak else None),
+        "sampled_relative_error": relative_difference(best.details["peak_sampled"], tight["peak_backplate_force"]),
+        "continuous_relative_error": relative_difference(best.details["peak_continuous"],
+                                                         tight["peak_backplate_force_continuous"]),
+        "search_objective_relative_difference": (relative_difference(search_values[0], best.peak)
+                                                 if search_values else None),
         "sampling_shortfall": (1 - best.details["peak_sampled"] / best.details["peak_continuous"]
                                if best.details["peak_continuous"] else None),
         "peak_by_horizon": {str(h): v for h, v in horizons.items()},
     }
+
+
+def relative_difference(value: float, reference: float) -> float:
+    """|value / reference - 1|, and the absolute difference where the reference is 0 (no load, no peak)."""
+    return abs(value / reference - 1) if reference else abs(value - reference)
 
 
 def results_dict(study: Study, accuracy: dict) -> dict:
@@ -202,7 +208,8 @@ def plot_convergence(study: Study, path: Path) -> str:
             continue
         matrix = best_so_far_matrix(runs)
         x = np.arange(1, matrix.shape[1] + 1)
-        with np.errstate(all="ignore"):
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a method whose every evaluation failed: NaN
             median = np.nanmedian(matrix, axis=0)
             low, high = np.nanpercentile(matrix, 25, axis=0), np.nanpercentile(matrix, 75, axis=0)
         label = f"{METHOD_NAMES.get(method, method)} (median of {len(runs)})"
@@ -316,7 +323,7 @@ def work_precision_points(study: Study, reference_peak: float | None) -> list[di
             try:
                 result = fmu.simulate(best.order, horizon=study.horizon,
                                       parameters={**parameters, "solver": solver, **settings})
-                error = abs(result["peak_backplate_force"] / reference_peak - 1)
+                error = relative_difference(result["peak_backplate_force"], reference_peak)
                 status = "ok" if error <= 1e-6 else "inaccurate"
             except SimulationError as exc:
                 error, status = None, "failed: " + str(exc).split(": ", 2)[-1][:80]

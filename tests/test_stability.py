@@ -22,12 +22,11 @@ import pytest
 
 from bench.common import IsolatedFMU
 from conftest import PUBLISHED_BEST
-from orchestrator.evaluate import FMUObjective
 from orchestrator.executors import make_executor
 from orchestrator.loop import run_search
 from orchestrator.search import make_search
 from orchestrator.simulation import LatticeFMU, SimulationError
-from orchestrator.study import search_objective
+from orchestrator.objective import FMURun, SampledPeak
 from orchestrator.types import Order
 from reference import Scene
 
@@ -170,18 +169,18 @@ def test_adaptive_solver_error_stays_at_its_tolerance_under_load(lattice):
 @dataclass(frozen=True)
 class SometimesDiverging:
     """The real FMU objective, except that orders starting with a material > 6 are run with column C 0.5 m
-    inside the plate: the FMU's own divergence check fails them (a real FMI error through FMUObjective)."""
+    inside the plate: the FMU's own divergence check fails them (a real FMI error through FMURun)."""
 
-    good: FMUObjective
-    bad: FMUObjective
+    good: FMURun
+    bad: FMURun
 
     def __call__(self, order: Order):
         return (self.bad if order[0] > 6 else self.good)(order)
 
 
 def test_a_search_survives_an_objective_that_fails_for_some_orders(fmu_path):
-    good = FMUObjective(str(fmu_path), horizon=0.5, parameters=(("atol", 1e-7), ("rtol", 1e-5)))
-    bad = FMUObjective(str(fmu_path), horizon=0.5, parameters=(("fixed_step", 0.05), ("solver", 1)))
+    good = FMURun(str(fmu_path), horizon=0.5, parameters=(("atol", 1e-7), ("rtol", 1e-5)))
+    bad = FMURun(str(fmu_path), horizon=0.5, parameters=(("fixed_step", 0.05), ("solver", 1)))
     objective = SometimesDiverging(good, bad)
     for method in ("cmaes", "sa"):
         with make_executor("serial") as executor:
@@ -198,7 +197,7 @@ def test_a_search_survives_an_objective_that_fails_for_some_orders(fmu_path):
 
 @pytest.mark.parametrize("t0, verdict", [(1e-6, "too low"), (1e7, "too high")])
 def test_annealing_at_a_poor_temperature_is_flagged_on_the_fmu(fmu_path, t0, verdict):
-    objective = FMUObjective(str(fmu_path), horizon=0.5, parameters=(("atol", 1e-7), ("rtol", 1e-5)))
+    objective = FMURun(str(fmu_path), horizon=0.5, parameters=(("atol", 1e-7), ("rtol", 1e-5)))
     with make_executor("serial") as executor:
         run = run_search(make_search("sa", 11, seed=2, budget=48, t0=t0, chains=4, window=10), objective, 48,
                          executor, method_name="sa", seed=2)
@@ -228,7 +227,7 @@ def test_annealing_automatic_temperature_is_not_poor_on_the_fmu(fmu_path):
     the check used to call that T0 too low. At T0 those moves' mean acceptance is about a third; at 100
     evaluations the temperature falls a hundredfold within them, and the large deltas happened to come first.
     The check now judges T0 by the acceptance those moves would have at T0."""
-    objective = search_objective(str(fmu_path), 8.0)
+    objective = SampledPeak(fmu_path, 11, 8.0)
     with make_executor("serial") as executor:
         run = run_search(make_search("sa", 11, 9, budget=100), objective, 100, executor, method_name="sa", seed=9)
     assert run.diagnostics["t0_source"] == "automatic"
@@ -241,7 +240,7 @@ def test_annealing_flags_a_poor_automatic_temperature_on_the_fmu(fmu_path):
     """Seed 2 calibrates on two worsening deltas (0.4 N and 83 N) and gets T0 = 0.45 N, far below the moves it
     meets next: a real failure of the automatic temperature, which the check must report."""
     with make_executor("serial") as executor:
-        run = run_search(make_search("sa", 11, 2, budget=100), search_objective(str(fmu_path), 8.0), 100, executor,
+        run = run_search(make_search("sa", 11, 2, budget=100), SampledPeak(fmu_path, 11, 8.0), 100, executor,
                          method_name="sa", seed=2)
     state = run.diagnostics
     assert state["t0_source"] == "automatic" and state["t0"] < 1.0
