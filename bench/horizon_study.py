@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import (IsolatedFMU, ROOT, SEQUENTIAL, STUDY_BEST, build_fmus, order_text,  # noqa: E402
                     random_orders, write_csv)
 
-from orchestrator.study import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
+from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
 
 HORIZONS = (0.5, 0.75, 1.0, 2.0, 8.0)
 TRUTH_RTOL = 1e-10

@@ -30,7 +30,7 @@ from common import ROOT, build_fmus, order_text, write_csv  # noqa: E402
 from orchestrator.executors import make_executor  # noqa: E402
 from orchestrator.loop import Evaluator, run_search  # noqa: E402
 from orchestrator.search import make_search  # noqa: E402
-from orchestrator.study import SEARCH_HORIZON, SEARCH_RTOL  # noqa: E402
+from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL  # noqa: E402
 from orchestrator.objective import FULL, SampledPeak  # noqa: E402
 
 METHODS = ("cmaes", "pso", "sa", "random")

@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT))
 
 from orchestrator.executors import make_executor  # noqa: E402
 from orchestrator.loop import Evaluator, run_search  # noqa: E402
-from orchestrator.objective import FULL, SampledPeak  # noqa: E402
+from orchestrator.objective import SampledPeak  # noqa: E402
 from orchestrator.search import make_search  # noqa: E402
 from orchestrator.study import ensure_fmu, final_descent, verify  # noqa: E402
 

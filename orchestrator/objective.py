@@ -145,15 +145,14 @@ class Objective:
         orders = [as_order(o) for o in orders]
         tasks = self.tasks(fidelity)
         per_order = len(tasks)
-        ticks = None
-        if progress is not None:
-            reported = [0]
+        reported = [0]
 
-            def ticks(done_tasks: int) -> None:  # progress in orders, not in FMU runs
-                if done_tasks // per_order > reported[0]:
-                    reported[0] = done_tasks // per_order
-                    progress(reported[0])
-        results = evaluator.run([(task, order) for order in orders for task in tasks], progress=ticks)
+        def ticks(done_tasks: int) -> None:  # progress in orders, not in FMU runs
+            if done_tasks // per_order > reported[0]:
+                reported[0] = done_tasks // per_order
+                progress(reported[0])
+        results = evaluator.run([(task, order) for order in orders for task in tasks],
+                                progress=ticks if progress is not None else None)
         return [self.combine(order, results[i * per_order:(i + 1) * per_order]) for i, order in enumerate(orders)]
 
 

@@ -511,7 +511,8 @@ def sensitivity_html(data: dict) -> str:
             cells.append(f"<td>{_fmt(entry.get('peak'))} ({_fmt(entry.get('regret'))})</td>")
         rows.append("<tr>" + "".join(cells) + "</tr>")
     return (f"<h2>How the chosen order holds up when the case changes</h2><p>Each variation of the scene: the "
-            f"chosen order, the sequential one and the study's, against the best order a short search "
-            f"({', '.join(sensitivity['methods'])}, {sensitivity['budget']} evaluations) finds for that variation. "
+            f"chosen order, the sequential one and the study's, against the best order short searches "
+            f"(annealing from the sequential order and an iterated local search from the chosen order, "
+            f"{sensitivity['budget']} evaluations each) find for that variation. "
             f"The regret is what keeping the order costs there (full scene).</p>"
             f"<table><tr><th>variation</th><th>best found for it</th>{head}</tr>{''.join(rows)}</table>")

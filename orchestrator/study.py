@@ -21,8 +21,8 @@ from pathlib import Path
 from .executors import make_executor
 from .journal import Journal, file_sha256
 from .loop import Evaluator, SearchRun, run_search
-from .objective import (AGGREGATES, FULL, OBJECTIVES, SEARCH, SEARCH_HORIZON, SEARCH_RTOL, PeakObjective,
-                        close_instances, expand_cases, make_objective, search_tolerances)
+from .objective import (AGGREGATES, FULL, OBJECTIVES, SEARCH_HORIZON, SEARCH_RTOL, PeakObjective, close_instances,
+                        expand_cases, make_objective)
 from .search import SEARCHES, make_search
 from .search.local import neighbours as local_neighbours
 from .simulation import LatticeFMU
@@ -43,11 +43,12 @@ STUDY_REFERENCE_POINTS = {
 DIAGONAL_RULES = ("receiver", "mean")
 # The other rule's search in "which model": the two methods that did best there, one seed each.
 WHICH_MODEL_METHODS = ("sa", "cmaes")
-# "How the chosen order holds up": each variation of the scene, as FMU parameters derived from the base.
-SENSITIVITY_METHODS = ("sa",)
+# "How the chosen order holds up": for each variation, annealing from the sequential order and an iterated
+# local search from the chosen order (the best order of a nearby case is often a few moves from it).
+SENSITIVITY_METHODS = ("sa", "local")
 MAX_HORIZON = 3600.0  # s: a longer horizon is refused (one evaluation must end)
 
-__all__ = ["SEARCH_HORIZON", "SEARCH_RTOL", "search_tolerances", "StudyConfig", "Study", "run_study"]
+__all__ = ["StudyConfig", "Study", "run_study"]
 
 
 @dataclass
@@ -237,11 +238,12 @@ def plan_runs(config: StudyConfig) -> list[tuple[str, int]]:
 
 
 def run_searches(objective: PeakObjective, evaluator: Evaluator, plan, budget: int, bar=None,
-                 label: str = "") -> list[SearchRun]:
+                 options: dict | None = None) -> list[SearchRun]:
+    """Each (method, seed) of the plan for ``budget`` evaluations; ``options[method]``: its search options."""
     runs = []
     done_before = 0
     for method, seed in plan:
-        search = make_search(method, objective.n_var, seed, budget=budget)
+        search = make_search(method, objective.n_var, seed, budget=budget, **(options or {}).get(method, {}))
         cap = min(budget, SEARCHES[method].max_evaluations or budget)
 
         def progress(done, offset=done_before):
@@ -441,7 +443,8 @@ def sensitivity_study(objective: PeakObjective, evaluator: Evaluator, best_order
     for name, change in sensitivity_variations(objective, config).items():
         varied = base.with_parameters(**change)
         plan = [(method, config.seed) for method in SENSITIVITY_METHODS]
-        runs = run_searches(varied, evaluator, plan, config.sensitivity_budget)
+        runs = run_searches(varied, evaluator, plan, config.sensitivity_budget,
+                            options={"local": {"start": tuple(best_order)}})
         _, found = best_of(runs, varied, evaluator, config.finalists, tuple(compared.values()))
         full = dict(zip(compared, varied.evaluate(list(compared.values()), evaluator, FULL)))
         entry = {"variation": name, "parameters": change,
