@@ -18,9 +18,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .simulation import ENERGY_OUTPUTS, LatticeFMU, SimulationError  # noqa: E402
+from .search import SEARCHES  # noqa: E402
 from .study import STUDY_BEST_ORDER, STUDY_REFERENCE_POINTS, Study  # noqa: E402
 
 METHOD_NAMES = {"cmaes": "CMA-ES", "pso": "particle swarm", "sa": "simulated annealing", "random": "random search",
+                "local": "iterated local search",
                 "sequential": "sequential order"}
 COLOURS = {"cmaes": "tab:blue", "pso": "tab:orange", "sa": "tab:green", "random": "tab:gray", "sequential": "black"}
 TIGHT = {"rtol": 1e-12, "atol": 1e-14}
@@ -213,8 +215,8 @@ def plot_convergence(study: Study, path: Path) -> str:
             median = np.nanmedian(matrix, axis=0)
             low, high = np.nanpercentile(matrix, 25, axis=0), np.nanpercentile(matrix, 75, axis=0)
         label = f"{METHOD_NAMES.get(method, method)} (median of {len(runs)})"
-        if method == "sequential":
-            axis.axhline(median[-1], color=COLOURS[method], lw=1, label="sequential order (ours)")
+        if SEARCHES[method].deterministic:  # one order, whatever the seed: a level, not a curve
+            axis.axhline(median[-1], color=COLOURS.get(method, "black"), lw=1, label=f"{label}: one order")
             continue
         axis.plot(x, median, color=COLOURS.get(method), label=label)
         if len(runs) > 1:
@@ -473,7 +475,8 @@ def which_model_html(data: dict) -> str:
             sentence = "Both rules lead to the same order: the answer does not depend on the model's diagonal rule."
         else:
             cost = (receiver.get("peak_mean") or 0) - (mean.get("peak_mean") or 0)
-            sentence = (f"The two rules lead to different orders. The study's (receiver) optimum gives "
+            sentence = (f"The two rules lead to different orders. The receiver rule's optimum (the rule the study "
+                        f"computed with) gives "
                         f"{_fmt(receiver.get('peak_mean'), 1)} N in the physically reciprocal (mean) model, {_fmt(cost, 1)} N "
                         f"more than that model's own optimum. The receiver rule breaks Newton's third law on the "
                         f"diagonals between different materials and its non-reciprocal work (W_nr, negative) takes "

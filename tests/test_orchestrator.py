@@ -164,3 +164,22 @@ def test_bad_cli_values_name_the_parameter(capsys):
     with pytest.raises(SystemExit):
         cli.parse_args(["--method", "tabu"])
     assert "tabu" in capsys.readouterr().err
+
+
+def test_a_study_over_load_cases_reports_each_case_and_the_aggregate(fmu_path, tmp_path):
+    from orchestrator.report import results_dict
+
+    config = StudyConfig(methods=("sequential", "sa"), budget=6, repeats=1, executor="serial", out=str(tmp_path),
+                         fmu=str(fmu_path), cases={"F_total": [600.0, 2400.0]}, aggregate="worst",
+                         local_check=False, which_model=False, sensitivity=False, progress=False)
+    study = run_study(config)
+    data = results_dict(study, {})
+    best = data["best"]
+    assert [case["parameters"] for case in best["cases"]] == [{"F_total": 600.0}, {"F_total": 2400.0}]
+    assert best["peak"] == max(case["peak"] for case in best["cases"]) and best["aggregate"] == "worst"
+    assert data["cases"] == [{"F_total": 600.0}, {"F_total": 2400.0}]
+    assert data["objective_description"]["aggregate"] == "worst"
+    for run in study.runs:  # every evaluation of a run carries its cases
+        assert all(len(e.details["cases"]) == 2 for e in run.evaluations if e.ok)
+    with pytest.raises(ValueError, match="aggregate"):
+        StudyConfig(aggregate="worst")

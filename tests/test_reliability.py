@@ -201,3 +201,42 @@ def test_process_pool_workers_die_with_a_killed_main_process(fmu_path, tmp_path)
     while time.monotonic() < deadline and any(_alive(pid) for pid in workers):
         time.sleep(0.1)
     assert workers and not any(_alive(pid) for pid in workers)
+
+
+def test_a_killed_pool_worker_costs_nothing_but_its_evaluation(fmu_path, tmp_path):
+    """SIGKILL to one worker mid-run: the pool is replaced, the orders in flight run again, the run ends
+    with exit 0 and the best known order."""
+    command = [sys.executable, str(ROOT / "orchestrator" / "run.py"), "--fmu", str(fmu_path), "--out", str(tmp_path),
+               "--method", "sa", "cmaes", "--budget", "150", "--repeats", "1", "--workers", "2", "--no-progress",
+               "--no-which-model", "--no-sensitivity"]
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    journal = tmp_path / "journal.jsonl"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (journal.is_file() and len(journal.read_text().splitlines()) > 40):
+        time.sleep(0.05)
+    workers = sorted(_children(process.pid))
+    assert workers
+    os.kill(workers[0], signal.SIGKILL)
+    _, err = process.communicate(timeout=600)
+    assert process.returncode == 0, err
+    results = json.loads((tmp_path / "results.json").read_text())
+    assert results["evaluator"]["pool_renewals"] >= 1
+    assert results["best"]["peak"] == pytest.approx(1405.906, rel=1e-3)
+
+
+def test_a_mismatched_fmu_is_refused_and_a_stale_one_rebuilt(fmu_path, tmp_path, monkeypatch, capfd):
+    code = cli.main(["--scene", "free_5x5", "--fmu", str(fmu_path), "--out", str(tmp_path), "--no-progress"])
+    err = capfd.readouterr().err
+    assert code == 2 and "free_5x5" in err and len(err.strip().splitlines()) == 1, err
+    import build_fmu
+    from fmpy import read_model_description
+
+    from orchestrator.study import ensure_fmu
+
+    monkeypatch.setattr(build_fmu, "MODELS_DIR", tmp_path)
+    stale = tmp_path / "TwoMassesLinear.fmu"
+    stale.write_bytes(Path(fmu_path).read_bytes())  # another model under the scene's name
+    path = ensure_fmu("two_masses_linear")
+    assert path == stale
+    description = read_model_description(str(path))
+    assert description.coSimulation.modelIdentifier == "TwoMassesLinear"
