@@ -32,7 +32,7 @@ from typing import Any, Callable, Sequence
 from .executors import executor_slots
 from .objective import SEARCH, Objective, as_objective
 from .search.base import Search
-from .types import Evaluation, Order, as_order, check_evaluation, failed, is_permutation, safe_call
+from .types import Above, Evaluation, Order, as_order, check_evaluation, failed, is_permutation, safe_call
 
 STALL_BATCHES = 200
 
@@ -54,6 +54,7 @@ class SearchRun:
     best_peak: float | None = None          # None when every evaluation failed
     best_index: int | None = None           # 1-based index of the best evaluation
     n_failed: int = 0
+    n_censored: int = 0                      # stopped early above a limit the search gave (never a peak)
     stalled: bool = False
     stop_reason: str = ""
     wall_seconds: float = 0.0
@@ -86,6 +87,15 @@ class SearchRun:
                  "order": list(e.order), "peak": e.peak, "status": e.status,
                  "message": e.message, "seconds": e.seconds, **e.details}
                 for k, e in enumerate(self.evaluations, start=1)]
+
+
+def told_value(evaluation: Evaluation) -> float | Above | None:
+    """What a search is told: the peak, Above(limit) for a censored evaluation, None for a failure."""
+    if evaluation.ok:
+        return evaluation.peak
+    if evaluation.censored:
+        return Above(evaluation.lower_bound)
+    return None
 
 
 def task_key(task: Any) -> str:
@@ -133,6 +143,10 @@ class Evaluator:
         if todo:
             self._run_all(todo, progress)
         return [self.cache[key] for key, _, _ in keyed]
+
+    def cached(self, task: Any, order: Order) -> Evaluation | None:
+        """The evaluation of (task, order) if this run already has it."""
+        return self.cache.get((task_key(task), as_order(order)))
 
     def _record(self, key: tuple[str, Order], evaluation: Evaluation) -> None:
         self.cache[key] = evaluation
@@ -294,6 +308,8 @@ def run_search(search: Search, objective, budget: int, evaluator, *, method_name
             break
 
         asked = [as_order(o) for o in search.ask()]
+        asked_limits = search.limits()
+        limit_of = dict(zip(asked, asked_limits)) if asked_limits is not None else {}
         for order in asked:
             if len(order) != search.n or not is_permutation(order):
                 raise ValueError(f"{method_name}: the search asked {order}, not a permutation of 1..{search.n}")
@@ -305,11 +321,14 @@ def run_search(search: Search, objective, budget: int, evaluator, *, method_name
 
         done = len(run.evaluations)
         results = objective.evaluate(new, evaluator, fidelity,
-                                     progress=None if progress is None else (lambda k, d=done: progress(d + k)))
+                                     progress=None if progress is None else (lambda k, d=done: progress(d + k)),
+                                     limits=[limit_of.get(o) for o in new] if limit_of else None)
         for order, evaluation in zip(new, results):
             seen[order] = evaluation
             run.evaluations.append(evaluation)
-            if not evaluation.ok:
+            if evaluation.censored:
+                run.n_censored += 1
+            elif not evaluation.ok:
                 run.n_failed += 1
             elif run.best_peak is None or evaluation.peak < run.best_peak:
                 run.best_order, run.best_peak = order, evaluation.peak
@@ -319,7 +338,7 @@ def run_search(search: Search, objective, budget: int, evaluator, *, method_name
             run.stop_reason = (f"budget of {budget} evaluations used "
                                f"(last batch cut to {len(new)} new orders, not told)")
             break
-        search.tell(asked, [seen[o].peak if seen[o].ok else None for o in asked])
+        search.tell(asked, [told_value(seen[o]) for o in asked])
 
         no_new = 0 if new else no_new + 1
         if no_new >= stall_batches:

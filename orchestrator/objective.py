@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 from typing import Any, Callable, ClassVar, Sequence
 
 from .simulation import COUNTER_OUTPUTS, ENERGY_OUTPUTS, PEAK_OUTPUTS, LatticeFMU, SimulationError
-from .types import OK, Evaluation, Order, as_order, failed
+from .types import OK, Evaluation, Order, as_order, censored, failed
 
 SEARCH = "search"
 FULL = "full"
@@ -73,6 +73,7 @@ class FMURun:
     parameters: tuple = ()
     output: str = "peak_backplate_force"
     fallback_horizon: float | None = None
+    force_limit: float | None = None  # N: stop once the sampled peak passes it (a censored evaluation)
 
     def __post_init__(self):
         if not (math.isfinite(self.horizon) and self.horizon > 0):
@@ -82,11 +83,18 @@ class FMURun:
     def key(self) -> str:
         """A stable text key for the journal (the FMU file is fingerprinted by the run, not here)."""
         return (f"{self.output}|{self.horizon!r}|{self.fallback_horizon!r}|"
-                + ",".join(f"{k}={v!r}" for k, v in self.parameters))
+                + ",".join(f"{k}={v!r}" for k, v in self.parameters)
+                + ("" if self.force_limit is None else f"|limit={self.force_limit!r}"))
+
+    def with_limit(self, limit: float | None) -> "FMURun":
+        return replace(self, force_limit=None if limit is None else float(limit))
 
     def simulate(self, order: Order, horizon: float) -> dict:
+        parameters = dict(self.parameters)
+        if self.force_limit is not None:
+            parameters["peak_force_limit"] = self.force_limit
         return fmu_instance(self.fmu_path).simulate(
-            order, horizon=horizon, parameters=dict(self.parameters),
+            order, horizon=horizon, parameters=parameters,
             outputs=PEAK_OUTPUTS + ENERGY_OUTPUTS + COUNTER_OUTPUTS + ("last_contact_time",))
 
     def __call__(self, order: Order) -> Evaluation:
@@ -94,6 +102,9 @@ class FMURun:
         horizon = self.horizon
         try:
             result = self.simulate(order, horizon)
+            if result.get("censored"):
+                return censored(order, self.force_limit, result.get("censored_at"), time.perf_counter() - start,
+                                {"rhs_evaluations": result.get("rhs_evaluations"), "horizon": horizon})
             if self.fallback_horizon and result["last_contact_time"] >= (1.0 - CONTACT_GUARD) * horizon:
                 horizon = max(self.fallback_horizon, horizon)
                 result = self.simulate(order, horizon)
@@ -127,6 +138,7 @@ class Objective:
     quantity: ClassVar[str] = "value"
     unit: ClassVar[str] = ""
     n_var: int
+    supports_limits = False  # can an evaluation stop early once its value passes a limit?
 
     def tasks(self, fidelity: str) -> list[Callable[[Order], Evaluation]]:
         raise NotImplementedError
@@ -138,21 +150,34 @@ class Objective:
         return {"name": self.name, "quantity": self.quantity, "unit": self.unit}
 
     def evaluate(self, orders: Sequence[Sequence[int]], evaluator, fidelity: str = SEARCH,
-                 progress: Callable[[int], Any] | None = None) -> list[Evaluation]:
-        """Every order's value at ``fidelity``, through ``evaluator`` (failures stay failures)."""
+                 progress: Callable[[int], Any] | None = None,
+                 limits: Sequence[float | None] | None = None) -> list[Evaluation]:
+        """Every order's value at ``fidelity``, through ``evaluator`` (failures stay failures).
+
+        ``limits``: per order, a value above which only "above" matters (a search fidelity only, and only
+        where ``supports_limits``): such an evaluation may come back censored. An exact value already in
+        the evaluator's cache is always preferred to a censored one."""
         if fidelity not in FIDELITIES:
             raise ValueError(f"fidelity {fidelity!r}: allowed values are {', '.join(FIDELITIES)}")
         orders = [as_order(o) for o in orders]
         tasks = self.tasks(fidelity)
         per_order = len(tasks)
+        use_limits = limits is not None and self.supports_limits and fidelity == SEARCH
+        items = []
+        for index, order in enumerate(orders):
+            limit = limits[index] if use_limits else None
+            for task in tasks:
+                if limit is not None and math.isfinite(limit) and evaluator.cached(task, order) is None:
+                    items.append((task.with_limit(limit), order))
+                else:
+                    items.append((task, order))
         reported = [0]
 
         def ticks(done_tasks: int) -> None:  # progress in orders, not in FMU runs
             if done_tasks // per_order > reported[0]:
                 reported[0] = done_tasks // per_order
                 progress(reported[0])
-        results = evaluator.run([(task, order) for order in orders for task in tasks],
-                                progress=ticks if progress is not None else None)
+        results = evaluator.run(items, progress=ticks if progress is not None else None)
         return [self.combine(order, results[i * per_order:(i + 1) * per_order]) for i, order in enumerate(orders)]
 
 
@@ -208,6 +233,19 @@ class PeakObjective(Objective):
         self.search_horizon = min(search_horizon or self.horizon, self.horizon)
         self.search_rtol = search_rtol
 
+    @property
+    def supports_limits(self) -> bool:
+        """A limit on the sampled peak bounds this objective (the continuous peak is at least the sampled
+        one; the worst case is at least each case) when the FMU has ``peak_force_limit``."""
+        if self.aggregate != "worst" and len(self.cases) > 1:
+            return False
+        if not hasattr(self, "_fmu_has_limit"):
+            from fmpy import read_model_description
+
+            names = {v.name for v in read_model_description(self.fmu_path).modelVariables}
+            self._fmu_has_limit = "peak_force_limit" in names
+        return self._fmu_has_limit
+
     def with_parameters(self, **parameters) -> "PeakObjective":
         """The same objective with some FMU parameters changed (the other diagonal rule, another load)."""
         return type(self)(self.fmu_path, self.n_var, self.horizon, {**self.parameters, **parameters},
@@ -239,10 +277,13 @@ class PeakObjective(Objective):
         seconds = sum(e.seconds for e in evaluations)
         cases = [{"parameters": case, "peak": e.peak, "status": e.status, **({"message": e.message} if not e.ok else {})}
                  for case, e in zip(self.cases, evaluations)]
-        bad = next((e for e in evaluations if not e.ok), None)
+        bad = next((e for e in evaluations if not e.ok and not e.censored), None)
         if bad is not None:
             case = self.cases[evaluations.index(bad)]
             return replace(failed(order, f"case {case}: {bad.message}", seconds), details={"cases": cases})
+        above = next((e for e in evaluations if e.censored), None)
+        if above is not None:  # one case above the limit: the worst of the cases is above it too
+            return censored(order, above.lower_bound, above.details.get("censored_at"), seconds, {"cases": cases})
         peaks = [e.peak for e in evaluations]
         value = max(peaks) if self.aggregate == "worst" else sum(peaks) / len(peaks)
         worst = evaluations[peaks.index(max(peaks))]

@@ -109,6 +109,7 @@ def results_dict(study: Study, accuracy: dict) -> dict:
             "search_best_peak": run.best_peak,
             "search_best_index": run.best_index,
             "failed": run.n_failed,
+            "censored": run.n_censored,
             "stalled": run.stalled,
             "stop_reason": run.stop_reason,
             "diagnostics": run.diagnostics,

@@ -18,14 +18,18 @@ Order = tuple[int, ...]
 
 OK = "ok"
 FAILED = "failed"
+CENSORED = "censored"  # the run stopped once the peak passed a limit: known only to be above it
 
 
 @dataclass(frozen=True)
 class Evaluation:
     """The outcome of one objective call.
 
-    ``peak`` is ``None`` exactly when ``status == "failed"``: a failure is never
-    a number, so it can never be mistaken for a good (or bad) value.
+    ``peak`` is ``None`` exactly when ``status`` is not ``"ok"``: a failure is never
+    a number, so it can never be mistaken for a good (or bad) value.  A
+    ``"censored"`` evaluation stopped early at a force limit: its peak is only
+    known to be above ``details["censored_above"]`` (reached at
+    ``details["censored_at"]`` s), and it is never reported as a peak.
     """
 
     order: Order
@@ -38,6 +42,22 @@ class Evaluation:
     @property
     def ok(self) -> bool:
         return self.status == OK
+
+    @property
+    def censored(self) -> bool:
+        return self.status == CENSORED
+
+    @property
+    def lower_bound(self) -> float | None:
+        """For a censored evaluation, the limit its peak is above."""
+        return self.details.get("censored_above") if self.censored else None
+
+
+@dataclass(frozen=True)
+class Above:
+    """What a search is told for a censored evaluation: the value is above ``limit``, never a number."""
+
+    limit: float
 
 
 def as_order(order: Any) -> Order:
@@ -52,6 +72,13 @@ def is_permutation(order: Order) -> bool:
 def failed(order: Any, message: str, seconds: float = 0.0, details: dict | None = None) -> Evaluation:
     """A failed evaluation (peak None)."""
     return Evaluation(as_order(order), None, FAILED, str(message), float(seconds), dict(details or {}))
+
+
+def censored(order: Any, limit: float, reached_at: float | None, seconds: float = 0.0,
+             details: dict | None = None) -> Evaluation:
+    """An evaluation stopped once its peak passed ``limit`` (at ``reached_at`` s)."""
+    return Evaluation(as_order(order), None, CENSORED, f"peak above {limit:g}, reached at t = {reached_at}",
+                      float(seconds), {**(details or {}), "censored_above": float(limit), "censored_at": reached_at})
 
 
 def check_evaluation(result: Any, order: Any) -> Evaluation:
@@ -75,6 +102,12 @@ def check_evaluation(result: Any, order: Any) -> Evaluation:
         if result.peak is not None or result.order != order:
             return replace(result, order=order, peak=None)
         return result
+    if result.status == CENSORED:
+        limit = result.details.get("censored_above")
+        if not isinstance(limit, (int, float)) or isinstance(limit, bool) or not math.isfinite(limit):
+            return failed(order, f"censored evaluation without a finite limit: {limit!r}", result.seconds,
+                          result.details)
+        return replace(result, order=order, peak=None) if result.peak is not None or result.order != order else result
     if result.status != OK:
         return failed(order, f"unknown status {result.status!r}: {result.message}", result.seconds, result.details)
     peak = result.peak

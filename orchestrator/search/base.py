@@ -30,7 +30,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..types import Order, as_order
+from ..types import Above, Order, as_order
 
 FAILURE = math.inf
 """Internal value of a failed evaluation: worse than every real value."""
@@ -54,8 +54,9 @@ def keys_to_order(keys: np.ndarray, n: int | None = None) -> Order:
 
 
 def to_internal(value: Any) -> float:
-    """None / NaN / inf -> +inf (a failure); anything else -> float."""
-    if value is None:
+    """None / NaN / inf -> +inf (a failure); Above(limit) (a censored evaluation) -> +inf too: it was asked
+    with that limit because only a value below it would have mattered; anything else -> float."""
+    if value is None or isinstance(value, Above):
         return FAILURE
     try:
         value = float(value)
@@ -107,6 +108,7 @@ class Search:
         self.batches = 0
         self.told = 0
         self.n_failed = 0
+        self.n_censored = 0
         self.best_value = math.inf
         self.best_order: Order | None = None
         self.memo: dict[Order, float] = {}
@@ -128,16 +130,22 @@ class Search:
         if len(values) != len(orders):
             raise ValueError(f"{self.name}: {len(orders)} orders but {len(values)} values")
         internal = [to_internal(v) for v in values]
+        self.n_censored += sum(isinstance(v, Above) for v in values)
         self._pending = None
         self.batches += 1
         self.told += len(orders)
-        for order, value in zip(orders, internal):
-            if value == FAILURE:
+        for order, value, told in zip(orders, internal, values):
+            if value == FAILURE and not isinstance(told, Above):
                 self.n_failed += 1
             elif value < self.best_value:
                 self.best_value, self.best_order = value, order
             self.memo[order] = value
         self._tell(orders, internal)
+
+    def limits(self) -> list[float | None] | None:
+        """For the last ask, a value per order above which its exact value does not matter to this search
+        (the evaluation may then stop early and be told ``Above(limit)``); None: exact values for all."""
+        return None
 
     def stop(self) -> bool:
         if self.n == 1 and self.batches > 0:
@@ -149,6 +157,7 @@ class Search:
             "search": self.name, "n": self.n, "seed": self.seed,
             "options": {k: v for k, v in self.options.items() if _jsonable(v)},
             "batches": self.batches, "told": self.told, "failed_told": self.n_failed,
+            "censored_told": self.n_censored,
             "best_value": None if self.best_order is None else self.best_value,
             "best_order": None if self.best_order is None else list(self.best_order),
             "evaluations_told": len(self.memo),

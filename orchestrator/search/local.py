@@ -170,6 +170,13 @@ class Descent:
             out.append(q)
         return out
 
+    def limits(self, orders: list[Order]) -> list[float | None]:
+        """Only a neighbour better than the current order matters: its evaluation may stop once the peak
+        passes the current value. A kicked order is taken whatever its value, so it needs the value."""
+        if self._kicked is not None or not math.isfinite(self.current_value):
+            return [None] * len(orders)
+        return [self.current_value] * len(orders)
+
     def update(self, orders: list[Order], values: list[float]) -> None:
         if self._kicked is not None and orders == [self._kicked]:
             self._kicked = None
@@ -214,8 +221,13 @@ class LocalSearch(Search):
 
     def _ask(self) -> list[Order]:
         if not self._started:
-            return [self.start]
-        return self.descent.propose(self.memo)
+            self._asked = [self.start]
+        else:
+            self._asked = self.descent.propose(self.memo)
+        return self._asked
+
+    def limits(self) -> list[float | None] | None:
+        return self.descent.limits(self._asked) if self._started else None
 
     def _tell(self, orders: list[Order], values: list[float]) -> None:
         if not self._started:

@@ -43,7 +43,11 @@ class Polished(Search):
             self.descent.start(self.best_order, self.best_value)
             self.polish_started_at = len(self.memo)
         self._polishing_batch = self.descent is not None
-        return self.descent.propose(self.memo) if self._polishing_batch else self.inner.ask()
+        self._asked = self.descent.propose(self.memo) if self._polishing_batch else self.inner.ask()
+        return self._asked
+
+    def limits(self) -> list[float | None] | None:
+        return self.descent.limits(self._asked) if self._polishing_batch else self.inner.limits()
 
     def _tell(self, orders: list[Order], values: list[float]) -> None:
         if self._polishing_batch:

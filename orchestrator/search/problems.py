@@ -131,3 +131,40 @@ class Flaky:
                 return Evaluation(order, None, "failed", "simulated failure")
             return Evaluation(order, float(self.mode), "ok")
         return self.base(order)
+
+
+class Limited:
+    """A cheap objective's evaluation that stops above a force limit, like the FMU's ``peak_force_limit``:
+    a value above ``force_limit`` comes back censored (its value unknown), never as a number."""
+
+    def __init__(self, base: Callable[[Order], Any], force_limit: float | None = None) -> None:
+        self.base, self.force_limit = base, force_limit
+
+    @property
+    def key(self) -> str:
+        return f"Limited:{id(self.base)}:{self.force_limit!r}"
+
+    def with_limit(self, limit: float | None) -> "Limited":
+        return Limited(self.base, limit)
+
+    def __call__(self, order: Sequence[int]) -> Evaluation:
+        from ..types import censored
+
+        evaluation = self.base(order)
+        if self.force_limit is not None and evaluation.peak > self.force_limit:
+            return censored(order, self.force_limit, reached_at=0.5, seconds=evaluation.seconds)
+        return evaluation
+
+
+class LimitedObjective:
+    """Factory of an ``Objective`` over a cheap problem whose evaluations can be censored (tests)."""
+
+    @staticmethod
+    def of(base: Callable[[Order], Any], n: int):
+        from ..objective import CallableObjective
+
+        class _Limited(CallableObjective):
+            name = "limited"
+            supports_limits = True
+
+        return _Limited(Limited(base), n)
