@@ -147,7 +147,6 @@ def ensure_fmu(scene: str, fmu: str | None = None) -> Path:
         if not path.is_file():
             raise FileNotFoundError(f"--fmu {fmu}: no such file (build one with `python build_fmu.py`)")
         return path
-    sys.path.insert(0, str(ROOT))
     import build_fmu
 
     loaded = build_fmu.Scene.load(scene)
@@ -159,10 +158,9 @@ def ensure_fmu(scene: str, fmu: str | None = None) -> Path:
 
 
 def load_scene(scene: str):
-    sys.path.insert(0, str(ROOT))
-    import build_fmu
+    from scenes import Scene
 
-    return build_fmu.Scene.load(scene)
+    return Scene.load(scene)
 
 
 def finalist_orders(run: SearchRun, count: int) -> list[Order]:
