@@ -4,6 +4,10 @@
     python build_fmu.py --scene free_5x5     # a scene from scenes/ (or a path to a scene file)
     python build_fmu.py --rows 7 --cols 9 -o models/Lattice7x9.fmu
     python build_fmu.py --fmi-version 3      # models/MassSpringLattice-fmi3.fmu (fmu_src/fmi3_description.py)
+    lattice-build ...                        # the same, installed as a console script (pip install .)
+
+The scenes are the library module `scenes` (scenes/__init__.py and the JSON files beside it); FMUs are
+written to models/ under the current folder unless -o says otherwise.
 
 One table (fmu_src/variables.py) gives both modelDescription.xml and the C header model_variables.h, so the
 two cannot drift. The FMU carries its C sources (listed in <SourceFiles>) so `fmpy compile` can rebuild it
@@ -13,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import json
 import os
 import platform
 import shutil
@@ -22,22 +25,19 @@ import sys
 import tempfile
 import uuid
 import zipfile
-from dataclasses import dataclass, field
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-ROOT = Path(__file__).resolve().parent
-SOURCE_DIR = ROOT / "fmu_src"
-SCENE_DIR = ROOT / "scenes"
-MODELS_DIR = ROOT / "models"
-DEFAULT_SCENE = "armour_11x11"
+import fmu_src
+from fmu_src import MODEL_HEADERS, MODEL_SOURCES
+from fmu_src import fmi3_description as fmi3
+from fmu_src.variables import INTEGER, REAL, Interface, c_literal, plotted_masses
+from scenes import DEFAULT_SCENE, SCENE_DIR, Scene, check_identifier
 
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
-
-from fmu_src import MODEL_HEADERS, MODEL_SOURCES  # noqa: E402
-from fmu_src import fmi3_description as fmi3  # noqa: E402
-from fmu_src.variables import INTEGER, REAL, Interface, c_literal, make_interface, plotted_masses  # noqa: E402
+SOURCE_DIR = Path(fmu_src.__file__).resolve().parent  # the C sources ship as package data of fmu_src
+# Built FMUs go to models/ under the current folder: the repository's models/ when run from its root (as the
+# README does), ./models wherever an installed `lattice-build` or `lattice-search` runs.
+MODELS_DIR = Path("models")
 
 C_SOURCES = ["fmi2/fmi2_glue.c"] + MODEL_SOURCES
 C_HEADERS = ["include/fmi2Functions.h", "include/fmi2FunctionTypes.h", "include/fmi2TypesPlatform.h"] + MODEL_HEADERS
@@ -48,39 +48,8 @@ WARNING_FLAGS = ["-Wall", "-Wextra", "-pedantic"]
 # changes a result. Any C99 compiler builds the sources without them (fmpy compile does), only slower.
 OPTIMISATION_FLAGS = ["-O3", "-fno-math-errno", "-fno-trapping-math"]
 UNITS = ["N", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg"]
-
-
-@dataclass
-class Scene:
-    """A named scene: lattice size, parameter values, which parameters the FMU exposes, the horizon."""
-
-    name: str
-    model_identifier: str = "MassSpringLattice"
-    description: str = ""
-    rows: int = 11
-    cols: int = 11
-    parameters: dict = field(default_factory=dict)
-    hidden: list = field(default_factory=list)
-    horizon: float = 8.0
-    communication_step: float = 0.01
-
-    @classmethod
-    def load(cls, name_or_path: str | os.PathLike) -> "Scene":
-        path = Path(name_or_path)
-        if not path.suffix:
-            path = SCENE_DIR / f"{name_or_path}.json"
-        if not path.is_file():
-            known = sorted(p.stem for p in SCENE_DIR.glob("*.json"))
-            raise ValueError(f"scene {str(name_or_path)!r} not found: give one of {known} or a path to a .json file")
-        data = json.loads(path.read_text())
-        allowed = set(cls.__dataclass_fields__)
-        unknown = set(data) - allowed
-        if unknown:
-            raise ValueError(f"scene {path}: unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}")
-        return cls(**data)
-
-    def interface(self) -> Interface:
-        return make_interface(self.rows, self.cols, self.parameters, tuple(self.hidden))
+__all__ = ["DEFAULT_SCENE", "MODELS_DIR", "SCENE_DIR", "SOURCE_DIR", "Scene", "build_core_library", "build_fmu",
+           "main"]
 
 
 def platform_folder() -> tuple[str, str]:
@@ -279,7 +248,7 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
         if (rows, cols) != (11, 11) and scene.model_identifier == "MassSpringLattice" and output is None:
             scene.model_identifier = f"MassSpringLattice{scene.rows}x{scene.cols}"
     interface = scene.interface()
-    identifier = scene.model_identifier
+    identifier = check_identifier("model_identifier", scene.model_identifier)
     guid = model_guid(interface, identifier)
     suffix_fmi = fmi3.OUTPUT_SUFFIX if fmi_version == 3 else ""
     output = Path(output) if output else MODELS_DIR / f"{identifier}{suffix_fmi}.fmu"
@@ -329,7 +298,8 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"a scene name from scenes/ or a path to a scene .json (default {DEFAULT_SCENE})")
     parser.add_argument("--rows", type=int, help="override the scene's number of rows")
     parser.add_argument("--cols", type=int, help="override the scene's number of columns (materials)")
-    parser.add_argument("-o", "--output", help="where to write the .fmu (default models/<identifier>.fmu)")
+    parser.add_argument("-o", "--output",
+                        help="where to write the .fmu (default models/<identifier>.fmu under the current folder)")
     parser.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
                         help="2: FMI 2.0 (default); 3: FMI 3.0, written to models/<identifier>-fmi3.fmu")
     parser.add_argument("--werror", action="store_true", help="fail on any compiler warning (CI does)")
@@ -346,7 +316,7 @@ def main(argv: list[str] | None = None) -> int:
         path = build_fmu(args.scene, args.output, args.rows, args.cols, werror=args.werror,
                          fmi_version=args.fmi_version)
     except (ValueError, RuntimeError) as exc:
-        print(f"build_fmu.py: error: {exc}", file=sys.stderr)
+        print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return 2
     print(path)
     return 0

@@ -152,7 +152,11 @@ def _executor(kind: str, workers: int | None, scheduler: str | None,
 
 
 def _dask(workers: int | None, scheduler: str | None) -> Iterator[Executor]:
-    from distributed import Client, LocalCluster  # imported lazily: dask is slow to import
+    try:
+        from distributed import Client, LocalCluster  # imported lazily: dask is slow to import
+    except ImportError:
+        raise RuntimeError("executor 'dask' needs Dask: install the project's dask extra "
+                           "(python -m pip install '.[dask]')") from None
 
     with contextlib.ExitStack() as stack:
         if scheduler:

@@ -207,9 +207,9 @@ def check_fmu_matches_scene(path: Path, scene) -> None:
 
 
 def load_scene(scene: str):
-    import build_fmu
+    from scenes import Scene
 
-    return build_fmu.Scene.load(scene)
+    return Scene.load(scene)
 
 
 def finalist_orders(run: SearchRun, count: int) -> list[Order]:

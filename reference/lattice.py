@@ -214,6 +214,28 @@ class Scene:
 
     # --------------------------------------------------------------- helpers
     @classmethod
+    def from_description(cls, description, order=None) -> "Scene":
+        """The oracle's scene for a scene description (a :class:`scenes.Scene`, or its name or .json path):
+        the FMU's parameters of that scene, named as here; ``order`` replaces its material order.
+
+        ``scenes`` is imported here, not at the top: the reference FMU bundles this package alone."""
+        import scenes
+
+        if not isinstance(description, scenes.Scene):
+            description = scenes.Scene.load(description)
+        v = description.parameter_values()
+        return cls(
+            rows=description.rows, cols=description.cols,
+            order=tuple(order) if order is not None else v["material"],
+            **{f: v[f] for f in MATERIAL_FIELDS},
+            k0=v["k_horizontal"], alpha0=v["alpha_horizontal"], c0=v["c_horizontal"], mass=v["mass"],
+            F_total=v["F_total"], load_angle=v["load_angle"], t_active=v["t_active"],
+            wall=bool(v["has_backplate"]), k_wall=v["k_wall"], c_wall=v["c_wall"],
+            backplate_gap=v["backplate_gap"], diagonal_rule=DIAGONAL_RULES[int(v["diagonal_rule"])],
+            spring_law=SPRING_LAWS[int(v["spring_law"])],
+        )
+
+    @classmethod
     def default_material_table(cls, n: int = 11) -> dict:
         return default_material_table(n)
 

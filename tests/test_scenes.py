@@ -8,10 +8,12 @@ from fmpy.validation import validate_fmu
 from scipy.linalg import expm
 
 import build_fmu
+import reference
 from orchestrator.simulation import LatticeFMU
 from orchestrator.study import StudyConfig, run_study
+from scenes import SCENE_DIR, Scene, scene_names
 
-SCENES = sorted(p.stem for p in build_fmu.SCENE_DIR.glob("*.json"))
+SCENES = scene_names()
 
 
 @pytest.fixture(scope="module")
@@ -28,7 +30,7 @@ def test_the_study_scenes_are_all_there():
 def test_scene_builds_validates_and_hides_what_it_does_not_need(scene_fmus, name):
     path = scene_fmus[name]
     assert validate_fmu(str(path)) == []
-    scene = build_fmu.Scene.load(name)
+    scene = Scene.load(name)
     names = {v.name for v in read_model_description(str(path)).modelVariables}
     for hidden in scene.hidden:
         assert hidden not in names and f"{hidden}[1]" not in names
@@ -57,7 +59,7 @@ def test_two_masses_with_a_linear_spring_follow_the_exact_solution(scene_fmus):
 
 @pytest.mark.parametrize("name", ["two_masses_exponential", "free_5x5"])
 def test_free_scenes_conserve_momentum_and_energy(scene_fmus, name):
-    scene = build_fmu.Scene.load(name)
+    scene = Scene.load(name)
     with LatticeFMU(scene_fmus[name]) as fmu:
         result = fmu.simulate(None, horizon=scene.horizon)
     total_mass = scene.rows * scene.cols
@@ -78,10 +80,60 @@ def test_a_scene_without_materials_to_order_is_refused_by_the_orchestrator(scene
 
 def test_unknown_scene_names_the_known_ones():
     with pytest.raises(ValueError, match="armour_11x11"):
-        build_fmu.Scene.load("armour_12x12")
+        Scene.load("armour_12x12")
 
 
 def test_scene_files_have_only_known_keys():
     for name in SCENES:
-        data = json.loads((build_fmu.SCENE_DIR / f"{name}.json").read_text())
-        assert set(data) <= set(build_fmu.Scene.__dataclass_fields__)
+        data = json.loads((SCENE_DIR / f"{name}.json").read_text())
+        assert set(data) <= set(Scene.__dataclass_fields__)
+
+
+@pytest.mark.parametrize("key, value", [("model_identifier", "../../outside"), ("model_identifier", "a/b"),
+                                        ("model_identifier", "9lives"), ("model_identifier", ""),
+                                        ("name", "x.json"), ("name", "..")])
+def test_scene_names_and_identifiers_must_be_identifiers(tmp_path, key, value):
+    data = json.loads((SCENE_DIR / "two_masses_linear.json").read_text())
+    data[key] = value
+    path = tmp_path / "crafted.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match=rf"^scene {key} .* must be .*\[A-Za-z_\]\[A-Za-z0-9_\]\*") as refused:
+        Scene.load(path)
+    assert "\n" not in str(refused.value)
+
+
+def test_build_fmu_refuses_an_identifier_changed_after_loading():
+    scene = Scene.load("two_masses_linear")
+    scene.model_identifier = "../../outside"
+    with pytest.raises(ValueError, match="model_identifier '../../outside' is not allowed"):
+        build_fmu.build_fmu(scene)
+    assert not (build_fmu.MODELS_DIR / "../../outside.fmu").exists()
+
+
+@pytest.mark.parametrize("name", ["../scenes/armour_11x11", "/etc/passwd", "armour 11x11"])
+def test_a_scene_name_that_is_not_an_identifier_is_refused(name):
+    with pytest.raises(ValueError, match="is not allowed: give one of"):
+        Scene.load(name)
+
+
+def test_a_scene_file_outside_the_scenes_folder_loads_by_its_path(tmp_path):
+    data = dict(json.loads((SCENE_DIR / "two_masses_linear.json").read_text()), name="mine",
+                model_identifier="MyTwoMasses")
+    (tmp_path / "mine.json").write_text(json.dumps(data))
+    scene = Scene.load(str(tmp_path / "mine.json"))
+    assert (scene.name, scene.model_identifier, scene.rows, scene.cols) == ("mine", "MyTwoMasses", 1, 2)
+
+
+def test_the_reference_model_reads_the_same_scene_descriptions():
+    """reference.Scene.from_description: the oracle's parameters are the scene's (and the FMU's defaults)."""
+    assert reference.Scene.from_description("armour_11x11").__dict__.keys() == reference.Scene().__dict__.keys()
+    armour, default = reference.Scene.from_description("armour_11x11"), reference.Scene()
+    for field in ("rows", "cols", "order", "k0", "alpha0", "c0", "mass", "F_total", "load_angle", "t_active",
+                  "wall", "k_wall", "c_wall", "backplate_gap", "diagonal_rule", "spring_law"):
+        assert getattr(armour, field) == getattr(default, field), field
+    for field in ("k", "k_diag", "c", "alpha", "alpha_diag"):
+        np.testing.assert_array_equal(getattr(armour, field), getattr(default, field))
+    linear = reference.Scene.from_description(Scene.load("two_masses_linear"))
+    assert (linear.rows, linear.cols, linear.spring_law, linear.wall, linear.F_total) == (1, 2, "linear", False, 100.0)
+    free = reference.Scene.from_description("free_5x5", order=(5, 4, 3, 2, 1))
+    assert free.order == (5, 4, 3, 2, 1) and not free.wall and list(free.k_diag) == [50.0] * 5

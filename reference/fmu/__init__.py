@@ -15,14 +15,14 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REFERENCE_DIR = HERE.parent
-ROOT = REFERENCE_DIR.parent
 SLAVE_SCRIPT = HERE / "mass_spring_lattice_reference.py"
 MODEL_IDENTIFIER = "MassSpringLatticeReference"
-DEFAULT_OUTPUT = ROOT / "models" / f"{MODEL_IDENTIFIER}.fmu"
+DEFAULT_OUTPUT = Path("models") / f"{MODEL_IDENTIFIER}.fmu"  # under the current folder, as build_fmu.py's
 
 
 def build_reference_fmu(output: str | Path | None = None) -> Path:
-    """Build the reference FMU (default ``models/MassSpringLatticeReference.fmu``) and return its path."""
+    """Build the reference FMU (default ``models/MassSpringLatticeReference.fmu`` under the current folder) and
+    return its path."""
     import shutil
     import tempfile
 

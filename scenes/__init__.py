@@ -1,0 +1,101 @@
+"""The scenes: what one FMU models (lattice size, parameter values, which parameters it exposes, horizon).
+
+One module for build_fmu.py (which compiles a scene into an FMU), the orchestrator (which runs one) and the
+reference model (`reference.Scene.from_description`). The study's scenes are the JSON files beside this
+module (package data: they are installed with it); `Scene.load` takes one of their names or a path to any
+scene's .json file.
+
+Names and model identifiers must be identifiers (`[A-Za-z_][A-Za-z0-9_]*`): a model identifier names the
+FMU's binary and its file (`models/<identifier>.fmu`), and a scene name a file in this folder, so neither
+may carry a path.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from fmu_src.variables import Interface, all_variables, make_interface
+
+SCENE_DIR = Path(__file__).resolve().parent
+DEFAULT_SCENE = "armour_11x11"
+IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+IDENTIFIER_RULE = "a letter or underscore, then letters, digits or underscores ([A-Za-z_][A-Za-z0-9_]*)"
+
+
+def check_identifier(key: str, value) -> str:
+    """The value when it is a safe identifier, else a one-line ValueError naming the key and the rule."""
+    if not isinstance(value, str) or not IDENTIFIER.fullmatch(value):
+        raise ValueError(f"scene {key} {value!r} is not allowed: it must be {IDENTIFIER_RULE}")
+    return value
+
+
+def scene_names() -> list[str]:
+    """The scenes shipped with the package."""
+    return sorted(p.stem for p in SCENE_DIR.glob("*.json"))
+
+
+@dataclass
+class Scene:
+    """A named scene: lattice size, parameter values, which parameters the FMU exposes, the horizon."""
+
+    name: str
+    model_identifier: str = "MassSpringLattice"
+    description: str = ""
+    rows: int = 11
+    cols: int = 11
+    parameters: dict = field(default_factory=dict)
+    hidden: list = field(default_factory=list)
+    horizon: float = 8.0
+    communication_step: float = 0.01
+
+    def __post_init__(self):
+        check_identifier("name", self.name)
+        check_identifier("model_identifier", self.model_identifier)
+
+    @classmethod
+    def load(cls, name_or_path: str | os.PathLike) -> "Scene":
+        """A scene by name (a file of this folder) or by the path of its .json file."""
+        text = str(name_or_path)
+        if text.endswith(".json"):
+            path = Path(text)
+        else:
+            if not IDENTIFIER.fullmatch(text):
+                raise ValueError(f"scene {text!r} is not allowed: give one of {scene_names()} or a path to a "
+                                 f".json file")
+            path = SCENE_DIR / f"{text}.json"
+        if not path.is_file():
+            raise ValueError(f"scene {text!r} not found: give one of {scene_names()} or a path to a .json file")
+        try:
+            data = json.loads(path.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ValueError(f"scene {path}: not a readable JSON file ({exc})") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"scene {path}: expected a JSON object of scene keys")
+        allowed = set(cls.__dataclass_fields__)
+        unknown = set(data) - allowed
+        if unknown:
+            raise ValueError(f"scene {path}: unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}")
+        if "name" not in data:
+            raise ValueError(f"scene {path}: the key 'name' is missing")
+        return cls(**data)
+
+    def interface(self) -> Interface:
+        """The FMU's variables for this scene: exposed ones with value references, hidden ones compiled in."""
+        return make_interface(self.rows, self.cols, self.parameters, tuple(self.hidden))
+
+    def parameter_values(self) -> dict:
+        """Every parameter's value in this scene (the scene's own, else the FMU's default), by FMU name;
+        arrays as tuples."""
+        values = {}
+        for variable in all_variables(self.rows, self.cols):
+            if variable.causality != "parameter":
+                continue
+            value = self.parameters.get(variable.name, variable.start)
+            values[variable.name] = tuple(value) if isinstance(value, (list, tuple)) else value
+        return values
+
+
+__all__ = ["DEFAULT_SCENE", "IDENTIFIER", "SCENE_DIR", "Scene", "check_identifier", "scene_names"]
