@@ -166,6 +166,9 @@ def _dask(workers: int | None, scheduler: str | None) -> Iterator[Executor]:
                 n_workers=int(workers or os.cpu_count() or 1), threads_per_worker=1,
                 processes=True, dashboard_address=None, silence_logs=logging.ERROR))
             client = stack.enter_context(Client(cluster))
+        from .dask_plugin import CloseFMUs
+
+        client.register_plugin(CloseFMUs(), name="lattice-close-fmus")
         # pure=False: every submit is its own task; Dask never merges two calls by
         # hashing their arguments (the loop already removes duplicate orders).
         executor = client.get_executor(pure=False)
