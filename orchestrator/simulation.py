@@ -102,7 +102,7 @@ class LatticeFMU:
             raise ValueError(f"unknown parameter {name!r}; the FMU's parameters are {known} "
                              f"and the arrays material[j], k[m], k_diag[m], c[m], alpha[m], alpha_diag[m]")
         if variable.type == "Integer":
-            self._slave.setInteger([variable.valueReference], [int(value)])
+            self._slave.setInteger([variable.valueReference], [_int32(name, value)])
         else:
             self._slave.setReal([variable.valueReference], [float(value)])
 
@@ -131,7 +131,7 @@ class LatticeFMU:
             self._slave.setupExperiment(startTime=0.0, stopTime=horizon)
             self._slave.enterInitializationMode()
             if order is not None:
-                order = [int(m) for m in order]
+                order = [_int32("order", m) for m in order]
                 if len(order) != self.columns:
                     raise ValueError(f"order: expected {self.columns} materials (a permutation of "
                                      f"1..{self.columns}), got {len(order)}")
@@ -186,6 +186,14 @@ class LatticeFMU:
 
     def __exit__(self, *exc_info):
         self.close()
+
+
+def _int32(name: str, value) -> int:
+    """An FMI Integer: a whole number that fits in 32 bits (ctypes would wrap a wider one silently)."""
+    number = int(value)
+    if number != value or not -2 ** 31 <= number < 2 ** 31:
+        raise ValueError(f"{name} = {value!r} is not allowed: FMI integers are whole numbers in [-2**31, 2**31 - 1]")
+    return number
 
 
 def _choice(name: str, value: str, allowed: dict) -> int:

@@ -13,12 +13,15 @@ typedef enum { STATE_INSTANTIATED, STATE_INITIALIZATION_MODE, STATE_STEP, STATE_
 #define IN(state) (1u << (state))
 #define ANY_STATE (IN(STATE_INSTANTIATED) | IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP) | IN(STATE_TERMINATED))
 
+#define INSTANCE_REASON_SIZE 512
+
 typedef struct {
     Model *model;
     char *instance_name; /* the importer's name for the instance, in every log message */
     InstanceState state;
     double start_time, stop_time;
     int stop_time_defined;
+    char reason[INSTANCE_REASON_SIZE]; /* why the last FMU-state call failed, when the reason is not a constant */
 } InstanceCommon;
 
 /* Instantiation (fmi2Instantiate, fmi3InstantiateCoSimulation): 0 when the importer's token is this binary's,
@@ -33,19 +36,23 @@ void instance_close(InstanceCommon *common);
 /* Back to a fresh instance (fmi2Reset, fmi3Reset). */
 void instance_reset(InstanceCommon *common);
 
-/* An FMU state: the common fields and the model's bytes behind a magic number naming the FMI version. */
+/* An FMU state: a 64-byte header (a magic number naming the FMI version, a format version, a CRC-32 of all
+ * that follows it, the sizes, a hash of the build's GUID, the common fields; the layout is in instance.c),
+ * then the model's bytes. A serialised state is the same bytes. */
 size_t instance_saved_size(void);
 void instance_save(const InstanceCommon *common, unsigned int magic, unsigned char *bytes);
-int instance_restore(InstanceCommon *common, unsigned int magic, const unsigned char *bytes);
-int instance_is_saved_state(unsigned int magic, const unsigned char *bytes, size_t size);
 
 /* The FMU-state calls of both versions (fmi2GetFMUstate, fmi3GetFMUState, ...), behind their FMI types: each
- * returns NULL on success, or why it failed. *state is the importer's FMU state: reused when not NULL. */
+ * returns NULL on success, or why it failed. *state is the importer's FMU state: reused when not NULL.
+ * Setting and deserialising check a state whole (size, magic number, format, build, checksum, then every
+ * field of the model that sizes or indexes memory) before anything is copied: a corrupt, truncated, crafted
+ * or foreign state is refused and changes nothing. */
 const char *instance_get_state(const InstanceCommon *common, unsigned int magic, void **state);
 const char *instance_set_state(InstanceCommon *common, unsigned int magic, const void *state);
 void instance_free_state(void **state);
 const char *instance_serialize_state(const void *state, unsigned char *buffer, size_t size);
-const char *instance_deserialize_state(unsigned int magic, const unsigned char *buffer, size_t size, void **state);
+const char *instance_deserialize_state(InstanceCommon *common, unsigned int magic, const unsigned char *buffer,
+                                       size_t size, void **state);
 
 /* fmi2ExitInitializationMode, fmi3ExitInitializationMode: initialises the model and enters the step state
  * (FMI 3 co-simulation without event mode goes straight to step mode);

@@ -274,7 +274,8 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     Instance *instance = (Instance *)c;
     if (!instance) return fmi2Error;
     return outcome(instance, "fmi2DeSerializeFMUstate",
-                   instance_deserialize_state(STATE_MAGIC, (const unsigned char *)serializedState, size, FMUstate));
+                   instance_deserialize_state(&instance->common, STATE_MAGIC,
+                                              (const unsigned char *)serializedState, size, FMUstate));
 }
 
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,

@@ -453,7 +453,8 @@ fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serializedStat
     Instance *instance = (Instance *)c;
     if (!instance) return fmi3Error;
     return outcome(instance, "fmi3DeserializeFMUState",
-                   instance_deserialize_state(STATE_MAGIC, (const unsigned char *)serializedState, size, FMUState));
+                   instance_deserialize_state(&instance->common, STATE_MAGIC,
+                                              (const unsigned char *)serializedState, size, FMUState));
 }
 
 fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,

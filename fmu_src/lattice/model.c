@@ -42,6 +42,12 @@
 /* This many steps in a row that do not move time forward mean the backplate switches chatter. */
 #define MAX_STALLED_STEPS 1000
 #define FAILURE_SIZE 512
+/* The work of one doStep is bounded, so that no setting makes a call run for ever: at most this many samples
+ * of the peak (checked before the step: peak_sample_interval against the communication step) and this many
+ * solver steps, accepted and rejected (checked before the step for the fixed-step solvers, and as they are
+ * taken for all). The armour scene's 8 s take 800 samples and about 450 steps at the default settings. */
+#define MAX_SAMPLES_PER_DO_STEP 10000000.0
+#define MAX_STEPS_PER_DO_STEP 200000L
 
 struct Model {
     double real[N_VALUE_REFERENCES];
@@ -487,6 +493,11 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
         snprintf(message, message_size, "stop time %g is before the start time %g", stop_time, start_time);
         return -1;
     }
+    if (start_time / PARAM_PEAK_SAMPLE_INTERVAL(m) > 1e15) {
+        snprintf(message, message_size, "peak_sample_interval = %g s is too short for the start time %g s (more than "
+                 "1e15 samples before it)", PARAM_PEAK_SAMPLE_INTERVAL(m), start_time);
+        return -1;
+    }
     build_params(m, &m->params);
     m->stop_time_defined = stop_time_defined;
     m->stop_time = stop_time;
@@ -552,6 +563,7 @@ static int check_divergence(Model *m, char *message, size_t message_size) {
 int model_advance(Model *m, double t_target, char *message, size_t message_size) {
     Solver *s = &m->solver;
     char reason[FAILURE_SIZE];
+    long steps_before;
     if (!m->initialized) {
         snprintf(message, message_size, "the model is not initialised");
         return -1;
@@ -569,6 +581,23 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
                  m->stop_time);
         return -1;
     }
+    if ((t_target - m->time) / PARAM_PEAK_SAMPLE_INTERVAL(m) > MAX_SAMPLES_PER_DO_STEP) {
+        snprintf(message, message_size,
+                 "a doStep over %g s takes %g samples of peak_sample_interval = %g s, more than the cap of %.0f "
+                 "samples per doStep: take shorter communication steps or a longer peak_sample_interval",
+                 t_target - m->time, (t_target - m->time) / PARAM_PEAK_SAMPLE_INTERVAL(m),
+                 PARAM_PEAK_SAMPLE_INTERVAL(m), MAX_SAMPLES_PER_DO_STEP);
+        return -1;
+    }
+    if ((s->method == SOLVER_RK4 || s->method == SOLVER_SEMI_IMPLICIT_EULER) &&
+        (t_target - m->time) / s->fixed_step > (double)MAX_STEPS_PER_DO_STEP) {
+        snprintf(message, message_size,
+                 "a doStep over %g s takes %g steps of fixed_step = %g s, more than the cap of %ld solver steps per "
+                 "doStep: take shorter communication steps or a longer fixed_step",
+                 t_target - m->time, (t_target - m->time) / s->fixed_step, s->fixed_step, MAX_STEPS_PER_DO_STEP);
+        return -1;
+    }
+    steps_before = s->steps_accepted + s->steps_rejected;
     process_step(m, t_target); /* what remains of the last step up to the new target */
     while (s->t < t_target) {
         const int free_before = wall_free(m);
@@ -576,6 +605,13 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         double t_limit = INFINITY;
         if (m->load_on) t_limit = m->params.load_duration;
         if (m->stop_time_defined) t_limit = fmin(t_limit, m->stop_time);
+        if (s->steps_accepted + s->steps_rejected - steps_before >= MAX_STEPS_PER_DO_STEP) {
+            snprintf(reason, sizeof(reason),
+                     "this doStep reached the cap of %ld solver steps per doStep at t = %.9g s, short of %.9g s: "
+                     "take shorter communication steps (solver %d, rtol = %g)",
+                     MAX_STEPS_PER_DO_STEP, s->t, t_target, s->method, s->rtol);
+            return fail(m, reason, message, message_size);
+        }
         if (solver_step(s, m->work, model_rhs, m, t_limit, reason, sizeof(reason))) {
             return fail(m, reason, message, message_size);
         }
@@ -605,5 +641,50 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
     }
     update_outputs(m, t_target);
     m->time = t_target;
+    return 0;
+}
+
+int model_has_failed(const Model *m) { return m->failed; }
+
+int model_check(const Model *m, char *message, size_t message_size) {
+    const Solver *s = &m->solver;
+    unsigned int vr;
+    int i;
+    if (!memchr(m->failure, '\0', FAILURE_SIZE)) {
+        snprintf(message, message_size, "the state is corrupt: its failure message is not terminated");
+        return -1;
+    }
+    for (vr = 0; vr < N_VALUE_REFERENCES; vr++) {
+        if (VARIABLES[vr].causality != CAUSALITY_PARAMETER) continue;
+        if (check_range(vr, VARIABLES[vr].type == MODEL_TYPE_REAL ? m->real[vr] : (double)m->integer[vr], message,
+                        message_size)) {
+            return -1;
+        }
+    }
+    if (!m->initialized) return 0; /* the solver, the lattice and the modes are set up at initialisation */
+    if (check_material_order(m, message, message_size)) return -1;
+    if (s->n != N_STATE || s->n_second_order != 2 * N_MASSES || m->params.rows != LATTICE_ROWS ||
+        m->params.cols != LATTICE_COLS) {
+        snprintf(message, message_size,
+                 "the state is corrupt or foreign: its sizes (state %d, positions %d, lattice %d x %d) are not this "
+                 "FMU's (%d, %d, %d x %d)",
+                 s->n, s->n_second_order, m->params.rows, m->params.cols, N_STATE, 2 * N_MASSES, LATTICE_ROWS,
+                 LATTICE_COLS);
+        return -1;
+    }
+    if (s->method != PARAM_SOLVER(m) || s->dense_power < 0 || s->dense_power > SOLVER_DENSE_ROWS ||
+        (s->phase != 0 && s->phase != 1) || m->next_sample < 0) {
+        snprintf(message, message_size, "the state is corrupt: its solver fields are out of range (solver %d of %d, "
+                 "dense output %d, phase %d, sample %ld)", s->method, PARAM_SOLVER(m), s->dense_power, s->phase,
+                 m->next_sample);
+        return -1;
+    }
+    for (i = 0; i < LATTICE_ROWS; i++) {
+        if (m->wall_mode[i] != WALL_FREE && m->wall_mode[i] != WALL_RECEDING && m->wall_mode[i] != WALL_APPROACHING) {
+            snprintf(message, message_size, "the state is corrupt: backplate mode %d of row %d is out of range",
+                     m->wall_mode[i], i + 1);
+            return -1;
+        }
+    }
     return 0;
 }

@@ -41,4 +41,12 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
 
 double model_time(const Model *m);
 
+/* Whether a step failed (the model refuses to go on until reset); a refused argument is not a failure. */
+int model_has_failed(const Model *m);
+
+/* 0 when a model read from an FMU state could have been made by this build: every parameter in range, and
+ * every field that sizes or indexes memory (state size, lattice size, solver, modes) this build's; else -1 and
+ * why. The model must be a properly aligned copy (model_size() bytes). */
+int model_check(const Model *m, char *message, size_t message_size);
+
 #endif
