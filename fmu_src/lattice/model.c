@@ -45,7 +45,7 @@
 /* The work of one doStep is bounded, so that no setting makes a call run for ever: at most this many samples
  * of the peak (checked before the step: peak_sample_interval against the communication step) and this many
  * solver steps, accepted and rejected (checked before the step for the fixed-step solvers, and as they are
- * taken for all). The armour scene's 8 s take 800 samples and about 450 steps at the default settings. */
+ * taken for all). The armour scene's 8 s take 800 samples and about 470 steps at the default settings. */
 #define MAX_SAMPLES_PER_DO_STEP 10000000.0
 #define MAX_STEPS_PER_DO_STEP 200000L
 
