@@ -142,6 +142,26 @@ def with_checksum(data: bytearray) -> bytes:
     return bytes(data)
 
 
+def test_every_state_of_a_run_is_accepted(fmu):
+    """The checks refuse nothing the FMU itself saves: before initialisation, and at every communication point
+    of a run with an awkward step (the solver ahead of the communication time, samples pending)."""
+    fmu.slave.reset()
+    states = [fmu.get_state()]
+    fmu.start(stop=1.0)
+    states.append(fmu.get_state())
+    time, step = 0.0, 0.0173
+    while time + step <= 1.0:
+        fmu.slave.doStep(time, step)
+        time += step
+        states.append(fmu.get_state())
+    for state in states:
+        restored = fmu.deserialize(fmu.serialize(state))
+        fmu.set_state(restored)
+        fmu.free_state(restored)
+        fmu.free_state(state)
+    assert len(states) == 59
+
+
 def test_truncated_and_extended_states_are_refused(fmu, saved):
     data, peak = saved
     for damaged in (data[:-1], data[:HEADER_SIZE], data[:len(data) // 2], data + b"\0"):

@@ -648,6 +648,7 @@ int model_has_failed(const Model *m) { return m->failed; }
 
 int model_check(const Model *m, char *message, size_t message_size) {
     const Solver *s = &m->solver;
+    double interval;
     unsigned int vr;
     int i;
     if (!memchr(m->failure, '\0', FAILURE_SIZE)) {
@@ -673,10 +674,18 @@ int model_check(const Model *m, char *message, size_t message_size) {
         return -1;
     }
     if (s->method != PARAM_SOLVER(m) || s->dense_power < 0 || s->dense_power > SOLVER_DENSE_ROWS ||
-        (s->phase != 0 && s->phase != 1) || m->next_sample < 0) {
+        (s->phase != 0 && s->phase != 1)) {
         snprintf(message, message_size, "the state is corrupt: its solver fields are out of range (solver %d of %d, "
-                 "dense output %d, phase %d, sample %ld)", s->method, PARAM_SOLVER(m), s->dense_power, s->phase,
-                 m->next_sample);
+                 "dense output %d, phase %d)", s->method, PARAM_SOLVER(m), s->dense_power, s->phase);
+        return -1;
+    }
+    /* the solver is at or ahead of the communication time, and the next sample lies between them (samples
+     * are bounded per doStep only from the communication time on) */
+    interval = PARAM_PEAK_SAMPLE_INTERVAL(m);
+    if (!(m->time >= 0.0 && m->time <= s->t && s->t <= DBL_MAX) ||
+        !((double)m->next_sample >= m->time / interval - 2.0 && (double)m->next_sample <= s->t / interval + 2.0)) {
+        snprintf(message, message_size, "the state is corrupt: its times are inconsistent (communication time %g s, "
+                 "solver time %g s, next sample %ld)", m->time, s->t, m->next_sample);
         return -1;
     }
     for (i = 0; i < LATTICE_ROWS; i++) {
