@@ -179,6 +179,7 @@ void instance_free_state(void **state) {
 }
 
 const char *instance_serialize_state(const void *state, unsigned char *buffer, size_t size) {
+    if (!state || !buffer) return "no state or no buffer given";
     if (size < instance_saved_size()) return "the buffer is too small";
     memcpy(buffer, state, instance_saved_size());
     return NULL;
