@@ -200,6 +200,7 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
   </UnitDefinitions>
   <LogCategories>
     <Category name="logStatusError" description="Why a call failed"/>
+    <Category name="logStatusDiscard" description="Why a step stopped early (peak_force_limit)"/>
   </LogCategories>
   <DefaultExperiment startTime="0" stopTime="{scene.horizon!r}" stepSize="{scene.communication_step!r}"/>
   <ModelVariables>

@@ -110,6 +110,7 @@ def generate_model_description(interface: Interface, identifier: str, token: str
     canGetAndSetFMUState="true"
     canSerializeFMUState="true"
     hasEventMode="false"
+    mightReturnEarlyFromDoStep="true"
     canReturnEarlyAfterIntermediateUpdate="false"
     providesIntermediateUpdate="false"/>
   <UnitDefinitions>
@@ -120,6 +121,7 @@ def generate_model_description(interface: Interface, identifier: str, token: str
   </TypeDefinitions>
   <LogCategories>
     <Category name="logStatusError" description="Why a call failed"/>
+    <Category name="logStatusDiscard" description="Why a step stopped early (peak_force_limit)"/>
   </LogCategories>
   <DefaultExperiment startTime="0" stopTime="{scene.horizon!r}" stepSize="{scene.communication_step!r}"/>
   <ModelVariables>

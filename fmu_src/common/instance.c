@@ -226,15 +226,28 @@ static int check_time(const InstanceCommon *common, double communication_point, 
 
 int instance_do_step(InstanceCommon *common, double communication_point, double step_size, char *message,
                      size_t message_size) {
+    if (common->state == STATE_STEP_STOPPED) {
+        snprintf(message, message_size,
+                 "the run stopped at t = %.17g s at peak_force_limit: only terminate, reset or free the instance now",
+                 model_time(common->model));
+        return -1;
+    }
     if (!(step_size >= 0.0 && step_size <= DBL_MAX)) {
         snprintf(message, message_size, "communicationStepSize = %g is not allowed: it must be finite and >= 0",
                  step_size);
         return -1;
     }
     if (check_time(common, communication_point, message, message_size)) return -1;
-    if (model_advance(common->model, communication_point + step_size, message, message_size)) {
-        if (model_has_failed(common->model)) common->state = STATE_ERROR; /* not for a refused argument */
-        return -1;
+    {
+        const int status = model_advance(common->model, communication_point + step_size, message, message_size);
+        if (status == MODEL_LIMIT_REACHED) {
+            common->state = STATE_STEP_STOPPED;
+            return MODEL_LIMIT_REACHED;
+        }
+        if (status) {
+            if (model_has_failed(common->model)) common->state = STATE_ERROR; /* not for a refused argument */
+            return -1;
+        }
     }
     return 0;
 }

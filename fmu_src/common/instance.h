@@ -7,11 +7,20 @@
 
 #include "../lattice/model.h"
 
-/* STATE_STEP is FMI 2's step-complete state and FMI 3's step mode. */
-typedef enum { STATE_INSTANTIATED, STATE_INITIALIZATION_MODE, STATE_STEP, STATE_TERMINATED, STATE_ERROR } InstanceState;
+/* STATE_STEP is FMI 2's step-complete state and FMI 3's step mode; STATE_STEP_STOPPED is FMI 2's step-failed
+ * state after the model stopped at peak_force_limit (outputs valid, only terminate, reset or free next). */
+typedef enum {
+    STATE_INSTANTIATED,
+    STATE_INITIALIZATION_MODE,
+    STATE_STEP,
+    STATE_TERMINATED,
+    STATE_ERROR,
+    STATE_STEP_STOPPED
+} InstanceState;
 
 #define IN(state) (1u << (state))
-#define ANY_STATE (IN(STATE_INSTANTIATED) | IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP) | IN(STATE_TERMINATED))
+#define ANY_STATE \
+    (IN(STATE_INSTANTIATED) | IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP) | IN(STATE_TERMINATED) | IN(STATE_STEP_STOPPED))
 
 #define INSTANCE_REASON_SIZE 512
 
@@ -60,7 +69,9 @@ const char *instance_deserialize_state(InstanceCommon *common, unsigned int magi
 int instance_initialize(InstanceCommon *common, char *message, size_t message_size);
 
 /* fmi2DoStep, fmi3DoStep: checks the step against the FMU's time and advances the model; on failure -1 and
- * why. A step the model fails puts the instance in the error state (a refused argument does not). */
+ * why. A step the model fails puts the instance in the error state (a refused argument does not). Returns
+ * MODEL_LIMIT_REACHED (why in message) when the model stopped early at peak_force_limit: the instance is then
+ * in STATE_STEP_STOPPED at model_time. */
 int instance_do_step(InstanceCommon *common, double communication_point, double step_size, char *message,
                      size_t message_size);
 

@@ -133,7 +133,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
 
 fmi2Status fmi2Terminate(fmi2Component c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi2Terminate", IN(STATE_STEP))) return fmi2Error;
+    if (!allowed(instance, "fmi2Terminate", IN(STATE_STEP) | IN(STATE_STEP_STOPPED))) return fmi2Error;
     instance->common.state = STATE_TERMINATED;
     return fmi2OK;
 }
@@ -312,12 +312,17 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
+    int status;
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (!allowed(instance, "fmi2DoStep", IN(STATE_STEP))) return fmi2Error;
-    if (instance_do_step(&instance->common, currentCommunicationPoint, communicationStepSize, message,
-                         sizeof(message))) {
-        return error(instance, "fmi2DoStep", message);
+    if (!allowed(instance, "fmi2DoStep", IN(STATE_STEP) | IN(STATE_STEP_STOPPED))) return fmi2Error;
+    status = instance_do_step(&instance->common, currentCommunicationPoint, communicationStepSize, message,
+                              sizeof(message));
+    if (status == MODEL_LIMIT_REACHED) {
+        /* FMI 2.0 section 4.2.3: the step was computed only up to fmi2LastSuccessfulTime, and fmi2Terminated */
+        log_message(instance, fmi2Discard, "logStatusDiscard", "fmi2DoStep: %s", message);
+        return fmi2Discard;
     }
+    if (status) return error(instance, "fmi2DoStep", message);
     return fmi2OK;
 }
 
@@ -351,7 +356,7 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
     Instance *instance = (Instance *)c;
     if (!instance) return fmi2Error;
     if (s == fmi2Terminated) {
-        *value = fmi2False; /* the model never asks to stop early */
+        *value = model_terminated(instance->common.model) ? fmi2True : fmi2False; /* stopped at peak_force_limit */
         return fmi2OK;
     }
     return error(instance, "fmi2GetBooleanStatus", "only fmi2Terminated is provided");

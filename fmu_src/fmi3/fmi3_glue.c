@@ -26,6 +26,7 @@ typedef struct {
     fmi3LogMessageCallback logger;
     fmi3InstanceEnvironment environment;
     int logging_on;
+    int early_return_allowed; /* fmi3DoStep may stop before the step's end (at peak_force_limit) */
 } Instance;
 
 static void log_message(const Instance *instance, fmi3Status status, const char *category, const char *format,
@@ -145,7 +146,6 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     char message[MESSAGE_SIZE];
     (void)resourcePath;
     (void)visible;
-    (void)earlyReturnAllowed; /* doStep never returns early */
     (void)requiredIntermediateVariables;
     (void)nRequiredIntermediateVariables;
     (void)intermediateUpdate;
@@ -170,6 +170,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     instance->logger = probe.logger;
     instance->environment = probe.environment;
     instance->logging_on = loggingOn;
+    instance->early_return_allowed = earlyReturnAllowed;
     return instance;
 }
 
@@ -223,7 +224,7 @@ fmi3Status fmi3EnterEventMode(fmi3Instance c) {
 
 fmi3Status fmi3Terminate(fmi3Instance c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi3Terminate", IN(STATE_STEP))) return fmi3Error;
+    if (!allowed(instance, "fmi3Terminate", IN(STATE_STEP) | IN(STATE_STEP_STOPPED))) return fmi3Error;
     instance->common.state = STATE_TERMINATED;
     return fmi3OK;
 }
@@ -666,17 +667,29 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentCommunicationPoint, fmi
                       fmi3Boolean *terminateSimulation, fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
+    int status;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (eventHandlingNeeded) *eventHandlingNeeded = fmi3False;
     if (terminateSimulation) *terminateSimulation = fmi3False;
     if (earlyReturn) *earlyReturn = fmi3False;
-    if (!allowed(instance, "fmi3DoStep", IN(STATE_STEP))) return fmi3Error;
+    if (!allowed(instance, "fmi3DoStep", IN(STATE_STEP) | IN(STATE_STEP_STOPPED))) return fmi3Error;
     if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->common.model);
-    if (instance_do_step(&instance->common, currentCommunicationPoint, communicationStepSize, message,
-                         sizeof(message))) {
-        return error(instance, "fmi3DoStep", message);
+    status = instance_do_step(&instance->common, currentCommunicationPoint, communicationStepSize, message,
+                              sizeof(message));
+    if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->common.model);
+    if (status == MODEL_LIMIT_REACHED) {
+        /* the model asks to stop at peak_force_limit: an early return when the importer allows one, else the
+         * step counts as discarded after lastSuccessfulTime; either way terminateSimulation */
+        if (terminateSimulation) *terminateSimulation = fmi3True;
+        if (instance->early_return_allowed) {
+            if (earlyReturn) *earlyReturn = fmi3True;
+            log_message(instance, fmi3OK, "logStatusDiscard", "fmi3DoStep: %s", message);
+            return fmi3OK;
+        }
+        log_message(instance, fmi3Discard, "logStatusDiscard", "fmi3DoStep: %s", message);
+        return fmi3Discard;
     }
-    if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->common.model);
+    if (status) return error(instance, "fmi3DoStep", message);
     return fmi3OK;
 }
 

@@ -63,6 +63,9 @@ struct Model {
     int step_contact_free; /* no column-C mass touched the plate during the last step: its force is 0 */
     long next_sample;
     double peak_sampled;
+    int limit_exceeded;       /* a sample exceeded peak_force_limit, at limit_time: the run ends there */
+    int terminated;           /* ... and an advance has reported it: no further advance */
+    double limit_time;
     double peak_continuous, peak_continuous_time; /* over what is fully behind the communication time */
     int step_peak_known, step_peak_committed;     /* the last step's own maximum, and whether it counts */
     double step_peak, step_peak_time;
@@ -167,6 +170,8 @@ int model_get_integer(const Model *m, unsigned int vr, int *value, char *message
 }
 
 double model_time(const Model *m) { return m->time; }
+
+int model_terminated(const Model *m) { return m->terminated; }
 
 static int fail(Model *m, const char *reason, char *message, size_t message_size) {
     m->failed = 1;
@@ -332,20 +337,26 @@ static void commit_continuous(Model *m, double value, double time) {
     }
 }
 
-/* Samples and the continuous peak of the last step, for the part of it up to t_target. */
+/* Samples and the continuous peak of the last step, for the part of it up to t_target; a sample above
+ * peak_force_limit ends the run at its time (limit_exceeded, limit_time), and the step counts up to there. */
 static void process_step(Model *m, double t_target) {
     const Solver *s = &m->solver;
-    const double interval = PARAM_PEAK_SAMPLE_INTERVAL(m);
+    const double interval = PARAM_PEAK_SAMPLE_INTERVAL(m), limit = PARAM_PEAK_FORCE_LIMIT(m);
     const double sample_limit = fmin(s->t, t_target + SAMPLE_TIME_SLACK * interval);
     for (;;) {
         const double sample_time = (double)m->next_sample * interval;
         double force;
-        if (sample_time > sample_limit) break;
+        if (sample_time > sample_limit || m->limit_exceeded) break;
         /* a step without contact needs no dense output for its samples: the force is 0 throughout */
         force = m->step_contact_free ? 0.0 : backplate_force_at(m, sample_time);
         if (force > m->peak_sampled) m->peak_sampled = force;
         commit_continuous(m, force, sample_time);
         m->next_sample++;
+        if (limit > 0.0 && m->peak_sampled > limit) {
+            m->limit_exceeded = 1;
+            m->limit_time = sample_time;
+            t_target = fmin(t_target, sample_time);
+        }
     }
     if (s->steps_accepted == 0 || m->step_peak_committed) return;
     if (!m->step_peak_known) {
@@ -484,6 +495,12 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
         return -1;
     }
     if (check_material_order(m, message, message_size)) return -1;
+    if (!(PARAM_PEAK_FORCE_LIMIT(m) >= 0.0) || !isfinite(PARAM_PEAK_FORCE_LIMIT(m))) {
+        snprintf(message, message_size,
+                 "parameter peak_force_limit = %g is not allowed: allowed values are a finite number >= 0 (0: no limit)",
+                 PARAM_PEAK_FORCE_LIMIT(m));
+        return -1;
+    }
     if (!isfinite(start_time) || start_time < 0.0) {
         snprintf(message, message_size, "start time %g is not allowed: the load starts at t = 0, so it must be >= 0",
                  start_time);
@@ -572,6 +589,13 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         snprintf(message, message_size, "an earlier step failed (%s); reset the FMU to start again", m->failure);
         return -1;
     }
+    if (m->terminated) {
+        snprintf(message, message_size,
+                 "the run stopped at t = %.17g s, where peak_backplate_force exceeded peak_force_limit = %g N; reset "
+                 "the FMU to start again",
+                 m->time, PARAM_PEAK_FORCE_LIMIT(m));
+        return -1;
+    }
     if (!(t_target >= m->time)) {
         snprintf(message, message_size, "cannot step back from t = %.17g to t = %.17g", m->time, t_target);
         return -1;
@@ -599,7 +623,7 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
     }
     steps_before = s->steps_accepted + s->steps_rejected;
     process_step(m, t_target); /* what remains of the last step up to the new target */
-    while (s->t < t_target) {
+    while (s->t < t_target && !m->limit_exceeded) {
         const int free_before = wall_free(m);
         int cut_by_event;
         double t_limit = INFINITY;
@@ -638,6 +662,15 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
             solver_set_phase(s, 0);
         }
         process_step(m, t_target);
+    }
+    if (m->limit_exceeded) {
+        update_outputs(m, m->limit_time);
+        m->time = m->limit_time;
+        m->terminated = 1;
+        snprintf(message, message_size,
+                 "peak_backplate_force = %.17g N exceeded peak_force_limit = %g N at t = %.17g s: the run stops there",
+                 m->peak_sampled, PARAM_PEAK_FORCE_LIMIT(m), m->limit_time);
+        return MODEL_LIMIT_REACHED;
     }
     update_outputs(m, t_target);
     m->time = t_target;

@@ -36,7 +36,10 @@ int model_variable_type(unsigned int vr);
 int model_initialize(Model *m, double start_time, int stop_time_defined, double stop_time, char *message,
                      size_t message_size);
 
-/* Advances to t_target and updates the outputs. After a failure the model refuses to go on until reset. */
+/* Advances to t_target and updates the outputs. After a failure the model refuses to go on until reset.
+ * Returns MODEL_LIMIT_REACHED (with why in message) when peak_backplate_force exceeded peak_force_limit: the
+ * run then stopped at that sample's time (model_time), its outputs are valid there, and it goes no further. */
+#define MODEL_LIMIT_REACHED 1
 int model_advance(Model *m, double t_target, char *message, size_t message_size);
 
 double model_time(const Model *m);
@@ -48,5 +51,8 @@ int model_has_failed(const Model *m);
  * every field that sizes or indexes memory (state size, lattice size, solver, modes) this build's; else -1 and
  * why. The model must be a properly aligned copy (model_size() bytes). */
 int model_check(const Model *m, char *message, size_t message_size);
+
+/* 1 once the run stopped at peak_force_limit (FMI's "terminated" status), else 0. */
+int model_terminated(const Model *m);
 
 #endif
