@@ -9,7 +9,7 @@ from __future__ import annotations
 import itertools
 import shutil
 import tempfile
-from ctypes import byref
+from ctypes import POINTER, byref, c_double, c_int, c_size_t, c_uint, c_void_p
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,7 +18,8 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi1 import printLogMessage
 from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Discard, fmi2LastSuccessfulTime,
+                       fmi2Terminated, fmi2Warning, free)
 
 PEAK_OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "peak_time")
 ENERGY_OUTPUTS = ("kinetic_energy", "potential_energy", "external_work", "dissipated_energy",
@@ -69,7 +70,13 @@ class Trajectory:
 
 
 class LatticeFMU:
-    """One instance of the lattice FMU, reused for many runs (fmi2Reset between them)."""
+    """One instance of the lattice FMU, reused for many runs (fmi2Reset between them).
+
+    A run costs a fixed number of FMI calls whatever it sets and reads: the order and the integer parameters
+    in one fmi2SetInteger, the real parameters in one fmi2SetReal, the outputs in one fmi2GetReal and one
+    fmi2GetInteger. Value references are resolved once per set of names and the ctypes arrays kept, and the
+    FMI functions are called through ctypes directly (fmpy's wrappers build their arrays on every call).
+    """
 
     def __init__(self, fmu_path: str | Path, instance_name: str = "lattice"):
         self.fmu_path = Path(fmu_path)
@@ -80,6 +87,7 @@ class LatticeFMU:
             raise ValueError(f"{self.fmu_path} has no co-simulation interface")
         self.variables = {v.name: v for v in self.model_description.modelVariables}
         self.columns = sum(1 for name in self.variables if name.startswith("material["))
+        self._material_references = [self.value_reference(f"material[{j}]") for j in range(1, self.columns + 1)]
         self._unzip_dir = extract(str(self.fmu_path), tempfile.mkdtemp(prefix="lattice_fmu_"))
         self._messages: list[str] = []
         self._name = f"{instance_name}-{next(_INSTANCE_NUMBERS)}"  # unique: the log is routed by name
@@ -88,6 +96,9 @@ class LatticeFMU:
                                 modelIdentifier=self.model_description.coSimulation.modelIdentifier,
                                 instanceName=self._name)
         self._slave.instantiate(callbacks=_CALLBACKS, loggingOn=True)  # pythonfmu logs nothing without it
+        self._api = _DirectCalls(self._slave)
+        self._setters: dict[tuple, _Setter] = {}
+        self._readers: dict[tuple, _Reader] = {}
 
     def value_reference(self, name: str) -> int:
         try:
@@ -95,77 +106,113 @@ class LatticeFMU:
         except KeyError:
             raise ValueError(f"{self.fmu_path.name} has no variable {name!r}") from None
 
-    def _set(self, name: str, value) -> None:
+    def _parameter(self, name: str):
         variable = self.variables.get(name)
         if variable is None or variable.causality != "parameter":
             known = sorted(n for n, v in self.variables.items() if v.causality == "parameter" and "[" not in n)
             raise ValueError(f"unknown parameter {name!r}; the FMU's parameters are {known} "
                              f"and the arrays material[j], k[m], k_diag[m], c[m], alpha[m], alpha_diag[m]")
-        if variable.type == "Integer":
-            self._slave.setInteger([variable.valueReference], [_int32(name, value)])
-        else:
-            self._slave.setReal([variable.valueReference], [float(value)])
+        return variable
+
+    def _setter(self, with_order: bool, names: tuple) -> "_Setter":
+        """The value-reference arrays for setting the order (if given) and these parameters, made once."""
+        key = (with_order, names)
+        setter = self._setters.get(key)
+        if setter is None:
+            integers, reals = [], []
+            for index, name in enumerate(names):
+                variable = self._parameter(name)
+                (integers if variable.type in INTEGER_TYPES else reals).append((index, variable.valueReference))
+            integers = [(index, vr, names[index]) for index, vr in integers]
+            setter = self._setters[key] = _Setter(self._material_references if with_order else [], integers, reals)
+        return setter
+
+    def _reader(self, names: tuple) -> "_Reader":
+        """The value-reference arrays and value buffers for reading these outputs, made once."""
+        reader = self._readers.get(names)
+        if reader is None:
+            integers, reals = [], []
+            for name in names:
+                variable = self.variables.get(name)
+                if variable is None:
+                    raise ValueError(f"{self.fmu_path.name} has no output {name!r}")
+                (integers if variable.type in INTEGER_TYPES else reals).append((name, variable.valueReference))
+            reader = self._readers[names] = _Reader(integers, reals, names)
+        return reader
 
     def _read(self, names) -> dict:
-        values = {}
-        for name in names:
-            variable = self.variables.get(name)
-            if variable is None:
-                raise ValueError(f"{self.fmu_path.name} has no output {name!r}")
-            if variable.type == "Integer":
-                values[name] = self._slave.getInteger([variable.valueReference])[0]
-            else:
-                values[name] = self._slave.getReal([variable.valueReference])[0]
-        return values
+        return self._reader(tuple(names)).read(self._api)
 
     def simulate(self, order=None, horizon: float = 8.0, parameters: dict | None = None,
                  communication_step: float | None = None, outputs=PEAK_OUTPUTS + ENERGY_OUTPUTS,
-                 record=None) -> dict:
+                 record=None, peak_force_limit: float | None = None) -> dict:
         """One run from t = 0 to the horizon; returns the outputs at the end (and a Trajectory if asked).
 
         With communication_step None the FMU is advanced by a single doStep: it samples the peak itself.
+
+        With peak_force_limit (N, > 0) the FMU stops the run as soon as its sampled peak exceeds the limit
+        (fmi2Discard, fmi2Terminated): the result then has "censored": True and "censored_at" (the time the
+        run reached), and its outputs are the FMU's at that time, so peak_backplate_force is only the peak so
+        far (above the limit), never the run's peak. A run that stays below the limit gives the same numbers
+        bit for bit as one without it, with "censored": False and "censored_at": None. Without
+        peak_force_limit neither key is there.
         """
         self._messages.clear()
+        api = self._api
+        parameters = dict(parameters or {})
+        if peak_force_limit is not None:
+            parameters["peak_force_limit"] = peak_force_limit
+        if order is not None:
+            order = [_int32("order", m) for m in order]
+            if len(order) != self.columns:
+                raise ValueError(f"order: expected {self.columns} materials (a permutation of "
+                                 f"1..{self.columns}), got {len(order)}")
+        for name in ("diagonal_rule", "solver"):
+            if isinstance(parameters.get(name), str):
+                parameters[name] = _choice(name, parameters[name], DIAGONAL_RULES if name == "diagonal_rule"
+                                           else SOLVERS)
+        setter = self._setter(order is not None, tuple(parameters))
+        reader = self._reader(tuple(outputs))
+        stopped_at = None
         try:
-            self._slave.reset()
-            self._slave.setupExperiment(startTime=0.0, stopTime=horizon)
-            self._slave.enterInitializationMode()
-            if order is not None:
-                order = [_int32("order", m) for m in order]
-                if len(order) != self.columns:
-                    raise ValueError(f"order: expected {self.columns} materials (a permutation of "
-                                     f"1..{self.columns}), got {len(order)}")
-                self._slave.setInteger([self.value_reference(f"material[{j}]") for j in range(1, self.columns + 1)],
-                                       order)
-            for name, value in (parameters or {}).items():
-                if name == "diagonal_rule" and isinstance(value, str):
-                    value = _choice("diagonal_rule", value, DIAGONAL_RULES)
-                if name == "solver" and isinstance(value, str):
-                    value = _choice("solver", value, SOLVERS)
-                self._set(name, value)
-            self._slave.exitInitializationMode()
+            api.call("fmi2Reset")
+            api.call("fmi2SetupExperiment", 0, 0.0, 0.0, 1, float(horizon))
+            api.call("fmi2EnterInitializationMode")
+            setter.apply(api, order, list(parameters.values()))
+            api.call("fmi2ExitInitializationMode")
             trajectory = None
             if communication_step is None and record is None:
-                self._slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=horizon)
+                stopped_at = api.do_step(0.0, horizon)
             else:
                 step = communication_step or horizon
                 count = max(1, int(round(horizon / step)))
                 times = [0.0] + [min(horizon, (i + 1) * step) for i in range(count)]
+                recorder = self._reader(tuple(record)) if record else None
                 series = {name: [] for name in (record or ())}
-                if record:
-                    for name, value in self._read(record).items():
+                reached = [0.0]
+                if recorder:
+                    for name, value in recorder.read(api).items():
                         series[name].append(value)
                 for start, stop in zip(times[:-1], times[1:]):
-                    self._slave.doStep(currentCommunicationPoint=start, communicationStepSize=stop - start)
-                    if record:
-                        for name, value in self._read(record).items():
+                    stopped_at = api.do_step(start, stop - start)
+                    reached.append(stop if stopped_at is None else stopped_at)
+                    if recorder:
+                        for name, value in recorder.read(api).items():
                             series[name].append(value)
+                    if stopped_at is not None:
+                        break
                 if record:
-                    trajectory = Trajectory(np.array(times), {k: np.array(v) for k, v in series.items()})
-            result = self._read(outputs)
+                    trajectory = Trajectory(np.array(reached), {k: np.array(v) for k, v in series.items()})
+            result = reader.read(api)
         except FMICallException as exc:
             detail = "; ".join(self._messages) or "the FMU logged no reason"
             raise SimulationError(f"{exc.function} failed: {detail}") from None
+        if peak_force_limit is not None:
+            result["censored"] = stopped_at is not None
+            result["censored_at"] = stopped_at
+        elif stopped_at is not None:  # only the limit stops a run early; without one this is a broken FMU
+            raise SimulationError(f"fmi2DoStep stopped at t = {stopped_at} without a peak_force_limit: "
+                                  + ("; ".join(self._messages) or "the FMU logged no reason"))
         if trajectory is not None:
             result["trajectory"] = trajectory
         return result
@@ -188,12 +235,103 @@ class LatticeFMU:
         self.close()
 
 
-def _int32(name: str, value) -> int:
-    """An FMI Integer: a whole number that fits in 32 bits (ctypes would wrap a wider one silently)."""
-    number = int(value)
-    if number != value or not -2 ** 31 <= number < 2 ** 31:
-        raise ValueError(f"{name} = {value!r} is not allowed: FMI integers are whole numbers in [-2**31, 2**31 - 1]")
-    return number
+INTEGER_TYPES = ("Integer", "Enumeration")  # set and read with fmi2SetInteger / fmi2GetInteger
+
+
+class _DirectCalls:
+    """The FMI 2 functions a run needs, called through ctypes on the instance fmpy loaded and instantiated."""
+
+    SIGNATURES = {
+        "fmi2Reset": [c_void_p],
+        "fmi2SetupExperiment": [c_void_p, c_int, c_double, c_double, c_int, c_double],
+        "fmi2EnterInitializationMode": [c_void_p],
+        "fmi2ExitInitializationMode": [c_void_p],
+        "fmi2SetReal": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_double)],
+        "fmi2SetInteger": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_int)],
+        "fmi2GetReal": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_double)],
+        "fmi2GetInteger": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_int)],
+        "fmi2DoStep": [c_void_p, c_double, c_double, c_int],
+        "fmi2GetBooleanStatus": [c_void_p, c_int, POINTER(c_int)],
+        "fmi2GetRealStatus": [c_void_p, c_int, POINTER(c_double)],
+    }
+
+    def __init__(self, slave: FMU2Slave):
+        self.component = slave.component
+        self.functions = {}
+        for name, argtypes in self.SIGNATURES.items():
+            function = slave.dll[name]  # a function object of our own: fmpy's keep their own argtypes
+            function.argtypes = argtypes
+            function.restype = c_int
+            self.functions[name] = function
+        self._terminated = c_int(0)
+        self._time = c_double(0.0)
+
+    def call(self, name: str, *args) -> int:
+        status = self.functions[name](self.component, *args)
+        if status > fmi2Warning:
+            raise FMICallException(function=name, status=status)
+        return status
+
+    def do_step(self, start: float, size: float) -> float | None:
+        """fmi2DoStep; None when the step was completed, or the time reached when the FMU stopped early and
+        terminated (fmi2Discard with fmi2Terminated, FMI 2.0 section 4.2.3)."""
+        status = self.functions["fmi2DoStep"](self.component, start, size, 1)
+        if status <= fmi2Warning:
+            return None
+        if status == fmi2Discard:
+            self.call("fmi2GetBooleanStatus", fmi2Terminated, byref(self._terminated))
+            if self._terminated.value:
+                self.call("fmi2GetRealStatus", fmi2LastSuccessfulTime, byref(self._time))
+                return self._time.value
+        raise FMICallException(function="fmi2DoStep", status=status)
+
+
+class _Setter:
+    """Sets an order and parameters: one fmi2SetInteger and one fmi2SetReal, over arrays made once."""
+
+    def __init__(self, material_references: list[int], integers: list[tuple[int, int, str]],
+                 reals: list[tuple[int, int]]):
+        self.materials = len(material_references)
+        self.integer_positions = [(index, name) for index, _, name in integers]
+        self.real_positions = [index for index, _ in reals]
+        integer_references = material_references + [vr for _, vr, _ in integers]
+        self.integer_references = (c_uint * len(integer_references))(*integer_references)
+        self.integer_values = (c_int * len(integer_references))()
+        self.real_references = (c_uint * len(reals))(*[vr for _, vr in reals])
+        self.real_values = (c_double * len(reals))()
+
+    def apply(self, api: _DirectCalls, order, values: list) -> None:
+        if len(self.integer_references):
+            integers = (list(order) if self.materials else []) + [_int32(name, values[i])
+                                                                  for i, name in self.integer_positions]
+            self.integer_values[:] = integers
+            api.call("fmi2SetInteger", self.integer_references, len(self.integer_references), self.integer_values)
+        if len(self.real_references):
+            self.real_values[:] = [float(values[i]) for i in self.real_positions]
+            api.call("fmi2SetReal", self.real_references, len(self.real_references), self.real_values)
+
+
+class _Reader:
+    """Reads outputs: one fmi2GetReal and one fmi2GetInteger, into buffers made once."""
+
+    def __init__(self, integers: list[tuple[str, int]], reals: list[tuple[str, int]], names: tuple):
+        self.names = names  # the order the caller asked for
+        self.integer_names = [name for name, _ in integers]
+        self.real_names = [name for name, _ in reals]
+        self.integer_references = (c_uint * len(integers))(*[vr for _, vr in integers])
+        self.integer_values = (c_int * len(integers))()
+        self.real_references = (c_uint * len(reals))(*[vr for _, vr in reals])
+        self.real_values = (c_double * len(reals))()
+
+    def read(self, api: _DirectCalls) -> dict:
+        values = {}
+        if self.real_names:
+            api.call("fmi2GetReal", self.real_references, len(self.real_names), self.real_values)
+            values.update(zip(self.real_names, self.real_values))
+        if self.integer_names:
+            api.call("fmi2GetInteger", self.integer_references, len(self.integer_names), self.integer_values)
+            values.update(zip(self.integer_names, self.integer_values))
+        return {name: values[name] for name in self.names}
 
 
 def _choice(name: str, value: str, allowed: dict) -> int:
@@ -201,3 +339,11 @@ def _choice(name: str, value: str, allowed: dict) -> int:
         return allowed[value]
     except KeyError:
         raise ValueError(f"{name}={value!r}: allowed values are {sorted(allowed)}") from None
+
+
+def _int32(name: str, value) -> int:
+    """An FMI Integer: a whole number that fits in 32 bits (ctypes would wrap a wider one silently)."""
+    number = int(value)
+    if number != value or not -2 ** 31 <= number < 2 ** 31:
+        raise ValueError(f"{name} = {value!r} is not allowed: FMI integers are whole numbers in [-2**31, 2**31 - 1]")
+    return number
