@@ -478,7 +478,7 @@ static int handle_wall_events(Model *m) {
      * instead: its cubic dense output is too rough to place a switch that close, and cutting back there can
      * make no progress (near its stability limit it chatters on one switch). The adaptive solver always
      * cuts back: its error control keeps the steps after an event honest. */
-    const double shortest = s->method == SOLVER_DOP853 ? 0.0 : MIN_EVENT_FRACTION * s->h_last;
+    const double shortest = solver_is_adaptive(s->method) ? 0.0 : MIN_EVENT_FRACTION * s->h_last;
     if (earliest > s->t_old + shortest && earliest < s->t) {
         solver_truncate(s, m->work, model_rhs, m, earliest);
         cut = 1;
@@ -564,7 +564,7 @@ static int check_divergence(Model *m, char *message, size_t message_size) {
                  m->solver.t, balance, injected, m->solver.method, m->solver.fixed_step, m->solver.rtol);
         return fail(m, reason, message, message_size);
     }
-    if (m->solver.method == SOLVER_DOP853) {
+    if (solver_is_adaptive(m->solver.method)) {
         snprintf(reason, sizeof(reason),
                  "the solution diverged at t = %.9g s: kinetic energy %g J against %g J of energy put in (rtol = %g)",
                  m->solver.t, kinetic, injected, m->solver.rtol);

@@ -1,4 +1,4 @@
-/* DOP853 (adaptive), RK4 and semi-implicit Euler (fixed step), with dense output. See solver.h. */
+/* DOP853 and Tsit5 (adaptive), RK4 and semi-implicit Euler (fixed step), with dense output. See solver.h. */
 #include "solver.h"
 
 #include <float.h>
@@ -30,6 +30,62 @@ static double *row(double *work, int n, int r) { return work + (size_t)r * (size
 static const double *row_const(const double *work, int n, int r) { return work + (size_t)r * (size_t)n; }
 
 const double *solver_state(const double *work) { return work + ROW_Y; }
+
+int solver_is_adaptive(int method) { return method == SOLVER_DOP853 || method == SOLVER_TSIT5; }
+
+/* Tsitouras' 5(4) pair (Ch. Tsitouras, Comput. Math. Appl. 62 (2011) 770-775), as diffrax and
+ * OrdinaryDiffEq.jl tabulate it: stages 0..5 in K[0..5], the seventh is f(y_new) (K[STAGE_END], the next
+ * step's first). TSIT5_E = b - b_hat (the 4th-order solution), its last weight on f(y_new). */
+#define TSIT5_STAGES 6 /* in K[0..5]; the seventh is f(y_new) */
+#define TSIT5_ERROR_ORDER 4
+static const double TSIT5_A[TSIT5_STAGES][TSIT5_STAGES] = {
+    {0.0},
+    {0.161},
+    {-0.008480655492356988544426874250230774675121177393430391537369234245294192976164141156943,
+     0.3354806554923569885444268742502307746751211773934303915373692342452941929761641411569},
+    {2.897153057105493432130432594192938764924887287701866490314866693455023795137503079289,
+     -6.359448489975074843148159912383825625952700647415626703305928850207288721235210244366,
+     4.362295432869581411017727318190886861027813359713760212991062156752264926097707165077},
+    {5.325864828439256604428877920840511317836476253097040101202360397727981648835607691791,
+     -11.74888356406282787774717033978577296188744178259862899288666928009020615663593781589,
+     7.495539342889836208304604784564358155658679161518186721010132816213648793440552049753,
+     -0.09249506636175524925650207933207191611349983406029535244034750452930469056411389539635},
+    {5.861455442946420028659251486982647890394337666164814434818157239052507339770711679748,
+     -12.92096931784710929170611868178335939541780751955743459166312250439928519268343184452,
+     8.159367898576158643180400794539253485181918321135053305748355423955009222648673734986,
+     -0.07158497328140099722453054252582973869127213147363544882721139659546372402303777878835,
+     -0.02826905039406838290900305721271224146717633626879770007617876201276764571291579142206},
+};
+static const double TSIT5_B[TSIT5_STAGES] = {
+    0.09646076681806522951816731316512876333711995238157997181903319145764851595234062815396,
+    0.01,
+    0.4798896504144995747752495322905965199130404621990332488332634944254542060153074523509,
+    1.379008574103741893192274821856872770756462643091360525934940067397245698027561293331,
+    -3.290069515436080679901047585711363850115683290894936158531296799594813811049925401677,
+    2.324710524099773982415355918398765796109060233222962411944060046314465391054716027841};
+static const double TSIT5_E[TSIT5_STAGES + 1] = {
+    0.09646076681806522951816731316512876333711995238157997181903319145764851595234062815396 -
+        0.09468075576583945807478876255758922856117527357724631226139574065785592789071067303271,
+    0.01 - 0.009183565540343253096776363936645313759813746240984095238905939532922955247253608687270,
+    0.4798896504144995747752495322905965199130404621990332488332634944254542060153074523509 -
+        0.4877705284247615707855642599631228241516691959761363774365216240304071651579571959813,
+    1.379008574103741893192274821856872770756462643091360525934940067397245698027561293331 -
+        1.234297566930478985655109673884237654035539930748192848315425833500484878378061439761,
+    -3.290069515436080679901047585711363850115683290894936158531296799594813811049925401677 +
+        2.707712349983525454881109975059321670689605166938197378763992255714444407154902012702,
+    2.324710524099773982415355918398765796109060233222962411944060046314465391054716027841 -
+        1.866628418170587035753719399566211498666255505244122593996591602841258328965767580089,
+    -1.0 / 66.0};
+/* The free dense output: y(t_old + x h) = y_old + h sum_q b_q(x) k_q, b_q(x) = sum_p TSIT5_DENSE[q][p] x^(p+1),
+ * the seven polynomials of diffrax's and OrdinaryDiffEq's Tsit5 interpolation expanded (b_q(1) = TSIT5_B[q]). */
+static const double TSIT5_DENSE[TSIT5_STAGES + 1][4] = {
+    {1.0, -2.763706197274826, 2.9132554618219126, -1.0530884977290216},
+    {0.0, 0.1317, -0.2234, 0.1017},
+    {0.0, 3.930296236894751, -5.941033872131505, 2.490627285651253},
+    {0.0, -12.411077166933676, 30.338188630282318, -16.548102889244902},
+    {0.0, 37.50931341651104, -88.1789048947664, 47.37952196281928},
+    {0.0, -27.896526289197286, 65.09189467479368, -34.87065786149661},
+    {0.0, 1.5, -4.0, 2.5}};
 
 static void evaluate(Solver *s, OdeFunction f, void *context, const double *y, double *dydt) {
     f(context, s->phase, y, dydt);
@@ -67,7 +123,7 @@ static double scaled_rms(const double *v, const double *scale, int n) {
 }
 
 /* Hairer's starting step (as SciPy's select_initial_step); K[0] holds f(y0); uses the scratch rows. */
-static double initial_step(Solver *s, double *work, OdeFunction f, void *context, double t_span) {
+static double initial_step(Solver *s, double *work, OdeFunction f, void *context, double t_span, int error_order) {
     const int n = s->n;
     const double *y0 = row(work, n, ROW_Y), *f0 = row(work, n, ROW_K);
     double *scale = row(work, n, ROW_DENSE), *y1 = row(work, n, ROW_DENSE + 1), *f1 = row(work, n, ROW_DENSE + 2);
@@ -85,7 +141,7 @@ static double initial_step(Solver *s, double *work, OdeFunction f, void *context
     if (d1 <= 1e-15 && d2 <= 1e-15) {
         h1 = fmax(1e-6, h0 * 1e-3);
     } else {
-        h1 = pow(0.01 / fmax(d1, d2), 1.0 / (DOP853_ERROR_ORDER + 1));
+        h1 = pow(0.01 / fmax(d1, d2), 1.0 / (error_order + 1));
     }
     return fmin(100.0 * h0, fmin(h1, t_span));
 }
@@ -258,7 +314,7 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
     double h_abs = s->h_next;
     int rejected = 0, stage, i;
 
-    if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t);
+    if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t, DOP853_ERROR_ORDER);
 
     for (;;) {
         const double min_step = 10.0 * fabs(nextafter(s->t, INFINITY) - s->t);
@@ -299,6 +355,61 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
             if (rejected) factor = fmin(1.0, factor);
             s->h_next = h_abs * factor;
             evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
+            accept(s, work, h);
+            return 0;
+        }
+        h_abs *= isfinite(error_norm) ? fmax(MIN_FACTOR, SAFETY * pow(error_norm, error_exponent)) : MIN_FACTOR;
+        rejected = 1;
+        s->steps_rejected++;
+    }
+}
+
+/* Tsit5: as SciPy's RK45 controls its steps (RMS norm of the embedded error over atol + rtol max(|y|, |y_new|),
+ * the same safety and factor limits as DOP853). f(y_new) is part of the error estimate, so it is taken for a
+ * rejected step too; for an accepted one it is the next step's first stage. */
+static int tsit5_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
+                      size_t message_size) {
+    const int n = s->n;
+    const double *y = row(work, n, ROW_Y);
+    double *y_new = row(work, n, ROW_SCRATCH), *error = row(work, n, ROW_DENSE);
+    const double *f_new = row(work, n, ROW_K + STAGE_END);
+    const double error_exponent = -1.0 / (TSIT5_ERROR_ORDER + 1);
+    double h_abs = s->h_next;
+    int rejected = 0, stage, i;
+
+    if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t, TSIT5_ERROR_ORDER);
+
+    for (;;) {
+        const double min_step = 10.0 * fabs(nextafter(s->t, INFINITY) - s->t);
+        double h, error_squared = 0.0, error_norm;
+        if (h_abs < min_step) {
+            snprintf(message, message_size,
+                     "step size collapsed to %g s at t = %.9g s (the solution is diverging or too stiff for "
+                     "rtol = %g, atol = %g)",
+                     h_abs, s->t, s->rtol, s->atol);
+            return -1;
+        }
+        h = clip_to_limit(s->t, h_abs, t_limit);
+        h_abs = h;
+        for (stage = 1; stage < TSIT5_STAGES; stage++) {
+            combine(y_new, y, h, TSIT5_A[stage], stage, work, n);
+            evaluate(s, f, context, y_new, row(work, n, ROW_K + stage));
+        }
+        combine(y_new, y, h, TSIT5_B, TSIT5_STAGES, work, n);
+        evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
+        combine(error, NULL, h, TSIT5_E, TSIT5_STAGES, work, n);
+        for (i = 0; i < n; i++) {
+            const double size_old = fabs(y[i]), size_new = fabs(y_new[i]);
+            const double scale = s->atol + (size_new > size_old ? size_new : size_old) * s->rtol;
+            const double e = (error[i] + h * TSIT5_E[TSIT5_STAGES] * f_new[i]) / scale;
+            error_squared += e * e;
+        }
+        error_norm = sqrt(error_squared / n);
+
+        if (error_norm < 1.0 && all_finite(y_new, n)) {
+            double factor = error_norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(error_norm, error_exponent));
+            if (rejected) factor = fmin(1.0, factor);
+            s->h_next = h_abs * factor;
             accept(s, work, h);
             return 0;
         }
@@ -364,8 +475,9 @@ int solver_step(Solver *s, double *work, OdeFunction f, void *context, double t_
         evaluate(s, f, context, row(work, n, ROW_Y), row(work, n, ROW_K));
     }
     {
-        const int status = s->method == SOLVER_DOP853 ? dop853_step(s, work, f, context, t_limit, message, message_size)
-                                                      : fixed_step(s, work, f, context, t_limit, message, message_size);
+        const int status = s->method == SOLVER_DOP853  ? dop853_step(s, work, f, context, t_limit, message, message_size)
+                           : s->method == SOLVER_TSIT5 ? tsit5_step(s, work, f, context, t_limit, message, message_size)
+                                                       : fixed_step(s, work, f, context, t_limit, message, message_size);
         s->end_derivative_valid = status == 0;
         return status;
     }
@@ -400,6 +512,10 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
     double *dense[SOLVER_DENSE_ROWS];
     int r;
     if (s->dense_power != 0 || s->steps_accepted == 0) return;
+    if (s->method == SOLVER_TSIT5) {
+        s->dense_power = DENSE_FROM_STAGES; /* free: read from the stage rows, which stay until the next step */
+        return;
+    }
     for (r = 0; r < SOLVER_DENSE_ROWS; r++) dense[r] = row(work, n, ROW_DENSE + r);
     hermite_coefficients(y_old, y, f_old, f_new, h, n, dense[0], dense[1], dense[2]);
     if (s->method != SOLVER_DOP853) {
@@ -420,6 +536,22 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
     s->dense_power = DOP853_INTERPOLATOR_POWER;
 }
 
+/* The weights b_q(x) of Tsit5's dense output, kept for the last x asked: the model reads many components at
+ * one time (the backplate's column, a whole state). Only this cache changes in the Solver a reader holds as
+ * const, and it depends on x alone. */
+static const double *tsit5_dense_weights(Solver *s, double x) {
+    if (x != s->dense_x || s->dense_weights[TSIT5_STAGES + 1] != 1.0) {
+        int q;
+        for (q = 0; q <= TSIT5_STAGES; q++) {
+            const double *c = TSIT5_DENSE[q];
+            s->dense_weights[q] = (((c[3] * x + c[2]) * x + c[1]) * x + c[0]) * x;
+        }
+        s->dense_weights[TSIT5_STAGES + 1] = 1.0; /* marks the cache filled (a fresh Solver has 0) */
+        s->dense_x = x;
+    }
+    return s->dense_weights;
+}
+
 double solver_interpolate(const Solver *s, const double *work, int component, double t) {
     const size_t n = (size_t)s->n, i = (size_t)component;
     const double *dense = work + (size_t)ROW_DENSE * n + i;
@@ -427,6 +559,14 @@ double solver_interpolate(const Solver *s, const double *work, int component, do
     double value = 0.0;
     int r;
     if (t == s->t) return work[(size_t)ROW_Y * n + i];
+    if (s->dense_power == DENSE_FROM_STAGES) {
+        const double *k = work + (size_t)ROW_K * n + i, *w = tsit5_dense_weights((Solver *)s, x);
+        double sum = 0.0;
+        int q;
+        for (q = 0; q < TSIT5_STAGES; q++) sum += w[q] * k[(size_t)q * n];
+        sum += w[TSIT5_STAGES] * k[(size_t)STAGE_END * n];
+        return work[(size_t)ROW_Y_OLD * n + i] + s->h_last * sum;
+    }
     /* SciPy's evaluation of the dense output: from the highest row down, add the row, then multiply by x
      * (even rows) or 1 - x (odd rows); spelled out for the usual powers */
     switch (s->dense_power) {
@@ -453,7 +593,14 @@ void solver_truncate(Solver *s, double *work, OdeFunction f, void *context, doub
     int i;
     if (t_end >= s->t) return;
     solver_prepare_dense(s, work, f, context);
-    for (i = 0; i < n; i++) scratch[i] = solver_interpolate(s, work, i, t_end);
+    if (s->dense_power == DENSE_FROM_STAGES) {
+        /* the whole state at once: the stage rows combined as a step's are (same weights as interpolation) */
+        const double *w = tsit5_dense_weights(s, (t_end - s->t_old) / s->h_last);
+        combine(scratch, row(work, n, ROW_Y_OLD), s->h_last, w, TSIT5_STAGES, work, n);
+        accumulate1(scratch, row(work, n, ROW_K + STAGE_END), s->h_last * w[TSIT5_STAGES], n);
+    } else {
+        for (i = 0; i < n; i++) scratch[i] = solver_interpolate(s, work, i, t_end);
+    }
     memcpy(row(work, n, ROW_Y), scratch, (size_t)n * sizeof(double));
     s->t = t_end;
     s->end_derivative_valid = 0; /* f at the new end is taken afresh, in the new mode */

@@ -1,8 +1,10 @@
 /* One-step ODE solvers with dense output, kept apart from the physics and from FMI.
  *
- * DOP853 (adaptive, 8th order, 7th-order dense output, SciPy's step-size control) is the default; fixed-step
- * classical RK4 and semi-implicit (symplectic) Euler are there for the stability and work-precision
- * studies, with cubic Hermite dense output. The solver advances in accepted steps that never cross a
+ * DOP853 (adaptive, 8th order, 7th-order dense output, SciPy's step-size control) is the default; Tsitouras'
+ * 5(4) pair (adaptive, 7 stages with the last reused as the next step's first, and its free 4th-order dense
+ * output from the step's own stages) needs fewer right-hand sides at loose tolerances; fixed-step classical
+ * RK4 and semi-implicit (symplectic) Euler are there for the stability and work-precision studies, with
+ * cubic Hermite dense output. The solver advances in accepted steps that never cross a
  * caller's limit (the load switch-off, the stop time); the caller reads any time inside the last step
  * through the dense output, so where an importer puts its communication points never changes the steps.
  *
@@ -14,11 +16,15 @@
 
 #include <stddef.h>
 
-typedef enum { SOLVER_DOP853 = 0, SOLVER_RK4 = 1, SOLVER_SEMI_IMPLICIT_EULER = 2 } SolverMethod;
+typedef enum { SOLVER_DOP853 = 0, SOLVER_RK4 = 1, SOLVER_SEMI_IMPLICIT_EULER = 2, SOLVER_TSIT5 = 3 } SolverMethod;
+
+/* 1 for the methods with error control (their steps adapt, an event may cut one back to any length). */
+int solver_is_adaptive(int method);
 
 /* dydt = f(y) in the given phase (the model uses it for load on/off); time never enters the physics. */
 typedef void (*OdeFunction)(void *context, int phase, const double *y, double *dydt);
 
+#define DENSE_FROM_STAGES (-1)
 #define SOLVER_STAGE_ROWS 16 /* DOP853's 12 stages, f(y_new), and 3 stages for the dense output */
 #define SOLVER_DENSE_ROWS 7
 #define SOLVER_WORKSPACE_ROWS (3 + SOLVER_STAGE_ROWS + SOLVER_DENSE_ROWS) /* y, y_old, scratch, K, dense */
@@ -34,8 +40,10 @@ typedef struct {
     double t_old, h_last; /* the last accepted step covers [t_old, t_old + h_last] */
     double h_next;       /* proposed size of the next adaptive step; 0 before the first step */
     int end_derivative_valid; /* the stage row 12 holds f(y) in the current phase */
-    int dense_power;          /* dense coefficients ready for the last step: 0 (none), 3 or 7 */
+    int dense_power;          /* dense output ready for the last step: 0 (none), 3 or 7 (rows of coefficients),
+                                 or DENSE_FROM_STAGES (Tsit5: read from the step's stage rows) */
     long rhs_evaluations, steps_accepted, steps_rejected;
+    double dense_x, dense_weights[8]; /* Tsit5: its dense output's stage weights at x = dense_x (a cache) */
 } Solver;
 
 /* The state at s->t (the first row of the workspace). */
