@@ -1,0 +1,65 @@
+"""Tsitouras' 5(4) pair (solver = 3, "tsit5"): its peaks converge to DOP853's tight-tolerance ones as rtol falls,
+its energy balance closes, and its free dense output keeps the steps independent of the communication points."""
+import pytest
+
+from conftest import PUBLISHED_BEST, PUBLISHED_PEAKS, PUBLISHED_SEQUENTIAL
+from orchestrator.simulation import SimulationError
+
+PEAKS = ("peak_backplate_force", "peak_backplate_force_continuous")
+OUTPUTS = PEAKS + ("peak_time", "last_contact_time", "backplate_force", "kinetic_energy", "potential_energy",
+                   "external_work", "dissipated_energy", "nonreciprocal_work", "energy_balance_error",
+                   "ux_right_edge", "uy_centre", "rhs_evaluations", "steps_accepted", "steps_rejected")
+
+
+def tolerances(rtol):
+    return {"rtol": rtol, "atol": rtol * 1e-2}
+
+
+@pytest.fixture(scope="module")
+def references(fmu_path):
+    from orchestrator.simulation import LatticeFMU
+
+    with LatticeFMU(fmu_path) as fmu:
+        return {order: fmu.simulate(order, horizon=1.0, parameters={"rtol": 1e-12, "atol": 1e-14}, outputs=PEAKS)
+                for order in (PUBLISHED_SEQUENTIAL, PUBLISHED_BEST)}
+
+
+@pytest.mark.parametrize("order", [PUBLISHED_SEQUENTIAL, PUBLISHED_BEST], ids=["sequential", "study_best"])
+def test_peaks_converge_to_the_tight_dop853_ones(lattice, references, order):
+    errors = {}
+    for rtol in (1e-4, 1e-6, 1e-8, 1e-10):
+        result = lattice.simulate(order, horizon=1.0, parameters={"solver": "tsit5", **tolerances(rtol)},
+                                  outputs=PEAKS)
+        errors[rtol] = max(abs(result[name] / references[order][name] - 1.0) for name in PEAKS)
+    assert errors[1e-4] < 3e-4 and errors[1e-6] < 3e-6 and errors[1e-8] < 3e-8 and errors[1e-10] < 1e-9, errors
+    assert errors[1e-10] < errors[1e-8] < errors[1e-6] < errors[1e-4]
+
+
+def test_published_peak_over_8_s(lattice):
+    result = lattice.simulate(PUBLISHED_BEST, horizon=8.0, parameters={"solver": 3, **tolerances(1e-9)},
+                              outputs=PEAKS + ("energy_balance_error", "external_work"))
+    assert result["peak_backplate_force"] == pytest.approx(PUBLISHED_PEAKS[PUBLISHED_BEST], rel=1e-6)
+    assert abs(result["energy_balance_error"]) <= 1e-7 * result["external_work"]
+
+
+def test_one_do_step_gives_the_outputs_of_many(lattice):
+    parameters = {"solver": "tsit5", **tolerances(1e-5)}
+    whole = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=parameters, outputs=OUTPUTS)
+    stepped = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=parameters, outputs=OUTPUTS,
+                               communication_step=0.0173)
+    assert whole == stepped
+
+
+def test_fewer_right_hand_sides_than_dop853_at_the_search_tolerance(lattice, references):
+    counts, errors = {}, {}
+    for solver in ("dop853", "tsit5"):
+        result = lattice.simulate(PUBLISHED_BEST, horizon=1.0, parameters={"solver": solver, **tolerances(1e-5)},
+                                  outputs=PEAKS + ("rhs_evaluations",))
+        counts[solver] = result["rhs_evaluations"]
+        errors[solver] = abs(result["peak_backplate_force"] / references[PUBLISHED_BEST]["peak_backplate_force"] - 1)
+    assert counts["tsit5"] < 0.8 * counts["dop853"] and errors["tsit5"] < 3e-5, (counts, errors)
+
+
+def test_an_unknown_solver_is_refused_by_name(lattice):
+    with pytest.raises(SimulationError, match=r"solver = 4 .*3 \(adaptive Tsit5\)"):
+        lattice.simulate(PUBLISHED_BEST, horizon=0.1, parameters={"solver": 4})
