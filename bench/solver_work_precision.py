@@ -3,8 +3,8 @@
     python bench/solver_work_precision.py --out bench/out/solver_work_precision
     python bench/solver_work_precision.py --out /tmp/wp --orders 4 --repeats 1     # quick look
 
-For every solver setting (DOP853 and Tsit5 over a grid of rtol with atol = rtol / 100, fixed-step RK4 over a
-grid of steps) and every order (random ones, the sequential order, the study's best and the best known),
+For every solver setting (DOP853, Tsit5 and DOPRI5 over a grid of rtol with atol = rtol / 100, fixed-step RK4
+over a grid of steps) and every order (random ones, the sequential order, the study's best and the best known),
 the sampled peak (0.01 s samples, the searches' objective) is compared with DOP853 at rtol 1e-12,
 atol 1e-14 on the same order and horizon. A setting's error is its worst relative error over the orders;
 its work is the mean count of right-hand sides per run (the FMU's own count) and the CPU time per run
@@ -37,6 +37,7 @@ OUTPUTS = ("peak_backplate_force", "rhs_evaluations")
 ADAPTIVE_RTOLS = {
     "dop853": (1e-3, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 1e-7, 1e-8, 1e-9),
     "tsit5": (1e-3, 3e-4, 1e-4, 6e-5, 4e-5, 3e-5, 2e-5, 1e-5, 5e-6, 1e-6, 1e-7, 1e-8, 1e-9),
+    "dopri5": (1e-3, 1e-4, 3e-5, 2e-5, 1e-5, 5e-6, 1e-6, 1e-7, 1e-8, 1e-9),
 }
 RK4_STEPS = (1e-2, 5e-3, 2.5e-3, 1e-3, 5e-4)
 

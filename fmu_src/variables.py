@@ -132,9 +132,10 @@ def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] 
                  "Diagonal spring constants: 0 = receiver's column (as the study computed), 1 = mean of both",
                  start=0, minimum=0, maximum=1, allowed="0 (receiver) or 1 (mean)"),
         Variable("solver", INTEGER, "parameter",
-                 "0 = adaptive DOP853, 1 = fixed-step RK4, 2 = fixed-step semi-implicit Euler, 3 = adaptive Tsit5",
-                 start=0, minimum=0, maximum=3,
-                 allowed="0 (adaptive DOP853), 1 (RK4), 2 (semi-implicit Euler) or 3 (adaptive Tsit5)"),
+                 "0 = adaptive DOP853, 1 = fixed-step RK4, 2 = fixed-step semi-implicit Euler, 3 = adaptive Tsit5, "
+                 "4 = adaptive DOPRI5", start=0, minimum=0, maximum=4,
+                 allowed="0 (adaptive DOP853), 1 (RK4), 2 (semi-implicit Euler), 3 (adaptive Tsit5) or 4 (adaptive "
+                         "DOPRI5)"),
         Variable("spring_law", INTEGER, "parameter", "0 = exponential springs (SPEC), 1 = linear springs F = k r",
                  start=0, minimum=0, maximum=1, allowed="0 (exponential) or 1 (linear)"),
         Variable("has_backplate", INTEGER, "parameter", "1 = the backplate is there, 0 = a free lattice",

@@ -19,8 +19,9 @@ typedef enum {
 } InstanceState;
 
 #define IN(state) (1u << (state))
-#define ANY_STATE \
-    (IN(STATE_INSTANTIATED) | IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP) | IN(STATE_TERMINATED) | IN(STATE_STEP_STOPPED))
+#define ANY_STATE                                                                                       \
+    (IN(STATE_INSTANTIATED) | IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP) | IN(STATE_TERMINATED) | \
+     IN(STATE_STEP_STOPPED))
 
 #define INSTANCE_REASON_SIZE 512
 

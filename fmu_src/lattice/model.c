@@ -497,7 +497,8 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
     if (check_material_order(m, message, message_size)) return -1;
     if (!(PARAM_PEAK_FORCE_LIMIT(m) >= 0.0) || !isfinite(PARAM_PEAK_FORCE_LIMIT(m))) {
         snprintf(message, message_size,
-                 "parameter peak_force_limit = %g is not allowed: allowed values are a finite number >= 0 (0: no limit)",
+                 "parameter peak_force_limit = %g is not allowed: allowed values are a finite number >= 0 (0: no "
+                 "limit)",
                  PARAM_PEAK_FORCE_LIMIT(m));
         return -1;
     }

@@ -31,14 +31,24 @@ static const double *row_const(const double *work, int n, int r) { return work +
 
 const double *solver_state(const double *work) { return work + ROW_Y; }
 
-int solver_is_adaptive(int method) { return method == SOLVER_DOP853 || method == SOLVER_TSIT5; }
+int solver_is_adaptive(int method) {
+    return method == SOLVER_DOP853 || method == SOLVER_TSIT5 || method == SOLVER_DOPRI5;
+}
 
-/* Tsitouras' 5(4) pair (Ch. Tsitouras, Comput. Math. Appl. 62 (2011) 770-775), as diffrax and
- * OrdinaryDiffEq.jl tabulate it: stages 0..5 in K[0..5], the seventh is f(y_new) (K[STAGE_END], the next
- * step's first). TSIT5_E = b - b_hat (the 4th-order solution), its last weight on f(y_new). */
-#define TSIT5_STAGES 6 /* in K[0..5]; the seventh is f(y_new) */
-#define TSIT5_ERROR_ORDER 4
-static const double TSIT5_A[TSIT5_STAGES][TSIT5_STAGES] = {
+/* Explicit Runge-Kutta pairs of seven stages whose last is f(y_new) (reused as the next step's first), with a
+ * free dense output of degree 4 from the step's own stages: stages 0..5 in K[0..5], the seventh in
+ * K[STAGE_END]. e = b - b_hat (the embedded solution), its last weight on f(y_new); the dense output is
+ * y(t_old + x h) = y_old + h sum_q b_q(x) k_q with b_q(x) = sum_p dense[q][p] x^(p+1) (b_q(1) = b[q]). */
+#define PAIR_STAGES 6 /* in K[0..5]; the seventh is f(y_new) */
+typedef struct {
+    double a[PAIR_STAGES][PAIR_STAGES], b[PAIR_STAGES], e[PAIR_STAGES + 1], dense[PAIR_STAGES + 1][4];
+    int error_order;
+} FsalPair;
+
+/* Tsitouras' 5(4) pair (Ch. Tsitouras, Comput. Math. Appl. 62 (2011) 770-775) as diffrax and OrdinaryDiffEq.jl
+ * tabulate it, with their interpolation's seven polynomials expanded. */
+static const FsalPair TSIT5 = {
+    {
     {0.0},
     {0.161},
     {-0.008480655492356988544426874250230774675121177393430391537369234245294192976164141156943,
@@ -55,15 +65,15 @@ static const double TSIT5_A[TSIT5_STAGES][TSIT5_STAGES] = {
      8.159367898576158643180400794539253485181918321135053305748355423955009222648673734986,
      -0.07158497328140099722453054252582973869127213147363544882721139659546372402303777878835,
      -0.02826905039406838290900305721271224146717633626879770007617876201276764571291579142206},
-};
-static const double TSIT5_B[TSIT5_STAGES] = {
+},
+    {
     0.09646076681806522951816731316512876333711995238157997181903319145764851595234062815396,
     0.01,
     0.4798896504144995747752495322905965199130404621990332488332634944254542060153074523509,
     1.379008574103741893192274821856872770756462643091360525934940067397245698027561293331,
     -3.290069515436080679901047585711363850115683290894936158531296799594813811049925401677,
-    2.324710524099773982415355918398765796109060233222962411944060046314465391054716027841};
-static const double TSIT5_E[TSIT5_STAGES + 1] = {
+    2.324710524099773982415355918398765796109060233222962411944060046314465391054716027841},
+{
     0.09646076681806522951816731316512876333711995238157997181903319145764851595234062815396 -
         0.09468075576583945807478876255758922856117527357724631226139574065785592789071067303271,
     0.01 - 0.009183565540343253096776363936645313759813746240984095238905939532922955247253608687270,
@@ -75,17 +85,38 @@ static const double TSIT5_E[TSIT5_STAGES + 1] = {
         2.707712349983525454881109975059321670689605166938197378763992255714444407154902012702,
     2.324710524099773982415355918398765796109060233222962411944060046314465391054716027841 -
         1.866628418170587035753719399566211498666255505244122593996591602841258328965767580089,
-    -1.0 / 66.0};
-/* The free dense output: y(t_old + x h) = y_old + h sum_q b_q(x) k_q, b_q(x) = sum_p TSIT5_DENSE[q][p] x^(p+1),
- * the seven polynomials of diffrax's and OrdinaryDiffEq's Tsit5 interpolation expanded (b_q(1) = TSIT5_B[q]). */
-static const double TSIT5_DENSE[TSIT5_STAGES + 1][4] = {
+    -1.0 / 66.0},
+{
     {1.0, -2.763706197274826, 2.9132554618219126, -1.0530884977290216},
     {0.0, 0.1317, -0.2234, 0.1017},
     {0.0, 3.930296236894751, -5.941033872131505, 2.490627285651253},
     {0.0, -12.411077166933676, 30.338188630282318, -16.548102889244902},
     {0.0, 37.50931341651104, -88.1789048947664, 47.37952196281928},
     {0.0, -27.896526289197286, 65.09189467479368, -34.87065786149661},
-    {0.0, 1.5, -4.0, 2.5}};
+    {0.0, 1.5, -4.0, 2.5}},
+    4};
+
+/* Dormand and Prince's 5(4) pair (J. Comput. Appl. Math. 6 (1980) 19-26) with Shampine's dense output, as
+ * SciPy's RK45 tabulates them. */
+static const FsalPair DOPRI5 = {
+    {{0.0},
+     {1.0 / 5.0},
+     {3.0 / 40.0, 9.0 / 40.0},
+     {44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0},
+     {19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0},
+     {9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0}},
+    {35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0},
+    {-71.0 / 57600.0, 0.0, 71.0 / 16695.0, -71.0 / 1920.0, 17253.0 / 339200.0, -22.0 / 525.0, 1.0 / 40.0},
+    {{1.0, -8048581381.0 / 2820520608.0, 8663915743.0 / 2820520608.0, -12715105075.0 / 11282082432.0},
+     {0.0, 0.0, 0.0, 0.0},
+     {0.0, 131558114200.0 / 32700410799.0, -68118460800.0 / 10900136933.0, 87487479700.0 / 32700410799.0},
+     {0.0, -1754552775.0 / 470086768.0, 14199869525.0 / 1410260304.0, -10690763975.0 / 1880347072.0},
+     {0.0, 127303824393.0 / 49829197408.0, -318862633887.0 / 49829197408.0, 701980252875.0 / 199316789632.0},
+     {0.0, -282668133.0 / 205662961.0, 2019193451.0 / 616988883.0, -1453857185.0 / 822651844.0},
+     {0.0, 40617522.0 / 29380423.0, -110615467.0 / 29380423.0, 69997945.0 / 29380423.0}},
+    4};
+
+static const FsalPair *fsal_pair(int method) { return method == SOLVER_TSIT5 ? &TSIT5 : &DOPRI5; }
 
 static void evaluate(Solver *s, OdeFunction f, void *context, const double *y, double *dydt) {
     f(context, s->phase, y, dydt);
@@ -364,20 +395,21 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
     }
 }
 
-/* Tsit5: as SciPy's RK45 controls its steps (RMS norm of the embedded error over atol + rtol max(|y|, |y_new|),
- * the same safety and factor limits as DOP853). f(y_new) is part of the error estimate, so it is taken for a
- * rejected step too; for an accepted one it is the next step's first stage. */
-static int tsit5_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
-                      size_t message_size) {
+/* Tsit5 and DOPRI5, their steps controlled as SciPy's RK45 does (RMS norm of the embedded error over
+ * atol + rtol max(|y|, |y_new|), the same safety and factor limits as DOP853). f(y_new) is part of the error
+ * estimate, so it is taken for a rejected step too; for an accepted one it is the next step's first stage. */
+static int fsal_pair_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
+                          size_t message_size) {
+    const FsalPair *pair = fsal_pair(s->method);
     const int n = s->n;
     const double *y = row(work, n, ROW_Y);
     double *y_new = row(work, n, ROW_SCRATCH), *error = row(work, n, ROW_DENSE);
     const double *f_new = row(work, n, ROW_K + STAGE_END);
-    const double error_exponent = -1.0 / (TSIT5_ERROR_ORDER + 1);
+    const double error_exponent = -1.0 / (pair->error_order + 1);
     double h_abs = s->h_next;
     int rejected = 0, stage, i;
 
-    if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t, TSIT5_ERROR_ORDER);
+    if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t, pair->error_order);
 
     for (;;) {
         const double min_step = 10.0 * fabs(nextafter(s->t, INFINITY) - s->t);
@@ -391,17 +423,17 @@ static int tsit5_step(Solver *s, double *work, OdeFunction f, void *context, dou
         }
         h = clip_to_limit(s->t, h_abs, t_limit);
         h_abs = h;
-        for (stage = 1; stage < TSIT5_STAGES; stage++) {
-            combine(y_new, y, h, TSIT5_A[stage], stage, work, n);
+        for (stage = 1; stage < PAIR_STAGES; stage++) {
+            combine(y_new, y, h, pair->a[stage], stage, work, n);
             evaluate(s, f, context, y_new, row(work, n, ROW_K + stage));
         }
-        combine(y_new, y, h, TSIT5_B, TSIT5_STAGES, work, n);
+        combine(y_new, y, h, pair->b, PAIR_STAGES, work, n);
         evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
-        combine(error, NULL, h, TSIT5_E, TSIT5_STAGES, work, n);
+        combine(error, NULL, h, pair->e, PAIR_STAGES, work, n);
         for (i = 0; i < n; i++) {
             const double size_old = fabs(y[i]), size_new = fabs(y_new[i]);
             const double scale = s->atol + (size_new > size_old ? size_new : size_old) * s->rtol;
-            const double e = (error[i] + h * TSIT5_E[TSIT5_STAGES] * f_new[i]) / scale;
+            const double e = (error[i] + h * pair->e[PAIR_STAGES] * f_new[i]) / scale;
             error_squared += e * e;
         }
         error_norm = sqrt(error_squared / n);
@@ -475,9 +507,10 @@ int solver_step(Solver *s, double *work, OdeFunction f, void *context, double t_
         evaluate(s, f, context, row(work, n, ROW_Y), row(work, n, ROW_K));
     }
     {
-        const int status = s->method == SOLVER_DOP853  ? dop853_step(s, work, f, context, t_limit, message, message_size)
-                           : s->method == SOLVER_TSIT5 ? tsit5_step(s, work, f, context, t_limit, message, message_size)
-                                                       : fixed_step(s, work, f, context, t_limit, message, message_size);
+        const int status =
+            s->method == SOLVER_DOP853      ? dop853_step(s, work, f, context, t_limit, message, message_size)
+            : solver_is_adaptive(s->method) ? fsal_pair_step(s, work, f, context, t_limit, message, message_size)
+                                            : fixed_step(s, work, f, context, t_limit, message, message_size);
         s->end_derivative_valid = status == 0;
         return status;
     }
@@ -512,7 +545,7 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
     double *dense[SOLVER_DENSE_ROWS];
     int r;
     if (s->dense_power != 0 || s->steps_accepted == 0) return;
-    if (s->method == SOLVER_TSIT5) {
+    if (s->method == SOLVER_TSIT5 || s->method == SOLVER_DOPRI5) {
         s->dense_power = DENSE_FROM_STAGES; /* free: read from the stage rows, which stay until the next step */
         return;
     }
@@ -536,17 +569,18 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
     s->dense_power = DOP853_INTERPOLATOR_POWER;
 }
 
-/* The weights b_q(x) of Tsit5's dense output, kept for the last x asked: the model reads many components at
+/* The weights b_q(x) of a pair's dense output, kept for the last x asked: the model reads many components at
  * one time (the backplate's column, a whole state). Only this cache changes in the Solver a reader holds as
  * const, and it depends on x alone. */
-static const double *tsit5_dense_weights(Solver *s, double x) {
-    if (x != s->dense_x || s->dense_weights[TSIT5_STAGES + 1] != 1.0) {
+static const double *pair_dense_weights(Solver *s, double x) {
+    if (x != s->dense_x || s->dense_weights[PAIR_STAGES + 1] != 1.0) {
+        const FsalPair *pair = fsal_pair(s->method);
         int q;
-        for (q = 0; q <= TSIT5_STAGES; q++) {
-            const double *c = TSIT5_DENSE[q];
+        for (q = 0; q <= PAIR_STAGES; q++) {
+            const double *c = pair->dense[q];
             s->dense_weights[q] = (((c[3] * x + c[2]) * x + c[1]) * x + c[0]) * x;
         }
-        s->dense_weights[TSIT5_STAGES + 1] = 1.0; /* marks the cache filled (a fresh Solver has 0) */
+        s->dense_weights[PAIR_STAGES + 1] = 1.0; /* marks the cache filled (a fresh Solver has 0) */
         s->dense_x = x;
     }
     return s->dense_weights;
@@ -560,11 +594,11 @@ double solver_interpolate(const Solver *s, const double *work, int component, do
     int r;
     if (t == s->t) return work[(size_t)ROW_Y * n + i];
     if (s->dense_power == DENSE_FROM_STAGES) {
-        const double *k = work + (size_t)ROW_K * n + i, *w = tsit5_dense_weights((Solver *)s, x);
+        const double *k = work + (size_t)ROW_K * n + i, *w = pair_dense_weights((Solver *)s, x);
         double sum = 0.0;
         int q;
-        for (q = 0; q < TSIT5_STAGES; q++) sum += w[q] * k[(size_t)q * n];
-        sum += w[TSIT5_STAGES] * k[(size_t)STAGE_END * n];
+        for (q = 0; q < PAIR_STAGES; q++) sum += w[q] * k[(size_t)q * n];
+        sum += w[PAIR_STAGES] * k[(size_t)STAGE_END * n];
         return work[(size_t)ROW_Y_OLD * n + i] + s->h_last * sum;
     }
     /* SciPy's evaluation of the dense output: from the highest row down, add the row, then multiply by x
@@ -595,9 +629,9 @@ void solver_truncate(Solver *s, double *work, OdeFunction f, void *context, doub
     solver_prepare_dense(s, work, f, context);
     if (s->dense_power == DENSE_FROM_STAGES) {
         /* the whole state at once: the stage rows combined as a step's are (same weights as interpolation) */
-        const double *w = tsit5_dense_weights(s, (t_end - s->t_old) / s->h_last);
-        combine(scratch, row(work, n, ROW_Y_OLD), s->h_last, w, TSIT5_STAGES, work, n);
-        accumulate1(scratch, row(work, n, ROW_K + STAGE_END), s->h_last * w[TSIT5_STAGES], n);
+        const double *w = pair_dense_weights(s, (t_end - s->t_old) / s->h_last);
+        combine(scratch, row(work, n, ROW_Y_OLD), s->h_last, w, PAIR_STAGES, work, n);
+        accumulate1(scratch, row(work, n, ROW_K + STAGE_END), s->h_last * w[PAIR_STAGES], n);
     } else {
         for (i = 0; i < n; i++) scratch[i] = solver_interpolate(s, work, i, t_end);
     }

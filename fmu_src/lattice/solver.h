@@ -2,7 +2,8 @@
  *
  * DOP853 (adaptive, 8th order, 7th-order dense output, SciPy's step-size control) is the default; Tsitouras'
  * 5(4) pair (adaptive, 7 stages with the last reused as the next step's first, and its free 4th-order dense
- * output from the step's own stages) needs fewer right-hand sides at loose tolerances; fixed-step classical
+ * output from the step's own stages) needs fewer right-hand sides at loose tolerances, and so does Dormand and
+ * Prince's 5(4) pair (SciPy's RK45, built the same way), there for comparison; fixed-step classical
  * RK4 and semi-implicit (symplectic) Euler are there for the stability and work-precision studies, with
  * cubic Hermite dense output. The solver advances in accepted steps that never cross a
  * caller's limit (the load switch-off, the stop time); the caller reads any time inside the last step
@@ -16,7 +17,13 @@
 
 #include <stddef.h>
 
-typedef enum { SOLVER_DOP853 = 0, SOLVER_RK4 = 1, SOLVER_SEMI_IMPLICIT_EULER = 2, SOLVER_TSIT5 = 3 } SolverMethod;
+typedef enum {
+    SOLVER_DOP853 = 0,
+    SOLVER_RK4 = 1,
+    SOLVER_SEMI_IMPLICIT_EULER = 2,
+    SOLVER_TSIT5 = 3,
+    SOLVER_DOPRI5 = 4
+} SolverMethod;
 
 /* 1 for the methods with error control (their steps adapt, an event may cut one back to any length). */
 int solver_is_adaptive(int method);
@@ -41,9 +48,9 @@ typedef struct {
     double h_next;       /* proposed size of the next adaptive step; 0 before the first step */
     int end_derivative_valid; /* the stage row 12 holds f(y) in the current phase */
     int dense_power;          /* dense output ready for the last step: 0 (none), 3 or 7 (rows of coefficients),
-                                 or DENSE_FROM_STAGES (Tsit5: read from the step's stage rows) */
+                                 or DENSE_FROM_STAGES (Tsit5, DOPRI5: read from the step's stage rows) */
     long rhs_evaluations, steps_accepted, steps_rejected;
-    double dense_x, dense_weights[8]; /* Tsit5: its dense output's stage weights at x = dense_x (a cache) */
+    double dense_x, dense_weights[8]; /* Tsit5, DOPRI5: the dense output's stage weights at x = dense_x (a cache) */
 } Solver;
 
 /* The state at s->t (the first row of the workspace). */

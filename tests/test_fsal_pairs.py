@@ -1,5 +1,6 @@
-"""Tsitouras' 5(4) pair (solver = 3, "tsit5"): its peaks converge to DOP853's tight-tolerance ones as rtol falls,
-its energy balance closes, and its free dense output keeps the steps independent of the communication points."""
+"""The 5(4) pairs with a free dense output, Tsitouras' (solver = 3, "tsit5") and Dormand and Prince's (4, "dopri5"):
+their peaks converge to DOP853's tight-tolerance ones as rtol falls, the energy balance closes, and the dense
+output keeps the steps independent of the communication points."""
 import pytest
 
 from conftest import PUBLISHED_BEST, PUBLISHED_PEAKS, PUBLISHED_SEQUENTIAL
@@ -24,11 +25,12 @@ def references(fmu_path):
                 for order in (PUBLISHED_SEQUENTIAL, PUBLISHED_BEST)}
 
 
+@pytest.mark.parametrize("solver", ["tsit5", "dopri5"])
 @pytest.mark.parametrize("order", [PUBLISHED_SEQUENTIAL, PUBLISHED_BEST], ids=["sequential", "study_best"])
-def test_peaks_converge_to_the_tight_dop853_ones(lattice, references, order):
+def test_peaks_converge_to_the_tight_dop853_ones(lattice, references, order, solver):
     errors = {}
     for rtol in (1e-4, 1e-6, 1e-8, 1e-10):
-        result = lattice.simulate(order, horizon=1.0, parameters={"solver": "tsit5", **tolerances(rtol)},
+        result = lattice.simulate(order, horizon=1.0, parameters={"solver": solver, **tolerances(rtol)},
                                   outputs=PEAKS)
         errors[rtol] = max(abs(result[name] / references[order][name] - 1.0) for name in PEAKS)
     assert errors[1e-4] < 3e-4 and errors[1e-6] < 3e-6 and errors[1e-8] < 3e-8 and errors[1e-10] < 1e-9, errors
@@ -42,8 +44,9 @@ def test_published_peak_over_8_s(lattice):
     assert abs(result["energy_balance_error"]) <= 1e-7 * result["external_work"]
 
 
-def test_one_do_step_gives_the_outputs_of_many(lattice):
-    parameters = {"solver": "tsit5", **tolerances(1e-5)}
+@pytest.mark.parametrize("solver", ["tsit5", "dopri5"])
+def test_one_do_step_gives_the_outputs_of_many(lattice, solver):
+    parameters = {"solver": solver, **tolerances(1e-5)}
     whole = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=parameters, outputs=OUTPUTS)
     stepped = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=parameters, outputs=OUTPUTS,
                                communication_step=0.0173)
@@ -61,5 +64,5 @@ def test_fewer_right_hand_sides_than_dop853_at_the_search_tolerance(lattice, ref
 
 
 def test_an_unknown_solver_is_refused_by_name(lattice):
-    with pytest.raises(SimulationError, match=r"solver = 4 .*3 \(adaptive Tsit5\)"):
-        lattice.simulate(PUBLISHED_BEST, horizon=0.1, parameters={"solver": 4})
+    with pytest.raises(SimulationError, match=r"solver = 5 .*3 \(adaptive Tsit5\) or 4 \(adaptive DOPRI5\)"):
+        lattice.simulate(PUBLISHED_BEST, horizon=0.1, parameters={"solver": 5})
