@@ -23,7 +23,7 @@ sys.path.insert(0, str(ROOT))
 
 import build_fmu  # noqa: E402
 from bench.common import SEQUENTIAL, random_orders  # noqa: E402
-from orchestrator.simulation import LatticeFMU  # noqa: E402
+from orchestrator.simulation import SOLVERS, LatticeFMU  # noqa: E402
 from orchestrator.study import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
 
 BEST_KNOWN = (1, 10, 9, 6, 4, 5, 7, 8, 3, 2, 11)  # README: every search's best with 2000 evaluations
@@ -46,10 +46,11 @@ def main(argv=None) -> int:
     parser.add_argument("--repeats", type=int, default=5, help="interleaved passes with and without the limit")
     parser.add_argument("--limit", type=float, default=BEST_KNOWN_PEAK, help="peak_force_limit (N)")
     parser.add_argument("--rtol", type=float, default=SEARCH_RTOL, help="the FMU's rtol (atol = rtol / 100)")
+    parser.add_argument("--solver", choices=sorted(SOLVERS), default="dop853", help="the FMU's solver")
     args = parser.parse_args(argv)
     fmu_path = Path(args.fmu) if args.fmu else build_fmu.build_fmu(
         output=Path(tempfile.mkdtemp(prefix="force_limit_")) / "MassSpringLattice.fmu")
-    parameters = search_tolerances(args.rtol)
+    parameters = {**search_tolerances(args.rtol), "solver": SOLVERS[args.solver]}
     orders = random_orders(args.orders, args.seed)
     with LatticeFMU(fmu_path) as fmu:
         one_pass(fmu, orders[:3], parameters, None)  # warm up
@@ -69,7 +70,8 @@ def main(argv=None) -> int:
     free_rhs = sum(r["rhs_evaluations"] for r in free)
     limited_rhs = sum(r["rhs_evaluations"] for r in limited)
     reached = sorted(r["censored_at"] for r in censored)
-    print(f"{args.orders} random orders (seed {args.seed}), {SEARCH_HORIZON:g} s horizon, rtol {parameters['rtol']:g}, "
+    print(f"{args.orders} random orders (seed {args.seed}), {SEARCH_HORIZON:g} s horizon, {args.solver}, "
+          f"rtol {parameters['rtol']:g}, "
           f"atol {parameters['atol']:g}, limit {args.limit:g} N: {len(censored)} censored "
           f"(stopped at {reached[0]:.2f}-{reached[-1]:.2f} s, median {reached[len(reached) // 2]:.2f} s)"
           if censored else f"{args.orders} random orders: none censored")
