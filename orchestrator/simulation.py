@@ -150,18 +150,19 @@ class LatticeFMU:
 
         With communication_step None the FMU is advanced by a single doStep: it samples the peak itself.
 
-        With peak_force_limit (N, > 0) the FMU stops the run as soon as its sampled peak exceeds the limit
-        (fmi2Discard, fmi2Terminated): the result then has "censored": True and "censored_at" (the time the
-        run reached), and its outputs are the FMU's at that time, so peak_backplate_force is only the peak so
-        far (above the limit), never the run's peak. A run that stays below the limit gives the same numbers
-        bit for bit as one without it, with "censored": False and "censored_at": None. Without
-        peak_force_limit neither key is there.
+        With peak_force_limit (N, > 0; as the argument or among the parameters) the FMU stops the run as soon
+        as its sampled peak exceeds the limit (fmi2Discard, fmi2Terminated): the result then has "censored":
+        True and "censored_at" (the time the run reached), and its outputs are the FMU's at that time, so
+        peak_backplate_force is only the peak so far (above the limit), never the run's peak. A run that stays
+        below the limit gives the same numbers bit for bit as one without it, with "censored": False and
+        "censored_at": None. Without a peak_force_limit neither key is there.
         """
         self._messages.clear()
         api = self._api
         parameters = dict(parameters or {})
         if peak_force_limit is not None:
             parameters["peak_force_limit"] = peak_force_limit
+        limited = "peak_force_limit" in parameters
         if order is not None:
             order = [_int32("order", m) for m in order]
             if len(order) != self.columns:
@@ -207,7 +208,7 @@ class LatticeFMU:
         except FMICallException as exc:
             detail = "; ".join(self._messages) or "the FMU logged no reason"
             raise SimulationError(f"{exc.function} failed: {detail}") from None
-        if peak_force_limit is not None:
+        if limited:
             result["censored"] = stopped_at is not None
             result["censored_at"] = stopped_at
         elif stopped_at is not None:  # only the limit stops a run early; without one this is a broken FMU

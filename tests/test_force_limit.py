@@ -52,6 +52,14 @@ def test_a_run_above_the_limit_stops_at_the_first_sample_above_it(lattice):
     assert stopped["rhs_evaluations"] < 0.6 * full["rhs_evaluations"]
 
 
+def test_the_limit_among_the_parameters_is_the_same_as_the_argument(lattice):
+    argument = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=SEARCH, outputs=OUTPUTS,
+                                peak_force_limit=1500.0)
+    parameter = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters={**SEARCH, "peak_force_limit": 1500.0},
+                                 outputs=OUTPUTS)
+    assert parameter == argument and parameter["censored"] is True
+
+
 def test_communication_steps_end_at_the_time_reached(lattice):
     stopped = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=SEARCH, communication_step=0.05,
                                outputs=("peak_backplate_force",), record=("peak_backplate_force",),
