@@ -183,7 +183,7 @@ class LatticeFMU:
             api.call("fmi2ExitInitializationMode")
             trajectory = None
             if communication_step is None and record is None:
-                stopped_at = api.do_step(0.0, horizon)
+                stopped_at = api.do_step(0.0, horizon, limited)
             else:
                 step = communication_step or horizon
                 count = max(1, int(round(horizon / step)))
@@ -195,7 +195,7 @@ class LatticeFMU:
                     for name, value in recorder.read(api).items():
                         series[name].append(value)
                 for start, stop in zip(times[:-1], times[1:]):
-                    stopped_at = api.do_step(start, stop - start)
+                    stopped_at = api.do_step(start, stop - start, limited)
                     reached.append(stop if stopped_at is None else stopped_at)
                     if recorder:
                         for name, value in recorder.read(api).items():
@@ -211,9 +211,6 @@ class LatticeFMU:
         if limited:
             result["censored"] = stopped_at is not None
             result["censored_at"] = stopped_at
-        elif stopped_at is not None:  # only the limit stops a run early; without one this is a broken FMU
-            raise SimulationError(f"fmi2DoStep stopped at t = {stopped_at} without a peak_force_limit: "
-                                  + ("; ".join(self._messages) or "the FMU logged no reason"))
         if trajectory is not None:
             result["trajectory"] = trajectory
         return result
@@ -273,13 +270,14 @@ class _DirectCalls:
             raise FMICallException(function=name, status=status)
         return status
 
-    def do_step(self, start: float, size: float) -> float | None:
-        """fmi2DoStep; None when the step was completed, or the time reached when the FMU stopped early and
-        terminated (fmi2Discard with fmi2Terminated, FMI 2.0 section 4.2.3)."""
+    def do_step(self, start: float, size: float, limited: bool) -> float | None:
+        """fmi2DoStep; None when the step was completed, or, in a run with a peak_force_limit (limited), the
+        time reached when the FMU stopped early and terminated (fmi2Discard with fmi2Terminated, FMI 2.0
+        section 4.2.3). Any other failure raises, as fmpy's call would."""
         status = self.functions["fmi2DoStep"](self.component, start, size, 1)
         if status <= fmi2Warning:
             return None
-        if status == fmi2Discard:
+        if status == fmi2Discard and limited:
             self.call("fmi2GetBooleanStatus", fmi2Terminated, byref(self._terminated))
             if self._terminated.value:
                 self.call("fmi2GetRealStatus", fmi2LastSuccessfulTime, byref(self._time))
