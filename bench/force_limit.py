@@ -4,7 +4,7 @@ against no limit.
     python bench/force_limit.py                      # 40 random orders, 5 interleaved repeats
     python bench/force_limit.py --orders 200 --repeats 3 --limit 1405.906
 
-Each order is run over the search horizon (1 s) at the searches' tolerances (orchestrator.study) with and
+Each order is run over the search horizon (1 s) at the searches' tolerances (orchestrator.objective) with and
 without the limit, the two interleaved so that the machine's load hits both alike; CPU time
 (time.process_time) per pass over all orders, the minimum over repeats. The right-hand sides (the FMU's own
 count, not noisy) are reported too. Every run that stays below the limit is checked to give the same peak
@@ -24,7 +24,7 @@ sys.path.insert(0, str(ROOT))
 import build_fmu  # noqa: E402
 from bench.common import SEQUENTIAL, random_orders  # noqa: E402
 from orchestrator.simulation import SOLVERS, LatticeFMU  # noqa: E402
-from orchestrator.study import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
+from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
 
 BEST_KNOWN = (1, 10, 9, 6, 4, 5, 7, 8, 3, 2, 11)  # README: every search's best with 2000 evaluations
 BEST_KNOWN_PEAK = 1405.906  # N, its peak over 8 s (0.01 s samples)

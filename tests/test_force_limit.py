@@ -142,3 +142,45 @@ def test_fmi3_terminates_with_an_early_return_when_allowed(fmu3_path, lattice, e
     assert slave.getFloat64([vr["time"]]) == [expected["censored_at"]]
     slave.terminate()
     slave.freeInstance()
+
+
+@pytest.mark.parametrize("solver", [3, 4], ids=["tsit5", "dopri5"])
+def test_the_states_of_a_limited_run_are_accepted_and_resume_it(fmu_path, solver):
+    """Every state a run with a 5(4) pair saves (its dense output read from the stage rows), up to and after the
+    stop at the limit, passes the FMU's state checks; a state from the middle continues to the same stop."""
+    description = read_model_description(str(fmu_path))
+    vr = {v.name: v.valueReference for v in description.modelVariables}
+    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(fmu_path)),
+                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName="states")
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0, stopTime=1.0)
+    slave.enterInitializationMode()
+    slave.setReal([vr["peak_force_limit"], vr["rtol"], vr["atol"]], [1500.0, SEARCH["rtol"], SEARCH["atol"]])
+    slave.setInteger([vr["solver"]], [solver])
+    slave.exitInitializationMode()
+
+    def run_from(time, step=0.0173):
+        saved = []
+        while True:
+            try:
+                slave.doStep(time, step)
+            except FMICallException as stopped:
+                assert stopped.status == fmi2Discard
+                saved.append(slave.getFMUstate())
+                return slave.getRealStatus(fmi2LastSuccessfulTime), saved
+            time += step
+            saved.append((time, slave.getFMUstate()))
+
+    reached, states = run_from(0.0)
+    peak = slave.getReal([vr["peak_backplate_force"]])[0]
+    for state in [s for _, s in states[:-1]] + [states[-1]]:
+        restored = slave.deSerializeFMUstate(bytes(slave.serializeFMUstate(state)))
+        slave.setFMUstate(restored)
+        slave.freeFMUstate(restored)
+    assert slave.getBooleanStatus(fmi2Terminated) is True  # the last state set is the stopped one
+    middle_time, middle = states[len(states) // 2]
+    slave.setFMUstate(middle)
+    again, _ = run_from(middle_time)
+    assert again == reached and slave.getReal([vr["peak_backplate_force"]])[0] == peak
+    slave.terminate()
+    slave.freeInstance()

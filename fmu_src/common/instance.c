@@ -132,7 +132,7 @@ static const char *check_saved_state(unsigned int magic, const unsigned char *by
     if (header.checksum != crc32_of(bytes + CHECKSUM_START, size - CHECKSUM_START)) {
         return "the state is corrupt: its checksum does not match its bytes";
     }
-    if (header.state < STATE_INSTANTIATED || header.state > STATE_ERROR ||
+    if (header.state < STATE_INSTANTIATED || header.state > STATE_STEP_STOPPED ||
         (header.stop_time_defined != 0 && header.stop_time_defined != 1) || header.reserved != 0) {
         return "the state is corrupt: its instance fields are out of range";
     }

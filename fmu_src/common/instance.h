@@ -15,7 +15,7 @@ typedef enum {
     STATE_STEP,
     STATE_TERMINATED,
     STATE_ERROR,
-    STATE_STEP_STOPPED
+    STATE_STEP_STOPPED /* the last: instance.c's state check takes it as the upper bound */
 } InstanceState;
 
 #define IN(state) (1u << (state))

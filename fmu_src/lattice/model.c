@@ -707,7 +707,9 @@ int model_check(const Model *m, char *message, size_t message_size) {
                  LATTICE_COLS);
         return -1;
     }
-    if (s->method != PARAM_SOLVER(m) || s->dense_power < 0 || s->dense_power > SOLVER_DENSE_ROWS ||
+    if (s->method != PARAM_SOLVER(m) ||
+        (s->dense_power == DENSE_FROM_STAGES ? !(s->method == SOLVER_TSIT5 || s->method == SOLVER_DOPRI5)
+                                             : s->dense_power < 0 || s->dense_power > SOLVER_DENSE_ROWS) ||
         (s->phase != 0 && s->phase != 1)) {
         snprintf(message, message_size, "the state is corrupt: its solver fields are out of range (solver %d of %d, "
                  "dense output %d, phase %d)", s->method, PARAM_SOLVER(m), s->dense_power, s->phase);
@@ -720,6 +722,10 @@ int model_check(const Model *m, char *message, size_t message_size) {
         !((double)m->next_sample >= m->time / interval - 2.0 && (double)m->next_sample <= s->t / interval + 2.0)) {
         snprintf(message, message_size, "the state is corrupt: its times are inconsistent (communication time %g s, "
                  "solver time %g s, next sample %ld)", m->time, s->t, m->next_sample);
+        return -1;
+    }
+    if ((m->limit_exceeded != 0 && m->limit_exceeded != 1) || (m->terminated != 0 && m->terminated != 1)) {
+        snprintf(message, message_size, "the state is corrupt: its peak_force_limit flags are out of range");
         return -1;
     }
     for (i = 0; i < LATTICE_ROWS; i++) {
