@@ -359,6 +359,7 @@ def final_descent(objective: PeakObjective, evaluator: Evaluator, best: Evaluati
     around = [values[o] for o in moves["swap"] + moves["insertion"] if o in values]
     checked = len(around) == len(moves["swap"]) + len(moves["insertion"])
     good = [e for e in around if e.ok]
+    above = [e for e in around if e.censored]  # stopped once they passed the value they had to beat
     return {
         "start": list(best.order),
         "order": list(end),
@@ -366,9 +367,11 @@ def final_descent(objective: PeakObjective, evaluator: Evaluator, best: Evaluati
         "moves": run.diagnostics["descent"]["moves"] + run.diagnostics["descent"]["free_moves"],
         "swaps_checked": sum(1 for o in moves["swap"] if o in values),
         "insertions_checked": sum(1 for o in moves["insertion"] if o in values),
-        "failed": sum(1 for e in around if not e.ok),
-        "locally_optimal": bool(checked and own is not None and own.ok and len(good) == len(around)
-                                and all(e.peak >= own.peak for e in good)),
+        "failed": sum(1 for e in around if not e.ok and not e.censored),
+        "censored": len(above),
+        "locally_optimal": bool(checked and own is not None and own.ok and len(good) + len(above) == len(around)
+                                and all(e.peak >= own.peak for e in good)
+                                and all(e.lower_bound >= own.peak for e in above)),
         "nearest_neighbour_gap": (min(e.peak for e in good) - own.peak) if good and own is not None and own.ok
         else None,
         "improvement_full": (best.peak - verified[end].peak) if verified[end].ok else None,
