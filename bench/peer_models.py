@@ -1,0 +1,259 @@
+"""SPEC.md's right-hand side as the strongest pip-installable peers would write it: numba and JAX.
+
+Used by bench/peers.py (scipy's odeint/LSODA and solve_ivp/DOP853 over the numba right-hand side, diffrax's
+Tsit5 over the JAX one). Both are written once here from SPEC.md sections 2-5, on the grid (every spring
+visited once, no index arrays), and tests/test_peer_models.py checks them against
+reference/lattice.py's right-hand side to 1e-12 on random states.
+
+The scene's numbers come from a reference.Scene (it validates the order and the material table); what a
+kernel needs is packed by :func:`pack` into four small arrays, so one compiled kernel serves every order:
+
+- ``columns`` (3, C): vertical spring k, alpha and damping c of each column's material;
+- ``diagonals`` (4, C-1): for the diagonals between columns j and j+1, (k, alpha) seen by the end in column
+  j, then (k, alpha) seen by the end in column j+1. The receiver rule (SPEC 2, as computed) gives each end
+  its own column's k_diag, alpha_diag; the mean rule gives both ends the mean of the two;
+- ``scalars``: k0, alpha0, c0, k_wall, c_wall, gap, 1/mass, wall (1 or 0);
+- ``load`` (2, R): the load's x and y force on each row's column-1 mass while it acts.
+
+State layout as in reference/lattice.py: ``y = [ux(N), uy(N), vx(N), vy(N)]``, mass (i, j) at i*C + j.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+R_EPS = 1e-12  # below this spring length the force is zero (SPEC 2)
+
+
+@dataclass(frozen=True)
+class Packed:
+    rows: int
+    cols: int
+    columns: np.ndarray
+    diagonals: np.ndarray
+    scalars: np.ndarray
+    load: np.ndarray
+    t_active: float
+
+    @property
+    def state_size(self) -> int:
+        return 4 * self.rows * self.cols
+
+    def kernel_args(self):
+        return self.columns, self.diagonals, self.scalars, self.load
+
+    @property
+    def equal_diagonal_alphas(self) -> bool:
+        """Both ends of every diagonal see the same alpha: one exp serves both (true for SPEC 3's table)."""
+        return bool(np.array_equal(self.diagonals[1], self.diagonals[3]))
+
+
+def pack(scene) -> Packed:
+    """The kernel's arrays for a reference.Scene (exponential springs only: the armour scene's law)."""
+    if scene.spring_law != "exponential":
+        raise ValueError(f"pack: spring_law must be 'exponential', got {scene.spring_law!r}")
+    material = np.asarray(scene.order) - 1
+    columns = np.array([scene.k[material], scene.alpha[material], scene.c[material]], dtype=float)
+    kd, ad = scene.k_diag[material], scene.alpha_diag[material]
+    left = np.array([kd[:-1], ad[:-1]])
+    right = np.array([kd[1:], ad[1:]])
+    if scene.diagonal_rule == "mean":
+        left = right = 0.5 * (left + right)
+    elif scene.diagonal_rule != "receiver":
+        raise ValueError(f"pack: diagonal_rule must be 'receiver' or 'mean', got {scene.diagonal_rule!r}")
+    diagonals = np.ascontiguousarray(np.vstack([left, right]), dtype=float).reshape(4, scene.cols - 1)
+    scalars = np.array([scene.k0, scene.alpha0, scene.c0, scene.k_wall, scene.c_wall, scene.backplate_gap,
+                        1.0 / scene.mass, 1.0 if scene.wall else 0.0])
+    weights = np.ones(scene.rows)
+    if scene.rows > 1:
+        weights[0] = weights[-1] = 0.5
+    weights /= weights.sum()
+    angle = math.radians(scene.load_angle)
+    load = np.array([scene.F_total * math.cos(angle) * weights, scene.F_total * math.sin(angle) * weights])
+    return Packed(scene.rows, scene.cols, np.ascontiguousarray(columns), diagonals, scalars,
+                  np.ascontiguousarray(load), float(scene.t_active))
+
+
+def backplate_force(packed: Packed, states: np.ndarray) -> np.ndarray:
+    """SPEC 5's backplate force of states stacked as rows, shape (M, 4N) -> (M,)."""
+    R, C = packed.rows, packed.cols
+    N = R * C
+    k_w, c_w, gap = packed.scalars[3], packed.scalars[4], packed.scalars[5]
+    wall = np.arange(R) * C + (C - 1)
+    p = states[:, wall] - gap
+    vx = states[:, 2 * N + wall]
+    return np.where(p > 0, k_w * p + c_w * np.maximum(vx, 0.0), 0.0).sum(axis=1)
+
+
+# ---------------------------------------------------------------------------------------------- numba
+_NUMBA = {}
+
+
+def numba_kernels():
+    """(rhs_odeint, rhs_solve_ivp, rhs_into), compiled on first use (numba is a bench-only dependency).
+
+    rhs_odeint(y, t, load_on, columns, diagonals, scalars, load) and rhs_solve_ivp(t, y, ...) return a new
+    array, in the argument orders odeint and solve_ivp call them with; rhs_into(y, out, load_on, ...)
+    writes into out. load_on is 1.0 or 0.0.
+    """
+    if _NUMBA:
+        return _NUMBA["odeint"], _NUMBA["solve_ivp"], _NUMBA["into"]
+    import numba
+
+    @numba.njit(inline="always")
+    def spring(ux, uy, fx, fy, a, b, ka, aa, kb, ab):
+        rx = ux[b] - ux[a]
+        ry = uy[b] - uy[a]
+        d = math.sqrt(rx * rx + ry * ry)
+        if d >= R_EPS:
+            e = math.exp(aa * d) - 1.0
+            inverse = 1.0 / d
+            sa = ka * e * inverse
+            sb = kb * (e if ab == aa else math.exp(ab * d) - 1.0) * inverse
+            fx[a] += sa * rx
+            fy[a] += sa * ry
+            fx[b] -= sb * rx
+            fy[b] -= sb * ry
+
+    @numba.njit(inline="always")
+    def damper(vx, vy, fx, fy, a, b, c):
+        dx = c * (vx[b] - vx[a])
+        dy = c * (vy[b] - vy[a])
+        fx[a] += dx
+        fy[a] += dy
+        fx[b] -= dx
+        fy[b] -= dy
+
+    @numba.njit(cache=False, boundscheck=False)
+    def rhs_into(y, out, load_on, columns, diagonals, scalars, load):
+        R = load.shape[1]
+        C = columns.shape[1]
+        N = R * C
+        ux, uy, vx, vy = y[:N], y[N:2 * N], y[2 * N:3 * N], y[3 * N:]
+        out[:2 * N] = y[2 * N:]
+        fx, fy = out[2 * N:3 * N], out[3 * N:]
+        fx[:] = 0.0
+        fy[:] = 0.0
+        k0, a0, c0 = scalars[0], scalars[1], scalars[2]
+        # one branch-free loop per spring family (13% faster than one loop over masses with four tests)
+        for i in range(R):  # horizontal (i, j)-(i, j+1): k0, alpha0, c0
+            for j in range(C - 1):
+                a = i * C + j
+                spring(ux, uy, fx, fy, a, a + 1, k0, a0, k0, a0)
+                damper(vx, vy, fx, fy, a, a + 1, c0)
+        for i in range(R - 1):
+            for j in range(C):  # vertical (i, j)-(i+1, j): column j's material
+                a = i * C + j
+                kv, av = columns[0, j], columns[1, j]
+                spring(ux, uy, fx, fy, a, a + C, kv, av, kv, av)
+                damper(vx, vy, fx, fy, a, a + C, columns[2, j])
+            for j in range(C - 1):  # the two diagonals of the cell between columns j and j+1
+                a = i * C + j
+                # (i, j)-(i+1, j+1): this end in column j, the other in column j+1
+                spring(ux, uy, fx, fy, a, a + C + 1,
+                       diagonals[0, j], diagonals[1, j], diagonals[2, j], diagonals[3, j])
+                # (i, j+1)-(i+1, j): this end in column j+1, the other in column j
+                spring(ux, uy, fx, fy, a + 1, a + C,
+                       diagonals[2, j], diagonals[3, j], diagonals[0, j], diagonals[1, j])
+        if scalars[7] != 0.0:  # backplate behind column C
+            k_w, c_w, gap = scalars[3], scalars[4], scalars[5]
+            for i in range(R):
+                a = i * C + C - 1
+                p = ux[a] - gap
+                if p > 0.0:
+                    v = vx[a]
+                    fx[a] -= k_w * p + (c_w * v if v > 0.0 else 0.0)
+        if load_on != 0.0:
+            for i in range(R):
+                fx[i * C] += load[0, i]
+                fy[i * C] += load[1, i]
+        inverse_mass = scalars[6]
+        if inverse_mass != 1.0:
+            for n in range(2 * N, 4 * N):
+                out[n] *= inverse_mass
+
+    @numba.njit(cache=False)
+    def rhs_odeint(y, t, load_on, columns, diagonals, scalars, load):
+        out = np.empty_like(y)
+        rhs_into(y, out, load_on, columns, diagonals, scalars, load)
+        return out
+
+    @numba.njit(cache=False)
+    def rhs_solve_ivp(t, y, load_on, columns, diagonals, scalars, load):
+        out = np.empty_like(y)
+        rhs_into(y, out, load_on, columns, diagonals, scalars, load)
+        return out
+
+    _NUMBA.update(odeint=rhs_odeint, solve_ivp=rhs_solve_ivp, into=rhs_into)
+    return rhs_odeint, rhs_solve_ivp, rhs_into
+
+
+# ------------------------------------------------------------------------------------------------ JAX
+def jax_rhs(rows: int, cols: int, equal_diagonal_alphas: bool = True):
+    """f(y, load_on, columns, diagonals, scalars, load) -> dy/dt in jax.numpy, on (R, C) grids, no scatter.
+
+    rows, cols and equal_diagonal_alphas are fixed when traced (one exp per diagonal when its two ends see
+    the same alpha); the arrays are traced, so one compilation serves every order and material table.
+    """
+    import jax.numpy as jnp
+
+    R, C = rows, cols
+    N = R * C
+
+    def scale(d, k, alpha):
+        ok = d >= R_EPS
+        return jnp.where(ok, k * jnp.expm1(alpha * d) / jnp.where(ok, d, 1.0), 0.0)
+
+    def spread(fa, fb, a_slice, b_slice):
+        """Forces fa on the a-ends (at a_slice of the grid) and fb on the b-ends, as one (R, C) grid
+        (static slices: XLA adds into a slice, no index arrays; faster here than padding)."""
+        return jnp.zeros((R, C), fa.dtype).at[a_slice].add(fa).at[b_slice].add(fb)
+
+    def rhs(y, load_on, columns, diagonals, scalars, load):
+        ux, uy, vx, vy = (y[k * N:(k + 1) * N].reshape(R, C) for k in range(4))
+        k0, a0, c0 = scalars[0], scalars[1], scalars[2]
+        fx = jnp.zeros((R, C), y.dtype)
+        fy = jnp.zeros((R, C), y.dtype)
+        if C > 1:  # horizontal (i, j)-(i, j+1)
+            a, b = (slice(None), slice(None, -1)), (slice(None), slice(1, None))
+            rx, ry = ux[b] - ux[a], uy[b] - uy[a]
+            s = scale(jnp.sqrt(rx * rx + ry * ry), k0, a0)
+            gx, gy = s * rx + c0 * (vx[b] - vx[a]), s * ry + c0 * (vy[b] - vy[a])
+            fx += spread(gx, -gx, a, b)
+            fy += spread(gy, -gy, a, b)
+        if R > 1:  # vertical (i, j)-(i+1, j), column j's material
+            a, b = (slice(None, -1), slice(None)), (slice(1, None), slice(None))
+            rx, ry = ux[b] - ux[a], uy[b] - uy[a]
+            s = scale(jnp.sqrt(rx * rx + ry * ry), columns[0], columns[1])
+            gx, gy = s * rx + columns[2] * (vx[b] - vx[a]), s * ry + columns[2] * (vy[b] - vy[a])
+            fx += spread(gx, -gx, a, b)
+            fy += spread(gy, -gy, a, b)
+        if R > 1 and C > 1:
+            k_left, a_left, k_right, a_right = diagonals[0], diagonals[1], diagonals[2], diagonals[3]
+            for a, b, (ka, aa), (kb, ab) in (
+                    # (i, j)-(i+1, j+1): a in column j (left), b in column j+1 (right)
+                    ((slice(None, -1), slice(None, -1)), (slice(1, None), slice(1, None)),
+                     (k_left, a_left), (k_right, a_right)),
+                    # (i, j+1)-(i+1, j): a in column j+1 (right), b in column j (left)
+                    ((slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1)),
+                     (k_right, a_right), (k_left, a_left))):
+                rx, ry = ux[b] - ux[a], uy[b] - uy[a]
+                d = jnp.sqrt(rx * rx + ry * ry)
+                ok = d >= R_EPS
+                inv_d = jnp.where(ok, 1.0 / jnp.where(ok, d, 1.0), 0.0)
+                ea = jnp.expm1(aa * d)
+                eb = ea if equal_diagonal_alphas else jnp.expm1(ab * d)
+                sa, sb = ka * ea * inv_d, kb * eb * inv_d
+                fx += spread(sa * rx, -sb * rx, a, b)
+                fy += spread(sa * ry, -sb * ry, a, b)
+        # backplate behind column C
+        p = ux[:, -1] - scalars[5]
+        wall = jnp.where(p > 0.0, scalars[3] * p + scalars[4] * jnp.maximum(vx[:, -1], 0.0), 0.0) * scalars[7]
+        fx = fx.at[:, -1].add(-wall)
+        fx = fx.at[:, 0].add(load_on * load[0])
+        fy = fy.at[:, 0].add(load_on * load[1])
+        return jnp.concatenate([y[2 * N:], fx.ravel() * scalars[6], fy.ravel() * scalars[6]])
+
+    return rhs

@@ -1,0 +1,588 @@
+"""The FMU against the strongest peers a Python user can install with pip, at equal accuracy.
+
+    pip install -e .[bench]                           # numba, jax, diffrax (benchmark-only)
+    python bench/peers.py --out bench/out/peers       # ~10 min on a loaded 2-core machine
+    python bench/peers.py --out DIR --quick           # ~3 min: 3 orders, fewer repeats
+
+Routes, each over SPEC.md's right-hand side written once in bench/peer_models.py (checked against
+reference/lattice.py to 1e-12 by tests/test_peer_models.py), each in two phases split at the load's
+switch-off, with the backplate force sampled every 0.01 s from its own dense output (SPEC 6):
+- the FMU through fmpy (orchestrator.simulation.LatticeFMU: reset, parameters, one doStep, outputs);
+- scipy.integrate.odeint (LSODA) over a numba right-hand side;
+- scipy.integrate.solve_ivp(method="DOP853") over the same numba right-hand side;
+- diffrax Tsit5 with a PID controller over a JAX right-hand side, the whole solve jit-compiled (CPU, x64).
+The peers step across the backplate's switches (the FMU locates them as events); what that costs them
+in accuracy is what the tolerance search below pays for.
+
+Two scenes: the 8 s scene (the FMU at its default rtol 1e-7, atol 1e-9) and the search evaluation (1 s,
+the FMU at the searches' rtol 1e-5, atol 1e-7). Equal accuracy: the error of a run is the relative error
+of its sampled peak against a tight reference (the FMU at rtol 1e-13, atol 1e-15); the target is the
+FMU's worst error over the orders at its setting; for each peer the tolerance ladder rtol = 1e-3, 3.2e-4,
+1e-4, ... (atol = rtol / 100) is walked from loose to tight, and the peer is timed at the first rtol whose
+worst error over the orders is within the target and whose next tighter rtol is too (so a lucky loose
+setting is not taken).
+
+Timing: CPU time per run (time.process_time: all threads of this process), the runs of all routes
+interleaved order by order and round by round (the route that goes first rotates), the minimum over
+--repeats rounds per route and order: the machine is shared, and the minimum is the least disturbed run.
+numba's and JAX's compile times are measured apart and never enter a run's time. Per-order set-up that is
+not the solver's (packing an order's constants into arrays) is done before timing, in the peers' favour.
+
+Right-hand sides: the FMU's counter; odeint's and solve_ivp's own counts (nfe, nfev); for diffrax an
+exact count from a second compiled solve whose right-hand side increments a host counter (not timed).
+
+Also checks the published peaks (1747.779979851872 N, 1497.8867334973704 N) to 1e-5 with every route
+over the 8 s scene at its equal-accuracy tolerance.
+
+Writes DIR/peers.csv (every route, scene and order), DIR/peers_summary.csv, DIR/peers_ladder.csv (the
+tolerance walk) and DIR/peers.png (CPU per run against worst error, per scene).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import statistics
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+os.environ.setdefault("JAX_PLATFORMS", "cpu")
+# one thread for XLA's own kernels: the FMU and scipy run on one core, and process_time would count the others
+os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import ROOT, SEQUENTIAL, STUDY_BEST, bench_orders, build_fmus, order_text, write_csv  # noqa: E402
+from peer_models import backplate_force, jax_rhs, numba_kernels, pack  # noqa: E402
+
+from orchestrator.simulation import LatticeFMU, SimulationError  # noqa: E402
+from reference import Scene  # noqa: E402
+from reference.simulate import sample_times  # noqa: E402
+
+PUBLISHED = {SEQUENTIAL: 1747.779979851872, STUDY_BEST: 1497.8867334973704}
+PUBLISHED_TOLERANCE = 1e-5
+SAMPLE_INTERVAL = 0.01
+REFERENCE_TOLERANCES = {"rtol": 1e-13, "atol": 1e-15}
+LADDER = [10.0 ** (-k / 2) for k in range(6, 27)]  # rtol 1e-3 ... 1e-13, half decades
+ROUTES = ("fmu", "odeint", "dop853", "diffrax")
+LABELS = {"fmu": "FMU via fmpy (DOP853, C)", "odeint": "scipy odeint (LSODA) + numba",
+          "dop853": "scipy solve_ivp DOP853 + numba", "diffrax": "diffrax Tsit5 (JAX, CPU)"}
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    label: str
+    horizon: float
+    fmu_rtol: float
+    fmu_atol: float
+    accuracy_bound: float | None = None  # an absolute bound the scene's evaluation must meet (checked)
+
+
+SCENARIOS = {
+    "scene8s": Scenario("scene8s", "8 s scene", 8.0, 1e-7, 1e-9),
+    "search": Scenario("search", "search evaluation (1 s)", 1.0, 1e-5, 1e-7, accuracy_bound=3e-5),
+}
+
+
+class RouteFailed(RuntimeError):
+    """A run gave no number (solver failure): recorded as failed, never as a peak."""
+
+
+# ------------------------------------------------------------------------------------------- routes
+def phases(horizon: float, t_active: float):
+    """[(t0, t1, load_on, sample indices in (t0, t1])] with the samples of SPEC 6 (t = 0 sampled apart)."""
+    ts = sample_times(horizon, SAMPLE_INTERVAL)
+    out = []
+    if t_active > 0:
+        out.append((0.0, min(t_active, horizon), 1.0))
+    if t_active < horizon:
+        out.append((t_active, horizon, 0.0))
+    return ts, [(t0, t1, on, np.flatnonzero((ts > t0) & (ts <= t1))) for t0, t1, on in out]
+
+
+class FMURoute:
+    def __init__(self, fmu: LatticeFMU, horizon: float):
+        self.fmu, self.horizon = fmu, horizon
+
+    def run(self, order, packed, rtol, atol):
+        try:
+            result = self.fmu.simulate(order, horizon=self.horizon, parameters={"rtol": rtol, "atol": atol},
+                                       outputs=("peak_backplate_force", "rhs_evaluations"))
+        except SimulationError as exc:
+            raise RouteFailed(str(exc)) from None
+        return result["peak_backplate_force"], int(result["rhs_evaluations"])
+
+
+class ScipyRoute:
+    """odeint (LSODA) or solve_ivp(DOP853) over the numba right-hand side, sampled from the dense output."""
+
+    def __init__(self, kind: str, horizon: float):
+        import scipy.integrate
+
+        self.kind, self.horizon = kind, horizon
+        self.odeint, self.solve_ivp = scipy.integrate.odeint, scipy.integrate.solve_ivp
+        self.rhs_odeint, self.rhs_solve_ivp, _ = numba_kernels()
+        self.lsoda_methods = set()
+
+    def run(self, order, packed, rtol, atol):
+        ts, parts = phases(self.horizon, packed.t_active)
+        args = packed.kernel_args()
+        y = np.zeros(packed.state_size)
+        states = np.empty((ts.size, y.size))
+        states[0] = y
+        n_rhs = 0
+        for t0, t1, load_on, sel in parts:
+            t_out = ts[sel]
+            if t_out.size == 0 or t_out[-1] < t1:
+                t_out = np.append(t_out, t1)
+            if self.kind == "odeint":
+                ys, info = self.odeint(self.rhs_odeint, y, np.concatenate([[t0], t_out]), args=(load_on, *args),
+                                       rtol=rtol, atol=atol, full_output=True, mxstep=100000)
+                if info["message"] != "Integration successful.":
+                    raise RouteFailed(f"odeint: {info['message']}")
+                n_rhs += int(info["nfe"][-1])
+                self.lsoda_methods.update(int(m) for m in info["mused"])
+                ys = ys[1:]
+            else:
+                sol = self.solve_ivp(self.rhs_solve_ivp, (t0, t1), y, method="DOP853", t_eval=t_out,
+                                     args=(load_on, *args), rtol=rtol, atol=atol)
+                if sol.status != 0:
+                    raise RouteFailed(f"solve_ivp: {sol.message}")
+                n_rhs += int(sol.nfev)
+                ys = sol.y.T
+            states[sel] = ys[:sel.size]
+            y = np.ascontiguousarray(ys[-1])
+        force = backplate_force(packed, states)
+        if not np.all(np.isfinite(force)):
+            raise RouteFailed(f"{self.kind}: a non-finite backplate force")
+        return float(force.max()), n_rhs
+
+
+class DiffraxRoute:
+    """diffrax Tsit5 + PIDController over the JAX right-hand side; the whole two-phase solve is one compiled
+    function of (order's arrays, rtol, atol), so one compilation serves every order and tolerance."""
+
+    def __init__(self, horizon: float, packed):
+        import jax
+
+        jax.config.update("jax_enable_x64", True)
+        import diffrax
+        import jax.numpy as jnp
+
+        self.jax, self.horizon = jax, horizon
+        rows, cols = packed.rows, packed.cols
+        self.key = (rows, cols, packed.equal_diagonal_alphas, packed.t_active)
+        rhs = jax_rhs(rows, cols, packed.equal_diagonal_alphas)
+        ts, parts = phases(horizon, packed.t_active)
+        N = rows * cols
+        wall = np.arange(rows) * cols + cols - 1
+        self.counter = [0]
+
+        def count(_):
+            self.counter[0] += 1
+
+        def make(counting: bool):
+            def vector_field(t, y, args):
+                load_on, arrays = args
+                if counting:
+                    jax.debug.callback(count, t)
+                return rhs(y, load_on, *arrays)
+
+            term = diffrax.ODETerm(vector_field)
+            solver = diffrax.Tsit5()
+
+            def solve(columns, diagonals, scalars, load, rtol, atol):
+                arrays = (columns, diagonals, scalars, load)
+                controller = diffrax.PIDController(rtol=rtol, atol=atol)
+                y = jnp.zeros(4 * N)
+                forces = [jnp.zeros(1)]  # t = 0: at rest, no contact
+                steps = []
+                for t0, t1, load_on, sel in parts:
+                    t_out = ts[sel]
+                    if t_out.size == 0 or t_out[-1] < t1:
+                        t_out = np.append(t_out, t1)
+                    sol = diffrax.diffeqsolve(term, solver, t0, t1, None, y, args=(load_on, arrays),
+                                              saveat=diffrax.SaveAt(ts=jnp.asarray(t_out)),
+                                              stepsize_controller=controller, adjoint=diffrax.ForwardMode(),
+                                              max_steps=1_000_000)
+                    ys = sol.ys[:sel.size]
+                    p = ys[:, wall] - scalars[5]
+                    forces.append(jnp.where(p > 0, scalars[3] * p + scalars[4] * jnp.maximum(ys[:, 2 * N + wall], 0),
+                                            0.0).sum(axis=1))
+                    steps.append(sol.stats["num_steps"])
+                    y = sol.ys[-1]
+                return jnp.max(jnp.concatenate(forces)), jnp.stack(steps)
+
+            return jax.jit(solve)
+
+        example = (*packed.kernel_args(), 1e-6, 1e-8)
+        start_cpu, start_wall = time.process_time(), time.perf_counter()
+        self.solve = make(False).lower(*example).compile()
+        self.compile_cpu, self.compile_wall = time.process_time() - start_cpu, time.perf_counter() - start_wall
+        self.solve_counting = make(True).lower(*example).compile()
+
+    def run(self, order, packed, rtol, atol):
+        if (packed.rows, packed.cols, packed.equal_diagonal_alphas, packed.t_active) != self.key:
+            raise ValueError("DiffraxRoute: compiled for another lattice or material table")
+        try:
+            peak, _ = self.solve(*packed.kernel_args(), rtol, atol)
+            peak = float(peak)  # waits for the result
+        except Exception as exc:  # noqa: BLE001 - e.g. max_steps reached: a failed run, not a number
+            raise RouteFailed(f"diffrax: {type(exc).__name__}: {str(exc).splitlines()[0]}") from None
+        if not math.isfinite(peak):
+            raise RouteFailed("diffrax: a non-finite peak")
+        return peak, None
+
+    def count(self, packed, rtol, atol) -> int:
+        self.counter[0] = 0
+        peak, _ = self.solve_counting(*packed.kernel_args(), rtol, atol)
+        float(peak)
+        self.jax.effects_barrier()
+        return self.counter[0]
+
+
+def timed(route, order, packed, rtol, atol):
+    """(peak, rhs, cpu seconds) of one run, or (None, message, cpu seconds) if it failed."""
+    start = time.process_time()
+    try:
+        peak, n_rhs = route.run(order, packed, rtol, atol)
+    except RouteFailed as exc:
+        return None, str(exc), time.process_time() - start
+    seconds = time.process_time() - start
+    if n_rhs is None:
+        n_rhs = route.count(packed, rtol, atol)
+    return peak, n_rhs, seconds
+
+
+# --------------------------------------------------------------------------------------------- study
+def compile_numba() -> dict:
+    """numba's compile time: the first calls of both right-hand sides (compiled in this process, no cache)."""
+    rhs_odeint, rhs_solve_ivp, rhs_into = numba_kernels()
+    packed = pack(Scene())
+    y = np.zeros(packed.state_size)
+    start_cpu, start_wall = time.process_time(), time.perf_counter()
+    rhs_odeint(y, 0.0, 1.0, *packed.kernel_args())
+    rhs_solve_ivp(0.0, y, 1.0, *packed.kernel_args())
+    return {"cpu": time.process_time() - start_cpu, "wall": time.perf_counter() - start_wall}
+
+
+def rhs_microseconds(repeats: int = 5) -> dict:
+    """CPU microseconds of one right-hand side at a typical state: numba alone (a compiled loop), numba
+    called from Python as scipy calls it (dispatch included), JAX alone (a compiled loop)."""
+    import numba
+
+    _, _, rhs_into = numba_kernels()
+    packed = pack(Scene(order=STUDY_BEST))
+    rng = np.random.default_rng(0)
+    y = np.concatenate([rng.uniform(-0.03, 0.03, packed.state_size // 2), rng.uniform(-1, 1, packed.state_size // 2)])
+    args = packed.kernel_args()
+
+    @numba.njit(cache=False)
+    def loop(y, count, columns, diagonals, scalars, load):
+        out = np.empty_like(y)
+        total = 0.0
+        for _ in range(count):
+            rhs_into(y, out, 1.0, columns, diagonals, scalars, load)
+            total += out[-1]
+        return total
+
+    rhs_odeint, _, _ = numba_kernels()
+    loop(y, 1, *args)
+    out = {}
+    count = 20000
+    best = math.inf
+    for _ in range(repeats):
+        start = time.process_time()
+        loop(y, count, *args)
+        best = min(best, time.process_time() - start)
+    out["numba"] = best / count * 1e6
+    best = math.inf
+    for _ in range(repeats):
+        start = time.process_time()
+        for _ in range(count // 4):
+            rhs_odeint(y, 0.0, 1.0, *args)
+        best = min(best, time.process_time() - start)
+    out["numba_from_python"] = best / (count // 4) * 1e6
+
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    rhs = jax_rhs(packed.rows, packed.cols, packed.equal_diagonal_alphas)
+
+    @jax.jit
+    def jloop(y, columns, diagonals, scalars, load):
+        def body(_, state):  # each right-hand side needs the previous one (as in a solver's stages)
+            return state + 1e-12 * rhs(state, 1.0, columns, diagonals, scalars, load)
+        return jax.lax.fori_loop(0, count, body, y)
+
+    jloop(y, *args).block_until_ready()
+    best = math.inf
+    for _ in range(repeats):
+        start = time.process_time()
+        jloop(y, *args).block_until_ready()
+        best = min(best, time.process_time() - start)
+    out["jax"] = best / count * 1e6
+    return out
+
+
+def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: int, log) -> dict:
+    packs = {label: pack(Scene(order=order)) for label, order in orders.items()}
+    routes = {"fmu": FMURoute(fmu, scenario.horizon), "odeint": ScipyRoute("odeint", scenario.horizon),
+              "dop853": ScipyRoute("dop853", scenario.horizon),
+              "diffrax": DiffraxRoute(scenario.horizon, next(iter(packs.values())))}
+    log(f"\n== {scenario.label}: diffrax compiled in {routes['diffrax'].compile_cpu:.1f} s CPU "
+        f"({routes['diffrax'].compile_wall:.1f} s wall)")
+
+    reference = {}
+    for label, order in orders.items():
+        reference[label] = fmu.simulate(order, horizon=scenario.horizon, parameters=REFERENCE_TOLERANCES,
+                                        outputs=("peak_backplate_force",))["peak_backplate_force"]
+
+    def errors_at(route_name, rtol, atol):
+        rows = []
+        for label, order in orders.items():
+            peak, n_rhs, seconds = timed(routes[route_name], order, packs[label], rtol, atol)
+            error = abs(peak / reference[label] - 1) if peak is not None else math.nan
+            rows.append({"scene": scenario.name, "route": route_name, "rtol": rtol, "atol": atol, "order": label,
+                         "peak": peak if peak is not None else math.nan, "error": error,
+                         "rhs": n_rhs if peak is not None else None, "cpu_ms_single": seconds * 1e3,
+                         "failure": "" if peak is not None else n_rhs})
+        return rows
+
+    def worst(rows):
+        return max((r["error"] if math.isfinite(r["error"]) else math.inf) for r in rows)
+
+    ladder_rows = errors_at("fmu", scenario.fmu_rtol, scenario.fmu_atol)
+    target = worst(ladder_rows)
+    log(f"FMU at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}: worst error {target:.2e} "
+        "(the target every peer must meet)")
+    if scenario.accuracy_bound is not None and not target <= scenario.accuracy_bound:
+        log(f"  NOTE: the FMU's worst error exceeds the scene's bound {scenario.accuracy_bound:g}")
+    chosen = {"fmu": (scenario.fmu_rtol, scenario.fmu_atol)}
+    for name in ROUTES[1:]:
+        passed_at = None
+        for rtol in LADDER:
+            rows = errors_at(name, rtol, rtol * 1e-2)
+            ladder_rows += rows
+            ok = worst(rows) <= target
+            log(f"  {name:8s} rtol {rtol:8.1e}: worst error {worst(rows):.2e} {'ok' if ok else ''}")
+            if ok and passed_at is not None:
+                break
+            passed_at = rtol if ok else None
+        else:
+            passed_at = None
+        chosen[name] = (passed_at, passed_at * 1e-2) if passed_at is not None else None
+        if passed_at is None:
+            log(f"  {name}: never reached the FMU's accuracy on the ladder (down to rtol {LADDER[-1]:.0e})")
+
+    # interleaved timing at the chosen settings
+    timing = {(name, label): [] for name in ROUTES for label in orders}
+    results = {}
+    active = [name for name in ROUTES if chosen[name] is not None]
+    for round_index in range(repeats):
+        rotation = active[round_index % len(active):] + active[:round_index % len(active)]
+        for label, order in orders.items():
+            for name in rotation:
+                rtol, atol = chosen[name]
+                peak, n_rhs, seconds = timed(routes[name], order, packs[label], rtol, atol)
+                if peak is None:
+                    results[(name, label)] = {"failure": n_rhs}
+                    continue
+                timing[(name, label)].append(seconds)
+                results[(name, label)] = {"peak": peak, "rhs": n_rhs}
+    rows = []
+    for name in active:
+        for label in orders:
+            result = results[(name, label)]
+            times = timing[(name, label)]
+            row = {"scene": scenario.name, "route": name, "order": label, "order_materials": orders[label],
+                   "rtol": chosen[name][0], "atol": chosen[name][1], "repeats": len(times)}
+            if "failure" in result or not times:
+                row["failure"] = result.get("failure", "no run")
+            else:
+                cpu = min(times)
+                row.update(peak=result["peak"], reference_peak=reference[label],
+                           error=abs(result["peak"] / reference[label] - 1), rhs=result["rhs"],
+                           cpu_ms=cpu * 1e3, cpu_ms_median=statistics.median(times) * 1e3,
+                           us_per_rhs=cpu / result["rhs"] * 1e6)
+            rows.append(row)
+    fmu_cpu = {r["order"]: r["cpu_ms"] for r in rows if r["route"] == "fmu" and "cpu_ms" in r}
+    for row in rows:
+        if "cpu_ms" in row and row["order"] in fmu_cpu:
+            row["ratio_to_fmu"] = row["cpu_ms"] / fmu_cpu[row["order"]]
+    extra = {"target": target, "chosen": chosen, "reference": reference,
+             "lsoda_methods": sorted(routes["odeint"].lsoda_methods),
+             "diffrax_compile_cpu": routes["diffrax"].compile_cpu, "diffrax_compile_wall": routes["diffrax"].compile_wall}
+    return {"rows": rows, "ladder": ladder_rows, **extra}
+
+
+def summarise(scenario: Scenario, study: dict) -> list[dict]:
+    summary = []
+    for name in ROUTES:
+        rows = [r for r in study["rows"] if r["route"] == name]
+        good = [r for r in rows if "cpu_ms" in r]
+        entry = {"scene": scenario.name, "route": name, "label": LABELS[name]}
+        chosen = study["chosen"].get(name)
+        if chosen is None or not good:
+            entry["status"] = "did not reach the FMU's accuracy" if chosen is None else "failed"
+            summary.append(entry)
+            continue
+        entry.update(status="ok" if len(good) == len(rows) else "some runs failed", rtol=chosen[0], atol=chosen[1],
+                     worst_error=max(r["error"] for r in good), orders=len(good),
+                     cpu_ms_min=min(r["cpu_ms"] for r in good), cpu_ms_max=max(r["cpu_ms"] for r in good),
+                     cpu_ms_mean=statistics.fmean(r["cpu_ms"] for r in good),
+                     rhs_min=min(r["rhs"] for r in good), rhs_max=max(r["rhs"] for r in good),
+                     us_per_rhs_min=min(r["us_per_rhs"] for r in good), us_per_rhs_max=max(r["us_per_rhs"] for r in good))
+        ratios = [r["ratio_to_fmu"] for r in good if "ratio_to_fmu" in r]
+        if ratios and name != "fmu":
+            entry.update(ratio_min=min(ratios), ratio_max=max(ratios), ratio_geomean=math.exp(statistics.fmean(
+                math.log(x) for x in ratios)))
+        summary.append(entry)
+    return summary
+
+
+def check_published(study: dict, orders: dict) -> list[dict]:
+    """Every route's 8 s peak of the two published orders against the published numbers (to 1e-5)."""
+    out = []
+    for row in study["rows"]:
+        order = tuple(row["order_materials"])
+        if order in PUBLISHED and "peak" in row:
+            deviation = abs(row["peak"] / PUBLISHED[order] - 1)
+            out.append({"route": row["route"], "order": row["order"], "peak": row["peak"], "published": PUBLISHED[order],
+                        "relative_deviation": deviation, "ok": deviation <= PUBLISHED_TOLERANCE})
+    return out
+
+
+def chart(path: Path, studies: dict, summaries: dict) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    colours = {"fmu": "C3", "odeint": "C0", "dop853": "C1", "diffrax": "C2"}
+    fig, axes = plt.subplots(1, len(studies), figsize=(6.2 * len(studies), 4.6), squeeze=False)
+    for ax, (name, study) in zip(axes[0], studies.items()):
+        scenario = SCENARIOS[name]
+        for route in ROUTES:
+            rows = [r for r in study["ladder"] if r["route"] == route]
+            by_rtol = {}
+            for r in rows:
+                by_rtol.setdefault(r["rtol"], []).append(r)
+            xs, ys = [], []
+            for rtol, group in sorted(by_rtol.items(), reverse=True):
+                if all(math.isfinite(r["error"]) for r in group):
+                    xs.append(statistics.median(r["cpu_ms_single"] for r in group))
+                    ys.append(max(r["error"] for r in group))
+            if route != "fmu" and xs:
+                ax.plot(xs, ys, "-", marker=".", color=colours[route], alpha=0.45, lw=1)
+            entry = next((s for s in summaries[name] if s["route"] == route and "cpu_ms_mean" in s), None)
+            if entry:
+                ratio = f", {entry['ratio_geomean']:.1f}x FMU" if "ratio_geomean" in entry else ""
+                ax.plot([entry["cpu_ms_mean"]], [max(entry["worst_error"], 1e-16)], "o", ms=9, color=colours[route],
+                        label=f"{LABELS[route]}: rtol {entry['rtol']:.1e}{ratio}")
+        ax.axhline(study["target"], color="0.4", ls="--", lw=0.8)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("CPU ms per run (line: one sweep run, median over orders; dot: min of interleaved repeats)")
+        ax.set_ylabel("worst relative error of the sampled peak")
+        ax.set_title(f"{scenario.label}: FMU target {study['target']:.1e} (dashed)")
+        ax.legend(fontsize=7, loc="upper right")
+        ax.xaxis.label.set_size(7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", default=str(ROOT / "bench" / "out" / "peers"), help="folder for CSVs and chart")
+    parser.add_argument("--fmu", help="FMU to measure (default: built fresh from fmu_src/ into --out)")
+    parser.add_argument("--scenes", nargs="+", choices=sorted(SCENARIOS), default=["search", "scene8s"])
+    parser.add_argument("--random-orders", type=int, default=2, help="random orders beside sequential, study's "
+                        "best and reversed (default 2)")
+    parser.add_argument("--repeats", type=int, default=None, help="interleaved timing rounds (default 8 for "
+                        "the search evaluation, 4 for the 8 s scene; --quick: 4 and 2)")
+    parser.add_argument("--quick", action="store_true", help="sequential, study's best and one random order; "
+                        "fewer rounds")
+    args = parser.parse_args(argv)
+    try:
+        import diffrax  # noqa: F401
+        import jax  # noqa: F401
+        import numba  # noqa: F401
+    except ImportError as exc:
+        parser.error(f"{exc.name} is not installed: pip install -e .[bench]")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    orders = bench_orders(random_count=args.random_orders)
+    if args.quick:
+        orders = {k: orders[k] for k in ("sequential", "study_best", "random1")}
+    fmu_path = Path(args.fmu) if args.fmu else build_fmus(out)["c"]
+
+    log_lines = []
+
+    def log(text):
+        print(text, flush=True)
+        log_lines.append(text)
+
+    numba_compile = compile_numba()
+    log(f"numba compile (both right-hand sides): {numba_compile['cpu']:.2f} s CPU, {numba_compile['wall']:.2f} s wall")
+    micro = rhs_microseconds()
+    log(f"one right-hand side, CPU us: numba {micro['numba']:.2f} in a compiled loop, "
+        f"{micro['numba_from_python']:.2f} called from Python; JAX {micro['jax']:.2f} in a compiled loop")
+    log(f"orders: {', '.join(f'{k} {order_text(v)}' for k, v in orders.items())}")
+
+    studies, summaries = {}, {}
+    with LatticeFMU(fmu_path) as fmu:
+        for name in args.scenes:
+            scenario = SCENARIOS[name]
+            repeats = args.repeats or ((4 if name == "search" else 2) if args.quick else (8 if name == "search" else 4))
+            studies[name] = study_scenario(scenario, fmu, orders, repeats, log)
+            summaries[name] = summarise(scenario, studies[name])
+
+    all_rows, ladder, summary_rows = [], [], []
+    for name in studies:
+        scenario = SCENARIOS[name]
+        all_rows += studies[name]["rows"]
+        ladder += studies[name]["ladder"]
+        summary_rows += summaries[name]
+        log(f"\n{scenario.label}: CPU per run, min of interleaved repeats per order, range over "
+            f"{len(orders)} orders; target error {studies[name]['target']:.2e}")
+        log(f"{'route':34s} {'rtol':>8s} {'worst err':>9s} {'CPU ms':>15s} {'RHS':>13s} {'us/RHS':>11s} "
+            f"{'peer/FMU':>13s}")
+        for s in summaries[name]:
+            if "cpu_ms_min" not in s:
+                log(f"{s['label']:34s} {s['status']}")
+                continue
+            ratio = f"{s['ratio_min']:.1f}-{s['ratio_max']:.1f}x" if "ratio_min" in s else ""
+            log(f"{s['label']:34s} {s['rtol']:8.1e} {s['worst_error']:9.1e} "
+                f"{s['cpu_ms_min']:7.2f}-{s['cpu_ms_max']:<7.2f} {s['rhs_min']:6d}-{s['rhs_max']:<6d} "
+                f"{s['us_per_rhs_min']:5.2f}-{s['us_per_rhs_max']:<5.2f} {ratio:>13s}")
+        if studies[name]["lsoda_methods"]:
+            used = {1: "Adams (non-stiff)", 2: "BDF (stiff)"}
+            log(f"LSODA used: {', '.join(used.get(m, str(m)) for m in studies[name]['lsoda_methods'])}")
+        if name == "scene8s":
+            checks = check_published(studies[name], orders)
+            for c in checks:
+                log(f"published check {c['route']:8s} {c['order']:11s} {c['peak']:.9f} vs {c['published']:.9f}: "
+                    f"{c['relative_deviation']:.1e} {'ok' if c['ok'] else 'FAILED'} (<= {PUBLISHED_TOLERANCE:g})")
+            write_csv(out / "peers_published_check.csv", checks)
+    log(f"\ncompile times (never in a run's time): numba {numba_compile['cpu']:.2f} s CPU; diffrax "
+        + ", ".join(f"{SCENARIOS[n].label} {studies[n]['diffrax_compile_cpu']:.1f} s CPU" for n in studies))
+    log("CPU time per run is process_time (all threads of the process); the machine was shared with other jobs.")
+
+    write_csv(out / "peers.csv", all_rows)
+    write_csv(out / "peers_ladder.csv", ladder)
+    write_csv(out / "peers_summary.csv", summary_rows)
+    (out / "peers.txt").write_text("\n".join(log_lines) + "\n")
+    chart(out / "peers.png", studies, summaries)
+    print(f"wrote {out}/peers.csv, peers_summary.csv, peers_ladder.csv, peers.txt, peers.png")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
