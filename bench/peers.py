@@ -17,10 +17,10 @@ in accuracy is what the tolerance search below pays for.
 Two scenes: the 8 s scene (the FMU at its default rtol 1e-7, atol 1e-9) and the search evaluation (1 s,
 the FMU at the searches' rtol 1e-5, atol 1e-7). Equal accuracy: the error of a run is the relative error
 of its sampled peak against a tight reference (the FMU at rtol 1e-13, atol 1e-15); the target is the
-FMU's worst error over the orders at its setting; for each peer the tolerance ladder rtol = 1e-3, 3.2e-4,
-1e-4, ... (atol = rtol / 100) is walked from loose to tight, and the peer is timed at the first rtol whose
-worst error over the orders is within the target and whose next tighter rtol is too (so a lucky loose
-setting is not taken).
+FMU's worst error over the orders at its setting; for each peer the tolerance ladder (rtol from 100 times
+the FMU's down to 1e-12, four steps per decade, atol = rtol / 100) is walked from loose to tight, and the
+peer is timed at the first rtol whose worst error over the orders is within the target and whose next
+tighter rtol is too (so a lucky loose setting is not taken).
 
 Timing: CPU time per run (time.process_time: all threads of this process), the runs of all routes
 interleaved order by order and round by round (the route that goes first rotates), the minimum over
@@ -66,7 +66,9 @@ PUBLISHED = {SEQUENTIAL: 1747.779979851872, STUDY_BEST: 1497.8867334973704}
 PUBLISHED_TOLERANCE = 1e-5
 SAMPLE_INTERVAL = 0.01
 REFERENCE_TOLERANCES = {"rtol": 1e-13, "atol": 1e-15}
-LADDER = [10.0 ** (-k / 2) for k in range(6, 27)]  # rtol 1e-3 ... 1e-13, half decades
+LADDER_STEPS_PER_DECADE = 4
+LADDER_START = 100.0  # times the FMU's rtol: every peer errs above the target there (seen on every run)
+LADDER_END = 1e-12
 ROUTES = ("fmu", "odeint", "dop853", "diffrax")
 LABELS = {"fmu": "FMU via fmpy (DOP853, C)", "odeint": "scipy odeint (LSODA) + numba",
           "dop853": "scipy solve_ivp DOP853 + numba", "diffrax": "diffrax Tsit5 (JAX, CPU)"}
@@ -127,6 +129,7 @@ class ScipyRoute:
         self.odeint, self.solve_ivp = scipy.integrate.odeint, scipy.integrate.solve_ivp
         self.rhs_odeint, self.rhs_solve_ivp, _ = numba_kernels()
         self.lsoda_methods = set()
+        self.last_jacobians = None
 
     def run(self, order, packed, rtol, atol):
         ts, parts = phases(self.horizon, packed.t_active)
@@ -134,7 +137,7 @@ class ScipyRoute:
         y = np.zeros(packed.state_size)
         states = np.empty((ts.size, y.size))
         states[0] = y
-        n_rhs = 0
+        n_rhs = jacobians = 0
         for t0, t1, load_on, sel in parts:
             t_out = ts[sel]
             if t_out.size == 0 or t_out[-1] < t1:
@@ -144,7 +147,8 @@ class ScipyRoute:
                                        rtol=rtol, atol=atol, full_output=True, mxstep=100000)
                 if info["message"] != "Integration successful.":
                     raise RouteFailed(f"odeint: {info['message']}")
-                n_rhs += int(info["nfe"][-1])
+                n_rhs += int(info["nfe"][-1])  # LSODA counts its finite-difference Jacobians' calls here too
+                jacobians += int(info["nje"][-1])
                 self.lsoda_methods.update(int(m) for m in info["mused"])
                 ys = ys[1:]
             else:
@@ -156,6 +160,7 @@ class ScipyRoute:
                 ys = sol.y.T
             states[sel] = ys[:sel.size]
             y = np.ascontiguousarray(ys[-1])
+        self.last_jacobians = jacobians if self.kind == "odeint" else None
         force = backplate_force(packed, states)
         if not np.all(np.isfinite(force)):
             raise RouteFailed(f"{self.kind}: a non-finite backplate force")
@@ -350,6 +355,7 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
             rows.append({"scene": scenario.name, "route": route_name, "rtol": rtol, "atol": atol, "order": label,
                          "peak": peak if peak is not None else math.nan, "error": error,
                          "rhs": n_rhs if peak is not None else None, "cpu_ms_single": seconds * 1e3,
+                         "lsoda_jacobians": getattr(routes[route_name], "last_jacobians", None),
                          "failure": "" if peak is not None else n_rhs})
         return rows
 
@@ -363,9 +369,12 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
     if scenario.accuracy_bound is not None and not target <= scenario.accuracy_bound:
         log(f"  NOTE: the FMU's worst error exceeds the scene's bound {scenario.accuracy_bound:g}")
     chosen = {"fmu": (scenario.fmu_rtol, scenario.fmu_atol)}
+    top = math.log10(LADDER_START * scenario.fmu_rtol)
+    steps = int(round((top - math.log10(LADDER_END)) * LADDER_STEPS_PER_DECADE))
+    ladder = [10.0 ** (top - k / LADDER_STEPS_PER_DECADE) for k in range(steps + 1)]
     for name in ROUTES[1:]:
         passed_at = None
-        for rtol in LADDER:
+        for rtol in ladder:
             rows = errors_at(name, rtol, rtol * 1e-2)
             ladder_rows += rows
             ok = worst(rows) <= target
@@ -377,7 +386,7 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
             passed_at = None
         chosen[name] = (passed_at, passed_at * 1e-2) if passed_at is not None else None
         if passed_at is None:
-            log(f"  {name}: never reached the FMU's accuracy on the ladder (down to rtol {LADDER[-1]:.0e})")
+            log(f"  {name}: never reached the FMU's accuracy on the ladder (down to rtol {ladder[-1]:.0e})")
 
     # interleaved timing at the chosen settings
     timing = {(name, label): [] for name in ROUTES for label in orders}
@@ -393,7 +402,8 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
                     results[(name, label)] = {"failure": n_rhs}
                     continue
                 timing[(name, label)].append(seconds)
-                results[(name, label)] = {"peak": peak, "rhs": n_rhs}
+                results[(name, label)] = {"peak": peak, "rhs": n_rhs,
+                                          "lsoda_jacobians": getattr(routes[name], "last_jacobians", None)}
     rows = []
     for name in active:
         for label in orders:
@@ -407,6 +417,7 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
                 cpu = min(times)
                 row.update(peak=result["peak"], reference_peak=reference[label],
                            error=abs(result["peak"] / reference[label] - 1), rhs=result["rhs"],
+                           lsoda_jacobians=result["lsoda_jacobians"],
                            cpu_ms=cpu * 1e3, cpu_ms_median=statistics.median(times) * 1e3,
                            us_per_rhs=cpu / result["rhs"] * 1e6)
             rows.append(row)
@@ -564,7 +575,10 @@ def main(argv=None) -> int:
                 f"{s['us_per_rhs_min']:5.2f}-{s['us_per_rhs_max']:<5.2f} {ratio:>13s}")
         if studies[name]["lsoda_methods"]:
             used = {1: "Adams (non-stiff)", 2: "BDF (stiff)"}
-            log(f"LSODA used: {', '.join(used.get(m, str(m)) for m in studies[name]['lsoda_methods'])}")
+            jacobians = [r["lsoda_jacobians"] for r in studies[name]["rows"] if r["route"] == "odeint" and "rhs" in r]
+            log(f"LSODA used (over the whole tolerance walk): "
+                f"{', '.join(used.get(m, str(m)) for m in studies[name]['lsoda_methods'])}; at the timed setting "
+                f"{min(jacobians)}-{max(jacobians)} finite-difference Jacobians per run")
         if name == "scene8s":
             checks = check_published(studies[name], orders)
             for c in checks:
