@@ -6,7 +6,7 @@
 For each lattice the FMU is built with `python build_fmu.py --rows R --cols C` (kept in DIR/fmus and
 rebuilt when fmu_src/ or build_fmu.py is newer, or with --rebuild; the material table is SPEC 3's with C
 materials) and run through fmpy (orchestrator.simulation.LatticeFMU) on two evaluations:
-- the search evaluation: 1 s at the searches' rtol 1e-5, atol 1e-7 (orchestrator.study);
+- the search evaluation: 1 s at the searches' rtol 1e-5, atol 1e-7 (orchestrator.objective);
 - the 8 s scene at the FMU's default rtol 1e-7, atol 1e-9;
 for the sequential order 1..C and --random-orders random permutations of 1..C. It measures the CPU time
 per evaluation (time.process_time; the minimum over --repeats rounds, the rounds interleaved over every
@@ -37,7 +37,7 @@ from common import ROOT, random_orders, write_csv  # noqa: E402
 
 import build_fmu  # noqa: E402
 from orchestrator.simulation import LatticeFMU, SimulationError  # noqa: E402
-from orchestrator.study import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
+from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
 
 EVALUATIONS = {
     "search": ("search evaluation (1 s, rtol 1e-5)", SEARCH_HORIZON, search_tolerances(SEARCH_RTOL)),
