@@ -276,8 +276,8 @@ def compile_numba() -> dict:
 
 
 def rhs_microseconds(repeats: int = 5) -> dict:
-    """CPU microseconds of one right-hand side at a typical state: numba alone (a compiled loop), numba
-    called from Python as scipy calls it (dispatch included), JAX alone (a compiled loop)."""
+    """CPU microseconds of one numba right-hand side at a typical state: alone (a compiled loop) and called
+    from Python as scipy calls it (dispatch included). diffrax's is in its runs' figures (CPU / RHS)."""
     import numba
 
     _, _, rhs_into = numba_kernels()
@@ -312,25 +312,6 @@ def rhs_microseconds(repeats: int = 5) -> dict:
             rhs_odeint(y, 0.0, 1.0, *args)
         best = min(best, time.process_time() - start)
     out["numba_from_python"] = best / (count // 4) * 1e6
-
-    import jax
-
-    jax.config.update("jax_enable_x64", True)
-    rhs = jax_rhs(packed.rows, packed.cols, packed.equal_diagonal_alphas)
-
-    @jax.jit
-    def jloop(y, columns, diagonals, scalars, load):
-        def body(_, state):  # each right-hand side needs the previous one (as in a solver's stages)
-            return state + 1e-12 * rhs(state, 1.0, columns, diagonals, scalars, load)
-        return jax.lax.fori_loop(0, count, body, y)
-
-    jloop(y, *args).block_until_ready()
-    best = math.inf
-    for _ in range(repeats):
-        start = time.process_time()
-        jloop(y, *args).block_until_ready()
-        best = min(best, time.process_time() - start)
-    out["jax"] = best / count * 1e6
     return out
 
 
@@ -543,8 +524,8 @@ def main(argv=None) -> int:
     numba_compile = compile_numba()
     log(f"numba compile (both right-hand sides): {numba_compile['cpu']:.2f} s CPU, {numba_compile['wall']:.2f} s wall")
     micro = rhs_microseconds()
-    log(f"one right-hand side, CPU us: numba {micro['numba']:.2f} in a compiled loop, "
-        f"{micro['numba_from_python']:.2f} called from Python; JAX {micro['jax']:.2f} in a compiled loop")
+    log(f"one numba right-hand side, CPU us: {micro['numba']:.2f} in a compiled loop, "
+        f"{micro['numba_from_python']:.2f} called from Python")
     log(f"orders: {', '.join(f'{k} {order_text(v)}' for k, v in orders.items())}")
 
     studies, summaries = {}, {}
