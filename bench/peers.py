@@ -1,7 +1,7 @@
 """The FMU against the strongest peers a Python user can install with pip, at equal accuracy.
 
     pip install -e .[bench]                           # numba, jax, diffrax (benchmark-only)
-    python bench/peers.py --out bench/out/peers       # ~10 min on a loaded 2-core machine
+    python bench/peers.py --out bench/out/peers       # ~8 min on a loaded 2-core machine
     python bench/peers.py --out DIR --quick           # ~3 min: 3 orders, fewer repeats
 
 Routes, each over SPEC.md's right-hand side written once in bench/peer_models.py (checked against

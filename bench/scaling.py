@@ -1,7 +1,7 @@
 """How an evaluation's cost grows with the lattice: square lattices 5 x 5 to 31 x 31, and 11 rows by C columns.
 
-    python bench/scaling.py --out bench/out/scaling            # the quick subset (default): a few minutes
-    python bench/scaling.py --out bench/out/scaling --full     # every odd size 5..31, and 20
+    python bench/scaling.py --out bench/out/scaling            # the quick subset (default): ~2 min
+    python bench/scaling.py --out bench/out/scaling --full     # every odd size 5..31, and 20: ~5 min
 
 For each lattice the FMU is built with `python build_fmu.py --rows R --cols C` (kept in DIR/fmus and
 rebuilt when fmu_src/ or build_fmu.py is newer, or with --rebuild; the material table is SPEC 3's with C
