@@ -14,9 +14,10 @@ switch-off, with the backplate force sampled every 0.01 s from its own dense out
 The peers step across the backplate's switches (the FMU locates them as events); what that costs them
 in accuracy is what the tolerance search below pays for.
 
-Two scenes: the 8 s scene (the FMU at its default rtol 1e-7, atol 1e-9) and the search evaluation (1 s,
-the FMU at the searches' rtol 1e-5, atol 1e-7). Equal accuracy: the error of a run is the relative error
-of its sampled peak against a tight reference (the FMU at rtol 1e-13, atol 1e-15); the target is the
+Two scenes: the 8 s scene (the FMU at its default DOP853, rtol 1e-7, atol 1e-9) and the search evaluation
+(1 s, the FMU as the searches run it: orchestrator.objective.search_tolerances, their solver at rtol 1e-5,
+atol 1e-7). Equal accuracy: the error of a run is the relative error of its sampled peak against a tight
+reference (the FMU's DOP853 at rtol 1e-13, atol 1e-15); the target is the
 FMU's worst error over the orders at its setting; for each peer the tolerance ladder (rtol from 100 times
 the FMU's down to 1e-12, four steps per decade, atol = rtol / 100) is walked from loose to tight, and the
 peer is timed at the first rtol whose worst error over the orders is within the target and whose next
@@ -58,6 +59,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import ROOT, SEQUENTIAL, STUDY_BEST, bench_orders, build_fmus, order_text, write_csv  # noqa: E402
 from peer_models import backplate_force, jax_rhs, numba_kernels, pack  # noqa: E402
 
+from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
 from orchestrator.simulation import LatticeFMU, SimulationError  # noqa: E402
 from reference import Scene  # noqa: E402
 from reference.simulate import sample_times  # noqa: E402
@@ -70,7 +72,7 @@ LADDER_STEPS_PER_DECADE = 4
 LADDER_START = 100.0  # times the FMU's rtol: every peer errs above the target there (seen on every run)
 LADDER_END = 1e-12
 ROUTES = ("fmu", "odeint", "dop853", "diffrax")
-LABELS = {"fmu": "FMU via fmpy (DOP853, C)", "odeint": "scipy odeint (LSODA) + numba",
+LABELS = {"fmu": "FMU via fmpy", "odeint": "scipy odeint (LSODA) + numba",
           "dop853": "scipy solve_ivp DOP853 + numba", "diffrax": "diffrax Tsit5 (JAX, CPU)"}
 
 
@@ -81,12 +83,15 @@ class Scenario:
     horizon: float
     fmu_rtol: float
     fmu_atol: float
+    fmu_solver: str  # the FMU's solver parameter, by name (orchestrator.simulation.SOLVERS)
     accuracy_bound: float | None = None  # an absolute bound the scene's evaluation must meet (checked)
 
 
+_SEARCH = search_tolerances(SEARCH_RTOL)  # what the searches run: their solver, rtol 1e-5, atol 1e-7
 SCENARIOS = {
-    "scene8s": Scenario("scene8s", "8 s scene", 8.0, 1e-7, 1e-9),
-    "search": Scenario("search", "search evaluation (1 s)", 1.0, 1e-5, 1e-7, accuracy_bound=3e-5),
+    "scene8s": Scenario("scene8s", "8 s scene", 8.0, 1e-7, 1e-9, "dop853"),
+    "search": Scenario("search", "search evaluation (1 s)", SEARCH_HORIZON, _SEARCH["rtol"], _SEARCH["atol"],
+                       _SEARCH["solver"], accuracy_bound=3e-5),
 }
 
 
@@ -107,12 +112,13 @@ def phases(horizon: float, t_active: float):
 
 
 class FMURoute:
-    def __init__(self, fmu: LatticeFMU, horizon: float):
-        self.fmu, self.horizon = fmu, horizon
+    def __init__(self, fmu: LatticeFMU, horizon: float, solver: str):
+        self.fmu, self.horizon, self.solver = fmu, horizon, solver
 
     def run(self, order, packed, rtol, atol):
         try:
-            result = self.fmu.simulate(order, horizon=self.horizon, parameters={"rtol": rtol, "atol": atol},
+            result = self.fmu.simulate(order, horizon=self.horizon,
+                                       parameters={"solver": self.solver, "rtol": rtol, "atol": atol},
                                        outputs=("peak_backplate_force", "rhs_evaluations"))
         except SimulationError as exc:
             raise RouteFailed(str(exc)) from None
@@ -317,7 +323,7 @@ def rhs_microseconds(repeats: int = 5) -> dict:
 
 def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: int, log) -> dict:
     packs = {label: pack(Scene(order=order)) for label, order in orders.items()}
-    routes = {"fmu": FMURoute(fmu, scenario.horizon), "odeint": ScipyRoute("odeint", scenario.horizon),
+    routes = {"fmu": FMURoute(fmu, scenario.horizon, scenario.fmu_solver), "odeint": ScipyRoute("odeint", scenario.horizon),
               "dop853": ScipyRoute("dop853", scenario.horizon),
               "diffrax": DiffraxRoute(scenario.horizon, next(iter(packs.values())))}
     log(f"\n== {scenario.label}: diffrax compiled in {routes['diffrax'].compile_cpu:.1f} s CPU "
@@ -345,7 +351,7 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
 
     ladder_rows = errors_at("fmu", scenario.fmu_rtol, scenario.fmu_atol)
     target = worst(ladder_rows)
-    log(f"FMU at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}: worst error {target:.2e} "
+    log(f"FMU ({scenario.fmu_solver}) at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}: worst error {target:.2e} "
         "(the target every peer must meet)")
     if scenario.accuracy_bound is not None and not target <= scenario.accuracy_bound:
         log(f"  NOTE: the FMU's worst error exceeds the scene's bound {scenario.accuracy_bound:g}")
@@ -417,7 +423,8 @@ def summarise(scenario: Scenario, study: dict) -> list[dict]:
     for name in ROUTES:
         rows = [r for r in study["rows"] if r["route"] == name]
         good = [r for r in rows if "cpu_ms" in r]
-        entry = {"scene": scenario.name, "route": name, "label": LABELS[name]}
+        label = f"{LABELS[name]} ({scenario.fmu_solver}, C)" if name == "fmu" else LABELS[name]
+        entry = {"scene": scenario.name, "route": name, "label": label}
         chosen = study["chosen"].get(name)
         if chosen is None or not good:
             entry["status"] = "did not reach the FMU's accuracy" if chosen is None else "failed"
@@ -475,7 +482,7 @@ def chart(path: Path, studies: dict, summaries: dict) -> None:
             if entry:
                 ratio = f", {entry['ratio_geomean']:.1f}x FMU" if "ratio_geomean" in entry else ""
                 ax.plot([entry["cpu_ms_mean"]], [max(entry["worst_error"], 1e-16)], "o", ms=9, color=colours[route],
-                        label=f"{LABELS[route]}: rtol {entry['rtol']:.1e}{ratio}")
+                        label=f"{entry['label']}: rtol {entry['rtol']:.1e}{ratio}")
         ax.axhline(study["target"], color="0.4", ls="--", lw=0.8)
         ax.set_xscale("log")
         ax.set_yscale("log")
