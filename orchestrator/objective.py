@@ -268,8 +268,8 @@ class PeakObjective(Objective):
         for case in self.cases:
             parameters = self.case_parameters(case)
             if fidelity == SEARCH:
-                if self.search_rtol is not None:
-                    parameters.update(search_tolerances(self.search_rtol))
+                if self.search_rtol is not None:  # what the user set (a solver, a tolerance) stays theirs
+                    parameters = {**search_tolerances(self.search_rtol), **parameters}
                 runs.append(FMURun(self.fmu_path, self.search_horizon, tuple(sorted(parameters.items())),
                                    self.output, fallback_horizon=self.horizon))
             else:

@@ -249,7 +249,8 @@ def _main(config: StudyConfig) -> int:
     report = write_report(study)
     best = study.best_verified()
     if best is None:
-        reasons = sorted({e.message for run in study.runs for e in run.evaluations if not e.ok})
+        reasons = sorted({e.message for run in study.runs for e in run.evaluations if not e.ok and not e.censored}
+                         | {v.message for v in study.verified.values() if not v.ok})
         print(f"no result: every evaluation failed ({reasons[0] if reasons else 'no evaluation ran'}); "
               f"report: {report}", file=sys.stderr)
         return EXIT_NO_RESULT
