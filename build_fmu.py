@@ -31,7 +31,8 @@ from xml.sax.saxutils import quoteattr
 import fmu_src
 from fmu_src import MODEL_HEADERS, MODEL_SOURCES
 from fmu_src import fmi3_description as fmi3
-from fmu_src.variables import INTEGER, REAL, Interface, c_literal, plotted_masses
+from fmu_src.variables import (DERIVATIVE, INDICATOR, INTEGER, REAL, STATE, Interface, c_literal,
+                               plotted_masses)
 from scenes import DEFAULT_SCENE, SCENE_DIR, Scene, check_identifier
 
 SOURCE_DIR = Path(fmu_src.__file__).resolve().parent  # the C sources ship as package data of fmu_src
@@ -47,7 +48,7 @@ WARNING_FLAGS = ["-Wall", "-Wextra", "-pedantic"]
 # instruction, not a call that may set errno) nor -fno-trapping-math (selects may be computed as blends)
 # changes a result. Any C99 compiler builds the sources without them (fmpy compile does), only slower.
 OPTIMISATION_FLAGS = ["-O3", "-fno-math-errno", "-fno-trapping-math"]
-UNITS = ["N", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg"]
+UNITS = ["N", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg", "m/s", "m/s2", "W"]
 __all__ = ["DEFAULT_SCENE", "MODELS_DIR", "SCENE_DIR", "SOURCE_DIR", "Scene", "build_core_library", "build_fmu",
            "main"]
 
@@ -86,8 +87,11 @@ def generate_header(interface: Interface, guid: str) -> str:
         f"#define LATTICE_ROWS {interface.rows}",
         f"#define LATTICE_COLS {interface.cols}",
         f"#define N_VALUE_REFERENCES {sum(v.count for v in interface.exposed)}",
+        f"#define N_CONTINUOUS_STATES {sum(v.count for v in interface.exposed if v.role == STATE)}",
+        f"#define N_EVENT_INDICATORS {interface.event_indicator_count()}",
         "#define CAUSALITY_PARAMETER 0",
         "#define CAUSALITY_OUTPUT 1",
+        "#define CAUSALITY_LOCAL 2",
         "",
         "typedef struct {",
         "    const char *name;",
@@ -97,6 +101,7 @@ def generate_header(interface: Interface, guid: str) -> str:
         "    int minimum_exclusive;",
         "    int array_size; /* elements from here to the end of its array (1 for a scalar) */",
         "    const char *allowed;",
+        "    int state, derivative, indicator; /* index in the contract's vectors (model.h), or -1 */",
         "} VariableInfo;",
         "",
     ]
@@ -104,16 +109,24 @@ def generate_header(interface: Interface, guid: str) -> str:
         lines.append(f"#define VR_{variable.c_name} {interface.value_references[variable.name]}")
     lines.append("")
     rows = []
+    state_offsets = interface.state_offsets()
+    indicator_offset = 0
     for variable in interface.exposed:
         type_code = "MODEL_TYPE_REAL" if variable.type == REAL else "MODEL_TYPE_INTEGER"
-        causality = "CAUSALITY_OUTPUT" if variable.causality == "output" else "CAUSALITY_PARAMETER"
+        causality = {"output": "CAUSALITY_OUTPUT", "parameter": "CAUSALITY_PARAMETER"}.get(variable.causality,
+                                                                                            "CAUSALITY_LOCAL")
+        state = state_offsets[variable.name] if variable.role == STATE else -1
+        derivative = state_offsets[variable.derivative_of] if variable.role == DERIVATIVE else -1
+        indicator = indicator_offset if variable.role == INDICATOR else -1
+        indicator_offset += variable.count if variable.role == INDICATOR else 0
         low = "-INFINITY" if variable.minimum is None else repr(float(variable.minimum))
         high = "INFINITY" if variable.maximum is None else repr(float(variable.maximum))
         for index, (name, start) in enumerate(zip(variable.element_names(), variable.element_starts())):
             start_text = "0.0" if start is None else repr(float(start))
+            indexes = ", ".join(str(base + index if base >= 0 else -1) for base in (state, derivative, indicator))
             rows.append(f'    {{"{name}", {type_code}, {causality}, {start_text}, {low}, {high}, '
                         f'{int(variable.minimum_exclusive)}, {variable.count - index}, '
-                        f'"{variable.allowed_text()}"}}')
+                        f'"{variable.allowed_text()}", {indexes}}}')
     lines.append("static const VariableInfo VARIABLES[N_VALUE_REFERENCES] = {")
     lines.append(",\n".join(rows))
     lines.append("};")
@@ -143,18 +156,25 @@ def generate_header(interface: Interface, guid: str) -> str:
 
 
 def generate_model_description(interface: Interface, identifier: str, guid: str, scene: Scene) -> str:
-    """modelDescription.xml (FMI 2.0 co-simulation) from the same table as the header."""
-    variables_xml, outputs = [], []
-    index = 0
+    """modelDescription.xml (FMI 2.0, Model Exchange and Co-Simulation) from the same table as the header."""
+    variables_xml, outputs, derivatives, initial_unknowns = [], [], [], []
+    state_offsets = interface.state_offsets()
+    first_index, index = {}, 0  # ScalarVariable index (1-based) of each variable's first element
+    for variable in interface.exposed:
+        first_index[variable.name] = index + 1
+        index += variable.count
     for variable in interface.exposed:
         vr = interface.value_references[variable.name]
         for offset, (name, start) in enumerate(zip(variable.element_names(), variable.element_starts())):
-            index += 1
+            index = first_index[variable.name] + offset
+            variability = "continuous" if variable.type == REAL else "discrete"
             if variable.causality == "parameter":
                 attributes = 'causality="parameter" variability="fixed"'
             else:
-                variability = "continuous" if variable.type == REAL else "discrete"
-                attributes = f'causality="output" variability="{variability}" initial="calculated"'
+                attributes = f'causality="{variable.causality}" variability="{variability}" initial="calculated"'
+                if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
+                    initial_unknowns.append(index)
+            if variable.causality == "output":
                 outputs.append(index)
             type_attributes = []
             if variable.causality == "parameter":
@@ -167,6 +187,9 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
             if variable.maximum is not None:
                 high = int(variable.maximum) if variable.type == INTEGER else repr(float(variable.maximum))
                 type_attributes.append(f'max="{high}"')
+            if variable.role == DERIVATIVE:
+                type_attributes.append(f'derivative="{first_index[variable.derivative_of] + offset}"')
+                derivatives.append((state_offsets[variable.derivative_of] + offset, index))
             variables_xml.append(
                 f'    <ScalarVariable name={quoteattr(name)} valueReference="{vr + offset}" {attributes}\n'
                 f"      description={quoteattr(variable.description)}>\n"
@@ -174,8 +197,13 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
                 f"    </ScalarVariable>")
     sources = "\n".join(f'      <File name="{name}"/>' for name in C_SOURCES)
     units = "\n".join(f"    <Unit name={quoteattr(unit)}/>" for unit in UNITS)
-    unknowns = "\n".join(f'      <Unknown index="{i}"/>' for i in outputs)
-    description = scene.description or f"{interface.rows} x {interface.cols} mass-spring lattice (shared/SPEC.md)"
+    outputs_xml = "\n".join(f'      <Unknown index="{i}"/>' for i in outputs)
+    # the order of <Derivatives> is the order of the continuous states (lattice.h's layout)
+    derivatives_xml = "\n".join(f'      <Unknown index="{i}"/>' for _, i in sorted(derivatives))
+    initial_xml = "\n".join(f'      <Unknown index="{i}"/>' for i in sorted(initial_unknowns))
+    description = scene.description or f"{interface.rows} x {interface.cols} mass-spring lattice"
+    capabilities = ('canGetAndSetFMUstate="true"\n    canSerializeFMUstate="true"\n'
+                    '    canNotUseMemoryManagementFunctions="true"')
     return f"""<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription
   fmiVersion="2.0"
@@ -184,13 +212,19 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
   description={quoteattr(description)}
   generationTool="build_fmu.py"
   variableNamingConvention="structured"
-  numberOfEventIndicators="0">
+  numberOfEventIndicators="{interface.event_indicator_count()}">
+  <ModelExchange
+    modelIdentifier="{identifier}"
+    completedIntegratorStepNotNeeded="false"
+    {capabilities}>
+    <SourceFiles>
+{sources}
+    </SourceFiles>
+  </ModelExchange>
   <CoSimulation
     modelIdentifier="{identifier}"
     canHandleVariableCommunicationStepSize="true"
-    canGetAndSetFMUstate="true"
-    canSerializeFMUstate="true"
-    canNotUseMemoryManagementFunctions="true">
+    {capabilities}>
     <SourceFiles>
 {sources}
     </SourceFiles>
@@ -208,10 +242,13 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
   </ModelVariables>
   <ModelStructure>
     <Outputs>
-{unknowns}
+{outputs_xml}
     </Outputs>
+    <Derivatives>
+{derivatives_xml}
+    </Derivatives>
     <InitialUnknowns>
-{unknowns}
+{initial_xml}
     </InitialUnknowns>
   </ModelStructure>
 </fmiModelDescription>

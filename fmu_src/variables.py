@@ -12,6 +12,12 @@ from dataclasses import dataclass, field, replace
 REAL = "Real"
 INTEGER = "Integer"
 
+# Roles in the continuous-time contract (fmu_src/lattice/model.h), what Model Exchange declares as its
+# states, their derivatives and its event indicators.
+STATE, DERIVATIVE, INDICATOR = "state", "derivative", "indicator"
+# The continuous state vector in lattice.h's layout: displacements, velocities, the three energy integrals.
+STATE_ORDER = ("ux", "uy", "vx", "vy", "external_work", "dissipated_energy", "nonreciprocal_work")
+
 
 @dataclass(frozen=True)
 class Variable:
@@ -28,10 +34,13 @@ class Variable:
     minimum_exclusive: bool = False  # the C check refuses the minimum itself (rtol > 0, alpha > 0)
     size: int | None = None  # None: a scalar
     allowed: str | None = None  # how the C error message states the allowed values, when not a plain range
+    shape: tuple[int, ...] | None = None  # an array's dimensions when it has more than one (rows, columns)
+    role: str | None = None  # STATE, DERIVATIVE or INDICATOR: the continuous-time contract (model.h)
+    derivative_of: str | None = None  # a DERIVATIVE's state
 
     @property
     def c_name(self) -> str:
-        return self.name.upper()
+        return self.name.replace("der(", "der_").rstrip(")").upper()
 
     @property
     def count(self) -> int:
@@ -40,7 +49,13 @@ class Variable:
     def element_names(self) -> list[str]:
         if self.size is None:
             return [self.name]
-        return [f"{self.name}[{index}]" for index in range(1, self.size + 1)]
+        if self.shape and len(self.shape) == 2:  # row-major, as lattice.h lays out the masses
+            subscripts = [f"[{row},{col}]" for row in range(1, self.shape[0] + 1) for col in range(1, self.shape[1] + 1)]
+        else:
+            subscripts = [f"[{index}]" for index in range(1, self.size + 1)]
+        if self.derivative_of:  # der(ux[1,1]), as FMI's structured naming convention writes a derivative
+            return [f"der({self.derivative_of}{subscript})" for subscript in subscripts]
+        return [f"{self.name}{subscript}" for subscript in subscripts]
 
     def element_starts(self) -> list:
         if self.start is None:
@@ -143,20 +158,30 @@ def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] 
         # outputs
         Variable("backplate_force", REAL, "output", "Force on the backplate", unit="N"),
         Variable("peak_backplate_force", REAL, "output",
-                 "Maximum backplate force over the samples every peak_sample_interval so far", unit="N"),
+                 "Maximum backplate force over the samples every peak_sample_interval so far. Model Exchange: "
+                 "over the sample times at which the importer completed a step or handled an event (the FMU "
+                 "sees no other points; an importer that stops on the sample grid, as fmpy does on its output "
+                 "grid, gives the study's sampled peak to its own accuracy)", unit="N"),
         Variable("peak_backplate_force_continuous", REAL, "output",
-                 "Maximum backplate force over the continuous solution so far", unit="N"),
+                 "Maximum backplate force over the continuous solution so far. Model Exchange: over every point "
+                 "at which the importer completed a step or handled an event, which can miss the maximum "
+                 "between them", unit="N"),
         Variable("peak_time", REAL, "output", "Time of peak_backplate_force_continuous", unit="s"),
         Variable("last_contact_time", REAL, "output",
                  "Latest time any column-C mass touched the backplate (0 if none has): a search over a short "
-                 "horizon is safe only if this is well before the horizon", unit="s"),
+                 "horizon is safe only if this is well before the horizon. Model Exchange: over the points the "
+                 "importer completed, contact ends located as events", unit="s"),
         Variable("kinetic_energy", REAL, "output", "Kinetic energy", unit="J"),
         Variable("potential_energy", REAL, "output", "Potential energy of the springs and the backplate",
                  unit="J"),
-        Variable("external_work", REAL, "output", "Work done by the load", unit="J"),
-        Variable("dissipated_energy", REAL, "output", "Energy taken out by the dampers", unit="J"),
+        Variable("external_work", REAL, "output",
+                 "Work done by the load (a continuous state: Model Exchange integrates it with the lattice)",
+                 unit="J", role=STATE),
+        Variable("dissipated_energy", REAL, "output", "Energy taken out by the dampers (a continuous state)",
+                 unit="J", role=STATE),
         Variable("nonreciprocal_work", REAL, "output",
-                 "Work of the unequal part of diagonal pairs (receiver rule)", unit="J"),
+                 "Work of the unequal part of diagonal pairs (receiver rule; a continuous state)", unit="J",
+                 role=STATE),
         Variable("energy_balance_error", REAL, "output",
                  "external_work + nonreciprocal_work - kinetic - potential - dissipated", unit="J"),
     ]
@@ -165,9 +190,44 @@ def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] 
             variables.append(Variable(f"u{axis}_{place}", REAL, "output",
                                       f"Displacement {axis} of the mass at row {row}, column {col}", unit="m"))
     variables += [
-        Variable("rhs_evaluations", INTEGER, "output", "Right-hand-side evaluations so far"),
-        Variable("steps_accepted", INTEGER, "output", "Accepted solver steps so far"),
-        Variable("steps_rejected", INTEGER, "output", "Rejected solver steps so far"),
+        Variable("rhs_evaluations", INTEGER, "output",
+                 "Right-hand-side evaluations so far (Model Exchange: derivative evaluations the importer asked "
+                 "for)"),
+        Variable("steps_accepted", INTEGER, "output",
+                 "Accepted solver steps so far (Model Exchange: the importer's completed steps and events)"),
+        Variable("steps_rejected", INTEGER, "output",
+                 "Rejected solver steps so far (Model Exchange: the importer does not tell the FMU, stays 0)"),
+    ]
+    return variables + continuous_time_variables(rows, cols)
+
+
+def continuous_time_variables(rows: int, cols: int) -> list[Variable]:
+    """The continuous states, their derivatives and the event indicators (model.h's contract), as variables.
+
+    Model Exchange needs them declared; Co-Simulation answers them too (at the communication point).
+    """
+    masses, shape = rows * cols, (rows, cols)
+    variables = []
+    for name, what, unit in (("ux", "Displacement x", "m"), ("uy", "Displacement y", "m"),
+                             ("vx", "Velocity x", "m/s"), ("vy", "Velocity y", "m/s")):
+        variables.append(Variable(name, REAL, "local", f"{what} of each mass [row, column] (a continuous state)",
+                                  unit=unit, size=masses, shape=shape, role=STATE))
+    for name, what, unit in (("ux", "Velocity x", "m/s"), ("uy", "Velocity y", "m/s"),
+                             ("vx", "Acceleration x", "m/s2"), ("vy", "Acceleration y", "m/s2")):
+        variables.append(Variable(f"der({name})", REAL, "local", f"{what} of each mass [row, column]", unit=unit,
+                                  size=masses, shape=shape, role=DERIVATIVE, derivative_of=name))
+    for name, what in (("external_work", "Power of the load"), ("dissipated_energy", "Power of the dampers"),
+                       ("nonreciprocal_work", "Power of the unequal part of diagonal pairs")):
+        variables.append(Variable(f"der({name})", REAL, "local", what, unit="W", role=DERIVATIVE,
+                                  derivative_of=name))
+    variables += [
+        Variable("contact_indicator", REAL, "local",
+                 "Event indicator of each row's column-C mass touching the backplate: ux - backplate_gap "
+                 "(> 0 in contact)", unit="m", size=rows, role=INDICATOR),
+        Variable("damping_indicator", REAL, "local",
+                 "Event indicator of each row's backplate damper: vx while in contact (> 0: approaching, the "
+                 "damper acts); off the plate the damper cannot switch and this repeats contact_indicator",
+                 size=rows, role=INDICATOR),
     ]
     return variables
 
@@ -181,6 +241,18 @@ class Interface:
     exposed: list[Variable]
     fixed: list[Variable]  # parameters the scene does not expose; their start is compiled in
     value_references: dict[str, int] = field(default_factory=dict)  # first element's vr, by variable name
+
+    def state_offsets(self) -> dict[str, int]:
+        """Where each state variable starts in the continuous state vector (STATE_ORDER, lattice.h's layout)."""
+        sizes = {v.name: v.count for v in self.exposed if v.role == STATE}
+        offsets, offset = {}, 0
+        for name in STATE_ORDER:
+            offsets[name] = offset
+            offset += sizes[name]
+        return offsets
+
+    def event_indicator_count(self) -> int:
+        return sum(v.count for v in self.exposed if v.role == INDICATOR)
 
 
 def make_interface(rows: int, cols: int, parameters: dict | None = None,
@@ -201,11 +273,18 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None,
             if variable.size is not None and len(variable.element_starts()) != variable.size:
                 raise ValueError(f"parameter {variable.name}: expected {variable.size} values")
         (fixed if variable.name in hidden else exposed).append(variable)
+    if not _has_backplate(exposed + fixed):  # no backplate: nothing switches, so no event indicators
+        exposed = [variable for variable in exposed if variable.role != INDICATOR]
     value_references, next_vr = {}, 0
     for variable in exposed:  # reals and integers share one numbering: unique across types, as FMI 3 needs
         value_references[variable.name] = next_vr
         next_vr += variable.count
     return Interface(rows, cols, exposed, fixed, value_references)
+
+
+def _has_backplate(variables: list[Variable]) -> bool:
+    """False only when has_backplate is compiled in (or defaults) as 0; an exposed one may be switched on."""
+    return next(v.start for v in variables if v.name == "has_backplate") != 0
 
 
 def c_literal(variable: Variable, value) -> str:

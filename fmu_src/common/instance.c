@@ -132,13 +132,23 @@ static const char *check_saved_state(unsigned int magic, const unsigned char *by
     if (header.checksum != crc32_of(bytes + CHECKSUM_START, size - CHECKSUM_START)) {
         return "the state is corrupt: its checksum does not match its bytes";
     }
-    if (header.state < STATE_INSTANTIATED || header.state > STATE_STEP_STOPPED ||
+    if (header.state < STATE_INSTANTIATED || header.state > STATE_CONTINUOUS_TIME ||
         (header.stop_time_defined != 0 && header.stop_time_defined != 1) || header.reserved != 0) {
         return "the state is corrupt: its instance fields are out of range";
     }
     memcpy(scratch, bytes + sizeof(header), model_size());
     if (model_check(scratch, reason, reason_size)) return reason;
     return NULL;
+}
+
+/* Whether a saved state's place in the state machine belongs to the instance's interface (step mode is
+ * Co-Simulation's, event and continuous-time mode Model Exchange's). */
+static int fits_interface(const InstanceCommon *common, const unsigned char *bytes) {
+    SavedHeader header;
+    memcpy(&header, bytes, sizeof(header));
+    if (header.state == STATE_STEP) return !common->model_exchange;
+    if (header.state == STATE_EVENT_MODE || header.state == STATE_CONTINUOUS_TIME) return common->model_exchange;
+    return 1;
 }
 
 /* Copies a checked state into the instance (the model's bytes from `model`, already checked). */
@@ -166,6 +176,10 @@ const char *instance_set_state(InstanceCommon *common, unsigned int magic, const
     if (!scratch) return "out of memory";
     failure = check_saved_state(magic, (const unsigned char *)state, instance_saved_size(), scratch, common->reason,
                                 sizeof(common->reason));
+    if (!failure && !fits_interface(common, (const unsigned char *)state)) {
+        failure = common->model_exchange ? "a Co-Simulation state cannot be set into a Model Exchange instance"
+                                         : "a Model Exchange state cannot be set into a Co-Simulation instance";
+    }
     if (!failure) restore(common, (const unsigned char *)state, scratch);
     free(scratch);
     return failure;
@@ -207,7 +221,11 @@ int instance_initialize(InstanceCommon *common, char *message, size_t message_si
         common->state = STATE_ERROR;
         return -1;
     }
-    common->state = STATE_STEP;
+    if (common->model_exchange && model_exchange_begin(common->model, message, message_size)) {
+        common->state = STATE_ERROR;
+        return -1;
+    }
+    common->state = common->model_exchange ? STATE_EVENT_MODE : STATE_STEP;
     return 0;
 }
 

@@ -8,20 +8,23 @@
 #include "../lattice/model.h"
 
 /* STATE_STEP is FMI 2's step-complete state and FMI 3's step mode; STATE_STEP_STOPPED is FMI 2's step-failed
- * state after the model stopped at peak_force_limit (outputs valid, only terminate, reset or free next). */
+ * state after the model stopped at peak_force_limit (outputs valid, only terminate, reset or free next)
+ * (Co-Simulation); STATE_EVENT_MODE and STATE_CONTINUOUS_TIME are Model Exchange's. */
 typedef enum {
     STATE_INSTANTIATED,
     STATE_INITIALIZATION_MODE,
     STATE_STEP,
     STATE_TERMINATED,
     STATE_ERROR,
-    STATE_STEP_STOPPED /* the last: instance.c's state check takes it as the upper bound */
+    STATE_STEP_STOPPED,
+    STATE_EVENT_MODE,
+    STATE_CONTINUOUS_TIME /* the last: instance.c's state check takes it as the upper bound */
 } InstanceState;
 
 #define IN(state) (1u << (state))
 #define ANY_STATE                                                                                       \
     (IN(STATE_INSTANTIATED) | IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP) | IN(STATE_TERMINATED) | \
-     IN(STATE_STEP_STOPPED))
+     IN(STATE_STEP_STOPPED) | IN(STATE_EVENT_MODE) | IN(STATE_CONTINUOUS_TIME))
 
 #define INSTANCE_REASON_SIZE 512
 
@@ -32,6 +35,7 @@ typedef struct {
     double start_time, stop_time;
     int stop_time_defined;
     char reason[INSTANCE_REASON_SIZE]; /* why the last FMU-state call failed, when the reason is not a constant */
+    int model_exchange; /* instantiated for Model Exchange (the model's contract, model.h), else Co-Simulation */
 } InstanceCommon;
 
 /* Instantiation (fmi2Instantiate, fmi3InstantiateCoSimulation): 0 when the importer's token is this binary's,
@@ -65,7 +69,7 @@ const char *instance_deserialize_state(InstanceCommon *common, unsigned int magi
                                        size_t size, void **state);
 
 /* fmi2ExitInitializationMode, fmi3ExitInitializationMode: initialises the model and enters the step state
- * (FMI 3 co-simulation without event mode goes straight to step mode);
+ * (FMI 3 co-simulation without event mode goes straight to step mode), or Model Exchange's event mode;
  * on failure -1 and why, and the instance is in the error state. */
 int instance_initialize(InstanceCommon *common, char *message, size_t message_size);
 

@@ -1,7 +1,10 @@
-/* FMI 2.0 co-simulation glue: the FMI state machine, logging and FMU states over the model API.
+/* FMI 2.0 glue, Co-Simulation and Model Exchange: the FMI state machine, logging and FMU states over the
+ * model API.
  *
  * It knows nothing of springs: every model question goes through lattice/model.h, as the Reference FMUs
- * keep one shared FMI layer beside each model's own folder.
+ * keep one shared FMI layer beside each model's own folder. Model Exchange hands the importer the model's
+ * continuous-time contract (states, derivatives, event indicators, event update); Co-Simulation lets the
+ * model integrate that same contract itself.
  */
 #include <stdarg.h>
 #include <stdio.h>
@@ -40,13 +43,20 @@ static fmi2Status error(Instance *instance, const char *function, const char *me
     return fmi2Error;
 }
 
-/* Refuses calls the FMI 2.0 state machine does not allow in the current state. */
+/* Refuses calls the FMI 2.0 state machine does not allow in the current state, naming that state. */
 static int allowed(Instance *instance, const char *function, unsigned int states) {
+    static const char *names[] = {"instantiated", "initialization mode", "step complete", "terminated", "error",
+                                  "step failed", "event mode", "continuous-time mode"}; /* by InstanceState */
+    char message[MESSAGE_SIZE];
     if (!instance) return 0;
     if (states & (1u << instance->common.state)) return 1;
-    error(instance, function, instance->common.state == STATE_ERROR
-                                  ? "the instance is in the error state: only fmi2Reset and fmi2FreeInstance are allowed"
-                                  : "not allowed in the current state of the instance");
+    if (instance->common.state == STATE_ERROR) {
+        error(instance, function, "the instance is in the error state: only fmi2Reset and fmi2FreeInstance are allowed");
+        return 0;
+    }
+    snprintf(message, sizeof(message), "not allowed in the current state of the instance (%s, %s)",
+             instance->common.model_exchange ? "Model Exchange" : "Co-Simulation", names[instance->common.state]);
+    error(instance, function, message);
     return 0;
 }
 
@@ -75,8 +85,8 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     probe.logger = functions ? functions->logger : NULL;
     probe.environment = functions ? functions->componentEnvironment : NULL;
     probe.common.instance_name = (char *)(instanceName ? instanceName : "");
-    if (fmuType != fmi2CoSimulation) {
-        error(&probe, "fmi2Instantiate", "this FMU supports co-simulation only (fmuType must be fmi2CoSimulation)");
+    if (fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) {
+        error(&probe, "fmi2Instantiate", "fmuType must be fmi2ModelExchange or fmi2CoSimulation");
         return NULL;
     }
     if (instance_check_token(fmuGUID, "GUID", message, sizeof(message))) {
@@ -89,6 +99,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         free(instance);
         return NULL;
     }
+    instance->common.model_exchange = fmuType == fmi2ModelExchange;
     instance->logger = probe.logger;
     instance->environment = probe.environment;
     instance->logging_on = loggingOn;
@@ -133,7 +144,10 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
 
 fmi2Status fmi2Terminate(fmi2Component c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi2Terminate", IN(STATE_STEP) | IN(STATE_STEP_STOPPED))) return fmi2Error;
+    if (!allowed(instance, "fmi2Terminate",
+                 IN(STATE_STEP) | IN(STATE_STEP_STOPPED) | IN(STATE_EVENT_MODE) | IN(STATE_CONTINUOUS_TIME))) {
+        return fmi2Error;
+    }
     instance->common.state = STATE_TERMINATED;
     return fmi2OK;
 }
@@ -366,4 +380,122 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
     (void)s;
     (void)value;
     return error((Instance *)c, "fmi2GetStringStatus", "not provided by this FMU");
+}
+
+/* Model Exchange: the importer integrates the model's contract (lattice/model.h). */
+#define ME_STATES (IN(STATE_EVENT_MODE) | IN(STATE_CONTINUOUS_TIME))
+#define ME_STATES_AND_AFTER (ME_STATES | IN(STATE_TERMINATED))
+
+/* A model call that may refuse: its reason is logged and the call returns fmi2Error. */
+static fmi2Status model_outcome(Instance *instance, const char *function, int failed, const char *message) {
+    return failed ? error(instance, function, message) : fmi2OK;
+}
+
+fmi2Status fmi2EnterEventMode(fmi2Component c) {
+    Instance *instance = (Instance *)c;
+    if (!allowed(instance, "fmi2EnterEventMode", ME_STATES)) return fmi2Error;
+    instance->common.state = STATE_EVENT_MODE;
+    return fmi2OK;
+}
+
+fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
+    Instance *instance = (Instance *)c;
+    int changed, next_defined = 0;
+    double next_time = 0.0;
+    if (!allowed(instance, "fmi2NewDiscreteStates", IN(STATE_EVENT_MODE))) return fmi2Error;
+    if (!eventInfo) return error(instance, "fmi2NewDiscreteStates", "eventInfo is NULL");
+    model_event_update(instance->common.model, &changed, &next_defined, &next_time);
+    /* one update reaches the new modes (they follow from the state, the load from the time): no iteration */
+    eventInfo->newDiscreteStatesNeeded = fmi2False;
+    eventInfo->terminateSimulation = fmi2False;
+    eventInfo->nominalsOfContinuousStatesChanged = fmi2False;
+    eventInfo->valuesOfContinuousStatesChanged = fmi2False; /* the states never jump: only forces switch */
+    eventInfo->nextEventTimeDefined = next_defined ? fmi2True : fmi2False;
+    eventInfo->nextEventTime = next_time;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
+    Instance *instance = (Instance *)c;
+    if (!allowed(instance, "fmi2EnterContinuousTimeMode", IN(STATE_EVENT_MODE))) return fmi2Error;
+    instance->common.state = STATE_CONTINUOUS_TIME;
+    return fmi2OK;
+}
+
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation) {
+    Instance *instance = (Instance *)c;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (!allowed(instance, "fmi2CompletedIntegratorStep", IN(STATE_CONTINUOUS_TIME))) return fmi2Error;
+    model_completed_point(instance->common.model);
+    if (enterEventMode) *enterEventMode = fmi2False; /* every switch is a state or time event */
+    if (terminateSimulation) *terminateSimulation = fmi2False;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi2SetTime", ME_STATES)) return fmi2Error;
+    if (!(time >= instance->common.start_time)) {
+        snprintf(message, sizeof(message), "time %.17g is before the start time %.17g", time,
+                 instance->common.start_time);
+        return error(instance, "fmi2SetTime", message);
+    }
+    model_set_time(instance->common.model, time);
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi2SetContinuousStates", IN(STATE_CONTINUOUS_TIME))) return fmi2Error;
+    if (!x) return error(instance, "fmi2SetContinuousStates", "x is NULL");
+    return model_outcome(instance, "fmi2SetContinuousStates",
+                         model_set_states(instance->common.model, x, nx, message, sizeof(message)), message);
+}
+
+fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi2GetDerivatives", ME_STATES_AND_AFTER)) return fmi2Error;
+    if (!derivatives) return error(instance, "fmi2GetDerivatives", "derivatives is NULL");
+    return model_outcome(instance, "fmi2GetDerivatives",
+                         model_get_derivatives(instance->common.model, derivatives, nx, message, sizeof(message)),
+                         message);
+}
+
+fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi2GetEventIndicators", ME_STATES_AND_AFTER)) return fmi2Error;
+    if (!eventIndicators && ni > 0) return error(instance, "fmi2GetEventIndicators", "eventIndicators is NULL");
+    return model_outcome(instance, "fmi2GetEventIndicators",
+                         model_get_event_indicators(instance->common.model, eventIndicators, ni, message,
+                                                    sizeof(message)),
+                         message);
+}
+
+fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi2GetContinuousStates", ME_STATES_AND_AFTER)) return fmi2Error;
+    if (!x) return error(instance, "fmi2GetContinuousStates", "x is NULL");
+    return model_outcome(instance, "fmi2GetContinuousStates",
+                         model_get_states(instance->common.model, x, nx, message, sizeof(message)), message);
+}
+
+fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    if (!allowed(instance, "fmi2GetNominalsOfContinuousStates", ANY_STATE)) return fmi2Error;
+    if (!x_nominal) return error(instance, "fmi2GetNominalsOfContinuousStates", "x_nominal is NULL");
+    if (nx != (size_t)model_state_count()) {
+        snprintf(message, sizeof(message), "%lu nominals asked for, but this FMU has %d continuous states",
+                 (unsigned long)nx, model_state_count());
+        return error(instance, "fmi2GetNominalsOfContinuousStates", message);
+    }
+    for (i = 0; i < nx; i++) x_nominal[i] = 1.0;
+    return fmi2OK;
 }

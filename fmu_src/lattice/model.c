@@ -49,6 +49,14 @@
 #define MAX_SAMPLES_PER_DO_STEP 10000000.0
 #define MAX_STEPS_PER_DO_STEP 200000L
 
+/* The contract's event indicators (model.h): each row's contact, then each row's damping. */
+#define CONTACT_INDICATOR(row) (row)
+#define DAMPING_INDICATOR(row) (LATTICE_ROWS + (row))
+#define LAST_COLUMN_MASS(row) ((row) * LATTICE_COLS + LATTICE_COLS - 1)
+
+/* The generated variable table declares as many continuous states as the lattice has. */
+typedef char state_count_matches_the_variable_table[N_CONTINUOUS_STATES == N_STATE ? 1 : -1];
+
 struct Model {
     double real[N_VALUE_REFERENCES];
     int integer[N_VALUE_REFERENCES];
@@ -72,17 +80,64 @@ struct Model {
     double last_contact_time; /* latest time a column-C mass was in contact with the backplate */
     double initial_energy;    /* potential energy of the start state (a negative gap presses from t = 0) */
     int stalled_steps;        /* consecutive steps cut back to (almost) nothing by backplate switches */
-    double output_state[N_STATE];
+    double output_state[N_STATE]; /* the state at the model's time (Model Exchange: the importer's) */
+    double derivative[N_STATE];   /* its derivatives, when derivative_valid */
+    int derivative_valid;
+    int exchange;       /* Model Exchange: the importer integrates output_state (model_exchange_begin) */
+    int outputs_stale;  /* Model Exchange: the outputs still describe an earlier state */
+    long exchange_evaluations, exchange_points; /* derivative evaluations and completed points (ME) */
     double work[SOLVER_WORKSPACE_SIZE(N_STATE)];
 };
 
 const char *model_guid(void) { return MODEL_GUID; }
 size_t model_size(void) { return sizeof(Model); }
 
-static void model_rhs(void *context, int phase, const double *y, double *dydt) {
-    const Model *m = (const Model *)context;
-    lattice_rhs(&m->params, phase, m->wall_mode, y, dydt);
+/* The contract's derivatives under the model's discrete states (the load phase given, the backplate modes
+ * frozen): the one right-hand side of both interfaces. */
+static void derivatives(const Model *m, int load_on, const double *y, double *dydt) {
+    lattice_rhs(&m->params, load_on, m->wall_mode, y, dydt);
 }
+
+static void model_rhs(void *context, int phase, const double *y, double *dydt) {
+    derivatives((const Model *)context, phase, y, dydt);
+}
+
+/* Event indicator k of the contract is state component *component minus *threshold (model.h). */
+static void indicator_definition(const Model *m, int k, int *component, double *threshold) {
+    const int row = k < LATTICE_ROWS ? k : k - LATTICE_ROWS;
+    if (k >= LATTICE_ROWS && m->wall_mode[row] != WALL_FREE) {
+        *component = 2 * N_MASSES + LAST_COLUMN_MASS(row); /* vx */
+        *threshold = 0.0;
+    } else {
+        *component = LAST_COLUMN_MASS(row); /* ux */
+        *threshold = m->params.backplate_gap;
+    }
+}
+
+static double indicator_value(const Model *m, int k, const double *y) {
+    int component;
+    double threshold;
+    indicator_definition(m, k, &component, &threshold);
+    return y[component] - threshold;
+}
+
+/* The modes SPEC section 5 gives the column-C masses in state y: what an event switches them to. */
+static void wall_modes_of(const Model *m, const double *y, signed char *modes) {
+    int i;
+    for (i = 0; i < LATTICE_ROWS; i++) {
+        const int mass = LAST_COLUMN_MASS(i);
+        modes[i] = (signed char)lattice_wall_mode(&m->params, y[mass], y[2 * N_MASSES + mass]);
+    }
+}
+
+/* The contract's time event: the load switches off at t_active (it acts for 0 <= t <= t_active). */
+static int next_time_event(const Model *m, double *time) {
+    if (!m->load_on) return 0;
+    *time = m->params.load_duration;
+    return 1;
+}
+
+static int load_switches_off(const Model *m, double time) { return m->load_on && time >= m->params.load_duration; }
 
 Model *model_new(void) {
     Model *m = (Model *)calloc(1, sizeof(Model));
@@ -119,8 +174,10 @@ static int check_reference(unsigned int vr, int type, int setting, int initializ
                  type_names[type], type_names[VARIABLES[vr].type]);
         return -1;
     }
-    if (setting && VARIABLES[vr].causality == CAUSALITY_OUTPUT) {
-        snprintf(message, message_size, "%s is an output and cannot be set", VARIABLES[vr].name);
+    if (setting && VARIABLES[vr].causality != CAUSALITY_PARAMETER) {
+        snprintf(message, message_size, "%s is %s and cannot be set%s", VARIABLES[vr].name,
+                 VARIABLES[vr].causality == CAUSALITY_OUTPUT ? "an output" : "a local variable",
+                 VARIABLES[vr].state >= 0 ? " (Model Exchange sets the continuous states as a whole)" : "");
         return -1;
     }
     if (setting && initialized) {
@@ -157,14 +214,38 @@ int model_set_integer(Model *m, unsigned int vr, int value, char *message, size_
     return 0;
 }
 
-int model_get_real(const Model *m, unsigned int vr, double *value, char *message, size_t message_size) {
+static void update_exchange_outputs(Model *m);
+
+static void update_derivatives(Model *m) {
+    if (m->derivative_valid) return;
+    derivatives(m, m->load_on, m->output_state, m->derivative);
+    m->derivative_valid = 1;
+}
+
+int model_get_real(Model *m, unsigned int vr, double *value, char *message, size_t message_size) {
+    const VariableInfo *v;
     if (check_reference(vr, MODEL_TYPE_REAL, 0, 0, message, message_size)) return -1;
-    *value = m->real[vr];
+    v = &VARIABLES[vr];
+    if (m->exchange && m->outputs_stale) update_exchange_outputs(m);
+    if (v->state >= 0) {
+        *value = m->output_state[v->state];
+    } else if (v->derivative >= 0 || v->indicator >= 0) {
+        *value = 0.0; /* calculated at initialisation: nothing to say before */
+        if (m->initialized && v->derivative >= 0) {
+            update_derivatives(m);
+            *value = m->derivative[v->derivative];
+        } else if (m->initialized) {
+            *value = indicator_value(m, v->indicator, m->output_state);
+        }
+    } else {
+        *value = m->real[vr];
+    }
     return 0;
 }
 
-int model_get_integer(const Model *m, unsigned int vr, int *value, char *message, size_t message_size) {
+int model_get_integer(Model *m, unsigned int vr, int *value, char *message, size_t message_size) {
     if (check_reference(vr, MODEL_TYPE_INTEGER, 0, 0, message, message_size)) return -1;
+    if (m->exchange && m->outputs_stale) update_exchange_outputs(m);
     *value = m->integer[vr];
     return 0;
 }
@@ -374,14 +455,13 @@ static void process_step(Model *m, double t_target) {
     }
 }
 
+static void update_state_outputs(Model *m, const double *y);
+
 static void update_outputs(Model *m, double t_target) {
     const Solver *s = &m->solver;
     double *y = m->output_state;
-    double kinetic, potential, peak = m->peak_continuous, peak_time = m->peak_continuous_time;
+    double peak = m->peak_continuous, peak_time = m->peak_continuous_time;
     int i;
-    static const int plotted_x[] = {VR_UX_CORNER, VR_UX_LEFT_EDGE, VR_UX_CENTRE, VR_UX_RIGHT_EDGE};
-    static const int plotted_y[] = {VR_UY_CORNER, VR_UY_LEFT_EDGE, VR_UY_CENTRE, VR_UY_RIGHT_EDGE};
-    static const int plotted_mass[] = {MASS_CORNER, MASS_LEFT_EDGE, MASS_CENTRE, MASS_RIGHT_EDGE};
 
     for (i = 0; i < N_STATE; i++) y[i] = state_component(m, i, t_target);
     if (s->steps_accepted > 0 && m->step_peak_known && !m->step_peak_committed) {
@@ -393,12 +473,25 @@ static void update_outputs(Model *m, double t_target) {
             peak_time = partial_time;
         }
     }
-    lattice_energies(&m->params, y, &kinetic, &potential);
-    m->real[VR_BACKPLATE_FORCE] = lattice_backplate_force(&m->params, y);
     m->real[VR_PEAK_BACKPLATE_FORCE] = m->peak_sampled;
     m->real[VR_PEAK_BACKPLATE_FORCE_CONTINUOUS] = peak;
     m->real[VR_PEAK_TIME] = peak_time;
     m->real[VR_LAST_CONTACT_TIME] = fmin(m->last_contact_time, t_target);
+    update_state_outputs(m, y);
+    m->integer[VR_RHS_EVALUATIONS] = (int)s->rhs_evaluations;
+    m->integer[VR_STEPS_ACCEPTED] = (int)s->steps_accepted;
+    m->integer[VR_STEPS_REJECTED] = (int)s->steps_rejected;
+}
+
+/* The outputs that are functions of the state alone: the same in both interfaces. */
+static void update_state_outputs(Model *m, const double *y) {
+    static const int plotted_x[] = {VR_UX_CORNER, VR_UX_LEFT_EDGE, VR_UX_CENTRE, VR_UX_RIGHT_EDGE};
+    static const int plotted_y[] = {VR_UY_CORNER, VR_UY_LEFT_EDGE, VR_UY_CENTRE, VR_UY_RIGHT_EDGE};
+    static const int plotted_mass[] = {MASS_CORNER, MASS_LEFT_EDGE, MASS_CENTRE, MASS_RIGHT_EDGE};
+    double kinetic, potential;
+    int i;
+    lattice_energies(&m->params, y, &kinetic, &potential);
+    m->real[VR_BACKPLATE_FORCE] = lattice_backplate_force(&m->params, y);
     m->real[VR_KINETIC_ENERGY] = kinetic;
     m->real[VR_POTENTIAL_ENERGY] = potential;
     m->real[VR_EXTERNAL_WORK] = y[INDEX_EXTERNAL_WORK];
@@ -410,9 +503,6 @@ static void update_outputs(Model *m, double t_target) {
         m->real[plotted_x[i]] = y[plotted_mass[i]];
         m->real[plotted_y[i]] = y[N_MASSES + plotted_mass[i]];
     }
-    m->integer[VR_RHS_EVALUATIONS] = (int)s->rhs_evaluations;
-    m->integer[VR_STEPS_ACCEPTED] = (int)s->steps_accepted;
-    m->integer[VR_STEPS_REJECTED] = (int)s->steps_rejected;
 }
 
 /* No column-C mass in contact with the backplate (always so without one). */
@@ -425,19 +515,16 @@ static int wall_free(const Model *m) {
 }
 
 /* The modes SPEC gives the column-C masses in the state at the end of the last step. */
-static void wall_modes_of_state(const Model *m, signed char *modes) {
-    const double *y = solver_state(m->work);
-    int i;
-    for (i = 0; i < LATTICE_ROWS; i++) {
-        const int mass = i * LATTICE_COLS + LATTICE_COLS - 1;
-        modes[i] = (signed char)lattice_wall_mode(&m->params, y[mass], y[2 * N_MASSES + mass]);
-    }
-}
+static void wall_modes_of_state(const Model *m, signed char *modes) { wall_modes_of(m, solver_state(m->work), modes); }
 
-/* Where inside the last step a switching function (component minus offset) takes the sign it has at
- * the step's end: bisection on the dense output, returning the end of the bracket that already has it. */
-static double locate_switch(Model *m, int component, double offset) {
+/* Where inside the last step event indicator k (the contract's, under the step's frozen modes) takes the
+ * sign it has at the step's end: bisection on the dense output of its component, returning the end of the
+ * bracket that already has it. */
+static double locate_switch(Model *m, int k) {
     const Solver *s = &m->solver;
+    int component;
+    double offset;
+    indicator_definition(m, k, &component, &offset);
     const int positive_at_end = solver_state(m->work)[component] - offset > 0.0;
     double low = s->t_old, high = s->t;
     int i;
@@ -464,14 +551,13 @@ static int handle_wall_events(Model *m) {
     if (!changed) return 0;
     solver_prepare_dense(s, m->work, model_rhs, m); /* in the step's own modes, before they change */
     for (i = 0; i < LATTICE_ROWS; i++) {
-        const int mass = i * LATTICE_COLS + LATTICE_COLS - 1;
         const int contact_before = m->wall_mode[i] != WALL_FREE, contact_after = at_end[i] != WALL_FREE;
         if (at_end[i] == m->wall_mode[i]) continue;
         if (contact_before != contact_after) {
-            earliest = fmin(earliest, locate_switch(m, mass, m->params.backplate_gap));
+            earliest = fmin(earliest, locate_switch(m, CONTACT_INDICATOR(i)));
         }
         if (contact_before && (m->wall_mode[i] == WALL_APPROACHING) != (at_end[i] == WALL_APPROACHING)) {
-            earliest = fmin(earliest, locate_switch(m, 2 * N_MASSES + mass, 0.0));
+            earliest = fmin(earliest, locate_switch(m, DAMPING_INDICATOR(i)));
         }
     }
     /* A fixed-step solver takes a switch within MIN_EVENT_FRACTION of its step's start at the step's end
@@ -628,7 +714,7 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         const int free_before = wall_free(m);
         int cut_by_event;
         double t_limit = INFINITY;
-        if (m->load_on) t_limit = m->params.load_duration;
+        next_time_event(m, &t_limit);
         if (m->stop_time_defined) t_limit = fmin(t_limit, m->stop_time);
         if (s->steps_accepted + s->steps_rejected - steps_before >= MAX_STEPS_PER_DO_STEP) {
             snprintf(reason, sizeof(reason),
@@ -656,7 +742,7 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
             return fail(m, reason, message, message_size);
         }
         if (check_divergence(m, message, message_size)) return -1;
-        if (m->load_on && s->t >= m->params.load_duration) {
+        if (load_switches_off(m, s->t)) {
             /* the dense output of this step belongs to the loaded phase: take it before the switch */
             solver_prepare_dense(s, m->work, model_rhs, m);
             m->load_on = 0;
@@ -675,6 +761,7 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
     }
     update_outputs(m, t_target);
     m->time = t_target;
+    m->derivative_valid = 0;
     return 0;
 }
 
@@ -718,6 +805,15 @@ int model_check(const Model *m, char *message, size_t message_size) {
     /* the solver is at or ahead of the communication time, and the next sample lies between them (samples
      * are bounded per doStep only from the communication time on) */
     interval = PARAM_PEAK_SAMPLE_INTERVAL(m);
+    if (m->exchange != 0 && m->exchange != 1) {
+        snprintf(message, message_size, "the state is corrupt: its interface flag is %d", m->exchange);
+        return -1;
+    }
+    if (m->exchange) { /* Model Exchange: the importer sets the time; the model's solver stays at the start */
+        if (m->time >= 0.0 && m->time <= DBL_MAX) return 0;
+        snprintf(message, message_size, "the state is corrupt: its time %g s is not allowed", m->time);
+        return -1;
+    }
     if (!(m->time >= 0.0 && m->time <= s->t && s->t <= DBL_MAX) ||
         !((double)m->next_sample >= m->time / interval - 2.0 && (double)m->next_sample <= s->t / interval + 2.0)) {
         snprintf(message, message_size, "the state is corrupt: its times are inconsistent (communication time %g s, "
@@ -736,4 +832,124 @@ int model_check(const Model *m, char *message, size_t message_size) {
         }
     }
     return 0;
+}
+/* ---- Model Exchange: the contract handed to the importer's solver (model.h) ---- */
+
+int model_state_count(void) { return N_STATE; }
+int model_event_indicator_count(void) { return N_EVENT_INDICATORS; }
+
+static int check_count(const char *what, size_t given, int expected, char *message, size_t message_size) {
+    if (given == (size_t)expected) return 0;
+    snprintf(message, message_size, "%lu %s given, but this FMU has %d", (unsigned long)given, what, expected);
+    return -1;
+}
+
+/* A point the importer has reached with its solver: what the peaks and the last contact are taken over. */
+static void record_point(Model *m) {
+    const double *y = m->output_state;
+    const double force = lattice_backplate_force(&m->params, y);
+    const double interval = PARAM_PEAK_SAMPLE_INTERVAL(m), samples = m->time / interval;
+    signed char modes[LATTICE_ROWS];
+    int i, contact = 0;
+    if (fabs(samples - floor(samples + 0.5)) <= SAMPLE_TIME_SLACK && force > m->peak_sampled) m->peak_sampled = force;
+    commit_continuous(m, force, m->time);
+    wall_modes_of(m, y, modes);
+    for (i = 0; i < LATTICE_ROWS; i++) contact = contact || modes[i] != WALL_FREE || m->wall_mode[i] != WALL_FREE;
+    if (contact) m->last_contact_time = m->time;
+    m->outputs_stale = 1;
+}
+
+static void update_exchange_outputs(Model *m) {
+    m->real[VR_PEAK_BACKPLATE_FORCE] = m->peak_sampled;
+    m->real[VR_PEAK_BACKPLATE_FORCE_CONTINUOUS] = m->peak_continuous;
+    m->real[VR_PEAK_TIME] = m->peak_continuous_time;
+    m->real[VR_LAST_CONTACT_TIME] = m->last_contact_time;
+    update_state_outputs(m, m->output_state);
+    m->integer[VR_RHS_EVALUATIONS] = (int)m->exchange_evaluations;
+    m->integer[VR_STEPS_ACCEPTED] = (int)m->exchange_points;
+    m->integer[VR_STEPS_REJECTED] = 0; /* the importer's solver does not tell */
+    m->outputs_stale = 0;
+}
+
+int model_exchange_begin(Model *m, char *message, size_t message_size) {
+    if (!m->initialized || m->exchange) {
+        snprintf(message, message_size, "Model Exchange begins once, right after initialisation");
+        return -1;
+    }
+    /* output_state holds the start state; the co-simulation bookkeeping of initialisation starts afresh */
+    m->exchange = 1;
+    m->peak_sampled = 0.0;
+    m->peak_continuous = 0.0;
+    m->peak_continuous_time = m->time;
+    m->last_contact_time = 0.0;
+    m->derivative_valid = 0;
+    record_point(m);
+    return 0;
+}
+
+void model_set_time(Model *m, double time) {
+    m->time = time;
+    m->outputs_stale = 1;
+}
+
+int model_get_states(const Model *m, double *x, size_t n, char *message, size_t message_size) {
+    if (check_count("continuous states", n, N_STATE, message, message_size)) return -1;
+    memcpy(x, m->output_state, sizeof(m->output_state));
+    return 0;
+}
+
+int model_set_states(Model *m, const double *x, size_t n, char *message, size_t message_size) {
+    int i;
+    if (check_count("continuous states", n, N_STATE, message, message_size)) return -1;
+    for (i = 0; i < N_STATE; i++) {
+        if (!isfinite(x[i])) {
+            snprintf(message, message_size, "continuous state %d is %g: the states must be finite", i, x[i]);
+            return -1;
+        }
+    }
+    memcpy(m->output_state, x, sizeof(m->output_state));
+    m->derivative_valid = 0;
+    m->outputs_stale = 1;
+    return 0;
+}
+
+int model_get_derivatives(Model *m, double *dx, size_t n, char *message, size_t message_size) {
+    if (check_count("derivatives", n, N_STATE, message, message_size)) return -1;
+    if (!m->derivative_valid) m->exchange_evaluations++;
+    update_derivatives(m);
+    memcpy(dx, m->derivative, sizeof(m->derivative));
+    m->outputs_stale = 1;
+    return 0;
+}
+
+int model_get_event_indicators(const Model *m, double *z, size_t n, char *message, size_t message_size) {
+    int k;
+    if (check_count("event indicators", n, N_EVENT_INDICATORS, message, message_size)) return -1;
+    for (k = 0; k < N_EVENT_INDICATORS; k++) z[k] = indicator_value(m, k, m->output_state);
+    return 0;
+}
+
+void model_event_update(Model *m, int *changed, int *next_event_time_defined, double *next_event_time) {
+    signed char modes[LATTICE_ROWS];
+    int i;
+    record_point(m); /* the point the event happens at, before anything switches */
+    *changed = 0;
+    if (m->params.has_backplate) {
+        wall_modes_of(m, m->output_state, modes);
+        for (i = 0; i < LATTICE_ROWS; i++) {
+            *changed = *changed || modes[i] != m->wall_mode[i];
+            m->wall_mode[i] = modes[i];
+        }
+    }
+    if (load_switches_off(m, m->time)) {
+        m->load_on = 0;
+        *changed = 1;
+    }
+    *next_event_time_defined = next_time_event(m, next_event_time);
+    if (*changed) m->derivative_valid = 0;
+}
+
+void model_completed_point(Model *m) {
+    m->exchange_points++;
+    record_point(m);
 }

@@ -24,8 +24,9 @@ void model_reset(Model *m);
 /* Setters refuse outputs, unknown references, out-of-range values, and parameters after initialisation. */
 int model_set_real(Model *m, unsigned int vr, double value, char *message, size_t message_size);
 int model_set_integer(Model *m, unsigned int vr, int value, char *message, size_t message_size);
-int model_get_real(const Model *m, unsigned int vr, double *value, char *message, size_t message_size);
-int model_get_integer(const Model *m, unsigned int vr, int *value, char *message, size_t message_size);
+/* Getters: Model Exchange's outputs and every variable's derivatives are computed here when first asked for. */
+int model_get_real(Model *m, unsigned int vr, double *value, char *message, size_t message_size);
+int model_get_integer(Model *m, unsigned int vr, int *value, char *message, size_t message_size);
 
 /* Number of elements of the variable at vr (FMI 3 arrays), or 0 when vr is unknown. */
 int model_variable_count(unsigned int vr);
@@ -51,6 +52,39 @@ int model_has_failed(const Model *m);
  * every field that sizes or indexes memory (state size, lattice size, solver, modes) this build's; else -1 and
  * why. The model must be a properly aligned copy (model_size() bytes). */
 int model_check(const Model *m, char *message, size_t message_size);
+/* The continuous-time contract, as the Reference FMUs' model.h has it (getContinuousStates,
+ * getDerivatives, getEventIndicators, eventUpdate). Model Exchange hands it to the importer's solver; the
+ * Co-Simulation driver (model_advance) integrates the same derivatives with its own solver and locates the
+ * same event indicators on its dense output, so the two interfaces cannot drift.
+ *
+ * Continuous states (model_state_count): the lattice's displacements and velocities and its three energy
+ *   integrals (external work, dissipation, non-reciprocal work), in lattice.h's layout.
+ * Discrete states, changed only by model_event_update: whether the load acts (a time event at t_active)
+ *   and each column-C mass's backplate mode (free, receding, approaching).
+ * Event indicators (model_event_indicator_count; none without a backplate): each row's contact,
+ *   ux - backplate_gap (> 0 in contact), then each row's damping, vx while in contact (> 0 the damper acts);
+ *   off the plate the damper cannot switch, so the damping indicator repeats the contact one.
+ *
+ * Model Exchange runs between model_initialize and a reset; every call checks its sizes and says why it
+ * refuses. */
+int model_state_count(void);
+int model_event_indicator_count(void);
+
+/* From here on the importer integrates: the model holds the state it is given instead of advancing. */
+int model_exchange_begin(Model *m, char *message, size_t message_size);
+void model_set_time(Model *m, double time);
+int model_get_states(const Model *m, double *x, size_t n, char *message, size_t message_size);
+int model_set_states(Model *m, const double *x, size_t n, char *message, size_t message_size);
+int model_get_derivatives(Model *m, double *dx, size_t n, char *message, size_t message_size);
+int model_get_event_indicators(const Model *m, double *z, size_t n, char *message, size_t message_size);
+
+/* Event mode at the current time and state: switches the load off at t_active and the backplate modes to
+ * those of the state; says whether the discrete states changed and when the next time event is. */
+void model_event_update(Model *m, int *changed, int *next_event_time_defined, double *next_event_time);
+
+/* The importer completed a step or reached an event: the peaks and the last contact over the points it
+ * shows the model (the only ones the model sees). */
+void model_completed_point(Model *m);
 
 /* 1 once the run stopped at peak_force_limit (FMI's "terminated" status), else 0. */
 int model_terminated(const Model *m);
