@@ -1,10 +1,11 @@
-"""FMI 3.0 co-simulation: modelDescription.xml and sources/buildDescription.xml from the one variable table.
+"""FMI 3.0 (Model Exchange and Co-Simulation): modelDescription.xml and sources/buildDescription.xml from the one
+variable table.
 
 `python build_fmu.py --fmi-version 3` calls in here; everything else (the C header model_variables.h, the
 model's C code, compiling, zipping) is shared with FMI 2. The differences from FMI 2:
 
 - an array is one variable: `material` is an Int32 variable with `<Dimension start="11"/>` and the value
-  reference of its first element; Real becomes Float64 and Integer becomes Int32. Scalars keep their FMI 2
+  reference of its first element (the states `ux`, ... are 11 x 11 arrays, `der(ux)` their derivatives); Real becomes Float64 and Integer becomes Int32. Scalars keep their FMI 2
   names and value references, so a caller that knows one FMU knows the other.
 - a Float64 variable's unit comes from a declared type in <TypeDefinitions>, named after the unit.
 - FMI 3 wants exactly one independent variable: `time`, with the first value reference past the model's
@@ -21,7 +22,7 @@ from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 from fmu_src import MODEL_HEADERS, MODEL_SOURCES
-from fmu_src.variables import INTEGER, REAL, Interface, Variable, c_literal
+from fmu_src.variables import DERIVATIVE, INDICATOR, INTEGER, REAL, STATE, Interface, Variable, c_literal
 
 C_SOURCES = ["fmi3/fmi3_glue.c"] + MODEL_SOURCES
 C_HEADERS = ["include/fmi3Functions.h", "include/fmi3FunctionTypes.h", "include/fmi3PlatformTypes.h"] + MODEL_HEADERS
@@ -56,7 +57,7 @@ def _number(variable: Variable, value) -> str:
     return str(int(value)) if variable.type == INTEGER else repr(float(value))
 
 
-def _variable_xml(variable: Variable, vr: int) -> str:
+def _variable_xml(variable: Variable, vr: int, state_vr: int | None = None) -> str:
     attributes = [f"name={quoteattr(variable.name)}", f'valueReference="{vr}"']
     if variable.causality == "parameter":
         attributes += ['causality="parameter"', 'variability="fixed"']
@@ -64,7 +65,9 @@ def _variable_xml(variable: Variable, vr: int) -> str:
         attributes.append(f'start="{starts}"')
     else:
         variability = "continuous" if variable.type == REAL else "discrete"
-        attributes += ['causality="output"', f'variability="{variability}"', 'initial="calculated"']
+        attributes += [f'causality="{variable.causality}"', f'variability="{variability}"', 'initial="calculated"']
+    if state_vr is not None:
+        attributes.append(f'derivative="{state_vr}"')
     attributes.append(f"description={quoteattr(variable.description)}")
     if variable.unit and variable.type == REAL:  # FMI 3 integers have no unit
         attributes.append(f"declaredType={quoteattr(variable.unit)}")
@@ -76,26 +79,38 @@ def _variable_xml(variable: Variable, vr: int) -> str:
     head = f"    <{tag} " + "\n      ".join(attributes)
     if variable.size is None:
         return head + "/>"
-    return f'{head}>\n      <Dimension start="{variable.size}"/>\n    </{tag}>'
+    dimensions = "".join(f'\n      <Dimension start="{size}"/>' for size in (variable.shape or (variable.size,)))
+    return f'{head}>{dimensions}\n    </{tag}>'
 
 
 def generate_model_description(interface: Interface, identifier: str, token: str, scene, units: list[str]) -> str:
-    """modelDescription.xml (FMI 3.0 co-simulation) from the same table as the header and the FMI 2 XML."""
-    variables_xml, outputs = [], []
+    """modelDescription.xml (FMI 3.0, Model Exchange and Co-Simulation) from the same table as the header and the
+    FMI 2 XML."""
+    variables_xml, outputs, initial_unknowns, derivatives, indicators = [], [], [], [], []
+    references = interface.value_references
     for variable in interface.exposed:
-        vr = interface.value_references[variable.name]
-        variables_xml.append(_variable_xml(variable, vr))
+        vr = references[variable.name]
+        derivative_of = references[variable.derivative_of] if variable.role == DERIVATIVE else None
+        variables_xml.append(_variable_xml(variable, vr, derivative_of))
         if variable.causality == "output":
             outputs.append(vr)
+        if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
+            initial_unknowns.append(vr)
+        if variable.role == DERIVATIVE:  # in the order of the continuous states (lattice.h's layout)
+            derivatives.append((interface.state_offsets()[variable.derivative_of], vr))
+        if variable.role == INDICATOR:
+            indicators.append(vr)
     time_vr = sum(v.count for v in interface.exposed)
     variables_xml.append(f'    <Float64 name="time" valueReference="{time_vr}" causality="independent" '
                          f'variability="continuous" declaredType="s" description="Simulation time"/>')
     units_xml = "\n".join(f"    <Unit name={quoteattr(unit)}/>" for unit in units)
     used = [unit for unit in units if unit == "s" or any(v.unit == unit and v.type == REAL for v in interface.exposed)]
     types_xml = "\n".join(f"    <Float64Type name={quoteattr(unit)} unit={quoteattr(unit)}/>" for unit in used)
-    structure = "\n".join(f'    <Output valueReference="{vr}"/>' for vr in outputs) + "\n" + "\n".join(
-        f'    <InitialUnknown valueReference="{vr}"/>' for vr in outputs)
-    description = scene.description or f"{interface.rows} x {interface.cols} mass-spring lattice (shared/SPEC.md)"
+    structure = "\n".join([f'    <Output valueReference="{vr}"/>' for vr in outputs]
+                          + [f'    <ContinuousStateDerivative valueReference="{vr}"/>' for _, vr in sorted(derivatives)]
+                          + [f'    <InitialUnknown valueReference="{vr}"/>' for vr in initial_unknowns]
+                          + [f'    <EventIndicator valueReference="{vr}"/>' for vr in indicators])
+    description = scene.description or f"{interface.rows} x {interface.cols} mass-spring lattice"
     return f"""<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription
   fmiVersion="3.0"
@@ -104,6 +119,11 @@ def generate_model_description(interface: Interface, identifier: str, token: str
   description={quoteattr(description)}
   generationTool="build_fmu.py"
   variableNamingConvention="structured">
+  <ModelExchange
+    modelIdentifier="{identifier}"
+    needsCompletedIntegratorStep="true"
+    canGetAndSetFMUState="true"
+    canSerializeFMUState="true"/>
   <CoSimulation
     modelIdentifier="{identifier}"
     canHandleVariableCommunicationStepSize="true"

@@ -1,7 +1,8 @@
-/* FMI 3.0 co-simulation glue: the FMI 3 state machine, arrays, logging and FMU states over the model API.
+/* FMI 3.0 glue, Co-Simulation and Model Exchange: the FMI 3 state machine, arrays, logging and FMU states over
+ * the model API.
  *
- * Like fmi2/fmi2_glue.c it knows nothing of springs: every model question goes through lattice/model.h.
- * What FMI 3 adds here:
+ * Like fmi2/fmi2_glue.c it knows nothing of springs: every model question goes through lattice/model.h
+ * (Model Exchange hands the importer the model's continuous-time contract). What FMI 3 adds here:
  * - arrays are variables: `material` is one Int32 variable whose value reference is that of its first
  *   element; model_variable_count(vr) says how many values a get or set of vr moves. Value references in
  *   the middle of an array are not variables of the FMU and are refused.
@@ -47,13 +48,20 @@ static fmi3Status error(Instance *instance, const char *function, const char *me
 }
 
 
-/* Refuses calls the FMI 3.0 state machine does not allow in the current state. */
+/* Refuses calls the FMI 3.0 state machine does not allow in the current state, naming that state. */
 static int allowed(Instance *instance, const char *function, unsigned int states) {
+    static const char *names[] = {"instantiated", "initialization mode", "step mode", "terminated", "error",
+                                  "step mode, stopped", "event mode", "continuous-time mode"}; /* by InstanceState */
+    char message[MESSAGE_SIZE];
     if (!instance) return 0;
     if (states & (1u << instance->common.state)) return 1;
-    error(instance, function, instance->common.state == STATE_ERROR
-                                  ? "the instance is in the error state: only fmi3Reset and fmi3FreeInstance are allowed"
-                                  : "not allowed in the current state of the instance");
+    if (instance->common.state == STATE_ERROR) {
+        error(instance, function, "the instance is in the error state: only fmi3Reset and fmi3FreeInstance are allowed");
+        return 0;
+    }
+    snprintf(message, sizeof(message), "not allowed in the current state of the instance (%s, %s)",
+             instance->common.model_exchange ? "Model Exchange" : "Co-Simulation", names[instance->common.state]);
+    error(instance, function, message);
     return 0;
 }
 
@@ -117,21 +125,41 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean loggingOn, size_t nCa
     return fmi3OK;
 }
 
-fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
-                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
-                                          fmi3InstanceEnvironment instanceEnvironment,
-                                          fmi3LogMessageCallback logMessage) {
-    Instance probe;
-    (void)instantiationToken;
-    (void)resourcePath;
-    (void)visible;
-    (void)loggingOn;
+/* A new instance after the token check, or NULL (the reason logged through the importer's logger). */
+static Instance *instantiate(const char *function, fmi3String instanceName, fmi3String instantiationToken,
+                             fmi3Boolean loggingOn, fmi3InstanceEnvironment instanceEnvironment,
+                             fmi3LogMessageCallback logMessage, int model_exchange) {
+    Instance probe, *instance;
+    char message[MESSAGE_SIZE];
     memset(&probe, 0, sizeof(probe));
     probe.logger = logMessage;
     probe.environment = instanceEnvironment;
     probe.common.instance_name = (char *)(instanceName ? instanceName : "");
-    error(&probe, "fmi3InstantiateModelExchange", "this FMU supports co-simulation only");
-    return NULL;
+    if (instance_check_token(instantiationToken, "instantiation token", message, sizeof(message))) {
+        error(&probe, function, message);
+        return NULL;
+    }
+    instance = (Instance *)calloc(1, sizeof(Instance));
+    if (!instance) return NULL;
+    if (instance_open(&instance->common, probe.common.instance_name)) {
+        free(instance);
+        return NULL;
+    }
+    instance->common.model_exchange = model_exchange;
+    instance->logger = probe.logger;
+    instance->environment = probe.environment;
+    instance->logging_on = loggingOn;
+    return instance;
+}
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
+                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                          fmi3InstanceEnvironment instanceEnvironment,
+                                          fmi3LogMessageCallback logMessage) {
+    (void)resourcePath;
+    (void)visible;
+    return instantiate("fmi3InstantiateModelExchange", instanceName, instantiationToken, loggingOn,
+                       instanceEnvironment, logMessage, 1);
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
@@ -142,35 +170,24 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
                                          fmi3InstanceEnvironment instanceEnvironment,
                                          fmi3LogMessageCallback logMessage,
                                          fmi3IntermediateUpdateCallback intermediateUpdate) {
-    Instance probe, *instance;
-    char message[MESSAGE_SIZE];
     (void)resourcePath;
     (void)visible;
     (void)requiredIntermediateVariables;
     (void)nRequiredIntermediateVariables;
     (void)intermediateUpdate;
-    memset(&probe, 0, sizeof(probe));
-    probe.logger = logMessage;
-    probe.environment = instanceEnvironment;
-    probe.common.instance_name = (char *)(instanceName ? instanceName : "");
+    Instance *instance;
     if (eventModeUsed) {
+        Instance probe;
+        memset(&probe, 0, sizeof(probe));
+        probe.logger = logMessage;
+        probe.environment = instanceEnvironment;
+        probe.common.instance_name = (char *)(instanceName ? instanceName : "");
         error(&probe, "fmi3InstantiateCoSimulation", "this FMU has no event mode (hasEventMode=\"false\")");
         return NULL;
     }
-    if (instance_check_token(instantiationToken, "instantiation token", message, sizeof(message))) {
-        error(&probe, "fmi3InstantiateCoSimulation", message);
-        return NULL;
-    }
-    instance = (Instance *)calloc(1, sizeof(Instance));
-    if (!instance) return NULL;
-    if (instance_open(&instance->common, probe.common.instance_name)) {
-        free(instance);
-        return NULL;
-    }
-    instance->logger = probe.logger;
-    instance->environment = probe.environment;
-    instance->logging_on = loggingOn;
-    instance->early_return_allowed = earlyReturnAllowed;
+    instance = instantiate("fmi3InstantiateCoSimulation", instanceName, instantiationToken, loggingOn,
+                           instanceEnvironment, logMessage, 0);
+    if (instance) instance->early_return_allowed = earlyReturnAllowed;
     return instance;
 }
 
@@ -181,11 +198,20 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3Stri
                                                fmi3ClockUpdateCallback clockUpdate,
                                                fmi3LockPreemptionCallback lockPreemption,
                                                fmi3UnlockPreemptionCallback unlockPreemption) {
+    Instance probe;
+    (void)instantiationToken;
+    (void)resourcePath;
+    (void)visible;
+    (void)loggingOn;
     (void)clockUpdate;
     (void)lockPreemption;
     (void)unlockPreemption;
-    return fmi3InstantiateModelExchange(instanceName, instantiationToken, resourcePath, visible, loggingOn,
-                                        instanceEnvironment, logMessage);
+    memset(&probe, 0, sizeof(probe));
+    probe.logger = logMessage;
+    probe.environment = instanceEnvironment;
+    probe.common.instance_name = (char *)(instanceName ? instanceName : "");
+    error(&probe, "fmi3InstantiateScheduledExecution", "this FMU supports Model Exchange and Co-Simulation only");
+    return NULL;
 }
 
 void fmi3FreeInstance(fmi3Instance c) {
@@ -218,13 +244,20 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
     return fmi3OK;
 }
 
+/* Event mode is Model Exchange's only (the co-simulation interface has hasEventMode="false"). */
+#define ME_STATES (IN(STATE_EVENT_MODE) | IN(STATE_CONTINUOUS_TIME))
+#define ME_STATES_AND_AFTER (ME_STATES | IN(STATE_TERMINATED))
+
 fmi3Status fmi3EnterEventMode(fmi3Instance c) {
-    return error((Instance *)c, "fmi3EnterEventMode", "this FMU has no event mode");
+    Instance *instance = (Instance *)c;
+    if (!allowed(instance, "fmi3EnterEventMode", ME_STATES)) return fmi3Error;
+    instance->common.state = STATE_EVENT_MODE;
+    return fmi3OK;
 }
 
 fmi3Status fmi3Terminate(fmi3Instance c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi3Terminate", IN(STATE_STEP) | IN(STATE_STEP_STOPPED))) return fmi3Error;
+    if (!allowed(instance, "fmi3Terminate", IN(STATE_STEP) | IN(STATE_STEP_STOPPED) | ME_STATES)) return fmi3Error;
     instance->common.state = STATE_TERMINATED;
     return fmi3OK;
 }
@@ -566,81 +599,137 @@ fmi3Status fmi3SetShiftFraction(fmi3Instance c, const fmi3ValueReference vr[], s
 }
 
 fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance c) {
-    return error((Instance *)c, "fmi3EvaluateDiscreteStates", "this FMU has no event mode");
+    return error((Instance *)c, "fmi3EvaluateDiscreteStates", "this FMU has no clocks");
 }
 
 fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesNeedUpdate,
                                     fmi3Boolean *terminateSimulation, fmi3Boolean *nominalsOfContinuousStatesChanged,
                                     fmi3Boolean *valuesOfContinuousStatesChanged, fmi3Boolean *nextEventTimeDefined,
                                     fmi3Float64 *nextEventTime) {
-    (void)discreteStatesNeedUpdate;
-    (void)terminateSimulation;
-    (void)nominalsOfContinuousStatesChanged;
-    (void)valuesOfContinuousStatesChanged;
-    (void)nextEventTimeDefined;
-    (void)nextEventTime;
-    return error((Instance *)c, "fmi3UpdateDiscreteStates", "this FMU has no event mode");
+    Instance *instance = (Instance *)c;
+    int changed, next_defined = 0;
+    double next_time = 0.0;
+    if (!allowed(instance, "fmi3UpdateDiscreteStates", IN(STATE_EVENT_MODE))) return fmi3Error;
+    model_event_update(instance->common.model, &changed, &next_defined, &next_time);
+    /* one update reaches the new modes (they follow from the state, the load from the time): no iteration;
+     * the states never jump, only forces switch */
+    if (discreteStatesNeedUpdate) *discreteStatesNeedUpdate = fmi3False;
+    if (terminateSimulation) *terminateSimulation = fmi3False;
+    if (nominalsOfContinuousStatesChanged) *nominalsOfContinuousStatesChanged = fmi3False;
+    if (valuesOfContinuousStatesChanged) *valuesOfContinuousStatesChanged = fmi3False;
+    if (nextEventTimeDefined) *nextEventTimeDefined = next_defined ? fmi3True : fmi3False;
+    if (nextEventTime) *nextEventTime = next_time;
+    return fmi3OK;
 }
 
-/* Model exchange: not provided (instantiation already refuses it). */
+/* Model Exchange: the importer integrates the model's contract (lattice/model.h). */
+static fmi3Status model_outcome(Instance *instance, const char *function, int failed, const char *message) {
+    return failed ? error(instance, function, message) : fmi3OK;
+}
+
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c) {
-    return error((Instance *)c, "fmi3EnterContinuousTimeMode", "this FMU supports co-simulation only");
+    Instance *instance = (Instance *)c;
+    if (!allowed(instance, "fmi3EnterContinuousTimeMode", IN(STATE_EVENT_MODE))) return fmi3Error;
+    instance->common.state = STATE_CONTINUOUS_TIME;
+    return fmi3OK;
 }
 
 fmi3Status fmi3CompletedIntegratorStep(fmi3Instance c, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation) {
+    Instance *instance = (Instance *)c;
     (void)noSetFMUStatePriorToCurrentPoint;
-    (void)enterEventMode;
-    (void)terminateSimulation;
-    return error((Instance *)c, "fmi3CompletedIntegratorStep", "this FMU supports co-simulation only");
+    if (!allowed(instance, "fmi3CompletedIntegratorStep", IN(STATE_CONTINUOUS_TIME))) return fmi3Error;
+    model_completed_point(instance->common.model);
+    if (enterEventMode) *enterEventMode = fmi3False; /* every switch is a state or time event */
+    if (terminateSimulation) *terminateSimulation = fmi3False;
+    return fmi3OK;
 }
 
 fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 time) {
-    (void)time;
-    return error((Instance *)c, "fmi3SetTime", "this FMU supports co-simulation only");
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi3SetTime", ME_STATES)) return fmi3Error;
+    if (!(time >= instance->common.start_time)) {
+        snprintf(message, sizeof(message), "time %.17g is before the start time %.17g", time,
+                 instance->common.start_time);
+        return error(instance, "fmi3SetTime", message);
+    }
+    model_set_time(instance->common.model, time);
+    return fmi3OK;
 }
 
 fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 continuousStates[], size_t nContinuousStates) {
-    (void)continuousStates;
-    (void)nContinuousStates;
-    return error((Instance *)c, "fmi3SetContinuousStates", "this FMU supports co-simulation only");
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi3SetContinuousStates", IN(STATE_CONTINUOUS_TIME))) return fmi3Error;
+    if (!continuousStates) return error(instance, "fmi3SetContinuousStates", "continuousStates is NULL");
+    return model_outcome(instance, "fmi3SetContinuousStates",
+                         model_set_states(instance->common.model, continuousStates, nContinuousStates, message,
+                                          sizeof(message)),
+                         message);
 }
 
 fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 derivatives[], size_t nContinuousStates) {
-    (void)derivatives;
-    (void)nContinuousStates;
-    return error((Instance *)c, "fmi3GetContinuousStateDerivatives", "this FMU supports co-simulation only");
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi3GetContinuousStateDerivatives", ME_STATES_AND_AFTER)) return fmi3Error;
+    if (!derivatives) return error(instance, "fmi3GetContinuousStateDerivatives", "derivatives is NULL");
+    return model_outcome(instance, "fmi3GetContinuousStateDerivatives",
+                         model_get_derivatives(instance->common.model, derivatives, nContinuousStates, message,
+                                               sizeof(message)),
+                         message);
 }
 
 fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 eventIndicators[], size_t nEventIndicators) {
-    (void)eventIndicators;
-    (void)nEventIndicators;
-    return error((Instance *)c, "fmi3GetEventIndicators", "this FMU supports co-simulation only");
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi3GetEventIndicators", ME_STATES_AND_AFTER)) return fmi3Error;
+    if (!eventIndicators && nEventIndicators > 0) {
+        return error(instance, "fmi3GetEventIndicators", "eventIndicators is NULL");
+    }
+    return model_outcome(instance, "fmi3GetEventIndicators",
+                         model_get_event_indicators(instance->common.model, eventIndicators, nEventIndicators,
+                                                    message, sizeof(message)),
+                         message);
 }
 
 fmi3Status fmi3GetContinuousStates(fmi3Instance c, fmi3Float64 continuousStates[], size_t nContinuousStates) {
-    (void)continuousStates;
-    (void)nContinuousStates;
-    return error((Instance *)c, "fmi3GetContinuousStates", "this FMU supports co-simulation only");
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    if (!allowed(instance, "fmi3GetContinuousStates", ME_STATES_AND_AFTER)) return fmi3Error;
+    if (!continuousStates) return error(instance, "fmi3GetContinuousStates", "continuousStates is NULL");
+    return model_outcome(instance, "fmi3GetContinuousStates",
+                         model_get_states(instance->common.model, continuousStates, nContinuousStates, message,
+                                          sizeof(message)),
+                         message);
 }
 
 fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Float64 nominals[], size_t nContinuousStates) {
-    (void)nominals;
-    (void)nContinuousStates;
-    return error((Instance *)c, "fmi3GetNominalsOfContinuousStates", "this FMU supports co-simulation only");
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    if (!allowed(instance, "fmi3GetNominalsOfContinuousStates", ANY_STATE)) return fmi3Error;
+    if (!nominals) return error(instance, "fmi3GetNominalsOfContinuousStates", "nominals is NULL");
+    if (nContinuousStates != (size_t)model_state_count()) {
+        snprintf(message, sizeof(message), "%lu nominals asked for, but this FMU has %d continuous states",
+                 (unsigned long)nContinuousStates, model_state_count());
+        return error(instance, "fmi3GetNominalsOfContinuousStates", message);
+    }
+    for (i = 0; i < nContinuousStates; i++) nominals[i] = 1.0;
+    return fmi3OK;
 }
 
 fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *nEventIndicators) {
     Instance *instance = (Instance *)c;
     if (!instance) return fmi3Error;
-    *nEventIndicators = 0;
+    *nEventIndicators = (size_t)model_event_indicator_count();
     return fmi3OK;
 }
 
 fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *nContinuousStates) {
     Instance *instance = (Instance *)c;
     if (!instance) return fmi3Error;
-    *nContinuousStates = 0; /* none that an importer integrates: the FMU integrates its own state */
+    *nContinuousStates = (size_t)model_state_count();
     return fmi3OK;
 }
 
@@ -697,5 +786,5 @@ fmi3Status fmi3ActivateModelPartition(fmi3Instance c, fmi3ValueReference clockRe
                                       fmi3Float64 activationTime) {
     (void)clockReference;
     (void)activationTime;
-    return error((Instance *)c, "fmi3ActivateModelPartition", "this FMU supports co-simulation only");
+    return error((Instance *)c, "fmi3ActivateModelPartition", "this FMU has no scheduled execution");
 }
