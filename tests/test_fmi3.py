@@ -83,7 +83,7 @@ def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path
     description = read_model_description(str(fmu3_path))
     fmi3 = {v.name: v for v in description.modelVariables}
     assert description.fmiVersion == "3.0"
-    assert description.coSimulation is not None and description.modelExchange is None
+    assert description.coSimulation is not None and description.modelExchange is not None
 
     material = fmi3["material"]
     assert material.type == "Int32" and material.causality == "parameter"
@@ -97,10 +97,11 @@ def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path
 
     expected = {}
     for name, variable in fmi2.items():  # FMI 2 names stay; an array is named by its first element's vr
-        base, _, index = name.partition("[")
-        if not index or index == "1]":
-            expected[base] = (variable.valueReference, {"Real": "Float64", "Integer": "Int32"}[variable.type],
-                              variable.causality)
+        derivative = name.startswith("der(")  # der(ux[1,1]) is an element of the FMI 3 array der(ux)
+        base, _, index = name[4:-1].partition("[") if derivative else name.partition("[")
+        if not index or index in ("1]", "1,1]"):
+            expected[f"der({base})" if derivative else base] = (
+                variable.valueReference, {"Real": "Float64", "Integer": "Int32"}[variable.type], variable.causality)
     time = fmi3.pop("time")
     assert time.causality == "independent" and time.type == "Float64"
     assert time.valueReference not in {v[0] for v in expected.values()}
