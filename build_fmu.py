@@ -102,6 +102,7 @@ def generate_header(interface: Interface, guid: str) -> str:
         "    int array_size; /* elements from here to the end of its array (1 for a scalar) */",
         "    const char *allowed;",
         "    int state, derivative, indicator; /* index in the contract's vectors (model.h), or -1 */",
+        "    int enumeration; /* an Integer declared as an FMI enumeration (FMI 3 moves it as Int64) */",
         "} VariableInfo;",
         "",
     ]
@@ -126,7 +127,7 @@ def generate_header(interface: Interface, guid: str) -> str:
             indexes = ", ".join(str(base + index if base >= 0 else -1) for base in (state, derivative, indicator))
             rows.append(f'    {{"{name}", {type_code}, {causality}, {start_text}, {low}, {high}, '
                         f'{int(variable.minimum_exclusive)}, {variable.count - index}, '
-                        f'"{variable.allowed_text()}", {indexes}}}')
+                        f'"{variable.allowed_text()}", {indexes}, {int(variable.enumeration is not None)}}}')
     lines.append("static const VariableInfo VARIABLES[N_VALUE_REFERENCES] = {")
     lines.append(",\n".join(rows))
     lines.append("};")
@@ -187,16 +188,24 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
             if variable.maximum is not None:
                 high = int(variable.maximum) if variable.type == INTEGER else repr(float(variable.maximum))
                 type_attributes.append(f'max="{high}"')
+            if variable.enumeration:
+                type_attributes.insert(0, f"declaredType={quoteattr(variable.enumeration)}")
             if variable.role == DERIVATIVE:
                 type_attributes.append(f'derivative="{first_index[variable.derivative_of] + offset}"')
                 derivatives.append((state_offsets[variable.derivative_of] + offset, index))
             variables_xml.append(
                 f'    <ScalarVariable name={quoteattr(name)} valueReference="{vr + offset}" {attributes}\n'
                 f"      description={quoteattr(variable.description)}>\n"
-                f"      <{variable.type} {' '.join(type_attributes)}/>\n"
+                f"      <{'Enumeration' if variable.enumeration else variable.type} {' '.join(type_attributes)}/>\n"
                 f"    </ScalarVariable>")
     sources = "\n".join(f'      <File name="{name}"/>' for name in C_SOURCES)
     units = "\n".join(f"    <Unit name={quoteattr(unit)}/>" for unit in UNITS)
+    enumerations = "\n".join(
+        f"    <SimpleType name={quoteattr(v.enumeration)}>\n      <Enumeration>\n" + "\n".join(
+            f'        <Item name={quoteattr(name)} value="{value}" description={quoteattr(text)}/>'
+            for value, (name, text) in enumerate(v.items)) + "\n      </Enumeration>\n    </SimpleType>"
+        for v in interface.exposed if v.enumeration)
+    type_definitions = f"\n  <TypeDefinitions>\n{enumerations}\n  </TypeDefinitions>" if enumerations else ""
     outputs_xml = "\n".join(f'      <Unknown index="{i}"/>' for i in outputs)
     # the order of <Derivatives> is the order of the continuous states (lattice.h's layout)
     derivatives_xml = "\n".join(f'      <Unknown index="{i}"/>' for _, i in sorted(derivatives))
@@ -231,7 +240,7 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
   </CoSimulation>
   <UnitDefinitions>
 {units}
-  </UnitDefinitions>
+  </UnitDefinitions>{type_definitions}
   <LogCategories>
     <Category name="logStatusError" description="Why a call failed"/>
     <Category name="logStatusDiscard" description="Why a step stopped early (peak_force_limit)"/>

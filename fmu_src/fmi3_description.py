@@ -26,7 +26,7 @@ from fmu_src.variables import DERIVATIVE, INDICATOR, INTEGER, REAL, STATE, Inter
 
 C_SOURCES = ["fmi3/fmi3_glue.c"] + MODEL_SOURCES
 C_HEADERS = ["include/fmi3Functions.h", "include/fmi3FunctionTypes.h", "include/fmi3PlatformTypes.h"] + MODEL_HEADERS
-TYPE_NAMES = {REAL: "Float64", INTEGER: "Int32"}
+TYPE_NAMES = {REAL: "Float64", INTEGER: "Int32"}  # an Integer with an enumeration type is an Enumeration (Int64)
 # A Float64 variable gets its unit through a declared type named after the unit (<Float64Type name="N.s/m"
 # unit="N.s/m"/>), not through a unit attribute: both are FMI 3.0, but fmi-sim 0.7 (Rust) refuses a unit
 # attribute on a variable.
@@ -71,11 +71,13 @@ def _variable_xml(variable: Variable, vr: int, state_vr: int | None = None) -> s
     attributes.append(f"description={quoteattr(variable.description)}")
     if variable.unit and variable.type == REAL:  # FMI 3 integers have no unit
         attributes.append(f"declaredType={quoteattr(variable.unit)}")
+    if variable.enumeration:
+        attributes.append(f"declaredType={quoteattr(variable.enumeration)}")
     if variable.minimum is not None:
         attributes.append(f'min="{_number(variable, variable.minimum)}"')
     if variable.maximum is not None:
         attributes.append(f'max="{_number(variable, variable.maximum)}"')
-    tag = TYPE_NAMES[variable.type]
+    tag = "Enumeration" if variable.enumeration else TYPE_NAMES[variable.type]
     head = f"    <{tag} " + "\n      ".join(attributes)
     if variable.size is None:
         return head + "/>"
@@ -105,7 +107,11 @@ def generate_model_description(interface: Interface, identifier: str, token: str
                          f'variability="continuous" declaredType="s" description="Simulation time"/>')
     units_xml = "\n".join(f"    <Unit name={quoteattr(unit)}/>" for unit in units)
     used = [unit for unit in units if unit == "s" or any(v.unit == unit and v.type == REAL for v in interface.exposed)]
-    types_xml = "\n".join(f"    <Float64Type name={quoteattr(unit)} unit={quoteattr(unit)}/>" for unit in used)
+    types_xml = "\n".join([f"    <Float64Type name={quoteattr(unit)} unit={quoteattr(unit)}/>" for unit in used] + [
+        f"    <EnumerationType name={quoteattr(v.enumeration)}>\n" + "\n".join(
+            f'      <Item name={quoteattr(name)} value="{value}" description={quoteattr(text)}/>'
+            for value, (name, text) in enumerate(v.items)) + "\n    </EnumerationType>"
+        for v in interface.exposed if v.enumeration])
     structure = "\n".join([f'    <Output valueReference="{vr}"/>' for vr in outputs]
                           + [f'    <ContinuousStateDerivative valueReference="{vr}"/>' for _, vr in sorted(derivatives)]
                           + [f'    <InitialUnknown valueReference="{vr}"/>' for vr in initial_unknowns]

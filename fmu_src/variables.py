@@ -37,6 +37,8 @@ class Variable:
     shape: tuple[int, ...] | None = None  # an array's dimensions when it has more than one (rows, columns)
     role: str | None = None  # STATE, DERIVATIVE or INDICATOR: the continuous-time contract (model.h)
     derivative_of: str | None = None  # a DERIVATIVE's state
+    enumeration: str | None = None  # an Integer declared as this FMI enumeration type, with these items
+    items: tuple[tuple[str, str], ...] = ()  # (name, description) of the values 0, 1, ...
 
     @property
     def c_name(self) -> str:
@@ -144,14 +146,26 @@ def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] 
         Variable("fixed_step", REAL, "parameter", "Step of the fixed-step solvers", start=1e-4, unit="s",
                  minimum=0.0, minimum_exclusive=True, maximum=1.0),
         Variable("diagonal_rule", INTEGER, "parameter",
-                 "Diagonal spring constants: 0 = receiver's column (as the study computed), 1 = mean of both",
-                 start=0, minimum=0, maximum=1, allowed="0 (receiver) or 1 (mean)"),
+                 "Where a diagonal spring takes its constants from: receiver (0, the receiving mass's column, as "
+                 "the study computed its published numbers; the two ends' forces differ) or mean (1, both ends "
+                 "the mean of the two columns: reciprocal)",
+                 start=0, minimum=0, maximum=1, allowed="0 (receiver) or 1 (mean)", enumeration="DiagonalRule",
+                 items=(("receiver", "The receiving mass's column (as the study computed; not reciprocal)"),
+                        ("mean", "The mean of the two columns (reciprocal)"))),
         Variable("solver", INTEGER, "parameter",
-                 "0 = adaptive DOP853, 1 = fixed-step RK4, 2 = fixed-step semi-implicit Euler, 3 = adaptive Tsit5, "
-                 "4 = adaptive DOPRI5", start=0, minimum=0, maximum=4,
+                 "Co-Simulation's solver: DOP853 (0, adaptive), RK4 (1, fixed step), semi-implicit Euler (2, "
+                 "fixed step), Tsit5 (3, adaptive) or DOPRI5 (4, adaptive); Model Exchange uses the importer's",
+                 start=0, minimum=0, maximum=4,
                  allowed="0 (adaptive DOP853), 1 (RK4), 2 (semi-implicit Euler), 3 (adaptive Tsit5) or 4 (adaptive "
-                         "DOPRI5)"),
-        Variable("spring_law", INTEGER, "parameter", "0 = exponential springs (SPEC), 1 = linear springs F = k r",
+                         "DOPRI5)",
+                 enumeration="Solver",
+                 items=(("DOP853", "Adaptive Dormand-Prince 8(5,3) with 7th-order dense output (rtol, atol)"),
+                        ("RK4", "Fixed-step classical Runge-Kutta (fixed_step)"),
+                        ("semi_implicit_euler", "Fixed-step semi-implicit (symplectic) Euler (fixed_step)"),
+                        ("Tsit5", "Adaptive Tsitouras 5(4) pair (rtol, atol)"),
+                        ("DOPRI5", "Adaptive Dormand-Prince 5(4) pair (rtol, atol)"))),
+        Variable("spring_law", INTEGER, "parameter",
+                 "0 = exponential springs (the study's law), 1 = linear springs F = k r",
                  start=0, minimum=0, maximum=1, allowed="0 (exponential) or 1 (linear)"),
         Variable("has_backplate", INTEGER, "parameter", "1 = the backplate is there, 0 = a free lattice",
                  start=1, minimum=0, maximum=1, allowed="0 or 1"),

@@ -101,7 +101,8 @@ def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path
         base, _, index = name[4:-1].partition("[") if derivative else name.partition("[")
         if not index or index in ("1]", "1,1]"):
             expected[f"der({base})" if derivative else base] = (
-                variable.valueReference, {"Real": "Float64", "Integer": "Int32"}[variable.type], variable.causality)
+                variable.valueReference, {"Real": "Float64", "Integer": "Int32", "Enumeration": "Enumeration"}[variable.type],
+                variable.causality)
     time = fmi3.pop("time")
     assert time.causality == "independent" and time.type == "Float64"
     assert time.valueReference not in {v[0] for v in expected.values()}

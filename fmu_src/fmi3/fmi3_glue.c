@@ -80,6 +80,13 @@ static int is_variable(fmi3ValueReference vr) {
     return vr == 0 || model_variable_count(vr - 1) != count + 1;
 }
 
+/* What a variable is moved as: Float64 (MODEL_TYPE_REAL), Int32 (MODEL_TYPE_INTEGER) or, for an Integer
+ * declared as an enumeration, Int64 (FMI 3 moves enumerations with fmi3GetInt64 and fmi3SetInt64). */
+#define KIND_ENUMERATION 2
+static int kind_of(fmi3ValueReference vr) {
+    return model_variable_is_enumeration(vr) ? KIND_ENUMERATION : model_variable_type(vr);
+}
+
 /* Checks a get or set call's value references and that nValues is the sum of their sizes. */
 static int check_values(Instance *instance, const char *function, const fmi3ValueReference vr[], size_t nvr,
                         size_t nValues, int type, int time_allowed) {
@@ -96,9 +103,9 @@ static int check_values(Instance *instance, const char *function, const fmi3Valu
             error(instance, function, message);
             return -1;
         }
-        if (model_variable_type(vr[i]) != type) {
-            snprintf(message, sizeof(message), "value reference %u is not a %s variable", vr[i],
-                     type == MODEL_TYPE_REAL ? "Float64" : "Int32");
+        if (kind_of(vr[i]) != type) {
+            static const char *kinds[] = {"a Float64", "an Int32", "an Enumeration (Int64)"};
+            snprintf(message, sizeof(message), "value reference %u is not %s variable", vr[i], kinds[type]);
             error(instance, function, message);
             return -1;
         }
@@ -356,6 +363,41 @@ fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
     return fmi3OK;
 }
 
+/* Int64: the enumerations (diagonal_rule, solver), kept by the model as Integers. */
+fmi3Status fmi3GetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Int64 values[],
+                        size_t nValues) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    int value;
+    if (!allowed(instance, "fmi3GetInt64", ANY_STATE)) return fmi3Error;
+    if (check_values(instance, "fmi3GetInt64", vr, nvr, nValues, KIND_ENUMERATION, 0)) return fmi3Error;
+    for (i = 0; i < nvr; i++) {
+        if (model_get_integer(instance->common.model, vr[i], &value, message, sizeof(message))) {
+            return error(instance, "fmi3GetInt64", message);
+        }
+        values[i] = (fmi3Int64)value;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Int64 values[],
+                        size_t nValues) {
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    if (!allowed(instance, "fmi3SetInt64", ANY_STATE)) return fmi3Error;
+    if (check_values(instance, "fmi3SetInt64", vr, nvr, nValues, KIND_ENUMERATION, 0)) return fmi3Error;
+    for (i = 0; i < nvr; i++) {
+        /* a value beyond Int32 is beyond every enumeration's items: the model refuses it with their names */
+        const int value = values[i] > 1000000 ? 1000000 : values[i] < -1000000 ? -1000000 : (int)values[i];
+        if (model_set_integer(instance->common.model, vr[i], value, message, sizeof(message))) {
+            return error(instance, "fmi3SetInt64", message);
+        }
+    }
+    return fmi3OK;
+}
+
 /* Types this FMU does not have: an empty call is fine, anything else is refused. */
 #define NO_SUCH_TYPE(function, value_type, type_name)                                                         \
     fmi3Status function(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, value_type values[],      \
@@ -374,7 +416,7 @@ NO_SUCH_TYPE(fmi3GetUInt8, fmi3UInt8, "UInt8")
 NO_SUCH_TYPE(fmi3GetInt16, fmi3Int16, "Int16")
 NO_SUCH_TYPE(fmi3GetUInt16, fmi3UInt16, "UInt16")
 NO_SUCH_TYPE(fmi3GetUInt32, fmi3UInt32, "UInt32")
-NO_SUCH_TYPE(fmi3GetInt64, fmi3Int64, "Int64")
+
 NO_SUCH_TYPE(fmi3GetUInt64, fmi3UInt64, "UInt64")
 NO_SUCH_TYPE(fmi3GetBoolean, fmi3Boolean, "Boolean")
 NO_SUCH_TYPE(fmi3GetString, fmi3String, "String")
@@ -384,7 +426,7 @@ NO_SUCH_TYPE(fmi3SetUInt8, const fmi3UInt8, "UInt8")
 NO_SUCH_TYPE(fmi3SetInt16, const fmi3Int16, "Int16")
 NO_SUCH_TYPE(fmi3SetUInt16, const fmi3UInt16, "UInt16")
 NO_SUCH_TYPE(fmi3SetUInt32, const fmi3UInt32, "UInt32")
-NO_SUCH_TYPE(fmi3SetInt64, const fmi3Int64, "Int64")
+
 NO_SUCH_TYPE(fmi3SetUInt64, const fmi3UInt64, "UInt64")
 NO_SUCH_TYPE(fmi3SetBoolean, const fmi3Boolean, "Boolean")
 NO_SUCH_TYPE(fmi3SetString, const fmi3String, "String")

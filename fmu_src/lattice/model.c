@@ -161,6 +161,7 @@ int model_variable_count(unsigned int vr) {
 }
 
 int model_variable_type(unsigned int vr) { return vr < N_VALUE_REFERENCES ? VARIABLES[vr].type : -1; }
+int model_variable_is_enumeration(unsigned int vr) { return vr < N_VALUE_REFERENCES && VARIABLES[vr].enumeration; }
 
 static int check_reference(unsigned int vr, int type, int setting, int initialized, char *message,
                            size_t message_size) {

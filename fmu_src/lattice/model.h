@@ -31,6 +31,8 @@ int model_get_integer(Model *m, unsigned int vr, int *value, char *message, size
 /* Number of elements of the variable at vr (FMI 3 arrays), or 0 when vr is unknown. */
 int model_variable_count(unsigned int vr);
 int model_variable_type(unsigned int vr);
+/* 1 when the Integer variable at vr is declared as an FMI enumeration (FMI 3 moves it as Int64). */
+int model_variable_is_enumeration(unsigned int vr);
 
 /* Checks the parameters as a whole (material is a permutation, ...) and sets up the state at start_time.
  * With stop_time_defined, the solver never steps past stop_time. */
