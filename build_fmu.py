@@ -11,7 +11,8 @@ written to models/ under the current folder unless -o says otherwise.
 
 One table (fmu_src/variables.py) gives both modelDescription.xml and the C header model_variables.h, so the
 two cannot drift. The FMU carries its C sources (listed in <SourceFiles>) so `fmpy compile` can rebuild it
-for another platform. Nothing happens at import: call main() or build_fmu().
+for another platform, and documentation/index.html (fmu_src/documentation.py: the model, every variable, the
+published numbers and a chart, from simulating the binary just built). Nothing happens at import: call main() or build_fmu().
 """
 from __future__ import annotations
 
@@ -31,6 +32,7 @@ from xml.sax.saxutils import quoteattr
 import fmu_src
 from fmu_src import MODEL_HEADERS, MODEL_SOURCES
 from fmu_src import fmi3_description as fmi3
+from fmu_src.documentation import documentation_html
 from fmu_src.variables import (DERIVATIVE, INDICATOR, INTEGER, REAL, STATE, Interface, c_literal,
                                plotted_masses)
 from scenes import DEFAULT_SCENE, SCENE_DIR, Scene, check_identifier
@@ -327,6 +329,9 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
             for path in sorted(staging.rglob("*")):
                 if path.is_file():
                     archive.write(path, path.relative_to(staging).as_posix())
+        page = documentation_html(partial, fmi_version, interface, identifier, scene)  # simulates the FMU
+        with zipfile.ZipFile(partial, "a", zipfile.ZIP_DEFLATED) as archive:
+            archive.writestr("documentation/index.html", page)
         partial.replace(output)  # never leave a half-written FMU where an importer could load it
     return output
 

@@ -55,3 +55,17 @@ def test_descriptions_refer_to_nothing_outside_the_fmu(fmu_path, fmu3_path, whic
     assert descriptions
     for description in descriptions:
         assert not re.search(r"\.md\b|SPEC|README|shared/", description), description
+
+
+@pytest.mark.parametrize("which", ["fmi2", "fmi3"])
+def test_documentation_inside_the_fmu_describes_this_fmu(fmu_path, fmu3_path, lattice, which):
+    import build_fmu
+
+    with zipfile.ZipFile(fmu_path if which == "fmi2" else fmu3_path) as archive:
+        page = archive.read("documentation/index.html").decode()
+    for variable in build_fmu.Scene.load("armour_11x11").interface().exposed:  # every variable, from the table
+        assert f"<code>{variable.name}" in page.replace("&lt;", "<"), variable.name
+    assert "The diagonal rule" in page and "not reciprocal" in page and "Model Exchange" in page
+    assert "<svg" in page  # the force-over-time chart, simulated when the FMU was built
+    best = lattice.simulate(PUBLISHED_BEST, horizon=8.0)["peak_backplate_force"]
+    assert f"<td>1497.886733</td><td>{best:.6f}</td>" in page  # published, and what this binary computed
