@@ -154,3 +154,34 @@ def test_a_co_simulation_instance_refuses_model_exchange_calls(fmu_path):
         assert "fmi2EnterEventMode" in cs.messages[-1] and "Co-Simulation" in cs.messages[-1]
     finally:
         cs.close()
+
+
+def test_fmi3_model_exchange_refuses_wrong_sizes_and_sequences_with_a_reason(fmu3_path):
+    from fmpy.fmi3 import FMU3Model, fmi3LogMessageCallback
+
+    description = read_model_description(str(fmu3_path))
+    messages = []
+    callback = fmi3LogMessageCallback(lambda environment, status, category, message: messages.append(message.decode()))
+    model = FMU3Model(guid=description.guid, unzipDirectory=extract(str(fmu3_path)),
+                      modelIdentifier=description.modelExchange.modelIdentifier, instanceName="me3")
+    model.instantiate(logMessage=callback)
+    nx, nz = description.numberOfContinuousStates, description.numberOfEventIndicators
+    x, z = np.zeros(nx), np.zeros(nz + 1)
+    try:
+        with pytest.raises(FMICallException):
+            model.getEventIndicators(as_pointer(z), nz)
+        assert "fmi3GetEventIndicators" in messages[-1] and "instantiated" in messages[-1]
+        model.enterInitializationMode(startTime=0.0)
+        model.exitInitializationMode()
+        assert model.updateDiscreteStates()[4:] == (True, 0.15)  # the load's switch-off, a time event
+        model.enterContinuousTimeMode()
+        with pytest.raises(FMICallException):
+            model.getEventIndicators(as_pointer(z), nz + 1)
+        assert f"{nz + 1} event indicators given, but this FMU has {nz}" in messages[-1]
+        with pytest.raises(FMICallException):
+            model.setContinuousStates(as_pointer(x), nx + 1)
+        assert f"{nx + 1} continuous states given, but this FMU has {nx}" in messages[-1]
+        model.getEventIndicators(as_pointer(z), nz)
+        assert list(z[:nz]) == [-1e-3] * nz
+    finally:
+        model.freeInstance()
