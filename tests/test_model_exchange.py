@@ -185,3 +185,32 @@ def test_fmi3_model_exchange_refuses_wrong_sizes_and_sequences_with_a_reason(fmu
         assert list(z[:nz]) == [-1e-3] * nz
     finally:
         model.freeInstance()
+
+
+def test_fmu_states_round_trip_in_model_exchange_and_stay_in_their_interface(fmu_path):
+    me = Logged(fmu_path, FMU2Model, "model-exchange-states")
+    cs = Logged(fmu_path, FMU2Slave, "co-simulation-states")
+    nx = me.description.numberOfContinuousStates
+    x, dx, again = np.zeros(nx), np.zeros(nx), np.zeros(nx)
+    try:
+        me.fmu.setupExperiment(startTime=0.0)
+        me.fmu.enterInitializationMode()
+        me.fmu.exitInitializationMode()
+        me.fmu.newDiscreteStates()
+        me.fmu.enterContinuousTimeMode()
+        x[0] = 0.01  # a displaced corner mass pulls on its neighbours
+        me.fmu.setContinuousStates(as_pointer(x), nx)
+        me.fmu.getDerivatives(as_pointer(dx), nx)
+        state = me.fmu.getFMUstate()
+        me.fmu.setContinuousStates(as_pointer(np.zeros(nx)), nx)
+        me.fmu.setFMUstate(state)  # back to the displaced state, still in continuous-time mode
+        me.fmu.getDerivatives(as_pointer(again), nx)
+        assert np.array_equal(again, dx) and dx[2 * MASSES + 1] != 0.0
+        cs.fmu.setupExperiment(startTime=0.0)
+        cs.fmu.enterInitializationMode()
+        cs.fmu.exitInitializationMode()
+        foreign = me.fmu.deSerializeFMUstate(cs.fmu.serializeFMUstate(cs.fmu.getFMUstate()))
+        me.refuses(lambda: me.fmu.setFMUstate(foreign), "a Co-Simulation state cannot be set into a Model Exchange")
+    finally:
+        me.close()
+        cs.close()

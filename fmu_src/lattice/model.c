@@ -811,11 +811,11 @@ int model_check(const Model *m, char *message, size_t message_size) {
         return -1;
     }
     if (m->exchange) { /* Model Exchange: the importer sets the time; the model's solver stays at the start */
-        if (m->time >= 0.0 && m->time <= DBL_MAX) return 0;
-        snprintf(message, message_size, "the state is corrupt: its time %g s is not allowed", m->time);
-        return -1;
-    }
-    if (!(m->time >= 0.0 && m->time <= s->t && s->t <= DBL_MAX) ||
+        if (!(m->time >= 0.0 && m->time <= DBL_MAX)) {
+            snprintf(message, message_size, "the state is corrupt: its time %g s is not allowed", m->time);
+            return -1;
+        }
+    } else if (!(m->time >= 0.0 && m->time <= s->t && s->t <= DBL_MAX) ||
         !((double)m->next_sample >= m->time / interval - 2.0 && (double)m->next_sample <= s->t / interval + 2.0)) {
         snprintf(message, message_size, "the state is corrupt: its times are inconsistent (communication time %g s, "
                  "solver time %g s, next sample %ld)", m->time, s->t, m->next_sample);
