@@ -137,7 +137,8 @@ def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] 
                  "Interval of the samples peak_backplate_force is taken over (0.01 s reproduces the study)",
                  start=0.01, unit="s", minimum=0.0, minimum_exclusive=True),
         Variable("peak_force_limit", REAL, "parameter",
-                 "Stop the run (fmi2Discard, terminated) as soon as peak_backplate_force exceeds this; 0 = no limit",
+                 "Co-Simulation: stop the run (fmi2Discard, terminated) as soon as peak_backplate_force exceeds "
+                 "this; 0 = no limit. Model Exchange does not stop at it",
                  start=0.0, unit="N", minimum=0.0, allowed="a finite number >= 0 (0: no limit)"),
         Variable("rtol", REAL, "parameter", "Relative tolerance of the adaptive solver", start=1e-7,
                  minimum=1e-14, maximum=0.1),

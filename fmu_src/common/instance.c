@@ -146,7 +146,7 @@ static const char *check_saved_state(unsigned int magic, const unsigned char *by
 static int fits_interface(const InstanceCommon *common, const unsigned char *bytes) {
     SavedHeader header;
     memcpy(&header, bytes, sizeof(header));
-    if (header.state == STATE_STEP) return !common->model_exchange;
+    if (header.state == STATE_STEP || header.state == STATE_STEP_STOPPED) return !common->model_exchange;
     if (header.state == STATE_EVENT_MODE || header.state == STATE_CONTINUOUS_TIME) return common->model_exchange;
     return 1;
 }
