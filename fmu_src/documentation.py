@@ -51,7 +51,7 @@ a time event. The FMU sees only the points the importer stops at: in Model Excha
 completed a step or handled an event (an importer that stops on the sample grid, as FMPy does on its output
 grid, gives the study's sampled peak to its own accuracy), and <code>peak_backplate_force_continuous</code> the
 maximum over all those points, which can miss a maximum between them. <code>solver</code>, <code>rtol</code>,
-<code>atol</code> and <code>fixed_step</code> are not used.</p>
+<code>atol</code>, <code>fixed_step</code> and <code>peak_force_limit</code> are not used.</p>
 """
 
 
@@ -127,16 +127,20 @@ def documentation_html(fmu: Path, fmi_version: int, interface: Interface, identi
     has_force = "backplate_force" in names and "contact_indicator" in names
     signal = "backplate_force" if has_force else "ux_right_edge"
     outputs = [signal] + (["peak_backplate_force"] if has_force else [])
-    curves, table = {}, []
-    for order in orders:
-        result = _simulate(fmu, fmi_version, order, scene.horizon, outputs)
-        label = "default start values" if order is None else f"material = {list(order)}"
-        window = result["time"] <= min(scene.horizon, 1.0) if has_force else result["time"] >= 0
-        curves[label] = (result["time"][window], result[signal][window])
-        if order is not None:
-            peak = float(result["peak_backplate_force"][-1])
-            table.append(f"<tr><td><code>{list(order)}</code></td><td>{PUBLISHED[order]:.6f}</td>"
-                         f"<td>{peak:.6f}</td><td>{peak - PUBLISHED[order]:.1e}</td></tr>")
+    curves, table, failed = {}, [], ""
+    try:
+        for order in orders:
+            result = _simulate(fmu, fmi_version, order, scene.horizon, outputs)
+            label = "default start values" if order is None else f"material = {list(order)}"
+            window = result["time"] <= min(scene.horizon, 1.0) if has_force else result["time"] >= 0
+            curves[label] = (result["time"][window], result[signal][window])
+            if order is not None:
+                peak = float(result["peak_backplate_force"][-1])
+                table.append(f"<tr><td><code>{list(order)}</code></td><td>{PUBLISHED[order]:.6f}</td>"
+                             f"<td>{peak:.6f}</td><td>{peak - PUBLISHED[order]:.1e}</td></tr>")
+    except Exception as failure:  # e.g. a scene whose compiled-in values the model refuses: say so, build on
+        curves, table = {}, []
+        failed = html.escape(f"{type(failure).__name__}: {failure}")
     if table:
         reproduces = (
             "<h2>The published numbers it reproduces</h2><p>The study's peaks (8 s, samples every 0.01 s, receiver "
@@ -144,7 +148,10 @@ def documentation_html(fmu: Path, fmi_version: int, interface: Interface, identi
             "(Co-Simulation, DOP853, rtol 1e-7), computed when the FMU was built:</p><table><tr><th>order</th>"
             "<th>published (N)</th><th>this FMU (N)</th><th>difference (N)</th></tr>" + "".join(table) + "</table>")
     unit = "N" if has_force else "m"
-    chart = _chart_svg(curves, f"{signal} ({unit})")
+    if curves:
+        chart = _chart_svg(curves, f"{signal} ({unit})")
+    else:
+        chart = f"<p><b>Not computed</b>: simulating this FMU at its default settings failed when it was built ({failed}).</p>"
     description = html.escape(scene.description or f"{interface.rows} x {interface.cols} mass-spring lattice")
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{identifier}</title>
