@@ -41,8 +41,22 @@ def write_report(study: Study) -> Path:
         "lattice": plot_lattice(study, out / "lattice.png"),
         "work_precision": plot_work_precision(accuracy["work_precision"], out / "work_precision.png"),
     }
+    write_design(study, out)
     (out / "report.html").write_text(render_html(study, accuracy, charts))
     return out / "report.html"
+
+
+def write_design(study: Study, out: Path) -> Path | None:
+    """best_design.ssp: the FMU with the best order and the run's non-default parameters, for any SSP tool
+    (libcosim's from_ssp_file, FMPy's fmpy.ssp). With load cases it holds the base parameters (one case
+    set per file)."""
+    best = study.best_verified()
+    if best is None:
+        return None
+    from .ssp import write_best_design_ssp
+
+    return write_best_design_ssp(study.fmu_path, {"material": list(best.order), **_parameters(study)},
+                                 out / "best_design.ssp", stop_time=study.horizon)
 
 
 def _parameters(study: Study) -> dict:
@@ -447,7 +461,9 @@ The full study over several orders: <code>python bench/work_precision.py --out D
 <th>best peak (N)</th><th>continuous (N)</th><th>search value (N)</th><th>found at</th><th>wall</th>
 <th>stopped because</th></tr>
 {''.join(rows)}</table>
-<p>Data: <a href="results.json">results.json</a>, <a href="evaluations.csv">evaluations.csv</a>.</p>
+<p>Data: <a href="results.json">results.json</a>, <a href="evaluations.csv">evaluations.csv</a>,
+<a href="journal.jsonl">journal.jsonl</a>. The design for your FMI tool: <a href="best_design.ssp">best_design.ssp</a>
+(the FMU with the best order and this run's parameters, as an SSP parameter set).</p>
 </body></html>
 """
 

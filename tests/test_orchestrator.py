@@ -129,6 +129,10 @@ def test_cli_end_to_end_writes_the_report(fmu_path, tmp_path):
         assert variation["best_found"]["peak"] <= min(o["peak"] for o in variation["orders"].values()) + 1e-9
     page = (out / "report.html").read_text()
     assert "Which model, which optimum" in page and "How the chosen order holds up" in page
+    from orchestrator.ssp import read_design_parameters
+
+    design = read_design_parameters(out / "best_design.ssp")
+    assert [design[f"material[{j}]"] for j in range(1, 12)] == best["order"]
     assert results["accuracy"]["sampled_relative_error"] < 1e-6
     with open(out / "evaluations.csv") as handle:
         rows = list(csv.DictReader(handle))
