@@ -298,14 +298,15 @@ def run_exhaustive(objective: Callable[[Order], Evaluation], columns: int, execu
                    screening_error: float, full_error: float | None = None,
                    keep: int = 20, scene: Any = None, executor_kind: str = "process",
                    confirm: bool = False, max_orders: int = MAX_LOCAL_ORDERS, in_flight: int | None = None,
-                   all_peaks: bool = False, max_attempts: int = 3,
+                   all_peaks: bool = False, max_attempts: int = 3, verify_top: int = 5,
                    objective_with_limit: Callable[[float], Callable[[Order], Evaluation]] | None = None,
                    progress: Callable[[int, int], Any] | None = None) -> dict[str, Any]:
     """Screen every order of 1..``columns`` with ``objective``, verify the candidates with ``full_objective``.
 
     ``screening_error``: the screening objective's stated relative error bound (it decides which orders
     are re-evaluated); ``full_error``: the full objective's (stated in the result as the tolerance).
-    ``in_flight``: chunks submitted at once (default: twice the executor's workers when known, else 8).
+    ``verify_top``: the best orders verified at full fidelity besides the candidates (so the result can say
+    how far the runner-up is).  ``in_flight``: chunks submitted at once (default: twice the executor's workers when known, else 8).
     ``progress(chunks_done, chunks_total)`` is called as chunks finish.  Returns the result dict
     (``"exhaustive"`` shape of issue 11, plus the optimum and the evidence for it).
     """
@@ -397,7 +398,7 @@ def run_exhaustive(objective: Callable[[Order], Evaluation], columns: int, execu
     result.update({"from_checkpoint": from_checkpoint, "chunks_rerun": rerun, "checkpoint": str(folder),
                    "screening_seconds": screening_seconds})
     if full_objective is not None:
-        verify_candidates(result, executor, full_objective, full_error)
+        verify_candidates(result, executor, full_objective, full_error, verify_top)
     result["seconds"] = time.perf_counter() - start_time
     return result
 
@@ -441,9 +442,12 @@ def merge(chunks: dict[int, dict[str, Any]], ranges: list[tuple[int, int]], colu
 
 
 def verify_candidates(result: dict[str, Any], executor: Executor,
-                      full_objective: Callable[[Order], Evaluation], full_error: float | None) -> None:
-    """Every candidate and every screening failure at full fidelity; the optimum is the best of them."""
-    orders = [tuple(c["order"]) for c in result["candidates"]] + [tuple(o) for o, _ in result["failed_orders"]]
+                      full_objective: Callable[[Order], Evaluation], full_error: float | None,
+                      verify_top: int = 0) -> None:
+    """Every candidate, every screening failure and the ``verify_top`` best orders at full fidelity; the
+    optimum is the best of them."""
+    orders = ([tuple(c["order"]) for c in result["candidates"]] + [tuple(o) for o, _ in result["failed_orders"]]
+              + [tuple(c["order"]) for c in result["top"][:verify_top]])
     orders = list(dict.fromkeys(orders))
     futures = [executor.submit(safe_call, full_objective, order) for order in orders]
     evaluations = []
@@ -452,7 +456,7 @@ def verify_candidates(result: dict[str, Any], executor: Executor,
             evaluations.append(future.result())
         except Exception as exc:  # noqa: BLE001
             evaluations.append(Evaluation(order, None, "failed", f"executor: {type(exc).__name__}: {exc}"))
-    screened = {tuple(c["order"]): c["peak"] for c in result["candidates"]}
+    screened = {tuple(c["order"]): c["peak"] for c in result["top"] + result["candidates"]}
     checks = [{"order": list(e.order), "screened": screened.get(e.order), "full": e.peak if e.ok else None,
                "status": e.status, "message": e.message} for e in evaluations]
     ok = sorted((c for c in checks if c["full"] is not None), key=lambda c: c["full"])

@@ -1,0 +1,56 @@
+"""The 11 x 8 lattice's optimum, found by the exhaustive sweep (bench/exhaustive_sweep.py), as test data.
+
+Fast: the stored optimum is reproduced by a freshly built 8-column FMU at both fidelities and no single swap
+or insertion improves it.  Slow: the whole sweep (40,320 orders) finds it again.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import build_fmu
+from orchestrator.evaluate import FMUObjective
+from orchestrator.executors import make_executor
+from orchestrator.exhaustive import run_exhaustive
+from orchestrator.search.local import neighbours
+from orchestrator.study import search_objective
+
+KNOWN = json.loads((Path(__file__).parent / "data" / "known_optimum_11x8.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def fmu8(tmp_path_factory):
+    return build_fmu.build_fmu(output=tmp_path_factory.mktemp("fmu8") / "lattice_11x8.fmu", cols=8, werror=True)
+
+
+def test_stored_optimum_is_reproduced_at_both_fidelities(fmu8):
+    order = tuple(KNOWN["order"])
+    screened = search_objective(fmu8, 8.0)(order)
+    full = FMUObjective(str(fmu8), 8.0, "sampled")(order)
+    assert screened.ok and full.ok
+    assert screened.peak == pytest.approx(KNOWN["peak_search"], rel=1e-9)
+    assert full.peak == pytest.approx(KNOWN["peak_full"], rel=1e-9)
+
+
+def test_stored_optimum_is_locally_optimal(fmu8):
+    """Every one of its 70 swap and insertion neighbours is worse at the search fidelity."""
+    objective = search_objective(fmu8, 8.0)
+    order = tuple(KNOWN["order"])
+    around = neighbours(order)
+    assert len(around) == 28 + 49 - 7
+    values = [objective(o) for o in around]
+    assert all(v.ok for v in values)
+    assert min(v.peak for v in values) > KNOWN["peak_search"]
+
+
+@pytest.mark.slow
+def test_exhaustive_sweep_finds_the_stored_optimum(fmu8, tmp_path):
+    with make_executor("process", workers=2) as executor:
+        result = run_exhaustive(search_objective(fmu8, 8.0), 8, executor, tmp_path, 1008,
+                                full_objective=FMUObjective(str(fmu8), 8.0, "sampled"),
+                                screening_error=KNOWN["screening_error"], full_error=KNOWN["full_error"])
+    assert result["orders"] == 40320 and result["failed"] == 0
+    assert result["optimum"]["order"] == KNOWN["order"]
+    assert result["optimum"]["peak"] == pytest.approx(KNOWN["peak_full"], rel=1e-9)
