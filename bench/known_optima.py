@@ -91,7 +91,7 @@ def ecdf_chart(runs: list[dict], methods, budgets, path: Path, title: str) -> No
             y = [sum(h <= k for h in hits) / len(mine) for k in x]
             ax.step(x, y, where="post", label=method)
         ax.set_xscale("log")
-        ax.set_xlim(1, budget)
+        ax.set_xlim(10, budget)
         ax.set_xlabel("evaluations")
         ax.set_title(f"budget {budget}")
         ax.grid(True, alpha=0.3)
