@@ -12,6 +12,12 @@ and every screening failure is re-evaluated over the full 8 s at the FMU's defau
 ``--kill-after S`` runs the sweep as a child in its own process group, SIGKILLs the whole group after S
 seconds (client and pool workers), then runs it again with the same checkpoint and prints what came from
 the checkpoint; with ``--expect FILE`` (a known-optimum JSON) it checks the optimum found against it.
+On a Dask cluster (workers started with ``--nthreads 1`` where the project is installed and the FMU is at
+the same path), the 11-column sweep:
+
+    python bench/exhaustive_sweep.py --cols 11 --executor dask --scheduler tcp://HOST:8786 --confirm-exhaustive \
+        --chunk-size 20160 --fmu /shared/MassSpringLattice.fmu --out /shared/exhaustive_11x11
+
 ``--all-peaks`` also writes every order's screened peak by lexicographic rank to OUT/peaks_11xC.npz
 (the lookup table of bench/known_optima.py).
 """
@@ -64,10 +70,10 @@ def sweep(args, fmu: Path) -> dict:
             last[0] = time.perf_counter()
             print(f"  {done}/{total} chunks", file=sys.stderr, flush=True)
 
-    with make_executor(args.executor, args.workers) as executor:
+    with make_executor(args.executor, args.workers, args.scheduler) as executor:
         return run_exhaustive(screening, args.cols, executor, args.checkpoint, args.chunk_size,
                               full_objective=full, screening_error=args.screening_error, full_error=FULL_ERROR,
-                              scene=scene, executor_kind=args.executor, confirm=args.confirm,
+                              scene=scene, executor_kind=args.executor, confirm=args.confirm_exhaustive,
                               all_peaks=args.all_peaks, progress=progress)
 
 
@@ -104,8 +110,9 @@ def main(argv=None) -> int:
     parser.add_argument("--chunk-size", type=int, default=1008)
     parser.add_argument("--executor", choices=["serial", "process", "dask"], default="process")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--scheduler", default=None, help="a Dask scheduler's address (tcp://HOST:8786)")
     parser.add_argument("--screening-error", type=float, default=SCREENING_ERROR)
-    parser.add_argument("--confirm", action="store_true", help="confirm a sweep beyond the local limit (dask)")
+    parser.add_argument("--confirm-exhaustive", action="store_true", help="confirm a sweep beyond the local limit (dask)")
     parser.add_argument("--all-peaks", action="store_true", help="keep every peak and write OUT/peaks_11xC.npz")
     parser.add_argument("--kill-after", type=float, default=None)
     parser.add_argument("--expect", default=None, help="a known-optimum JSON to compare the optimum with")
@@ -129,7 +136,11 @@ def main(argv=None) -> int:
         else:
             print(f"the sweep finished before {args.kill_after:g} s: nothing to kill", flush=True)
 
-    result = sweep(args, fmu)
+    try:
+        result = sweep(args, fmu)
+    except ValueError as exc:  # a refused sweep: one line
+        print(exc, file=sys.stderr)
+        return 2
     lines = summary(result, args.workers)
     print("\n".join(lines))
     (out / "result.json").write_text(json.dumps(result, indent=1))

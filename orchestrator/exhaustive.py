@@ -272,11 +272,17 @@ def read_chunk(path: Path) -> dict[str, Any] | None:
 
 # ------------------------------------------------------------------------------------------ the sweep
 def projected_cost(objective: Callable[[Order], Evaluation], columns: int) -> tuple[float, float]:
-    """(orders per core-second, projected core-hours for C! orders), timing a few orders here."""
+    """(orders per core-second, projected core-hours for C! orders), timing a few orders here (after one
+    untimed order: an FMU objective opens its FMU on first use)."""
+    safe_call(objective, order_from_rank(0, columns))
     cpu = time.process_time()
-    for rank in range(CALIBRATION_ORDERS):
-        safe_call(objective, order_from_rank(rank * 7919 % math.factorial(columns), columns))
-    rate = CALIBRATION_ORDERS / max(time.process_time() - cpu, 1e-9)
+    evaluations = [safe_call(objective, order_from_rank(rank * 7919 % math.factorial(columns), columns))
+                   for rank in range(CALIBRATION_ORDERS)]
+    seconds = time.process_time() - cpu
+    if not any(e.ok for e in evaluations):
+        raise ValueError(f"exhaustive: the objective failed on every one of {CALIBRATION_ORDERS} orders of "
+                         f"{columns} columns (first: {evaluations[0].message}); is it for {columns} columns?")
+    rate = CALIBRATION_ORDERS / max(seconds, 1e-9)
     return rate, math.factorial(columns) / rate / 3600
 
 
@@ -289,7 +295,7 @@ def check_cost(objective, columns: int, executor_kind: str, confirm: bool, max_o
     raise ValueError(
         f"exhaustive: {columns}! = {total:,} orders is beyond the local limit of {max_orders:,}: projected "
         f"{core_hours:,.1f} core-hours at {rate:,.0f} orders per core-second (measured here); run it with "
-        "executor 'dask' on a cluster and confirm explicitly (--confirm-exhaustive)")
+        "executor 'dask' on a cluster, confirmed explicitly (--executor dask --confirm-exhaustive)")
 
 
 def run_exhaustive(objective: Callable[[Order], Evaluation], columns: int, executor: Executor,
