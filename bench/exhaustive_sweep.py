@@ -5,8 +5,8 @@
         --expect tests/data/known_optimum_11x8.json
 
 The FMU is built with ``build_fmu.py --cols C`` into OUT (or taken from --fmu).  Screening uses the
-searches' objective (``orchestrator.study.search_objective``: 1 s horizon, rtol 1e-5, the full 8 s for an
-order still touching the plate near 1 s); every order within ``--screening-error`` (relative) of the best
+searches' fidelity (``SampledPeak(...).tasks(SEARCH)`` of ``orchestrator.objective``: 1 s horizon, rtol
+1e-5, the full 8 s for an order still touching the plate near 1 s); every order within ``--screening-error`` (relative) of the best
 and every screening failure is re-evaluated over the full 8 s at the FMU's default accuracy.
 
 ``--kill-after S`` runs the sweep as a child in its own process group, SIGKILLs the whole group after S
@@ -37,10 +37,9 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
-from orchestrator.evaluate import FMUObjective  # noqa: E402
 from orchestrator.exhaustive import peak_table, run_exhaustive  # noqa: E402
 from orchestrator.executors import make_executor  # noqa: E402
-from orchestrator.study import SEARCH_HORIZON, SEARCH_RTOL, search_objective  # noqa: E402
+from orchestrator.objective import FULL, SEARCH, SEARCH_HORIZON, SEARCH_RTOL, SampledPeak  # noqa: E402
 
 FULL_HORIZON = 8.0
 # rtol 1e-5 at 1 s erred by at most 2.7e-5 (relative) over 257 orders (bench/horizon_study.py); the bound used
@@ -59,8 +58,9 @@ def build(cols: int, out: Path) -> Path:
 
 
 def sweep(args, fmu: Path) -> dict:
-    screening = search_objective(fmu, FULL_HORIZON)
-    full = FMUObjective(str(fmu), FULL_HORIZON, "sampled")
+    objective = SampledPeak(fmu, args.cols, FULL_HORIZON)
+    (screening,), (full,) = objective.tasks(SEARCH), objective.tasks(FULL)  # one FMU run per order each
+    with_limit = screening.with_limit if objective.supports_limits else None  # the FMU's peak_force_limit
     scene = {"scene": "armour_11x11", "cols": args.cols, "search_horizon": SEARCH_HORIZON,
              "search_rtol": SEARCH_RTOL}
     last = [time.perf_counter()]
@@ -74,7 +74,8 @@ def sweep(args, fmu: Path) -> dict:
         return run_exhaustive(screening, args.cols, executor, args.checkpoint, args.chunk_size,
                               full_objective=full, screening_error=args.screening_error, full_error=FULL_ERROR,
                               scene=scene, executor_kind=args.executor, confirm=args.confirm_exhaustive,
-                              all_peaks=args.all_peaks, progress=progress)
+                              all_peaks=args.all_peaks, progress=progress,
+                              objective_with_limit=None if args.all_peaks else with_limit)
 
 
 def summary(result: dict, workers: int) -> list[str]:

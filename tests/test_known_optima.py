@@ -11,11 +11,10 @@ from pathlib import Path
 import pytest
 
 import build_fmu
-from orchestrator.evaluate import FMUObjective
 from orchestrator.executors import make_executor
 from orchestrator.exhaustive import run_exhaustive
 from orchestrator.search.local import neighbours
-from orchestrator.study import search_objective
+from orchestrator.objective import FULL, SEARCH, SampledPeak
 
 KNOWN = json.loads((Path(__file__).parent / "data" / "known_optimum_11x8.json").read_text())
 
@@ -25,10 +24,16 @@ def fmu8(tmp_path_factory):
     return build_fmu.build_fmu(output=tmp_path_factory.mktemp("fmu8") / "lattice_11x8.fmu", cols=8, werror=True)
 
 
+def fidelities(fmu):
+    """(search, full): the objective's one FMU run per order at each fidelity."""
+    objective = SampledPeak(fmu, 8, 8.0)
+    return objective.tasks(SEARCH)[0], objective.tasks(FULL)[0]
+
+
 def test_stored_optimum_is_reproduced_at_both_fidelities(fmu8):
     order = tuple(KNOWN["order"])
-    screened = search_objective(fmu8, 8.0)(order)
-    full = FMUObjective(str(fmu8), 8.0, "sampled")(order)
+    search, full = fidelities(fmu8)
+    screened, full = search(order), full(order)
     assert screened.ok and full.ok
     assert screened.peak == pytest.approx(KNOWN["peak_search"], rel=1e-9)
     assert full.peak == pytest.approx(KNOWN["peak_full"], rel=1e-9)
@@ -36,7 +41,7 @@ def test_stored_optimum_is_reproduced_at_both_fidelities(fmu8):
 
 def test_stored_optimum_is_locally_optimal(fmu8):
     """Every one of its 70 swap and insertion neighbours is worse at the search fidelity."""
-    objective = search_objective(fmu8, 8.0)
+    objective, _ = fidelities(fmu8)
     order = tuple(KNOWN["order"])
     around = neighbours(order)
     assert len(around) == 28 + 49 - 7
@@ -48,8 +53,8 @@ def test_stored_optimum_is_locally_optimal(fmu8):
 @pytest.mark.slow
 def test_exhaustive_sweep_finds_the_stored_optimum(fmu8, tmp_path):
     with make_executor("process", workers=2) as executor:
-        result = run_exhaustive(search_objective(fmu8, 8.0), 8, executor, tmp_path, 1008,
-                                full_objective=FMUObjective(str(fmu8), 8.0, "sampled"),
+        search, full = fidelities(fmu8)
+        result = run_exhaustive(search, 8, executor, tmp_path, 1008, full_objective=full,
                                 screening_error=KNOWN["screening_error"], full_error=KNOWN["full_error"])
     assert result["orders"] == 40320 and result["failed"] == 0
     assert result["optimum"]["order"] == KNOWN["order"]
