@@ -189,7 +189,7 @@ def evaluate_chunk(objective: Callable[[Order], Evaluation], columns: int, start
             bound = screening_threshold(chunk_best, screening_error)
             if len(good) > 2 * MAX_KEPT_PER_CHUNK:
                 good = [g for g in good if g[0] <= bound]
-            if objective_with_limit is not None and limit is not None and bound < current_limit:
+            if objective_with_limit is not None and (current_limit is None or bound < current_limit):
                 current_limit = bound
                 evaluate = objective_with_limit(current_limit)
     bound = screening_threshold(chunk_best, screening_error) if math.isfinite(chunk_best) else math.inf

@@ -90,6 +90,9 @@ def test_chunk_lowers_the_limit_of_a_censoring_objective_as_its_best_improves():
     assert limited["n_censored"] > 0 and limited["n_failed"] == 0
     assert limited["final_limit"] == pytest.approx(plain["best"][0][1] * 1.01 / 0.99)
     assert sum(limited["histogram"].values()) + limited["n_censored"] == 720
+    unlimited_start = evaluate_chunk(Limited(QAP6), 6, 0, 720, keep=3, screening_error=0.01,
+                                     objective_with_limit=Limited(QAP6).with_limit)  # no incumbent yet
+    assert unlimited_start["best"] == plain["best"] and unlimited_start["n_censored"] > 0
 
 
 # ---------------------------------------------------------------- the sweep

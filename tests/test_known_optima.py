@@ -35,8 +35,9 @@ def test_stored_optimum_is_reproduced_at_both_fidelities(fmu8):
     search, full = fidelities(fmu8)
     screened, full = search(order), full(order)
     assert screened.ok and full.ok
-    assert screened.peak == pytest.approx(KNOWN["peak_search"], rel=1e-9)
     assert full.peak == pytest.approx(KNOWN["peak_full"], rel=1e-9)
+    # the search fidelity's solver may change (it did, DOP853 -> Tsit5); its value stays within the bound
+    assert abs(screened.peak / KNOWN["peak_full"] - 1) <= KNOWN["screening_error"]
 
 
 def test_stored_optimum_is_locally_optimal(fmu8):
@@ -47,7 +48,13 @@ def test_stored_optimum_is_locally_optimal(fmu8):
     assert len(around) == 28 + 49 - 7
     values = [objective(o) for o in around]
     assert all(v.ok for v in values)
-    assert min(v.peak for v in values) > KNOWN["peak_search"]
+    assert min(v.peak for v in values) > screened_peak(objective)
+
+
+def screened_peak(objective):
+    evaluation = objective(tuple(KNOWN["order"]))
+    assert evaluation.ok
+    return evaluation.peak
 
 
 @pytest.mark.slow
