@@ -62,7 +62,8 @@ def test_exhaustive_sweep_finds_the_stored_optimum(fmu8, tmp_path):
     with make_executor("process", workers=2) as executor:
         search, full = fidelities(fmu8)
         result = run_exhaustive(search, 8, executor, tmp_path, 1008, full_objective=full,
+                                objective_with_limit=search.with_limit,  # the FMU's peak_force_limit
                                 screening_error=KNOWN["screening_error"], full_error=KNOWN["full_error"])
-    assert result["orders"] == 40320 and result["failed"] == 0
+    assert result["orders"] == 40320 and result["failed"] == 0 and result["censored"] > 30000
     assert result["optimum"]["order"] == KNOWN["order"]
     assert result["optimum"]["peak"] == pytest.approx(KNOWN["peak_full"], rel=1e-9)
