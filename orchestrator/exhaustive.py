@@ -147,7 +147,7 @@ def evaluate_chunk(objective: Callable[[Order], Evaluation], columns: int, start
     within ``screening_error`` of the chunk's best (see :func:`screening_threshold`; a superset of the
     orders that can be the global optimum); ``failed``: the failed orders and their messages;
     ``histogram``: {bin: count} of the peaks (:func:`histogram_bin`); ``peaks`` (when ``all_peaks``):
-    every order's peak in rank order, None for a failure.
+    every order's peak in rank order, None for a failure or a censored order (run without a limit for a table).
     """
     wall, cpu = time.perf_counter(), time.process_time()
     evaluated_seconds = 0.0
