@@ -6,7 +6,8 @@
 
 The FMU is built with ``build_fmu.py --cols C`` into OUT (or taken from --fmu).  Screening uses the
 searches' fidelity (``SampledPeak(...).tasks(SEARCH)`` of ``orchestrator.objective``: 1 s horizon, rtol
-1e-5, the full 8 s for an order still touching the plate near 1 s); every order within ``--screening-error`` (relative) of the best
+1e-5, the full 8 s for an order still touching the plate near 1 s); every order within
+``--screening-error`` (relative) of the best
 and every screening failure is re-evaluated over the full 8 s at the FMU's default accuracy.
 
 ``--kill-after S`` runs the sweep as a child in its own process group, SIGKILLs the whole group after S
@@ -113,7 +114,8 @@ def main(argv=None) -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--scheduler", default=None, help="a Dask scheduler's address (tcp://HOST:8786)")
     parser.add_argument("--screening-error", type=float, default=SCREENING_ERROR)
-    parser.add_argument("--confirm-exhaustive", action="store_true", help="confirm a sweep beyond the local limit (dask)")
+    parser.add_argument("--confirm-exhaustive", action="store_true",
+                        help="confirm a sweep beyond the local limit (dask)")
     parser.add_argument("--all-peaks", action="store_true", help="keep every peak and write OUT/peaks_11xC.npz")
     parser.add_argument("--kill-after", type=float, default=None)
     parser.add_argument("--expect", default=None, help="a known-optimum JSON to compare the optimum with")
@@ -147,8 +149,9 @@ def main(argv=None) -> int:
     (out / "result.json").write_text(json.dumps(result, indent=1))
     if args.all_peaks:
         table = peak_table(args.checkpoint, args.cols)
+        fingerprint = json.loads((Path(args.checkpoint) / "fingerprint.json").read_text())
         np.savez_compressed(out / f"peaks_11x{args.cols}.npz", peaks=table, columns=args.cols,
-                            fmu_sha256=json.loads((Path(args.checkpoint) / "fingerprint.json").read_text())["fmu_sha256"])
+                            fmu_sha256=fingerprint["fmu_sha256"])
         print(f"wrote {out / f'peaks_11x{args.cols}.npz'} ({np.isfinite(table).sum()} peaks)")
     if args.expect:
         expected = json.loads(Path(args.expect).read_text())

@@ -312,7 +312,8 @@ def run_exhaustive(objective: Callable[[Order], Evaluation], columns: int, execu
     ``screening_error``: the screening objective's stated relative error bound (it decides which orders
     are re-evaluated); ``full_error``: the full objective's (stated in the result as the tolerance).
     ``verify_top``: the best orders verified at full fidelity besides the candidates (so the result can say
-    how far the runner-up is).  ``in_flight``: chunks submitted at once (default: twice the executor's workers when known, else 8).
+    how far the runner-up is).  ``in_flight``: chunks submitted at once (default: twice the executor's
+    workers when known, else 8).
     ``progress(chunks_done, chunks_total)`` is called as chunks finish.  Returns the result dict
     (``"exhaustive"`` shape of issue 11, plus the optimum and the evidence for it).
     """
