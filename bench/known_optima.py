@@ -6,8 +6,9 @@
 
 The objective is a lookup in the exhaustive sweep's table of every order's peak at the search fidelity
 (``SampledPeak(...).tasks(SEARCH)`` of ``orchestrator.objective``: the FMU's own values, so no
-simulation is needed and a run costs milliseconds).  The optimum is the table's minimum.  For each method, budget and seed the search
-runs through the loop (``run_search``) exactly as on the FMU; a run succeeds when it evaluates the optimum.
+simulation is needed and a run costs milliseconds).  The optimum is the table's minimum.  For each
+method, budget and seed the search runs through the loop (``run_search``) exactly as on the FMU; a run
+succeeds when it evaluates the optimum.
 
 Figures (COCO's definitions): success rate = successful runs / runs; ERT = evaluations summed over all
 runs, a successful run counted up to the evaluation that found the optimum, an unsuccessful one with all
