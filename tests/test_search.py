@@ -12,7 +12,7 @@ from orchestrator.loop import run_search
 from orchestrator.search import SEARCHES, make_search
 from orchestrator.search.base import keys_to_order, to_internal
 from orchestrator.search.local import Descent, neighbours, order_to_keys, sequential_keys
-from orchestrator.search.problems import QuadraticAssignment, WeightedDistance, brute_force
+from orchestrator.search.problems import Flaky, QuadraticAssignment, WeightedDistance, brute_force
 
 METHODS = sorted(SEARCHES)
 
@@ -53,7 +53,8 @@ def qap8_optimum():
     return optimum, value
 
 
-@pytest.mark.parametrize("method,budget", [("cmaes", 700), ("pso", 500), ("sa", 400)])
+@pytest.mark.parametrize("method,budget", [("cmaes", 700), ("pso", 500), ("sa", 400), ("ga", 500),
+                                           ("de", 500)])
 def test_finds_qap7_optimum(method, budget, qap7_optimum):
     optimum, value = qap7_optimum
     found = [solve(method, QAP7, 7, budget, seed) for seed in (0, 1, 2)]
@@ -63,7 +64,8 @@ def test_finds_qap7_optimum(method, budget, qap7_optimum):
         assert r.n_evaluations <= budget and r.best_peak >= value - 1e-9
 
 
-@pytest.mark.parametrize("method,budget", [("cmaes", 700), ("pso", 500), ("sa", 400)])
+@pytest.mark.parametrize("method,budget", [("cmaes", 700), ("pso", 500), ("sa", 400), ("ga", 500),
+                                           ("de", 500)])
 def test_core_alone_finds_qap7_optimum(method, budget, qap7_optimum):
     """The same without the polishing phase: the optimiser itself, not only the final descent."""
     optimum, value = qap7_optimum
@@ -198,7 +200,7 @@ def test_neighbours_are_the_distinct_swaps_and_insertions():
     assert all(sum(a != b for a, b in zip(o, start)) >= 2 for o in found)
 
 
-@pytest.mark.parametrize("method", ["pso", "sa"])
+@pytest.mark.parametrize("method", ["pso", "sa", "ga", "de"])
 def test_first_batch_holds_the_sequential_order(method):
     assert make_search(method, 7, 3, budget=100).ask()[0] == tuple(range(1, 8))
     assert tuple(range(1, 8)) not in make_search(method, 7, 3, budget=100, x0="random").ask()
@@ -208,7 +210,8 @@ def test_cmaes_first_mean_is_the_sequential_order():
     assert keys_to_order(make_search("cmaes", 7, 3, budget=100).inner.es.mean, 7) == tuple(range(1, 8))
 
 
-@pytest.mark.parametrize("method,polish", [("cmaes", 0.7), ("pso", 0.7), ("sa", 0.3)])
+@pytest.mark.parametrize("method,polish", [("cmaes", 0.7), ("pso", 0.7), ("sa", 0.3), ("ga", 0.7),
+                                           ("de", 0.7)])
 def test_polishing_phase_takes_the_end_of_the_budget(method, polish):
     budget = 300
     run = solve(method, QAP8, 8, budget, seed=0)
@@ -298,6 +301,8 @@ def test_options_change_batch_sizes():
     assert len(make_search("pso", 8, 0, swarm=7).ask()) == 7
     assert len(make_search("sa", 8, 0, chains=3).ask()) == 3
     assert len(make_search("random", 8, 0, batch=5).ask()) == 5
+    assert len(make_search("ga", 8, 0, pop_size=6).ask()) == 6
+    assert len(make_search("de", 8, 0, pop_size=7).ask()) == 7
 
 
 def test_keys_to_order_is_argsort_plus_one():
@@ -312,3 +317,41 @@ def test_tiny_n(method):
         assert run.n_evaluations <= math.factorial(n) and not run.stalled
         if method != "sequential":
             assert run.best_peak == 0.0
+
+
+# ---------------------------------------------------------------- pymoo's GA and DE
+@pytest.mark.parametrize("method", ["ga", "de"])
+@pytest.mark.parametrize("executor", ["serial", "process"])
+def test_pymoo_searches_never_exceed_the_budget_and_keep_failures_out(method, executor):
+    """Through the loop, with a third of the orders failing: the budget holds, every failure is
+    recorded as failed, and the best is a real value; the run is the same on a process pool."""
+    objective = Flaky(QAP7, period=3, mode="raise")
+    with make_executor(executor, workers=2) as pool:
+        run = run_search(make_search(method, 7, 4, budget=137), objective, 137, pool,
+                         method_name=method, seed=4)
+    assert run.n_evaluations == 137 and run.n_failed > 20
+    assert all(e.peak is None for e in run.evaluations if not e.ok)
+    assert not objective.fails(run.best_order) and run.best_peak == QAP7.value(run.best_order)
+    assert run.outcome() == solve_flaky(method, objective).outcome()
+
+
+def solve_flaky(method, objective):
+    with make_executor("serial") as executor:
+        return run_search(make_search(method, 7, 4, budget=137), objective, 137, executor,
+                          method_name=method, seed=4)
+
+
+def test_ga_restarts_when_its_population_only_repeats_known_orders():
+    """n = 3 has 6 orders: the GA soon asks only known ones and restarts instead of stalling."""
+    search = make_search("ga", 3, 0, pop_size=4, stagnation=2, polish=0.0)
+    drive(search, lambda o: float(o[0]), 30)
+    assert search.state()["restarts"] >= 1 and search.best_order[0] == 1
+
+
+def test_pymoo_options_are_checked():
+    with pytest.raises(ValueError, match="variant"):
+        make_search("de", 5, 0, variant="DE/rand/9/bin")
+    with pytest.raises(ValueError, match="x0"):
+        make_search("ga", 5, 0, x0="middle")
+    with pytest.raises(ValueError, match="pop_size"):
+        make_search("ga", 5, 0, pop_size=1)

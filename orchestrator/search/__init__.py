@@ -16,6 +16,8 @@ from .annealing import Annealing
 from .base import FAILURE, Search, keys_to_order
 from .baselines import RandomSearch, Sequential
 from .cmaes import CMAES
+from .de import DifferentialEvolution
+from .ga import GeneticAlgorithm
 from .local import LocalSearch
 from .polish import Polished
 from .pso import PSO
@@ -24,6 +26,8 @@ SEARCHES: dict[str, type[Search]] = {
     "cmaes": CMAES,
     "pso": PSO,
     "sa": Annealing,
+    "ga": GeneticAlgorithm,
+    "de": DifferentialEvolution,
     "random": RandomSearch,
     "sequential": Sequential,
     "local": LocalSearch,
@@ -60,4 +64,5 @@ def make_search(name: str, n: int, seed: int, **options: Any) -> Search:
 
 
 __all__ = ["SEARCHES", "make_search", "Search", "CMAES", "PSO", "Annealing", "RandomSearch",
-           "Sequential", "LocalSearch", "Polished", "FAILURE", "keys_to_order"]
+           "Sequential", "LocalSearch", "Polished", "GeneticAlgorithm", "DifferentialEvolution", "FAILURE",
+           "keys_to_order"]

@@ -168,3 +168,20 @@ class LimitedObjective:
             supports_limits = True
 
         return _Limited(Limited(base), n)
+
+
+class Delayed:
+    """Wraps an objective and sleeps ``seconds`` per call: a cheap stand-in for a simulation's cost, so
+    that a test can interrupt a parallel run midway (e.g. the exhaustive sweep's kill-and-resume test)."""
+
+    def __init__(self, base: Callable[[Order], Any], seconds: float) -> None:
+        self.base, self.seconds = base, float(seconds)
+
+    def __repr__(self) -> str:
+        return f"Delayed({type(self.base).__name__}, {self.seconds})"
+
+    def __call__(self, order: Sequence[int]) -> Any:
+        import time
+
+        time.sleep(self.seconds)
+        return self.base(order)
