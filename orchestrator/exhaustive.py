@@ -44,6 +44,9 @@ from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
+from concurrent.futures.process import BrokenProcessPool
+
+from .executors import executor_slots
 from .types import Evaluation, Order, as_order, safe_call
 
 MAX_LOCAL_ORDERS = math.factorial(10)
@@ -346,8 +349,7 @@ def run_exhaustive(objective: Callable[[Order], Evaluation], columns: int, execu
     from_checkpoint = len(chunks)
     todo = [k for k in range(len(ranges)) if k not in chunks]
     if in_flight is None:
-        workers = getattr(executor, "_max_workers", None)
-        in_flight = 2 * workers if workers else 8
+        in_flight = 2 * executor_slots(executor)
     attempts: dict[int, int] = {}
     rerun = 0
     incumbent = min((c["best"][0][1] for c in chunks.values() if c["best"]), default=math.inf)
@@ -377,10 +379,16 @@ def run_exhaustive(objective: Callable[[Order], Evaluation], columns: int, execu
                 break
             done, _ = wait(list(running), return_when=FIRST_COMPLETED)
             for future in sorted(done, key=lambda f: running[f]):
+                if future not in running:
+                    continue  # requeued when the pool was replaced
                 index = running.pop(future)
                 try:
                     content = future.result()
                 except Exception as exc:  # noqa: BLE001 - a dead worker costs only its chunk
+                    if isinstance(exc, BrokenProcessPool) and hasattr(executor, "renew"):
+                        executor.renew()  # a new pool; the chunks that were in it run again
+                        for other in list(running):
+                            queue.append(running.pop(other))
                     if attempts[index] >= max_attempts:
                         raise RuntimeError(f"exhaustive: chunk {index} (ranks {ranges[index][0]}.."
                                            f"{ranges[index][1] - 1}) failed {attempts[index]} times, last: "

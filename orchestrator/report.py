@@ -41,6 +41,8 @@ def write_report(study: Study) -> Path:
         "lattice": plot_lattice(study, out / "lattice.png"),
         "work_precision": plot_work_precision(accuracy["work_precision"], out / "work_precision.png"),
     }
+    if study.exhaustive:
+        charts["exhaustive"] = plot_exhaustive(study, out / "exhaustive.png")
     write_design(study, out)
     (out / "report.html").write_text(render_html(study, accuracy, charts))
     return out / "report.html"
@@ -152,6 +154,7 @@ def results_dict(study: Study, accuracy: dict) -> dict:
                      for v in study.verified.values()],
         "finalist_disagreements": study.finalist_disagreements,
         "local_optimality": study.local_check,
+        "exhaustive": study.exhaustive,
         "which_model": study.which_model,
         "sensitivity": study.sensitivity,
         "evaluator": study.evaluator_state,
@@ -446,6 +449,7 @@ objective <b>{config.objective}</b>, FMU {html.escape(str(study.fmu_path))}. Sea
 {data['search_horizon']:g} s horizon at rtol {config.search_rtol}; every result below is re-evaluated over the
 full {study.horizon:g} s scene at the FMU's default accuracy. Wall time {study.wall_seconds:.1f} s.</p>
 {sensitivity_html(data)}
+{exhaustive_html(data, charts)}
 <h2>How accurate these numbers are</h2><ul>{accuracy_rows}
 <li>Finalists: {disagreements}.</li><li>Local optimality: {local_text}</li></ul>
 <h2>Convergence</h2><img src="{charts['convergence']}">
@@ -536,3 +540,54 @@ def sensitivity_html(data: dict) -> str:
             f"{sensitivity['budget']} evaluations each) find for that variation. "
             f"The regret is what keeping the order costs there (full scene).</p>"
             f"<table><tr><th>variation</th><th>best found for it</th>{head}</tr>{''.join(rows)}</table>")
+
+
+def plot_exhaustive(study: Study, path: Path) -> str:
+    """The distribution of every order's peak (search fidelity), the optimum, the best orders and each
+    search run's best marked."""
+    result = study.exhaustive
+    histogram = result["histogram"]
+    resolution = float(histogram["resolution"])
+    bins = sorted((int(k), v) for k, v in histogram["counts"].items())
+    figure, axis = plt.subplots(figsize=(9, 4.5))
+    if bins:
+        lefts = np.array([(1 + resolution) ** k for k, _ in bins])
+        exact = sum(v for _, v in bins)
+        stopped = result.get("censored", 0)
+        axis.bar(lefts, [v for _, v in bins], width=lefts * resolution, align="edge", color="tab:gray",
+                 label=f"{exact:,} of {result['orders']:,} orders" + (
+                     f"; the other {stopped:,} passed the incumbent's force limit and were stopped there "
+                     "(their peaks are above it, not computed)" if stopped else ""))
+    optimum = result.get("optimum")
+    if optimum:
+        axis.axvline(optimum["peak"], color="crimson", lw=2, label=f"optimum {optimum['order']}: {optimum['peak']:.3f} N")
+    for entry in result.get("top", [])[1:6]:
+        axis.axvline(entry["peak"], color="crimson", lw=0.6, ls=":")
+    for run in study.runs:
+        if run.best_peak is not None:
+            axis.axvline(run.best_peak, color=COLOURS.get(run.method, "tab:blue"), lw=1, ls="--")
+    axis.plot([], [], color="tab:blue", ls="--", label="each search run's best (search fidelity)")
+    axis.set_yscale("log")
+    axis.set_xlabel("peak backplate force (N), search fidelity")
+    axis.set_ylabel("orders")
+    axis.set_title("Every order's peak: the exhaustive sweep", fontsize=9)
+    axis.legend(fontsize=7)
+    axis.grid(alpha=0.3)
+    return _save(figure, path)
+
+
+def exhaustive_html(data: dict, charts: dict) -> str:
+    result = data.get("exhaustive")
+    if not result:
+        return ""
+    optimum = result.get("optimum") or {}
+    tolerance = optimum.get("tolerance")
+    return (f"<h2>Exhaustive search: the known optimum</h2><p>Every one of the {result['orders']:,} orders was "
+            f"screened at the search fidelity ({result['chunks']} chunks, {result['from_checkpoint']} from the "
+            f"checkpoint, {_fmt(result.get('orders_per_core_second'), 0)} orders per core-second); the "
+            f"{result.get('full_fidelity_checks')} orders within {result['screening_error']:g} (relative) of the "
+            f"best were evaluated over the full scene. The optimum is <b>{optimum.get('order')}</b> at "
+            f"<b>{_fmt(optimum.get('peak'), 4)} N</b>"
+            + (f" (to {tolerance:.1e} N)" if tolerance is not None else "")
+            + f"; the runner-up is at {_fmt(optimum.get('runner_up_peak'), 4)} N.</p>"
+            + (f"<img src=\"{charts['exhaustive']}\">" if "exhaustive" in charts else ""))

@@ -86,7 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
     defaults = StudyConfig()
     parser = Parser(description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--method", nargs="+", default=list(defaults.methods),
-                        choices=list(SEARCHES) + ["all"], help="searches and baselines to run")
+                        choices=list(SEARCHES) + ["exhaustive", "all"],
+                        help="searches and baselines to run; exhaustive: every order (checkpointed, see --checkpoint)")
     parser.add_argument("--budget", type=integer("--budget", 1, 10**9), default=defaults.budget,
                         help="evaluations of distinct orders per run (never exceeded)")
     parser.add_argument("--seed", type=integer("--seed", 0, 2**32 - 1001), default=defaults.seed, help="first seed")
@@ -106,6 +107,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", default=defaults.out, help="report folder (holds the journal of the run)")
     parser.add_argument("--resume", action="store_true",
                         help="continue the run in --out from its journal (same settings), simulating no order twice")
+    parser.add_argument("--checkpoint", default=None,
+                        help="folder of the exhaustive sweep's finished chunks (default OUT/exhaustive); "
+                             "a sweep started again with it skips them")
+    parser.add_argument("--chunk-size", type=integer("--chunk-size", 1, 10**9), default=None,
+                        help="orders per chunk of the exhaustive sweep (default: about 200 chunks)")
+    parser.add_argument("--confirm-exhaustive", action="store_true",
+                        help="run an exhaustive sweep beyond 10! orders (only with --executor dask)")
     parser.add_argument("--scene", default=defaults.scene, help="scene name from scenes/ or a .json path")
     parser.add_argument("--fmu", default=None, help="FMU to use (default: models/<scene's FMU>, built if missing)")
     parser.add_argument("--horizon", type=finite("--horizon", 0, MAX_HORIZON), default=None,
@@ -161,7 +169,8 @@ def parse_args(argv=None) -> tuple[StudyConfig, argparse.Namespace]:
             aggregate=args.aggregate, finalists=args.finalists, time_limit=args.time_limit,
             local_check=not args.no_local_check, which_model=not args.no_which_model,
             sensitivity=not args.no_sensitivity, which_model_budget=args.which_model_budget,
-            sensitivity_budget=args.sensitivity_budget, resume=args.resume, progress=not args.no_progress)
+            sensitivity_budget=args.sensitivity_budget, checkpoint=args.checkpoint, chunk_size=args.chunk_size,
+            confirm_exhaustive=args.confirm_exhaustive, resume=args.resume, progress=not args.no_progress)
     except ValueError as exc:
         parser.error(str(exc))
     return config, args

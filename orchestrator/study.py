@@ -21,8 +21,8 @@ from pathlib import Path
 from .executors import make_executor
 from .journal import Journal, file_sha256
 from .loop import Evaluator, SearchRun, run_search
-from .objective import (AGGREGATES, FULL, OBJECTIVES, SEARCH_HORIZON, SEARCH_RTOL, PeakObjective, close_instances,
-                        expand_cases, make_objective)
+from .objective import (AGGREGATES, FULL, OBJECTIVES, SEARCH, SEARCH_HORIZON, SEARCH_RTOL, PeakObjective,
+                        close_instances, expand_cases, make_objective)
 from .search import SEARCHES, make_search
 from .search.local import neighbours as local_neighbours
 from .simulation import LatticeFMU
@@ -79,11 +79,14 @@ class StudyConfig:
     sensitivity: bool = True  # the chosen order under standard variations of the case
     sensitivity_budget: int = 100
     time_limit: float | None = 120.0  # s per evaluation; a slower one is failed
+    checkpoint: str | None = None  # the exhaustive sweep's checkpoint folder (default OUT/exhaustive)
+    confirm_exhaustive: bool = False  # a sweep beyond 10! orders runs only on Dask, confirmed
+    chunk_size: int | None = None  # orders per chunk of the exhaustive sweep (default: about 200 chunks)
     resume: bool = False
     progress: bool = True
 
     def __post_init__(self):
-        allowed = tuple(SEARCHES) + ("all",)
+        allowed = tuple(SEARCHES) + ("exhaustive", "all")
         methods = []
         for method in self.methods:
             if method not in allowed:
@@ -106,6 +109,10 @@ class StudyConfig:
             raise ValueError(f"horizon must be at most {MAX_HORIZON:g} s, got {self.horizon!r}")
         if self.workers is not None and (int(self.workers) != self.workers or self.workers < 1):
             raise ValueError(f"workers must be a positive integer, got {self.workers!r}")
+        if "exhaustive" in self.methods and self.cases:
+            raise ValueError("method exhaustive: one case only (without --case); allowed: a single scene")
+        if self.chunk_size is not None and (int(self.chunk_size) != self.chunk_size or self.chunk_size < 1):
+            raise ValueError(f"chunk_size must be a positive integer, got {self.chunk_size!r}")
         if self.aggregate is not None:
             if not self.cases:
                 raise ValueError("aggregate: only with cases (--case NAME=V1,V2,...); allowed values are "
@@ -121,7 +128,8 @@ class StudyConfig:
     def settings(self) -> dict:
         """What decides the results (a resumed run must match it); not where or how fast it runs."""
         kept = asdict(self)
-        for name in ("executor", "workers", "scheduler", "out", "resume", "progress", "time_limit"):
+        for name in ("executor", "workers", "scheduler", "out", "resume", "progress", "time_limit", "checkpoint",
+                     "confirm_exhaustive"):
             kept.pop(name)
         kept["methods"] = list(self.methods)
         return kept
@@ -141,6 +149,7 @@ class Study:
     rows: int
     which_model: dict | None = None
     sensitivity: dict | None = None
+    exhaustive: dict | None = None
     evaluator_state: dict = field(default_factory=dict)
 
     @property
@@ -191,7 +200,7 @@ def stale_fmu(path: Path, expected_guid: str) -> bool:
 
 
 def check_fmu_matches_scene(path: Path, scene) -> None:
-    """An explicit --fmu must be the scene's model (identifier and lattice size); else a one-line refusal."""
+    """An explicit --fmu must be the scene's model (its model identifier); else a one-line refusal."""
     from fmpy import read_model_description
 
     try:
@@ -199,11 +208,9 @@ def check_fmu_matches_scene(path: Path, scene) -> None:
     except Exception as exc:  # noqa: BLE001
         raise ValueError(f"--fmu {path}: not a readable FMU ({type(exc).__name__}: {exc})") from None
     identifier = description.coSimulation.modelIdentifier if description.coSimulation else None
-    names = {v.name for v in description.modelVariables}
-    columns = sum(1 for name in names if name.startswith("material["))
-    if identifier != scene.model_identifier or (columns and columns != scene.cols):
-        raise ValueError(f"--fmu {path}: it is {identifier} with {columns} columns, but scene {scene.name} is "
-                         f"{scene.model_identifier} with {scene.cols}; give the scene's FMU or --scene")
+    if identifier != scene.model_identifier:  # another lattice size of the same scene (--cols 8) is its own
+        raise ValueError(f"--fmu {path}: it is a {identifier} FMU, but scene {scene.name} is "
+                         f"{scene.model_identifier}; give the scene's FMU or the FMU's --scene")
 
 
 def load_scene(scene: str):
@@ -233,7 +240,7 @@ def verify(objective: PeakObjective, evaluator: Evaluator, orders: list[Order]) 
 
 def plan_runs(config: StudyConfig) -> list[tuple[str, int]]:
     seeds = [config.seed + r for r in range(config.repeats)]
-    return [(method, seed) for method in config.methods
+    return [(method, seed) for method in config.methods if method in SEARCHES
             for seed in (seeds[:1] if SEARCHES[method].deterministic else seeds)]
 
 
@@ -297,10 +304,20 @@ def run_study(config: StudyConfig) -> Study:
         with Journal(out, settings, resume=config.resume) as journal, \
                 make_executor(config.executor, config.workers, config.scheduler, temp_root) as executor:
             evaluator = Evaluator(executor, journal, config.time_limit)
+            if "exhaustive" in config.methods:  # refused before any search when beyond the local limit
+                from .exhaustive import MAX_LOCAL_ORDERS, check_cost
+
+                check_cost(objective.tasks(SEARCH)[0], columns, config.executor, config.confirm_exhaustive,
+                           MAX_LOCAL_ORDERS)
             runs = run_searches(objective, evaluator, plan, config.budget, bar)
             if bar is not None:
                 bar.close()
+            exhaustive = None
+            if "exhaustive" in config.methods:
+                exhaustive = exhaustive_sweep(objective, executor, config)
             extra = (STUDY_BEST_ORDER, tuple(range(1, columns + 1)))
+            if exhaustive and exhaustive.get("optimum"):
+                extra += (tuple(exhaustive["optimum"]["order"]),)
             verified, best = best_of(runs, objective, evaluator, config.finalists, extra)
             disagreements = finalist_disagreements(runs, verified, config.finalists)
             local = None
@@ -319,7 +336,32 @@ def run_study(config: StudyConfig) -> Study:
         close_instances()
         shutil.rmtree(temp_root, ignore_errors=True)
     return Study(config, fmu_path, horizon, objective, runs, verified, disagreements, local,
-                 time.perf_counter() - start, scene.rows, which, sensitivity, state)
+                 time.perf_counter() - start, scene.rows, which, sensitivity, exhaustive, state)
+
+
+# The screening error bound of the search fidelity: bench/horizon_study.py and bench/solver_work_precision.py
+# measure at most 2.7e-5 (relative) at rtol 1e-5; the sweep re-evaluates every order within 1e-4 of the
+# incumbent at full fidelity, whose own error is at most 1e-6 (bench/work_precision.py: 1.8e-7).
+EXHAUSTIVE_SCREENING_ERROR = 1e-4
+EXHAUSTIVE_FULL_ERROR = 1e-6
+
+
+def exhaustive_sweep(objective: PeakObjective, executor, config: StudyConfig) -> dict:
+    """Every order of 1..C (orchestrator.exhaustive), screened at the search fidelity with the incumbent as
+    the FMU's force limit, checkpointed in config.checkpoint (default OUT/exhaustive), the candidates
+    verified at full fidelity: the optimum to a stated tolerance."""
+    from .exhaustive import run_exhaustive
+
+    screening, = objective.tasks(SEARCH)
+    full, = objective.tasks(FULL)
+    total = math.factorial(objective.n_var)
+    chunk_size = config.chunk_size or max(1, -(-total // 200))
+    return run_exhaustive(
+        screening, objective.n_var, executor, config.checkpoint or str(Path(config.out) / "exhaustive"),
+        chunk_size, full_objective=full, screening_error=EXHAUSTIVE_SCREENING_ERROR,
+        full_error=EXHAUSTIVE_FULL_ERROR, scene=config.scene, executor_kind=config.executor,
+        confirm=config.confirm_exhaustive,
+        objective_with_limit=screening.with_limit if objective.supports_limits else None)
 
 
 def _rule_in_cases(config: StudyConfig) -> bool:

@@ -230,3 +230,51 @@ def test_sweep_killed_with_sigkill_resumes_from_its_checkpoint(tmp_path, qap7_op
     result = json.loads(resumed.stdout.strip().splitlines()[-1])
     assert result["from_checkpoint"] >= finished and result["orders"] == 5040
     assert tuple(result["optimum"]["order"]) == qap7_optimum[0]
+
+
+# ------------------------------------------------------------------------------------- the CLI's sweep
+@pytest.fixture(scope="module")
+def fmu6(tmp_path_factory):
+    import build_fmu
+
+    return build_fmu.build_fmu(output=tmp_path_factory.mktemp("fmu6") / "MassSpringLattice.fmu", cols=6)
+
+
+def test_run_method_exhaustive_finds_the_optimum_and_resumes_from_its_checkpoint(fmu6, tmp_path, capfd):
+    """`run.py --method exhaustive` on 11 x 6 (720 orders): results.json's exhaustive section, the optimum
+    equal to the best of every order at full fidelity (brute force here), and a second run served from the
+    checkpoint."""
+    from orchestrator import run as cli
+    from orchestrator.executors import make_executor as executors
+    from orchestrator.loop import Evaluator
+    from orchestrator.objective import FULL, SampledPeak
+
+    argv = ["--fmu", str(fmu6), "--method", "exhaustive", "--out", str(tmp_path / "out"), "--workers", "2",
+            "--no-progress", "--no-which-model", "--no-sensitivity", "--no-local-check", "--chunk-size", "60"]
+    assert cli.main(argv) == 0, capfd.readouterr().err
+    first = json.loads((tmp_path / "out" / "results.json").read_text())
+    sweep = first["exhaustive"]
+    assert sweep["orders"] == 720 and sweep["chunks"] == 12 and sweep["from_checkpoint"] == 0
+    assert sweep["full_fidelity_checks"] >= 1 and sweep["orders_per_core_second"] > 0
+    # brute force at full fidelity: the sweep's optimum is the best of all 720 orders
+    orders = [tuple(p) for p in itertools.permutations(range(1, 7))]
+    with executors("process", 2) as executor:
+        everything = SampledPeak(fmu6, 6, 8.0).evaluate(orders, Evaluator(executor), FULL)
+    truth = min((e for e in everything if e.ok), key=lambda e: e.peak)
+    assert sweep["optimum"]["order"] == list(truth.order) == first["best"]["order"]
+    assert sweep["optimum"]["peak"] == pytest.approx(truth.peak, rel=1e-12)
+    assert (tmp_path / "out" / "exhaustive.png").stat().st_size > 1000
+    assert cli.main(argv) == 0
+    again = json.loads((tmp_path / "out" / "results.json").read_text())["exhaustive"]
+    assert again["from_checkpoint"] == 12 and again["optimum"] == sweep["optimum"]
+
+
+def test_run_refuses_a_sweep_beyond_the_local_limit_with_its_cost(fmu_path, tmp_path, capfd):
+    from orchestrator import run as cli
+
+    code = cli.main(["--fmu", str(fmu_path), "--method", "exhaustive", "--out", str(tmp_path), "--no-progress",
+                     "--executor", "serial"])
+    err = capfd.readouterr().err
+    assert code == 2 and "core-hours" in err and "--confirm-exhaustive" in err, err
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "exhaustive").exists()
