@@ -160,6 +160,7 @@ def results_dict(study: Study, accuracy: dict) -> dict:
         "evaluator": study.evaluator_state,
         "accuracy": accuracy,
         "study_reference_points": STUDY_REFERENCE_POINTS,
+        "known_optimum": known_optimum(study),
         "wall_seconds": study.wall_seconds,
     }
 
@@ -239,6 +240,11 @@ def plot_convergence(study: Study, path: Path) -> str:
         axis.plot(x, median, color=COLOURS.get(method), label=label)
         if len(runs) > 1:
             axis.fill_between(x, low, high, color=COLOURS.get(method), alpha=0.2, lw=0)
+    known = known_optimum(study)
+    if known is not None:
+        axis.axhline(known["peak"], color="crimson", lw=1, ls="--",
+                     label=("known optimum" if known["proven"] else "best known order (not proven optimal)")
+                     + f" {known['order']}: {known['peak']:.2f} N")
     for (name, value), marker in zip(STUDY_REFERENCE_POINTS.items(), "o^sD"):
         x_at = 4 if "evaluation 4" in name else 100
         axis.plot([x_at], [value], marker=marker, color="crimson", ls="none", label=f"{name}: {value:.2f} N")
@@ -250,6 +256,18 @@ def plot_convergence(study: Study, path: Path) -> str:
     axis.grid(alpha=0.3)
     axis.legend(fontsize=7)
     return _save(figure, path)
+
+
+def known_optimum(study: Study) -> dict | None:
+    """The known optimum (orchestrator/known_optima.json) of this run's case, if there is one: same lattice,
+    the sampled objective over 8 s, the receiver rule and no other parameter or load case."""
+    if (study.config.objective != "sampled" or study.horizon != 8.0 or study.objective.cases != [{}]
+            or any(k != "diagonal_rule" for k in _parameters(study)) or study.config.diagonal_rule != "receiver"):
+        return None
+    columns = study.objective.n_var
+    table = json.loads((Path(__file__).parent / "known_optima.json").read_text())
+    return next((entry for entry in table["optima"]
+                 if entry["columns"] == columns and entry["rows"] == study.rows), None)
 
 
 def _trajectory(fmu: LatticeFMU, order, horizon, step, parameters):

@@ -87,3 +87,12 @@ def test_exhaustive_sweep_finds_the_stored_optimum(fmu8, tmp_path):
     assert result["orders"] == 40320 and result["failed"] == 0 and result["censored"] > 30000
     assert result["optimum"]["order"] == KNOWN["order"]
     assert result["optimum"]["peak"] == pytest.approx(KNOWN["peak_full"], rel=1e-9)
+
+
+def test_the_report_s_known_optima_are_the_test_data():
+    """orchestrator/known_optima.json (what the report draws) holds the swept optima of tests/data."""
+    table = json.loads((Path(__file__).resolve().parents[1] / "orchestrator" / "known_optima.json").read_text())
+    for columns in (8, 9):
+        stored = known(columns)
+        entry = next(e for e in table["optima"] if e["columns"] == columns)
+        assert entry["order"] == stored["order"] and entry["peak"] == stored["peak_full"] and entry["proven"]

@@ -131,6 +131,7 @@ def test_cli_end_to_end_writes_the_report(fmu_path, tmp_path):
     assert "Which model, which optimum" in page and "How the chosen order holds up" in page
     from orchestrator.ssp import read_design_parameters
 
+    assert results["known_optimum"]["order"] == [1, 10, 9, 6, 4, 5, 7, 8, 3, 2, 11]  # drawn in the convergence
     design = read_design_parameters(out / "best_design.ssp")
     assert [design[f"material[{j}]"] for j in range(1, 12)] == best["order"]
     assert results["accuracy"]["sampled_relative_error"] < 1e-6
