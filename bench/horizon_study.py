@@ -294,7 +294,7 @@ def plot(rows, summary, rtols, path: Path, n_orders: int) -> None:
     touching = [x["orders_in_contact_in_last_10pct"] for x in rows_h]
     ax.bar(positions - 0.2, differ, 0.4, color="tab:red", label=f"peak differs from the 8 s peak (> {SAME:g})")
     ax.bar(positions + 0.2, touching, 0.4, color="tab:blue",
-           label="still touching the plate in the last 10% (FMUObjective re-runs these over 8 s)")
+           label="still touching the plate in the last 10% (the search fidelity re-runs these over 8 s)")
     for x, row in zip(positions, rows_h):
         worst = max(row["max_rel_diff_sampled"], row["max_rel_diff_continuous"])
         ax.text(x - 0.2, 0.5, f"max diff\n{worst:.0e}", ha="center", va="bottom", fontsize=7, rotation=90)

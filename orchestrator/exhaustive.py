@@ -33,7 +33,6 @@ screening threshold when a chunk is submitted) and lowers it as its own best imp
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
@@ -47,6 +46,7 @@ import numpy as np
 from concurrent.futures.process import BrokenProcessPool
 
 from .executors import executor_slots
+from .journal import file_sha256
 from .types import Evaluation, Order, as_order, safe_call
 
 MAX_LOCAL_ORDERS = math.factorial(10)
@@ -214,14 +214,6 @@ def evaluate_chunk(objective: Callable[[Order], Evaluation], columns: int, start
 
 
 # ------------------------------------------------------------------------------------------ checkpoint
-def file_sha256(path: str | os.PathLike) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def describe_objective(objective: Any) -> dict[str, Any]:
     """What identifies an objective in a fingerprint: its repr and, when it has an FMU, the FMU's hash."""
     described: dict[str, Any] = {"objective": repr(objective)}

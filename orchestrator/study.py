@@ -28,7 +28,6 @@ from .search.local import neighbours as local_neighbours
 from .simulation import LatticeFMU
 from .types import Evaluation, Order
 
-ROOT = Path(__file__).resolve().parents[1]
 SEARCH_METHODS = ("cmaes", "pso", "sa")
 BASELINES = ("sequential", "random")
 # What the study we start from published (shared/SPEC.md, issue 3): drawn as reference points, never used

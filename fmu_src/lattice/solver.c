@@ -329,6 +329,17 @@ static void accept(Solver *s, double *work, double h) {
 }
 
 /* The step that ends on the limit when the proposal reaches it, or would leave only a sliver. */
+/* An adaptive step shrunk to rounding: the solution is diverging or too stiff for the tolerances. */
+static int step_collapsed(const Solver *s, double h_abs, char *message, size_t message_size) {
+    const double min_step = 10.0 * fabs(nextafter(s->t, INFINITY) - s->t);
+    if (h_abs >= min_step) return 0;
+    snprintf(message, message_size,
+             "step size collapsed to %g s at t = %.9g s (the solution is diverging or too stiff for rtol = %g, "
+             "atol = %g)",
+             h_abs, s->t, s->rtol, s->atol);
+    return 1;
+}
+
 static double clip_to_limit(double t, double h, double t_limit) {
     if (t + h * (1.0 + SLIVER) >= t_limit) return t_limit - t;
     return h;
@@ -348,15 +359,8 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
     if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t, DOP853_ERROR_ORDER);
 
     for (;;) {
-        const double min_step = 10.0 * fabs(nextafter(s->t, INFINITY) - s->t);
         double h, err5_squared = 0.0, err3_squared = 0.0, error_norm;
-        if (h_abs < min_step) {
-            snprintf(message, message_size,
-                     "step size collapsed to %g s at t = %.9g s (the solution is diverging or too stiff for "
-                     "rtol = %g, atol = %g)",
-                     h_abs, s->t, s->rtol, s->atol);
-            return -1;
-        }
+        if (step_collapsed(s, h_abs, message, message_size)) return -1;
         h = clip_to_limit(s->t, h_abs, t_limit);
         h_abs = h;
         for (stage = 1; stage < DOP853_N_STAGES; stage++) {
@@ -412,15 +416,8 @@ static int fsal_pair_step(Solver *s, double *work, OdeFunction f, void *context,
     if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t, pair->error_order);
 
     for (;;) {
-        const double min_step = 10.0 * fabs(nextafter(s->t, INFINITY) - s->t);
         double h, error_squared = 0.0, error_norm;
-        if (h_abs < min_step) {
-            snprintf(message, message_size,
-                     "step size collapsed to %g s at t = %.9g s (the solution is diverging or too stiff for "
-                     "rtol = %g, atol = %g)",
-                     h_abs, s->t, s->rtol, s->atol);
-            return -1;
-        }
+        if (step_collapsed(s, h_abs, message, message_size)) return -1;
         h = clip_to_limit(s->t, h_abs, t_limit);
         h_abs = h;
         for (stage = 1; stage < PAIR_STAGES; stage++) {
