@@ -224,7 +224,8 @@ class PeakObjective(Objective):
 
     def __init__(self, fmu_path, n_var: int, horizon: float, parameters: dict | None = None,
                  cases: Sequence[dict] | None = None, aggregate: str = "worst",
-                 search_horizon: float | None = SEARCH_HORIZON, search_rtol: float | None = SEARCH_RTOL):
+                 search_horizon: float | None = SEARCH_HORIZON, search_rtol: float | None = SEARCH_RTOL,
+                 use_limits: bool = True):
         if aggregate not in AGGREGATES:
             raise ValueError(f"aggregate {aggregate!r}: allowed values are {', '.join(AGGREGATES)}")
         if not (math.isfinite(horizon) and horizon > 0):
@@ -237,12 +238,13 @@ class PeakObjective(Objective):
         self.aggregate = aggregate
         self.search_horizon = min(search_horizon or self.horizon, self.horizon)
         self.search_rtol = search_rtol
+        self.use_limits = use_limits  # False: every evaluation runs to the end (bench/force_limit_search.py)
 
     @property
     def supports_limits(self) -> bool:
         """A limit on the sampled peak bounds this objective (the continuous peak is at least the sampled
         one; the worst case is at least each case) when the FMU has ``peak_force_limit``."""
-        if self.aggregate != "worst" and len(self.cases) > 1:
+        if not self.use_limits or (self.aggregate != "worst" and len(self.cases) > 1):
             return False
         if not hasattr(self, "_fmu_has_limit"):
             from fmpy import read_model_description
@@ -254,11 +256,11 @@ class PeakObjective(Objective):
     def with_parameters(self, **parameters) -> "PeakObjective":
         """The same objective with some FMU parameters changed (the other diagonal rule, another load)."""
         return type(self)(self.fmu_path, self.n_var, self.horizon, {**self.parameters, **parameters},
-                          self.cases, self.aggregate, self.search_horizon, self.search_rtol)
+                          self.cases, self.aggregate, self.search_horizon, self.search_rtol, self.use_limits)
 
     def with_cases(self, cases: Sequence[dict] | None, aggregate: str = "worst") -> "PeakObjective":
         return type(self)(self.fmu_path, self.n_var, self.horizon, self.parameters, cases, aggregate,
-                          self.search_horizon, self.search_rtol)
+                          self.search_horizon, self.search_rtol, self.use_limits)
 
     def case_parameters(self, case: dict) -> dict:
         return {**self.parameters, **case}
