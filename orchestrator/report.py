@@ -512,6 +512,9 @@ def which_model_html(data: dict) -> str:
         receiver, mean = which["receiver"], which["mean"]
         if receiver["order"] == mean["order"]:
             sentence = "Both rules lead to the same order: the answer does not depend on the model's diagonal rule."
+        elif all(receiver.get(f"peak_{r}") == mean.get(f"peak_{r}") for r in ("receiver", "mean")):
+            sentence = ("The two orders give the same peaks under both rules (a tie, e.g. a load that never "
+                        "reaches the plate): the diagonal rule does not decide between them.")
         else:
             cost = (receiver.get("peak_mean") or 0) - (mean.get("peak_mean") or 0)
             sentence = (f"The two rules lead to different orders. The receiver rule's optimum (the rule the study "
