@@ -242,6 +242,15 @@ static int check_time(const InstanceCommon *common, double communication_point, 
     return 0;
 }
 
+int instance_set_time(InstanceCommon *common, double time, char *message, size_t message_size) {
+    if (!(time >= common->start_time)) {
+        snprintf(message, message_size, "time %.17g is before the start time %.17g", time, common->start_time);
+        return -1;
+    }
+    model_set_time(common->model, time);
+    return 0;
+}
+
 int instance_do_step(InstanceCommon *common, double communication_point, double step_size, char *message,
                      size_t message_size) {
     if (common->state == STATE_STEP_STOPPED) {

@@ -80,4 +80,7 @@ int instance_initialize(InstanceCommon *common, char *message, size_t message_si
 int instance_do_step(InstanceCommon *common, double communication_point, double step_size, char *message,
                      size_t message_size);
 
+/* Model Exchange's fmi2SetTime / fmi3SetTime: -1 and why for a time before the start time. */
+int instance_set_time(InstanceCommon *common, double time, char *message, size_t message_size);
+
 #endif

@@ -437,13 +437,8 @@ fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     if (!allowed(instance, "fmi2SetTime", ME_STATES)) return fmi2Error;
-    if (!(time >= instance->common.start_time)) {
-        snprintf(message, sizeof(message), "time %.17g is before the start time %.17g", time,
-                 instance->common.start_time);
-        return error(instance, "fmi2SetTime", message);
-    }
-    model_set_time(instance->common.model, time);
-    return fmi2OK;
+    return model_outcome(instance, "fmi2SetTime",
+                         instance_set_time(&instance->common, time, message, sizeof(message)), message);
 }
 
 fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {

@@ -691,13 +691,8 @@ fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 time) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     if (!allowed(instance, "fmi3SetTime", ME_STATES)) return fmi3Error;
-    if (!(time >= instance->common.start_time)) {
-        snprintf(message, sizeof(message), "time %.17g is before the start time %.17g", time,
-                 instance->common.start_time);
-        return error(instance, "fmi3SetTime", message);
-    }
-    model_set_time(instance->common.model, time);
-    return fmi3OK;
+    return model_outcome(instance, "fmi3SetTime",
+                         instance_set_time(&instance->common, time, message, sizeof(message)), message);
 }
 
 fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 continuousStates[], size_t nContinuousStates) {
