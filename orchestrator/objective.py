@@ -18,7 +18,7 @@ import time
 from dataclasses import dataclass, replace
 from typing import Any, Callable, ClassVar, Sequence
 
-from .simulation import COUNTER_OUTPUTS, ENERGY_OUTPUTS, PEAK_OUTPUTS, LatticeFMU, SimulationError
+from .simulation import COUNTER_OUTPUTS, ENERGY_OUTPUTS, PEAK_OUTPUTS, LatticeFMU, SimulationError, model_description
 from .types import OK, Evaluation, Order, as_order, censored, failed
 
 SEARCH = "search"
@@ -247,9 +247,7 @@ class PeakObjective(Objective):
         if not self.use_limits or (self.aggregate != "worst" and len(self.cases) > 1):
             return False
         if not hasattr(self, "_fmu_has_limit"):
-            from fmpy import read_model_description
-
-            names = {v.name for v in read_model_description(self.fmu_path).modelVariables}
+            names = {v.name for v in model_description(self.fmu_path).modelVariables}
             self._fmu_has_limit = "peak_force_limit" in names
         return self._fmu_has_limit
 

@@ -190,9 +190,9 @@ def check_out_writable(out: str) -> None:
 def check_parameters(config: StudyConfig, fmu_path) -> None:
     """Every FMU parameter the run sets (scene options and --case values) exists and is in the FMU's range;
     --case values are converted to numbers here, before any simulation."""
-    from fmpy import read_model_description
+    from orchestrator.simulation import model_description
 
-    description = read_model_description(str(fmu_path))
+    description = model_description(fmu_path)
     variables = {v.name: v for v in description.modelVariables if v.causality == "parameter"}
     scalar = sorted(n for n in variables if "[" not in n)
 

@@ -6,7 +6,9 @@ number.
 """
 from __future__ import annotations
 
+import functools
 import itertools
+import os
 import shutil
 import tempfile
 from ctypes import POINTER, byref, c_double, c_int, c_size_t, c_uint, c_void_p
@@ -57,6 +59,23 @@ except Exception:  # pragma: no cover - without the proxy the raw format string 
     pass
 
 
+@functools.lru_cache(maxsize=16)
+def _read_description(path: str, modified_ns: int, size: int):
+    return read_model_description(path)
+
+
+def model_description(fmu_path: str | Path):
+    """The FMU's model description, read once per file version (the CLI's checks, the study, every
+    instance in a process read the same file)."""
+    status = os.stat(fmu_path)
+    return _read_description(str(fmu_path), status.st_mtime_ns, status.st_size)
+
+
+def material_columns(description) -> int:
+    """How many columns (material[j] parameters) the FMU's lattice has."""
+    return sum(1 for v in description.modelVariables if v.name.startswith("material["))
+
+
 class SimulationError(RuntimeError):
     """An FMI call failed; the message holds what the FMU logged."""
 
@@ -82,11 +101,11 @@ class LatticeFMU:
         self.fmu_path = Path(fmu_path)
         if not self.fmu_path.is_file():
             raise FileNotFoundError(f"FMU not found: {self.fmu_path} (build it with `python build_fmu.py`)")
-        self.model_description = read_model_description(str(self.fmu_path))
+        self.model_description = model_description(self.fmu_path)
         if self.model_description.coSimulation is None:
             raise ValueError(f"{self.fmu_path} has no co-simulation interface")
         self.variables = {v.name: v for v in self.model_description.modelVariables}
-        self.columns = sum(1 for name in self.variables if name.startswith("material["))
+        self.columns = material_columns(self.model_description)
         self._material_references = [self.value_reference(f"material[{j}]") for j in range(1, self.columns + 1)]
         self._unzip_dir = extract(str(self.fmu_path), tempfile.mkdtemp(prefix="lattice_fmu_"))
         self._messages: list[str] = []

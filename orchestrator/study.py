@@ -25,7 +25,7 @@ from .objective import (AGGREGATES, FULL, OBJECTIVES, SEARCH, SEARCH_HORIZON, SE
                         close_instances, expand_cases, make_objective)
 from .search import SEARCHES, make_search
 from .search.local import neighbours as local_neighbours
-from .simulation import LatticeFMU
+from .simulation import material_columns, model_description
 from .types import Evaluation, Order
 
 SEARCH_METHODS = ("cmaes", "pso", "sa")
@@ -191,19 +191,15 @@ def ensure_fmu(scene: str, fmu: str | None = None) -> Path:
 
 def stale_fmu(path: Path, expected_guid: str) -> bool:
     try:
-        from fmpy import read_model_description
-
-        return read_model_description(str(path)).guid != expected_guid
+        return model_description(path).guid != expected_guid
     except Exception:  # noqa: BLE001
         return True
 
 
 def check_fmu_matches_scene(path: Path, scene) -> None:
     """An explicit --fmu must be the scene's model (its model identifier); else a one-line refusal."""
-    from fmpy import read_model_description
-
     try:
-        description = read_model_description(str(path))
+        description = model_description(path)
     except Exception as exc:  # noqa: BLE001
         raise ValueError(f"--fmu {path}: not a readable FMU ({type(exc).__name__}: {exc})") from None
     identifier = description.coSimulation.modelIdentifier if description.coSimulation else None
@@ -275,8 +271,7 @@ def best_of(runs: list[SearchRun], objective: PeakObjective, evaluator: Evaluato
 def run_study(config: StudyConfig) -> Study:
     start = time.perf_counter()
     fmu_path = ensure_fmu(config.scene, config.fmu)
-    with LatticeFMU(fmu_path) as probe:
-        columns = probe.columns
+    columns = material_columns(model_description(fmu_path))
     if columns < 2:
         raise ValueError(f"{fmu_path} has {columns} column(s): there is no material order to search")
     scene = load_scene(config.scene)
@@ -458,8 +453,7 @@ def which_model(objective: PeakObjective, evaluator: Evaluator, best_order: Orde
 def sensitivity_variations(objective: PeakObjective, config: StudyConfig) -> dict[str, dict]:
     """The standard variations of the case, as FMU parameters: load 0.5x and 2x, load duration 0.5x and
     2x, the other diagonal rule, load angle 30 degrees."""
-    with LatticeFMU(objective.fmu_path) as fmu:
-        defaults = {name: v.start for name, v in fmu.variables.items()}
+    defaults = {v.name: v.start for v in model_description(objective.fmu_path).modelVariables}
     load = float(objective.parameters.get("F_total", defaults.get("F_total") or 1200.0))
     duration = float(objective.parameters.get("t_active", defaults.get("t_active") or 0.15))
     variations = {
