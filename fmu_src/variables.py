@@ -170,6 +170,11 @@ def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] 
                  start=0, minimum=0, maximum=1, allowed="0 (exponential) or 1 (linear)"),
         Variable("has_backplate", INTEGER, "parameter", "1 = the backplate is there, 0 = a free lattice",
                  start=1, minimum=0, maximum=1, allowed="0 or 1"),
+        Variable("use_symmetry", INTEGER, "parameter",
+                 "Co-Simulation: 1 = when the lattice is mirror-symmetric about its middle row (an odd number of "
+                 "rows, load_angle 0) integrate only its upper half, the same solution at about half the cost; "
+                 "0 = always the whole lattice. Model Exchange always hands the importer the whole lattice",
+                 start=1, minimum=0, maximum=1, allowed="0 or 1"),
         # outputs
         Variable("backplate_force", REAL, "output", "Force on the backplate", unit="N"),
         Variable("peak_backplate_force", REAL, "output",

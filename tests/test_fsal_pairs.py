@@ -54,13 +54,17 @@ def test_one_do_step_gives_the_outputs_of_many(lattice, solver):
 
 
 def test_fewer_right_hand_sides_than_dop853_at_the_search_tolerance(lattice, references):
-    counts, errors = {}, {}
-    for solver in ("dop853", "tsit5"):
-        result = lattice.simulate(PUBLISHED_BEST, horizon=1.0, parameters={"solver": solver, **tolerances(1e-5)},
-                                  outputs=PEAKS + ("rhs_evaluations",))
-        counts[solver] = result["rhs_evaluations"]
-        errors[solver] = abs(result["peak_backplate_force"] / references[PUBLISHED_BEST]["peak_backplate_force"] - 1)
-    assert counts["tsit5"] < 0.8 * counts["dop853"] and errors["tsit5"] < 3e-5, (counts, errors)
+    # over the two published orders and the reversed one (43 orders in bench/solver_work_precision.py: 0.73)
+    counts, errors = {"dop853": 0, "tsit5": 0}, {}
+    for order in (PUBLISHED_BEST, PUBLISHED_SEQUENTIAL, tuple(reversed(PUBLISHED_SEQUENTIAL))):
+        for solver in ("dop853", "tsit5"):
+            result = lattice.simulate(order, horizon=1.0, parameters={"solver": solver, **tolerances(1e-5)},
+                                      outputs=PEAKS + ("rhs_evaluations",))
+            counts[solver] += result["rhs_evaluations"]
+            if order in references:
+                errors[solver, order] = abs(result["peak_backplate_force"] / references[order]["peak_backplate_force"] - 1)
+    assert counts["tsit5"] < 0.8 * counts["dop853"], counts
+    assert max(error for (solver, _), error in errors.items() if solver == "tsit5") < 3e-5, errors
 
 
 def test_an_unknown_solver_is_refused_by_name(lattice):

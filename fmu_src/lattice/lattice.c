@@ -202,9 +202,20 @@ int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
     return vx > 0.0 ? WALL_APPROACHING : WALL_RECEDING;
 }
 
-VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode,
-                               const double *y, double *dydt) {
-    const int rows = p->rows, cols = p->cols, n = rows * cols, linear = p->spring_law == SPRING_LINEAR;
+int lattice_mirror_rows(const LatticeParams *p) {
+    const int symmetric_load = p->load_angle_deg == 0.0 || p->load_total == 0.0;
+    return (p->rows >= 3 && p->rows % 2 == 1 && symmetric_load) ? (p->rows + 1) / 2 : 0;
+}
+
+/* The right-hand side of the whole lattice (mirrored 0) or of the upper half of a mirror-symmetric one
+ * (mirrored 1: rows 0 .. (R-1)/2 stored, the last of them the middle row; see lattice.h). The half computes
+ * the rows above the middle as the whole does; what the springs below the middle row do to it is the mirror
+ * image of what those above it do (x the same, y opposite), and every power but the middle row's own springs'
+ * counts twice. */
+static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int mirrored, int load_on, const signed char *wall_mode,
+                                   const double *y, double *dydt) {
+    const int rows = mirrored ? (p->rows + 1) / 2 : p->rows, cols = p->cols, n = rows * cols;
+    const int linear = p->spring_law == SPRING_LINEAR;
     const int links = cols - 1; /* horizontal springs in a row, and rising (falling) diagonals below it */
     const int even_links = EVEN(links), even_cols = EVEN(cols);
     const double *ux = y, *uy = y + n, *vx = y + 2 * n, *vy = y + 3 * n;
@@ -243,6 +254,13 @@ VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed
 
     for (i = 0; i < rows; i++) {
         const size_t top = (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
+        if (mirrored && i + 1 == rows) {
+            /* every spring so far has a mirror image below the middle row: its power counts twice */
+            for (j = 0; j < cols; j++) {
+                w.dissipated[j] *= 2.0;
+                w.nonreciprocal[j] *= 2.0;
+            }
+        }
         const double *ux0 = ux + top, *uy0 = uy + top, *vx0 = vx + top, *vy0 = vy + top;
         const double *ux1 = ux + bottom, *uy1 = uy + bottom, *vx1 = vx + bottom, *vy1 = vy + bottom;
         double *row_fx = fx + top, *row_fy = fy + top;
@@ -343,6 +361,13 @@ VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed
         w.carried[1][j] = w.next[1][j]; \
     }
             OVER(cols, even_cols, CARRY)
+        } else if (mirrored) {
+            /* the middle row: the springs below it push it as the mirror image of those above (carried);
+             * y cancels exactly, so the middle row stays on the symmetry line */
+#define GATHER_MIDDLE_X(j)                                                                               \
+    row_fx[j] = w.carried[0][j] + (HORIZONTAL_FORCE(0, j) - HORIZONTAL_FORCE(0, j - 1)) + w.carried[0][j]; \
+    row_fy[j] = 0.0;
+            OVER(cols, even_cols, GATHER_MIDDLE_X)
         } else {
             OVER(cols, even_cols, GATHER_LAST_X)
             OVER(cols, even_cols, GATHER_LAST_Y)
@@ -358,10 +383,11 @@ VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed
         const double cos_angle = cos(angle), sin_angle = sin(angle);
         for (i = 0; i < rows; i++) {
             const int a = i * cols;
-            const double share = p->load_total * row_load_fraction(rows, i);
+            const double share = p->load_total * row_load_fraction(p->rows, i);
+            const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0; /* a row and its mirror image */
             fx[a] += share * cos_angle;
             fy[a] += share * sin_angle;
-            power_external += share * (cos_angle * vx[a] + sin_angle * vy[a]);
+            power_external += counted * (share * (cos_angle * vx[a] + sin_angle * vy[a]));
         }
     }
 
@@ -372,8 +398,9 @@ VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed
             const int mode = wall_mode ? wall_mode[i] : lattice_wall_mode(p, ux[a], vx[a]);
             if (mode != WALL_FREE) {
                 const double damped_velocity = mode == WALL_APPROACHING ? vx[a] : 0.0;
+                const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0;
                 fx[a] -= p->k_wall * penetration + p->c_wall * damped_velocity;
-                power_dissipated += p->c_wall * damped_velocity * vx[a];
+                power_dissipated += counted * (p->c_wall * damped_velocity * vx[a]);
             }
         }
     }
@@ -387,19 +414,39 @@ VECTOR_CLONES void lattice_rhs(const LatticeParams *p, int load_on, const signed
     dydt[4 * n + 2] = power_nonreciprocal;
 }
 
-double lattice_backplate_force_from_column(const LatticeParams *p, const double *ux_last_column,
-                                           const double *vx_last_column, int stride) {
+void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y, double *dydt) {
+    rhs_rows(p, 0, load_on, wall_mode, y, dydt);
+}
+
+void lattice_rhs_mirrored(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
+                          double *dydt) {
+    rhs_rows(p, 1, load_on, wall_mode, y, dydt);
+}
+
+static double backplate_force_of_rows(const LatticeParams *p, int rows, int mirrored, const double *ux_last_column,
+                                      const double *vx_last_column, int stride) {
     double force = 0.0;
     int i;
     if (!p->has_backplate) return 0.0;
-    for (i = 0; i < p->rows; i++) {
+    for (i = 0; i < rows; i++) {
         const double penetration = ux_last_column[i * stride] - p->backplate_gap;
         if (penetration > 0.0) {
             const double vx = vx_last_column[i * stride];
-            force += p->k_wall * penetration + p->c_wall * (vx > 0.0 ? vx : 0.0);
+            const double row_force = p->k_wall * penetration + p->c_wall * (vx > 0.0 ? vx : 0.0);
+            force += mirrored && i + 1 < rows ? 2.0 * row_force : row_force;
         }
     }
     return force;
+}
+
+double lattice_backplate_force_from_column(const LatticeParams *p, const double *ux_last_column,
+                                           const double *vx_last_column, int stride) {
+    return backplate_force_of_rows(p, p->rows, 0, ux_last_column, vx_last_column, stride);
+}
+
+double lattice_backplate_force_mirrored(const LatticeParams *p, const double *ux_last_column,
+                                        const double *vx_last_column, int stride) {
+    return backplate_force_of_rows(p, (p->rows + 1) / 2, 1, ux_last_column, vx_last_column, stride);
 }
 
 double lattice_backplate_force(const LatticeParams *p, const double *y) {

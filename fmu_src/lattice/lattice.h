@@ -54,6 +54,19 @@ int lattice_wall_mode(const LatticeParams *p, double ux, double vx);
 void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
                  double *dydt);
 
+/* A lattice with an odd number of rows R >= 3, loaded along its rows (load_angle 0, or no load), is
+ * mirror-symmetric about its middle row for all time (the materials vary by column only, the start state is
+ * zero): row R-1-i moves as row i with uy and vy negated, and the middle row stays on the line. Its upper half,
+ * rows 0 .. (R-1)/2 in the layout above with N = ((R+1)/2) * C (the middle row last), carries the whole
+ * solution at about half the cost; its three quadratures are the whole lattice's. Returns the rows of that half,
+ * or 0 when the lattice is not symmetric. */
+int lattice_mirror_rows(const LatticeParams *p);
+
+/* The right-hand side of the upper half (lattice_mirror_rows) over its own layout; wall_mode one per row of
+ * the half. Equal to the upper half of lattice_rhs on the whole symmetric state, to rounding. */
+void lattice_rhs_mirrored(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
+                          double *dydt);
+
 /* Sum over column-C masses in contact of k_w p + c_w max(vx, 0) (SPEC section 5). */
 double lattice_backplate_force(const LatticeParams *p, const double *y);
 
@@ -61,6 +74,10 @@ double lattice_backplate_force(const LatticeParams *p, const double *y);
  * search evaluates it on those 2 * rows components only). */
 double lattice_backplate_force_from_column(const LatticeParams *p, const double *ux_last_column,
                                            const double *vx_last_column, int stride);
+
+/* The same over the rows of the upper half of a mirror-symmetric lattice (each but the middle row twice). */
+double lattice_backplate_force_mirrored(const LatticeParams *p, const double *ux_last_column,
+                                        const double *vx_last_column, int stride);
 
 /* Kinetic and potential energy (SPEC section 7; a non-reciprocal pair counts the mean of its ends). */
 void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, double *potential);

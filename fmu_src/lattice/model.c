@@ -72,6 +72,7 @@ struct Model {
     Solver solver;
     int load_on;
     signed char wall_mode[LATTICE_ROWS]; /* frozen for a step; switched at located events (WallMode) */
+    int solver_rows; /* rows in the co-simulation solver's state: all, or the upper half (use_symmetry) */
     int step_contact_free; /* no column-C mass touched the plate during the last step: its force is 0 */
     long next_sample;
     double peak_sampled;
@@ -85,6 +86,7 @@ struct Model {
     double initial_energy;    /* potential energy of the start state (a negative gap presses from t = 0) */
     int stalled_steps;        /* consecutive steps cut back to (almost) nothing by backplate switches */
     double output_state[N_STATE]; /* the state at the model's time (Model Exchange: the importer's) */
+    double whole_state[N_STATE];  /* scratch: the solver's state as the whole lattice's */
     double derivative[N_STATE];   /* its derivatives, when derivative_valid */
     int derivative_valid;
     int exchange;       /* Model Exchange: the importer integrates output_state (model_exchange_begin) */
@@ -102,15 +104,25 @@ static void derivatives(const Model *m, int load_on, const double *y, double *dy
     lattice_rhs(&m->params, load_on, m->wall_mode, y, dydt);
 }
 
+/* The co-simulation solver's right-hand side: the whole lattice's, or its upper half's (use_symmetry). */
 static void model_rhs(void *context, int phase, const double *y, double *dydt) {
-    derivatives((const Model *)context, phase, y, dydt);
+    const Model *m = (const Model *)context;
+    if (m->solver_rows == LATTICE_ROWS) {
+        derivatives(m, phase, y, dydt);
+    } else {
+        lattice_rhs_mirrored(&m->params, phase, m->wall_mode, y, dydt);
+    }
 }
 
-/* Event indicator k of the contract is state component *component minus *threshold (model.h). */
-static void indicator_definition(const Model *m, int k, int *component, double *threshold) {
+/* Masses in the co-simulation solver's state (lattice.h's layout over its rows). */
+static int solver_masses(const Model *m) { return m->solver_rows * LATTICE_COLS; }
+
+/* Event indicator k of the contract is state component *component minus *threshold (model.h), in a layout of
+ * `masses` masses (N_MASSES: the contract's; solver_masses: the co-simulation solver's). */
+static void indicator_definition(const Model *m, int k, int masses, int *component, double *threshold) {
     const int row = k < LATTICE_ROWS ? k : k - LATTICE_ROWS;
     if (k >= LATTICE_ROWS && m->wall_mode[row] != WALL_FREE) {
-        *component = 2 * N_MASSES + LAST_COLUMN_MASS(row); /* vx */
+        *component = 2 * masses + LAST_COLUMN_MASS(row); /* vx */
         *threshold = 0.0;
     } else {
         *component = LAST_COLUMN_MASS(row); /* ux */
@@ -121,17 +133,23 @@ static void indicator_definition(const Model *m, int k, int *component, double *
 static double indicator_value(const Model *m, int k, const double *y) {
     int component;
     double threshold;
-    indicator_definition(m, k, &component, &threshold);
+    indicator_definition(m, k, N_MASSES, &component, &threshold);
     return y[component] - threshold;
 }
 
-/* The modes SPEC section 5 gives the column-C masses in state y: what an event switches them to. */
-static void wall_modes_of(const Model *m, const double *y, signed char *modes) {
+/* The modes SPEC section 5 gives the column-C masses in state y of `rows` rows (the whole lattice's, or the
+ * upper half's, whose mirror-image rows take the same modes): what an event switches them to. */
+static void wall_modes_of_rows(const Model *m, const double *y, int rows, signed char *modes) {
     int i;
-    for (i = 0; i < LATTICE_ROWS; i++) {
+    for (i = 0; i < rows; i++) {
         const int mass = LAST_COLUMN_MASS(i);
-        modes[i] = (signed char)lattice_wall_mode(&m->params, y[mass], y[2 * N_MASSES + mass]);
+        modes[i] = (signed char)lattice_wall_mode(&m->params, y[mass], y[2 * rows * LATTICE_COLS + mass]);
     }
+    for (i = rows; i < LATTICE_ROWS; i++) modes[i] = modes[LATTICE_ROWS - 1 - i];
+}
+
+static void wall_modes_of(const Model *m, const double *y, signed char *modes) {
+    wall_modes_of_rows(m, y, LATTICE_ROWS, modes);
 }
 
 /* The contract's time event: the load switches off at t_active (it acts for 0 <= t <= t_active). */
@@ -331,26 +349,35 @@ static double state_component(Model *m, int component, double t) {
     return solver_interpolate(s, m->work, component, t);
 }
 
+/* The backplate force from column C's ux and vx in the solver's rows (each but the middle row twice when they
+ * are the upper half). */
+static double backplate_force_of_column(const Model *m, const double *ux, const double *vx) {
+    if (m->solver_rows == LATTICE_ROWS) return lattice_backplate_force_from_column(&m->params, ux, vx, 1);
+    return lattice_backplate_force_mirrored(&m->params, ux, vx, 1);
+}
+
 static double backplate_force_at(Model *m, double t) {
     double ux[LATTICE_ROWS], vx[LATTICE_ROWS];
+    const int masses = solver_masses(m);
     int i;
-    for (i = 0; i < LATTICE_ROWS; i++) {
-        const int mass = i * LATTICE_COLS + LATTICE_COLS - 1;
+    for (i = 0; i < m->solver_rows; i++) {
+        const int mass = LAST_COLUMN_MASS(i);
         ux[i] = state_component(m, mass, t);
-        vx[i] = state_component(m, 2 * N_MASSES + mass, t);
+        vx[i] = state_component(m, 2 * masses + mass, t);
     }
-    return lattice_backplate_force_from_column(&m->params, ux, vx, 1);
+    return backplate_force_of_column(m, ux, vx);
 }
 
 static double backplate_force_hermite(Model *m, double t) {
     double ux[LATTICE_ROWS], vx[LATTICE_ROWS];
+    const int masses = solver_masses(m);
     int i;
-    for (i = 0; i < LATTICE_ROWS; i++) {
-        const int mass = i * LATTICE_COLS + LATTICE_COLS - 1;
+    for (i = 0; i < m->solver_rows; i++) {
+        const int mass = LAST_COLUMN_MASS(i);
         ux[i] = solver_interpolate_hermite(&m->solver, m->work, mass, t);
-        vx[i] = solver_interpolate_hermite(&m->solver, m->work, 2 * N_MASSES + mass, t);
+        vx[i] = solver_interpolate_hermite(&m->solver, m->work, 2 * masses + mass, t);
     }
-    return lattice_backplate_force_from_column(&m->params, ux, vx, 1);
+    return backplate_force_of_column(m, ux, vx);
 }
 
 /* Brent's minimiser without derivatives (R. P. Brent, Algorithms for Minimization without Derivatives,
@@ -506,13 +533,48 @@ static void process_step(Model *m, double t_target) {
 
 static void update_state_outputs(Model *m, const double *y);
 
+/* Where component i of the whole lattice's state (lattice.h) is in the co-simulation solver's, and its sign
+ * there: the upper half holds the lower half's rows as their mirror images (uy and vy negated). */
+static int solver_component_of(const Model *m, int i, double *sign) {
+    const int masses = solver_masses(m);
+    int block, mass, row;
+    *sign = 1.0;
+    if (m->solver_rows == LATTICE_ROWS) return i;
+    if (i >= 4 * N_MASSES) return 4 * masses + (i - 4 * N_MASSES); /* the quadratures: the whole lattice's */
+    block = i / N_MASSES;
+    mass = i % N_MASSES;
+    row = mass / LATTICE_COLS;
+    if (row >= m->solver_rows) {
+        row = LATTICE_ROWS - 1 - row;
+        if (block == 1 || block == 3) *sign = -1.0;
+    }
+    return block * masses + row * LATTICE_COLS + mass % LATTICE_COLS;
+}
+
+/* The solver's current state as the whole lattice's (itself when the solver integrates the whole). */
+static const double *whole_solver_state(Model *m) {
+    const double *y = solver_state(m->work);
+    double sign;
+    int i;
+    if (m->solver_rows == LATTICE_ROWS) return y;
+    for (i = 0; i < N_STATE; i++) {
+        const int component = solver_component_of(m, i, &sign);
+        m->whole_state[i] = sign * y[component];
+    }
+    return m->whole_state;
+}
+
 static void update_outputs(Model *m, double t_target) {
     const Solver *s = &m->solver;
     double *y = m->output_state;
     double peak = m->peak_continuous, peak_time = m->peak_continuous_time;
     int i;
 
-    for (i = 0; i < N_STATE; i++) y[i] = state_component(m, i, t_target);
+    for (i = 0; i < N_STATE; i++) {
+        double sign;
+        const int component = solver_component_of(m, i, &sign);
+        y[i] = sign * state_component(m, component, t_target);
+    }
     if (s->steps_accepted > 0 && m->step_peak_known && !m->step_peak_committed) {
         /* the last step reaches past t_target: only the part up to t_target counts (not committed) */
         double partial = m->step_peak, partial_time = m->step_peak_time;
@@ -564,7 +626,9 @@ static int wall_free(const Model *m) {
 }
 
 /* The modes SPEC gives the column-C masses in the state at the end of the last step. */
-static void wall_modes_of_state(const Model *m, signed char *modes) { wall_modes_of(m, solver_state(m->work), modes); }
+static void wall_modes_of_state(const Model *m, signed char *modes) {
+    wall_modes_of_rows(m, solver_state(m->work), m->solver_rows, modes);
+}
 
 /* Where inside the last step event indicator k (the contract's, under the step's frozen modes) takes the
  * sign it has at the step's end: the end of a bracket [low, high] that already has it, narrowed to rounding
@@ -577,7 +641,7 @@ static double locate_switch(Model *m, int k) {
     const Solver *s = &m->solver;
     int component;
     double offset;
-    indicator_definition(m, k, &component, &offset);
+    indicator_definition(m, k, solver_masses(m), &component, &offset);
     const int positive_at_end = solver_state(m->work)[component] - offset > 0.0;
     double low = s->t_old, high = s->t, g_low = state_component(m, component, low) - offset;
     double g_high = solver_state(m->work)[component] - offset, width_1 = INFINITY, width_2 = INFINITY;
@@ -617,10 +681,10 @@ static int handle_wall_events(Model *m) {
     double located[2 * LATTICE_ROWS], earliest = s->t, cut_time;
     int i, changed = 0, cut = 0, count = 0;
     wall_modes_of_state(m, at_end);
-    for (i = 0; i < LATTICE_ROWS; i++) changed = changed || at_end[i] != m->wall_mode[i];
+    for (i = 0; i < m->solver_rows; i++) changed = changed || at_end[i] != m->wall_mode[i];
     if (!changed) return 0;
     solver_prepare_dense(s, m->work, model_rhs, m); /* in the step's own modes, before they change */
-    for (i = 0; i < LATTICE_ROWS; i++) {
+    for (i = 0; i < m->solver_rows; i++) {
         const int contact_before = m->wall_mode[i] != WALL_FREE, contact_after = at_end[i] != WALL_FREE;
         if (at_end[i] == m->wall_mode[i]) continue;
         if (contact_before != contact_after) located[count++] = locate_switch(m, CONTACT_INDICATOR(i));
@@ -685,8 +749,22 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
     m->time = start_time;
     m->load_on = start_time < m->params.load_duration;
     memset(y0, 0, sizeof(y0));
-    solver_init(&m->solver, m->work, PARAM_SOLVER(m), N_STATE, 2 * N_MASSES, PARAM_RTOL(m), PARAM_ATOL(m),
-                PARAM_FIXED_STEP(m), m->load_on, y0);
+    m->solver_rows = LATTICE_ROWS;
+    if (PARAM_USE_SYMMETRY(m) && lattice_mirror_rows(&m->params)) m->solver_rows = lattice_mirror_rows(&m->params);
+    solver_init(&m->solver, m->work, PARAM_SOLVER(m), LATTICE_STATE_SIZE(m->solver_rows, LATTICE_COLS),
+                2 * solver_masses(m), PARAM_RTOL(m), PARAM_ATOL(m), PARAM_FIXED_STEP(m), m->load_on, y0);
+    if (m->solver_rows != LATTICE_ROWS) {
+        /* each row but the middle one stands for itself and its mirror image: the error norms weight it
+         * twice, so the steps are the whole lattice's */
+        double *weight = m->whole_state; /* scratch until the first step */
+        const int masses = solver_masses(m);
+        int component;
+        for (component = 0; component < m->solver.n; component++) {
+            const int in_block = component % masses;
+            weight[component] = component < 4 * masses && in_block < masses - LATTICE_COLS ? 2.0 : 1.0;
+        }
+        solver_set_norm_weights(&m->solver, m->work, weight);
+    }
     m->solver.t = start_time;
     wall_modes_of_state(m, m->wall_mode);
     {
@@ -703,21 +781,33 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
 /* Kinetic energy far beyond what the load and the diagonals put in means the solution diverged. */
 static int check_divergence(Model *m, char *message, size_t message_size) {
     const double *y = solver_state(m->work);
-    const double *velocity = y + 2 * N_MASSES;
-    const double injected =
-        m->initial_energy + fabs(y[INDEX_EXTERNAL_WORK]) + fabs(y[INDEX_NONRECIPROCAL_WORK]);
+    const int masses = solver_masses(m);
+    const double *velocity = y + 2 * masses;
+    const double injected = m->initial_energy + fabs(y[4 * masses]) + fabs(y[4 * masses + 2]); /* W_ext, W_nr */
     const double impulse = m->params.load_total * fmax(m->params.load_duration, PARAM_PEAK_SAMPLE_INTERVAL(m));
     const double floor = 1e-9 + 1e-6 * impulse * impulse / m->params.mass;
     double speed_squared = 0.0, kinetic;
     char reason[FAILURE_SIZE];
     int i;
-    for (i = 0; i < 2 * N_MASSES; i++) speed_squared += velocity[i] * velocity[i];
+    if (m->solver_rows == LATTICE_ROWS) {
+        for (i = 0; i < 2 * masses; i++) speed_squared += velocity[i] * velocity[i];
+    } else { /* the upper half: each row but the middle one twice (its mirror image moves as it does) */
+        int block;
+        for (block = 0; block < 2; block++) {
+            const double *v = velocity + block * masses;
+            double mirrored = 0.0, middle = 0.0;
+            for (i = 0; i < masses - LATTICE_COLS; i++) mirrored += v[i] * v[i];
+            for (; i < masses; i++) middle += v[i] * v[i];
+            speed_squared += 2.0 * mirrored + middle;
+        }
+    }
     kinetic = 0.5 * m->params.mass * speed_squared;
     if (isfinite(kinetic) && isfinite(injected) && kinetic <= ENERGY_LIMIT_FACTOR * injected + floor) {
         /* every BALANCE_CHECK_STEPS steps (it costs about one right-hand side): the balance must roughly
          * close; a solution that makes energy out of nothing is diverging, even while it stays bounded */
         double potential, balance;
         if (m->solver.steps_accepted % BALANCE_CHECK_STEPS != 0) return 0;
+        y = whole_solver_state(m);
         lattice_energies(&m->params, y, &kinetic, &potential);
         balance = m->initial_energy + y[INDEX_EXTERNAL_WORK] + y[INDEX_NONRECIPROCAL_WORK] - kinetic - potential -
                   y[INDEX_DISSIPATED];
@@ -862,14 +952,20 @@ int model_check(const Model *m, char *message, size_t message_size) {
     }
     if (!m->initialized) return 0; /* the solver, the lattice and the modes are set up at initialisation */
     if (check_material_order(m, message, message_size)) return -1;
-    if (s->n != N_STATE || s->n_second_order != 2 * N_MASSES || m->params.rows != LATTICE_ROWS ||
-        m->params.cols != LATTICE_COLS) {
-        snprintf(message, message_size,
-                 "the state is corrupt or foreign: its sizes (state %d, positions %d, lattice %d x %d) are not this "
-                 "FMU's (%d, %d, %d x %d)",
-                 s->n, s->n_second_order, m->params.rows, m->params.cols, N_STATE, 2 * N_MASSES, LATTICE_ROWS,
-                 LATTICE_COLS);
-        return -1;
+    {
+        const int rows = PARAM_USE_SYMMETRY(m) && lattice_mirror_rows(&m->params) ? lattice_mirror_rows(&m->params)
+                                                                                : LATTICE_ROWS;
+        const int size = LATTICE_STATE_SIZE(rows, LATTICE_COLS), positions = 2 * rows * LATTICE_COLS;
+        if (m->solver_rows != rows || s->n != size || s->n_second_order != positions ||
+            m->params.rows != LATTICE_ROWS || m->params.cols != LATTICE_COLS || s->weighted != (rows != LATTICE_ROWS) ||
+            s->norm_size != (double)N_STATE) {
+            snprintf(message, message_size,
+                     "the state is corrupt or foreign: its sizes (solver rows %d, state %d, positions %d, lattice %d x "
+                     "%d, norm over %g) are not this FMU's (%d, %d, %d, %d x %d, %d)",
+                     m->solver_rows, s->n, s->n_second_order, m->params.rows, m->params.cols, s->norm_size, rows, size,
+                     positions, LATTICE_ROWS, LATTICE_COLS, N_STATE);
+            return -1;
+        }
     }
     if (s->method != PARAM_SOLVER(m) ||
         (s->dense_power == DENSE_FROM_STAGES ? !(s->method == SOLVER_TSIT5 || s->method == SOLVER_DOPRI5)

@@ -24,6 +24,7 @@
 #define ROW_SCRATCH 2
 #define ROW_K 3
 #define ROW_DENSE (ROW_K + SOLVER_STAGE_ROWS)
+#define ROW_WEIGHT (ROW_DENSE + SOLVER_DENSE_ROWS)
 #define STAGE_END 12 /* K[12] = f(y_new), the derivative at the end of the last step, in its phase */
 
 static double *row(double *work, int n, int r) { return work + (size_t)r * (size_t)n; }
@@ -133,9 +134,25 @@ void solver_init(Solver *s, double *work, int method, int n, int n_second_order,
     s->atol = atol;
     s->fixed_step = fixed_step;
     s->phase = phase;
+    s->norm_size = n;
     memset(work, 0, SOLVER_WORKSPACE_SIZE(n) * sizeof(double));
     memcpy(row(work, n, ROW_Y), y0, (size_t)n * sizeof(double));
     memcpy(row(work, n, ROW_Y_OLD), y0, (size_t)n * sizeof(double));
+}
+
+void solver_set_norm_weights(Solver *s, double *work, const double *weight) {
+    double total = 0.0;
+    int i;
+    memcpy(row(work, s->n, ROW_WEIGHT), weight, (size_t)s->n * sizeof(double));
+    for (i = 0; i < s->n; i++) total += weight[i];
+    s->weighted = 1;
+    s->norm_size = total;
+}
+
+/* The weight of component i in the error norms (1 unless solver_set_norm_weights gave others): exact, so an
+ * unweighted norm is bit for bit the plain one. */
+static double norm_weight(const Solver *s, const double *work, int i) {
+    return s->weighted ? work[(size_t)ROW_WEIGHT * (size_t)s->n + (size_t)i] : 1.0;
 }
 
 void solver_set_phase(Solver *s, int phase) {
@@ -145,12 +162,12 @@ void solver_set_phase(Solver *s, int phase) {
     }
 }
 
-/* Root mean square of v_i / scale_i. */
-static double scaled_rms(const double *v, const double *scale, int n) {
+/* Root mean square of v_i / scale_i (weighted as the error norms are). */
+static double scaled_rms(const Solver *s, const double *work, const double *v, const double *scale) {
     double sum = 0.0;
     int i;
-    for (i = 0; i < n; i++) sum += (v[i] / scale[i]) * (v[i] / scale[i]);
-    return sqrt(sum / n);
+    for (i = 0; i < s->n; i++) sum += norm_weight(s, work, i) * ((v[i] / scale[i]) * (v[i] / scale[i]));
+    return sqrt(sum / s->norm_size);
 }
 
 /* Hairer's starting step (as SciPy's select_initial_step); K[0] holds f(y0); uses the scratch rows. */
@@ -161,14 +178,14 @@ static double initial_step(Solver *s, double *work, OdeFunction f, void *context
     double d0, d1, d2, h0, h1;
     int i;
     for (i = 0; i < n; i++) scale[i] = s->atol + fabs(y0[i]) * s->rtol;
-    d0 = scaled_rms(y0, scale, n);
-    d1 = scaled_rms(f0, scale, n);
+    d0 = scaled_rms(s, work, y0, scale);
+    d1 = scaled_rms(s, work, f0, scale);
     h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
     if (h0 > t_span) h0 = t_span;
     for (i = 0; i < n; i++) y1[i] = y0[i] + h0 * f0[i];
     evaluate(s, f, context, y1, f1);
     for (i = 0; i < n; i++) f1[i] -= f0[i];
-    d2 = scaled_rms(f1, scale, n) / h0;
+    d2 = scaled_rms(s, work, f1, scale) / h0;
     if (d1 <= 1e-15 && d2 <= 1e-15) {
         h1 = fmax(1e-6, h0 * 1e-3);
     } else {
@@ -375,14 +392,14 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
         for (i = 0; i < n; i++) {
             const double size_old = fabs(y[i]), size_new = fabs(y_new[i]); /* fmax, but not a call */
             const double scale = s->atol + (size_new > size_old ? size_new : size_old) * s->rtol;
-            const double err5 = error5[i] / scale, err3 = error3[i] / scale;
-            err5_squared += err5 * err5;
-            err3_squared += err3 * err3;
+            const double err5 = error5[i] / scale, err3 = error3[i] / scale, weight = norm_weight(s, work, i);
+            err5_squared += weight * (err5 * err5);
+            err3_squared += weight * (err3 * err3);
         }
         if (err5_squared == 0.0 && err3_squared == 0.0) {
             error_norm = 0.0;
         } else {
-            error_norm = h * err5_squared / sqrt((err5_squared + 0.01 * err3_squared) * n);
+            error_norm = h * err5_squared / sqrt((err5_squared + 0.01 * err3_squared) * s->norm_size);
         }
 
         if (error_norm < 1.0 && all_finite(y_new, n)) {
@@ -431,9 +448,9 @@ static int fsal_pair_step(Solver *s, double *work, OdeFunction f, void *context,
             const double size_old = fabs(y[i]), size_new = fabs(y_new[i]);
             const double scale = s->atol + (size_new > size_old ? size_new : size_old) * s->rtol;
             const double e = (error[i] + h * pair->e[PAIR_STAGES] * f_new[i]) / scale;
-            error_squared += e * e;
+            error_squared += norm_weight(s, work, i) * (e * e);
         }
-        error_norm = sqrt(error_squared / n);
+        error_norm = sqrt(error_squared / s->norm_size);
 
         if (error_norm < 1.0 && all_finite(y_new, n)) {
             double factor = error_norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(error_norm, error_exponent));

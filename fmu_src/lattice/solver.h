@@ -34,7 +34,7 @@ typedef void (*OdeFunction)(void *context, int phase, const double *y, double *d
 #define DENSE_FROM_STAGES (-1)
 #define SOLVER_STAGE_ROWS 16 /* DOP853's 12 stages, f(y_new), and 3 stages for the dense output */
 #define SOLVER_DENSE_ROWS 7
-#define SOLVER_WORKSPACE_ROWS (3 + SOLVER_STAGE_ROWS + SOLVER_DENSE_ROWS) /* y, y_old, scratch, K, dense */
+#define SOLVER_WORKSPACE_ROWS (4 + SOLVER_STAGE_ROWS + SOLVER_DENSE_ROWS) /* y, y_old, scratch, K, dense, weights */
 #define SOLVER_WORKSPACE_SIZE(n) (SOLVER_WORKSPACE_ROWS * (size_t)(n))
 
 typedef struct {
@@ -50,6 +50,8 @@ typedef struct {
     int dense_power;          /* dense output ready for the last step: 0 (none), 3 or 7 (rows of coefficients),
                                  or DENSE_FROM_STAGES (Tsit5, DOPRI5: read from the step's stage rows) */
     long rhs_evaluations, steps_accepted, steps_rejected;
+    int weighted;     /* the error norms weight the components (solver_set_norm_weights) */
+    double norm_size; /* the count the error norms' mean is taken over: n, or what the weights add up to */
     double dense_x, dense_weights[8]; /* Tsit5, DOPRI5: the dense output's stage weights at x = dense_x (a cache) */
 } Solver;
 
@@ -58,6 +60,11 @@ const double *solver_state(const double *work);
 
 void solver_init(Solver *s, double *work, int method, int n, int n_second_order, double rtol, double atol,
                  double fixed_step, int phase, const double *y0);
+
+/* Weights of the components in the error norms (root mean square over norm_size = sum of the weights): how a
+ * reduced state (the upper half of a mirror-symmetric lattice) keeps the step-size control of the whole one,
+ * each of its components standing for weight[i] of the whole state's. Before the first step. */
+void solver_set_norm_weights(Solver *s, double *work, const double *weight);
 
 /* Changes the phase at the current time (the right-hand side changes there). */
 void solver_set_phase(Solver *s, int phase);
