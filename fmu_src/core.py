@@ -60,6 +60,10 @@ class Core:
         self.library.lattice_backplate_force.restype = ctypes.c_double
         self.library.lattice_energies.argtypes = [ctypes.POINTER(LatticeParams), double_p, double_p, double_p]
         self.library.lattice_rhs_mirrored.argtypes = self.library.lattice_rhs.argtypes
+        self.library.lattice_rhs_along_x.argtypes = [ctypes.POINTER(LatticeParams), ctypes.c_int, ctypes.c_int,
+                                                     ctypes.c_char_p, double_p, double_p]
+        self.library.lattice_along_x.argtypes = [ctypes.POINTER(LatticeParams)]
+        self.library.lattice_along_x.restype = ctypes.c_int
         self.library.lattice_mirror_rows.argtypes = [ctypes.POINTER(LatticeParams)]
         self.library.lattice_mirror_rows.restype = ctypes.c_int
         self.library.lattice_backplate_force_mirrored.argtypes = [ctypes.POINTER(LatticeParams), double_p, double_p,
@@ -103,6 +107,28 @@ class Core:
         self.library.lattice_rhs_mirrored(ctypes.byref(params), int(load_on), modes,
                                           y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
                                           dydt.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+        return dydt[:-3], dydt[-3:]
+
+    def along_x(self, params: LatticeParams) -> bool:
+        """Whether the lattice moves along x alone (lattice.h: its state without uy and vy carries it)."""
+        return bool(self.library.lattice_along_x(ctypes.byref(params)))
+
+    def rhs_along_x(self, params: LatticeParams, y_x, load_on: bool, mirrored: bool = False,
+                    wall_mode=None) -> tuple[np.ndarray, np.ndarray]:
+        """As rhs over the layout [ux, vx, W_ext, D, W_nr] of all rows or (mirrored) of the upper half."""
+        rows = self.mirror_rows(params) if mirrored else params.rows
+        if not self.along_x(params) or not rows:
+            raise ValueError("params: the lattice does not move along x alone (load_angle 0), or is not "
+                             "mirror-symmetric (odd rows >= 3)")
+        n = 2 * rows * params.cols
+        y = np.ascontiguousarray(y_x, dtype=float)
+        if y.shape != (n + 3,):
+            raise ValueError(f"state: expected {n + 3} values, got {y.shape}")
+        modes = None if wall_mode is None else bytes(np.asarray(wall_mode, dtype=np.int8).tobytes())
+        dydt = np.empty_like(y)
+        self.library.lattice_rhs_along_x(ctypes.byref(params), int(mirrored), int(load_on), modes,
+                                         y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+                                         dydt.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
         return dydt[:-3], dydt[-3:]
 
     def backplate_force_mirrored(self, params: LatticeParams, y_half) -> float:

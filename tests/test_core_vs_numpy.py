@@ -118,3 +118,48 @@ def test_only_a_symmetric_lattice_is_mirrored(core, settings):
     assert core.mirror_rows(params) == 0
     with pytest.raises(ValueError, match="params: the lattice is not mirror-symmetric"):
         core.rhs_mirrored(params, np.zeros(3), True)
+
+
+def along_x_state(scene, rng, mirrored):
+    """A random state with uy = vy = 0 (mirror-symmetric if asked), whole, and in the along-x layout."""
+    if mirrored:
+        y, rows = mirror_symmetric_state(scene, rng)
+    else:
+        y, rows = random_state(scene, rng), scene.rows
+    blocks = y.reshape(4, scene.rows, scene.cols).copy()
+    blocks[1] = blocks[3] = 0.0
+    along = np.concatenate([blocks[0, :rows].reshape(-1), blocks[2, :rows].reshape(-1), np.zeros(3)])
+    return blocks.reshape(-1), along, rows
+
+
+@pytest.mark.parametrize("settings", [dict(), dict(diagonal_rule="mean"), dict(rows=3, cols=4),
+                                      dict(rows=5, cols=5, wall=False), dict(rows=7, cols=9, spring_law="linear"),
+                                      dict(rows=4, cols=6)],
+                         ids=lambda s: ",".join(f"{k}={v}" for k, v in s.items()) or "default")
+@pytest.mark.parametrize("mirrored", [False, True])
+@pytest.mark.parametrize("load_on", [True, False])
+def test_the_along_x_layout_is_the_x_part_of_the_whole_lattice(core, settings, mirrored, load_on):
+    rng = np.random.default_rng(23 + load_on + 2 * mirrored + len(str(settings)))
+    scene = Scene(**settings)
+    if mirrored and scene.rows % 2 == 0:
+        pytest.skip("an even number of rows has no middle row to mirror about")
+    for _ in range(5):
+        scene = dataclasses.replace(scene, order=tuple(int(m) for m in rng.permutation(scene.cols) + 1))
+        params = params_from_scene(scene)
+        assert core.along_x(params)
+        y, along, rows = along_x_state(scene, rng, mirrored)
+        whole, whole_powers = core.rhs(params, y, load_on)
+        got, got_powers = core.rhs_along_x(params, along, load_on, mirrored=mirrored)
+        blocks = whole.reshape(4, scene.rows, scene.cols)
+        assert np.all(blocks[3] == 0.0)  # nothing pushes in y
+        expected = np.concatenate([blocks[0, :rows].reshape(-1), blocks[2, :rows].reshape(-1)])
+        scale = np.max(np.abs(whole))
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(got_powers, whole_powers, rtol=1e-11, atol=1e-11 * scale)
+
+
+def test_a_load_at_an_angle_does_not_move_along_x_alone(core):
+    params = params_from_scene(Scene(load_angle=30.0))
+    assert not core.along_x(params)
+    with pytest.raises(ValueError, match="params: the lattice does not move along x alone"):
+        core.rhs_along_x(params, np.zeros(3), True)

@@ -414,6 +414,177 @@ static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int mirrored, int loa
     dydt[4 * n + 2] = power_nonreciprocal;
 }
 
+int lattice_along_x(const LatticeParams *p) { return p->load_angle_deg == 0.0 || p->load_total == 0.0; }
+
+/* The right-hand side over the layout without y (lattice_along_x): rhs_rows with every y part left out, the
+ * same arithmetic on what is left (|r| = sqrt(dx^2) is |dx| exactly, so the stretches are the same bits), and
+ * the same four stages (see above rhs_rows). mirrored as in rhs_rows. */
+static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored, int load_on,
+                                           const signed char *wall_mode, const double *y, double *dydt) {
+    const int rows = mirrored ? (p->rows + 1) / 2 : p->rows, cols = p->cols, n = rows * cols;
+    const int linear = p->spring_law == SPRING_LINEAR;
+    const int links = cols - 1;
+    const int even_links = EVEN(links), even_cols = EVEN(cols);
+    const double *ux = y, *vx = y + n;
+    double *fx = dydt + n;
+    const double k_horizontal = p->k_horizontal, c_horizontal = p->c_horizontal;
+    double power_external = 0.0, power_dissipated = 0.0, power_nonreciprocal = 0.0;
+    int alphas_differ = 0;
+    RowBuffers w;
+    int i, j;
+
+    for (j = 0; j < cols; j++) {
+        const ColumnConstants *column = &p->column[j];
+        w.k_vertical[j] = column->k_vertical;
+        w.c_vertical[j] = column->c_vertical;
+        w.alpha[SLOT(VERTICAL, j)] = column->alpha_vertical;
+        w.carried[0][j] = 0.0;
+        w.dissipated[j] = w.nonreciprocal[j] = 0.0;
+    }
+    for (j = 0; j < links; j++) {
+        const SpringEnds ends = diagonal_ends(p, j);
+        w.alpha[SLOT(HORIZONTAL, j)] = p->alpha_horizontal;
+        w.alpha[SLOT(RISING, j)] = w.alpha[SLOT(FALLING, j)] = ends.alpha_a;
+        w.alpha[RIGHT_END_SLOT(0, j)] = w.alpha[RIGHT_END_SLOT(1, j)] = ends.alpha_b;
+        w.k_left[j] = ends.k_a;
+        w.k_right[j] = ends.k_b;
+        alphas_differ = alphas_differ || ends.alpha_a != ends.alpha_b;
+    }
+    HORIZONTAL_FORCE(0, -1) = HORIZONTAL_FORCE(0, links) = 0.0;
+    w.rising_top[0][links] = RISING_BOTTOM_FORCE(0, -1) = 0.0;
+    FALLING_TOP_FORCE(0, -1) = w.falling_bottom[0][links] = 0.0;
+
+    memcpy(dydt, vx, (size_t)n * sizeof(double));
+
+    for (i = 0; i < rows; i++) {
+        const size_t top = (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
+        const double *ux0 = ux + top, *vx0 = vx + top, *ux1 = ux + bottom, *vx1 = vx + bottom;
+        double *row_fx = fx + top;
+        if (mirrored && i + 1 == rows) {
+            for (j = 0; j < cols; j++) {
+                w.dissipated[j] *= 2.0;
+                w.nonreciprocal[j] *= 2.0;
+            }
+        }
+
+        /* 1. geometry: r = (dx, 0) */
+#define GEOMETRY_X(family, j, ax, bx)                 \
+    {                                                 \
+        const double dx = (bx) - (ax);                \
+        w.rx[family][j] = dx;                         \
+        w.squared[SLOT(family, j)] = dx * dx;         \
+    }
+#define GEOMETRY_X_H(j) GEOMETRY_X(HORIZONTAL, j, ux0[j], ux0[j + 1])
+#define GEOMETRY_X_HRF(j)                               \
+    GEOMETRY_X(HORIZONTAL, j, ux0[j], ux0[j + 1])       \
+    GEOMETRY_X(RISING, j, ux0[j], ux1[j + 1])           \
+    GEOMETRY_X(FALLING, j, ux0[j + 1], ux1[j])
+#define GEOMETRY_X_V(j) GEOMETRY_X(VERTICAL, j, ux0[j], ux1[j])
+        if (i + 1 < rows) {
+            OVER(links, even_links, GEOMETRY_X_HRF)
+            OVER(cols, even_cols, GEOMETRY_X_V)
+        } else {
+            OVER(links, even_links, GEOMETRY_X_H)
+        }
+
+        /* 2. stretches */
+        row_stretches(linear, i + 1 < rows, alphas_differ, links, cols, &w);
+
+        /* 3. forces, x only */
+#define DAMPED_X(family, j, k, c, avx, bvx, out_x)                                               \
+    {                                                                                            \
+        const double per_length = (k) * w.stretch[SLOT(family, j)] * w.inverse[SLOT(family, j)]; \
+        const double dvx = (bvx) - (avx);                                                        \
+        out_x = per_length * w.rx[family][j] + (c) * dvx;                                        \
+        w.dissipated[j] += (c) * (dvx * dvx);                                                    \
+    }
+#define DIAGONAL_X(family, j, k_a, stretch_a, k_b, stretch_b, avx, bvx, a_x, b_x)                   \
+    {                                                                                               \
+        const double per_length_a = (k_a) * (stretch_a) * w.inverse[SLOT(family, j)];               \
+        const double per_length_b = (k_b) * (stretch_b) * w.inverse[SLOT(family, j)];               \
+        a_x = per_length_a * w.rx[family][j];                                                       \
+        b_x = per_length_b * w.rx[family][j];                                                       \
+        w.nonreciprocal[j] += 0.5 * (per_length_a - per_length_b) * (w.rx[family][j] * ((avx) + (bvx))); \
+    }
+#define FORCES_X_H(j) DAMPED_X(HORIZONTAL, j, k_horizontal, c_horizontal, vx0[j], vx0[j + 1], HORIZONTAL_FORCE(0, j))
+#define FORCES_X_HRF(j, rising_right, falling_right)                                                        \
+    FORCES_X_H(j)                                                                                           \
+    DIAGONAL_X(RISING, j, w.k_left[j], w.stretch[SLOT(RISING, j)], w.k_right[j], rising_right, vx0[j],      \
+               vx1[j + 1], w.rising_top[0][j], RISING_BOTTOM_FORCE(0, j))                                   \
+    DIAGONAL_X(FALLING, j, w.k_right[j], falling_right, w.k_left[j], w.stretch[SLOT(FALLING, j)], vx0[j + 1], \
+               vx1[j], FALLING_TOP_FORCE(0, j), w.falling_bottom[0][j])
+#define FORCES_X_HRF_SAME(j) FORCES_X_HRF(j, w.stretch[SLOT(RISING, j)], w.stretch[SLOT(FALLING, j)])
+#define FORCES_X_HRF_DIFFERENT(j) \
+    FORCES_X_HRF(j, w.stretch[RIGHT_END_SLOT(0, j)], w.stretch[RIGHT_END_SLOT(1, j)])
+#define FORCES_X_V(j) DAMPED_X(VERTICAL, j, w.k_vertical[j], w.c_vertical[j], vx0[j], vx1[j], w.vertical[0][j])
+        if (i + 1 < rows) {
+            if (alphas_differ) {
+                OVER(links, even_links, FORCES_X_HRF_DIFFERENT)
+            } else {
+                OVER(links, even_links, FORCES_X_HRF_SAME)
+            }
+            OVER(cols, even_cols, FORCES_X_V)
+        } else {
+            OVER(links, even_links, FORCES_X_H)
+        }
+
+        /* 4. gather */
+        if (i + 1 < rows) {
+            OVER(cols, even_cols, GATHER_X)
+#define CARRY_X(j) w.carried[0][j] = w.next[0][j];
+            OVER(cols, even_cols, CARRY_X)
+        } else if (mirrored) {
+#define GATHER_MIDDLE_ALONG_X(j) \
+    row_fx[j] = w.carried[0][j] + (HORIZONTAL_FORCE(0, j) - HORIZONTAL_FORCE(0, j - 1)) + w.carried[0][j];
+            OVER(cols, even_cols, GATHER_MIDDLE_ALONG_X)
+        } else {
+            OVER(cols, even_cols, GATHER_LAST_X)
+        }
+    }
+    for (j = 0; j < cols; j++) {
+        power_dissipated += w.dissipated[j];
+        power_nonreciprocal += w.nonreciprocal[j];
+    }
+
+    if (load_on) {
+        const double cos_angle = cos(p->load_angle_deg * (M_PI / 180.0));
+        for (i = 0; i < rows; i++) {
+            const int a = i * cols;
+            const double share = p->load_total * row_load_fraction(p->rows, i);
+            const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0;
+            fx[a] += share * cos_angle;
+            power_external += counted * (share * (cos_angle * vx[a]));
+        }
+    }
+
+    if (p->has_backplate) {
+        for (i = 0; i < rows; i++) {
+            const int a = i * cols + cols - 1;
+            const double penetration = ux[a] - p->backplate_gap;
+            const int mode = wall_mode ? wall_mode[i] : lattice_wall_mode(p, ux[a], vx[a]);
+            if (mode != WALL_FREE) {
+                const double damped_velocity = mode == WALL_APPROACHING ? vx[a] : 0.0;
+                const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0;
+                fx[a] -= p->k_wall * penetration + p->c_wall * damped_velocity;
+                power_dissipated += counted * (p->c_wall * damped_velocity * vx[a]);
+            }
+        }
+    }
+
+    if (p->mass != 1.0) {
+        const double inverse_mass = 1.0 / p->mass;
+        for (i = 0; i < n; i++) fx[i] *= inverse_mass;
+    }
+    dydt[2 * n] = power_external;
+    dydt[2 * n + 1] = power_dissipated;
+    dydt[2 * n + 2] = power_nonreciprocal;
+}
+
+void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, const signed char *wall_mode,
+                         const double *y, double *dydt) {
+    rhs_rows_along_x(p, mirrored, load_on, wall_mode, y, dydt);
+}
+
 void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y, double *dydt) {
     rhs_rows(p, 0, load_on, wall_mode, y, dydt);
 }

@@ -67,6 +67,17 @@ int lattice_mirror_rows(const LatticeParams *p);
 void lattice_rhs_mirrored(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
                           double *dydt);
 
+/* A lattice loaded along x (load_angle 0, or no load) moves along x alone for all time: r = u_b - u_a
+ * (SPEC section 2) of two masses that have not moved in y has no y part, so no spring, damper or load pushes
+ * in y. Its state without uy and vy, [ux (N), vx (N), W_ext, D, W_nr], carries the whole solution. 1 if so. */
+int lattice_along_x(const LatticeParams *p);
+
+/* The right-hand side over that layout (wall_mode one per row it holds), of all rows (mirrored 0) or of the
+ * upper half of a mirror-symmetric lattice (mirrored 1, lattice_mirror_rows rows). Equal, to rounding, to the
+ * x components of lattice_rhs (or lattice_rhs_mirrored) on the same state with uy = vy = 0. */
+void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, const signed char *wall_mode,
+                         const double *y, double *dydt);
+
 /* Sum over column-C masses in contact of k_w p + c_w max(vx, 0) (SPEC section 5). */
 double lattice_backplate_force(const LatticeParams *p, const double *y);
 

@@ -72,7 +72,9 @@ struct Model {
     Solver solver;
     int load_on;
     signed char wall_mode[LATTICE_ROWS]; /* frozen for a step; switched at located events (WallMode) */
-    int solver_rows; /* rows in the co-simulation solver's state: all, or the upper half (use_symmetry) */
+    /* the co-simulation solver's state (use_symmetry): all rows or the upper half of a mirror-symmetric
+     * lattice, with uy and vy or without them (a lattice loaded along x) */
+    int solver_rows, solver_along_x;
     int step_contact_free; /* no column-C mass touched the plate during the last step: its force is 0 */
     long next_sample;
     double peak_sampled;
@@ -107,22 +109,26 @@ static void derivatives(const Model *m, int load_on, const double *y, double *dy
 /* The co-simulation solver's right-hand side: the whole lattice's, or its upper half's (use_symmetry). */
 static void model_rhs(void *context, int phase, const double *y, double *dydt) {
     const Model *m = (const Model *)context;
-    if (m->solver_rows == LATTICE_ROWS) {
+    if (m->solver_along_x) {
+        lattice_rhs_along_x(&m->params, m->solver_rows != LATTICE_ROWS, phase, m->wall_mode, y, dydt);
+    } else if (m->solver_rows == LATTICE_ROWS) {
         derivatives(m, phase, y, dydt);
     } else {
         lattice_rhs_mirrored(&m->params, phase, m->wall_mode, y, dydt);
     }
 }
 
-/* Masses in the co-simulation solver's state (lattice.h's layout over its rows). */
+/* The co-simulation solver's layout (lattice.h): its masses, where its vx and its quadratures begin. */
 static int solver_masses(const Model *m) { return m->solver_rows * LATTICE_COLS; }
+static int solver_vx_base(const Model *m) { return (m->solver_along_x ? 1 : 2) * solver_masses(m); }
+static int solver_quadrature_base(const Model *m) { return (m->solver_along_x ? 2 : 4) * solver_masses(m); }
 
-/* Event indicator k of the contract is state component *component minus *threshold (model.h), in a layout of
- * `masses` masses (N_MASSES: the contract's; solver_masses: the co-simulation solver's). */
-static void indicator_definition(const Model *m, int k, int masses, int *component, double *threshold) {
+/* Event indicator k of the contract is state component *component minus *threshold (model.h), in a layout
+ * whose vx begin at vx_base (2 N_MASSES: the contract's; solver_vx_base: the co-simulation solver's). */
+static void indicator_definition(const Model *m, int k, int vx_base, int *component, double *threshold) {
     const int row = k < LATTICE_ROWS ? k : k - LATTICE_ROWS;
     if (k >= LATTICE_ROWS && m->wall_mode[row] != WALL_FREE) {
-        *component = 2 * masses + LAST_COLUMN_MASS(row); /* vx */
+        *component = vx_base + LAST_COLUMN_MASS(row); /* vx */
         *threshold = 0.0;
     } else {
         *component = LAST_COLUMN_MASS(row); /* ux */
@@ -133,23 +139,23 @@ static void indicator_definition(const Model *m, int k, int masses, int *compone
 static double indicator_value(const Model *m, int k, const double *y) {
     int component;
     double threshold;
-    indicator_definition(m, k, N_MASSES, &component, &threshold);
+    indicator_definition(m, k, 2 * N_MASSES, &component, &threshold);
     return y[component] - threshold;
 }
 
 /* The modes SPEC section 5 gives the column-C masses in state y of `rows` rows (the whole lattice's, or the
  * upper half's, whose mirror-image rows take the same modes): what an event switches them to. */
-static void wall_modes_of_rows(const Model *m, const double *y, int rows, signed char *modes) {
+static void wall_modes_of_rows(const Model *m, const double *y, int rows, int vx_base, signed char *modes) {
     int i;
     for (i = 0; i < rows; i++) {
         const int mass = LAST_COLUMN_MASS(i);
-        modes[i] = (signed char)lattice_wall_mode(&m->params, y[mass], y[2 * rows * LATTICE_COLS + mass]);
+        modes[i] = (signed char)lattice_wall_mode(&m->params, y[mass], y[vx_base + mass]);
     }
     for (i = rows; i < LATTICE_ROWS; i++) modes[i] = modes[LATTICE_ROWS - 1 - i];
 }
 
 static void wall_modes_of(const Model *m, const double *y, signed char *modes) {
-    wall_modes_of_rows(m, y, LATTICE_ROWS, modes);
+    wall_modes_of_rows(m, y, LATTICE_ROWS, 2 * N_MASSES, modes);
 }
 
 /* The contract's time event: the load switches off at t_active (it acts for 0 <= t <= t_active). */
@@ -358,24 +364,24 @@ static double backplate_force_of_column(const Model *m, const double *ux, const 
 
 static double backplate_force_at(Model *m, double t) {
     double ux[LATTICE_ROWS], vx[LATTICE_ROWS];
-    const int masses = solver_masses(m);
+    const int vx_base = solver_vx_base(m);
     int i;
     for (i = 0; i < m->solver_rows; i++) {
         const int mass = LAST_COLUMN_MASS(i);
         ux[i] = state_component(m, mass, t);
-        vx[i] = state_component(m, 2 * masses + mass, t);
+        vx[i] = state_component(m, vx_base + mass, t);
     }
     return backplate_force_of_column(m, ux, vx);
 }
 
 static double backplate_force_hermite(Model *m, double t) {
     double ux[LATTICE_ROWS], vx[LATTICE_ROWS];
-    const int masses = solver_masses(m);
+    const int vx_base = solver_vx_base(m);
     int i;
     for (i = 0; i < m->solver_rows; i++) {
         const int mass = LAST_COLUMN_MASS(i);
         ux[i] = solver_interpolate_hermite(&m->solver, m->work, mass, t);
-        vx[i] = solver_interpolate_hermite(&m->solver, m->work, 2 * masses + mass, t);
+        vx[i] = solver_interpolate_hermite(&m->solver, m->work, vx_base + mass, t);
     }
     return backplate_force_of_column(m, ux, vx);
 }
@@ -534,20 +540,23 @@ static void process_step(Model *m, double t_target) {
 static void update_state_outputs(Model *m, const double *y);
 
 /* Where component i of the whole lattice's state (lattice.h) is in the co-simulation solver's, and its sign
- * there: the upper half holds the lower half's rows as their mirror images (uy and vy negated). */
+ * there: the upper half holds the lower half's rows as their mirror images (uy and vy negated); -1 for uy and
+ * vy when the solver leaves them out (they are 0). */
 static int solver_component_of(const Model *m, int i, double *sign) {
     const int masses = solver_masses(m);
     int block, mass, row;
     *sign = 1.0;
-    if (m->solver_rows == LATTICE_ROWS) return i;
-    if (i >= 4 * N_MASSES) return 4 * masses + (i - 4 * N_MASSES); /* the quadratures: the whole lattice's */
+    if (m->solver_rows == LATTICE_ROWS && !m->solver_along_x) return i;
+    if (i >= 4 * N_MASSES) return solver_quadrature_base(m) + (i - 4 * N_MASSES); /* the whole lattice's */
     block = i / N_MASSES;
     mass = i % N_MASSES;
     row = mass / LATTICE_COLS;
+    if (m->solver_along_x && (block == 1 || block == 3)) return -1;
     if (row >= m->solver_rows) {
         row = LATTICE_ROWS - 1 - row;
         if (block == 1 || block == 3) *sign = -1.0;
     }
+    if (m->solver_along_x) block /= 2; /* ux, vx */
     return block * masses + row * LATTICE_COLS + mass % LATTICE_COLS;
 }
 
@@ -556,10 +565,10 @@ static const double *whole_solver_state(Model *m) {
     const double *y = solver_state(m->work);
     double sign;
     int i;
-    if (m->solver_rows == LATTICE_ROWS) return y;
+    if (m->solver_rows == LATTICE_ROWS && !m->solver_along_x) return y;
     for (i = 0; i < N_STATE; i++) {
         const int component = solver_component_of(m, i, &sign);
-        m->whole_state[i] = sign * y[component];
+        m->whole_state[i] = component < 0 ? 0.0 : sign * y[component];
     }
     return m->whole_state;
 }
@@ -573,7 +582,7 @@ static void update_outputs(Model *m, double t_target) {
     for (i = 0; i < N_STATE; i++) {
         double sign;
         const int component = solver_component_of(m, i, &sign);
-        y[i] = sign * state_component(m, component, t_target);
+        y[i] = component < 0 ? 0.0 : sign * state_component(m, component, t_target);
     }
     if (s->steps_accepted > 0 && m->step_peak_known && !m->step_peak_committed) {
         /* the last step reaches past t_target: only the part up to t_target counts (not committed) */
@@ -627,7 +636,7 @@ static int wall_free(const Model *m) {
 
 /* The modes SPEC gives the column-C masses in the state at the end of the last step. */
 static void wall_modes_of_state(const Model *m, signed char *modes) {
-    wall_modes_of_rows(m, solver_state(m->work), m->solver_rows, modes);
+    wall_modes_of_rows(m, solver_state(m->work), m->solver_rows, solver_vx_base(m), modes);
 }
 
 /* Where inside the last step event indicator k (the contract's, under the step's frozen modes) takes the
@@ -641,7 +650,7 @@ static double locate_switch(Model *m, int k) {
     const Solver *s = &m->solver;
     int component;
     double offset;
-    indicator_definition(m, k, solver_masses(m), &component, &offset);
+    indicator_definition(m, k, solver_vx_base(m), &component, &offset);
     const int positive_at_end = solver_state(m->work)[component] - offset > 0.0;
     double low = s->t_old, high = s->t, g_low = state_component(m, component, low) - offset;
     double g_high = solver_state(m->work)[component] - offset, width_1 = INFINITY, width_2 = INFINITY;
@@ -714,6 +723,14 @@ static int handle_wall_events(Model *m) {
     return cut;
 }
 
+/* The smallest state that carries this lattice's solution (use_symmetry; lattice.h): the upper half of a
+ * mirror-symmetric lattice, without uy and vy when it is loaded along x. */
+static void solver_layout(const Model *m, int *rows, int *along_x) {
+    const int mirror_rows = lattice_mirror_rows(&m->params);
+    *rows = PARAM_USE_SYMMETRY(m) && mirror_rows ? mirror_rows : LATTICE_ROWS;
+    *along_x = PARAM_USE_SYMMETRY(m) && lattice_along_x(&m->params);
+}
+
 int model_initialize(Model *m, double start_time, int stop_time_defined, double stop_time, char *message,
                      size_t message_size) {
     double y0[N_STATE];
@@ -749,21 +766,22 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
     m->time = start_time;
     m->load_on = start_time < m->params.load_duration;
     memset(y0, 0, sizeof(y0));
-    m->solver_rows = LATTICE_ROWS;
-    if (PARAM_USE_SYMMETRY(m) && lattice_mirror_rows(&m->params)) m->solver_rows = lattice_mirror_rows(&m->params);
-    solver_init(&m->solver, m->work, PARAM_SOLVER(m), LATTICE_STATE_SIZE(m->solver_rows, LATTICE_COLS),
-                2 * solver_masses(m), PARAM_RTOL(m), PARAM_ATOL(m), PARAM_FIXED_STEP(m), m->load_on, y0);
-    if (m->solver_rows != LATTICE_ROWS) {
-        /* each row but the middle one stands for itself and its mirror image: the error norms weight it
-         * twice, so the steps are the whole lattice's */
+    solver_layout(m, &m->solver_rows, &m->solver_along_x);
+    solver_init(&m->solver, m->work, PARAM_SOLVER(m), solver_quadrature_base(m) + LATTICE_N_QUADRATURES,
+                solver_vx_base(m), PARAM_RTOL(m), PARAM_ATOL(m), PARAM_FIXED_STEP(m), m->load_on, y0);
+    if (m->solver_rows != LATTICE_ROWS || m->solver_along_x) {
+        /* each row of an upper half but the middle one stands for itself and its mirror image: the error norms
+         * weight it twice, and take their mean over the whole state (uy and vy, left out, are 0 and err by 0),
+         * so the steps are the whole lattice's */
         double *weight = m->whole_state; /* scratch until the first step */
-        const int masses = solver_masses(m);
+        const int masses = solver_masses(m), mirrored = m->solver_rows != LATTICE_ROWS;
         int component;
         for (component = 0; component < m->solver.n; component++) {
             const int in_block = component % masses;
-            weight[component] = component < 4 * masses && in_block < masses - LATTICE_COLS ? 2.0 : 1.0;
+            const int mechanical = component < solver_quadrature_base(m);
+            weight[component] = mirrored && mechanical && in_block < masses - LATTICE_COLS ? 2.0 : 1.0;
         }
-        solver_set_norm_weights(&m->solver, m->work, weight);
+        solver_set_norm_weights(&m->solver, m->work, weight, (double)N_STATE);
     }
     m->solver.t = start_time;
     wall_modes_of_state(m, m->wall_mode);
@@ -781,19 +799,19 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
 /* Kinetic energy far beyond what the load and the diagonals put in means the solution diverged. */
 static int check_divergence(Model *m, char *message, size_t message_size) {
     const double *y = solver_state(m->work);
-    const int masses = solver_masses(m);
-    const double *velocity = y + 2 * masses;
-    const double injected = m->initial_energy + fabs(y[4 * masses]) + fabs(y[4 * masses + 2]); /* W_ext, W_nr */
+    const int masses = solver_masses(m), velocity_blocks = m->solver_along_x ? 1 : 2;
+    const double *velocity = y + solver_vx_base(m), *quadrature = y + solver_quadrature_base(m);
+    const double injected = m->initial_energy + fabs(quadrature[0]) + fabs(quadrature[2]); /* W_ext, W_nr */
     const double impulse = m->params.load_total * fmax(m->params.load_duration, PARAM_PEAK_SAMPLE_INTERVAL(m));
     const double floor = 1e-9 + 1e-6 * impulse * impulse / m->params.mass;
     double speed_squared = 0.0, kinetic;
     char reason[FAILURE_SIZE];
     int i;
     if (m->solver_rows == LATTICE_ROWS) {
-        for (i = 0; i < 2 * masses; i++) speed_squared += velocity[i] * velocity[i];
+        for (i = 0; i < velocity_blocks * masses; i++) speed_squared += velocity[i] * velocity[i];
     } else { /* the upper half: each row but the middle one twice (its mirror image moves as it does) */
         int block;
-        for (block = 0; block < 2; block++) {
+        for (block = 0; block < velocity_blocks; block++) {
             const double *v = velocity + block * masses;
             double mirrored = 0.0, middle = 0.0;
             for (i = 0; i < masses - LATTICE_COLS; i++) mirrored += v[i] * v[i];
@@ -953,18 +971,21 @@ int model_check(const Model *m, char *message, size_t message_size) {
     if (!m->initialized) return 0; /* the solver, the lattice and the modes are set up at initialisation */
     if (check_material_order(m, message, message_size)) return -1;
     {
-        const int rows = PARAM_USE_SYMMETRY(m) && lattice_mirror_rows(&m->params) ? lattice_mirror_rows(&m->params)
-                                                                                : LATTICE_ROWS;
-        const int size = LATTICE_STATE_SIZE(rows, LATTICE_COLS), positions = 2 * rows * LATTICE_COLS;
-        if (m->solver_rows != rows || s->n != size || s->n_second_order != positions ||
-            m->params.rows != LATTICE_ROWS || m->params.cols != LATTICE_COLS || s->weighted != (rows != LATTICE_ROWS) ||
-            s->norm_size != (double)N_STATE) {
-            snprintf(message, message_size,
-                     "the state is corrupt or foreign: its sizes (solver rows %d, state %d, positions %d, lattice %d x "
-                     "%d, norm over %g) are not this FMU's (%d, %d, %d, %d x %d, %d)",
-                     m->solver_rows, s->n, s->n_second_order, m->params.rows, m->params.cols, s->norm_size, rows, size,
-                     positions, LATTICE_ROWS, LATTICE_COLS, N_STATE);
-            return -1;
+        int rows, along_x;
+        solver_layout(m, &rows, &along_x);
+        {
+            const int positions = (along_x ? 1 : 2) * rows * LATTICE_COLS, size = 2 * positions + LATTICE_N_QUADRATURES;
+            const int reduced = rows != LATTICE_ROWS || along_x;
+            if (m->solver_rows != rows || m->solver_along_x != along_x || s->n != size ||
+                s->n_second_order != positions || m->params.rows != LATTICE_ROWS || m->params.cols != LATTICE_COLS ||
+                s->weighted != reduced || s->norm_size != (double)N_STATE) {
+                snprintf(message, message_size,
+                         "the state is corrupt or foreign: its sizes (solver rows %d, along x %d, state %d, positions "
+                         "%d, lattice %d x %d, norm over %g) are not this FMU's (%d, %d, %d, %d, %d x %d, %d)",
+                         m->solver_rows, m->solver_along_x, s->n, s->n_second_order, m->params.rows, m->params.cols,
+                         s->norm_size, rows, along_x, size, positions, LATTICE_ROWS, LATTICE_COLS, N_STATE);
+                return -1;
+            }
         }
     }
     if (s->method != PARAM_SOLVER(m) ||

@@ -140,13 +140,10 @@ void solver_init(Solver *s, double *work, int method, int n, int n_second_order,
     memcpy(row(work, n, ROW_Y_OLD), y0, (size_t)n * sizeof(double));
 }
 
-void solver_set_norm_weights(Solver *s, double *work, const double *weight) {
-    double total = 0.0;
-    int i;
+void solver_set_norm_weights(Solver *s, double *work, const double *weight, double norm_size) {
     memcpy(row(work, s->n, ROW_WEIGHT), weight, (size_t)s->n * sizeof(double));
-    for (i = 0; i < s->n; i++) total += weight[i];
     s->weighted = 1;
-    s->norm_size = total;
+    s->norm_size = norm_size;
 }
 
 /* The weight of component i in the error norms (1 unless solver_set_norm_weights gave others): exact, so an

@@ -51,7 +51,7 @@ typedef struct {
                                  or DENSE_FROM_STAGES (Tsit5, DOPRI5: read from the step's stage rows) */
     long rhs_evaluations, steps_accepted, steps_rejected;
     int weighted;     /* the error norms weight the components (solver_set_norm_weights) */
-    double norm_size; /* the count the error norms' mean is taken over: n, or what the weights add up to */
+    double norm_size; /* the count of components the error norms' mean is taken over (n unless weighted) */
     double dense_x, dense_weights[8]; /* Tsit5, DOPRI5: the dense output's stage weights at x = dense_x (a cache) */
 } Solver;
 
@@ -61,10 +61,11 @@ const double *solver_state(const double *work);
 void solver_init(Solver *s, double *work, int method, int n, int n_second_order, double rtol, double atol,
                  double fixed_step, int phase, const double *y0);
 
-/* Weights of the components in the error norms (root mean square over norm_size = sum of the weights): how a
- * reduced state (the upper half of a mirror-symmetric lattice) keeps the step-size control of the whole one,
- * each of its components standing for weight[i] of the whole state's. Before the first step. */
-void solver_set_norm_weights(Solver *s, double *work, const double *weight);
+/* Weights of the components in the error norms, a root mean square over norm_size components: how a reduced
+ * state (the upper half of a mirror-symmetric lattice, a lattice without its y components) keeps the step-size
+ * control of the whole one, each of its components standing for weight[i] of the whole state's and the
+ * components it leaves out (known to be 0, so without error) still counted in norm_size. Before the first step. */
+void solver_set_norm_weights(Solver *s, double *work, const double *weight, double norm_size);
 
 /* Changes the phase at the current time (the right-hand side changes there). */
 void solver_set_phase(Solver *s, int phase);
