@@ -7,7 +7,10 @@
 Routes, each over SPEC.md's right-hand side written once in bench/peer_models.py (checked against
 reference/lattice.py to 1e-12 by tests/test_peer_models.py), each in two phases split at the load's
 switch-off, with the backplate force sampled every 0.01 s from its own dense output (SPEC 6):
-- the FMU through fmpy (orchestrator.simulation.LatticeFMU: reset, parameters, one doStep, outputs);
+- the FMU through fmpy (orchestrator.simulation.LatticeFMU: reset, parameters, one doStep, outputs), as it
+  ships (use_symmetry 1: for the armour scene it integrates ux and vx of the upper half, the whole lattice's
+  solution with the whole lattice's steps), and with use_symmetry 0 (the whole lattice, as the peers
+  integrate it), so that the lead is shown at equal model too;
 - scipy.integrate.odeint (LSODA) over a numba right-hand side;
 - scipy.integrate.solve_ivp(method="DOP853") over the same numba right-hand side;
 - diffrax Tsit5 with a PID controller over a JAX right-hand side, the whole solve jit-compiled (CPU, x64).
@@ -71,8 +74,10 @@ REFERENCE_TOLERANCES = {"rtol": 1e-13, "atol": 1e-15}
 LADDER_STEPS_PER_DECADE = 4
 LADDER_START = 100.0  # times the FMU's rtol: every peer errs above the target there (seen on every run)
 LADDER_END = 1e-12
-ROUTES = ("fmu", "odeint", "dop853", "diffrax")
-LABELS = {"fmu": "FMU via fmpy", "odeint": "scipy odeint (LSODA) + numba",
+ROUTES = ("fmu", "fmu_whole", "odeint", "dop853", "diffrax")
+PEERS = ROUTES[2:]
+LABELS = {"fmu": "FMU via fmpy", "fmu_whole": "FMU via fmpy, whole lattice (use_symmetry 0)",
+          "odeint": "scipy odeint (LSODA) + numba",
           "dop853": "scipy solve_ivp DOP853 + numba", "diffrax": "diffrax Tsit5 (JAX, CPU)"}
 
 
@@ -112,13 +117,17 @@ def phases(horizon: float, t_active: float):
 
 
 class FMURoute:
-    def __init__(self, fmu: LatticeFMU, horizon: float, solver: str):
-        self.fmu, self.horizon, self.solver = fmu, horizon, solver
+    """The FMU as shipped (use_symmetry 1: the armour scene's ux and vx of its upper half), or integrating the
+    whole lattice as the peers do (use_symmetry 0): the same steps, so the same accuracy."""
+
+    def __init__(self, fmu: LatticeFMU, horizon: float, solver: str, use_symmetry: int = 1):
+        self.fmu, self.horizon, self.solver, self.use_symmetry = fmu, horizon, solver, use_symmetry
 
     def run(self, order, packed, rtol, atol):
         try:
             result = self.fmu.simulate(order, horizon=self.horizon,
-                                       parameters={"solver": self.solver, "rtol": rtol, "atol": atol},
+                                       parameters={"solver": self.solver, "rtol": rtol, "atol": atol,
+                                                   "use_symmetry": self.use_symmetry},
                                        outputs=("peak_backplate_force", "rhs_evaluations"))
         except SimulationError as exc:
             raise RouteFailed(str(exc)) from None
@@ -323,7 +332,9 @@ def rhs_microseconds(repeats: int = 5) -> dict:
 
 def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: int, log) -> dict:
     packs = {label: pack(Scene(order=order)) for label, order in orders.items()}
-    routes = {"fmu": FMURoute(fmu, scenario.horizon, scenario.fmu_solver), "odeint": ScipyRoute("odeint", scenario.horizon),
+    routes = {"fmu": FMURoute(fmu, scenario.horizon, scenario.fmu_solver),
+              "fmu_whole": FMURoute(fmu, scenario.horizon, scenario.fmu_solver, use_symmetry=0),
+              "odeint": ScipyRoute("odeint", scenario.horizon),
               "dop853": ScipyRoute("dop853", scenario.horizon),
               "diffrax": DiffraxRoute(scenario.horizon, next(iter(packs.values())))}
     log(f"\n== {scenario.label}: diffrax compiled in {routes['diffrax'].compile_cpu:.1f} s CPU "
@@ -355,11 +366,11 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
         "(the target every peer must meet)")
     if scenario.accuracy_bound is not None and not target <= scenario.accuracy_bound:
         log(f"  NOTE: the FMU's worst error exceeds the scene's bound {scenario.accuracy_bound:g}")
-    chosen = {"fmu": (scenario.fmu_rtol, scenario.fmu_atol)}
+    chosen = {"fmu": (scenario.fmu_rtol, scenario.fmu_atol), "fmu_whole": (scenario.fmu_rtol, scenario.fmu_atol)}
     top = math.log10(LADDER_START * scenario.fmu_rtol)
     steps = int(round((top - math.log10(LADDER_END)) * LADDER_STEPS_PER_DECADE))
     ladder = [10.0 ** (top - k / LADDER_STEPS_PER_DECADE) for k in range(steps + 1)]
-    for name in ROUTES[1:]:
+    for name in PEERS:
         passed_at = None
         for rtol in ladder:
             rows = errors_at(name, rtol, rtol * 1e-2)
@@ -408,10 +419,11 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
                            cpu_ms=cpu * 1e3, cpu_ms_median=statistics.median(times) * 1e3,
                            us_per_rhs=cpu / result["rhs"] * 1e6)
             rows.append(row)
-    fmu_cpu = {r["order"]: r["cpu_ms"] for r in rows if r["route"] == "fmu" and "cpu_ms" in r}
-    for row in rows:
-        if "cpu_ms" in row and row["order"] in fmu_cpu:
-            row["ratio_to_fmu"] = row["cpu_ms"] / fmu_cpu[row["order"]]
+    for base, key in (("fmu", "ratio_to_fmu"), ("fmu_whole", "ratio_to_fmu_whole")):
+        base_cpu = {r["order"]: r["cpu_ms"] for r in rows if r["route"] == base and "cpu_ms" in r}
+        for row in rows:
+            if "cpu_ms" in row and row["order"] in base_cpu:
+                row[key] = row["cpu_ms"] / base_cpu[row["order"]]
     extra = {"target": target, "chosen": chosen, "reference": reference,
              "lsoda_methods": sorted(routes["odeint"].lsoda_methods),
              "diffrax_compile_cpu": routes["diffrax"].compile_cpu, "diffrax_compile_wall": routes["diffrax"].compile_wall}
@@ -423,7 +435,7 @@ def summarise(scenario: Scenario, study: dict) -> list[dict]:
     for name in ROUTES:
         rows = [r for r in study["rows"] if r["route"] == name]
         good = [r for r in rows if "cpu_ms" in r]
-        label = f"{LABELS[name]} ({scenario.fmu_solver}, C)" if name == "fmu" else LABELS[name]
+        label = f"{LABELS[name]} ({scenario.fmu_solver}, C)" if name.startswith("fmu") else LABELS[name]
         entry = {"scene": scenario.name, "route": name, "label": label}
         chosen = study["chosen"].get(name)
         if chosen is None or not good:
@@ -440,6 +452,10 @@ def summarise(scenario: Scenario, study: dict) -> list[dict]:
         if ratios and name != "fmu":
             entry.update(ratio_min=min(ratios), ratio_max=max(ratios), ratio_geomean=math.exp(statistics.fmean(
                 math.log(x) for x in ratios)))
+        whole = [r["ratio_to_fmu_whole"] for r in good if "ratio_to_fmu_whole" in r]
+        if whole and name in PEERS:  # the lead at equal model: both integrate the whole lattice
+            entry.update(ratio_whole_min=min(whole), ratio_whole_max=max(whole),
+                         ratio_whole_geomean=math.exp(statistics.fmean(math.log(x) for x in whole)))
         summary.append(entry)
     return summary
 
@@ -462,7 +478,7 @@ def chart(path: Path, studies: dict, summaries: dict) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    colours = {"fmu": "C3", "odeint": "C0", "dop853": "C1", "diffrax": "C2"}
+    colours = {"fmu": "C3", "fmu_whole": "C4", "odeint": "C0", "dop853": "C1", "diffrax": "C2"}
     fig, axes = plt.subplots(1, len(studies), figsize=(6.2 * len(studies), 4.6), squeeze=False)
     for ax, (name, study) in zip(axes[0], studies.items()):
         scenario = SCENARIOS[name]
@@ -476,7 +492,7 @@ def chart(path: Path, studies: dict, summaries: dict) -> None:
                 if all(math.isfinite(r["error"]) for r in group):
                     xs.append(statistics.median(r["cpu_ms_single"] for r in group))
                     ys.append(max(r["error"] for r in group))
-            if route != "fmu" and xs:
+            if route in PEERS and xs:
                 ax.plot(xs, ys, "-", marker=".", color=colours[route], alpha=0.45, lw=1)
             entry = next((s for s in summaries[name] if s["route"] == route and "cpu_ms_mean" in s), None)
             if entry:
@@ -552,15 +568,17 @@ def main(argv=None) -> int:
         log(f"\n{scenario.label}: CPU per run, min of interleaved repeats per order, range over "
             f"{len(orders)} orders; target error {studies[name]['target']:.2e}")
         log(f"{'route':34s} {'rtol':>8s} {'worst err':>9s} {'CPU ms':>15s} {'RHS':>13s} {'us/RHS':>11s} "
-            f"{'peer/FMU':>13s}")
+            f"{'peer/FMU (geo)':>20s} {'peer/whole FMU':>20s}")
         for s in summaries[name]:
             if "cpu_ms_min" not in s:
                 log(f"{s['label']:34s} {s['status']}")
                 continue
-            ratio = f"{s['ratio_min']:.1f}-{s['ratio_max']:.1f}x" if "ratio_min" in s else ""
-            log(f"{s['label']:34s} {s['rtol']:8.1e} {s['worst_error']:9.1e} "
+            ratio = f"{s['ratio_min']:.1f}-{s['ratio_max']:.1f}x ({s['ratio_geomean']:.1f})" if "ratio_min" in s else ""
+            whole = (f"{s['ratio_whole_min']:.1f}-{s['ratio_whole_max']:.1f}x ({s['ratio_whole_geomean']:.1f})"
+                     if "ratio_whole_min" in s else "")
+            log(f"{s['label'][:34]:34s} {s['rtol']:8.1e} {s['worst_error']:9.1e} "
                 f"{s['cpu_ms_min']:7.2f}-{s['cpu_ms_max']:<7.2f} {s['rhs_min']:6d}-{s['rhs_max']:<6d} "
-                f"{s['us_per_rhs_min']:5.2f}-{s['us_per_rhs_max']:<5.2f} {ratio:>13s}")
+                f"{s['us_per_rhs_min']:5.2f}-{s['us_per_rhs_max']:<5.2f} {ratio:>20s} {whole:>20s}")
         if studies[name]["lsoda_methods"]:
             used = {1: "Adams (non-stiff)", 2: "BDF (stiff)"}
             jacobians = [r["lsoda_jacobians"] for r in studies[name]["rows"] if r["route"] == "odeint" and "rhs" in r]
