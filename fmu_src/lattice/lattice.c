@@ -178,11 +178,26 @@ static NOINLINE VECTOR_CLONES void packed_stretches(int linear, const double *RE
     }
 }
 
+/* packed_stretches for springs along x (rhs_rows_along_x): given dx, |r| = |dx|, which is what sqrt(dx^2)
+ * gives (exactly, wherever the spring exerts a force), without the square root. */
+static NOINLINE VECTOR_CLONES void packed_stretches_x(int linear, const double *RESTRICT dx,
+                                                     const double *RESTRICT alpha, int count,
+                                                     double *RESTRICT stretch, double *RESTRICT inverse) {
+    int k;
+    for (k = 0; k < count; k++) {
+        const double d = fabs(dx[k]);
+        const int too_close = dx[k] * dx[k] < SPRING_MIN_DISTANCE * SPRING_MIN_DISTANCE;
+        const double inverse_distance = 1.0 / (too_close ? 1.0 : d);
+        stretch[k] = spring_stretch(linear, alpha[k], d);
+        inverse[k] = too_close ? 0.0 : inverse_distance;
+    }
+}
+
 /* Stage 2 for the springs of a row: the horizontal ones, and with below the ones down to the next row (and
  * the diagonals' right ends when their alphas differ from the left ends': SPEC section 2, each end of a
- * diagonal uses its own alpha). */
-static NOINLINE VECTOR_CLONES void row_stretches(int linear, int below, int alphas_differ, int links, int cols,
-                                                 RowBuffers *w) {
+ * diagonal uses its own alpha). w->squared holds |r|^2, or dx along x. */
+static NOINLINE VECTOR_CLONES void row_stretches(int linear, int along_x, int below, int alphas_differ, int links,
+                                                 int cols, RowBuffers *w) {
     int count = links, j;
     if (below) {
         count = 3 * links + cols;
@@ -194,7 +209,11 @@ static NOINLINE VECTOR_CLONES void row_stretches(int linear, int below, int alph
             count += 2 * links;
         }
     }
-    packed_stretches(linear, w->squared, w->alpha, count, w->stretch, w->inverse);
+    if (along_x) {
+        packed_stretches_x(linear, w->squared, w->alpha, count, w->stretch, w->inverse);
+    } else {
+        packed_stretches(linear, w->squared, w->alpha, count, w->stretch, w->inverse);
+    }
 }
 
 int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
@@ -287,7 +306,7 @@ static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int mirrored, int loa
         }
 
         /* 2. stretches */
-        row_stretches(linear, i + 1 < rows, alphas_differ, links, cols, &w);
+        row_stretches(linear, 0, i + 1 < rows, alphas_differ, links, cols, &w);
 
         /* 3. forces. Horizontal and vertical: k stretch r/|r| + c (v_b - v_a) on the a end (the b end gets
          * the opposite), dissipating c |v_a - v_b|^2. Diagonals: the a end is pushed by per_length_a r,
@@ -472,7 +491,7 @@ static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored,
     {                                                 \
         const double dx = (bx) - (ax);                \
         w.rx[family][j] = dx;                         \
-        w.squared[SLOT(family, j)] = dx * dx;         \
+        w.squared[SLOT(family, j)] = dx; /* dx itself: packed_stretches_x */ \
     }
 #define GEOMETRY_X_H(j) GEOMETRY_X(HORIZONTAL, j, ux0[j], ux0[j + 1])
 #define GEOMETRY_X_HRF(j)                               \
@@ -488,7 +507,7 @@ static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored,
         }
 
         /* 2. stretches */
-        row_stretches(linear, i + 1 < rows, alphas_differ, links, cols, &w);
+        row_stretches(linear, 1, i + 1 < rows, alphas_differ, links, cols, &w);
 
         /* 3. forces, x only */
 #define DAMPED_X(family, j, k, c, avx, bvx, out_x)                                               \
