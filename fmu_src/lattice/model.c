@@ -642,7 +642,7 @@ static void wall_modes_of_state(const Model *m, signed char *modes) {
 /* Where inside the last step event indicator k (the contract's, under the step's frozen modes) takes the
  * sign it has at the step's end: the end of a bracket [low, high] that already has it, narrowed to rounding
  * on the dense output of its component. The Illinois variant of regula falsi (M. Dowell and P. Jarratt,
- * BIT 11 (1971) 168-174) narrows it in about 8 evaluations where bisection took about 50; a bisection
+ * BIT 11 (1971) 168-174) narrows it in about 10 evaluations where bisection took about 50; a bisection
  * whenever the bracket has not halved over two evaluations keeps the worst case within a few times
  * bisection's. Where the indicator already has the end's sign at the step's start, no crossing is inside
  * and the bracket closes on the start, as bisection did. */
