@@ -2,6 +2,11 @@
 
     python bench/scaling.py --out bench/out/scaling            # the quick subset (default): ~2 min
     python bench/scaling.py --out bench/out/scaling --full     # every odd size 5..31, and 20: ~5 min
+    python bench/scaling.py --out bench/out/scaling_whole --use-symmetry 0   # the whole lattice everywhere
+
+With use_symmetry 1 (the FMU as it ships) every lattice drops uy and vy (the load is along x) and one with an
+odd number of rows integrates only its upper half, so odd and even row counts lie on two different lines;
+--use-symmetry 0 gives the cost law of the whole model.
 
 For each lattice the FMU is built with `python build_fmu.py --rows R --cols C` (kept in DIR/fmus and
 rebuilt when fmu_src/ or build_fmu.py is newer, or with --rebuild; the material table is SPEC 3's with C
@@ -95,6 +100,10 @@ def main(argv=None) -> int:
     parser.add_argument("--evaluations", nargs="+", choices=sorted(EVALUATIONS), default=["search", "scene8s"])
     parser.add_argument("--rebuild", action="store_true", help="rebuild every FMU")
     parser.add_argument("--seed", type=int, default=2024, help="seed of the random orders")
+    parser.add_argument("--use-symmetry", type=int, choices=(0, 1), default=1,
+                        help="the FMU's use_symmetry: 1 (default, as it ships: ux and vx only, and the upper half "
+                             "of a lattice with an odd number of rows) or 0 (the whole lattice at every size, the "
+                             "cost law of the model itself)")
     args = parser.parse_args(argv)
     random_count = args.random_orders if args.random_orders is not None else (3 if args.full else 2)
     repeats = args.repeats or (5 if args.full else 3)
@@ -129,8 +138,9 @@ def main(argv=None) -> int:
                         run = runs.setdefault(key, {"times": [], "failure": ""})
                         start = time.process_time()
                         try:
-                            result = fmus[shape].simulate(order, horizon=horizon, parameters=parameters,
-                                                          outputs=OUTPUTS)
+                            result = fmus[shape].simulate(
+                                order, horizon=horizon, parameters={**parameters, "use_symmetry": args.use_symmetry},
+                                outputs=OUTPUTS)
                         except SimulationError as exc:
                             run["failure"] = str(exc)
                             continue

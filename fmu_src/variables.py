@@ -155,16 +155,19 @@ def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] 
                         ("mean", "The mean of the two columns (reciprocal)"))),
         Variable("solver", INTEGER, "parameter",
                  "Co-Simulation's solver: DOP853 (0, adaptive), RK4 (1, fixed step), semi-implicit Euler (2, "
-                 "fixed step), Tsit5 (3, adaptive) or DOPRI5 (4, adaptive); Model Exchange uses the importer's",
-                 start=0, minimum=0, maximum=4,
-                 allowed="0 (adaptive DOP853), 1 (RK4), 2 (semi-implicit Euler), 3 (adaptive Tsit5) or 4 (adaptive "
-                         "DOPRI5)",
+                 "fixed step), Tsit5 (3, adaptive), DOPRI5 (4, adaptive) or Fine's Runge-Kutta-Nystrom 5(4) (5, "
+                 "adaptive); Model Exchange uses the importer's",
+                 start=0, minimum=0, maximum=5,
+                 allowed="0 (adaptive DOP853), 1 (RK4), 2 (semi-implicit Euler), 3 (adaptive Tsit5), 4 (adaptive "
+                         "DOPRI5) or 5 (adaptive Fine RKN 5(4))",
                  enumeration="Solver",
                  items=(("DOP853", "Adaptive Dormand-Prince 8(5,3) with 7th-order dense output (rtol, atol)"),
                         ("RK4", "Fixed-step classical Runge-Kutta (fixed_step)"),
                         ("semi_implicit_euler", "Fixed-step semi-implicit (symplectic) Euler (fixed_step)"),
                         ("Tsit5", "Adaptive Tsitouras 5(4) pair (rtol, atol)"),
-                        ("DOPRI5", "Adaptive Dormand-Prince 5(4) pair (rtol, atol)"))),
+                        ("DOPRI5", "Adaptive Dormand-Prince 5(4) pair (rtol, atol)"),
+                        ("FineRKN5", "Adaptive general Runge-Kutta-Nystrom 5(4) pair of Fine (rtol, atol): "
+                                     "cheapest at the searches' accuracy"))),
         Variable("spring_law", INTEGER, "parameter",
                  "0 = exponential springs (the study's law), 1 = linear springs F = k r",
                  start=0, minimum=0, maximum=1, allowed="0 (exponential) or 1 (linear)"),

@@ -28,7 +28,7 @@ ENERGY_OUTPUTS = ("kinetic_energy", "potential_energy", "external_work", "dissip
                   "nonreciprocal_work", "energy_balance_error")
 COUNTER_OUTPUTS = ("rhs_evaluations", "steps_accepted", "steps_rejected")
 DIAGONAL_RULES = {"receiver": 0, "mean": 1}
-SOLVERS = {"dop853": 0, "rk4": 1, "semi_implicit_euler": 2, "tsit5": 3, "dopri5": 4}
+SOLVERS = {"dop853": 0, "rk4": 1, "semi_implicit_euler": 2, "tsit5": 3, "dopri5": 4, "rkn5": 5}
 
 
 # FMU log messages, routed by instance name to the LatticeFMU that owns the instance. fmpy's logger proxy

@@ -1,6 +1,7 @@
-"""The 5(4) pairs with a free dense output, Tsitouras' (solver = 3, "tsit5") and Dormand and Prince's (4, "dopri5"):
-their peaks converge to DOP853's tight-tolerance ones as rtol falls, the energy balance closes, and the dense
-output keeps the steps independent of the communication points."""
+"""The 5(4) pairs with a free dense output, Tsitouras' (solver = 3, "tsit5"), Dormand and Prince's (4, "dopri5")
+and Fine's Runge-Kutta-Nystrom pair (5, "rkn5"): their peaks converge to DOP853's tight-tolerance ones as rtol
+falls, the energy balance closes, and the dense output keeps the steps independent of the communication
+points."""
 import pytest
 
 from conftest import PUBLISHED_BEST, PUBLISHED_PEAKS, PUBLISHED_SEQUENTIAL
@@ -25,7 +26,7 @@ def references(fmu_path):
                 for order in (PUBLISHED_SEQUENTIAL, PUBLISHED_BEST)}
 
 
-@pytest.mark.parametrize("solver", ["tsit5", "dopri5"])
+@pytest.mark.parametrize("solver", ["tsit5", "dopri5", "rkn5"])
 @pytest.mark.parametrize("order", [PUBLISHED_SEQUENTIAL, PUBLISHED_BEST], ids=["sequential", "study_best"])
 def test_peaks_converge_to_the_tight_dop853_ones(lattice, references, order, solver):
     errors = {}
@@ -44,7 +45,7 @@ def test_published_peak_over_8_s(lattice):
     assert abs(result["energy_balance_error"]) <= 1e-7 * result["external_work"]
 
 
-@pytest.mark.parametrize("solver", ["tsit5", "dopri5"])
+@pytest.mark.parametrize("solver", ["tsit5", "dopri5", "rkn5"])
 def test_one_do_step_gives_the_outputs_of_many(lattice, solver):
     parameters = {"solver": solver, **tolerances(1e-5)}
     whole = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=parameters, outputs=OUTPUTS)
@@ -68,5 +69,16 @@ def test_fewer_right_hand_sides_than_dop853_at_the_search_tolerance(lattice, ref
 
 
 def test_an_unknown_solver_is_refused_by_name(lattice):
-    with pytest.raises(SimulationError, match=r"solver = 5 .*3 \(adaptive Tsit5\) or 4 \(adaptive DOPRI5\)"):
-        lattice.simulate(PUBLISHED_BEST, horizon=0.1, parameters={"solver": 5})
+    with pytest.raises(SimulationError, match=r"solver = 6 .*4 \(adaptive DOPRI5\) or 5 \(adaptive Fine RKN 5\(4\)\)"):
+        lattice.simulate(PUBLISHED_BEST, horizon=0.1, parameters={"solver": 6})
+
+
+@pytest.mark.parametrize("use_symmetry", [0, 1])
+def test_the_nystrom_pair_over_8_s_and_on_the_whole_lattice(lattice, use_symmetry):
+    """Fine's pair on the published scene, on the reduced state and on the whole one (its position, velocity and
+    integral parts are combined apart, so both layouts matter): the published peak and a closing balance."""
+    result = lattice.simulate(PUBLISHED_BEST, horizon=8.0,
+                              parameters={"solver": "rkn5", "use_symmetry": use_symmetry, **tolerances(1e-9)},
+                              outputs=PEAKS + ("energy_balance_error", "external_work"))
+    assert result["peak_backplate_force"] == pytest.approx(PUBLISHED_PEAKS[PUBLISHED_BEST], rel=1e-6)
+    assert abs(result["energy_balance_error"]) <= 1e-7 * result["external_work"]

@@ -33,7 +33,8 @@ static const double *row_const(const double *work, int n, int r) { return work +
 const double *solver_state(const double *work) { return work + ROW_Y; }
 
 int solver_is_adaptive(int method) {
-    return method == SOLVER_DOP853 || method == SOLVER_TSIT5 || method == SOLVER_DOPRI5;
+    return method == SOLVER_DOP853 || method == SOLVER_TSIT5 || method == SOLVER_DOPRI5 ||
+           method == SOLVER_FINE_RKN5;
 }
 
 /* Explicit Runge-Kutta pairs of seven stages whose last is f(y_new) (reused as the next step's first), with a
@@ -118,6 +119,50 @@ static const FsalPair DOPRI5 = {
     4};
 
 static const FsalPair *fsal_pair(int method) { return method == SOLVER_TSIT5 ? &TSIT5 : &DOPRI5; }
+
+/* A general Runge-Kutta-Nystrom pair for x'' = f(x, x') (the lattice's damping makes f depend on x'), seven
+ * stages whose last is f(y_new) (reused as the next step's first). Over the solver's state [x (m), v = x' (m),
+ * q (the rest: integrals q' = g(x, v))]: stage i is evaluated at X_i = x + c_i h v + h^2 sum_j a_ij A_j,
+ * V_i = v + h sum_j abar_ij A_j, Q_i = q + h sum_j abar_ij G_j, where [V_j, A_j, G_j] = f(X_j, V_j, Q_j);
+ * the step is x + h v + h^2 sum b_j A_j, v + h sum bp_j A_j, q + h sum bp_j G_j, and the error estimate
+ * h^2 sum btilde_j A_j for x, h sum bptilde_j [A_j, G_j] for v and q (the seventh weight on f(y_new)). The
+ * positions come twice as accurate per stage as a general pair's: that is what it buys on a mechanical
+ * model. Dense output: x by the quintic Hermite through x, v, A at both ends, v by its derivative, q by the
+ * cubic Hermite (all free). */
+#define NYSTROM_STAGES 7
+typedef struct {
+    double a[NYSTROM_STAGES][NYSTROM_STAGES - 1], abar[NYSTROM_STAGES][NYSTROM_STAGES - 1];
+    double b[NYSTROM_STAGES], bp[NYSTROM_STAGES], btilde[NYSTROM_STAGES], bptilde[NYSTROM_STAGES], c[NYSTROM_STAGES];
+} NystromPair;
+
+/* Fine's general RKN 5(4) pair (J. M. Fine, Low order practical Runge-Kutta-Nystrom methods, Computing 38
+ * (1987) 281-297), exact rationals as OrdinaryDiffEq.jl tabulates it (FineRKN5Tableau in rkn_tableaus.jl;
+ * btilde = b - bhat). bench/method_study.py found it the cheapest of eight methods at the search accuracy. */
+static const NystromPair FINE_RKN5 = {
+    {
+        {0.0, 0.0, 0.0, 0.0, 0.0, 0.0},
+        {32.0 / 1521.0, 0.0, 0.0, 0.0, 0.0, 0.0},
+        {4.0 / 169.0, 4.0 / 169.0, 0.0, 0.0, 0.0, 0.0},
+        {175.0 / 5184.0, 0.0, 1625.0 / 5184.0, 0.0, 0.0, 0.0},
+        {-342497279.0 / 5618900760.0, 6827067.0 / 46824173.0, 35048741.0 / 102161832.0, -2201514.0 / 234120865.0, 0.0, 0.0},
+        {-7079.0 / 52152.0, 767.0 / 2173.0, 14027.0 / 52152.0, 30.0 / 2173.0, 0.0, 0.0},
+        {4817.0 / 51600.0, 0.0, 388869.0 / 1216880.0, 3276.0 / 23575.0, -1142053.0 / 22015140.0, 0.0},
+    },
+    {
+        {0.0, 0.0, 0.0, 0.0, 0.0, 0.0},
+        {8.0 / 39.0, 0.0, 0.0, 0.0, 0.0, 0.0},
+        {1.0 / 13.0, 3.0 / 13.0, 0.0, 0.0, 0.0, 0.0},
+        {7385.0 / 6912.0, -9425.0 / 2304.0, 13325.0 / 3456.0, 0.0, 0.0, 0.0},
+        {223324757.0 / 91364240.0, -174255393.0 / 18272848.0, 382840094.0 / 46824173.0, -39627252.0 / 234120865.0, 0.0, 0.0},
+        {108475.0 / 36464.0, -9633.0 / 848.0, 7624604.0 / 806183.0, 8100.0 / 49979.0, -4568212.0 / 19446707.0, 0.0},
+        {4817.0 / 51600.0, 0.0, 1685099.0 / 3650640.0, 19656.0 / 23575.0, -53676491.0 / 88060560.0, 53.0 / 240.0},
+    },
+    {4817.0 / 51600.0, 0.0, 388869.0 / 1216880.0, 3276.0 / 23575.0, -1142053.0 / 22015140.0, 0.0, 0.0}, /* B */
+    {4817.0 / 51600.0, 0.0, 1685099.0 / 3650640.0, 19656.0 / 23575.0, -53676491.0 / 88060560.0, 53.0 / 240.0, 0.0}, /* BP */
+    {8151.0 / 2633750.0, 0.0, -1377519.0 / 186334750.0, 586872.0 / 28879375.0, -36011118.0 / 2247378875.0, 0.0, 0.0}, /* BTILDE */
+    {8151.0 / 2633750.0, 0.0, -5969249.0 / 559004250.0, 3521232.0 / 28879375.0, -846261273.0 / 4494757750.0, 4187.0 / 36750.0, -1.0 / 25.0}, /* BPTILDE */
+    {0.0, 8.0 / 39.0, 4.0 / 13.0, 5.0 / 6.0, 43.0 / 47.0, 1.0, 1.0}, /* C */
+};
 
 static void evaluate(Solver *s, OdeFunction f, void *context, const double *y, double *dydt) {
     f(context, s->phase, y, dydt);
@@ -250,16 +295,11 @@ static NOINLINE VECTOR_CLONES void pair_accumulate4(double *RESTRICT out_a, doub
  * be NULL for zero), summed in the order of q for every component. This and the right-hand side are where
  * the time goes: the stage rows are added up to four at a time, in passes the compiler vectorises. y_out
  * must not be base or a stage row. */
-static void combine(double *y_out, const double *base, double h, const double *coefficient, int stages,
-                    const double *work, int n) {
-    const double *k[SOLVER_STAGE_ROWS];
-    double w[SOLVER_STAGE_ROWS];
-    int used = 0, q;
-    for (q = 0; q < stages; q++) {
-        if (coefficient[q] == 0.0) continue;
-        k[used] = row_const(work, n, ROW_K + q);
-        w[used++] = h * coefficient[q];
-    }
+/* out = base + sum_q w[q] k[q][.] over count components, the rows given as pointers (combine's engine; the
+ * Nystrom pair combines parts of rows with it). */
+static void combine_rows(double *y_out, const double *base, const double *const *k, const double *w, int used,
+                         int n) {
+    int q;
     for (q = 0; q < used; q += 4) {
         const int terms = used - q < 4 ? used - q : 4;
         const double *const *r = k + q;
@@ -294,6 +334,19 @@ static void combine(double *y_out, const double *base, double h, const double *c
             memset(y_out, 0, (size_t)n * sizeof(double));
         }
     }
+}
+
+static void combine(double *y_out, const double *base, double h, const double *coefficient, int stages,
+                    const double *work, int n) {
+    const double *k[SOLVER_STAGE_ROWS];
+    double w[SOLVER_STAGE_ROWS];
+    int used = 0, q;
+    for (q = 0; q < stages; q++) {
+        if (coefficient[q] == 0.0) continue;
+        k[used] = row_const(work, n, ROW_K + q);
+        w[used++] = h * coefficient[q];
+    }
+    combine_rows(y_out, base, k, w, used, n);
 }
 
 /* out_a and out_b as combine(out, NULL, 1, coefficient_x, stages, ...) gives them, in one pass per four
@@ -462,6 +515,90 @@ static int fsal_pair_step(Solver *s, double *work, OdeFunction f, void *context,
     }
 }
 
+/* One accepted step of the Nystrom pair, its size controlled as the FSAL pairs' (error order 4). */
+static int nystrom_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
+                        size_t message_size) {
+    const NystromPair *pair = &FINE_RKN5;
+    const int n = s->n, m = s->n_second_order, rest = n - m;
+    const double *y = row(work, n, ROW_Y);
+    double *y_new = row(work, n, ROW_SCRATCH), *error = row(work, n, ROW_DENSE);
+    double *stage_state = row(work, n, ROW_DENSE + 1);
+    const double error_exponent = -1.0 / (4 + 1);
+    double h_abs = s->h_next;
+    int rejected = 0, stage, j, i;
+
+    if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t, 4);
+
+    for (;;) {
+        const double *accelerations[NYSTROM_STAGES + 1]; /* [A_j, G_j] of stage j: the rates of v and q */
+        const double *rows[NYSTROM_STAGES + 1];
+        double weights[NYSTROM_STAGES + 1], h, error_squared = 0.0, error_norm;
+        int used;
+        if (step_collapsed(s, h_abs, message, message_size)) return -1;
+        h = clip_to_limit(s->t, h_abs, t_limit);
+        h_abs = h;
+        for (j = 0; j < NYSTROM_STAGES - 1; j++) accelerations[j] = row_const(work, n, ROW_K + j) + m;
+        accelerations[NYSTROM_STAGES - 1] = row_const(work, n, ROW_K + STAGE_END) + m;
+        for (stage = 1; stage < NYSTROM_STAGES; stage++) {
+            const int last = stage == NYSTROM_STAGES - 1; /* the seventh stage is at y_new itself */
+            const double *a = last ? pair->b : pair->a[stage], *abar = last ? pair->bp : pair->abar[stage];
+            double *out = last ? y_new : stage_state;
+            /* x part: x + c h v + h^2 sum a A */
+            rows[0] = y + m;
+            weights[0] = (last ? 1.0 : pair->c[stage]) * h;
+            used = 1;
+            for (j = 0; j < stage && j < NYSTROM_STAGES - 1; j++) {
+                if (a[j] == 0.0) continue;
+                rows[used] = accelerations[j];
+                weights[used++] = h * h * a[j];
+            }
+            combine_rows(out, y, rows, weights, used, m);
+            /* v and q part: [v, q] + h sum abar [A, G] */
+            used = 0;
+            for (j = 0; j < stage && j < NYSTROM_STAGES - 1; j++) {
+                if (abar[j] == 0.0) continue;
+                rows[used] = accelerations[j];
+                weights[used++] = h * abar[j];
+            }
+            combine_rows(out + m, y + m, rows, weights, used, rest);
+            evaluate(s, f, context, out, row(work, n, last ? ROW_K + STAGE_END : ROW_K + stage));
+        }
+        /* the error estimate */
+        used = 0;
+        for (j = 0; j < NYSTROM_STAGES; j++) {
+            if (pair->btilde[j] == 0.0) continue;
+            rows[used] = accelerations[j];
+            weights[used++] = h * h * pair->btilde[j];
+        }
+        combine_rows(error, NULL, rows, weights, used, m);
+        used = 0;
+        for (j = 0; j < NYSTROM_STAGES; j++) {
+            if (pair->bptilde[j] == 0.0) continue;
+            rows[used] = accelerations[j];
+            weights[used++] = h * pair->bptilde[j];
+        }
+        combine_rows(error + m, NULL, rows, weights, used, rest);
+        for (i = 0; i < n; i++) {
+            const double size_old = fabs(y[i]), size_new = fabs(y_new[i]);
+            const double scale = s->atol + (size_new > size_old ? size_new : size_old) * s->rtol;
+            const double e = error[i] / scale;
+            error_squared += norm_weight(s, work, i) * (e * e);
+        }
+        error_norm = sqrt(error_squared / s->norm_size);
+
+        if (error_norm < 1.0 && all_finite(y_new, n)) {
+            double factor = error_norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(error_norm, error_exponent));
+            if (rejected) factor = fmin(1.0, factor);
+            s->h_next = h_abs * factor;
+            accept(s, work, h);
+            return 0;
+        }
+        h_abs *= isfinite(error_norm) ? fmax(MIN_FACTOR, SAFETY * pow(error_norm, error_exponent)) : MIN_FACTOR;
+        rejected = 1;
+        s->steps_rejected++;
+    }
+}
+
 static int fixed_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
                       size_t message_size) {
     const int n = s->n, m = s->n_second_order;
@@ -519,8 +656,9 @@ int solver_step(Solver *s, double *work, OdeFunction f, void *context, double t_
     }
     {
         const int status =
-            s->method == SOLVER_DOP853      ? dop853_step(s, work, f, context, t_limit, message, message_size)
-            : solver_is_adaptive(s->method) ? fsal_pair_step(s, work, f, context, t_limit, message, message_size)
+            s->method == SOLVER_DOP853        ? dop853_step(s, work, f, context, t_limit, message, message_size)
+            : s->method == SOLVER_FINE_RKN5   ? nystrom_step(s, work, f, context, t_limit, message, message_size)
+            : solver_is_adaptive(s->method)   ? fsal_pair_step(s, work, f, context, t_limit, message, message_size)
                                             : fixed_step(s, work, f, context, t_limit, message, message_size);
         s->end_derivative_valid = status == 0;
         return status;
@@ -561,6 +699,24 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
         return;
     }
     for (r = 0; r < SOLVER_DENSE_ROWS; r++) dense[r] = row(work, n, ROW_DENSE + r);
+    if (s->method == SOLVER_FINE_RKN5) {
+        /* x: the quintic Hermite's top coefficients (c3, c4, c5 of x0 + h v0 s + h^2 A0 s^2 / 2 + ...) in the
+         * first m entries of the first three rows; q: the cubic Hermite in the entries past 2m */
+        const int m = s->n_second_order;
+        int i;
+        for (i = 0; i < m; i++) {
+            const double v0 = y_old[m + i], v1 = y[m + i], a0 = f_old[m + i], a1 = f_new[m + i];
+            const double r0 = (y[i] - y_old[i]) - h * v0 - 0.5 * h * h * a0;
+            const double r1 = h * (v1 - v0) - h * h * a0, r2 = h * h * (a1 - a0);
+            dense[0][i] = 10.0 * r0 - 4.0 * r1 + 0.5 * r2;
+            dense[1][i] = -15.0 * r0 + 7.0 * r1 - r2;
+            dense[2][i] = 6.0 * r0 - 3.0 * r1 + 0.5 * r2;
+        }
+        hermite_coefficients(y_old + 2 * m, y + 2 * m, f_old + 2 * m, f_new + 2 * m, h, n - 2 * m, dense[0] + 2 * m,
+                             dense[1] + 2 * m, dense[2] + 2 * m);
+        s->dense_power = DENSE_NYSTROM;
+        return;
+    }
     hermite_coefficients(y_old, y, f_old, f_new, h, n, dense[0], dense[1], dense[2]);
     if (s->method != SOLVER_DOP853) {
         s->dense_power = 3; /* cubic Hermite */
@@ -604,6 +760,22 @@ double solver_interpolate(const Solver *s, const double *work, int component, do
     double value = 0.0;
     int r;
     if (t == s->t) return work[(size_t)ROW_Y * n + i];
+    if (s->dense_power == DENSE_NYSTROM) {
+        const size_t m = (size_t)s->n_second_order, position = i < m ? i : i - m;
+        const double *coefficients = work + (size_t)ROW_DENSE * n + position; /* c3, c4, c5 of the position */
+        const double h = s->h_last, v0 = work[(size_t)ROW_Y_OLD * n + m + position];
+        const double a0 = work[(size_t)ROW_K * n + m + position];
+        const double c3 = coefficients[0], c4 = coefficients[n], c5 = coefficients[2 * n];
+        if (i >= 2 * m) {
+            value = (((dense[2 * n] * x + dense[n]) * x1 + dense[0]) * x);
+            return work[(size_t)ROW_Y_OLD * n + i] + value;
+        }
+        if (i < m) {
+            return work[(size_t)ROW_Y_OLD * n + i] +
+                   x * (h * v0 + x * (0.5 * h * h * a0 + x * (c3 + x * (c4 + x * c5))));
+        }
+        return v0 + x * (h * a0 + x * (3.0 * c3 + x * (4.0 * c4 + x * 5.0 * c5)) / h);
+    }
     if (s->dense_power == DENSE_FROM_STAGES) {
         const double *k = work + (size_t)ROW_K * n + i, *w = pair_dense_weights((Solver *)s, x);
         double sum = 0.0;

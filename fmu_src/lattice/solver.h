@@ -22,7 +22,8 @@ typedef enum {
     SOLVER_RK4 = 1,
     SOLVER_SEMI_IMPLICIT_EULER = 2,
     SOLVER_TSIT5 = 3,
-    SOLVER_DOPRI5 = 4
+    SOLVER_DOPRI5 = 4,
+    SOLVER_FINE_RKN5 = 5
 } SolverMethod;
 
 /* 1 for the methods with error control (their steps adapt, an event may cut one back to any length). */
@@ -32,6 +33,7 @@ int solver_is_adaptive(int method);
 typedef void (*OdeFunction)(void *context, int phase, const double *y, double *dydt);
 
 #define DENSE_FROM_STAGES (-1)
+#define DENSE_NYSTROM (-2) /* the Nystrom pair's Hermite dense output (solver.c) */
 #define SOLVER_STAGE_ROWS 16 /* DOP853's 12 stages, f(y_new), and 3 stages for the dense output */
 #define SOLVER_DENSE_ROWS 7
 #define SOLVER_WORKSPACE_ROWS (4 + SOLVER_STAGE_ROWS + SOLVER_DENSE_ROWS) /* y, y_old, scratch, K, dense, weights */
