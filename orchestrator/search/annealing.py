@@ -51,8 +51,8 @@ rejection.  Only accept/reject uses the threshold; no limit is given where the
 value itself is used: calibration steps (their deltas set T0), an ``init`` or
 a kick (taken whatever the value), a chain whose current value failed.  While
 the temperature check's window is open (its first ``window`` worsening moves
-after T0) the limit is raised to at least c + T0 ln(1/poor_low): a move
-censored there would be accepted at T0 with probability below ``poor_low``, so
+after T0) the limit is raised to at least c + T0 ln(2/poor_low): a move
+censored there would be accepted at T0 with probability below poor_low/2, so
 the check still tells a too-low T0 (it bounds a censored move's acceptance,
 never guesses it; see ``_state``).
 The search keeps of a told value only what its limit asked for: the number if
@@ -280,14 +280,15 @@ class Annealing(Search):
 
     def _limit(self, c: int, threshold: float) -> float | None:
         """The limit to evaluate a move with: its threshold, raised while the temperature check's window is
-        open so that a censored move's acceptance at T0 is known to be below ``poor_low``."""
+        open so that a censored move's acceptance at T0 is known to be below half of ``poor_low`` (half: so
+        that a window of censored moves is flagged as too low, rounding whatever)."""
         if not self.options["use_limits"] or not math.isfinite(threshold):
             return None
         if len(self.window_uphill) < int(self.options["window"]):
             poor_low = float(self.options["poor_low"])
             if not poor_low > 0:
                 return None
-            threshold = max(threshold, self.current_value[c] + self.t0 * math.log(1.0 / poor_low))
+            threshold = max(threshold, self.current_value[c] + self.t0 * math.log(2.0 / poor_low))
         return threshold if math.isfinite(threshold) else None
 
     # -- protocol ---------------------------------------------------------
