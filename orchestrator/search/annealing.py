@@ -72,7 +72,8 @@ evaluations the median best at the search fidelity moved from 1414.9 to
 the same code gives the old runs bit for bit).  ``use_limits=False`` gives no
 limits and keeps every value.
 
-Why the small-budget defaults (measured on the 11-column lattice: searches on
+Why the small-budget defaults (measured before u was drawn first, with the old
+random stream, on the 11-column lattice: searches on
 the 1 s search objective with 100 evaluations, the best order re-evaluated
 over the full 8 s, median over seeds 0-19; the best order we know is at
 1405.9 N, the sequential one at 1747.8 N; each step adds to the previous):
