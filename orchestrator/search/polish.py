@@ -43,7 +43,8 @@ class Polished(Search):
             self.descent.start(self.best_order, self.best_value)
             self.polish_started_at = len(self.memo)
         self._polishing_batch = self.descent is not None
-        self._asked = self.descent.propose(self.memo) if self._polishing_batch else self.inner.ask()
+        self._asked = (self.descent.propose(self.memo, self.censored_above) if self._polishing_batch
+                       else self.inner.ask())
         return self._asked
 
     def limits(self) -> list[float | None] | None:
