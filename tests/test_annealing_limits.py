@@ -223,6 +223,8 @@ def test_use_limits_false_asks_for_exact_values():
         search.tell(orders, [value(o) for o in orders])
     run = anneal(honouring(), 0, budget=200, use_limits=False, polish=0.0)
     assert run.n_censored == 0
+    with pytest.raises(ValueError, match="use_limits must be True or False"):
+        make_search("sa", 8, 0, use_limits="no")
 
 
 def test_on_the_fmu_the_limit_saves_right_hand_sides_and_changes_no_decision(fmu_path):

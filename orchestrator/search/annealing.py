@@ -182,6 +182,8 @@ class Annealing(Search):
             raise ValueError("sa: initial_acceptance must be in (0, 1)")
         if not 0.0 < float(o["t_final_ratio"]) <= 1.0:
             raise ValueError("sa: t_final_ratio must be in (0, 1]")
+        if not isinstance(o["use_limits"], bool):
+            raise ValueError(f"sa: use_limits must be True or False, got {o['use_limits']!r}")
         self.calibration = int(o["calibration"] or max(10, 2 * self.chains))
         self.total_orders = math.factorial(self.n) if self.n <= 12 else None
         self.current: list[Order | None] = [None] * self.chains
