@@ -64,8 +64,8 @@ whether or not the evaluator honours the limits (the key test,
 it (another chain, a higher current value) it decides nothing, so the order is
 asked again with the new limit; the loop evaluates it again without charging
 the budget (``reevaluations``; on the 11-column lattice 3 in 120 runs of 100
-evaluations, 1491 in 50 runs of 1000, about 4 % of their FMU runs: raising
-each limit to the highest chain value avoided most of them but cost more
+evaluations; at 1000 evaluations about 3 % of the FMU runs: raising each
+limit to the highest chain value avoided most of them but cost more
 right-hand sides than they do).  Drawing u first changes the random stream (one draw per
 proposal where there was one per worsening move, after its evaluation), so
 runs differ from those before this change: over seeds 0-119 at 100
