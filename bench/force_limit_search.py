@@ -1,5 +1,6 @@
 """What peak_force_limit saves per search: each method's runs with the force limit (the polishing descent
-asks each neighbour with the current value as its limit) against the same runs without it.
+asks each neighbour with the current value as its limit, the annealing each move with its Metropolis
+threshold) against the same runs without it.
 
     python bench/force_limit_search.py                       # cmaes, pso, sa; 5 seeds; 100 evaluations
     python bench/force_limit_search.py --budget 300 --seeds 10
@@ -38,11 +39,12 @@ def main(argv=None) -> int:
     assert variants["limit"].supports_limits, "this FMU has no peak_force_limit"
     print(f"force limit per search: {', '.join(args.methods)} x {args.seeds} seeds x {args.budget} evaluations, "
           "serial", flush=True)
-    totals = {name: {"cpu": 0.0, "rhs": 0, "censored": 0} for name in variants}
+    totals = {name: {"cpu": 0.0, "rhs": 0, "censored": 0, "again": 0} for name in variants}
     same = True
     with make_executor("serial") as executor:
         for method in args.methods:
             per = {name: [] for name in variants}
+            per_rhs = {name: [] for name in variants}
             for seed in range(args.seeds):
                 runs = {}
                 for name, objective in variants.items():
@@ -51,22 +53,27 @@ def main(argv=None) -> int:
                     cpu = sum(e.seconds for e in run.evaluations)
                     rhs = sum(e.details.get("rhs_evaluations") or 0 for e in run.evaluations)
                     per[name].append(cpu)
+                    per_rhs[name].append(rhs)
                     totals[name]["cpu"] += cpu
                     totals[name]["rhs"] += rhs
                     totals[name]["censored"] += run.n_censored
+                    totals[name]["again"] += run.n_reevaluated
                     runs[name] = run
                 agree = runs["limit"].best_order == runs["no limit"].best_order
                 same &= agree
                 print(f"  {method:6s} seed {seed}: {per['limit'][-1]:.3f} s with the limit "
-                      f"({runs['limit'].n_censored} censored) against {per['no limit'][-1]:.3f} s; best "
+                      f"({runs['limit'].n_censored} censored, {runs['limit'].n_reevaluated} evaluated again) against {per['no limit'][-1]:.3f} s; best "
                       f"{runs['limit'].best_peak:.3f} / {runs['no limit'].best_peak:.3f} N"
                       + ("" if agree else "  (different best order)"), flush=True)
             ratio = statistics.median(a / b for a, b in zip(per["limit"], per["no limit"]))
-            print(f"{method:6s} median FMU time with the limit / without: {ratio:.2f}", flush=True)
+            rhs_ratio = sum(per_rhs["limit"]) / sum(per_rhs["no limit"])
+            print(f"{method:6s} median FMU time with the limit / without: {ratio:.2f}; right-hand sides "
+                  f"{sum(per_rhs['limit']):,} / {sum(per_rhs['no limit']):,} ({rhs_ratio:.2f})", flush=True)
     limit, free = totals["limit"], totals["no limit"]
     print(f"all runs: FMU time {limit['cpu']:.1f} s with the limit against {free['cpu']:.1f} s "
           f"({limit['cpu'] / free['cpu']:.2f}); right-hand sides {limit['rhs']:,} against {free['rhs']:,} "
-          f"({limit['rhs'] / free['rhs']:.2f}); {limit['censored']:,} evaluations censored; the same best order "
+          f"({limit['rhs'] / free['rhs']:.2f}); {limit['censored']:,} evaluations censored, {limit['again']:,} orders "
+          f"evaluated again (censored below a later limit); the same best order "
           f"in every run: {same}")
     return 0
 

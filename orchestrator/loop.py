@@ -8,7 +8,8 @@ past its time limit) into a failed evaluation, and replaces a broken process poo
 Guarantees (why each one exists):
 - *Budget*: ``budget`` counts evaluations of distinct orders and is never
   exceeded; the study's cost was dominated by simulations, so that is what a
-  user pays for and compares methods by.
+  user pays for and compares methods by.  An order evaluated again because its
+  earlier run stopped at a lower limit is logged, not charged again.
 - *Cache by order*: an order asked again (random keys map many points to one
   order; annealing chains revisit) is answered from the cache for free.
 - *Determinism*: results are collected and processed in ask order, never in
@@ -43,7 +44,10 @@ class SearchRun:
 
     ``evaluations[k]`` is evaluation number ``k + 1`` (indices are 1-based, as
     in "found at evaluation 4"), in the order first evaluated; cache hits are
-    not evaluations.
+    not evaluations. An order censored below a limit that later matters to the
+    search is evaluated again and appears once more (``n_reevaluated``; see
+    ``run_search``): the budget counts distinct orders, so ``n_evaluations`` is
+    the budget plus those.
     """
 
     method: str
@@ -55,6 +59,7 @@ class SearchRun:
     best_index: int | None = None           # 1-based index of the best evaluation
     n_failed: int = 0
     n_censored: int = 0                      # stopped early above a limit the search gave (never a peak)
+    n_reevaluated: int = 0                   # evaluations of an order seen censored (beyond the budget)
     stalled: bool = False
     stop_reason: str = ""
     wall_seconds: float = 0.0
@@ -87,6 +92,12 @@ class SearchRun:
                  "order": list(e.order), "peak": e.peak, "status": e.status,
                  "message": e.message, "seconds": e.seconds, **e.details}
                 for k, e in enumerate(self.evaluations, start=1)]
+
+
+def _censored_below(evaluation: Evaluation, limit: float | None) -> bool:
+    """Censored at a lower limit than the one now asked (or asked with none): what is known no longer
+    answers the search, so the order is evaluated again."""
+    return evaluation.censored and (limit is None or limit > evaluation.lower_bound)
 
 
 def told_value(evaluation: Evaluation) -> float | Above | None:
@@ -278,7 +289,12 @@ def run_search(search: Search, objective, budget: int, evaluator, *, method_name
     ``objective``: an ``Objective`` (or any ``order -> Evaluation`` callable); ``evaluator``: an
     ``Evaluator`` (or a bare Executor, wrapped in one). Each batch: dedupe the asked orders, evaluate the
     ones this run has not seen through the objective and the evaluator, process the results in ask
-    order, tell the search every asked order's value (None for failures). When the remaining budget is
+    order, tell the search every asked order's value (None for failures, ``Above(limit)`` when censored).
+    An order already seen censored is evaluated again when the search gives limits and asks it with no
+    limit or a higher one than it was censored at (the annealing, whose thresholds vary from chain to
+    chain); that run is logged in ``evaluations`` but not charged to the budget, which counts distinct
+    orders, so that a search makes the same asks whether or not the evaluator honours its limits (its FMU
+    time is in the evaluation's ``seconds`` like any other). When the remaining budget is
     smaller than the number of new orders, only the first ``remaining`` are evaluated and the run stops
     without telling the search (pycma must not be told a partial population).
 
@@ -297,7 +313,7 @@ def run_search(search: Search, objective, budget: int, evaluator, *, method_name
     total_orders = math.factorial(search.n) if search.n <= 12 else None
 
     while True:
-        if len(run.evaluations) >= budget:
+        if len(seen) >= budget:
             run.stop_reason = f"budget of {budget} evaluations used"
             break
         if search.stop():
@@ -313,17 +329,23 @@ def run_search(search: Search, objective, budget: int, evaluator, *, method_name
         for order in asked:
             if len(order) != search.n or not is_permutation(order):
                 raise ValueError(f"{method_name}: the search asked {order}, not a permutation of 1..{search.n}")
-        new = [o for o in dict.fromkeys(asked) if o not in seen]  # first occurrence, ask order
+        unique = list(dict.fromkeys(asked))  # first occurrence, ask order
+        fresh = [o for o in unique if o not in seen]
+        remaining = budget - len(seen)
+        truncated = len(fresh) > remaining
+        if truncated:
+            new = fresh[:remaining]
+        else:
+            new = [o for o in unique if o not in seen
+                   or (asked_limits is not None and _censored_below(seen[o], limit_of.get(o)))]
         run.cache_hits += len(asked) - len(new)
-        remaining = budget - len(run.evaluations)
-        truncated = len(new) > remaining
-        new = new[:remaining]
 
         done = len(run.evaluations)
         results = objective.evaluate(new, evaluator, fidelity,
                                      progress=None if progress is None else (lambda k, d=done: progress(d + k)),
                                      limits=[limit_of.get(o) for o in new] if limit_of else None)
         for order, evaluation in zip(new, results):
+            run.n_reevaluated += order in seen
             seen[order] = evaluation
             run.evaluations.append(evaluation)
             if evaluation.censored:
@@ -340,7 +362,7 @@ def run_search(search: Search, objective, budget: int, evaluator, *, method_name
             break
         search.tell(asked, [told_value(seen[o]) for o in asked])
 
-        no_new = 0 if new else no_new + 1
+        no_new = 0 if fresh else no_new + 1
         if no_new >= stall_batches:
             run.stalled = True
             run.stop_reason = (f"stalled: {stall_batches} batches in a row asked only orders "

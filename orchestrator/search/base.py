@@ -81,7 +81,10 @@ class Search:
     the annealing also to scale its cooling.
 
     ``memo`` holds the value of every distinct order told so far (failures as
-    ``FAILURE``); ``len(memo)`` is the number of evaluations spent.
+    ``FAILURE``); ``len(memo)`` is the number of evaluations spent.  A censored
+    order is ``FAILURE`` in ``memo`` too (never a number), and ``censored_above``
+    keeps the limit it is known to be above, for a search that must tell "above
+    a limit that no longer matters" from "unknown" (the annealing).
     """
 
     name = "search"
@@ -112,6 +115,7 @@ class Search:
         self.best_value = math.inf
         self.best_order: Order | None = None
         self.memo: dict[Order, float] = {}
+        self.censored_above: dict[Order, float] = {}
 
     # -- protocol ---------------------------------------------------------
     def ask(self) -> list[Order]:
@@ -139,6 +143,10 @@ class Search:
                 self.n_failed += 1
             elif value < self.best_value:
                 self.best_value, self.best_order = value, order
+            if isinstance(told, Above):
+                self.censored_above[order] = max(told.limit, self.censored_above.get(order, -math.inf))
+            else:
+                self.censored_above.pop(order, None)
             self.memo[order] = value
         self._tell(orders, internal)
 

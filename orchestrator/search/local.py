@@ -92,10 +92,13 @@ def order_to_keys(order: Sequence[int], dim: int | None = None) -> np.ndarray:
 class Descent:
     """Batched first-improvement descent by swaps and insertions, with kicks.
 
-    ``propose(memo)`` returns up to ``batch`` neighbours of the current order
-    whose values are not yet known, in a random order; a neighbour already in
-    ``memo`` is judged on the spot for free (if it is better the descent moves
-    there and scans its neighbours instead).  ``update(orders, values)`` moves
+    ``propose(memo, above)`` returns up to ``batch`` neighbours of the current
+    order whose values are not yet known, in a random order; a neighbour already
+    in ``memo`` is judged on the spot for free (if it is better the descent moves
+    there and scans its neighbours instead), unless it is only known to be above
+    a bound (``above``: censored) below the current value, which decides nothing:
+    it is asked again (after a kick the current value can be above the limit
+    such a neighbour was censored at).  ``update(orders, values)`` moves
     to the best improving order of the batch, if any.  When every neighbour of
     the current order is known and none is better, the current order is a
     local optimum: the best local optimum so far becomes the home, and the next
@@ -122,6 +125,7 @@ class Descent:
         self._queue: list[Order] = []
         self._kicked: Order | None = None
         self.moves = self.free_moves = self.kicks = self.local_optima = 0
+        self.asked_again = 0  # neighbours censored below the current value, asked again
 
     def start(self, order: Order, value: float) -> None:
         self._set_current(order, value)
@@ -132,7 +136,8 @@ class Descent:
         self.rng.shuffle(queue)
         self._queue = queue
 
-    def propose(self, memo: dict[Order, float]) -> list[Order]:
+    def propose(self, memo: dict[Order, float], above: dict[Order, float] | None = None) -> list[Order]:
+        above = above or {}
         if self.current is None:
             raise RuntimeError("Descent.propose before start")
         self._kicked = None
@@ -154,7 +159,7 @@ class Descent:
                     kicked = random_move(self.rng, kicked)
                 self.kicks += 1
                 tries += 1
-                if kicked in memo:
+                if kicked in memo and kicked not in above:  # a censored one: asked for its value
                     self._set_current(kicked, memo[kicked])
                     if tries >= self.max_kick_tries:
                         return [kicked]  # nothing new nearby; the loop's stall guard decides
@@ -162,10 +167,16 @@ class Descent:
                 self._kicked = kicked
                 return [kicked]
             q = self._queue.pop()
+            if q in above and above[q] < self.current_value:
+                self.asked_again += 1
+                out.append(q)
+                continue
             if q in memo:
                 if memo[q] < self.current_value:
                     self.free_moves += 1
                     self._set_current(q, memo[q])
+                    # a censored neighbour taken to be asked again may now be decided: not better
+                    out = [o for o in out if not (o in above and above[o] >= self.current_value)]
                 continue
             out.append(q)
         return out
@@ -193,7 +204,7 @@ class Descent:
     def state(self) -> dict:
         return {"current_value": None if not math.isfinite(self.current_value) else self.current_value,
                 "moves": self.moves, "free_moves": self.free_moves, "local_optima": self.local_optima,
-                "kicks": self.kicks,
+                "kicks": self.kicks, "asked_again": self.asked_again,
                 "home_value": None if not math.isfinite(self.home_value) else self.home_value}
 
 
@@ -223,7 +234,7 @@ class LocalSearch(Search):
         if not self._started:
             self._asked = [self.start]
         else:
-            self._asked = self.descent.propose(self.memo)
+            self._asked = self.descent.propose(self.memo, self.censored_above)
         return self._asked
 
     def limits(self) -> list[float | None] | None:

@@ -43,17 +43,22 @@ class Polished(Search):
             self.descent.start(self.best_order, self.best_value)
             self.polish_started_at = len(self.memo)
         self._polishing_batch = self.descent is not None
-        self._asked = self.descent.propose(self.memo) if self._polishing_batch else self.inner.ask()
+        self._asked = (self.descent.propose(self.memo, self.censored_above) if self._polishing_batch
+                       else self.inner.ask())
         return self._asked
 
     def limits(self) -> list[float | None] | None:
         return self.descent.limits(self._asked) if self._polishing_batch else self.inner.limits()
 
+    def tell(self, orders, values) -> None:
+        self._told = list(values)  # the inner search is told what was told (Above stays Above), not +inf
+        super().tell(orders, values)
+
     def _tell(self, orders: list[Order], values: list[float]) -> None:
         if self._polishing_batch:
             self.descent.update(orders, values)
         else:
-            self.inner.tell(orders, values)
+            self.inner.tell(orders, self._told)
 
     def _stop(self) -> bool:
         return self.descent is None and self.inner.stop()
@@ -61,7 +66,8 @@ class Polished(Search):
     def state(self) -> dict[str, Any]:
         state = self.inner.state()
         own = super().state()
-        for key in ("batches", "told", "failed_told", "best_value", "best_order", "evaluations_told"):
+        for key in ("batches", "told", "failed_told", "censored_told", "best_value", "best_order",
+                    "evaluations_told"):
             state[key] = own[key]
         state["options"] = {**state.get("options", {}), **own["options"]}
         state["phase"] = "polish" if self.descent is not None else "search"
