@@ -69,6 +69,7 @@ P_RTOL, P_ATOL, P_T_END, P_T_LOAD_OFF, P_INTERVAL, P_K_WALL, P_C_WALL, P_GAP = r
 # what it returns
 R_PEAK, R_RHS, R_ACCEPTED, R_REJECTED, R_EVENTS, R_DENSE_RHS, R_FAILED = range(7)
 KIND_RK, KIND_RKN = 0, 1
+HYSTERESIS = 1e-12  # m and m/s: see run_lsoda
 FREE, RECEDING, APPROACHING = 0, 1, 2
 
 
@@ -518,7 +519,9 @@ def _wall_mode(ux, vx, gap):
 def run_lsoda(packed, rtol: float, atol: float, horizon: float = HORIZON) -> dict:
     """LSODA (scipy's solve_ivp) segment by segment: modes frozen within a segment, each switch found by
     solve_ivp's event location on the indicators (each one only in the direction that leaves the current
-    mode), the integration restarted there with the toggled mode; the load's switch-off ends a segment."""
+    mode), the integration restarted there with the toggled mode; the load's switch-off ends a segment.
+    Each indicator switches HYSTERESIS past its threshold (a wall force step of k_w * 1e-12 m = 1e-8 N): at a
+    restart every indicator then starts clear of zero, which solve_ivp's root bracketing needs.)"""
     from scipy.integrate import solve_ivp
 
     _, rhs_frozen = kernels()
@@ -551,19 +554,22 @@ def run_lsoda(packed, rtol: float, atol: float, horizon: float = HORIZON) -> dic
         for r in range(R):
             a = wall[r]
 
-            def contact(_t, state, a=a):
-                return state[a] - gap
+            def contact(_t, state, a=a, shift=gap + (HYSTERESIS if frozen[r] == FREE else -HYSTERESIS)):
+                return state[a] - shift
             contact.terminal = True
             contact.direction = -1.0 if frozen[r] != FREE else 1.0
             events.append(contact)
             if frozen[r] != FREE:
-                def damping(_t, state, a=a):
-                    return state[2 * N + a]
+                def damping(_t, state, a=a, shift=HYSTERESIS if frozen[r] == RECEDING else -HYSTERESIS):
+                    return state[2 * N + a] - shift
                 damping.terminal = True
                 damping.direction = -1.0 if frozen[r] == APPROACHING else 1.0
                 events.append(damping)
-        sol = solve_ivp(fun, (t, t_stop), y, method="LSODA", rtol=rtol, atol=atol, events=events,
-                        dense_output=True)
+        try:
+            sol = solve_ivp(fun, (t, t_stop), y, method="LSODA", rtol=rtol, atol=atol, events=events,
+                            dense_output=True)
+        except ValueError as exc:  # brentq: an indicator's sign differs between a step's end and its dense output
+            return {"failed": f"event location at t = {t:.9g} s: {exc}"}
         if sol.status < 0:
             return {"failed": sol.message}
         counts["accepted"] += len(sol.t) - 1
@@ -576,9 +582,12 @@ def run_lsoda(packed, rtol: float, atol: float, horizon: float = HORIZON) -> dic
             peak = max(peak, force_of(state))
             next_sample += 1
         t, y = t_segment, sol.y[:, -1].copy()
-        if sol.status == 1:  # an event: toggle the mode of the row whose indicator fired
+        if sol.status == 1:  # an event: the fired row's mode toggles (its state may sit on either side of
+            # the switch by rounding); every other row takes the mode of its state, as the FMU does (rows that
+            # switch at the same time by symmetry would otherwise start past their switch and never fire)
             counts["events"] += 1
             fired = min((te[0], k) for k, te in enumerate(sol.t_events) if len(te))[1]
+            modes = np.array([_wall_mode(y[a], y[2 * N + a], gap) for a in wall], dtype=np.int64)
             k = 0
             for r in range(R):
                 a = wall[r]
@@ -591,7 +600,7 @@ def run_lsoda(packed, rtol: float, atol: float, horizon: float = HORIZON) -> dic
                     k += 1
         elif load_on and t >= packed.t_active:
             load_on = 0.0
-    return {"peak": peak, "rhs": counts["rhs"], "accepted": counts["accepted"], "rejected": 0,
+    return {"peak": peak, "rhs": counts["rhs"], "accepted": counts["accepted"], "rejected": float("nan"),
             "events": counts["events"], "dense_rhs": 0, "jacobians": counts["jacobians"]}
 
 
