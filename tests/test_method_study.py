@@ -140,6 +140,7 @@ def test_tableau_consistency():
                                    err_msg=method)
 
 
+@pytest.mark.slow  # numba's compilation of the integrator alone takes 10-13 s
 def test_tsit5_matches_the_fmu(fmu_path):
     """This integrator's Tsit5 (frozen wall modes, switches located on the dense output, as the FMU) gives the
     C FMU's sampled peak on the search evaluation to ~1e-6 at rtol 1e-7, with about its right-hand sides."""
@@ -157,3 +158,21 @@ def test_tsit5_matches_the_fmu(fmu_path):
     assert mine["peak"] == pytest.approx(theirs["peak_backplate_force"], rel=1e-6)
     assert mine["rhs"] == pytest.approx(theirs["rhs_evaluations"], rel=0.1)
     assert mine["events"] > 0
+
+
+@pytest.mark.slow  # numba's compilation (10-13 s) and ~150 runs
+def test_quick_study_writes_its_table_and_chart(fmu_path, tmp_path):
+    """bench/method_study.py --quick end to end on two methods: the CSVs and the chart, a chosen setting for
+    each within the target, and the calibration rows of the C FMU beside them."""
+    pytest.importorskip("numba")
+    import csv
+
+    from bench.method_study import main
+
+    assert main(["--quick", "--methods", "tsit5", "fine_rkn5", "--fmu", str(fmu_path), "--out", str(tmp_path)]) == 0
+    summary = {row["method"]: row for row in csv.DictReader(open(tmp_path / "method_study_summary.csv"))}
+    assert set(summary) == {"tsit5", "fine_rkn5", "fmu_tsit5"}
+    for row in summary.values():
+        assert row["rtol"] and float(row["worst_error"]) <= 3e-5
+        assert int(row["rhs_min"]) <= float(row["rhs_median"]) <= int(row["rhs_max"])
+    assert (tmp_path / "method_study.png").stat().st_size > 10_000
