@@ -15,7 +15,8 @@ right-hand side of SPEC.md) that handles the backplate as the FMU does (fmu_src/
   decides the wall damping) are frozen for a step, so no stage sees a switch;
 - after an accepted step, if a row's mode differs at its end, the earliest switch is located by bisection on
   the method's dense output of that row's indicator (contact: ux_C - gap; damping: vx_C while in contact),
-  the step is cut back there (state from the dense output, its error control untouched: the next step keeps
+  switches within 1e-9 of the step after it count as one event (mirror-image rows cross within rounding of
+  each other), the step is cut back to the last of them (state from the dense output, its error control untouched: the next step keeps
   the size proposed for the full one), the modes switch, and the next step starts with a fresh f(y);
 - the load's switch-off at t_active = 0.15 s is a step limit (and the next f(y) is taken afresh);
 - the backplate force is sampled from the dense output (0 in a step without contact);
@@ -70,6 +71,7 @@ P_RTOL, P_ATOL, P_T_END, P_T_LOAD_OFF, P_INTERVAL, P_K_WALL, P_C_WALL, P_GAP = r
 R_PEAK, R_RHS, R_ACCEPTED, R_REJECTED, R_EVENTS, R_DENSE_RHS, R_FAILED = range(7)
 KIND_RK, KIND_RKN = 0, 1
 HYSTERESIS = 1e-12  # m and m/s: see run_lsoda
+SIMULTANEOUS_EVENT_FRACTION = 1e-9  # as fmu_src/lattice/model.c
 FREE, RECEDING, APPROACHING = 0, 1, 2
 
 
@@ -193,6 +195,7 @@ def kernels():
         w = np.zeros(S)
         modes = np.zeros(R, np.int64)
         modes_end = np.zeros(R, np.int64)
+        located = np.zeros(2 * R)
         out = np.zeros(7)
         exponent = -1.0 / (error_order + 1.0)
         n_rhs = 0
@@ -382,6 +385,7 @@ def kernels():
                         dense_rhs += 1
             if changed:
                 earliest = t
+                n_located = 0
                 for r in range(R):
                     if modes_end[r] == modes[r]:
                         continue
@@ -412,14 +416,22 @@ def kernels():
                                 high = middle
                             else:
                                 low = middle
+                        located[n_located] = high
+                        n_located += 1
                         earliest = min(earliest, high)
-                if t_old < earliest < t:
-                    x = (earliest - t_old) / h_last
+                # switches within SIMULTANEOUS_EVENT_FRACTION of the step after the earliest are one event, cut
+                # at the last of them (mirror-image rows cross within rounding of each other), as the FMU does
+                cut_time = earliest
+                for k in range(n_located):
+                    if located[k] <= earliest + SIMULTANEOUS_EVENT_FRACTION * h_last:
+                        cut_time = max(cut_time, located[k])
+                if t_old < earliest and cut_time < t:
+                    x = (cut_time - t_old) / h_last
                     if kind == KIND_RK:
                         dense_weights(D, n_dense, x, w)
                     for i in range(n):
                         y[i] = dense_value(kind, i, x, h_last, y_old, y_end, K, w, n_dense, end_stage, N2)
-                    t = earliest
+                    t = cut_time
                     end_valid = False
                     events += 1
                     stalled = stalled + 1 if t - t_old <= 1e-12 * (1.0 + abs(t)) else 0
