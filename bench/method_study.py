@@ -1,8 +1,8 @@
 """Which integration method reaches the search evaluation's accuracy with the fewest right-hand sides?
 
     pip install -e ".[bench]"          # numba
-    python bench/method_study.py --out bench/out/method_study            # ~3-6 min on a loaded 2-core machine
-    python bench/method_study.py --out /tmp/ms --quick                   # 4 orders, a short tolerance ladder
+    python bench/method_study.py --out bench/out/method_study            # ~1.5-3 min (2 loaded cores)
+    python bench/method_study.py --out /tmp/ms --quick                   # ~40 s: 4 orders, rtol 1e-3 to 1e-7
 
 The search evaluation (issue 12, item 2): the 11 x 11 lattice, receiver rule, 1 s horizon, the backplate force
 sampled every 0.01 s; the objective is the largest sample. A setting is good enough when the worst relative
@@ -16,8 +16,9 @@ right-hand side of SPEC.md) that handles the backplate as the FMU does (fmu_src/
 - after an accepted step, if a row's mode differs at its end, the earliest switch is located by bisection on
   the method's dense output of that row's indicator (contact: ux_C - gap; damping: vx_C while in contact),
   switches within 1e-9 of the step after it count as one event (mirror-image rows cross within rounding of
-  each other), the step is cut back to the last of them (state from the dense output, its error control untouched: the next step keeps
-  the size proposed for the full one), the modes switch, and the next step starts with a fresh f(y);
+  each other), the step is cut back to the last of them (state from the dense output, its error control
+  untouched: the next step keeps the size proposed for the full one), the modes switch, and the next step
+  starts with a fresh f(y);
 - the load's switch-off at t_active = 0.15 s is a step limit (and the next f(y) is taken afresh);
 - the backplate force is sampled from the dense output (0 in a step without contact);
 - step-size control as SciPy's RK45 and the FMU: RMS norm of the error over atol + rtol max(|y|, |y_new|),
@@ -723,7 +724,8 @@ def main(argv=None) -> int:
                          rhs_min=min(rhs), rhs_max=max(rhs), rhs_mean=statistics.mean(rhs),
                          accepted_median=statistics.median(r["accepted"] for r in at),
                          rejected_median=statistics.median(r["rejected"] for r in at),
-                         events_median=statistics.median(r.get("events", 0) for r in at) if method != "fmu_tsit5" else "",
+                         events_median=(statistics.median(r.get("events", 0) for r in at)
+                                        if method != "fmu_tsit5" else ""),
                          dense_rhs_median=statistics.median(r.get("dense_rhs", 0) for r in at)
                          if method != "fmu_tsit5" else "")
         summary.append(entry)
@@ -748,7 +750,8 @@ def main(argv=None) -> int:
     if ratios:
         print(f"\ncalibration (this Tsit5 against the C FMU's, every rtol and order): RHS ratio "
               f"{min(ratios):.3f}-{max(ratios):.3f} (median {statistics.median(ratios):.3f}), peaks differ by "
-              f"{min(peak_differences):.1e}-{max(peak_differences):.1e} (median {statistics.median(peak_differences):.1e})")
+              f"{min(peak_differences):.1e}-{max(peak_differences):.1e} "
+              f"(median {statistics.median(peak_differences):.1e})")
     print(f"wrote {out / 'method_study.csv'}, {out / 'method_study_summary.csv'} and {out / 'method_study.png'}")
     return 0
 

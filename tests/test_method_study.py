@@ -2,7 +2,8 @@
 integrator (bench/method_study.py) reproduces the C FMU's Tsit5 on the search evaluation.
 
 The order checks are cheap and need neither numba nor the FMU: one step of each pair, in plain numpy, on
-a linear system (u'' = u, i.e. y' = M y) and on a damped pendulum (nonlinear, the damping on the velocity as in the lattice), for halving steps;
+a linear system (u'' = u, i.e. y' = M y) and on a damped pendulum (nonlinear, the damping on the velocity as
+in the lattice), for halving steps;
 the local error of the solution, of the embedded estimate and of the dense output (at x = 0.4) must shrink
 as h^(p+1) with the claimed p. A copied coefficient with a typo breaks at least one of them.
 """
