@@ -124,7 +124,7 @@ def _alive(pid: int) -> bool:
     return "State:\tZ" not in status
 
 
-COMMAND = ["--method", "sa", "cmaes", "--budget", "150", "--repeats", "2", "--workers", "2", "--no-progress",
+COMMAND = ["--method", "sa", "cmaes", "--budget", "600", "--repeats", "2", "--workers", "2", "--no-progress",
            "--no-which-model", "--no-sensitivity", "--no-local-check"]
 
 
@@ -193,8 +193,12 @@ def test_process_pool_workers_die_with_a_killed_main_process(fmu_path, tmp_path)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not (tmp_path / "journal.jsonl").is_file():
         time.sleep(0.05)
-    time.sleep(1.0)
-    workers = _children(process.pid)
+    workers = set()
+    while time.monotonic() < deadline and len(workers) < 2 and process.poll() is None:
+        # the pool's workers, as soon as both are up (a search evaluation takes about a millisecond, so a
+        # fixed wait can outlast the whole run)
+        workers = _children(process.pid)
+        time.sleep(0.02)
     os.kill(process.pid, signal.SIGKILL)
     process.wait(timeout=10)
     deadline = time.monotonic() + 10
