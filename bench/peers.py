@@ -18,8 +18,8 @@ The peers step across the backplate's switches (the FMU locates them as events);
 in accuracy is what the tolerance search below pays for.
 
 Two scenes: the 8 s scene (the FMU at its default DOP853, rtol 1e-7, atol 1e-9) and the search evaluation
-(1 s, the FMU as the searches run it: orchestrator.objective.search_tolerances, their solver at rtol 1e-5,
-atol 1e-7). Equal accuracy: the error of a run is the relative error of its sampled peak against a tight
+(1 s, the FMU as the searches run it: orchestrator.objective.search_tolerances, their solver and rtol,
+atol = rtol / 100). Equal accuracy: the error of a run is the relative error of its sampled peak against a tight
 reference (the FMU's DOP853 at rtol 1e-13, atol 1e-15); the target is the
 FMU's worst error over the orders at its setting; for each peer the tolerance ladder (rtol from 100 times
 the FMU's down to 1e-12, four steps per decade, atol = rtol / 100) is walked from loose to tight, and the
@@ -92,7 +92,7 @@ class Scenario:
     accuracy_bound: float | None = None  # an absolute bound the scene's evaluation must meet (checked)
 
 
-_SEARCH = search_tolerances(SEARCH_RTOL)  # what the searches run: their solver, rtol 1e-5, atol 1e-7
+_SEARCH = search_tolerances(SEARCH_RTOL)  # what the searches run: their solver and rtol, atol rtol / 100
 SCENARIOS = {
     "scene8s": Scenario("scene8s", "8 s scene", 8.0, 1e-7, 1e-9, "dop853"),
     "search": Scenario("search", "search evaluation (1 s)", SEARCH_HORIZON, _SEARCH["rtol"], _SEARCH["atol"],
