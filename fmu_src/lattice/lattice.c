@@ -216,6 +216,93 @@ static NOINLINE VECTOR_CLONES void row_stretches(int linear, int along_x, int be
     }
 }
 
+/* The buffers' per-lattice part (column constants, alphas, the zero guards and accumulators) for rhs_rows and
+ * rhs_rows_along_x; returns whether some diagonal's right end needs an exponential of its own. */
+static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
+    const int cols = p->cols, links = cols - 1;
+    int alphas_differ = 0, j, c;
+    for (j = 0; j < cols; j++) {
+        const ColumnConstants *column = &p->column[j];
+        w->k_vertical[j] = column->k_vertical;
+        w->c_vertical[j] = column->c_vertical;
+        w->alpha[SLOT(VERTICAL, j)] = column->alpha_vertical;
+        w->carried[0][j] = w->carried[1][j] = 0.0;
+        w->dissipated[j] = w->nonreciprocal[j] = 0.0;
+    }
+    for (j = 0; j < links; j++) {
+        const SpringEnds ends = diagonal_ends(p, j);
+        w->alpha[SLOT(HORIZONTAL, j)] = p->alpha_horizontal;
+        w->alpha[SLOT(RISING, j)] = w->alpha[SLOT(FALLING, j)] = ends.alpha_a;
+        w->alpha[RIGHT_END_SLOT(0, j)] = w->alpha[RIGHT_END_SLOT(1, j)] = ends.alpha_b;
+        w->k_left[j] = ends.k_a;
+        w->k_right[j] = ends.k_b;
+        alphas_differ = alphas_differ || ends.alpha_a != ends.alpha_b;
+    }
+    for (c = 0; c < 2; c++) { /* the guards: the springs left of column 0 and right of the last */
+        w->horizontal[c][1] = w->horizontal[c][links + 2] = 0.0;
+        w->rising_top[c][links] = w->rising_bottom[c][1] = 0.0;
+        w->falling_top[c][1] = w->falling_bottom[c][links] = 0.0;
+    }
+    return alphas_differ;
+}
+
+/* What acts beyond the springs, after the rows: the springs' powers summed by column, the load on column 1,
+ * the backplate on column C, the mass; the powers into powers[0..3) (W_ext, D, W_nr). Rows counted twice
+ * but the middle one when mirrored; vy and fy NULL along x. */
+static void external_forces(const LatticeParams *p, int mirrored, int rows, int load_on, const signed char *wall_mode,
+                            const double *ux, const double *vx, const double *vy, double *fx, double *fy,
+                            const RowBuffers *w, double *powers) {
+    const int cols = p->cols, n = rows * cols;
+    double power_external = 0.0, power_dissipated = 0.0, power_nonreciprocal = 0.0;
+    int i, j;
+    for (j = 0; j < cols; j++) {
+        power_dissipated += w->dissipated[j];
+        power_nonreciprocal += w->nonreciprocal[j];
+    }
+
+    if (load_on) {
+        const double angle = p->load_angle_deg * (M_PI / 180.0);
+        const double cos_angle = cos(angle), sin_angle = sin(angle);
+        for (i = 0; i < rows; i++) {
+            const int a = i * cols;
+            const double share = p->load_total * row_load_fraction(p->rows, i);
+            const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0; /* a row and its mirror image */
+            fx[a] += share * cos_angle;
+            if (fy) {
+                fy[a] += share * sin_angle;
+                power_external += counted * (share * (cos_angle * vx[a] + sin_angle * vy[a]));
+            } else {
+                power_external += counted * (share * (cos_angle * vx[a]));
+            }
+        }
+    }
+
+    if (p->has_backplate) {
+        for (i = 0; i < rows; i++) {
+            const int a = i * cols + cols - 1;
+            const double penetration = ux[a] - p->backplate_gap;
+            const int mode = wall_mode ? wall_mode[i] : lattice_wall_mode(p, ux[a], vx[a]);
+            if (mode != WALL_FREE) {
+                const double damped_velocity = mode == WALL_APPROACHING ? vx[a] : 0.0;
+                const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0;
+                fx[a] -= p->k_wall * penetration + p->c_wall * damped_velocity;
+                power_dissipated += counted * (p->c_wall * damped_velocity * vx[a]);
+            }
+        }
+    }
+
+    if (p->mass != 1.0) { /* (multiplying by 1 changes nothing) */
+        const double inverse_mass = 1.0 / p->mass;
+        for (i = 0; i < n; i++) fx[i] *= inverse_mass;
+        if (fy) {
+            for (i = 0; i < n; i++) fy[i] *= inverse_mass;
+        }
+    }
+    powers[0] = power_external;
+    powers[1] = power_dissipated;
+    powers[2] = power_nonreciprocal;
+}
+
 int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
     if (!p->has_backplate || ux - p->backplate_gap <= 0.0) return WALL_FREE;
     return vx > 0.0 ? WALL_APPROACHING : WALL_RECEDING;
@@ -240,33 +327,11 @@ static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int mirrored, int loa
     const double *ux = y, *uy = y + n, *vx = y + 2 * n, *vy = y + 3 * n;
     double *fx = dydt + 2 * n, *fy = dydt + 3 * n;
     const double k_horizontal = p->k_horizontal, c_horizontal = p->c_horizontal;
-    double power_external = 0.0, power_dissipated = 0.0, power_nonreciprocal = 0.0;
-    int alphas_differ = 0; /* some diagonal's right end needs an exponential of its own */
+    int alphas_differ; /* some diagonal's right end needs an exponential of its own */
     RowBuffers w;
-    int i, j, c;
+    int i, j;
 
-    for (j = 0; j < cols; j++) {
-        const ColumnConstants *column = &p->column[j];
-        w.k_vertical[j] = column->k_vertical;
-        w.c_vertical[j] = column->c_vertical;
-        w.alpha[SLOT(VERTICAL, j)] = column->alpha_vertical;
-        w.carried[0][j] = w.carried[1][j] = 0.0;
-        w.dissipated[j] = w.nonreciprocal[j] = 0.0;
-    }
-    for (j = 0; j < links; j++) {
-        const SpringEnds ends = diagonal_ends(p, j);
-        w.alpha[SLOT(HORIZONTAL, j)] = p->alpha_horizontal;
-        w.alpha[SLOT(RISING, j)] = w.alpha[SLOT(FALLING, j)] = ends.alpha_a;
-        w.alpha[RIGHT_END_SLOT(0, j)] = w.alpha[RIGHT_END_SLOT(1, j)] = ends.alpha_b;
-        w.k_left[j] = ends.k_a;
-        w.k_right[j] = ends.k_b;
-        alphas_differ = alphas_differ || ends.alpha_a != ends.alpha_b;
-    }
-    for (c = 0; c < 2; c++) {
-        HORIZONTAL_FORCE(c, -1) = HORIZONTAL_FORCE(c, links) = 0.0;
-        w.rising_top[c][links] = RISING_BOTTOM_FORCE(c, -1) = 0.0;
-        FALLING_TOP_FORCE(c, -1) = w.falling_bottom[c][links] = 0.0;
-    }
+    alphas_differ = prepare_row_buffers(p, &w);
 
     memcpy(dydt, vx, (size_t)n * sizeof(double));
     memcpy(dydt + n, vy, (size_t)n * sizeof(double));
@@ -392,45 +457,7 @@ static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int mirrored, int loa
             OVER(cols, even_cols, GATHER_LAST_Y)
         }
     }
-    for (j = 0; j < cols; j++) {
-        power_dissipated += w.dissipated[j];
-        power_nonreciprocal += w.nonreciprocal[j];
-    }
-
-    if (load_on) {
-        const double angle = p->load_angle_deg * (M_PI / 180.0);
-        const double cos_angle = cos(angle), sin_angle = sin(angle);
-        for (i = 0; i < rows; i++) {
-            const int a = i * cols;
-            const double share = p->load_total * row_load_fraction(p->rows, i);
-            const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0; /* a row and its mirror image */
-            fx[a] += share * cos_angle;
-            fy[a] += share * sin_angle;
-            power_external += counted * (share * (cos_angle * vx[a] + sin_angle * vy[a]));
-        }
-    }
-
-    if (p->has_backplate) {
-        for (i = 0; i < rows; i++) {
-            const int a = i * cols + cols - 1;
-            const double penetration = ux[a] - p->backplate_gap;
-            const int mode = wall_mode ? wall_mode[i] : lattice_wall_mode(p, ux[a], vx[a]);
-            if (mode != WALL_FREE) {
-                const double damped_velocity = mode == WALL_APPROACHING ? vx[a] : 0.0;
-                const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0;
-                fx[a] -= p->k_wall * penetration + p->c_wall * damped_velocity;
-                power_dissipated += counted * (p->c_wall * damped_velocity * vx[a]);
-            }
-        }
-    }
-
-    if (p->mass != 1.0) { /* (multiplying by 1 changes nothing) */
-        const double inverse_mass = 1.0 / p->mass;
-        for (i = 0; i < 2 * n; i++) fx[i] *= inverse_mass; /* fx and fy are contiguous */
-    }
-    dydt[4 * n] = power_external;
-    dydt[4 * n + 1] = power_dissipated;
-    dydt[4 * n + 2] = power_nonreciprocal;
+    external_forces(p, mirrored, rows, load_on, wall_mode, ux, vx, vy, fx, fy, &w, dydt + 4 * n);
 }
 
 int lattice_along_x(const LatticeParams *p) { return p->load_angle_deg == 0.0 || p->load_total == 0.0; }
@@ -447,31 +474,11 @@ static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored,
     const double *ux = y, *vx = y + n;
     double *fx = dydt + n;
     const double k_horizontal = p->k_horizontal, c_horizontal = p->c_horizontal;
-    double power_external = 0.0, power_dissipated = 0.0, power_nonreciprocal = 0.0;
-    int alphas_differ = 0;
+    int alphas_differ;
     RowBuffers w;
     int i, j;
 
-    for (j = 0; j < cols; j++) {
-        const ColumnConstants *column = &p->column[j];
-        w.k_vertical[j] = column->k_vertical;
-        w.c_vertical[j] = column->c_vertical;
-        w.alpha[SLOT(VERTICAL, j)] = column->alpha_vertical;
-        w.carried[0][j] = 0.0;
-        w.dissipated[j] = w.nonreciprocal[j] = 0.0;
-    }
-    for (j = 0; j < links; j++) {
-        const SpringEnds ends = diagonal_ends(p, j);
-        w.alpha[SLOT(HORIZONTAL, j)] = p->alpha_horizontal;
-        w.alpha[SLOT(RISING, j)] = w.alpha[SLOT(FALLING, j)] = ends.alpha_a;
-        w.alpha[RIGHT_END_SLOT(0, j)] = w.alpha[RIGHT_END_SLOT(1, j)] = ends.alpha_b;
-        w.k_left[j] = ends.k_a;
-        w.k_right[j] = ends.k_b;
-        alphas_differ = alphas_differ || ends.alpha_a != ends.alpha_b;
-    }
-    HORIZONTAL_FORCE(0, -1) = HORIZONTAL_FORCE(0, links) = 0.0;
-    w.rising_top[0][links] = RISING_BOTTOM_FORCE(0, -1) = 0.0;
-    FALLING_TOP_FORCE(0, -1) = w.falling_bottom[0][links] = 0.0;
+    alphas_differ = prepare_row_buffers(p, &w);
 
     memcpy(dydt, vx, (size_t)n * sizeof(double));
 
@@ -560,43 +567,7 @@ static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored,
             OVER(cols, even_cols, GATHER_LAST_X)
         }
     }
-    for (j = 0; j < cols; j++) {
-        power_dissipated += w.dissipated[j];
-        power_nonreciprocal += w.nonreciprocal[j];
-    }
-
-    if (load_on) {
-        const double cos_angle = cos(p->load_angle_deg * (M_PI / 180.0));
-        for (i = 0; i < rows; i++) {
-            const int a = i * cols;
-            const double share = p->load_total * row_load_fraction(p->rows, i);
-            const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0;
-            fx[a] += share * cos_angle;
-            power_external += counted * (share * (cos_angle * vx[a]));
-        }
-    }
-
-    if (p->has_backplate) {
-        for (i = 0; i < rows; i++) {
-            const int a = i * cols + cols - 1;
-            const double penetration = ux[a] - p->backplate_gap;
-            const int mode = wall_mode ? wall_mode[i] : lattice_wall_mode(p, ux[a], vx[a]);
-            if (mode != WALL_FREE) {
-                const double damped_velocity = mode == WALL_APPROACHING ? vx[a] : 0.0;
-                const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0;
-                fx[a] -= p->k_wall * penetration + p->c_wall * damped_velocity;
-                power_dissipated += counted * (p->c_wall * damped_velocity * vx[a]);
-            }
-        }
-    }
-
-    if (p->mass != 1.0) {
-        const double inverse_mass = 1.0 / p->mass;
-        for (i = 0; i < n; i++) fx[i] *= inverse_mass;
-    }
-    dydt[2 * n] = power_external;
-    dydt[2 * n + 1] = power_dissipated;
-    dydt[2 * n + 2] = power_nonreciprocal;
+    external_forces(p, mirrored, rows, load_on, wall_mode, ux, vx, NULL, fx, NULL, &w, dydt + 2 * n);
 }
 
 void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, const signed char *wall_mode,

@@ -412,6 +412,37 @@ static double clip_to_limit(double t, double h, double t_limit) {
     return h;
 }
 
+/* SciPy's step-size control once an attempt has its error norm: an accepted step (1) proposes the next size,
+ * a rejected one (0) shrinks h_abs for another attempt. */
+static int step_accepted(Solver *s, double error_norm, double error_exponent, const double *y_new, double *h_abs,
+                         int *rejected) {
+    if (error_norm < 1.0 && all_finite(y_new, s->n)) {
+        double factor = error_norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(error_norm, error_exponent));
+        if (*rejected) factor = fmin(1.0, factor);
+        s->h_next = *h_abs * factor;
+        return 1;
+    }
+    *h_abs *= isfinite(error_norm) ? fmax(MIN_FACTOR, SAFETY * pow(error_norm, error_exponent)) : MIN_FACTOR;
+    *rejected = 1;
+    s->steps_rejected++;
+    return 0;
+}
+
+/* Root mean square of the embedded error estimate over atol + rtol max(|y|, |y_new|), weighted (the 5(4)
+ * pairs and the Nystrom pair). */
+static double error_norm_of(const Solver *s, const double *work, const double *y, const double *y_new,
+                            const double *error) {
+    double error_squared = 0.0;
+    int i;
+    for (i = 0; i < s->n; i++) {
+        const double size_old = fabs(y[i]), size_new = fabs(y_new[i]);
+        const double scale = s->atol + (size_new > size_old ? size_new : size_old) * s->rtol;
+        const double e = error[i] / scale;
+        error_squared += norm_weight(s, work, i) * (e * e);
+    }
+    return sqrt(error_squared / s->norm_size);
+}
+
 static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
                        size_t message_size) {
     const int n = s->n;
@@ -452,17 +483,11 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
             error_norm = h * err5_squared / sqrt((err5_squared + 0.01 * err3_squared) * s->norm_size);
         }
 
-        if (error_norm < 1.0 && all_finite(y_new, n)) {
-            double factor = error_norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(error_norm, error_exponent));
-            if (rejected) factor = fmin(1.0, factor);
-            s->h_next = h_abs * factor;
+        if (step_accepted(s, error_norm, error_exponent, y_new, &h_abs, &rejected)) {
             evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
             accept(s, work, h);
             return 0;
         }
-        h_abs *= isfinite(error_norm) ? fmax(MIN_FACTOR, SAFETY * pow(error_norm, error_exponent)) : MIN_FACTOR;
-        rejected = 1;
-        s->steps_rejected++;
     }
 }
 
@@ -478,12 +503,12 @@ static int fsal_pair_step(Solver *s, double *work, OdeFunction f, void *context,
     const double *f_new = row(work, n, ROW_K + STAGE_END);
     const double error_exponent = -1.0 / (pair->error_order + 1);
     double h_abs = s->h_next;
-    int rejected = 0, stage, i;
+    int rejected = 0, stage;
 
     if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t, pair->error_order);
 
     for (;;) {
-        double h, error_squared = 0.0, error_norm;
+        double h;
         if (step_collapsed(s, h_abs, message, message_size)) return -1;
         h = clip_to_limit(s->t, h_abs, t_limit);
         h_abs = h;
@@ -494,24 +519,11 @@ static int fsal_pair_step(Solver *s, double *work, OdeFunction f, void *context,
         combine(y_new, y, h, pair->b, PAIR_STAGES, work, n);
         evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
         combine(error, NULL, h, pair->e, PAIR_STAGES, work, n);
-        for (i = 0; i < n; i++) {
-            const double size_old = fabs(y[i]), size_new = fabs(y_new[i]);
-            const double scale = s->atol + (size_new > size_old ? size_new : size_old) * s->rtol;
-            const double e = (error[i] + h * pair->e[PAIR_STAGES] * f_new[i]) / scale;
-            error_squared += norm_weight(s, work, i) * (e * e);
-        }
-        error_norm = sqrt(error_squared / s->norm_size);
-
-        if (error_norm < 1.0 && all_finite(y_new, n)) {
-            double factor = error_norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(error_norm, error_exponent));
-            if (rejected) factor = fmin(1.0, factor);
-            s->h_next = h_abs * factor;
+        accumulate1(error, f_new, h * pair->e[PAIR_STAGES], n); /* the last weight, on f(y_new) */
+        if (step_accepted(s, error_norm_of(s, work, y, y_new, error), error_exponent, y_new, &h_abs, &rejected)) {
             accept(s, work, h);
             return 0;
         }
-        h_abs *= isfinite(error_norm) ? fmax(MIN_FACTOR, SAFETY * pow(error_norm, error_exponent)) : MIN_FACTOR;
-        rejected = 1;
-        s->steps_rejected++;
     }
 }
 
@@ -525,14 +537,14 @@ static int nystrom_step(Solver *s, double *work, OdeFunction f, void *context, d
     double *stage_state = row(work, n, ROW_DENSE + 1);
     const double error_exponent = -1.0 / (4 + 1);
     double h_abs = s->h_next;
-    int rejected = 0, stage, j, i;
+    int rejected = 0, stage, j;
 
     if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t, 4);
 
     for (;;) {
         const double *accelerations[NYSTROM_STAGES + 1]; /* [A_j, G_j] of stage j: the rates of v and q */
         const double *rows[NYSTROM_STAGES + 1];
-        double weights[NYSTROM_STAGES + 1], h, error_squared = 0.0, error_norm;
+        double weights[NYSTROM_STAGES + 1], h;
         int used;
         if (step_collapsed(s, h_abs, message, message_size)) return -1;
         h = clip_to_limit(s->t, h_abs, t_limit);
@@ -578,24 +590,10 @@ static int nystrom_step(Solver *s, double *work, OdeFunction f, void *context, d
             weights[used++] = h * pair->bptilde[j];
         }
         combine_rows(error + m, NULL, rows, weights, used, rest);
-        for (i = 0; i < n; i++) {
-            const double size_old = fabs(y[i]), size_new = fabs(y_new[i]);
-            const double scale = s->atol + (size_new > size_old ? size_new : size_old) * s->rtol;
-            const double e = error[i] / scale;
-            error_squared += norm_weight(s, work, i) * (e * e);
-        }
-        error_norm = sqrt(error_squared / s->norm_size);
-
-        if (error_norm < 1.0 && all_finite(y_new, n)) {
-            double factor = error_norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(error_norm, error_exponent));
-            if (rejected) factor = fmin(1.0, factor);
-            s->h_next = h_abs * factor;
+        if (step_accepted(s, error_norm_of(s, work, y, y_new, error), error_exponent, y_new, &h_abs, &rejected)) {
             accept(s, work, h);
             return 0;
         }
-        h_abs *= isfinite(error_norm) ? fmax(MIN_FACTOR, SAFETY * pow(error_norm, error_exponent)) : MIN_FACTOR;
-        rejected = 1;
-        s->steps_rejected++;
     }
 }
 
