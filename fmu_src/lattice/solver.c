@@ -1,4 +1,5 @@
-/* DOP853 and Tsit5 (adaptive), RK4 and semi-implicit Euler (fixed step), with dense output. See solver.h. */
+/* DOP853, the 5(4) pairs and Fine's Nystrom pair (adaptive), RK4 and semi-implicit Euler (fixed step), with dense
+ * output. See solver.h. */
 #include "solver.h"
 
 #include <float.h>

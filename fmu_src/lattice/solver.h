@@ -3,7 +3,9 @@
  * DOP853 (adaptive, 8th order, 7th-order dense output, SciPy's step-size control) is the default; Tsitouras'
  * 5(4) pair (adaptive, 7 stages with the last reused as the next step's first, and its free 4th-order dense
  * output from the step's own stages) needs fewer right-hand sides at loose tolerances, and so does Dormand and
- * Prince's 5(4) pair (SciPy's RK45, built the same way), there for comparison; fixed-step classical
+ * Prince's 5(4) pair (SciPy's RK45, built the same way), there for comparison; Fine's general
+ * Runge-Kutta-Nystrom 5(4) pair (adaptive, for x'' = f(x, x') over a state [x, x', integrals], 6 right-hand
+ * sides a step, free quintic Hermite dense output) needs the fewest at the searches' accuracy; fixed-step classical
  * RK4 and semi-implicit (symplectic) Euler are there for the stability and work-precision studies, with
  * cubic Hermite dense output. The solver advances in accepted steps that never cross a
  * caller's limit (the load switch-off, the stop time); the caller reads any time inside the last step
