@@ -17,6 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .objective import SEARCH_SOLVER  # noqa: E402
 from .simulation import ENERGY_OUTPUTS, LatticeFMU, SimulationError  # noqa: E402
 from .search import SEARCHES  # noqa: E402
 from .study import STUDY_BEST_ORDER, STUDY_REFERENCE_POINTS, Study  # noqa: E402
@@ -338,6 +339,10 @@ def plot_lattice(study: Study, path: Path) -> str:
     return _save(figure, path, tight=False)
 
 
+# How the report names the searches' solver (orchestrator.objective.SEARCH_SOLVER).
+SEARCH_SOLVER_NAME = {"rkn5": "Fine's Runge-Kutta-Nystrom 5(4) pair", "tsit5": "Tsitouras' 5(4) pair",
+                      "dopri5": "Dormand-Prince 5(4)", "dop853": "DOP853"}.get(SEARCH_SOLVER, SEARCH_SOLVER)
+
 # The solver settings the report's speed/accuracy chart sweeps, for the best order over the full scene.
 SWEEP = ([("DOP853 (adaptive)", "dop853", {"rtol": r, "atol": r * 1e-2}, f"rtol {r:g}")
           for r in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)]
@@ -441,7 +446,8 @@ def render_html(study: Study, accuracy: dict, charts: dict) -> str:
             + ", ".join(f"{h} s is {_fmt(v, 4)} N" for h, v in accuracy["peak_by_horizon"].items())
             + f" against {_fmt(best_peak_sampled, 4)} N over {study.horizon:g} s.</li>"
             + ("" if accuracy["search_objective_relative_difference"] is None else
-               f"<li>The search objective ({data['search_horizon']:g} s horizon, rtol {config.search_rtol}) differs "
+               f"<li>The search objective ({data['search_horizon']:g} s horizon, {SEARCH_SOLVER_NAME} at rtol "
+               f"{config.search_rtol}) differs "
                f"from the full scene by {accuracy['search_objective_relative_difference']:.1e} for the best order."
                "</li>"))
     study_line = ("" if study_order is None or study_order.status != "ok" else
