@@ -59,7 +59,6 @@ class Core:
         self.library.lattice_backplate_force.argtypes = [ctypes.POINTER(LatticeParams), double_p]
         self.library.lattice_backplate_force.restype = ctypes.c_double
         self.library.lattice_energies.argtypes = [ctypes.POINTER(LatticeParams), double_p, double_p, double_p]
-        self.library.lattice_rhs_mirrored.argtypes = self.library.lattice_rhs.argtypes
         self.library.lattice_rhs_along_x.argtypes = [ctypes.POINTER(LatticeParams), ctypes.c_int, ctypes.c_int,
                                                      ctypes.c_char_p, double_p, double_p]
         self.library.lattice_along_x.argtypes = [ctypes.POINTER(LatticeParams)]
@@ -93,22 +92,6 @@ class Core:
         """Rows of the upper half that carries a mirror-symmetric lattice's solution, 0 if it is not symmetric."""
         return self.library.lattice_mirror_rows(ctypes.byref(params))
 
-    def rhs_mirrored(self, params: LatticeParams, y_half, load_on: bool, wall_mode=None) -> tuple[np.ndarray, np.ndarray]:
-        """As rhs, over the upper half's layout (lattice.h), wall modes given per row of the half."""
-        rows = self.mirror_rows(params)
-        if not rows:
-            raise ValueError("params: the lattice is not mirror-symmetric (odd rows >= 3, load_angle 0)")
-        n = 4 * rows * params.cols
-        y = np.ascontiguousarray(y_half, dtype=float)
-        if y.shape != (n + 3,):
-            raise ValueError(f"state: expected {n + 3} values, got {y.shape}")
-        modes = None if wall_mode is None else bytes(np.asarray(wall_mode, dtype=np.int8).tobytes())
-        dydt = np.empty_like(y)
-        self.library.lattice_rhs_mirrored(ctypes.byref(params), int(load_on), modes,
-                                          y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
-                                          dydt.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
-        return dydt[:-3], dydt[-3:]
-
     def along_x(self, params: LatticeParams) -> bool:
         """Whether the lattice moves along x alone (lattice.h: its state without uy and vy carries it)."""
         return bool(self.library.lattice_along_x(ctypes.byref(params)))
@@ -132,12 +115,13 @@ class Core:
         return dydt[:-3], dydt[-3:]
 
     def backplate_force_mirrored(self, params: LatticeParams, y_half) -> float:
+        """The backplate force from the upper half's along-x layout [ux, vx, ...] (lattice.h)."""
         rows, cols = self.mirror_rows(params), params.cols
         y = np.ascontiguousarray(y_half, dtype=float)
         n = rows * cols
         return self.library.lattice_backplate_force_mirrored(
             ctypes.byref(params), y[cols - 1:].ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
-            y[2 * n + cols - 1:].ctypes.data_as(ctypes.POINTER(ctypes.c_double)), cols)
+            y[n + cols - 1:].ctypes.data_as(ctypes.POINTER(ctypes.c_double)), cols)
 
     def backplate_force(self, params: LatticeParams, y) -> float:
         y = self._augmented(params, y)

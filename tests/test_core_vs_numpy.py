@@ -80,44 +80,13 @@ def mirror_symmetric_state(scene, rng):
     return y.reshape(-1), half
 
 
-def upper_half(y, scene, half):
-    """The upper half's layout of a whole state (its 4 R C mechanical components), quadratures zero."""
-    whole = np.asarray(y)[:4 * scene.rows * scene.cols]
-    return np.concatenate([whole.reshape(4, scene.rows, scene.cols)[:, :half].reshape(-1), np.zeros(3)])
-
-
-@pytest.mark.parametrize("settings", [dict(), dict(diagonal_rule="mean"), dict(rows=3, cols=4),
-                                      dict(rows=5, cols=5, wall=False), dict(rows=7, cols=9, spring_law="linear")],
-                         ids=lambda s: ",".join(f"{k}={v}" for k, v in s.items()) or "default")
-@pytest.mark.parametrize("load_on", [True, False])
-def test_the_mirrored_half_is_the_upper_half_of_the_whole_lattice(core, settings, load_on):
-    rng = np.random.default_rng(11 + load_on + len(str(settings)))
-    scene = Scene(**settings)
-    for _ in range(5):
-        scene = dataclasses.replace(scene, order=tuple(int(m) for m in rng.permutation(scene.cols) + 1))
-        params = params_from_scene(scene)
-        y, half = mirror_symmetric_state(scene, rng)
-        assert core.mirror_rows(params) == half
-        whole, whole_powers = core.rhs(params, y, load_on)
-        got, got_powers = core.rhs_mirrored(params, upper_half(y, scene, half), load_on)
-        expected = upper_half(whole, scene, half)[:-3]
-        scale = np.max(np.abs(whole))
-        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * scale)
-        np.testing.assert_allclose(got_powers, whole_powers, rtol=1e-11, atol=1e-11 * scale)
-        middle = (half - 1) * scene.cols + np.arange(scene.cols)
-        n_half = half * scene.cols
-        assert np.all(got[3 * n_half + middle] == 0.0)  # the middle row stays on the symmetry line
-        assert core.backplate_force_mirrored(params, upper_half(y, scene, half)) == pytest.approx(
-            core.backplate_force(params, y), rel=1e-13, abs=1e-12)
-
-
 @pytest.mark.parametrize("settings", [dict(load_angle=30.0), dict(rows=4, cols=4), dict(rows=1, cols=2)],
                          ids=lambda s: ",".join(f"{k}={v}" for k, v in s.items()))
 def test_only_a_symmetric_lattice_is_mirrored(core, settings):
     params = params_from_scene(Scene(**settings))
     assert core.mirror_rows(params) == 0
-    with pytest.raises(ValueError, match="params: the lattice is not mirror-symmetric"):
-        core.rhs_mirrored(params, np.zeros(3), True)
+    with pytest.raises(ValueError, match="params: the lattice does not move along x alone.*or is not mirror-symmetric"):
+        core.rhs_along_x(params, np.zeros(3), True, mirrored=True)
 
 
 def along_x_state(scene, rng, mirrored):
@@ -156,6 +125,10 @@ def test_the_along_x_layout_is_the_x_part_of_the_whole_lattice(core, settings, m
         scale = np.max(np.abs(whole))
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * scale)
         np.testing.assert_allclose(got_powers, whole_powers, rtol=1e-11, atol=1e-11 * scale)
+        if mirrored:
+            assert core.mirror_rows(params) == rows
+            assert core.backplate_force_mirrored(params, along) == pytest.approx(core.backplate_force(params, y),
+                                                                                  rel=1e-13, abs=1e-12)
 
 
 def test_a_load_at_an_angle_does_not_move_along_x_alone(core):

@@ -246,6 +246,16 @@ static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
     return alphas_differ;
 }
 
+/* Before the middle row of a mirrored half: every spring so far has a mirror image below the middle row, so
+ * the powers summed so far count twice. */
+static void count_mirror_images(RowBuffers *w, int cols) {
+    int j;
+    for (j = 0; j < cols; j++) {
+        w->dissipated[j] *= 2.0;
+        w->nonreciprocal[j] *= 2.0;
+    }
+}
+
 /* What acts beyond the springs, after the rows: the springs' powers summed by column, the load on column 1,
  * the backplate on column C, the mass; the powers into powers[0..3) (W_ext, D, W_nr). Rows counted twice
  * but the middle one when mirrored; vy and fy NULL along x. */
@@ -313,14 +323,10 @@ int lattice_mirror_rows(const LatticeParams *p) {
     return (p->rows >= 3 && p->rows % 2 == 1 && symmetric_load) ? (p->rows + 1) / 2 : 0;
 }
 
-/* The right-hand side of the whole lattice (mirrored 0) or of the upper half of a mirror-symmetric one
- * (mirrored 1: rows 0 .. (R-1)/2 stored, the last of them the middle row; see lattice.h). The half computes
- * the rows above the middle as the whole does; what the springs below the middle row do to it is the mirror
- * image of what those above it do (x the same, y opposite), and every power but the middle row's own springs'
- * counts twice. */
-static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int mirrored, int load_on, const signed char *wall_mode,
-                                   const double *y, double *dydt) {
-    const int rows = mirrored ? (p->rows + 1) / 2 : p->rows, cols = p->cols, n = rows * cols;
+/* The right-hand side of the whole lattice. */
+static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
+                                   double *dydt) {
+    const int rows = p->rows, cols = p->cols, n = rows * cols;
     const int linear = p->spring_law == SPRING_LINEAR;
     const int links = cols - 1; /* horizontal springs in a row, and rising (falling) diagonals below it */
     const int even_links = EVEN(links), even_cols = EVEN(cols);
@@ -338,13 +344,6 @@ static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int mirrored, int loa
 
     for (i = 0; i < rows; i++) {
         const size_t top = (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
-        if (mirrored && i + 1 == rows) {
-            /* every spring so far has a mirror image below the middle row: its power counts twice */
-            for (j = 0; j < cols; j++) {
-                w.dissipated[j] *= 2.0;
-                w.nonreciprocal[j] *= 2.0;
-            }
-        }
         const double *ux0 = ux + top, *uy0 = uy + top, *vx0 = vx + top, *vy0 = vy + top;
         const double *ux1 = ux + bottom, *uy1 = uy + bottom, *vx1 = vx + bottom, *vy1 = vy + bottom;
         double *row_fx = fx + top, *row_fy = fy + top;
@@ -445,26 +444,22 @@ static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int mirrored, int loa
         w.carried[1][j] = w.next[1][j]; \
     }
             OVER(cols, even_cols, CARRY)
-        } else if (mirrored) {
-            /* the middle row: the springs below it push it as the mirror image of those above (carried);
-             * y cancels exactly, so the middle row stays on the symmetry line */
-#define GATHER_MIDDLE_X(j)                                                                               \
-    row_fx[j] = w.carried[0][j] + (HORIZONTAL_FORCE(0, j) - HORIZONTAL_FORCE(0, j - 1)) + w.carried[0][j]; \
-    row_fy[j] = 0.0;
-            OVER(cols, even_cols, GATHER_MIDDLE_X)
         } else {
             OVER(cols, even_cols, GATHER_LAST_X)
             OVER(cols, even_cols, GATHER_LAST_Y)
         }
     }
-    external_forces(p, mirrored, rows, load_on, wall_mode, ux, vx, vy, fx, fy, &w, dydt + 4 * n);
+    external_forces(p, 0, rows, load_on, wall_mode, ux, vx, vy, fx, fy, &w, dydt + 4 * n);
 }
 
 int lattice_along_x(const LatticeParams *p) { return p->load_angle_deg == 0.0 || p->load_total == 0.0; }
 
 /* The right-hand side over the layout without y (lattice_along_x): rhs_rows with every y part left out, the
- * same arithmetic on what is left (|r| = sqrt(dx^2) is |dx| exactly, so the stretches are the same bits), and
- * the same four stages (see above rhs_rows). mirrored as in rhs_rows. */
+ * same arithmetic on what is left (|r| = |dx|, which is what sqrt(dx^2) gives), and the same four stages (see
+ * above rhs_rows). With mirrored, of the upper half of a mirror-symmetric lattice (rows 0 .. (R-1)/2, the
+ * last of them the middle row; see lattice.h): the rows above the middle are computed as the whole does,
+ * what the springs below the middle row do to it is the mirror image of what those above it do, and every
+ * power but the middle row's own springs' counts twice. */
 static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored, int load_on,
                                            const signed char *wall_mode, const double *y, double *dydt) {
     const int rows = mirrored ? (p->rows + 1) / 2 : p->rows, cols = p->cols, n = rows * cols;
@@ -486,12 +481,7 @@ static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored,
         const size_t top = (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
         const double *ux0 = ux + top, *vx0 = vx + top, *ux1 = ux + bottom, *vx1 = vx + bottom;
         double *row_fx = fx + top;
-        if (mirrored && i + 1 == rows) {
-            for (j = 0; j < cols; j++) {
-                w.dissipated[j] *= 2.0;
-                w.nonreciprocal[j] *= 2.0;
-            }
-        }
+        if (mirrored && i + 1 == rows) count_mirror_images(&w, cols);
 
         /* 1. geometry: r = (dx, 0) */
 #define GEOMETRY_X(family, j, ax, bx)                 \
@@ -576,12 +566,7 @@ void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, cons
 }
 
 void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y, double *dydt) {
-    rhs_rows(p, 0, load_on, wall_mode, y, dydt);
-}
-
-void lattice_rhs_mirrored(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
-                          double *dydt) {
-    rhs_rows(p, 1, load_on, wall_mode, y, dydt);
+    rhs_rows(p, load_on, wall_mode, y, dydt);
 }
 
 static double backplate_force_of_rows(const LatticeParams *p, int rows, int mirrored, const double *ux_last_column,

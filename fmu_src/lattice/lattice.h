@@ -56,16 +56,10 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
 
 /* A lattice with an odd number of rows R >= 3, loaded along its rows (load_angle 0, or no load), is
  * mirror-symmetric about its middle row for all time (the materials vary by column only, the start state is
- * zero): row R-1-i moves as row i with uy and vy negated, and the middle row stays on the line. Its upper half,
- * rows 0 .. (R-1)/2 in the layout above with N = ((R+1)/2) * C (the middle row last), carries the whole
- * solution at about half the cost; its three quadratures are the whole lattice's. Returns the rows of that half,
- * or 0 when the lattice is not symmetric. */
+ * zero): row R-1-i moves as row i, and the middle row stays on the line. Its upper half, rows 0 .. (R-1)/2
+ * (the middle row last), carries the whole solution at about half the cost (lattice_rhs_along_x with
+ * mirrored 1). Returns the rows of that half, or 0 when the lattice is not symmetric. */
 int lattice_mirror_rows(const LatticeParams *p);
-
-/* The right-hand side of the upper half (lattice_mirror_rows) over its own layout; wall_mode one per row of
- * the half. Equal to the upper half of lattice_rhs on the whole symmetric state, to rounding. */
-void lattice_rhs_mirrored(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
-                          double *dydt);
 
 /* A lattice loaded along x (load_angle 0, or no load) moves along x alone for all time: r = u_b - u_a
  * (SPEC section 2) of two masses that have not moved in y has no y part, so no spring, damper or load pushes
@@ -74,7 +68,7 @@ int lattice_along_x(const LatticeParams *p);
 
 /* The right-hand side over that layout (wall_mode one per row it holds), of all rows (mirrored 0) or of the
  * upper half of a mirror-symmetric lattice (mirrored 1, lattice_mirror_rows rows). Equal, to rounding, to the
- * x components of lattice_rhs (or lattice_rhs_mirrored) on the same state with uy = vy = 0. */
+ * x components of lattice_rhs on the same state (the whole one, mirrored) with uy = vy = 0. */
 void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, const signed char *wall_mode,
                          const double *y, double *dydt);
 

@@ -111,10 +111,8 @@ static void model_rhs(void *context, int phase, const double *y, double *dydt) {
     const Model *m = (const Model *)context;
     if (m->solver_along_x) {
         lattice_rhs_along_x(&m->params, m->solver_rows != LATTICE_ROWS, phase, m->wall_mode, y, dydt);
-    } else if (m->solver_rows == LATTICE_ROWS) {
-        derivatives(m, phase, y, dydt);
     } else {
-        lattice_rhs_mirrored(&m->params, phase, m->wall_mode, y, dydt);
+        derivatives(m, phase, y, dydt);
     }
 }
 
@@ -539,36 +537,29 @@ static void process_step(Model *m, double t_target) {
 
 static void update_state_outputs(Model *m, const double *y);
 
-/* Where component i of the whole lattice's state (lattice.h) is in the co-simulation solver's, and its sign
- * there: the upper half holds the lower half's rows as their mirror images (uy and vy negated); -1 for uy and
- * vy when the solver leaves them out (they are 0). */
-static int solver_component_of(const Model *m, int i, double *sign) {
-    const int masses = solver_masses(m);
+/* Where component i of the whole lattice's state (lattice.h) is in the co-simulation solver's: -1 for uy and vy
+ * when the solver leaves them out (they are 0); a row of the lower half of a mirrored lattice is its mirror
+ * image's (only a lattice along x is mirrored: solver_layout). */
+static int solver_component_of(const Model *m, int i) {
     int block, mass, row;
-    *sign = 1.0;
-    if (m->solver_rows == LATTICE_ROWS && !m->solver_along_x) return i;
+    if (!m->solver_along_x) return i;
     if (i >= 4 * N_MASSES) return solver_quadrature_base(m) + (i - 4 * N_MASSES); /* the whole lattice's */
     block = i / N_MASSES;
+    if (block == 1 || block == 3) return -1;
     mass = i % N_MASSES;
     row = mass / LATTICE_COLS;
-    if (m->solver_along_x && (block == 1 || block == 3)) return -1;
-    if (row >= m->solver_rows) {
-        row = LATTICE_ROWS - 1 - row;
-        if (block == 1 || block == 3) *sign = -1.0;
-    }
-    if (m->solver_along_x) block /= 2; /* ux, vx */
-    return block * masses + row * LATTICE_COLS + mass % LATTICE_COLS;
+    if (row >= m->solver_rows) row = LATTICE_ROWS - 1 - row;
+    return (block / 2) * solver_masses(m) + row * LATTICE_COLS + mass % LATTICE_COLS; /* ux, vx */
 }
 
 /* The solver's current state as the whole lattice's (itself when the solver integrates the whole). */
 static const double *whole_solver_state(Model *m) {
     const double *y = solver_state(m->work);
-    double sign;
     int i;
-    if (m->solver_rows == LATTICE_ROWS && !m->solver_along_x) return y;
+    if (!m->solver_along_x) return y;
     for (i = 0; i < N_STATE; i++) {
-        const int component = solver_component_of(m, i, &sign);
-        m->whole_state[i] = component < 0 ? 0.0 : sign * y[component];
+        const int component = solver_component_of(m, i);
+        m->whole_state[i] = component < 0 ? 0.0 : y[component];
     }
     return m->whole_state;
 }
@@ -580,9 +571,8 @@ static void update_outputs(Model *m, double t_target) {
     int i;
 
     for (i = 0; i < N_STATE; i++) {
-        double sign;
-        const int component = solver_component_of(m, i, &sign);
-        y[i] = component < 0 ? 0.0 : sign * state_component(m, component, t_target);
+        const int component = solver_component_of(m, i);
+        y[i] = component < 0 ? 0.0 : state_component(m, component, t_target);
     }
     if (s->steps_accepted > 0 && m->step_peak_known && !m->step_peak_committed) {
         /* the last step reaches past t_target: only the part up to t_target counts (not committed) */
@@ -723,12 +713,12 @@ static int handle_wall_events(Model *m) {
     return cut;
 }
 
-/* The smallest state that carries this lattice's solution (use_symmetry; lattice.h): the upper half of a
- * mirror-symmetric lattice, without uy and vy when it is loaded along x. */
+/* The smallest state that carries this lattice's solution (use_symmetry; lattice.h): without uy and vy when it
+ * is loaded along x, and then of the upper half only when it is also mirror-symmetric (a mirror-symmetric
+ * lattice is always loaded along x: lattice_mirror_rows). */
 static void solver_layout(const Model *m, int *rows, int *along_x) {
-    const int mirror_rows = lattice_mirror_rows(&m->params);
-    *rows = PARAM_USE_SYMMETRY(m) && mirror_rows ? mirror_rows : LATTICE_ROWS;
     *along_x = PARAM_USE_SYMMETRY(m) && lattice_along_x(&m->params);
+    *rows = *along_x && lattice_mirror_rows(&m->params) ? lattice_mirror_rows(&m->params) : LATTICE_ROWS;
 }
 
 int model_initialize(Model *m, double start_time, int stop_time_defined, double stop_time, char *message,
@@ -809,15 +799,11 @@ static int check_divergence(Model *m, char *message, size_t message_size) {
     int i;
     if (m->solver_rows == LATTICE_ROWS) {
         for (i = 0; i < velocity_blocks * masses; i++) speed_squared += velocity[i] * velocity[i];
-    } else { /* the upper half: each row but the middle one twice (its mirror image moves as it does) */
-        int block;
-        for (block = 0; block < velocity_blocks; block++) {
-            const double *v = velocity + block * masses;
-            double mirrored = 0.0, middle = 0.0;
-            for (i = 0; i < masses - LATTICE_COLS; i++) mirrored += v[i] * v[i];
-            for (; i < masses; i++) middle += v[i] * v[i];
-            speed_squared += 2.0 * mirrored + middle;
-        }
+    } else { /* the upper half (vx only): each row but the middle one twice (its mirror image moves as it does) */
+        double mirrored = 0.0, middle = 0.0;
+        for (i = 0; i < masses - LATTICE_COLS; i++) mirrored += velocity[i] * velocity[i];
+        for (; i < masses; i++) middle += velocity[i] * velocity[i];
+        speed_squared = 2.0 * mirrored + middle;
     }
     kinetic = 0.5 * m->params.mass * speed_squared;
     if (isfinite(kinetic) && isfinite(injected) && kinetic <= ENERGY_LIMIT_FACTOR * injected + floor) {
