@@ -168,13 +168,14 @@ def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] 
                  allowed="0 (adaptive DOP853), 1 (RK4), 2 (semi-implicit Euler), 3 (adaptive Tsit5), 4 (adaptive "
                          "DOPRI5) or 5 (adaptive Fine RKN 5(4))",
                  enumeration="Solver",
-                 items=(("DOP853", "Adaptive Dormand-Prince 8(5,3) with 7th-order dense output (rtol, atol)"),
-                        ("RK4", "Fixed-step classical Runge-Kutta (fixed_step)"),
-                        ("semi_implicit_euler", "Fixed-step semi-implicit (symplectic) Euler (fixed_step)"),
-                        ("Tsit5", "Adaptive Tsitouras 5(4) pair (rtol, atol)"),
-                        ("DOPRI5", "Adaptive Dormand-Prince 5(4) pair (rtol, atol)"),
-                        ("FineRKN5", "Adaptive general Runge-Kutta-Nystrom 5(4) pair of Fine (rtol, atol): "
-                                     "cheapest at the searches' accuracy"))),
+                 items=(("dop853", "DOP853: adaptive Dormand-Prince 8(5,3) with 7th-order dense output (rtol, atol)"),
+                        ("rk4", "RK4: fixed-step classical Runge-Kutta (fixed_step)"),
+                        ("semi_implicit_euler",
+                         "Semi-implicit Euler: fixed-step semi-implicit (symplectic) Euler (fixed_step)"),
+                        ("tsit5", "Tsit5: adaptive Tsitouras 5(4) pair (rtol, atol)"),
+                        ("dopri5", "DOPRI5: adaptive Dormand-Prince 5(4) pair (rtol, atol)"),
+                        ("rkn5", "Fine RKN 5(4): adaptive general Runge-Kutta-Nystrom 5(4) pair of Fine (rtol, "
+                                 "atol): cheapest at the searches' accuracy"))),
         Variable("spring_law", INTEGER, "parameter",
                  "0 = exponential springs (the study's law), 1 = linear springs F = k r",
                  start=0, minimum=0, maximum=1, allowed="0 (exponential) or 1 (linear)"),

@@ -71,6 +71,14 @@ def model_description(fmu_path: str | Path):
     return _read_description(str(fmu_path), status.st_mtime_ns, status.st_size)
 
 
+def enumeration_items(description, name: str) -> dict[str, int]:
+    """The item names and codes the FMU declares for the enumeration parameter ``name`` ({} when it has none):
+    the one place names such as ``mean`` or ``rkn5`` are turned into the codes the FMU takes."""
+    variable = next((v for v in description.modelVariables if v.name == name), None)
+    declared = getattr(variable, "declaredType", None)
+    return {item.name: int(item.value) for item in (getattr(declared, "items", None) or [])}
+
+
 def material_columns(description) -> int:
     """How many columns (material[j] parameters) the FMU's lattice has."""
     return sum(1 for v in description.modelVariables if v.name.startswith("material["))

@@ -17,8 +17,8 @@ ENUMERATIONS = {v.name: v for v in all_variables(11, 11) if v.enumeration}
 def test_diagonal_rule_and_solver_are_enumerations_with_the_tables_values(fmu_path, fmu3_path):
     assert set(ENUMERATIONS) == {"diagonal_rule", "solver"}
     expected = {"DiagonalRule": [("receiver", 0), ("mean", 1)],
-                "Solver": [("DOP853", 0), ("RK4", 1), ("semi_implicit_euler", 2), ("Tsit5", 3), ("DOPRI5", 4),
-                   ("FineRKN5", 5)]}
+                "Solver": [("dop853", 0), ("rk4", 1), ("semi_implicit_euler", 2), ("tsit5", 3), ("dopri5", 4),
+                   ("rkn5", 5)]}
     for path in (fmu_path, fmu3_path):
         description = read_model_description(str(path))
         variables = {v.name: v for v in description.modelVariables}
