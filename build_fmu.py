@@ -3,6 +3,7 @@
     python build_fmu.py                      # models/MassSpringLattice.fmu, the 11 x 11 armour scene
     python build_fmu.py --scene free_5x5     # a scene from scenes/ (or a path to a scene file)
     python build_fmu.py --rows 7 --cols 9 -o models/Lattice7x9.fmu
+    python build_fmu.py --materials my_materials.csv --cols 5   # M materials of a table over 5 columns
     python build_fmu.py --fmi-version 3      # models/MassSpringLattice-fmi3.fmu
     lattice-build ...                        # the same, installed as a console script (pip install .)
 
@@ -29,7 +30,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scene", default=DEFAULT_SCENE,
                         help=f"a scene name from scenes/ or a path to a scene .json (default {DEFAULT_SCENE})")
     parser.add_argument("--rows", type=int, help="override the scene's number of rows")
-    parser.add_argument("--cols", type=int, help="override the scene's number of columns (materials)")
+    parser.add_argument("--cols", type=int, help="override the scene's number of columns")
+    parser.add_argument("--materials", metavar="FILE",
+                        help="the material table (.csv with the header name,k,k_diag,c,alpha,alpha_diag; .toml or "
+                             ".json with the same fields): its M materials are the FMU's; default the scene's")
     parser.add_argument("-o", "--output",
                         help="where to write the .fmu (default models/<identifier>.fmu under the current folder)")
     parser.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
@@ -46,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     try:
         path = build_fmu(args.scene, args.output, args.rows, args.cols, werror=args.werror,
-                         fmi_version=args.fmi_version)
+                         fmi_version=args.fmi_version, materials=args.materials)
     except (ValueError, RuntimeError) as exc:
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return 2

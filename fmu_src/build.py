@@ -25,6 +25,7 @@ from pathlib import Path
 from fmu_src import fmi2_description as fmi2
 from fmu_src import fmi3_description as fmi3
 from fmu_src.documentation import documentation_html
+from fmu_src.materials import MaterialTable, load_materials
 from fmu_src.variables import DERIVATIVE, INDICATOR, INTEGER, REAL, STATE, Interface, c_literal, plotted_masses
 from scenes import DEFAULT_SCENE, Scene, check_identifier
 
@@ -77,6 +78,7 @@ def generate_header(interface: Interface, guid: str) -> str:
         f'#define MODEL_GUID "{guid}"',
         f"#define LATTICE_ROWS {interface.rows}",
         f"#define LATTICE_COLS {interface.cols}",
+        f"#define LATTICE_MATERIALS {interface.material_count}",
         f"#define N_VALUE_REFERENCES {sum(v.count for v in interface.exposed)}",
         f"#define N_CONTINUOUS_STATES {sum(v.count for v in interface.exposed if v.role == STATE)}",
         f"#define N_EVENT_INDICATORS {interface.event_indicator_count()}",
@@ -172,25 +174,38 @@ def compile_shared_library(sources: list[Path], output: Path, include_dirs: list
 
 
 def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, cols: int | None = None,
-                  output: str | os.PathLike | None = None) -> Scene:
+                  output: str | os.PathLike | None = None,
+                  materials: MaterialTable | str | os.PathLike | None = None) -> Scene:
     """The scene an FMU is built for: a Scene, a scene name or path (default: the 11 x 11 armour scene), with
-    rows or cols overridden (a resized scene keeps its scalar parameters only, and the default identifier
-    names its size unless the output is given)."""
+    rows or cols overridden (a resized scene keeps its scalar parameters only) and `materials` (a MaterialTable
+    or the path of a table file) as its material table. Unless the output is given, the default identifier of
+    the armour scene names its size and its table's fingerprint when they are not the study's."""
     if not isinstance(scene, Scene):
         scene = Scene.load(scene or DEFAULT_SCENE)
-    if rows is None and cols is None:
-        return scene
-    resized = replace(scene, rows=rows or scene.rows, cols=cols or scene.cols,
-                      parameters={k: v for k, v in scene.parameters.items() if not isinstance(v, (list, tuple))})
-    if (rows, cols) != (11, 11) and scene.model_identifier == "MassSpringLattice" and output is None:
-        resized = replace(resized, model_identifier=f"MassSpringLattice{resized.rows}x{resized.cols}")
+    resized = scene
+    if rows is not None or cols is not None:
+        resized = replace(scene, rows=rows or scene.rows, cols=cols or scene.cols,
+                          parameters={k: v for k, v in scene.parameters.items() if not isinstance(v, (list, tuple))})
+    if materials is not None:
+        table = materials if isinstance(materials, MaterialTable) else load_materials(materials)
+        resized = replace(resized, materials=table)
+    if scene.model_identifier == "MassSpringLattice" and output is None:
+        identifier = scene.model_identifier
+        if (resized.rows, resized.cols) != (11, 11):
+            identifier += f"{resized.rows}x{resized.cols}"
+        if materials is not None:
+            identifier += f"_{resized.material_table().sha256()[:8]}"
+        resized = replace(resized, model_identifier=identifier)
     return resized
 
 
 def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None = None,
-              rows: int | None = None, cols: int | None = None, werror: bool = False, fmi_version: int = 2) -> Path:
-    """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0)."""
-    scene = resolve_scene(scene, rows, cols, output)
+              rows: int | None = None, cols: int | None = None, werror: bool = False, fmi_version: int = 2,
+              materials: MaterialTable | str | os.PathLike | None = None) -> Path:
+    """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0);
+    `materials` (a MaterialTable or a table file) replaces the scene's material table: the FMU's
+    k[1..M], k_diag[1..M], c[1..M], alpha[1..M], alpha_diag[1..M] start with its values."""
+    scene = resolve_scene(scene, rows, cols, output, materials)
     interface = scene.interface()
     identifier = check_identifier("model_identifier", scene.model_identifier)
     guid = model_guid(interface, identifier)

@@ -7,12 +7,10 @@ FMU it ships in and the build stays a build.
 from __future__ import annotations
 
 from fmu_src.fmi2_description import enumeration_alias
+from fmu_src.materials import study_materials
 from fmu_src.published import PUBLISHED_CONDITIONS, PUBLISHED_HORIZON, PUBLISHED_PEAKS, REFERENCE_POINTS
 from fmu_src.rendering import model_summary, render
 from fmu_src.variables import INDICATOR, Interface, Variable
-
-STUDY_MATERIAL_PARAMETERS = {"k", "k_diag", "c", "alpha", "alpha_diag"}
-
 
 def _format(value) -> str:
     if value is None:
@@ -41,8 +39,9 @@ def variable_row(variable: Variable, fmi_version: int) -> dict:
 def reproduces_the_study(interface: Interface, scene) -> bool:
     """Whether the FMU is the study's scene at its defaults: 11 x 11, its materials, a backplate."""
     names = {v.name for v in interface.exposed}
+    table = scene.material_table()
     return ("material" in names and interface.rows == interface.cols == 11 and "backplate_force" in names
-            and not set(scene.parameters) & STUDY_MATERIAL_PARAMETERS)
+            and (table is None or table == study_materials(11)))
 
 
 def documentation_html(fmi_version: int, interface: Interface, identifier: str, scene) -> str:
@@ -55,4 +54,5 @@ def documentation_html(fmi_version: int, interface: Interface, identifier: str, 
                   fmi_version=fmi_version, rows=interface.rows, cols=interface.cols, published=published,
                   horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS, rtol=f"{starts['rtol']:g}",
                   reference_points=REFERENCE_POINTS, variables=[variable_row(v, fmi_version) for v in interface.exposed],
-                  fixed=[v.name for v in interface.fixed])
+                  fixed=[v.name for v in interface.fixed],
+                  materials=(scene.material_table() or study_materials(interface.cols)).materials)

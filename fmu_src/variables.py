@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from fmu_src.materials import MaterialTable, study_materials
+
 REAL = "Real"
 INTEGER = "Integer"
 
@@ -83,18 +85,6 @@ class Variable:
         return f"a finite number in {left}{low}, {high}{right}" if self.type == REAL else f"an integer in [{low}, {high}]"
 
 
-def material_table(count: int) -> dict[str, tuple[float, ...]]:
-    """SPEC section 3: material m has scale (2/3)^(m-1): k = 100 s, k_diag = 50 s, c = 5 s, alpha = 10."""
-    scale = [(2.0 / 3.0) ** (m - 1) for m in range(1, count + 1)]
-    return {
-        "k": tuple(100.0 * s for s in scale),
-        "k_diag": tuple(50.0 * s for s in scale),
-        "c": tuple(5.0 * s for s in scale),
-        "alpha": tuple(10.0 for _ in scale),
-        "alpha_diag": tuple(10.0 for _ in scale),
-    }
-
-
 def plotted_masses(rows: int, cols: int) -> dict[str, tuple[int, int]]:
     """The masses whose displacements the study plots, as (row, column), 1-based."""
     middle_row, middle_col = (rows + 1) // 2, (cols + 1) // 2
@@ -106,23 +96,39 @@ def plotted_masses(rows: int, cols: int) -> dict[str, tuple[int, int]]:
     }
 
 
-def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] | None = None) -> list[Variable]:
-    """Every variable the model knows, in value-reference order, with SPEC's published defaults."""
-    table = materials or material_table(cols)
+def default_order(cols: int, materials: int) -> tuple[int, ...]:
+    """The order an FMU starts with: material j in column j, the table's materials again from 1 when it has
+    fewer than columns."""
+    return tuple((j % materials) + 1 for j in range(cols))
+
+
+def all_variables(rows: int, cols: int, materials: MaterialTable | None = None) -> list[Variable]:
+    """Every variable the model knows, in value-reference order, with SPEC's published defaults and the material
+    table's values (default: the study's, with as many materials as columns) as the table's start values."""
+    table = materials or study_materials(cols)
+    count = len(table)
+    values = table.parameters()
     variables = [
-        Variable("material", INTEGER, "parameter", "Material number of each column (a permutation of 1..C)",
-                 start=tuple(range(1, cols + 1)), minimum=1, maximum=cols, size=cols,
-                 allowed=f"a permutation of 1..{cols}"),
-        Variable("k", REAL, "parameter", "Vertical spring constant of each material", start=table["k"], unit="N",
-                 minimum=0.0, size=cols),
-        Variable("k_diag", REAL, "parameter", "Diagonal spring constant of each material", start=table["k_diag"],
-                 unit="N", minimum=0.0, size=cols),
-        Variable("c", REAL, "parameter", "Vertical damping of each material", start=table["c"], unit="N.s/m",
-                 minimum=0.0, size=cols),
-        Variable("alpha", REAL, "parameter", "Vertical spring exponent of each material", start=table["alpha"],
-                 unit="1/m", minimum=0.0, minimum_exclusive=True, size=cols),
+        Variable("material", INTEGER, "parameter",
+                 "Material number of each column: a row of the material table (1..M); each material in at most "
+                 "one column unless repeat_materials = 1",
+                 start=default_order(cols, count), minimum=1, maximum=count, size=cols,
+                 allowed=f"each an integer in [1, {count}]"),
+        Variable("repeat_materials", INTEGER, "parameter",
+                 "0 = each material in at most one column (an arrangement; with M = C a permutation, the study's "
+                 "design space), 1 = any material in any number of columns",
+                 start=0 if count >= cols else 1, minimum=0, maximum=1,
+                 allowed="0 (each material at most once) or 1 (any)"),
+        Variable("k", REAL, "parameter", "Vertical spring constant of each material", start=values["k"], unit="N",
+                 minimum=0.0, size=count),
+        Variable("k_diag", REAL, "parameter", "Diagonal spring constant of each material", start=values["k_diag"],
+                 unit="N", minimum=0.0, size=count),
+        Variable("c", REAL, "parameter", "Vertical damping of each material", start=values["c"], unit="N.s/m",
+                 minimum=0.0, size=count),
+        Variable("alpha", REAL, "parameter", "Vertical spring exponent of each material", start=values["alpha"],
+                 unit="1/m", minimum=0.0, minimum_exclusive=True, size=count),
         Variable("alpha_diag", REAL, "parameter", "Diagonal spring exponent of each material",
-                 start=table["alpha_diag"], unit="1/m", minimum=0.0, minimum_exclusive=True, size=cols),
+                 start=values["alpha_diag"], unit="1/m", minimum=0.0, minimum_exclusive=True, size=count),
         Variable("k_horizontal", REAL, "parameter", "Horizontal spring constant k0", start=100.0, unit="N",
                  minimum=0.0),
         Variable("alpha_horizontal", REAL, "parameter", "Horizontal spring exponent alpha0", start=10.0,
@@ -203,6 +209,9 @@ def all_variables(rows: int, cols: int, materials: dict[str, tuple[float, ...]] 
                  "Latest time any column-C mass touched the backplate (0 if none has): a search over a short "
                  "horizon is safe only if this is well before the horizon. Model Exchange: over the points the "
                  "importer completed, contact ends located as events", unit="s"),
+        Variable("max_compression", REAL, "output",
+                 "Largest shortening of the lattice along the load so far: the mean x displacement of column 1 "
+                 "minus that of column C, over the same samples as peak_backplate_force", unit="m"),
         Variable("kinetic_energy", REAL, "output", "Kinetic energy", unit="J"),
         Variable("potential_energy", REAL, "output", "Potential energy of the springs and the backplate",
                  unit="J"),
@@ -273,6 +282,7 @@ class Interface:
     exposed: list[Variable]
     fixed: list[Variable]  # parameters the scene does not expose; their start is compiled in
     value_references: dict[str, int] = field(default_factory=dict)  # first element's vr, by variable name
+    material_count: int = 0  # M: the rows of the material table
 
     def state_offsets(self) -> dict[str, int]:
         """Where each state variable starts in the continuous state vector (STATE_ORDER, lattice.h's layout)."""
@@ -287,16 +297,24 @@ class Interface:
         return sum(v.count for v in self.exposed if v.role == INDICATOR)
 
 
-def make_interface(rows: int, cols: int, parameters: dict | None = None,
-                   hidden: tuple[str, ...] = ()) -> Interface:
-    """Variables for a rows x cols lattice; `parameters` overrides starts, `hidden` compiles them in."""
+TABLE_PARAMETERS = ("k", "k_diag", "c", "alpha", "alpha_diag")  # the material table's columns
+
+
+def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden: tuple[str, ...] = (),
+                   materials: MaterialTable | None = None) -> Interface:
+    """Variables for a rows x cols lattice with the material table `materials` (default: the study's, one
+    material per column); `parameters` overrides starts, `hidden` compiles them in."""
     if rows < 1 or cols < 1 or cols > 64 or rows * cols > 100000:
         raise ValueError(f"rows and cols: allowed 1 <= rows, 1 <= cols <= 64 (got rows={rows}, cols={cols})")
-    variables = all_variables(rows, cols)
+    variables = all_variables(rows, cols, materials)
     known = {v.name for v in variables}
     unknown = set(parameters or {}) - known | set(hidden) - known
     if unknown:
         raise ValueError(f"unknown parameter(s) {sorted(unknown)}; known: {sorted(known)}")
+    in_table = sorted(set(parameters or {}) & set(TABLE_PARAMETERS))
+    if in_table:
+        raise ValueError(f"parameters {in_table} are the material table's: give the table itself (a scene's "
+                         f"materials, build_fmu.py --materials FILE)")
     exposed, fixed = [], []
     for variable in variables:
         if parameters and variable.name in parameters:
@@ -311,7 +329,8 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None,
     for variable in exposed:  # reals and integers share one numbering: unique across types, as FMI 3 needs
         value_references[variable.name] = next_vr
         next_vr += variable.count
-    return Interface(rows, cols, exposed, fixed, value_references)
+    count = next(v.count for v in variables if v.name == "k")
+    return Interface(rows, cols, exposed, fixed, value_references, count)
 
 
 def _has_backplate(variables: list[Variable]) -> bool:

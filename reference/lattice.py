@@ -42,6 +42,8 @@ from typing import Optional, Tuple
 
 import numpy as np
 
+from fmu_src.materials import study_materials
+
 DIAGONAL_RULES = ("receiver", "mean")
 SPRING_LAWS = ("exponential", "linear")
 
@@ -55,18 +57,14 @@ def default_material_table(n: int = 11) -> dict:
     """SPEC section 3: material ``m = 1..n`` has scale ``s = (2/3)^(m-1)`` and
     ``k = 100 s``, ``k_diag = 50 s``, ``c = 5 s``, ``alpha = alpha_diag = 10``.
 
-    Returns a dict of float arrays keyed by ``k, k_diag, c, alpha, alpha_diag``.
+    Returns a dict of float arrays keyed by ``k, k_diag, c, alpha, alpha_diag``: the values of
+    :func:`fmu_src.materials.study_materials`, the one place the study's table is computed (so the oracle and
+    the FMU start from the same bits on every CPU).
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ValueError(f"default_material_table: n must be a positive integer, got {n!r}")
-    s = (2.0 / 3.0) ** np.arange(int(n), dtype=float)
-    return {
-        "k": 100.0 * s,
-        "k_diag": 50.0 * s,
-        "c": 5.0 * s,
-        "alpha": np.full(int(n), 10.0),
-        "alpha_diag": np.full(int(n), 10.0),
-    }
+    table = study_materials(int(n))
+    return {field: np.array(table.column(field), dtype=float) for field in MATERIAL_FIELDS}
 
 
 def _frozen_array(x) -> np.ndarray:
@@ -132,34 +130,7 @@ class Scene:
             raise ValueError(f"Scene.wall must be True or False, got {self.wall!r}")
         set_("wall", bool(self.wall))
 
-        # order
-        if self.order is None:
-            set_("order", tuple(range(1, self.cols + 1)))
-        else:
-            try:
-                raw = list(self.order)
-            except TypeError:
-                raise ValueError(
-                    f"Scene.order must be a sequence of {self.cols} material numbers, "
-                    f"a permutation of 1..{self.cols}; got {self.order!r}"
-                ) from None
-            def _as_int(p):
-                if isinstance(p, (bool, np.bool_)) or not isinstance(
-                        p, (int, np.integer, float, np.floating)):
-                    return None
-                if not math.isfinite(p) or float(p) != int(p):
-                    return None
-                return int(p)
-
-            ints = [_as_int(p) for p in raw]
-            if None in ints or sorted(ints) != list(range(1, self.cols + 1)):
-                raise ValueError(
-                    f"Scene.order must be a permutation of 1..{self.cols} "
-                    f"(one material number per column), got {self.order!r}"
-                )
-            set_("order", tuple(int(p) for p in raw))
-
-        # material table
+        # material table (M materials; default: SPEC 3 with ``cols`` materials)
         given = [getattr(self, f) is not None for f in MATERIAL_FIELDS]
         if any(given) and not all(given):
             missing = [f for f, g in zip(MATERIAL_FIELDS, given) if not g]
@@ -170,16 +141,18 @@ class Scene:
         table = default_material_table(self.cols) if not any(given) else {
             f: getattr(self, f) for f in MATERIAL_FIELDS
         }
+        count = None
         for f in MATERIAL_FIELDS:
             try:
                 a = np.array(table[f], dtype=float)
             except (TypeError, ValueError):
                 raise ValueError(f"Scene.{f} must be an array of numbers, got {table[f]!r}") from None
-            if a.ndim != 1 or a.shape[0] != self.cols:
+            if a.ndim != 1 or a.shape[0] < 1 or (count is not None and a.shape[0] != count):
                 raise ValueError(
-                    f"Scene.{f} must have one entry per material, i.e. {self.cols} "
-                    f"(= cols, since order is a permutation of 1..cols); got shape {a.shape}"
+                    f"Scene.{f} must have one entry per material, as many as the other fields of the table "
+                    f"({count}); got shape {a.shape}"
                 )
+            count = a.shape[0]
             if not np.all(np.isfinite(a)) or np.any(a < 0):
                 raise ValueError(f"Scene.{f} must be finite and >= 0, got {a.tolist()}")
             if f.startswith("alpha") and self.spring_law == "exponential" and np.any(a <= 0):
@@ -187,6 +160,38 @@ class Scene:
                     f"Scene.{f} must be > 0 for spring_law='exponential', got {a.tolist()}"
                 )
             set_(f, _frozen_array(a))
+
+        # order: a material number (a row of the table, 1..M) per column; repeats are allowed here (the FMU's
+        # repeat_materials decides whether a design may repeat one)
+        if self.order is None:
+            if count < self.cols:
+                raise ValueError(f"Scene.order must be given: the table has {count} materials for "
+                                 f"{self.cols} columns")
+            set_("order", tuple(range(1, self.cols + 1)))
+        else:
+            try:
+                raw = list(self.order)
+            except TypeError:
+                raise ValueError(
+                    f"Scene.order must be a sequence of {self.cols} material numbers in 1..{count}; "
+                    f"got {self.order!r}"
+                ) from None
+
+            def _as_int(p):
+                if isinstance(p, (bool, np.bool_)) or not isinstance(
+                        p, (int, np.integer, float, np.floating)):
+                    return None
+                if not math.isfinite(p) or float(p) != int(p):
+                    return None
+                return int(p)
+
+            ints = [_as_int(p) for p in raw]
+            if len(ints) != self.cols or None in ints or not all(1 <= p <= count for p in ints):
+                raise ValueError(
+                    f"Scene.order must be {self.cols} material numbers (one per column), each in 1..{count}, "
+                    f"got {self.order!r}"
+                )
+            set_("order", tuple(int(p) for p in raw))
 
         # scalars
         def scalar(name, lo=None, strict=False):

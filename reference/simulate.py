@@ -44,6 +44,9 @@ class SimulationResult:
     #: the objective of SPEC 6: max of the sampled backplate force
     peak_backplate_force: float
     peak_sample_time: float
+    #: SPEC 9: mean ux of column 1 minus mean ux of column C, at the sample times, and its maximum
+    compression: np.ndarray
+    max_compression: float
     #: true maximum of the continuous solution and its time (nan if not computed)
     peak_backplate_force_continuous: float
     peak_time: float
@@ -146,6 +149,12 @@ def simulate(
         f = np.where(p > 0, k_w * p + c_w * np.maximum(z[vx_rows], 0.0), 0.0)
         return f.sum(axis=0)
 
+    first_column = np.arange(scene.rows) * scene.cols
+
+    def compression(z):
+        """Mean ux of column 1 minus mean ux of column C of state(s) z."""
+        return z[first_column].mean(axis=0) - z[first_column + scene.cols - 1].mean(axis=0)
+
     z = np.zeros(n + 3)
     if y0 is not None:
         y0 = np.asarray(y0, dtype=float)
@@ -155,6 +164,7 @@ def simulate(
 
     ts = sample_times(horizon, sample_interval)
     fs = np.full(ts.size, np.nan)
+    squeeze = np.full(ts.size, np.nan)
 
     # best grid points of the continuous search: (value, tiebreak, t_lo, t_hi, interpolant)
     cands: list = []
@@ -172,6 +182,7 @@ def simulate(
         phases.append((t_act, horizon, False))
 
     fs[0] = bp(z)  # t = 0 (the state given, before any step)
+    squeeze[0] = compression(z)
     for t0, t1, load_on in phases:
         def fun(t, zz, _on=load_on):
             dydt, (pe, pd, pn) = model.evaluate(zz[:n], _on, True)
@@ -196,6 +207,7 @@ def simulate(
             raise RuntimeError(f"simulate: {method_name} failed on [{t0}, {t1}]: {sol.message}")
         n_rhs += sol.nfev
         fs[sel] = bp(sol.y[:, :sel.size])
+        squeeze[sel] = compression(sol.y[:, :sel.size])
         z = sol.y[:, -1].copy()
 
         if continuous_peak:
@@ -257,6 +269,8 @@ def simulate(
         backplate_force=fs,
         peak_backplate_force=peak,
         peak_sample_time=peak_sample_time,
+        compression=squeeze,
+        max_compression=float(squeeze.max()),
         peak_backplate_force_continuous=peak_c,
         peak_time=peak_t,
         kinetic=ke,

@@ -17,6 +17,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from fmu_src.materials import MaterialTable, load_materials
 from fmu_src.variables import Interface, all_variables, make_interface
 
 SCENE_DIR = Path(__file__).resolve().parent
@@ -50,10 +51,24 @@ class Scene:
     hidden: list = field(default_factory=list)
     horizon: float = 8.0
     communication_step: float = 0.01
+    # the material table: a list of rows (name, k, k_diag, c, alpha, alpha_diag), the path of a table file
+    # (.csv, .toml, .json; relative to the scene file), a MaterialTable, or None for the study's
+    materials: str | list | MaterialTable | None = None
 
     def __post_init__(self):
         check_identifier("name", self.name)
         check_identifier("model_identifier", self.model_identifier)
+
+    def material_table(self) -> MaterialTable | None:
+        """The scene's material table (checked row by row), or None for the study's."""
+        if self.materials is None or isinstance(self.materials, MaterialTable):
+            return self.materials
+        if isinstance(self.materials, (str, os.PathLike)):
+            return load_materials(self.materials)
+        if isinstance(self.materials, list):
+            return MaterialTable.from_rows(self.materials, f"scene {self.name}: materials")
+        raise ValueError(f"scene {self.name}: materials must be a list of rows or the path of a table file, got "
+                         f"{type(self.materials).__name__}")
 
     @classmethod
     def load(cls, name_or_path: str | os.PathLike) -> "Scene":
@@ -80,17 +95,19 @@ class Scene:
             raise ValueError(f"scene {path}: unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}")
         if "name" not in data:
             raise ValueError(f"scene {path}: the key 'name' is missing")
+        if isinstance(data.get("materials"), str):  # a table file beside the scene file
+            data["materials"] = str((path.parent / data["materials"]).resolve())
         return cls(**data)
 
     def interface(self) -> Interface:
         """The FMU's variables for this scene: exposed ones with value references, hidden ones compiled in."""
-        return make_interface(self.rows, self.cols, self.parameters, tuple(self.hidden))
+        return make_interface(self.rows, self.cols, self.parameters, tuple(self.hidden), self.material_table())
 
     def parameter_values(self) -> dict:
         """Every parameter's value in this scene (the scene's own, else the FMU's default), by FMU name;
         arrays as tuples."""
         values = {}
-        for variable in all_variables(self.rows, self.cols):
+        for variable in all_variables(self.rows, self.cols, self.material_table()):
             if variable.causality != "parameter":
                 continue
             value = self.parameters.get(variable.name, variable.start)

@@ -438,7 +438,7 @@ def test_mean_rule_peaks():
 @pytest.mark.parametrize("kw, field", [
     (dict(order=(1, 2, 3)), "order"),
     (dict(order=tuple(range(0, 11))), "order"),
-    (dict(order=(1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11)), "order"),
+    (dict(order=(1, 12, 3, 4, 5, 6, 7, 8, 9, 10, 11)), "order"),  # material 12 of a table of 11
     (dict(order=(1.5,) + tuple(range(2, 12))), "order"),
     (dict(order="abc"), "order"),
     (dict(order=5), "order"),
@@ -454,7 +454,8 @@ def test_mean_rule_peaks():
     (dict(F_total="1200"), "F_total"),
     (dict(wall="yes"), "wall"),
     (dict(k=np.ones(11)), "k_diag"),  # partial table
-    (dict(cols=3, **{f: np.ones(4) for f in ("k", "k_diag", "c", "alpha", "alpha_diag")}), "k"),
+    (dict(cols=3, k=np.ones(4), **{f: np.ones(3) for f in ("k_diag", "c", "alpha", "alpha_diag")}), "k_diag"),
+    (dict(cols=5, **{f: np.ones(3) for f in ("k", "k_diag", "c", "alpha", "alpha_diag")}), "order"),  # M < C
     (dict(cols=3, **{f: np.ones(3) for f in ("k", "k_diag", "c", "alpha_diag")},
           alpha=np.array([1.0, 0.0, 1.0])), "alpha"),
     (dict(cols=2, **{f: np.ones(2) for f in ("k_diag", "c", "alpha", "alpha_diag")},

@@ -40,7 +40,7 @@ struct Model {
     int load_on;
     signed char wall_mode[LATTICE_ROWS]; /* frozen between events (WallMode) */
     /* the peaks and the last contact over the points each interface shows (the one sampler) */
-    double peak_sampled;
+    double peak_sampled, max_compression;
     double peak_continuous, peak_continuous_time;
     double last_contact_time; /* latest time a column-C mass was in contact with the backplate */
     double initial_energy;    /* potential energy of the start state (a negative gap presses from t = 0) */
@@ -72,9 +72,15 @@ int model_load_switches_off(const Model *m, double time);
 /* W_ext + W_nr - KE - PE - D + the start state's energy, of whole state y: 0 when the balance closes. */
 double model_energy_balance(const Model *m, const double *y, double *kinetic, double *potential);
 
-/* The one peak sampler: the backplate force at `time`, into the sampled peak when `time` is a sample time, and
- * into the continuous peak. */
-void model_take_force(Model *m, double time, double force, int is_sample);
+/* The one sampler: a sample (at a time of the peak_sample_interval grid) takes the backplate force into the sampled
+ * peak and the compression into max_compression; every point the force into the continuous peak. */
+void model_take_sample(Model *m, double time, double force, double compression);
+void model_take_force(Model *m, double time, double force);
+
+/* The compression of the lattice along the load from the ux of its first and last columns' masses, of the first
+ * `rows` rows (all of them, or the upper half of a mirror-symmetric lattice): the mean of column 1 minus the mean
+ * of column C. */
+double model_compression_of_columns(const Model *m, const double *ux_first, const double *ux_last, int rows);
 
 /* The backplate force from the column-C masses' ux and vx of the first `rows` rows: all of them, or the upper
  * half of a mirror-symmetric lattice (each row but the middle one twice). */

@@ -116,6 +116,31 @@ static double backplate_force_at(Model *m, double t) {
     return model_backplate_force_of_column(m, ux, vx, m->cs.solver_rows);
 }
 
+/* The compression of the lattice at time t of the last step (its first and last columns), from the dense output,
+ * or (hermite) from the free cubic Hermite first look. */
+static double compression_at(Model *m, double t, int hermite) {
+    double first[LATTICE_ROWS], last[LATTICE_ROWS];
+    int i;
+    for (i = 0; i < m->cs.solver_rows; i++) {
+        const int mass = i * LATTICE_COLS;
+        first[i] = hermite ? solver_interpolate_hermite(&m->cs.solver, m->cs.work, mass, t)
+                           : state_component(m, mass, t);
+        last[i] = hermite ? solver_interpolate_hermite(&m->cs.solver, m->cs.work, LAST_COLUMN_MASS(i), t)
+                          : state_component(m, LAST_COLUMN_MASS(i), t);
+    }
+    return model_compression_of_columns(m, first, last, m->cs.solver_rows);
+}
+
+/* The compression a sample takes: a step without contact pays for the dense output only when the free first
+ * look comes within PEAK_PREFILTER_MARGIN of the largest so far (else the sample cannot raise it). */
+static double sample_compression(Model *m, double t) {
+    if (m->cs.step_contact_free && m->max_compression > 0.0) {
+        const double cheap = compression_at(m, t, 1);
+        if (cheap < (1.0 - PEAK_PREFILTER_MARGIN) * m->max_compression) return cheap;
+    }
+    return compression_at(m, t, 0);
+}
+
 static double backplate_force_hermite(Model *m, double t) {
     double ux[LATTICE_ROWS], vx[LATTICE_ROWS];
     const int vx_base = solver_vx_base(m);
@@ -245,9 +270,9 @@ static void process_step(Model *m, double t_target) {
         const double sample_time = (double)cs->next_sample * interval;
         double force;
         if (sample_time > sample_limit || cs->limit_exceeded) break;
-        /* a step without contact needs no dense output for its samples: the force is 0 throughout */
+        /* a step without contact has no backplate force: 0 throughout */
         force = cs->step_contact_free ? 0.0 : backplate_force_at(m, sample_time);
-        model_take_force(m, sample_time, force, 1);
+        model_take_sample(m, sample_time, force, sample_compression(m, sample_time));
         cs->next_sample++;
         if (limit > 0.0 && m->peak_sampled > limit) {
             cs->limit_exceeded = 1;
@@ -266,7 +291,7 @@ static void process_step(Model *m, double t_target) {
         cs->step_peak_known = 1;
     }
     if (s->t <= t_target) {
-        model_take_force(m, cs->step_peak_time, cs->step_peak, 0);
+        model_take_force(m, cs->step_peak_time, cs->step_peak);
         cs->step_peak_committed = 1;
     }
 }

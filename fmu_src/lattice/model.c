@@ -179,30 +179,46 @@ int model_get_integer(Model *m, unsigned int vr, int *value, char *message, size
 
 double model_time(const Model *m) { return m->time; }
 
-/* The material order must use each of 1..C once; the message names what is duplicated and missing. */
+/* The material order: each column a row of the table (1..M) and, unless repeat_materials = 1, each material in
+ * at most one column; the message names the order and what is allowed. */
 static int check_material_order(const Model *m, char *message, size_t message_size) {
-    int count[LATTICE_COLS + 1] = {0};
+    int count[LATTICE_MATERIALS + 1] = {0};
+    const int repeat = PARAM_REPEAT_MATERIALS(m);
     int j, ok = 1;
     size_t used;
     for (j = 0; j < LATTICE_COLS; j++) {
         const int material = PARAM_MATERIAL(m, j);
-        if (material < 1 || material > LATTICE_COLS) {
+        if (material < 1 || material > LATTICE_MATERIALS) {
             ok = 0;
-        } else {
-            count[material]++;
+        } else if (++count[material] > 1 && !repeat) {
+            ok = 0;
         }
     }
-    for (j = 1; j <= LATTICE_COLS; j++) ok = ok && count[j] == 1;
     if (ok) return 0;
     used = (size_t)snprintf(message, message_size, "material = [");
     for (j = 0; j < LATTICE_COLS && used < message_size; j++) {
         used += (size_t)snprintf(message + used, message_size - used, j ? ", %d" : "%d", PARAM_MATERIAL(m, j));
     }
-    if (used < message_size) {
+    if (used >= message_size) return -1;
+    if (repeat) {
+        snprintf(message + used, message_size - used,
+                 "] is not allowed: each column's material must be one of 1..%d (the material table's rows)",
+                 LATTICE_MATERIALS);
+    } else if (LATTICE_MATERIALS < LATTICE_COLS) {
+        snprintf(message + used, message_size - used,
+                 "] is not allowed: with repeat_materials = 0 each column needs a material of its own, but the "
+                 "table has %d materials for %d columns: set repeat_materials = 1",
+                 LATTICE_MATERIALS, LATTICE_COLS);
+    } else if (LATTICE_MATERIALS == LATTICE_COLS) {
         snprintf(message + used, message_size - used,
                  "] is not allowed: the material order must be a permutation of 1..%d (each material in exactly "
-                 "one column)",
+                 "one column; repeat_materials = 1 allows repeats)",
                  LATTICE_COLS);
+    } else {
+        snprintf(message + used, message_size - used,
+                 "] is not allowed: the columns' materials must be %d different ones of 1..%d (each material in at "
+                 "most one column; repeat_materials = 1 allows repeats)",
+                 LATTICE_COLS, LATTICE_MATERIALS);
     }
     return -1;
 }
@@ -246,12 +262,30 @@ double model_energy_balance(const Model *m, const double *y, double *kinetic, do
            y[INDEX_DISSIPATED];
 }
 
-void model_take_force(Model *m, double time, double force, int is_sample) {
-    if (is_sample && force > m->peak_sampled) m->peak_sampled = force;
+double model_compression_of_columns(const Model *m, const double *ux_first, const double *ux_last, int rows) {
+    double mirrored = 0.0, middle = 0.0;
+    int i;
+    (void)m;
+    if (rows == LATTICE_ROWS) {
+        for (i = 0; i < rows; i++) middle += ux_first[i] - ux_last[i];
+        return middle / LATTICE_ROWS;
+    }
+    for (i = 0; i < rows - 1; i++) mirrored += ux_first[i] - ux_last[i];
+    middle = ux_first[rows - 1] - ux_last[rows - 1];
+    return (2.0 * mirrored + middle) / LATTICE_ROWS;
+}
+
+void model_take_force(Model *m, double time, double force) {
     if (force > m->peak_continuous) {
         m->peak_continuous = force;
         m->peak_continuous_time = time;
     }
+}
+
+void model_take_sample(Model *m, double time, double force, double compression) {
+    if (force > m->peak_sampled) m->peak_sampled = force;
+    if (compression > m->max_compression) m->max_compression = compression;
+    model_take_force(m, time, force);
 }
 
 void model_update_outputs(Model *m, double peak_continuous, double peak_time, double last_contact_time,
@@ -263,6 +297,7 @@ void model_update_outputs(Model *m, double peak_continuous, double peak_time, do
     double kinetic, potential;
     int i;
     m->real[VR_PEAK_BACKPLATE_FORCE] = m->peak_sampled;
+    m->real[VR_MAX_COMPRESSION] = m->max_compression;
     m->real[VR_PEAK_BACKPLATE_FORCE_CONTINUOUS] = peak_continuous;
     m->real[VR_PEAK_TIME] = peak_time;
     m->real[VR_LAST_CONTACT_TIME] = last_contact_time;
@@ -379,10 +414,19 @@ static int check_count(const char *what, size_t given, int expected, char *messa
 static void record_point(Model *m) {
     const double *y = m->output_state;
     const double samples = m->time / PARAM_PEAK_SAMPLE_INTERVAL(m);
+    const double force = lattice_backplate_force(&m->params, y);
     signed char modes[LATTICE_ROWS];
     int i, contact = 0;
-    model_take_force(m, m->time, lattice_backplate_force(&m->params, y),
-                     fabs(samples - floor(samples + 0.5)) <= SAMPLE_TIME_SLACK);
+    if (fabs(samples - floor(samples + 0.5)) <= SAMPLE_TIME_SLACK) {
+        double first[LATTICE_ROWS], last[LATTICE_ROWS];
+        for (i = 0; i < LATTICE_ROWS; i++) {
+            first[i] = y[i * LATTICE_COLS];
+            last[i] = y[LAST_COLUMN_MASS(i)];
+        }
+        model_take_sample(m, m->time, force, model_compression_of_columns(m, first, last, LATTICE_ROWS));
+    } else {
+        model_take_force(m, m->time, force);
+    }
     model_wall_modes(m, y, LATTICE_ROWS, 2 * N_MASSES, modes);
     for (i = 0; i < LATTICE_ROWS; i++) contact = contact || modes[i] != WALL_FREE || m->wall_mode[i] != WALL_FREE;
     if (contact) m->last_contact_time = m->time;
@@ -403,6 +447,7 @@ int model_exchange_begin(Model *m, char *message, size_t message_size) {
     /* output_state holds the start state; the co-simulation bookkeeping of initialisation starts afresh */
     m->exchange = 1;
     m->peak_sampled = 0.0;
+    m->max_compression = 0.0;
     m->peak_continuous = 0.0;
     m->peak_continuous_time = m->time;
     m->last_contact_time = 0.0;

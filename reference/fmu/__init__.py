@@ -4,7 +4,7 @@
     from reference.fmu import build_reference_fmu; build_reference_fmu("out/Ref.fmu")
 
 The FMU bundles the slave (:mod:`reference.fmu.mass_spring_lattice_reference`), the whole ``reference``
-package and pythonfmu's Python side; pythonfmu's binary runs it inside a Python interpreter, which must have
+package, ``fmu_src.materials`` (the study's table) and pythonfmu's Python side; pythonfmu's binary runs it inside a Python interpreter, which must have
 numpy and scipy.  Same variable names as the C FMU, so the same fmpy code path
 (``orchestrator.simulation.LatticeFMU``) drives both: that is how the two are compared in the tests.
 Nothing is done at import (pythonfmu is imported only when building).
@@ -18,6 +18,7 @@ REFERENCE_DIR = HERE.parent
 SLAVE_SCRIPT = HERE / "mass_spring_lattice_reference.py"
 MODEL_IDENTIFIER = "MassSpringLatticeReference"
 DEFAULT_OUTPUT = Path("models") / f"{MODEL_IDENTIFIER}.fmu"  # under the current folder, as build_fmu.py's
+MATERIALS_MODULE = REFERENCE_DIR.parent / "fmu_src" / "materials.py"
 
 
 def build_reference_fmu(output: str | Path | None = None) -> Path:
@@ -34,8 +35,14 @@ def build_reference_fmu(output: str | Path | None = None) -> Path:
         # a clean copy of the package: no caches, no build leftovers
         package = Path(staging) / "reference"
         shutil.copytree(REFERENCE_DIR, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        # the study's material table comes from fmu_src.materials, the one place it is computed: the FMU
+        # carries that module as a package of its own (it needs nothing but the standard library)
+        materials = Path(staging) / "fmu_src"
+        materials.mkdir()
+        (materials / "__init__.py").write_text('"""fmu_src.materials alone, for the reference model."""\n')
+        shutil.copy2(MATERIALS_MODULE, materials / "materials.py")
         built = FmuBuilder.build_FMU(SLAVE_SCRIPT, dest=Path(staging) / f"{MODEL_IDENTIFIER}.fmu",
-                                     project_files=[package])
+                                     project_files=[package, materials])
         partial = output.with_suffix(".fmu.partial")
         shutil.copyfile(built, partial)
         partial.replace(output)  # never leave a half-written FMU where an importer could load it

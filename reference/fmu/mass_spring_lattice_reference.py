@@ -45,13 +45,14 @@ REAL_PARAMETERS = {
     "atol": (1e-9, lambda v: _finite(v) and 0 < v <= 1, "a finite number in (0, 1]"),
 }
 INTEGER_PARAMETERS = {
+    "repeat_materials": (0, (0, 1), "0 (each material at most once) or 1 (any)"),
     "diagonal_rule": (0, (0, 1), "0 (receiver) or 1 (mean)"),
     "solver": (0, (0,), "0 (scipy DOP853; the reference FMU has no fixed-step solvers)"),
 }
 # like the C FMU of the armour scene (scenes/armour_11x11.json), spring_law and has_backplate are not exposed:
 # exponential springs and the backplate are fixed
 REAL_OUTPUTS = (
-    "backplate_force", "peak_backplate_force", "peak_backplate_force_continuous", "peak_time",
+    "backplate_force", "peak_backplate_force", "max_compression", "peak_backplate_force_continuous", "peak_time",
     "last_contact_time", "kinetic_energy", "potential_energy", "external_work", "dissipated_energy",
     "nonreciprocal_work", "energy_balance_error",
     "ux_corner", "uy_corner", "ux_left_edge", "uy_left_edge", "ux_centre", "uy_centre",
@@ -79,7 +80,7 @@ class MassSpringLatticeReference(Fmi2Slave):
         self.start_time, self.stop_time = 0.0, None
 
         for j in range(1, COLS + 1):
-            self._parameter(f"material[{j}]", Integer, j, "Material number of column j (a permutation of 1..C)")
+            self._parameter(f"material[{j}]", Integer, j, "Material number of column j (a row of the table)")
         for array in MATERIAL_ARRAYS:
             for m in range(1, COLS + 1):
                 self._parameter(f"{array}[{m}]", Real, float(table[array][m - 1]), f"{array} of material m")
@@ -118,9 +119,10 @@ class MassSpringLatticeReference(Fmi2Slave):
         """The scene of the parameters set; ValueError naming the parameter and its allowed values."""
         v = self.values
         order = [int(v[f"material[{j}]"]) for j in range(1, COLS + 1)]
-        if sorted(order) != list(range(1, COLS + 1)):
+        distinct = int(v["repeat_materials"]) == 0
+        if not all(1 <= p <= COLS for p in order) or (distinct and len(set(order)) != COLS):
             raise ValueError(f"material[1..{COLS}] = {order} is not allowed: allowed values are "
-                             f"a permutation of 1..{COLS}")
+                             + (f"a permutation of 1..{COLS}" if distinct else f"each in 1..{COLS}"))
         for name, (_, check, allowed) in REAL_PARAMETERS.items():
             if not check(float(v[name])):
                 raise ValueError(f"{name} = {v[name]!r} is not allowed: allowed values are {allowed}")

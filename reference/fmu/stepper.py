@@ -85,6 +85,7 @@ class Stepper:
 
         self.next_sample = int(math.ceil(self.time / self.sample_interval - SAMPLE_SLACK))
         self.peak_sampled = -math.inf
+        self.max_compression = -math.inf
         self.peak_continuous, self.peak_time = -math.inf, math.nan
         self._step_peak = None  # (value, time) of the last step, once computed
         self._step_committed = True
@@ -113,6 +114,11 @@ class Stepper:
         p = z[self._ux_rows] - sc.backplate_gap
         f = np.where(p > 0, sc.k_wall * p + sc.c_wall * np.maximum(z[self._vx_rows], 0.0), 0.0)
         return f.sum(axis=0)
+
+    def compression(self, z: np.ndarray) -> float:
+        """Mean ux of column 1 minus mean ux of column C (SPEC 9)."""
+        first = np.arange(self.scene.rows) * self.scene.cols
+        return float(z[first].mean() - z[first + self.scene.cols - 1].mean())
 
     def _penetration(self, z: np.ndarray):
         """Largest penetration of the column-C masses (positive: in contact)."""
@@ -242,6 +248,7 @@ class Stepper:
                 z = self.dense(min(max(ts, self.t_old), self.t_new))
             force = float(self.backplate_force(z))
             self.peak_sampled = max(self.peak_sampled, force)
+            self.max_compression = max(self.max_compression, self.compression(z))
             self._commit(force, ts)
             self.next_sample += 1
 
@@ -295,6 +302,7 @@ class Stepper:
         out = {
             "backplate_force": float(self.backplate_force(z)),
             "peak_backplate_force": self.peak_sampled if math.isfinite(self.peak_sampled) else 0.0,
+            "max_compression": self.max_compression if math.isfinite(self.max_compression) else 0.0,
             "peak_backplate_force_continuous": peak if math.isfinite(peak) else 0.0,
             "peak_time": peak_time if math.isfinite(peak_time) else 0.0,
             "last_contact_time": min(self.last_contact_time, t),
