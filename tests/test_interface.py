@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import re
+import shutil
 import zipfile
 
 import pytest
@@ -106,3 +107,41 @@ def test_documentation_inside_the_fmu_describes_this_fmu(fmu_path, fmu3_path, wh
     assert f"FMI {which[-1]}.0" in page
     for order, peak in PUBLISHED_PEAKS.items():  # the published numbers, from the one table
         assert f"<td><code>{list(order)}</code></td><td>{peak!r}</td>" in page
+
+
+@pytest.mark.parametrize("version, kind", [(2, "CoSimulation"), (2, "ModelExchange"), (3, "CoSimulation"),
+                                           (3, "ModelExchange")])
+def test_a_guid_of_another_build_is_refused_naming_both(fmu_path, fmu3_path, version, kind):
+    """fmi2Instantiate and fmi3Instantiate* compare the importer's GUID / instantiation token with the one the
+    binary was built with (a hash of its sources and variables) and refuse another, both named in one line."""
+    from fmpy import extract
+    from fmpy.fmi2 import FMU2Model, FMU2Slave
+    from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3LogMessageCallback
+
+    from orchestrator.simulation import _CALLBACKS, _MESSAGES
+
+    path = fmu_path if version == 2 else fmu3_path
+    description = read_model_description(str(path))
+    foreign = "{00000000-0000-0000-0000-000000000000}"
+    unzip_dir = extract(str(path))
+    messages: list[str] = []
+    classes = {(2, "CoSimulation"): FMU2Slave, (2, "ModelExchange"): FMU2Model, (3, "CoSimulation"): FMU3Slave,
+               (3, "ModelExchange"): FMU3Model}
+    interface = description.coSimulation if kind == "CoSimulation" else description.modelExchange
+    fmu = classes[version, kind](guid=foreign, unzipDirectory=unzip_dir, modelIdentifier=interface.modelIdentifier,
+                                 instanceName=f"foreign-{version}-{kind}")
+    try:
+        with pytest.raises(Exception, match="Failed to instantiate"):  # fmpy's words for a NULL instance
+            if version == 2:
+                _MESSAGES[f"foreign-{version}-{kind}"] = messages
+                fmu.instantiate(callbacks=_CALLBACKS)
+            else:
+                callback = fmi3LogMessageCallback(lambda env, status, category, message:
+                                                  messages.append(message.decode()))
+                fmu.instantiate(logMessage=callback)
+    finally:
+        _MESSAGES.pop(f"foreign-{version}-{kind}", None)
+        shutil.rmtree(unzip_dir, ignore_errors=True)
+    word = "GUID" if version == 2 else "instantiation token"
+    assert len(messages) == 1 and "\n" not in messages[0], messages
+    assert f"{word} {foreign} does not match this binary's {description.guid}" in messages[0]
