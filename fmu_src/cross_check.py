@@ -222,11 +222,12 @@ def write_cross_check(out_dir: str | Path, scenes=CROSS_CHECK_SCENES, fmi_versio
                       werror: bool = False, fmus: dict | None = None) -> list[CrossCheckResult]:
     """Builds each scene's FMU for each FMI version (or takes ``fmus[(scene, fmi_version)]``, an FMU already
     built from that scene) and writes its cross-check folders into ``out_dir``."""
-    import build_fmu
     from scenes import Scene
 
+    from .build import build_fmu, platform_folder
+
     out_dir = Path(out_dir)
-    platform = build_fmu.platform_folder()[0]
+    platform = platform_folder()[0]
     results = []
     for entry in scenes:
         scene = Scene.load(entry.scene)
@@ -239,7 +240,7 @@ def write_cross_check(out_dir: str | Path, scenes=CROSS_CHECK_SCENES, fmi_versio
                                        platform)
                 continue
             with tempfile.TemporaryDirectory(prefix="cross_check_build_") as build_dir:
-                fmu = build_fmu.build_fmu(Scene.load(entry.scene), Path(build_dir) / f"{scene.model_identifier}.fmu",
+                fmu = build_fmu(Scene.load(entry.scene), Path(build_dir) / f"{scene.model_identifier}.fmu",
                                           werror=werror, fmi_version=int(fmi_version[0]))
                 results += write_model(out_dir, fmu, fmi_version, entry.stop_time, scene.communication_step,
                                        platform)

@@ -19,6 +19,7 @@ from fmpy.cross_check.validate_vendor_repo import validate_cross_check_result, v
 import build_fmu
 from conftest import ROOT
 from fmu_src import cross_check
+from fmu_src.build import platform_folder
 from fmu_src.cross_check import CROSS_CHECK_SCENES, EXTRA, MAX_SIGNALS, write_cross_check
 
 ARMOUR = CROSS_CHECK_SCENES[0]
@@ -56,7 +57,7 @@ def test_fmpys_validator_finds_no_problem(armour_folder):
                                                                      ("3.0", "me")]
     assert all(r.problem is None for r in results), [r.problem for r in results]
     assert_valid(out, 4)
-    platform = build_fmu.platform_folder()[0]
+    platform = platform_folder()[0]
     assert {f.relative_to(out).parts[:4] for f in model_folders(out, "fmus")} == {
         ("fmus", version, kind, platform) for version in ("2.0", "3.0") for kind in ("cs", "me")}
 

@@ -31,7 +31,9 @@ from pathlib import Path
 import pytest
 from fmpy import read_model_description
 
-from conftest import PUBLISHED_BEST, PUBLISHED_PEAKS, PUBLISHED_SEQUENTIAL
+from fmu_src.published import PUBLISHED_PEAKS
+from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import LatticeFMU
 from orchestrator.ssp import COMPONENT, SYSTEM, read_design_parameters, write_best_design_ssp
 

@@ -12,8 +12,8 @@ from xml.sax.saxutils import quoteattr
 
 import pytest
 
-from conftest import PUBLISHED_BEST
 from fmu_src.materials import study_materials
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.ssp import SSD_NAME, SSV_NAME, read_design_parameters, write_best_design_ssp
 
 BASE = [(f"material[{j}]", "Integer", str(m)) for j, m in enumerate(PUBLISHED_BEST, 1)] + [
