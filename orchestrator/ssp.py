@@ -169,6 +169,10 @@ def _check_design(description, values: Mapping[str, float | int], source: str) -
     order = [int(values[f"material[{j}]"]) for j in range(1, columns + 1)]
     repeat_variable = _parameters_of(description).get(REPEAT_PARAMETER)
     repeat = values.get(REPEAT_PARAMETER, 0 if repeat_variable is None else int(repeat_variable.start or 0))
+    try:
+        space = DesignSpace(columns, _material_count(description), bool(repeat))
+    except ValueError as error:
+        raise ValueError(f"{source}: {error} ({REPEAT_PARAMETER} = 1)") from None
     if not repeat:
         first_column = {}
         for j, material in enumerate(order, 1):
@@ -177,7 +181,7 @@ def _check_design(description, values: Mapping[str, float | int], source: str) -
                                  f"each material at most once ({REPEAT_PARAMETER} = 0)")
             first_column[material] = j
     try:
-        DesignSpace(columns, _material_count(description), bool(repeat)).check(order, "the order")
+        space.check(order, "the order")
     except ValueError as error:
         raise ValueError(f"{source}: {error}") from None
 
