@@ -47,7 +47,8 @@ def assert_valid(out: Path, expected: int) -> None:
 @pytest.fixture(scope="module")
 def armour_folder(fmu_path, fmu3_path, tmp_path_factory):
     out = tmp_path_factory.mktemp("cross_check")
-    results = write_cross_check(out, (ARMOUR,), fmus={(ARMOUR.scene, "2.0"): fmu_path, (ARMOUR.scene, "3.0"): fmu3_path})
+    results = write_cross_check(out, (ARMOUR,),
+                                fmus={(ARMOUR.scene, "2.0"): fmu_path, (ARMOUR.scene, "3.0"): fmu3_path})
     return out, results
 
 
