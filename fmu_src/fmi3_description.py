@@ -1,8 +1,8 @@
 """FMI 3.0 (Model Exchange and Co-Simulation): modelDescription.xml and sources/buildDescription.xml from the one
-variable table.
+variable table, through the templates fmu_src/templates/fmi3_*.xml.
 
-`python build_fmu.py --fmi-version 3` calls in here; everything else (the C header model_variables.h, the
-model's C code, compiling, zipping) is shared with FMI 2. The differences from FMI 2:
+`fmu_src.build.build_fmu(..., fmi_version=3)` calls in here; everything else (the C header model_variables.h,
+the model's C code, compiling, zipping) is shared with FMI 2. The differences from FMI 2:
 
 - an array is one variable: `material` is an Int32 variable with `<Dimension start="11"/>` and the value
   reference of its first element (the states `ux`, ... are 11 x 11 arrays, `der(ux)` their derivatives); Real becomes Float64 and Integer becomes Int32. Scalars keep their FMI 2
@@ -19,10 +19,12 @@ import hashlib
 import platform
 import uuid
 from pathlib import Path
-from xml.sax.saxutils import quoteattr
 
 from fmu_src import MODEL_HEADERS, MODEL_SOURCES
-from fmu_src.variables import DERIVATIVE, INDICATOR, INTEGER, REAL, STATE, Interface, Variable, c_literal
+from fmu_src.fmi2_description import enumeration_types
+from fmu_src.rendering import default_experiment, model_summary, render
+from fmu_src.variables import (DERIVATIVE, INDICATOR, INTEGER, LOG_CATEGORIES, REAL, STATE, UNITS, Interface,
+                               Variable, c_literal)
 
 C_SOURCES = ["fmi3/fmi3_glue.c"] + MODEL_SOURCES
 C_HEADERS = ["include/fmi3Functions.h", "include/fmi3FunctionTypes.h", "include/fmi3PlatformTypes.h"] + MODEL_HEADERS
@@ -57,43 +59,40 @@ def _number(variable: Variable, value) -> str:
     return str(int(value)) if variable.type == INTEGER else repr(float(value))
 
 
-def _variable_xml(variable: Variable, vr: int, state_vr: int | None = None) -> str:
-    attributes = [f"name={quoteattr(variable.name)}", f'valueReference="{vr}"']
+def model_variable(variable: Variable, vr: int, state_vr: int | None = None) -> dict:
+    """One FMI 3 variable: its element (Float64, Int32, Enumeration), attributes in order, dimensions."""
+    attributes = [("name", variable.name), ("valueReference", str(vr))]
     if variable.causality == "parameter":
-        attributes += ['causality="parameter"', 'variability="fixed"']
-        starts = " ".join(c_literal(variable, start) for start in variable.element_starts())
-        attributes.append(f'start="{starts}"')
+        attributes += [("causality", "parameter"), ("variability", "fixed"),
+                       ("start", " ".join(c_literal(variable, start) for start in variable.element_starts()))]
     else:
         variability = "continuous" if variable.type == REAL else "discrete"
-        attributes += [f'causality="{variable.causality}"', f'variability="{variability}"', 'initial="calculated"']
+        attributes += [("causality", variable.causality), ("variability", variability), ("initial", "calculated")]
     if state_vr is not None:
-        attributes.append(f'derivative="{state_vr}"')
-    attributes.append(f"description={quoteattr(variable.description)}")
+        attributes.append(("derivative", str(state_vr)))
+    attributes.append(("description", variable.description))
     if variable.unit and variable.type == REAL:  # FMI 3 integers have no unit
-        attributes.append(f"declaredType={quoteattr(variable.unit)}")
+        attributes.append(("declaredType", variable.unit))
     if variable.enumeration:
-        attributes.append(f"declaredType={quoteattr(variable.enumeration)}")
+        attributes.append(("declaredType", variable.enumeration))
     if variable.minimum is not None:
-        attributes.append(f'min="{_number(variable, variable.minimum)}"')
+        attributes.append(("min", _number(variable, variable.minimum)))
     if variable.maximum is not None:
-        attributes.append(f'max="{_number(variable, variable.maximum)}"')
-    tag = "Enumeration" if variable.enumeration else TYPE_NAMES[variable.type]
-    head = f"    <{tag} " + "\n      ".join(attributes)
-    if variable.size is None:
-        return head + "/>"
-    dimensions = "".join(f'\n      <Dimension start="{size}"/>' for size in (variable.shape or (variable.size,)))
-    return f'{head}>{dimensions}\n    </{tag}>'
+        attributes.append(("max", _number(variable, variable.maximum)))
+    dimensions = [] if variable.size is None else list(variable.shape or (variable.size,))
+    return {"tag": "Enumeration" if variable.enumeration else TYPE_NAMES[variable.type], "attributes": attributes,
+            "dimensions": dimensions}
 
 
-def generate_model_description(interface: Interface, identifier: str, token: str, scene, units: list[str]) -> str:
+def generate_model_description(interface: Interface, identifier: str, token: str, scene) -> str:
     """modelDescription.xml (FMI 3.0, Model Exchange and Co-Simulation) from the same table as the header and the
     FMI 2 XML."""
-    variables_xml, outputs, initial_unknowns, derivatives, indicators = [], [], [], [], []
+    variables, outputs, initial_unknowns, derivatives, indicators = [], [], [], [], []
     references = interface.value_references
     for variable in interface.exposed:
         vr = references[variable.name]
         derivative_of = references[variable.derivative_of] if variable.role == DERIVATIVE else None
-        variables_xml.append(_variable_xml(variable, vr, derivative_of))
+        variables.append(model_variable(variable, vr, derivative_of))
         if variable.causality == "output":
             outputs.append(vr)
         if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
@@ -103,72 +102,20 @@ def generate_model_description(interface: Interface, identifier: str, token: str
         if variable.role == INDICATOR:
             indicators.append(vr)
     time_vr = sum(v.count for v in interface.exposed)
-    variables_xml.append(f'    <Float64 name="time" valueReference="{time_vr}" causality="independent" '
-                         f'variability="continuous" declaredType="s" description="Simulation time"/>')
-    units_xml = "\n".join(f"    <Unit name={quoteattr(unit)}/>" for unit in units)
-    used = [unit for unit in units if unit == "s" or any(v.unit == unit and v.type == REAL for v in interface.exposed)]
-    types_xml = "\n".join([f"    <Float64Type name={quoteattr(unit)} unit={quoteattr(unit)}/>" for unit in used] + [
-        f"    <EnumerationType name={quoteattr(v.enumeration)}>\n" + "\n".join(
-            f'      <Item name={quoteattr(name)} value="{value}" description={quoteattr(text)}/>'
-            for value, (name, text) in enumerate(v.items)) + "\n    </EnumerationType>"
-        for v in interface.exposed if v.enumeration])
-    structure = "\n".join([f'    <Output valueReference="{vr}"/>' for vr in outputs]
-                          + [f'    <ContinuousStateDerivative valueReference="{vr}"/>' for _, vr in sorted(derivatives)]
-                          + [f'    <InitialUnknown valueReference="{vr}"/>' for vr in initial_unknowns]
-                          + [f'    <EventIndicator valueReference="{vr}"/>' for vr in indicators])
-    description = scene.description or f"{interface.rows} x {interface.cols} mass-spring lattice"
-    return f"""<?xml version="1.0" encoding="UTF-8"?>
-<fmiModelDescription
-  fmiVersion="3.0"
-  modelName="{identifier}"
-  instantiationToken="{token}"
-  description={quoteattr(description)}
-  generationTool="build_fmu.py"
-  variableNamingConvention="structured">
-  <ModelExchange
-    modelIdentifier="{identifier}"
-    needsCompletedIntegratorStep="true"
-    canGetAndSetFMUState="true"
-    canSerializeFMUState="true"/>
-  <CoSimulation
-    modelIdentifier="{identifier}"
-    canHandleVariableCommunicationStepSize="true"
-    canGetAndSetFMUState="true"
-    canSerializeFMUState="true"
-    hasEventMode="false"
-    mightReturnEarlyFromDoStep="true"
-    canReturnEarlyAfterIntermediateUpdate="false"
-    providesIntermediateUpdate="false"/>
-  <UnitDefinitions>
-{units_xml}
-  </UnitDefinitions>
-  <TypeDefinitions>
-{types_xml}
-  </TypeDefinitions>
-  <LogCategories>
-    <Category name="logStatusError" description="Why a call failed"/>
-    <Category name="logStatusDiscard" description="Why a step stopped early (peak_force_limit)"/>
-  </LogCategories>
-  <DefaultExperiment startTime="0" stopTime="{scene.horizon!r}" stepSize="{scene.communication_step!r}"/>
-  <ModelVariables>
-{chr(10).join(variables_xml)}
-  </ModelVariables>
-  <ModelStructure>
-{structure}
-  </ModelStructure>
-</fmiModelDescription>
-"""
+    variables.append({"tag": "Float64", "dimensions": [], "attributes": [
+        ("name", "time"), ("valueReference", str(time_vr)), ("causality", "independent"),
+        ("variability", "continuous"), ("declaredType", "s"), ("description", "Simulation time")]})
+    used = [unit for unit in UNITS if unit == "s" or any(v.unit == unit and v.type == REAL for v in interface.exposed)]
+    structure = ([("Output", vr) for vr in outputs]
+                 + [("ContinuousStateDerivative", vr) for _, vr in sorted(derivatives)]
+                 + [("InitialUnknown", vr) for vr in initial_unknowns]
+                 + [("EventIndicator", vr) for vr in indicators])
+    return render("fmi3_model_description.xml", identifier=identifier, token=token,
+                  description=model_summary(interface, scene), units=UNITS, unit_types=used,
+                  enumerations=enumeration_types(interface), log_categories=LOG_CATEGORIES,
+                  experiment=default_experiment(scene), variables=variables, structure=structure)
 
 
 def generate_build_description(identifier: str) -> str:
     """sources/buildDescription.xml: what `fmpy compile` (or any FMI 3 tool) compiles for another platform."""
-    files = "\n".join(f'      <SourceFile name="{name}"/>' for name in C_SOURCES)
-    return f"""<?xml version="1.0" encoding="UTF-8"?>
-<fmiBuildDescription fmiVersion="3.0">
-  <BuildConfiguration modelIdentifier="{identifier}">
-    <SourceFileSet language="C99">
-{files}
-    </SourceFileSet>
-  </BuildConfiguration>
-</fmiBuildDescription>
-"""
+    return render("fmi3_build_description.xml", identifier=identifier, sources=C_SOURCES)

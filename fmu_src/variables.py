@@ -12,6 +12,12 @@ from dataclasses import dataclass, field, replace
 REAL = "Real"
 INTEGER = "Integer"
 
+# Every unit a variable may carry, declared in both model descriptions' <UnitDefinitions>.
+UNITS = ("N", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg", "m/s", "m/s2", "W")
+# The categories the FMI glue logs under (fmi2/, fmi3/), declared in both model descriptions.
+LOG_CATEGORIES = (("logStatusError", "Why a call failed"),
+                  ("logStatusDiscard", "Why a step stopped early (peak_force_limit)"))
+
 # Roles in the continuous-time contract (fmu_src/lattice/model.h), what Model Exchange declares as its
 # states, their derivatives and its event indicators.
 STATE, DERIVATIVE, INDICATOR = "state", "derivative", "indicator"

@@ -33,6 +33,8 @@ import jinja2
 from fmpy import read_model_description
 from lxml import etree
 
+from fmu_src.materials import MaterialTable
+
 from .design import DesignSpace
 from .simulation import enumeration_items, material_columns
 
@@ -45,8 +47,8 @@ MATERIAL_FIELDS = ("k", "k_diag", "c", "alpha", "alpha_diag")  # the FMU's param
 # OMSimulator imports a system only with its own annotation: a weakly coupled system ("oms-ma", the fixed-step
 # master) with the communication step. The fixed-step master does not use the tolerance; OMSimulator writes
 # its default there.
-OMS = {"type": "org.openmodelica", "namespace": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd",
-       "master": "oms-ma", "relative_tolerance": "0.0001"}
+OMS = {"type": "org.openmodelica", "master": "oms-ma", "relative_tolerance": "0.0001",
+       "namespace": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"}
 # libcosim reads its fixed step from this annotation of the default experiment (without it the caller of
 # from_ssp_file must give one); other tools ignore it.
 OSP = {"type": "com.opensimulationplatform", "namespace": "https://opensimulationplatform.com/SSP/1.0"}
@@ -169,6 +171,10 @@ def _check_design(description, values: Mapping[str, float | int], source: str) -
     order = [int(values[f"material[{j}]"]) for j in range(1, columns + 1)]
     repeat_variable = _parameters_of(description).get(REPEAT_PARAMETER)
     repeat = values.get(REPEAT_PARAMETER, 0 if repeat_variable is None else int(repeat_variable.start or 0))
+    try:
+        space = DesignSpace(columns, _material_count(description), bool(repeat))
+    except ValueError as error:
+        raise ValueError(f"{source}: {error} ({REPEAT_PARAMETER} = 1)") from None
     if not repeat:
         first_column = {}
         for j, material in enumerate(order, 1):
@@ -177,7 +183,7 @@ def _check_design(description, values: Mapping[str, float | int], source: str) -
                                  f"each material at most once ({REPEAT_PARAMETER} = 0)")
             first_column[material] = j
     try:
-        DesignSpace(columns, _material_count(description), bool(repeat)).check(order, "the order")
+        space.check(order, "the order")
     except ValueError as error:
         raise ValueError(f"{source}: {error}") from None
 
@@ -206,7 +212,7 @@ def _table_start_values(description, field: str, count: int) -> list[float] | No
     return None
 
 
-def _check_table(description, materials, values: Mapping[str, float | int]) -> None:
+def _check_table(description, materials: MaterialTable, values: Mapping[str, float | int]) -> None:
     """The names describe the FMU's table: the same size and, parameter by parameter, the same values."""
     count = _material_count(description)
     if len(materials) != count:
@@ -223,7 +229,8 @@ def _check_table(description, materials, values: Mapping[str, float | int]) -> N
                                  "describe another table")
 
 
-def design_parameters(fmu_path: str | Path, parameters: Mapping, materials=None) -> list[DesignParameter]:
+def design_parameters(fmu_path: str | Path, parameters: Mapping,
+                      materials: MaterialTable | None = None) -> list[DesignParameter]:
     """The parameter set of a design, each value checked against the FMU: a sequence expands to name[1..n]
     (``material`` is the order), an enumeration may be given by item name ("mean") or code. With ``materials``
     (the MaterialTable the FMU was built with) each material[j] says the name of the material it holds."""
@@ -263,7 +270,7 @@ def design_parameters(fmu_path: str | Path, parameters: Mapping, materials=None)
 
 
 def write_best_design_ssp(fmu_path: str | Path, parameters: Mapping, out_path: str | Path, *, stop_time: float,
-                          step_size: float = 0.01, materials=None) -> Path:
+                          step_size: float = 0.01, materials: MaterialTable | None = None) -> Path:
     """Writes `out_path` (.ssp): the FMU, `parameters` as an .ssv bound to it in the .ssd, the experiment.
     Refuses (ValueError, one line) a value the FMU does not allow, an incomplete or invalid order, and a
     parameter a tool named in this module's docstring would silently not apply."""
@@ -279,7 +286,8 @@ def write_best_design_ssp(fmu_path: str | Path, parameters: Mapping, out_path: s
     fmu_member = f"resources/{fmu_path.name}"
     connectors = [{"name": v.name, "kind": "Real" if v.type in REAL_TYPES else "Integer"}
                   for v in description.modelVariables
-                  if v.causality == "output" and v.type in REAL_TYPES + INTEGER_TYPES and not getattr(v, "dimensions", None)]
+                  if v.causality == "output" and v.type in REAL_TYPES + INTEGER_TYPES
+                  and not getattr(v, "dimensions", None)]
     ssd = _TEMPLATES.get_template("ssp_system_structure.ssd").render(
         system=SYSTEM, component=COMPONENT, fmu_member=fmu_member, connectors=connectors, parameter_set=SSV_NAME,
         description="A material order found by the lattice study, as a parameter set of the lattice FMU",

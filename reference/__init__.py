@@ -34,8 +34,7 @@ from .lattice import (
 )
 from .simulate import SimulationResult, sample_times, simulate
 
-PUBLISHED_ORDER = (1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10)
-SEQUENTIAL_ORDER = tuple(range(1, 12))
+from fmu_src.published import SEQUENTIAL_ORDER, STUDY_BEST_ORDER as PUBLISHED_ORDER  # noqa: E402
 
 __all__ = [
     "DIAGONAL_RULES",

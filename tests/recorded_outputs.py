@@ -9,9 +9,9 @@ IEEE adds and multiplies only (the same bits on every CPU), so what it records i
 Where the bits hold: the FMU's own arithmetic gives the same bits on every x86-64 CPU (its SIMD clones never
 contract a multiply and an add, never reassociate), but it calls libm's pow (the adaptive step-size control)
 and expm1 (the potential energy), and glibc picks their implementation at load time by the CPU (an FMA
-variant where FMA and AVX2 are usable, else FMA4 or SSE2, unless GLIBC_TUNABLES masks them) and changes them between versions. So the bits are
-the recorded ones only where the C library, its variant and the machine are the recording's
-(`libm_identity`); elsewhere the outputs are compared to the FMU's accuracy.
+variant where FMA and AVX2 are usable, else FMA4 or SSE2, unless GLIBC_TUNABLES masks them) and changes them
+between versions. So the bits are the recorded ones only where the C library, its variant and the machine are
+the recording's (`libm_identity`); elsewhere the outputs are compared to the FMU's accuracy.
 """
 from __future__ import annotations
 
@@ -172,7 +172,7 @@ def record(fmu_path) -> dict:
 def main() -> int:
     import tempfile
 
-    from build_fmu import build_fmu
+    from fmu_src.build import build_fmu
 
     with tempfile.TemporaryDirectory(prefix="record_outputs_") as folder:
         data = record(build_fmu(output=Path(folder) / "MassSpringLattice.fmu"))

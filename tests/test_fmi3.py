@@ -14,7 +14,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback
 from fmpy.validation import validate_fmu
 
-from conftest import PUBLISHED_BEST, PUBLISHED_SEQUENTIAL
+from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL, STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import LatticeFMU
 
 HORIZON, STEP = 8.0, 0.01

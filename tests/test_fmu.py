@@ -7,7 +7,9 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from conftest import PUBLISHED_BEST, PUBLISHED_PEAKS, PUBLISHED_SEQUENTIAL
+from fmu_src.published import PUBLISHED_PEAKS
+from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import COUNTER_OUTPUTS, ENERGY_OUTPUTS, PEAK_OUTPUTS, SimulationError
 
 ALL_OUTPUTS = PEAK_OUTPUTS + ENERGY_OUTPUTS + COUNTER_OUTPUTS + (

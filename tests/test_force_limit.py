@@ -10,8 +10,9 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2Discard, fmi2LastSuccessfulTime, fmi2Terminated
 from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback
 
-import build_fmu
-from conftest import PUBLISHED_BEST, PUBLISHED_SEQUENTIAL
+from fmu_src import build as build_library
+from scenes import Scene
+from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL, STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import LatticeFMU, SimulationError
 
 OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "peak_time", "last_contact_time",
@@ -81,10 +82,10 @@ def test_a_negative_or_non_finite_limit_is_refused_by_name(lattice, value):
 
 
 def test_a_compiled_in_negative_limit_is_refused_at_exit_initialization(tmp_path):
-    scene = build_fmu.Scene.load("two_masses_linear")
+    scene = Scene.load("two_masses_linear")
     scene.parameters = {**scene.parameters, "peak_force_limit": -2.0}
     scene.hidden = [*scene.hidden, "peak_force_limit"]
-    path = build_fmu.build_fmu(scene, output=tmp_path / "NegativeLimit.fmu", werror=True)
+    path = build_library.build_fmu(scene, output=tmp_path / "NegativeLimit.fmu", werror=True)
     with LatticeFMU(path) as fmu:
         with pytest.raises(SimulationError, match=r"fmi2ExitInitializationMode failed: .*peak_force_limit = -2"):
             fmu.simulate(None, horizon=0.1)

@@ -4,7 +4,9 @@ falls, the energy balance closes, and the dense output keeps the steps independe
 points."""
 import pytest
 
-from conftest import PUBLISHED_BEST, PUBLISHED_PEAKS, PUBLISHED_SEQUENTIAL
+from fmu_src.published import PUBLISHED_PEAKS
+from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import SimulationError
 
 PEAKS = ("peak_backplate_force", "peak_backplate_force_continuous")

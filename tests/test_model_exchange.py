@@ -14,7 +14,9 @@ from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Model, FMU2Slave
 
-from conftest import PUBLISHED_BEST, PUBLISHED_PEAKS, PUBLISHED_SEQUENTIAL
+from fmu_src.published import PUBLISHED_PEAKS
+from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import _CALLBACKS, _MESSAGES
 
 OUTPUTS = ["backplate_force", "peak_backplate_force", "peak_backplate_force_continuous", "external_work",

@@ -7,7 +7,7 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 from scipy.linalg import expm
 
-import build_fmu
+from fmu_src import build as build_library
 import reference
 from orchestrator.simulation import LatticeFMU
 from orchestrator.study import StudyConfig, run_study
@@ -19,7 +19,7 @@ SCENES = scene_names()
 @pytest.fixture(scope="module")
 def scene_fmus(tmp_path_factory):
     folder = tmp_path_factory.mktemp("scenes")
-    return {name: build_fmu.build_fmu(name, folder / f"{name}.fmu", werror=True) for name in SCENES}
+    return {name: build_library.build_fmu(name, folder / f"{name}.fmu", werror=True) for name in SCENES}
 
 
 def test_the_study_scenes_are_all_there():
@@ -106,8 +106,8 @@ def test_build_fmu_refuses_an_identifier_changed_after_loading():
     scene = Scene.load("two_masses_linear")
     scene.model_identifier = "../../outside"
     with pytest.raises(ValueError, match="model_identifier '../../outside' is not allowed"):
-        build_fmu.build_fmu(scene)
-    assert not (build_fmu.MODELS_DIR / "../../outside.fmu").exists()
+        build_library.build_fmu(scene)
+    assert not (build_library.MODELS_DIR / "../../outside.fmu").exists()
 
 
 @pytest.mark.parametrize("name", ["../scenes/armour_11x11", "/etc/passwd", "armour 11x11"])

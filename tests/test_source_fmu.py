@@ -17,7 +17,7 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
-from conftest import PUBLISHED_BEST
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 
 HORIZON, STEP = 8.0, 0.01
 

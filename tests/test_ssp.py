@@ -6,7 +6,7 @@ import zipfile
 import pytest
 from fmpy.ssp.ssd import read_ssd, read_ssv
 
-from conftest import PUBLISHED_BEST
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.ssp import SSV_NAME, read_design_parameters, write_best_design_ssp
 
 HORIZON = 1.0  # the peak and the last contact come before 1 s (README, horizon study)

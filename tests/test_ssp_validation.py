@@ -12,8 +12,8 @@ from xml.sax.saxutils import quoteattr
 
 import pytest
 
-from conftest import PUBLISHED_BEST
 from fmu_src.materials import study_materials
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.ssp import SSD_NAME, SSV_NAME, read_design_parameters, write_best_design_ssp
 
 BASE = [(f"material[{j}]", "Integer", str(m)) for j, m in enumerate(PUBLISHED_BEST, 1)] + [
@@ -54,7 +54,8 @@ CRAFTED = {
     "negative mass": ("mass", added(("mass", "Real", "-1.0")), "outside its range"),
     "flag out of range": ("use_symmetry", added(("use_symmetry", "Integer", "2")), "outside its range"),
     "flag as Boolean": ("use_symmetry", added(("use_symmetry", "Boolean", "true")), "given as Boolean"),
-    "rule not an item": ("diagonal_rule", replaced("diagonal_rule", "Integer", "2"), "allowed values are 0 (receiver), 1 (mean)"),
+    "rule not an item": ("diagonal_rule", replaced("diagonal_rule", "Integer", "2"),
+                         "allowed values are 0 (receiver), 1 (mean)"),
     "rule as ssv:Enumeration": ("diagonal_rule", replaced("diagonal_rule", "Enumeration", "mean"), "libcosim"),
     "solver not an item": ("solver", added(("solver", "Integer", "9")), "allowed values are"),
     "unknown name": ("stiffness", added(("stiffness", "Real", "1.0")), "not a parameter"),
@@ -180,3 +181,61 @@ def test_the_system_carries_the_annotations_of_omsimulator_and_libcosim(design_s
     (algorithm,) = root.findall("ssd:DefaultExperiment/ssd:Annotations/ssc:Annotation[@type="
                                 "'com.opensimulationplatform']/osp:Algorithm/osp:FixedStepAlgorithm", ns)
     assert float(algorithm.get("baseStepSize")) == 0.01
+
+
+def with_design_space(design_ssp, path, materials: int, repeat_start: int, entries):
+    """A copy of the design file whose FMU declares ``materials`` materials (material[j] in 1..M) and a
+    repeat_materials parameter starting at ``repeat_start``, bound to the parameter set ``entries``. Only the
+    model description changes: the reader does not run the FMU."""
+    import io
+    import re
+
+    with zipfile.ZipFile(design_ssp) as source, zipfile.ZipFile(path, "w") as target:
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename.endswith(".fmu"):
+                buffer = io.BytesIO()
+                with zipfile.ZipFile(io.BytesIO(data)) as fmu, zipfile.ZipFile(buffer, "w") as copy:
+                    for member in fmu.infolist():
+                        content = fmu.read(member)
+                        if member.filename == "modelDescription.xml":
+                            text = re.sub(r'(<Integer start="\d+" min="1" max=")\d+("/>)', rf"\g<1>{materials}\2",
+                                          content.decode())
+                            text = text.replace("  </ModelVariables>", f"""    <ScalarVariable name="repeat_materials" \
+valueReference="9999" causality="parameter" variability="fixed" description="1: a material may fill several columns">
+      <Integer start="{repeat_start}" min="0" max="1"/>
+    </ScalarVariable>
+  </ModelVariables>""")
+                            content = text.encode()
+                        copy.writestr(member, content)
+                data = buffer.getvalue()
+            elif item.filename == SSV_NAME:
+                data = ssv_text(entries).encode()
+            target.writestr(item, data)
+    return path
+
+
+def order_entries(order, *extra):
+    return [(f"material[{j}]", "Integer", str(m)) for j, m in enumerate(order, 1)] + list(extra)
+
+
+ARRANGEMENT = (13, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10)  # material 13 of 13, each at most once
+REPEATED = (1, 1, 5, 9, 3, 6, 11, 8, 2, 4, 10)
+ALLOW_REPEATS = ("repeat_materials", "Integer", "1")
+
+
+def test_the_order_is_checked_against_the_fmus_design_space(design_ssp, tmp_path):
+    def read(materials, repeat_start, entries):
+        return read_design_parameters(with_design_space(design_ssp, tmp_path / "space.ssp", materials, repeat_start,
+                                                        entries))
+
+    assert read(13, 0, order_entries(ARRANGEMENT))["material[1]"] == 13  # an arrangement of 11 of 13
+    with pytest.raises(ValueError, match=r"material\[2\] = 1 repeats material\[1\]: each material at most once"):
+        read(13, 0, order_entries(REPEATED))
+    assert read(13, 0, order_entries(REPEATED, ALLOW_REPEATS))["repeat_materials"] == 1
+    assert read(13, 1, order_entries(REPEATED))["material[2]"] == 1  # the FMU's default allows repeats
+    with pytest.raises(ValueError, match=r"material\[1\] = 13 is outside its range \[1, 9\]"):
+        read(9, 0, order_entries(ARRANGEMENT))
+    with pytest.raises(ValueError, match="9 materials cannot fill 11 columns"):
+        read(9, 0, order_entries((1, 2, 3, 4, 5, 6, 7, 8, 9, 1, 2)))
+    assert read(9, 0, order_entries((1, 2, 3, 4, 5, 6, 7, 8, 9, 1, 2), ALLOW_REPEATS))["material[11]"] == 2

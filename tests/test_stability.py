@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from bench.common import IsolatedFMU
-from conftest import PUBLISHED_BEST
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.executors import make_executor
 from orchestrator.loop import run_search
 from orchestrator.search import make_search

@@ -22,7 +22,8 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from bench.common import IsolatedFMU
-from conftest import PUBLISHED_BEST, ROOT
+from conftest import ROOT
+from fmu_src.published import PUBLISHED_PEAKS, STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import LatticeFMU
 from test_fmi3 import Instance as Fmi3Instance
 
@@ -282,7 +283,7 @@ def test_settings_that_would_never_finish_are_refused_naming_the_cap(isolated, p
 def test_the_published_run_is_well_inside_the_caps(isolated):
     status, result, _ = isolated.run(PUBLISHED_BEST, 8.0, {})
     assert status == "ok", result
-    assert result["peak_backplate_force"] == pytest.approx(1497.8867334973704, rel=1e-6)
+    assert result["peak_backplate_force"] == pytest.approx(PUBLISHED_PEAKS[PUBLISHED_BEST], rel=1e-6)
 
 
 DO_STEP_WITHOUT_STOP_TIME = """

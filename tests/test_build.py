@@ -1,0 +1,90 @@
+"""The build library (fmu_src.build): it renders, compiles and zips, never simulates; same sources, same GUID."""
+from __future__ import annotations
+
+import zipfile
+from dataclasses import replace
+from xml.etree import ElementTree
+
+import pytest
+from fmpy import read_model_description
+
+import build_fmu
+from fmu_src import build
+from fmu_src import fmi2_description as fmi2
+from fmu_src import fmi3_description as fmi3
+from fmu_src.documentation import documentation_html
+from fmu_src.published import PUBLISHED_PEAKS, REFERENCE_POINTS
+from scenes import Scene
+
+
+def _read(path, name):
+    with zipfile.ZipFile(path) as archive:
+        return archive.read(name).decode()
+
+
+def test_the_command_line_builds_through_the_library_and_simulates_nothing(tmp_path, capsys, monkeypatch):
+    import fmpy
+    import fmpy.fmi2
+    import fmpy.fmi3
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the build simulated")
+
+    monkeypatch.setattr(fmpy, "simulate_fmu", refuse)
+    for module, name in ((fmpy.fmi2, "FMU2Slave"), (fmpy.fmi2, "FMU2Model"), (fmpy.fmi3, "FMU3Slave")):
+        monkeypatch.setattr(module, name, refuse)
+    output = tmp_path / "cli.fmu"
+    assert build_fmu.main(["--scene", "two_masses_linear", "-o", str(output)]) == 0
+    assert capsys.readouterr().out.strip() == str(output)
+    assert "TwoMassesLinear" in _read(output, "documentation/index.html")
+    assert build_fmu.main(["--scene", "no_such_scene"]) == 2
+    assert "scene 'no_such_scene' not found" in capsys.readouterr().err
+
+
+def test_the_same_sources_give_the_same_guid_and_description(fmu_path):
+    scene = Scene.load("armour_11x11")
+    interface = scene.interface()
+    guid = read_model_description(str(fmu_path)).guid
+    assert guid == build.model_guid(interface, scene.model_identifier) == build.model_guid(scene.interface(),
+                                                                                            scene.model_identifier)
+    assert _read(fmu_path, "modelDescription.xml") == fmi2.generate_model_description(interface,
+                                                                                       scene.model_identifier, guid,
+                                                                                       scene)
+    changed = replace(scene, parameters={**scene.parameters, "F_total": 50.0})  # another start value
+    assert build.model_guid(changed.interface(), changed.model_identifier) != guid
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_text_is_escaped_in_every_rendered_file(version):
+    description = 'Two "masses" <b>&amp;</b> a spring\'s <script>'
+    scene = replace(Scene.load("two_masses_linear"), description=description)
+    interface = scene.interface()
+    module = fmi2 if version == 2 else fmi3
+    root = ElementTree.fromstring(module.generate_model_description(interface, "Escaped", "{token}", scene))
+    assert root.get("description") == description
+    page = documentation_html(version, interface, "Escaped", scene)
+    assert "<script>" not in page and "&lt;script&gt;" in page
+
+
+def test_the_documentation_shows_the_one_table_of_published_numbers(fmu_path):
+    page = _read(fmu_path, "documentation/index.html")
+    for order, peak in PUBLISHED_PEAKS.items():
+        assert f"<code>{list(order)}</code></td><td>{peak!r}</td>" in page
+    for point in REFERENCE_POINTS:
+        assert f"<td>{point.label}</td><td>{point.peak:.2f}</td>" in page
+
+
+def test_a_resized_build_leaves_the_callers_scene_alone(tmp_path):
+    scene = Scene.load("armour_11x11")
+    resized = build.resolve_scene(scene, rows=3, cols=4)
+    assert (resized.rows, resized.cols, resized.model_identifier) == (3, 4, "MassSpringLattice3x4")
+    assert (scene.rows, scene.cols, scene.model_identifier) == (11, 11, "MassSpringLattice")
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_every_description_declares_the_one_tables_units_and_log_categories(fmu_path, fmu3_path, version):
+    from fmu_src.variables import LOG_CATEGORIES, UNITS
+
+    root = ElementTree.fromstring(_read(fmu_path if version == 2 else fmu3_path, "modelDescription.xml"))
+    assert [unit.get("name") for unit in root.iter("Unit")] == list(UNITS)
+    assert [(c.get("name"), c.get("description")) for c in root.iter("Category")] == list(LOG_CATEGORIES)
