@@ -58,6 +58,7 @@ def screening_threshold(best: float, screening_error: float) -> float:
 class Scored:
     order: Order
     value: float
+    values: tuple[float, ...] = ()  # every objective's value, with several objectives
 
 
 @dataclass(frozen=True)
@@ -98,22 +99,46 @@ class ChunkResult:
         return self.stop - self.start
 
 
+def not_strongly_dominated(values, screening_error: float):
+    """A boolean mask over ``values`` (a row of minimised objective values per design, each screened within
+    ``screening_error``, relative, of its true value): False where another design is better on every objective
+    by more than the screening can explain, so the design cannot be on the true front; every design of the true
+    front keeps True."""
+    import numpy as np
+
+    F = np.asarray(values, dtype=float)
+    if len(F) == 0:
+        return np.zeros(0, dtype=bool)
+    factor = (1 - screening_error) / (1 + screening_error)
+    keep = np.ones(len(F), dtype=bool)
+    for start in range(0, len(F), 512):  # blocks: the comparison matrix stays small
+        block = F[start:start + 512]
+        beaten = np.all(F[None, :, :] <= block[:, None, :] * factor, axis=2)
+        strictly = np.any(F[None, :, :] < block[:, None, :] * factor, axis=2)
+        keep[start:start + 512] = ~np.any(beaten & strictly, axis=1)
+    return keep
+
+
 def evaluate_chunk(objective: Callable[[Order], Any], space: DesignSpace, start: int, stop: int, *, keep: int,
-                   screening_error: float, limit: float | None = None, all_values: bool = False) -> ChunkResult:
+                   screening_error: float, limit: float | None = None, all_values: bool = False,
+                   objectives: int = 1) -> ChunkResult:
     """Every design of ranks [start, stop) through ``objective`` (an ``FMURun``, or any ``design ->
-    Evaluation`` function; with ``limit``, one that has ``with_limit``)."""
+    Evaluation`` function; with ``limit``, one that has ``with_limit``). With several ``objectives`` the chunk's
+    candidates are the designs no other design of the chunk beats on every objective by more than the
+    screening error (the only ones that can be on the front), and no force limit applies."""
     wall, cpu = time.perf_counter(), time.process_time()
     evaluated_seconds = 0.0
     best: list[tuple[float, int]] = []
     good: list[tuple[float, int]] = []
+    vectors: list[tuple[tuple[float, ...], int]] = []
     failures: list[tuple[int, str]] = []
     censored = 0
     histogram: dict[int, int] = {}
     values: list[float | None] = []
     chunk_best = math.inf
-    current_limit = limit
-    limited = hasattr(objective, "with_limit")
-    evaluate = objective.with_limit(limit) if limited and limit is not None else objective
+    current_limit = limit if objectives == 1 else None
+    limited = hasattr(objective, "with_limit") and objectives == 1
+    evaluate = objective.with_limit(current_limit) if limited and current_limit is not None else objective
     for rank, order in enumerate(space.designs(start, stop), start=start):
         evaluation = safe_call(evaluate, order)
         evaluated_seconds += evaluation.seconds
@@ -134,6 +159,9 @@ def evaluate_chunk(objective: Callable[[Order], Any], space: DesignSpace, start:
             best.append((value, rank))
             best.sort()
             del best[keep:]
+        if objectives > 1:
+            vectors.append((tuple(evaluation.values), rank))
+            continue
         if value <= screening_threshold(min(chunk_best, value), screening_error):
             good.append((value, rank))
         if value < chunk_best:
@@ -144,13 +172,17 @@ def evaluate_chunk(objective: Callable[[Order], Any], space: DesignSpace, start:
             if limited and (current_limit is None or bound < current_limit):
                 current_limit = bound
                 evaluate = objective.with_limit(current_limit)
-    bound = screening_threshold(chunk_best, screening_error) if math.isfinite(chunk_best) else math.inf
-    within = sorted(g for g in good if g[0] <= bound)
+    if objectives > 1:
+        mask = not_strongly_dominated([v for v, _ in vectors], screening_error)
+        kept = sorted((v, r) for (v, r), k in zip(vectors, mask) if k)
+        within = [Scored(space.unrank(r), v[0], v) for v, r in kept]
+    else:
+        bound = screening_threshold(chunk_best, screening_error) if math.isfinite(chunk_best) else math.inf
+        within = [Scored(space.unrank(r), v) for v, r in sorted(g for g in good if g[0] <= bound)]
     return ChunkResult(
         start=start, stop=stop, status="ok", message="",
         best=tuple(Scored(space.unrank(r), v) for v, r in best),
-        within=tuple(Scored(space.unrank(r), v) for v, r in within[:MAX_KEPT_PER_CHUNK]),
-        within_truncated=len(within) > MAX_KEPT_PER_CHUNK,
+        within=tuple(within[:MAX_KEPT_PER_CHUNK]), within_truncated=len(within) > MAX_KEPT_PER_CHUNK,
         failures=tuple(Failure(space.unrank(r), m) for r, m in failures[:MAX_KEPT_PER_CHUNK]),
         failed=len(failures), censored=censored, start_limit=limit, final_limit=current_limit,
         histogram=tuple(sorted(histogram.items())), seconds=time.perf_counter() - wall,
@@ -171,15 +203,18 @@ class ScreenChunk:
     screening_error: float
     limit: float | None = None
     all_values: bool = False
+    objectives: int = 1
 
     @property
     def key(self) -> str:
         return (f"chunk|{function_key(self.screening)}|{self.space.key}|{self.start}:{self.stop}|"
-                f"best={self.best_count}|error={self.screening_error!r}|values={self.all_values}")
+                f"best={self.best_count}|error={self.screening_error!r}|values={self.all_values}|"
+                f"objectives={self.objectives}")
 
     def __call__(self) -> ChunkResult:
         return evaluate_chunk(self.screening, self.space, self.start, self.stop, keep=self.best_count,
-                              screening_error=self.screening_error, limit=self.limit, all_values=self.all_values)
+                              screening_error=self.screening_error, limit=self.limit, all_values=self.all_values,
+                              objectives=self.objectives)
 
     def failure(self, message: str, seconds: float) -> ChunkResult:
         return ChunkResult(self.start, self.stop, "failed", message, (), (), False, (), 0, 0, self.limit, self.limit,
@@ -222,4 +257,5 @@ def projected_cost(objective: Callable[[Order], Any], space: DesignSpace, evalua
 
 
 __all__ = ["ChunkResult", "Failure", "HISTOGRAM_RESOLUTION", "MAX_LOCAL_DESIGNS", "ScreenChunk", "Scored",
-           "chunk_ranges", "coverage", "evaluate_chunk", "histogram_bin", "projected_cost", "screening_threshold"]
+           "chunk_ranges", "coverage", "evaluate_chunk", "histogram_bin", "not_strongly_dominated", "projected_cost",
+           "screening_threshold"]

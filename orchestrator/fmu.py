@@ -158,9 +158,9 @@ def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
         if not path.is_file():
             raise FMUError(f"--fmu {fmu}: no such file (build one with `python build_fmu.py`)")
         prepared = describe(path, scene.rows)
-        if prepared.identifier != scene.model_identifier:
-            raise FMUError(f"--fmu {fmu}: it is a {prepared.identifier} FMU, but scene {scene.name} is "
-                           f"{scene.model_identifier}; give the scene's FMU or the FMU's --scene")
+        if prepared.columns != scene.cols:
+            raise FMUError(f"--fmu {fmu}: its lattice has {prepared.columns} columns, scene {scene.name} "
+                           f"{scene.cols}; give the FMU's --scene or --cols {prepared.columns}")
         try:
             instantiate_once(path)
         except FMUError as exc:

@@ -148,6 +148,21 @@ class CaseDescription:
     aggregate: str | None
     horizon: float
 
+    def line(self) -> str:
+        """The case in one line: what the first screen and every chart state."""
+        load = self.load
+        parts = [f"{self.rows} x {self.columns} lattice",
+                 f"{len(self.materials)} materials ({self.design_kind}: {self.design_count:,} designs)"]
+        if "F_total" in load:
+            parts.append(f"load {load['F_total']:g} N at {load.get('load_angle', 0):g} deg for "
+                         f"{load.get('t_active', 0):g} s")
+        parts.append(f"minimising {', '.join(self.objective.outputs)} over {self.horizon:g} s")
+        if self.rules:
+            parts.append(f"diagonal rule{'s' if len(self.rules) > 1 else ''} {' and '.join(self.rules)}")
+        if self.cases:
+            parts.append(f"{self.aggregate} of the load cases {self.cases}")
+        return ", ".join(parts)
+
 
 def parse_case_option(text: str) -> tuple[str, list[str]]:
     name, sep, values = text.partition("=")
@@ -233,6 +248,7 @@ class Step:
     name: ClassVar[str]
     title: ClassVar[str]
     template: ClassVar[str | None] = None
+    chart_file: ClassVar[str | None] = None  # the file of its chart, when it has one
     Config: ClassVar[type] = NoOptions
 
     def __init__(self, config=None):
@@ -246,6 +262,14 @@ class Step:
 
     def run(self, context: "StudyContext") -> Any:
         raise NotImplementedError
+
+    def chart(self, study: "StudyResult", path) -> str | None:
+        """The step's chart, a PNG at ``path`` drawn from the study's results (its file name); None: none."""
+        return None
+
+    def design_files(self, study: "StudyResult") -> list[tuple[str, tuple[int, ...], str]]:
+        """(file name, design, diagonal rule) of each design file the report writes for this step."""
+        return []
 
 
 @dataclass

@@ -17,7 +17,6 @@ import markupsafe
 
 from ..records import to_record
 from ..study import StudyResult
-from . import charts
 
 RESULTS_FORMAT = "lattice-results/1"
 TERMS = {
@@ -61,19 +60,7 @@ def _number(value: Any, digits: int = 2) -> str:
 
 
 def case_line(study: StudyResult) -> str:
-    """The case in one line: what every chart and the first screen state."""
-    case = study.case
-    load = case.load
-    parts = [f"{case.rows} x {case.columns} lattice",
-             f"{len(case.materials)} materials ({case.design_kind}: {case.design_count:,} designs)"]
-    if "F_total" in load:
-        parts.append(f"load {load['F_total']:g} N at {load.get('load_angle', 0):g} deg for {load.get('t_active', 0):g} s")
-    parts.append(f"minimising {', '.join(case.objective.outputs)} over {case.horizon:g} s")
-    if case.rules:
-        parts.append(f"diagonal rule{'s' if len(case.rules) > 1 else ''} {' and '.join(case.rules)}")
-    if case.cases:
-        parts.append(f"{case.aggregate} of load cases {case.cases}")
-    return ", ".join(parts)
+    return study.case.line()
 
 
 def results_record(study: StudyResult) -> dict:
@@ -96,6 +83,7 @@ def _pareto_points(study: StudyResult) -> list:
              "objectives": dict(zip(outputs, point.values))} for front in pareto.fronts for point in front.points]
 
 
+
 def write_evaluations_csv(study: StudyResult, path: Path) -> None:
     """Every evaluation of the searches (journal.jsonl has every task of the run)."""
     fields = ["diagonal_rule", "method", "seed", "index", "order", "value", "status", "censored_above", "seconds",
@@ -112,28 +100,24 @@ def write_evaluations_csv(study: StudyResult, path: Path) -> None:
                                  "" if e.outputs is None else e.outputs.horizon, e.message])
 
 
-def write_design_files(study: StudyResult, out: Path, materials) -> dict[str, str]:
-    """Each answer's design file (and each chosen Pareto point's); {file: why it was not written} for those
-    the writer refused (a design a named tool would run differently)."""
+def write_design_files(study: StudyResult, out: Path, steps, materials) -> dict[str, str]:
+    """Each step's design files; {file: why it was not written} for those the writer refused (a design a named
+    tool would run differently)."""
     from ..ssp import write_best_design_ssp
 
     refused = {}
-    designs = []
-    answers = study.steps.get("answers")
-    for answer in (answers.answers if answers else ()):
-        designs.append((answer.design_file, answer.order, answer.diagonal_rule))
-    pareto = study.steps.get("pareto")
-    for front in (pareto.fronts if pareto else ()):
-        designs += [(c.design_file, c.order, front.diagonal_rule) for c in front.chosen]
-    for name, order, rule in designs:
-        parameters = {"material": list(order), **study.case.parameters}
-        if rule in study.case.rules:
-            parameters["diagonal_rule"] = rule
-        try:
-            write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon,
-                                  materials=materials)
-        except (ValueError, OSError) as exc:
-            refused[name] = str(exc).splitlines()[0]
+    for step in steps:
+        if study.steps.get(step.name) is None:
+            continue
+        for name, order, rule in step.design_files(study):
+            parameters = {"material": list(order), **study.case.parameters}
+            if rule in study.case.rules:
+                parameters["diagonal_rule"] = rule
+            try:
+                write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon,
+                                      materials=materials)
+            except (ValueError, OSError) as exc:
+                refused[name] = str(exc).splitlines()[0]
     return refused
 
 
@@ -155,19 +139,15 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     """Everything a study gives, into ``out``; returns the path of report.html."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    line = case_line(study)
     answers = study.steps.get("answers")
     known = answers.known_optima if answers else {}
-    made = {
-        "convergence": charts.convergence(study, out / "convergence.png", line, known),
-        "force_energy": charts.force_and_energy(study, out / "force_energy.png", line),
-        "lattice": charts.lattice(study, out / "lattice.png"),
-        "work_precision": charts.work_precision(study, out / "work_precision.png"),
-        "exhaustive": charts.exhaustive(study, out / "exhaustive.png"),
-        "pareto": charts.pareto(study, out / "pareto.png"),
-    }
-    figures = {k: v for k, v in made.items() if v}
-    refused = write_design_files(study, out, materials)
+    figures = {}
+    for step in steps:
+        if study.steps.get(step.name) is not None and step.chart_file:
+            made = step.chart(study, out / step.chart_file)
+            if made:
+                figures[step.name] = made
+    refused = write_design_files(study, out, steps, materials)
     certificates = write_certificates(study, out)
     record = results_record(study)
     record["design_files_refused"] = refused
@@ -180,9 +160,9 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
         if result is None or not step.template or step.name == "answers":
             continue
         sections.append(markupsafe.Markup(env.get_template(f"report/{step.template}").render(
-            result=result, study=study, charts=figures, title=step.title, terms=TERMS)))
+            result=result, study=study, charts=figures, title=step.title, terms=TERMS, refused=refused)))
     page = env.get_template("report/report.html.j2").render(
-        study=study, case_line=line, answers=answers, charts=figures, sections=sections, terms=TERMS,
+        study=study, case_line=study.case.line(), answers=answers, charts=figures, sections=sections, terms=TERMS,
         refused=refused, certificates=certificates, known=known)
     (out / "report.html").write_text(page)
     return out / "report.html"

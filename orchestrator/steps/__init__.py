@@ -6,6 +6,7 @@ from .answers import Answers
 from .descent import Descent
 from .exhaustive import Exhaustive
 from .finalists import Finalists
+from .pareto import Pareto
 from .searches import Searches
 from .sensitivity import Sensitivity
 from .trajectories import Trajectories
@@ -16,6 +17,7 @@ STEPS = (
     Exhaustive,
     Finalists,
     Descent,
+    Pareto,
     Answers,
     Sensitivity,
     Accuracy,

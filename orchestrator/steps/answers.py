@@ -3,6 +3,7 @@ and how sure we are (how many runs reached it, whether it is a local optimum, wh
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
@@ -92,6 +93,7 @@ class Answers(Step):
     name = "answers"
     title = "The answer"
     template = "answers.html.j2"
+    chart_file = "lattice.png"
 
     def applies(self, context: StudyContext) -> bool:
         return context.result(Finalists) is not None
@@ -162,6 +164,48 @@ class Answers(Step):
             return BEST_FOUND, (f"the known optimum is {list(known.order)} at {known.peak:.4f} N "
                                 f"({'certified' if known.certified else 'exhaustive sweep'})")
         return BEST_FOUND, "the best design the searches found; no exhaustive sweep of this case"
+
+    def chart(self, study, path):
+        return draw_lattice(study, path)
+
+    def design_files(self, study):
+        result = study.steps.get(self.name)
+        return [(a.design_file, a.order, a.diagonal_rule) for a in (result.answers if result else ())]
+
+
+def draw_lattice(study, path: Path) -> str | None:
+    import numpy as np
+    import matplotlib
+    from ..report.charts import plt, save
+
+    answers = study.steps.get("answers")
+    if answers is None or not answers.answers:
+        return None
+    case = study.case
+    materials = case.materials
+    designs = [(f"{a.diagonal_rule} rule's answer", a.order) for a in answers.answers]
+    figure, axes = plt.subplots(1, len(designs), figsize=(4.6 * len(designs), 4.4), squeeze=False)
+    stiffness = np.array([m["k"] for m in materials])
+    colour_map = plt.get_cmap("viridis")
+    low, high = float(stiffness.min()), float(stiffness.max())
+    norm = (matplotlib.colors.LogNorm(vmin=low, vmax=high) if low > 0 and high > low
+            else matplotlib.colors.Normalize(vmin=low, vmax=high if high > low else low + 1.0))
+    for axis, (label, order) in zip(axes[0], designs):
+        x, y = np.meshgrid(np.arange(case.columns), np.arange(case.rows))
+        k = np.tile(np.array([materials[m - 1]["k"] for m in order]), (case.rows, 1))
+        axis.scatter(x, y, c=k, cmap=colour_map, norm=norm, s=55, edgecolors="k", lw=0.3)
+        axis.axvline(case.columns - 1 + 0.5, color="dimgray", lw=4)
+        axis.annotate("", xy=(-0.2, case.rows / 2 - 0.5), xytext=(-1.2, case.rows / 2 - 0.5),
+                      arrowprops=dict(arrowstyle="->", lw=2, color="crimson"))
+        axis.set_title(label, fontsize=9)
+        axis.set_xticks(range(case.columns))
+        axis.set_xticklabels([materials[m - 1]["name"] for m in order], fontsize=7, rotation=60)
+        axis.set_yticks([])
+        axis.set_xlim(-1.5, case.columns + 0.2)
+    bar = figure.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=colour_map), ax=axes[0].tolist())
+    bar.set_label("vertical spring constant k of the column's material (N)")
+    figure.suptitle("Load from the left on column 1, backplate on the right (grey bar)", fontsize=9)
+    return save(figure, path, tight=False)
 
 
 __all__ = ["Answer", "Answers", "AnswersResult", "BEST_FOUND", "CERTIFIED", "EnergyFlows", "Evidence", "KNOWN",

@@ -3,13 +3,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, ChunkResult, Scored, ScreenChunk, chunk_ranges,
-                          coverage, projected_cost, screening_threshold)
+                          coverage, not_strongly_dominated, projected_cost, screening_threshold)
 from ..objective import FULL, SEARCH, FMURun
 from ..options import integer, option
 from ..study import Step, StudyContext
-from ..types import Evaluation, Order
+from ..types import Evaluation, Order, RunOutputs
 from .searches import EXHAUSTIVE, Searches, rule_label
 
 # The screening fidelity's relative error bound, at least ten times what bench/solver_work_precision.py and
@@ -84,17 +85,50 @@ class Sweep:
 
 
 @dataclass(frozen=True)
+class FrontPoint:
+    """A design on a Pareto front and its objective values at full fidelity."""
+
+    order: Order
+    values: tuple[float, ...]
+    outputs: RunOutputs | None = None
+
+
+@dataclass(frozen=True)
+class FrontSweep:
+    """A sweep with several objectives: the exact Pareto front of the space."""
+
+    diagonal_rule: str
+    space: str
+    designs: int
+    chunks: int
+    ranks: str
+    covered_once: bool
+    failed: int
+    candidates: int  # designs no other beats on every objective by more than the screening error
+    screening_error: float
+    max_screening_error_seen: float | None
+    front: tuple[FrontPoint, ...]
+    exact: bool
+    reasons: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class ExhaustiveResult:
     sweeps: tuple[Sweep, ...]
+    fronts: tuple[FrontSweep, ...] = ()
 
     def for_rule(self, label: str) -> Sweep | None:
         return next((s for s in self.sweeps if s.diagonal_rule == label), None)
+
+    def front_for_rule(self, label: str) -> FrontSweep | None:
+        return next((f for f in self.fronts if f.diagonal_rule == label), None)
 
 
 class Exhaustive(Step):
     name = "exhaustive"
     title = "Exhaustive sweep"
     template = "exhaustive.html.j2"
+    chart_file = "exhaustive.png"
     Config = ExhaustiveConfig
 
     def applies(self, context: StudyContext) -> bool:
@@ -119,7 +153,56 @@ class Exhaustive(Step):
                 "on a Dask cluster, confirmed: --executor dask --scheduler ADDRESS --confirm-cost")
 
     def run(self, context: StudyContext) -> ExhaustiveResult:
+        if len(context.case.outputs) > 1:
+            return ExhaustiveResult((), tuple(self.sweep_front(context, rule) for rule in context.rules))
         return ExhaustiveResult(tuple(self.sweep(context, rule) for rule in context.rules))
+
+    def chunks(self, context: StudyContext, label: str, tasks, count: int) -> list[ChunkResult]:
+        with context.progress.bar(count, f"exhaustive sweep ({label})", unit="chunk") as bar:
+            return context.evaluator.run(tasks, progress=bar)
+
+    def sweep_front(self, context: StudyContext, rule: str | None) -> FrontSweep:
+        """Every design with several objectives: the candidates of the chunks merged, verified at full
+        fidelity, the non-dominated ones the exact front."""
+        from ..search.pareto import non_dominated
+
+        label = rule_label(rule)
+        objective = context.objective(rule)
+        space = context.case.space
+        screening, = objective.tasks(SEARCH)
+        chunk_size = self.config.chunk_size or max(1, -(-space.size // 200))
+        ranges = chunk_ranges(space.size, chunk_size)
+        tasks = (ScreenChunk(screening, space, a, b, BEST_PER_CHUNK, SCREENING_ERROR, None, objectives=len(
+            context.case.outputs)) for a, b in ranges)
+        chunks = self.chunks(context, label, tasks, len(ranges))
+        good = [c for c in chunks if c.ok]
+        within = [s for c in good for s in c.within]
+        mask = not_strongly_dominated([s.values for s in within], SCREENING_ERROR)
+        candidates = [s for s, k in zip(within, mask) if k]
+        failures = [f.order for c in good for f in c.failures]
+        orders = list(dict.fromkeys([s.order for s in candidates] + failures))
+        full = objective.evaluate(orders, context.evaluator, FULL)
+        ok = [e for e in full if e.ok]
+        screened = {s.order: s.values for s in candidates}
+        errors = [abs(a / b - 1) for e in ok if e.order in screened for a, b in zip(screened[e.order], e.values) if b]
+        front_mask = non_dominated([e.values for e in ok]) if ok else []
+        front = tuple(sorted((FrontPoint(e.order, e.values, e.outputs) for e, k in zip(ok, front_mask) if k),
+                             key=lambda p: p.values))
+        covered, ranks = coverage(good, space.size)
+        reasons = []
+        if not covered:
+            reasons.append(f"the chunks do not cover the space exactly once ({ranks})")
+        if len(good) < len(chunks):
+            reasons.append(f"{len(chunks) - len(good)} chunk(s) failed")
+        unverified = [e for e in full if not e.ok and e.order in failures]
+        if unverified:
+            reasons.append(f"{len(unverified)} design(s) failed at screening and at full fidelity")
+        largest = max(errors) if errors else None
+        if largest is None or largest > SCREENING_ERROR:
+            reasons.append("the screening error bound did not hold" if largest is not None else "nothing verified")
+        return FrontSweep(label, space.describe(), space.size, len(ranges), ranks, covered,
+                          sum(c.failed for c in good), len(candidates), SCREENING_ERROR, largest, front,
+                          not reasons, tuple(reasons))
 
     def sweep(self, context: StudyContext, rule: str | None) -> Sweep:
         label = rule_label(rule)
@@ -226,6 +309,40 @@ class Exhaustive(Step):
             second_integrator=SECOND_INTEGRATOR_NAME, optimum=optimum, runner_up=runner_up, gap=gap,
             integration_error=integration, certified=not reasons, reasons=tuple(reasons))
 
+    def chart(self, study, path):
+        return draw_exhaustive(study, path)
 
-__all__ = ["Certificate", "Exhaustive", "ExhaustiveConfig", "ExhaustiveResult", "FULL_ERROR", "SCREENING_ERROR",
-           "Sweep", "Verified"]
+
+def draw_exhaustive(study, path: Path) -> str | None:
+    import numpy as np
+    from ..report.charts import plt, save
+
+    result = study.steps.get("exhaustive")
+    if result is None:
+        return None
+    figure, axes = plt.subplots(1, len(result.sweeps), figsize=(7 * len(result.sweeps), 4.5), squeeze=False)
+    unit = study.case.objective.units[0]
+    for axis, sweep in zip(axes[0], result.sweeps):
+        bins = sweep.histogram
+        certificate = sweep.certificate
+        if bins:
+            lefts = np.array([(1 + sweep.histogram_resolution) ** k for k, _ in bins])
+            axis.bar(lefts, [v for _, v in bins], width=lefts * sweep.histogram_resolution, align="edge",
+                     color="tab:gray", label=f"{certificate.screened:,} designs screened to a value"
+                     + (f"; {certificate.censored:,} more stopped above the force limit (censored)"
+                        if certificate.censored else ""))
+        if certificate.optimum:
+            axis.axvline(certificate.optimum.full, color="crimson", lw=2,
+                         label=f"optimum {list(certificate.optimum.order)}: {certificate.optimum.full:.4f} {unit}")
+        if bins:
+            axis.set_yscale("log")
+        axis.set_xlabel(f"{study.case.objective.outputs[0]} ({unit}), screening fidelity")
+        axis.set_ylabel("designs")
+        axis.set_title(f"Every design's value, {sweep.diagonal_rule} rule", fontsize=9)
+        axis.legend(fontsize=7)
+        axis.grid(alpha=0.3)
+    return save(figure, path)
+
+
+__all__ = ["Certificate", "Exhaustive", "ExhaustiveConfig", "ExhaustiveResult", "FULL_ERROR", "FrontPoint",
+           "FrontSweep", "SCREENING_ERROR", "Sweep", "Verified"]

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 from ..loop import SearchRun, run_search
 from ..options import flag_of, integer, option
@@ -97,6 +98,7 @@ class Searches(Step):
     name = "searches"
     title = "Searches"
     template = "searches.html.j2"
+    chart_file = "convergence.png"
     Config = SearchesConfig
 
     def methods(self, context: StudyContext) -> tuple[str, ...]:
@@ -112,11 +114,74 @@ class Searches(Step):
 
     def run(self, context: StudyContext) -> SearchesResult:
         methods = self.methods(context)
+        objectives = len(context.case.outputs)
+        options = {"nsga2": {"objectives": objectives}} if objectives > 1 else None
         runs = []
         for rule in context.rules:
             runs += run_searches(context, context.objective(rule), methods, self.config.seed, self.config.repeats,
-                                 self.config.budget, rule_label(rule))
+                                 self.config.budget, rule_label(rule), options=options)
         return SearchesResult(methods, self.config.budget, tuple(runs))
+
+    def chart(self, study, path):
+        answers = study.steps.get("answers")
+        return draw_convergence(study, path, study.case.line(), answers.known_optima if answers else {})
+
+
+def draw_convergence(study, path: Path, context_line: str, known: dict) -> str | None:
+    """Best value so far against evaluations, median and quartiles over seeds, one panel per rule."""
+    import warnings
+
+    import numpy as np
+
+    from fmu_src.published import REFERENCE_POINTS
+
+    from ..report.charts import COLOURS, METHOD_NAMES, best_so_far_matrix, plt, save, wrapped
+
+    searches = study.steps.get("searches")
+    if searches is None or not searches.runs:
+        return None
+    labels = list(dict.fromkeys(run.label for run in searches.runs))
+    figure, axes = plt.subplots(1, len(labels), figsize=(6.5 * len(labels), 4.8), squeeze=False)
+    unit = study.case.objective.units[0]
+    for axis, label in zip(axes[0], labels):
+        runs = [r for r in searches.runs if r.label == label and r.n_evaluations]
+        for method in dict.fromkeys(r.method for r in runs):
+            own = [r for r in runs if r.method == method]
+            matrix = best_so_far_matrix(own)
+            if not np.isfinite(matrix).any():  # every evaluation failed: nothing to draw
+                continue
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                median = np.nanmedian(matrix, axis=0)
+                low, high = np.nanpercentile(matrix, 25, axis=0), np.nanpercentile(matrix, 75, axis=0)
+            name = f"{METHOD_NAMES.get(method, method)} (median of {len(own)})"
+            colour = COLOURS.get(method)
+            if len(median) == 1:
+                axis.axhline(median[-1], color=colour or "black", lw=1, ls=":", label=f"{name}: one design")
+                continue
+            x = np.arange(1, matrix.shape[1] + 1)
+            axis.plot(x, median, color=colour, label=name)
+            if len(own) > 1:
+                axis.fill_between(x, low, high, color=colour, alpha=0.2, lw=0)
+        optimum = known.get(label)
+        if optimum is not None:
+            axis.axhline(optimum.peak, color="crimson", lw=1, ls="--",
+                         label=f"{'certified' if optimum.certified else 'known'} optimum: {optimum.peak:.2f} {unit}")
+        if study.case.objective.outputs == ("peak_backplate_force",) and label == "receiver" and known.get(label):
+            for point, marker in zip(REFERENCE_POINTS, "o^sD"):
+                axis.plot([point.evaluation or 100], [point.peak], marker=marker, color="crimson", ls="none",
+                          label=f"published {point.label}: {point.peak:.2f} N")
+        if axis.lines:
+            axis.set_xscale("log")
+        else:
+            axis.text(0.5, 0.5, "no evaluation gave a value", ha="center", transform=axis.transAxes)
+        axis.set_xlabel("evaluations (distinct designs)")
+        axis.set_ylabel(f"best {study.case.objective.outputs[0]} so far ({unit}), search fidelity")
+        axis.set_title(f"{label} diagonal rule", fontsize=9)
+        axis.grid(alpha=0.3)
+        axis.legend(fontsize=7)
+    figure.suptitle(wrapped(f"Convergence over seeds: median and quartiles. {context_line}"), fontsize=9)
+    return save(figure, path)
 
 
 __all__ = ["Searches", "SearchesConfig", "SearchesResult", "methods_for", "plan", "rule_label", "run_searches"]

@@ -3,6 +3,7 @@ answer: the report's charts, computed as tasks of the evaluator (journalled, res
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 from ..objective import FULL, RecordRun, Trajectory
 from ..simulation import ENERGY_OUTPUTS
@@ -38,6 +39,7 @@ class Trajectories(Step):
     name = "trajectories"
     title = "Force over time and energy balance"
     template = "trajectories.html.j2"
+    chart_file = "force_energy.png"
 
     def applies(self, context: StudyContext) -> bool:
         answers = context.result(Answers)
@@ -60,6 +62,53 @@ class Trajectories(Step):
         energy = tuple(LabelledTrajectory(f"{a.diagonal_rule} rule's answer", a.diagonal_rule, t)
                        for a, t in zip(answers, results[len(force_tasks):]))
         return TrajectoriesResult(force, energy)
+
+    def chart(self, study, path):
+        return draw_force_and_energy(study, path, study.case.line())
+
+
+def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
+    import numpy as np
+    from ..report.charts import plt, save, wrapped
+
+    trajectories = study.steps.get("trajectories")
+    if trajectories is None:
+        return None
+    figure, (force_axis, energy_axis) = plt.subplots(1, 2, figsize=(13, 4.8))
+    colours = ["tab:blue", "tab:red", "black", "tab:gray", "tab:green"]
+    for labelled, colour in zip(trajectories.force, colours):
+        t = labelled.trajectory
+        if not t.ok:
+            continue
+        force = np.array(t.values["backplate_force"])
+        time = np.array(t.time)
+        samples = np.abs(time / 0.01 - np.round(time / 0.01)) < 1e-6
+        sampled = force[samples].max() if samples.any() else float("nan")
+        force_axis.plot(time, force, color=colour,
+                        label=f"{labelled.label} {list(t.order)}: peak {force.max():.1f} N every 1 ms, "
+                              f"{sampled:.1f} N at the 0.01 s samples")
+    force_axis.set_xlabel("time (s)")
+    force_axis.set_ylabel("backplate force (N)")
+    force_axis.set_title(f"Force on the backplate ({trajectories.force[0].diagonal_rule if trajectories.force else ''}"
+                         f" rule), recorded every 1 ms", fontsize=9)
+    force_axis.grid(alpha=0.3)
+    if force_axis.get_legend_handles_labels()[0]:
+        force_axis.legend(fontsize=6.5, loc="upper right")
+    names = {"kinetic_energy": "KE", "potential_energy": "PE", "external_work": "W_ext",
+             "dissipated_energy": "D", "nonreciprocal_work": "W_nr", "energy_balance_error": "balance error"}
+    if trajectories.energy and trajectories.energy[0].trajectory.ok:
+        first = trajectories.energy[0]
+        for name, values in first.trajectory.values.items():
+            energy_axis.plot(first.trajectory.time, values, ":" if name == "energy_balance_error" else "-",
+                             label=names.get(name, name))
+        energy_axis.set_title(f"Energy of the {first.label} ({first.diagonal_rule} rule): "
+                              "W_ext + W_nr = KE + PE + D", fontsize=9)
+        energy_axis.legend(fontsize=7)
+    energy_axis.set_xlabel("time (s)")
+    energy_axis.set_ylabel("energy (J)")
+    energy_axis.grid(alpha=0.3)
+    figure.suptitle(wrapped(context_line), fontsize=9)
+    return save(figure, path)
 
 
 __all__ = ["LabelledTrajectory", "Trajectories", "TrajectoriesResult"]

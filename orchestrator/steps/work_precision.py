@@ -3,6 +3,7 @@ scene, against the accuracy step's tight reference (bench/work_precision.py does
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 from ..objective import FULL
 from ..study import Step, StudyContext
@@ -40,6 +41,7 @@ class WorkPrecision(Step):
     name = "work_precision"
     title = "Speed against accuracy of the FMU's solvers"
     template = "work_precision.html.j2"
+    chart_file = "work_precision.png"
 
     def applies(self, context: StudyContext) -> bool:
         accuracy = context.result(Accuracy)
@@ -62,6 +64,41 @@ class WorkPrecision(Step):
             else:
                 points.append(SolverPoint(family, label, evaluation.seconds, None, "failed", evaluation.message))
         return WorkPrecisionResult(answer.diagonal_rule, TARGET, tuple(points))
+
+    def chart(self, study, path):
+        return draw_work_precision(study, path)
+
+
+def draw_work_precision(study, path: Path) -> str | None:
+    import numpy as np
+    from ..report.charts import plt, save
+
+    result = study.steps.get("work_precision")
+    if result is None:
+        return None
+    figure, axis = plt.subplots(figsize=(8, 5))
+    families = list(dict.fromkeys(p.solver for p in result.points))
+    for family, colour in zip(families, ("tab:blue", "tab:orange", "tab:green")):
+        good = [p for p in result.points if p.solver == family and p.relative_error is not None]
+        bad = [p for p in result.points if p.solver == family and p.relative_error is None]
+        axis.plot([p.seconds for p in good], [max(p.relative_error, 1e-16) for p in good], "o-", color=colour,
+                  label=family)
+        for p in good:
+            axis.annotate(p.setting, (p.seconds, max(p.relative_error, 1e-16)), fontsize=6,
+                          textcoords="offset points", xytext=(3, 3))
+        if bad:
+            axis.plot([max(p.seconds, 1e-5) for p in bad], [1.0] * len(bad), "x", color=colour, ms=9,
+                      label=f"{family}: failed with an FMI error ({', '.join(p.setting for p in bad)})")
+    axis.axhline(result.target, color="crimson", ls="--", lw=1, label=f"{result.target:g}: the accuracy target")
+    if any(p.relative_error is not None for p in result.points):
+        axis.set_xscale("log")
+        axis.set_yscale("log")
+    axis.set_xlabel("seconds per run of the full scene (this machine, during the study)")
+    axis.set_ylabel("relative error of the peak against rtol 1e-12")
+    axis.set_title(f"Each solver setting of the FMU for the chosen design ({result.diagonal_rule} rule)", fontsize=9)
+    axis.grid(alpha=0.3, which="both")
+    axis.legend(fontsize=7)
+    return save(figure, path)
 
 
 __all__ = ["DEFAULT_SETTING", "SETTINGS", "SolverPoint", "WorkPrecision", "WorkPrecisionResult"]
