@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import shutil
 import signal
 import sys
 import tempfile
@@ -138,7 +139,9 @@ def _executor(kind: str, workers: int | None, scheduler: str | None,
         finally:
             executor.shutdown()
     elif kind == "process":
-        pool = ResilientProcessPool(int(workers or os.cpu_count() or 1), temp_root)
+        own_root = temp_root is None  # the workers' extracted FMUs go here; a killed worker cannot remove its own
+        root = tempfile.mkdtemp(prefix="lattice-workers-") if own_root else temp_root
+        pool = ResilientProcessPool(int(workers or os.cpu_count() or 1), root)
         try:
             yield pool
         except BaseException:
@@ -146,11 +149,20 @@ def _executor(kind: str, workers: int | None, scheduler: str | None,
             raise
         else:
             pool.shutdown(wait=True)
+        finally:
+            if own_root:
+                shutil.rmtree(root, ignore_errors=True)
     else:
-        yield from _dask(workers, scheduler)
+        own_root = temp_root is None and not scheduler
+        root = tempfile.mkdtemp(prefix="lattice-workers-") if own_root else temp_root
+        try:
+            yield from _dask(workers, scheduler, root)
+        finally:
+            if own_root:
+                shutil.rmtree(root, ignore_errors=True)
 
 
-def _dask(workers: int | None, scheduler: str | None) -> Iterator[Executor]:
+def _dask(workers: int | None, scheduler: str | None, temp_root: str | None) -> Iterator[Executor]:
     try:
         from distributed import Client, LocalCluster  # imported lazily: dask is slow to import
     except ImportError:
@@ -164,7 +176,7 @@ def _dask(workers: int | None, scheduler: str | None) -> Iterator[Executor]:
             count = int(workers or os.cpu_count() or 1)
             cluster = stack.enter_context(LocalCluster(
                 n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
-                silence_logs=logging.ERROR))
+                silence_logs=logging.ERROR, local_directory=temp_root))
             client = stack.enter_context(Client(cluster))
             try:  # every worker, or none: a cluster half started would run the study at a fraction of its speed
                 client.wait_for_workers(count, timeout=LOCAL_CLUSTER_START)

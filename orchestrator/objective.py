@@ -16,6 +16,7 @@ journals, and combines their results. The outputs that can be minimised are the 
 """
 from __future__ import annotations
 
+import atexit
 import itertools
 import math
 import time
@@ -76,6 +77,9 @@ def close_instances() -> None:
     while _INSTANCES:
         _, instance = _INSTANCES.popitem()
         instance.close()
+
+
+atexit.register(close_instances)  # a process that used FMU runs directly leaves no extracted FMU behind
 
 
 def output_names(text: str | Sequence[str]) -> tuple[str, ...]:

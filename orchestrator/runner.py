@@ -86,7 +86,8 @@ def resolve_scene(case: CaseConfig, materials):
     if case.cols is not None or materials is not None:
         from fmu_src import build
 
-        scene = build.resolve_scene(scene, cols=case.cols, materials=materials)
+        extra = {"materials": materials} if materials is not None else {}
+        scene = build.resolve_scene(scene, cols=case.cols, **extra)
     return scene
 
 

@@ -181,6 +181,9 @@ NOT_CASE_PARAMETERS = {"peak_force_limit": "the searches set it (their force lim
 
 def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: MaterialTable) -> Case:
     """The case of ``config`` on ``fmu``: each value checked against the model description."""
+    if fmu.columns < 2:
+        raise ValueError(f"{fmu.path.name} has {fmu.columns} column(s) with a material parameter: there is no "
+                         "material order to search (give a scene with a material per column)")
     parameters: dict[str, Any] = {}
     for name, option_name in SCENE_OPTIONS.items():
         value = getattr(config, "load" if name == "F_total" else "load_angle")

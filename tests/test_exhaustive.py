@@ -46,9 +46,19 @@ class Weighted:
         return Evaluation(tuple(order), float(value), "ok")
 
 
+@dataclass(frozen=True)
+class Unlimited:
+    """The same function without a force limit: every design runs to its value."""
+
+    function: Weighted
+
+    def __call__(self, order):
+        return self.function(order)
+
+
 def test_a_chunk_keeps_its_best_its_candidates_its_failures_and_a_histogram():
     broken = ((1, 2, 3, 4, 5),)
-    chunk = evaluate_chunk(Weighted(broken=broken), SPACE, 0, 120, keep=3, screening_error=0.01)
+    chunk = evaluate_chunk(Unlimited(Weighted(broken=broken)), SPACE, 0, 120, keep=3, screening_error=0.01)
     values = sorted(Weighted()(o).value for o in itertools.permutations(range(1, 6)) if o not in broken)
     assert [s.value for s in chunk.best] == values[:3]
     assert chunk.failed == 1 and chunk.failures[0].order == broken[0]
@@ -59,7 +69,7 @@ def test_a_chunk_keeps_its_best_its_candidates_its_failures_and_a_histogram():
 
 def test_a_chunk_lowers_its_force_limit_as_its_best_improves_and_never_censors_a_candidate():
     chunk = evaluate_chunk(Weighted(), SPACE, 0, 120, keep=3, screening_error=0.01, limit=80.0)
-    free = evaluate_chunk(Weighted(), SPACE, 0, 120, keep=3, screening_error=0.01)
+    free = evaluate_chunk(Unlimited(Weighted()), SPACE, 0, 120, keep=3, screening_error=0.01)
     assert chunk.censored > 0 and chunk.final_limit < 80.0
     assert chunk.best[0] == free.best[0] and chunk.within == free.within
 
