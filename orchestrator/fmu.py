@@ -158,6 +158,9 @@ def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
         if not path.is_file():
             raise FMUError(f"--fmu {fmu}: no such file (build one with `python build_fmu.py`)")
         prepared = describe(path, scene.rows)
+        if prepared.columns < 2:
+            raise FMUError(f"--fmu {fmu}: {prepared.columns} column(s) with a material parameter: there is no "
+                           "material order to search (give a scene with a material per column)")
         if prepared.columns != scene.cols:
             raise FMUError(f"--fmu {fmu}: its lattice has {prepared.columns} columns, scene {scene.name} "
                            f"{scene.cols}; give the FMU's --scene or --cols {prepared.columns}")

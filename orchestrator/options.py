@@ -56,12 +56,17 @@ def add_options(parser: argparse.ArgumentParser, config_type: type, title: str, 
             help_text += f" (default: {shown})"
         kwargs: dict[str, Any] = {"dest": f"{config_type.__name__}.{f.name}", "default": argparse.SUPPRESS,
                                   "help": help_text}
-        if meta["action"]:
+        if meta["action"] == "append":
+            kwargs["action"] = "append"
+            kwargs["metavar"] = meta["metavar"] or f.name.upper()
+        elif meta["action"]:
             kwargs["action"] = meta["action"]
         else:
             for key in ("type", "choices", "nargs", "metavar"):
                 if meta[key] is not None:
                     kwargs[key] = meta[key]
+            if meta["metavar"] is None and meta["choices"] is None:
+                kwargs["metavar"] = f.name.upper()
         group.add_argument(meta["flag"] or "--" + f.name.replace("_", "-"), **kwargs)
 
 

@@ -35,7 +35,7 @@ def build_parser():
     from orchestrator.steps import STEPS
     from orchestrator.study import CaseConfig
 
-    parser = Parser(prog="run.py", description=__doc__.split("\n\n")[0],
+    parser = Parser(description=__doc__.split("\n\n")[0],
                     formatter_class=argparse.RawDescriptionHelpFormatter)
     add_options(parser, CaseConfig, "the case")
     for step in STEPS:
@@ -72,12 +72,12 @@ def main(argv=None) -> int:
               "the same options and --resume", file=sys.stderr)
         return 143 if isinstance(exc, Interrupted) else 130
     except NoResult as exc:
-        print(f"run.py: no answer: {exc}; report: {run.out}/report.html", file=sys.stderr)
+        print(f"{parser.prog}: no answer: {exc}; report: {run.out}/report.html", file=sys.stderr)
         return EXIT_NO_RESULT
     except Exception as exc:  # noqa: BLE001 - one line for users, the traceback with --debug
         if debug:
             raise
-        print(f"run.py: error: {one_line(exc)}", file=sys.stderr)
+        print(f"{parser.prog}: error: {one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
     finally:
         signal.signal(signal.SIGTERM, previous)
