@@ -143,9 +143,12 @@ class FMURun:
         try:
             result = self._simulate(order, horizon)
             if result.get("censored"):
-                return censored(order, self.force_limit, result.get("censored_at"), time.perf_counter() - start)
+                return censored(order, self.force_limit, result.get("censored_at"), time.perf_counter() - start,
+                                work=int(result["rhs_evaluations"]))
+            work = 0
             if self.fallback_horizon and result["last_contact_time"] >= (1.0 - CONTACT_GUARD) * horizon:
                 horizon = max(self.fallback_horizon, horizon)
+                work = int(result["rhs_evaluations"])
                 result = self._simulate(order, horizon)
         except (SimulationError, ValueError) as exc:
             return failed(order, str(exc), time.perf_counter() - start)
@@ -153,7 +156,7 @@ class FMURun:
                              max_compression=result.get("max_compression"))
         values = tuple(float(result[name]) for name in self.outputs)
         return Evaluation(as_design(order), values[0], OK, "", time.perf_counter() - start, outputs,
-                          values if len(values) > 1 else ())
+                          values if len(values) > 1 else (), work=work + int(result["rhs_evaluations"]))
 
 
 @dataclass(frozen=True)
@@ -413,8 +416,9 @@ class LatticeObjective(Objective):
         else:
             values = tuple(sum(column[i] for column in columns) / len(columns) for i in range(self.n_objectives))
         worst = max(evaluations, key=lambda e: e.value)
+        work = sum(e.work or 0 for e in evaluations)
         return Evaluation(as_design(order), values[0], OK, "", seconds, worst.outputs,
-                          values if self.n_objectives > 1 else (), cases=cases)
+                          values if self.n_objectives > 1 else (), cases=cases, work=work)
 
     def describe(self) -> ObjectiveDescription:
         return ObjectiveDescription(

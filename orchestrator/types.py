@@ -73,6 +73,7 @@ class Evaluation:
     limit: float | None = None
     stopped_at: float | None = None
     cases: tuple[CaseValue, ...] = ()
+    work: int | None = None  # right-hand sides the FMU evaluated (a censored run's too): what it cost
     kind: ClassVar[str] = "evaluation"  # what the journal calls this result
 
     @property
@@ -170,5 +171,3 @@ def safe_call(objective: Callable[[Order], Any], order: Any) -> Evaluation:
 
 __all__ = ["Above", "CENSORED", "CaseValue", "Evaluation", "FAILED", "OK", "Order", "RunOutputs", "STATUSES",
            "censored", "check_evaluation", "failed", "safe_call"]
-
-as_order = as_design  # TEMPORARY until the search branch lands

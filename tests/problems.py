@@ -168,8 +168,8 @@ class Limited:
 
     def __call__(self, design: Sequence[int]) -> Evaluation:
         evaluation = self.base(design)
-        if self.force_limit is not None and evaluation.peak > self.force_limit:
-            return censored(design, self.force_limit, reached_at=0.5, seconds=evaluation.seconds)
+        if self.force_limit is not None and evaluation.value > self.force_limit:
+            return censored(design, self.force_limit, 0.5, evaluation.seconds)
         return evaluation
 
 

@@ -222,20 +222,22 @@ def test_on_the_fmu_the_limit_saves_right_hand_sides_and_changes_no_decision(fmu
     how the annealing ran before)."""
     from orchestrator.executors import make_executor
     from orchestrator.loop import run_search
-    from orchestrator.objective import SampledPeak
+    from orchestrator.design import DesignSpace
+    from orchestrator.objective import LatticeObjective
 
     runs = {}
     for name, objective_limits, search_limits in (("limited", True, True), ("full", False, True),
                                                    ("polish only", True, False)):
         with make_executor("serial") as executor:
             runs[name] = run_search(make_search("sa", 11, 0, budget=100, use_limits=search_limits),
-                                    SampledPeak(fmu_path, 11, 8.0, use_limits=objective_limits), 100, executor,
+                                    LatticeObjective(fmu_path, DesignSpace(11, 11), 8.0, use_limits=objective_limits),
+                                    100, executor,
                                     method_name="sa", seed=0)
     limited, full = runs["limited"], runs["full"]
-    assert limited.n_censored > runs["polish only"].n_censored > 0 == full.n_censored
-    assert limited.n_failed == full.n_failed == 0
+    assert limited.censored > runs["polish only"].censored > 0 == full.censored
+    assert limited.failed == full.failed == 0
     assert list(dict.fromkeys(e.order for e in limited.evaluations)) == [e.order for e in full.evaluations]
-    assert (limited.best_order, limited.best_peak) == (full.best_order, full.best_peak)
+    assert (limited.best_order, limited.best_value) == (full.best_order, full.best_value)
     assert limited.diagnostics["censored_told"] > 0 and limited.diagnostics["phase"] == "polish"
-    rhs = {name: sum(e.details.get("rhs_evaluations") or 0 for e in r.evaluations) for name, r in runs.items()}
+    rhs = {name: sum(e.work or 0 for e in r.evaluations) for name, r in runs.items()}
     assert rhs["limited"] < 0.9 * rhs["polish only"] and rhs["limited"] < 0.75 * rhs["full"], rhs

@@ -411,7 +411,7 @@ def test_pymoo_searches_never_exceed_the_budget_and_keep_failures_out(method, ki
     """A third of the designs failing: the budget holds, every failure is recorded as failed, and the best is
     a real value."""
     problem = Flaky(PROBLEMS[kind], period=3, mode="raise")
-    result = run(make_search(method, SPACES[kind], 4, budget=137), lambda d: problem(d).peak, 137)
+    result = run(make_search(method, SPACES[kind], 4, budget=137), lambda d: problem(d).value, 137)
     assert result.n_evaluations == 137 and result.n_failed > 20
     assert not problem.fails(result.best_design)
     assert result.best_value == PROBLEMS[kind].value(result.best_design)
@@ -464,4 +464,4 @@ def test_the_test_problems_are_found_by_a_spawned_worker():
     design = CATALOGUE.baseline()
     with ProcessPoolExecutor(1, mp_context=get_context("spawn")) as pool:
         evaluation = pool.submit(problem, design).result(timeout=120)
-    assert evaluation.order == design and evaluation.peak == pytest.approx(problem.value(design), rel=1e-12)
+    assert evaluation.order == design and evaluation.value == pytest.approx(problem.value(design), rel=1e-12)

@@ -53,7 +53,7 @@ class DescentResult:
 def local_check(context: StudyContext, rule: str | None, start: Order, seed: int) -> LocalCheck:
     objective = context.objective(rule)
     space = context.case.space
-    descent = make_search("local", space.columns, seed, start=start, kicks=0)  # TEMPORARY
+    descent = make_search("local", space, seed, start=start, kicks=0)
     run = run_search(descent, objective, MAX_DESCENT, context.evaluator, method_name="local", seed=seed,
                      label=rule_label(rule))
     end = run.best_order or start

@@ -86,7 +86,7 @@ def run_searches(context: StudyContext, objective, methods, seed: int, repeats: 
     total = sum(min(budget, SEARCHES[m].max_evaluations or budget) for m, _ in todo)
     with context.progress.bar(total, progress_label or f"searching ({label})") as advance:
         for method, run_seed in todo:
-            search = make_search(method, context.case.space.columns, run_seed, budget=budget,  # TEMPORARY
+            search = make_search(method, context.case.space, run_seed, budget=budget,
                                  **(options or {}).get(method, {}))
             runs.append(run_search(search, objective, budget, context.evaluator, method_name=method, seed=run_seed,
                                    label=label, progress=advance.of_run()))
