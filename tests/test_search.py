@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import math
 import statistics
+import subprocess
+import sys
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 from pathlib import Path
@@ -19,7 +21,7 @@ from orchestrator.search.local import Descent, neighbours
 from orchestrator.search.pareto import hypervolume, non_dominated, pareto_front, reference_point
 from orchestrator.search.pymoo_search import Genome
 from problems import (Flaky, QuadraticAssignment, TwoObjectives, WeightedDistance, brute_force, enumerate_space,
-                      exact_front)
+                      exact_front, importable_env)
 from search_loop import run
 
 METHODS = sorted(SEARCHES)
@@ -590,11 +592,15 @@ def test_brute_force_enumerates_each_kind_of_space():
         enumerate_space(DesignSpace(10, 10))
 
 
-def test_the_test_problems_are_found_by_a_spawned_worker():
+def test_the_test_problems_are_found_by_a_spawned_worker_and_a_new_interpreter():
     """A process pool's worker imports the problems by module path (``problems``, from the inherited
-    sys.path), as the executor tests need."""
+    sys.path), as the executor tests need; a Python started by subprocess does with ``importable_env()``."""
     problem = QuadraticAssignment.random(CATALOGUE, 2)
     design = CATALOGUE.baseline()
     with ProcessPoolExecutor(1, mp_context=get_context("spawn")) as pool:
         evaluation = pool.submit(problem, design).result(timeout=120)
     assert evaluation.order == design and evaluation.peak == pytest.approx(problem.value(design), rel=1e-12)
+    script = "import problems; print(problems.WeightedDistance((2, 1)).value((1, 2)))"
+    done = subprocess.run([sys.executable, "-c", script], env=importable_env(), capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0 and float(done.stdout) == 2.0, done.stderr
