@@ -137,9 +137,9 @@ def test_sa_finds_the_weighted_distance_optimum():
 def test_cmaes_at_300_evaluations_on_the_catalogue_and_the_graded_stack(space, needed):
     """The designer's targets on a cheap problem: CMA-ES (with its polishing phase) at 300 evaluations
     reaches the brute-force optimum of 3 materials over 7 columns (2,187 designs) in at least 4 of 5 seeds.
-    Over 8 materials for 5 columns (6,720 arrangements) the random quadratic assignment is harder than that
-    target asks: CMA-ES reaches its optimum in 3 of 5 seeds here, the iterated local search from the baseline
-    in 5 (the target itself is for the lattice)."""
+    Over 8 materials for 5 columns (6,720 arrangements) the random quadratic assignment is harder than the
+    target asks of the lattice: here CMA-ES must reach its optimum in 3 of 5 seeds, and the iterated local
+    search from the baseline (what CMA-ES hands its budget to) in 4."""
     problem = QuadraticAssignment.random(space, 0)
     (optimum,), value = brute_force(problem, space)
     found = [solve("cmaes", problem, space, 300, seed) for seed in range(5)]
