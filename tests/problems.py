@@ -2,13 +2,16 @@
 
 Every class is a top-level, picklable callable ``objective(design) -> Evaluation``, so that the tests can run
 it on a process pool or a Dask cluster: a worker imports this module as ``problems`` (pytest puts tests/ on
-``sys.path``, and spawned workers inherit the parent's ``sys.path``). ``value(design)`` gives the number
-alone, ``values(designs)`` many at once; ``brute_force`` gives the known optimum of a small space by
-enumerating it.
+``sys.path``, and spawned workers inherit the parent's ``sys.path``); a new interpreter started with
+``subprocess`` needs ``env=importable_env()``. ``value(design)`` gives the number
+alone, ``values(designs)`` many at once; ``brute_force`` and ``exact_front`` give the known optimum and
+Pareto front of a small space by enumerating it.
 """
 from __future__ import annotations
 
+import os
 import time
+from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -17,6 +20,15 @@ from orchestrator.design import Design, DesignSpace, as_design
 from orchestrator.types import Evaluation, censored
 
 ENUMERABLE = 400_000  # designs brute force enumerates at most (9! = 362,880)
+TESTS = Path(__file__).resolve().parent
+
+
+def importable_env(environ: dict[str, str] | None = None) -> dict[str, str]:
+    """``environ`` (default: this process's environment) with tests/ first on PYTHONPATH, so that a Python
+    started by ``subprocess`` (and the workers it spawns) can ``import problems``."""
+    environ = dict(os.environ if environ is None else environ)
+    environ["PYTHONPATH"] = os.pathsep.join([str(TESTS)] + [p for p in [environ.get("PYTHONPATH")] if p])
+    return environ
 
 
 def as_space(space: DesignSpace | int) -> DesignSpace:
@@ -105,6 +117,24 @@ class QuadraticAssignment:
         return Evaluation(as_design(design), self.value(design), "ok")
 
 
+class TwoObjectives:
+    """Two cheap objectives that conflict, for the multi-objective search: two independent quadratic
+    assignments of the same space (``random(space, seed)``), both minimised. ``value(design)`` is the pair."""
+
+    def __init__(self, first: QuadraticAssignment, second: QuadraticAssignment) -> None:
+        self.first, self.second = first, second
+
+    @classmethod
+    def random(cls, space: DesignSpace | int, seed: int) -> "TwoObjectives":
+        return cls(QuadraticAssignment.random(space, 2 * seed), QuadraticAssignment.random(space, 2 * seed + 1))
+
+    def values(self, designs: np.ndarray) -> np.ndarray:
+        return np.stack([self.first.values(designs), self.second.values(designs)], axis=1)
+
+    def value(self, design: Sequence[int]) -> tuple[float, float]:
+        return self.first.value(design), self.second.value(design)
+
+
 def brute_force(objective: Any, space: DesignSpace | int) -> tuple[list[Design], float]:
     """All minimisers and the minimum over every design of a small space (an int n: the permutations of n).
 
@@ -118,6 +148,14 @@ def brute_force(objective: Any, space: DesignSpace | int) -> tuple[list[Design],
     best = float(values.min())
     winners = [as_design(d) for d in designs[values <= best + 1e-9]]
     return winners, best
+
+
+def exact_front(objective: TwoObjectives, space: DesignSpace | int) -> list:
+    """The exact Pareto front of a small space, by enumerating it (a list of ``pareto.ParetoPoint``)."""
+    from orchestrator.search.pareto import pareto_front  # here: a worker importing the problems needs no search
+
+    designs = enumerate_space(space)
+    return pareto_front([as_design(d) for d in designs], objective.values(designs))
 
 
 class Flaky:

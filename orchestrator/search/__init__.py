@@ -7,6 +7,8 @@
         search.tell(designs, [value_or_None(d) for d in designs])
 
 The loop does this with a cache, a budget and an executor; searches never see an objective or an executor.
+A search of several objectives (``SEARCHES[name].n_objectives > 1``: ``nsga2``) is told a vector per design
+and answers with ``pareto_front()``; ``pareto.hypervolume`` measures a front.
 """
 from __future__ import annotations
 
@@ -20,6 +22,8 @@ from .cmaes import CMAES
 from .de import DifferentialEvolution
 from .ga import GeneticAlgorithm
 from .local import LocalSearch
+from .nsga2 import NSGA2
+from .pareto import ParetoPoint, hypervolume, non_dominated, pareto_front, reference_point
 from .polish import Polished
 from .pso import PSO
 
@@ -32,6 +36,7 @@ SEARCHES: dict[str, type[Search]] = {
     "random": RandomSearch,
     "sequential": Sequential,
     "local": LocalSearch,
+    "nsga2": NSGA2,
 }
 
 
@@ -67,4 +72,5 @@ def make_search(name: str, space: DesignSpace | int, seed: int, **options: Any) 
 
 
 __all__ = ["SEARCHES", "make_search", "Search", "CMAES", "PSO", "Annealing", "RandomSearch", "Sequential",
-           "LocalSearch", "Polished", "GeneticAlgorithm", "DifferentialEvolution", "FAILURE"]
+           "LocalSearch", "Polished", "GeneticAlgorithm", "DifferentialEvolution", "NSGA2", "FAILURE",
+           "ParetoPoint", "hypervolume", "non_dominated", "pareto_front", "reference_point"]

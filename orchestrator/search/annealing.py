@@ -82,8 +82,9 @@ def metropolis_threshold(current: float, temperature: float | None, u: float | N
 
 @dataclass(frozen=True)
 class Proposal:
-    """One chain's asked order: ``kind`` "init", "kick" (taken whatever its value) or "move" (a Metropolis
-    step, with the uniform ``u`` and temperature drawn when it was proposed, its threshold and its limit)."""
+    """One chain's asked design (``order``): ``kind`` "init", "kick" (taken whatever its value) or "move" (a
+    Metropolis step, with the uniform ``u`` and temperature drawn when it was proposed, its threshold and its
+    limit)."""
 
     order: Design
     kind: str
@@ -158,11 +159,11 @@ class Annealing(Search):
         self.window_uphill: list[bool] = []  # accepted or not, at the temperature of the time
         self.window_deltas: list[float] = []  # the delta, or for a censored move the lower bound it is above
         self.window_exact: list[bool] = []    # False: a censored move, its delta only known to exceed the bound
-        # what this search knows of an order beyond its memo: only that it is above this bound (censored,
+        # what this search knows of a design beyond its memo: only that it is above this bound (censored,
         # or told a value above the limit it was asked with: see "Why the Metropolis uniform ...")
         self.above: dict[Design, float] = {}
         self._limits: list[float | None] = []
-        self.reevaluations = 0  # orders asked again: known only above a bound below a threshold that matters
+        self.reevaluations = 0  # designs asked again: known only above a bound below a threshold that matters
         self.undecided = 0  # told censored below their own threshold (a limit lower than asked): rejected
         self.recent: deque[bool] = deque(maxlen=200)
 
@@ -172,7 +173,7 @@ class Annealing(Search):
         return self._temperature_at(len(self.memo))
 
     def _temperature_at(self, evaluated: int) -> float | None:
-        """The temperature once ``evaluated`` distinct orders are known."""
+        """The temperature once ``evaluated`` distinct designs are known."""
         if self.t0 is None:
             return None
         span = max(1, self.anneal_budget - self.memo_at_t0)
@@ -205,7 +206,7 @@ class Annealing(Search):
     def _step(self, c: int, order: Design, value: float, threshold: float, *, free: bool,
               calibrating: bool) -> bool:
         """One Metropolis step of chain c (greedy while calibrating): accept iff value <= current or
-        value < threshold. An order known only to be above a bound (``self.above``) is rejected when the
+        value < threshold. A design known only to be above a bound (``self.above``) is rejected when the
         bound is at or above the threshold; below it the step is not decided: returns False, changes
         nothing."""
         current = self.current_value[c]
@@ -285,7 +286,7 @@ class Annealing(Search):
                 self.kicks += 1
                 self.reevaluations += kicked in self.above
                 self._proposals.append(Proposal(kicked, "kick"))
-        # a move is judged at the temperature of when it is told, once this batch's new orders are counted
+        # a move is judged at the temperature of when it is told, once this batch's new designs are counted
         told_at = self._temperature_at(len(self.memo) + len({p.order for p in self._proposals} - self.memo.keys()))
         for c, p in enumerate(self._proposals):
             if p.kind == "move" and p.u is not None:
@@ -293,7 +294,7 @@ class Annealing(Search):
                 self._proposals[c] = Proposal(p.order, "move", p.u, told_at, threshold, self._limit(c, threshold))
             elif p.kind == "move":  # a calibration step: greedy, on the exact value
                 self._proposals[c] = Proposal(p.order, "move", None, None, self.current_value[c])
-        # an order asked by several chains is evaluated once: each gets the highest of their limits (None
+        # a design asked by several chains is evaluated once: each gets the highest of their limits (None
         # if one needs the exact value)
         merged: dict[Design, float | None] = {}
         for p in self._proposals:
@@ -305,7 +306,7 @@ class Annealing(Search):
         return [p.order for p in self._proposals]
 
     def limits(self) -> list[float | None]:
-        """Each asked order's limit (see ``_limit``); None for an init, a kick or a calibration step."""
+        """Each asked design's limit (see ``_limit``); None for an init, a kick or a calibration step."""
         return list(self._limits)
 
     def _learn(self, order: Design, value: float, limit: float | None) -> None:
@@ -320,7 +321,7 @@ class Annealing(Search):
         else:
             self.above.pop(order, None)
 
-    def _tell(self, orders: list[Design], values: list[float]) -> None:
+    def _tell(self, designs: list[Design], values: list[float]) -> None:
         for proposal, value, limit in zip(self._proposals, values, self._limits):
             self._learn(proposal.order, value, limit)
         for c, (proposal, value) in enumerate(zip(self._proposals, values)):

@@ -38,7 +38,7 @@ class CMAES(Search):
     """``cma.CMAEvolutionStrategy`` on random keys; one batch = one population.
 
     Options:
-      popsize     population size (batch size); default pycma's 4 + floor(3 ln n).
+      popsize     population size (batch size); default pycma's 4 + floor(3 ln d), d the key dimension.
       sigma0      initial step size (default 0.3).
       x0          first mean: "sequential" (default; evenly spaced keys in [0, 1]
                   decoding to the space's baseline), "random" (uniform in [0, 1]).

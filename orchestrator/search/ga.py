@@ -65,7 +65,8 @@ class GeneticAlgorithm(PymooSearch):
 
     def _algorithm(self, initial_X: np.ndarray) -> GA:
         return GA(pop_size=int(self.options["pop_size"]), sampling=initial_X,
-                  **self.genome.operators(float(self.options["mutation_prob"])), eliminate_duplicates=self.genome.duplicates())
+                  **self.genome.operators(float(self.options["mutation_prob"])),
+                  eliminate_duplicates=self.genome.duplicates())
 
     def _decode(self, x: np.ndarray) -> Design:
         return self.genome.decode(x)
