@@ -23,7 +23,7 @@ from .fmu import PreparedFMU, prepare_fmu
 from .journal import Journal
 from .loop import Evaluator
 from .objective import RUN_MAXIMA, Trajectory, close_instances, count_cases
-from .options import flag_of, given, integer, number, option
+from .options import integer, number, option
 from .progress import Progress
 from .records import to_record
 from .runfolder import RunFolder, make_temp_root

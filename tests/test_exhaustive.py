@@ -6,7 +6,6 @@ import json
 import math
 import shutil
 from dataclasses import dataclass
-from pathlib import Path
 
 import pytest
 

@@ -12,7 +12,7 @@ from orchestrator.search.base import Search
 from problems import Flaky, QuadraticAssignment, WeightedDistance
 from orchestrator.types import Evaluation, check_evaluation, safe_call
 
-METHODS = sorted(SEARCHES)
+METHODS = sorted(m for m in SEARCHES if SEARCHES[m].n_objectives == 1)
 QAP7 = QuadraticAssignment.random(7, 11)
 
 

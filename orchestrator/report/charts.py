@@ -1,7 +1,6 @@
 """The report's charts, drawn from a study's typed results (nothing here simulates)."""
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import matplotlib

@@ -70,7 +70,6 @@ class WorkPrecision(Step):
 
 
 def draw_work_precision(study, path: Path) -> str | None:
-    import numpy as np
     from ..report.charts import plt, save
 
     result = study.steps.get("work_precision")
