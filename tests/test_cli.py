@@ -235,7 +235,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
-LONG = ["--method", "sa", "cmaes", "--budget", "400", "--repeats", "2", "--workers", "2", "--no-progress",
+LONG = ["--method", "sa", "cmaes", "--budget", "250", "--repeats", "2", "--workers", "2", "--no-progress",
         "--diagonal-rule", "receiver", "--no-sensitivity"]
 
 
