@@ -269,6 +269,17 @@ def design_parameters(fmu_path: str | Path, parameters: Mapping,
     return result
 
 
+def design_refusal(fmu_path: str | Path, parameters: Mapping, materials: MaterialTable | None = None) -> str | None:
+    """Why write_best_design_ssp would refuse this design (one line), or None: for a study to say so before
+    it runs (with a valid order, say its design space's baseline: a tool's refusal does not depend on the
+    order), and for its report to say instead of the file."""
+    try:
+        entries = design_parameters(fmu_path, parameters, materials)
+    except ValueError as error:
+        return str(error)
+    return _tool_problem(read_model_description(str(fmu_path)), entries)
+
+
 def write_best_design_ssp(fmu_path: str | Path, parameters: Mapping, out_path: str | Path, *, stop_time: float,
                           step_size: float = 0.01, materials: MaterialTable | None = None) -> Path:
     """Writes `out_path` (.ssp): the FMU, `parameters` as an .ssv bound to it in the .ssd, the experiment.
@@ -388,5 +399,5 @@ def read_design_parameters(ssp_path: str | Path) -> dict[str, float | int]:
     return values
 
 
-__all__ = ["COMPONENT", "DesignParameter", "SSD_NAME", "SSV_NAME", "SYSTEM", "design_parameters",
+__all__ = ["COMPONENT", "DesignParameter", "SSD_NAME", "SSV_NAME", "SYSTEM", "design_parameters", "design_refusal",
            "read_design_parameters", "write_best_design_ssp"]

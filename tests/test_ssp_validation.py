@@ -14,7 +14,7 @@ import pytest
 
 from fmu_src.materials import study_materials
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
-from orchestrator.ssp import SSD_NAME, SSV_NAME, read_design_parameters, write_best_design_ssp
+from orchestrator.ssp import SSD_NAME, SSV_NAME, design_refusal, read_design_parameters, write_best_design_ssp
 
 BASE = [(f"material[{j}]", "Integer", str(m)) for j, m in enumerate(PUBLISHED_BEST, 1)] + [
     ("F_total", "Real", "1100.0"), ("diagonal_rule", "Integer", "0")]
@@ -159,9 +159,11 @@ def test_a_design_libcosim_would_run_differently_is_refused(fmu_path, tmp_path):
             v for v in read_model_description(str(fmu_path)).modelVariables
             if v.name == "diagonal_rule").type != "Enumeration":
         pytest.skip("this FMU offers diagonal_rule as an Integer: libcosim applies it (test_ssp covers the run)")
+    mean = {"material": list(PUBLISHED_BEST), "diagonal_rule": "mean"}
     with pytest.raises(ValueError, match="diagonal_rule = mean: libcosim ignores FMI 2 Enumeration parameters"):
-        write_best_design_ssp(fmu_path, {"material": list(PUBLISHED_BEST), "diagonal_rule": "mean"},
-                              tmp_path / "mean.ssp", stop_time=1.0)
+        write_best_design_ssp(fmu_path, mean, tmp_path / "mean.ssp", stop_time=1.0)
+    assert design_refusal(fmu_path, mean).startswith("diagonal_rule = mean: libcosim ignores")  # said before a run
+    assert design_refusal(fmu_path, {"material": list(PUBLISHED_BEST)}) is None
     written = write_best_design_ssp(fmu_path, {"material": list(PUBLISHED_BEST), "diagonal_rule": "receiver"},
                                     tmp_path / "receiver.ssp", stop_time=1.0)  # the default runs the same
     assert read_design_parameters(written)["diagonal_rule"] == 0
