@@ -56,7 +56,7 @@ int model_has_failed(const Model *m);
 int model_check(const Model *m, char *message, size_t message_size);
 /* The continuous-time contract, as the Reference FMUs' model.h has it (getContinuousStates,
  * getDerivatives, getEventIndicators, eventUpdate). Model Exchange hands it to the importer's solver; the
- * Co-Simulation driver (model_advance) integrates the same derivatives with its own solver and locates the
+ * Co-Simulation driver (cosimulation.c) integrates the same derivatives with its own solver and locates the
  * same event indicators on its dense output, so the two interfaces cannot drift.
  *
  * Continuous states (model_state_count): the lattice's displacements and velocities and its three energy

@@ -1,0 +1,87 @@
+/* The model as the Co-Simulation driver (cosimulation.c) sees it: the Model struct and the continuous-time
+ * contract's calls (model.c). The FMI glue sees only model.h.
+ *
+ * The contract (model.h): continuous states in lattice.h's layout, their derivatives under the model's
+ * discrete states (the load phase, each row's backplate mode), the event indicators and the event update.
+ * Model Exchange hands it to the importer's solver; the driver integrates the same derivatives with its own
+ * solver (or their reduced layout, lattice_rhs_along_x, the one hook beside the contract) and locates the same
+ * indicators, so the two interfaces cannot drift. Both take their peaks through the one sampler and write
+ * their outputs through the one updater below.
+ */
+#ifndef LATTICE_CONTRACT_H
+#define LATTICE_CONTRACT_H
+
+#include "cosimulation.h"
+#include "lattice.h"
+#include "model.h"
+#include "model_variables.h"
+
+#define INDEX_EXTERNAL_WORK (4 * N_MASSES)
+#define INDEX_DISSIPATED (4 * N_MASSES + 1)
+#define INDEX_NONRECIPROCAL_WORK (4 * N_MASSES + 2)
+#define FAILURE_SIZE 512
+/* A time within this fraction of a sample interval of a sample belongs to it (rounding of t). */
+#define SAMPLE_TIME_SLACK 1e-9
+
+/* The contract's event indicators (model.h): each row's contact, then each row's damping. */
+#define CONTACT_INDICATOR(row) (row)
+#define DAMPING_INDICATOR(row) (LATTICE_ROWS + (row))
+#define LAST_COLUMN_MASS(row) ((row) * LATTICE_COLS + LATTICE_COLS - 1)
+
+struct Model {
+    double real[N_VALUE_REFERENCES];
+    int integer[N_VALUE_REFERENCES];
+    int initialized, failed;
+    char failure[FAILURE_SIZE];
+    int stop_time_defined;
+    double stop_time, time;
+    LatticeParams params;
+    /* the discrete states */
+    int load_on;
+    signed char wall_mode[LATTICE_ROWS]; /* frozen between events (WallMode) */
+    /* the peaks and the last contact over the points each interface shows (the one sampler) */
+    double peak_sampled;
+    double peak_continuous, peak_continuous_time;
+    double last_contact_time; /* latest time a column-C mass was in contact with the backplate */
+    double initial_energy;    /* potential energy of the start state (a negative gap presses from t = 0) */
+    double output_state[N_STATE]; /* the state at the model's time (Model Exchange: the importer's) */
+    double derivative[N_STATE];   /* its derivatives, when derivative_valid */
+    int derivative_valid;
+    int exchange;      /* Model Exchange: the importer integrates output_state (model_exchange_begin) */
+    int outputs_stale; /* Model Exchange: the outputs still describe an earlier state */
+    long exchange_evaluations, exchange_points; /* derivative evaluations and completed points (ME) */
+    CoSimulation cs;
+};
+
+/* The derivatives of state y (lattice.h's whole layout) under the backplate modes, with the load on or off. */
+void model_derivatives(const Model *m, int load_on, const double *y, double *dydt);
+
+/* Event indicator k is state component *component minus *threshold, in a layout whose vx begin at vx_base
+ * (2 N_MASSES: the contract's whole layout; the driver's reduced one has its own). */
+void model_indicator_definition(const Model *m, int k, int vx_base, int *component, double *threshold);
+
+/* The backplate modes SPEC section 5 gives the column-C masses of state y, of its first `rows` rows (the whole
+ * lattice's, or the upper half's, whose mirror-image rows take the same modes): what an event switches to. */
+void model_wall_modes(const Model *m, const double *y, int rows, int vx_base, signed char *modes);
+
+/* The contract's time event (the load switches off at t_active): 1 and its time while one is ahead. */
+int model_next_time_event(const Model *m, double *time);
+int model_load_switches_off(const Model *m, double time);
+
+/* W_ext + W_nr - KE - PE - D + the start state's energy, of whole state y: 0 when the balance closes. */
+double model_energy_balance(const Model *m, const double *y, double *kinetic, double *potential);
+
+/* The one peak sampler: the backplate force at `time`, into the sampled peak when `time` is a sample time, and
+ * into the continuous peak. */
+void model_take_force(Model *m, double time, double force, int is_sample);
+
+/* The backplate force from the column-C masses' ux and vx of the first `rows` rows: all of them, or the upper
+ * half of a mirror-symmetric lattice (each row but the middle one twice). */
+double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows);
+
+/* The one output updater: every output from output_state, the continuous peak and its time, the last contact
+ * and the counters given by the interface. */
+void model_update_outputs(Model *m, double peak_continuous, double peak_time, double last_contact_time,
+                          long rhs_evaluations, long steps_accepted, long steps_rejected);
+
+#endif

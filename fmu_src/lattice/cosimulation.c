@@ -1,0 +1,621 @@
+/* The Co-Simulation driver on the model's contract (cosimulation.h, contract.h). */
+#include "cosimulation.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "contract.h"
+
+/* Divergence: kinetic energy beyond this multiple of the energy put in ends the run with an error. */
+#define ENERGY_LIMIT_FACTOR 10.0
+/* ... and so does an energy balance off by more than this fraction of the energy put in, checked every
+ * BALANCE_CHECK_STEPS accepted steps. */
+#define BALANCE_LIMIT_FRACTION 0.5
+#define BALANCE_CHECK_STEPS 16
+/* The continuous peak inside a step: a free Hermite look at a few points first; only a step that may
+ * come within PEAK_PREFILTER_MARGIN of the running peak pays for the dense output, a grid and Brent's
+ * refinement to PEAK_TIME_TOLERANCE |t| + PEAK_TIME_ABSOLUTE (s) in the peak's time. */
+#define PEAK_PREFILTER_POINTS 8
+#define PEAK_PREFILTER_MARGIN 0.05
+#define PEAK_GRID_POINTS 16
+#define PEAK_REFINE_ITERATIONS 100
+#define PEAK_TIME_TOLERANCE 1.5e-8 /* about the square root of the double's epsilon, as Brent advises */
+#define PEAK_TIME_ABSOLUTE 1e-12
+/* The shortest part of a step, as a fraction of it, that a located backplate switch may cut it back to. */
+#define MIN_EVENT_FRACTION 1e-6
+/* Backplate switches this close after the earliest in a step (a fraction of the step) count as one event. */
+#define SIMULTANEOUS_EVENT_FRACTION 1e-9
+/* This many steps in a row that do not move time forward mean the backplate switches chatter. */
+#define MAX_STALLED_STEPS 1000
+/* The work of one doStep is bounded, so that no setting makes a call run for ever: at most this many samples
+ * of the peak (checked before the step: peak_sample_interval against the communication step) and this many
+ * solver steps, accepted and rejected (checked before the step for the fixed-step solvers, and as they are
+ * taken for all). */
+#define MAX_SAMPLES_PER_DO_STEP 10000000.0
+#define MAX_STEPS_PER_DO_STEP 200000L
+
+/* The solver's right-hand side: the contract's derivatives of the whole lattice, or of its reduced layout. */
+static void solver_rhs(void *context, int phase, const double *y, double *dydt) {
+    const Model *m = (const Model *)context;
+    if (m->cs.solver_along_x) {
+        lattice_rhs_along_x(&m->params, m->cs.solver_rows != LATTICE_ROWS, phase, m->wall_mode, y, dydt);
+    } else {
+        model_derivatives(m, phase, y, dydt);
+    }
+}
+
+/* The solver's layout (lattice.h): its masses, where its vx and its quadratures begin. */
+static int solver_masses(const Model *m) { return m->cs.solver_rows * LATTICE_COLS; }
+static int solver_vx_base(const Model *m) { return (m->cs.solver_along_x ? 1 : 2) * solver_masses(m); }
+static int solver_quadrature_base(const Model *m) { return (m->cs.solver_along_x ? 2 : 4) * solver_masses(m); }
+
+/* The smallest state that carries this lattice's solution (use_symmetry; lattice.h): without uy and vy when it
+ * is loaded along x, and then of the upper half only when it is also mirror-symmetric (a mirror-symmetric
+ * lattice is always loaded along x: lattice_mirror_rows). */
+static void solver_layout(const Model *m, int *rows, int *along_x) {
+    *along_x = PARAM_USE_SYMMETRY(m) && lattice_along_x(&m->params);
+    *rows = *along_x && lattice_mirror_rows(&m->params) ? lattice_mirror_rows(&m->params) : LATTICE_ROWS;
+}
+
+/* Where component i of the whole lattice's state (lattice.h) is in the solver's: -1 for uy and vy when the
+ * solver leaves them out (they are 0); a row of the lower half of a mirrored lattice is its mirror image's
+ * (only a lattice along x is mirrored: solver_layout). */
+static int solver_component_of(const Model *m, int i) {
+    int block, mass, row;
+    if (!m->cs.solver_along_x) return i;
+    if (i >= 4 * N_MASSES) return solver_quadrature_base(m) + (i - 4 * N_MASSES); /* the whole lattice's */
+    block = i / N_MASSES;
+    if (block == 1 || block == 3) return -1;
+    mass = i % N_MASSES;
+    row = mass / LATTICE_COLS;
+    if (row >= m->cs.solver_rows) row = LATTICE_ROWS - 1 - row;
+    return (block / 2) * solver_masses(m) + row * LATTICE_COLS + mass % LATTICE_COLS; /* ux, vx */
+}
+
+/* The solver's current state as the whole lattice's (itself when the solver integrates the whole). */
+static const double *whole_solver_state(Model *m) {
+    const double *y = solver_state(m->cs.work);
+    int i;
+    if (!m->cs.solver_along_x) return y;
+    for (i = 0; i < N_STATE; i++) {
+        const int component = solver_component_of(m, i);
+        m->cs.whole_state[i] = component < 0 ? 0.0 : y[component];
+    }
+    return m->cs.whole_state;
+}
+
+static int fail(Model *m, const char *reason, char *message, size_t message_size) {
+    m->failed = 1;
+    snprintf(m->failure, FAILURE_SIZE, "%s", reason);
+    snprintf(message, message_size, "%s", reason);
+    return -1;
+}
+
+int model_terminated(const Model *m) { return m->cs.terminated; }
+
+/* State at time t of the last step (t_old <= t <= t_new); the dense output is paid for only off the ends. */
+static double state_component(Model *m, int component, double t) {
+    Solver *s = &m->cs.solver;
+    if (t == s->t) return solver_state(m->cs.work)[component]; /* also before the first step */
+    if (t == s->t_old && s->dense_power == 0) return solver_interpolate_hermite(s, m->cs.work, component, t);
+    solver_prepare_dense(s, m->cs.work, solver_rhs, m);
+    return solver_interpolate(s, m->cs.work, component, t);
+}
+
+static double backplate_force_at(Model *m, double t) {
+    double ux[LATTICE_ROWS], vx[LATTICE_ROWS];
+    const int vx_base = solver_vx_base(m);
+    int i;
+    for (i = 0; i < m->cs.solver_rows; i++) {
+        const int mass = LAST_COLUMN_MASS(i);
+        ux[i] = state_component(m, mass, t);
+        vx[i] = state_component(m, vx_base + mass, t);
+    }
+    return model_backplate_force_of_column(m, ux, vx, m->cs.solver_rows);
+}
+
+static double backplate_force_hermite(Model *m, double t) {
+    double ux[LATTICE_ROWS], vx[LATTICE_ROWS];
+    const int vx_base = solver_vx_base(m);
+    int i;
+    for (i = 0; i < m->cs.solver_rows; i++) {
+        const int mass = LAST_COLUMN_MASS(i);
+        ux[i] = solver_interpolate_hermite(&m->cs.solver, m->cs.work, mass, t);
+        vx[i] = solver_interpolate_hermite(&m->cs.solver, m->cs.work, vx_base + mass, t);
+    }
+    return model_backplate_force_of_column(m, ux, vx, m->cs.solver_rows);
+}
+
+/* Brent's minimiser without derivatives (R. P. Brent, Algorithms for Minimization without Derivatives,
+ * 1973, ch. 5: parabolic interpolation, golden section where the parabola is not trusted) on -F over
+ * [low, high], from x with F(x) = fx, the best point of the grid. It stops once x is within
+ * PEAK_TIME_TOLERANCE * |x| + PEAK_TIME_ABSOLUTE of the maximum: near a maximum F is flat to second order,
+ * so the peak's value is then exact to rounding. */
+static void brent_maximum(Model *m, double low, double high, double *x_best, double *f_best) {
+    const double c = 0.5 * (3.0 - sqrt(5.0));
+    double x = *x_best, fx = -*f_best, w = x, fw = fx, v = x, fv = fx, d = 0.0, e = 0.0;
+    int i;
+    for (i = 0; i < PEAK_REFINE_ITERATIONS; i++) {
+        const double middle = 0.5 * (low + high), tol = PEAK_TIME_TOLERANCE * fabs(x) + PEAK_TIME_ABSOLUTE;
+        const double tol2 = 2.0 * tol;
+        double p = 0.0, q = 0.0, r = 0.0, u, fu;
+        if (fabs(x - middle) <= tol2 - 0.5 * (high - low)) break;
+        if (fabs(e) > tol) { /* a parabola through x, w, v */
+            r = (x - w) * (fx - fv);
+            q = (x - v) * (fx - fw);
+            p = (x - v) * q - (x - w) * r;
+            q = 2.0 * (q - r);
+            if (q > 0.0) {
+                p = -p;
+            } else {
+                q = -q;
+            }
+            r = e;
+            e = d;
+        }
+        if (fabs(p) < fabs(0.5 * q * r) && p > q * (low - x) && p < q * (high - x)) {
+            d = p / q;
+            u = x + d;
+            if (u - low < tol2 || high - u < tol2) d = x < middle ? tol : -tol;
+        } else {
+            e = (x < middle ? high : low) - x;
+            d = c * e;
+        }
+        u = x + (fabs(d) >= tol ? d : (d > 0.0 ? tol : -tol));
+        fu = -backplate_force_at(m, u);
+        if (fu <= fx) {
+            if (u < x) {
+                high = x;
+            } else {
+                low = x;
+            }
+            v = w;
+            fv = fw;
+            w = x;
+            fw = fx;
+            x = u;
+            fx = fu;
+        } else {
+            if (u < x) {
+                low = u;
+            } else {
+                high = u;
+            }
+            if (fu <= fw || w == x) {
+                v = w;
+                fv = fw;
+                w = u;
+                fw = fu;
+            } else if (fu <= fv || v == x || v == w) {
+                v = u;
+                fv = fu;
+            }
+        }
+    }
+    *x_best = x;
+    *f_best = -fx;
+}
+
+/* Largest backplate force on [a, b] inside the last step: grid, then Brent's method around the best. */
+static void maximum_in_step(Model *m, double a, double b, double *value, double *time) {
+    double best = backplate_force_at(m, a), best_time = a, cheap_best;
+    int i, best_index = 0;
+    {
+        const double at_b = backplate_force_at(m, b);
+        if (at_b > best) {
+            best = at_b;
+            best_time = b;
+            best_index = PEAK_GRID_POINTS;
+        }
+    }
+    cheap_best = best;
+    for (i = 1; i < PEAK_PREFILTER_POINTS; i++) {
+        cheap_best = fmax(cheap_best, backplate_force_hermite(m, a + (b - a) * i / PEAK_PREFILTER_POINTS));
+    }
+    if (cheap_best <= 0.0 || cheap_best < (1.0 - PEAK_PREFILTER_MARGIN) * m->peak_continuous) {
+        *value = best;
+        *time = best_time;
+        return;
+    }
+    for (i = 1; i < PEAK_GRID_POINTS; i++) {
+        const double t = a + (b - a) * i / PEAK_GRID_POINTS, force = backplate_force_at(m, t);
+        if (force > best) {
+            best = force;
+            best_time = t;
+            best_index = i;
+        }
+    }
+    brent_maximum(m, a + (b - a) * (best_index > 0 ? best_index - 1 : 0) / PEAK_GRID_POINTS,
+                  a + (b - a) * (best_index < PEAK_GRID_POINTS ? best_index + 1 : PEAK_GRID_POINTS) / PEAK_GRID_POINTS,
+                  &best_time, &best);
+    *value = best;
+    *time = best_time;
+}
+
+/* Samples and the continuous peak of the last step, for the part of it up to t_target; a sample above
+ * peak_force_limit ends the run at its time (limit_exceeded, limit_time), and the step counts up to there. */
+static void process_step(Model *m, double t_target) {
+    CoSimulation *cs = &m->cs;
+    const Solver *s = &cs->solver;
+    const double interval = PARAM_PEAK_SAMPLE_INTERVAL(m), limit = PARAM_PEAK_FORCE_LIMIT(m);
+    const double sample_limit = fmin(s->t, t_target + SAMPLE_TIME_SLACK * interval);
+    for (;;) {
+        const double sample_time = (double)cs->next_sample * interval;
+        double force;
+        if (sample_time > sample_limit || cs->limit_exceeded) break;
+        /* a step without contact needs no dense output for its samples: the force is 0 throughout */
+        force = cs->step_contact_free ? 0.0 : backplate_force_at(m, sample_time);
+        model_take_force(m, sample_time, force, 1);
+        cs->next_sample++;
+        if (limit > 0.0 && m->peak_sampled > limit) {
+            cs->limit_exceeded = 1;
+            cs->limit_time = sample_time;
+            t_target = fmin(t_target, sample_time);
+        }
+    }
+    if (s->steps_accepted == 0 || cs->step_peak_committed) return;
+    if (!cs->step_peak_known) {
+        if (cs->step_contact_free) {
+            cs->step_peak = 0.0;
+            cs->step_peak_time = s->t_old;
+        } else {
+            maximum_in_step(m, s->t_old, s->t, &cs->step_peak, &cs->step_peak_time);
+        }
+        cs->step_peak_known = 1;
+    }
+    if (s->t <= t_target) {
+        model_take_force(m, cs->step_peak_time, cs->step_peak, 0);
+        cs->step_peak_committed = 1;
+    }
+}
+
+/* The outputs at t_target inside the last step: the whole lattice's state there, and the continuous peak
+ * with the part of the last step up to t_target (the step may reach past it). */
+static void update_outputs(Model *m, double t_target) {
+    const CoSimulation *cs = &m->cs;
+    const Solver *s = &cs->solver;
+    double peak = m->peak_continuous, peak_time = m->peak_continuous_time;
+    int i;
+    for (i = 0; i < N_STATE; i++) {
+        const int component = solver_component_of(m, i);
+        m->output_state[i] = component < 0 ? 0.0 : state_component(m, component, t_target);
+    }
+    if (s->steps_accepted > 0 && cs->step_peak_known && !cs->step_peak_committed) {
+        /* the last step reaches past t_target: only the part up to t_target counts (not committed) */
+        double partial = cs->step_peak, partial_time = cs->step_peak_time;
+        if (partial_time > t_target) maximum_in_step(m, s->t_old, t_target, &partial, &partial_time);
+        if (partial > peak) {
+            peak = partial;
+            peak_time = partial_time;
+        }
+    }
+    model_update_outputs(m, peak, peak_time, fmin(m->last_contact_time, t_target), s->rhs_evaluations,
+                         s->steps_accepted, s->steps_rejected);
+}
+
+/* No column-C mass in contact with the backplate (always so without one). */
+static int wall_free(const Model *m) {
+    int i;
+    for (i = 0; i < LATTICE_ROWS; i++) {
+        if (m->wall_mode[i] != WALL_FREE) return 0;
+    }
+    return 1;
+}
+
+/* The modes SPEC gives the column-C masses in the state at the end of the last step. */
+static void wall_modes_of_state(const Model *m, signed char *modes) {
+    model_wall_modes(m, solver_state(m->cs.work), m->cs.solver_rows, solver_vx_base(m), modes);
+}
+
+/* Where inside the last step event indicator k (the contract's, under the step's frozen modes) takes the
+ * sign it has at the step's end: the end of a bracket [low, high] that already has it, narrowed to rounding
+ * on the dense output of its component by the Illinois variant of regula falsi (M. Dowell and P. Jarratt,
+ * BIT 11 (1971) 168-174), with a bisection whenever the bracket has not halved over two evaluations, which
+ * keeps the worst case within a few times bisection's. Where the indicator already has the end's sign at the
+ * step's start, no crossing is inside and the bracket closes on the start by bisection. */
+static double locate_switch(Model *m, int k) {
+    const Solver *s = &m->cs.solver;
+    int component;
+    double offset;
+    model_indicator_definition(m, k, solver_vx_base(m), &component, &offset);
+    const int positive_at_end = solver_state(m->cs.work)[component] - offset > 0.0;
+    double low = s->t_old, high = s->t, g_low = state_component(m, component, low) - offset;
+    double g_high = solver_state(m->cs.work)[component] - offset, width_1 = INFINITY, width_2 = INFINITY;
+    int i, side = 0;
+    if ((g_low > 0.0) == positive_at_end) g_low = g_high = 0.0; /* no sign change: bisection alone */
+    for (i = 0; i < 400 && high - low > 4.0 * DBL_EPSILON * fmax(fabs(high), 1.0); i++) {
+        const double width = high - low, nudge = 2.0 * DBL_EPSILON * fmax(fabs(high), 1.0);
+        double x = 0.5 * (low + high), g;
+        if (g_high != g_low && width <= 0.5 * width_2) { /* halved over the last two: secant again */
+            /* kept a rounding step inside the bracket: a secant on an end (an end's indicator exactly 0)
+             * would make no progress, a step beyond it usually closes the bracket */
+            x = fmin(fmax(high - g_high * width / (g_high - g_low), low + nudge), high - nudge);
+        }
+        width_2 = width_1;
+        width_1 = width;
+        g = state_component(m, component, x) - offset;
+        if ((g > 0.0) == positive_at_end) {
+            high = x;
+            g_high = g;
+            if (side == 1) g_low *= 0.5; /* Illinois: the stale end's value halved */
+            side = 1;
+        } else {
+            low = x;
+            g_low = g;
+            if (side == -1) g_high *= 0.5;
+            side = -1;
+        }
+    }
+    return high;
+}
+
+/* The backplate's switches (contact on/off, damping on/off) inside the last step: the step is cut back
+ * to the earliest one and the modes are switched there, so no step integrates across a discontinuity. */
+static int handle_wall_events(Model *m) {
+    Solver *s = &m->cs.solver;
+    signed char at_end[LATTICE_ROWS];
+    double located[2 * LATTICE_ROWS], earliest = s->t, cut_time;
+    int i, changed = 0, cut = 0, count = 0;
+    wall_modes_of_state(m, at_end);
+    for (i = 0; i < m->cs.solver_rows; i++) changed = changed || at_end[i] != m->wall_mode[i];
+    if (!changed) return 0;
+    solver_prepare_dense(s, m->cs.work, solver_rhs, m); /* in the step's own modes, before they change */
+    for (i = 0; i < m->cs.solver_rows; i++) {
+        const int contact_before = m->wall_mode[i] != WALL_FREE, contact_after = at_end[i] != WALL_FREE;
+        if (at_end[i] == m->wall_mode[i]) continue;
+        if (contact_before != contact_after) located[count++] = locate_switch(m, CONTACT_INDICATOR(i));
+        if (contact_before && (m->wall_mode[i] == WALL_APPROACHING) != (at_end[i] == WALL_APPROACHING)) {
+            located[count++] = locate_switch(m, DAMPING_INDICATOR(i));
+        }
+    }
+    for (i = 0; i < count; i++) earliest = fmin(earliest, located[i]);
+    /* Switches within SIMULTANEOUS_EVENT_FRACTION of a step after the earliest are one event, cut at the
+     * last of them: mirror-image rows (the armour scene is symmetric about its middle row) cross within
+     * rounding of each other, and cutting at the first alone would leave the other to cut the next step back
+     * to a sliver of itself, a whole step's right-hand sides for nothing. */
+    cut_time = earliest;
+    for (i = 0; i < count; i++) {
+        if (located[i] <= earliest + SIMULTANEOUS_EVENT_FRACTION * s->h_last) cut_time = fmax(cut_time, located[i]);
+    }
+    /* A fixed-step solver takes a switch within MIN_EVENT_FRACTION of its step's start at the step's end
+     * instead: its cubic dense output is too rough to place a switch that close, and cutting back there can
+     * make no progress (near its stability limit it chatters on one switch). The adaptive solver always
+     * cuts back: its error control keeps the steps after an event honest. */
+    const double shortest = solver_is_adaptive(s->method) ? 0.0 : MIN_EVENT_FRACTION * s->h_last;
+    if (earliest > s->t_old + shortest && cut_time < s->t) {
+        solver_truncate(s, m->cs.work, solver_rhs, m, cut_time);
+        cut = 1;
+    }
+    wall_modes_of_state(m, m->wall_mode);
+    return cut;
+}
+
+void cosimulation_initialize(Model *m) {
+    CoSimulation *cs = &m->cs;
+    solver_layout(m, &cs->solver_rows, &cs->solver_along_x);
+    solver_init(&cs->solver, cs->work, PARAM_SOLVER(m), solver_quadrature_base(m) + LATTICE_N_QUADRATURES,
+                solver_vx_base(m), PARAM_RTOL(m), PARAM_ATOL(m), PARAM_FIXED_STEP(m), m->load_on, m->output_state);
+    if (cs->solver_rows != LATTICE_ROWS || cs->solver_along_x) {
+        /* each row of an upper half but the middle one stands for itself and its mirror image: the error norms
+         * weight it twice, and take their mean over the whole state (uy and vy, left out, are 0 and err by 0),
+         * so the steps are the whole lattice's */
+        double *weight = cs->whole_state; /* scratch until the first step */
+        const int masses = solver_masses(m), mirrored = cs->solver_rows != LATTICE_ROWS;
+        int component;
+        for (component = 0; component < cs->solver.n; component++) {
+            const int in_block = component % masses;
+            const int mechanical = component < solver_quadrature_base(m);
+            weight[component] = mirrored && mechanical && in_block < masses - LATTICE_COLS ? 2.0 : 1.0;
+        }
+        solver_set_norm_weights(&cs->solver, cs->work, weight, (double)N_STATE);
+    }
+    cs->solver.t = m->time;
+    wall_modes_of_state(m, m->wall_mode);
+    cs->next_sample = (long)ceil(m->time / PARAM_PEAK_SAMPLE_INTERVAL(m) - SAMPLE_TIME_SLACK);
+    process_step(m, m->time);
+    update_outputs(m, m->time);
+}
+
+/* Kinetic energy far beyond what the load and the diagonals put in means the solution diverged. */
+static int check_divergence(Model *m, char *message, size_t message_size) {
+    const Solver *s = &m->cs.solver;
+    const double *y = solver_state(m->cs.work);
+    const int masses = solver_masses(m), velocity_blocks = m->cs.solver_along_x ? 1 : 2;
+    const double *velocity = y + solver_vx_base(m), *quadrature = y + solver_quadrature_base(m);
+    const double injected = m->initial_energy + fabs(quadrature[0]) + fabs(quadrature[2]); /* W_ext, W_nr */
+    const double impulse = m->params.load_total * fmax(m->params.load_duration, PARAM_PEAK_SAMPLE_INTERVAL(m));
+    const double floor = 1e-9 + 1e-6 * impulse * impulse / m->params.mass;
+    double speed_squared = 0.0, kinetic;
+    char reason[FAILURE_SIZE];
+    int i;
+    if (m->cs.solver_rows == LATTICE_ROWS) {
+        for (i = 0; i < velocity_blocks * masses; i++) speed_squared += velocity[i] * velocity[i];
+    } else { /* the upper half (vx only): each row but the middle one twice (its mirror image moves as it does) */
+        double mirrored = 0.0, middle = 0.0;
+        for (i = 0; i < masses - LATTICE_COLS; i++) mirrored += velocity[i] * velocity[i];
+        for (; i < masses; i++) middle += velocity[i] * velocity[i];
+        speed_squared = 2.0 * mirrored + middle;
+    }
+    kinetic = 0.5 * m->params.mass * speed_squared;
+    if (isfinite(kinetic) && isfinite(injected) && kinetic <= ENERGY_LIMIT_FACTOR * injected + floor) {
+        /* every BALANCE_CHECK_STEPS steps (it costs about one right-hand side): the balance must roughly
+         * close; a solution that makes energy out of nothing is diverging, even while it stays bounded */
+        double potential, balance;
+        if (s->steps_accepted % BALANCE_CHECK_STEPS != 0) return 0;
+        balance = model_energy_balance(m, whole_solver_state(m), &kinetic, &potential);
+        if (isfinite(balance) && fabs(balance) <= BALANCE_LIMIT_FRACTION * injected + floor) return 0;
+        snprintf(reason, sizeof(reason),
+                 "the solution diverged at t = %.9g s: the energy balance is off by %g J of %g J put in (solver %d, "
+                 "fixed_step = %g s, rtol = %g)",
+                 s->t, balance, injected, s->method, s->fixed_step, s->rtol);
+        return fail(m, reason, message, message_size);
+    }
+    if (solver_is_adaptive(s->method)) {
+        snprintf(reason, sizeof(reason),
+                 "the solution diverged at t = %.9g s: kinetic energy %g J against %g J of energy put in (rtol = %g)",
+                 s->t, kinetic, injected, s->rtol);
+    } else {
+        snprintf(reason, sizeof(reason),
+                 "the solution diverged at t = %.9g s: kinetic energy %g J against %g J of energy put in; "
+                 "fixed_step = %g s is beyond the stability limit of solver %d",
+                 s->t, kinetic, injected, s->fixed_step, s->method);
+    }
+    return fail(m, reason, message, message_size);
+}
+
+/* 0 when a doStep to t_target may start, else -1 and why (nothing changes). */
+static int check_advance(const Model *m, double t_target, char *message, size_t message_size) {
+    const Solver *s = &m->cs.solver;
+    const double interval = PARAM_PEAK_SAMPLE_INTERVAL(m);
+    if (!m->initialized) {
+        snprintf(message, message_size, "the model is not initialised");
+        return -1;
+    }
+    if (m->failed) {
+        snprintf(message, message_size, "an earlier step failed (%s); reset the FMU to start again", m->failure);
+        return -1;
+    }
+    if (m->cs.terminated) {
+        snprintf(message, message_size,
+                 "the run stopped at t = %.17g s, where peak_backplate_force exceeded peak_force_limit = %g N; reset "
+                 "the FMU to start again",
+                 m->time, PARAM_PEAK_FORCE_LIMIT(m));
+        return -1;
+    }
+    if (!(t_target >= m->time)) {
+        snprintf(message, message_size, "cannot step back from t = %.17g to t = %.17g", m->time, t_target);
+        return -1;
+    }
+    if (m->stop_time_defined && t_target > m->stop_time) {
+        snprintf(message, message_size, "t = %.17g is beyond the stop time %.17g given at setup", t_target,
+                 m->stop_time);
+        return -1;
+    }
+    if ((t_target - m->time) / interval > MAX_SAMPLES_PER_DO_STEP) {
+        snprintf(message, message_size,
+                 "a doStep over %g s takes %g samples of peak_sample_interval = %g s, more than the cap of %.0f "
+                 "samples per doStep: take shorter communication steps or a longer peak_sample_interval",
+                 t_target - m->time, (t_target - m->time) / interval, interval, MAX_SAMPLES_PER_DO_STEP);
+        return -1;
+    }
+    if ((s->method == SOLVER_RK4 || s->method == SOLVER_SEMI_IMPLICIT_EULER) &&
+        (t_target - m->time) / s->fixed_step > (double)MAX_STEPS_PER_DO_STEP) {
+        snprintf(message, message_size,
+                 "a doStep over %g s takes %g steps of fixed_step = %g s, more than the cap of %ld solver steps per "
+                 "doStep: take shorter communication steps or a longer fixed_step",
+                 t_target - m->time, (t_target - m->time) / s->fixed_step, s->fixed_step, MAX_STEPS_PER_DO_STEP);
+        return -1;
+    }
+    return 0;
+}
+
+int model_advance(Model *m, double t_target, char *message, size_t message_size) {
+    CoSimulation *cs = &m->cs;
+    Solver *s = &cs->solver;
+    char reason[FAILURE_SIZE];
+    long steps_before;
+    if (check_advance(m, t_target, message, message_size)) return -1;
+    steps_before = s->steps_accepted + s->steps_rejected;
+    process_step(m, t_target); /* what remains of the last step up to the new target */
+    while (s->t < t_target && !cs->limit_exceeded) {
+        const int free_before = wall_free(m);
+        int cut_by_event;
+        double t_limit = INFINITY;
+        model_next_time_event(m, &t_limit);
+        if (m->stop_time_defined) t_limit = fmin(t_limit, m->stop_time);
+        if (s->steps_accepted + s->steps_rejected - steps_before >= MAX_STEPS_PER_DO_STEP) {
+            snprintf(reason, sizeof(reason),
+                     "this doStep reached the cap of %ld solver steps per doStep at t = %.9g s, short of %.9g s: "
+                     "take shorter communication steps (solver %d, rtol = %g)",
+                     MAX_STEPS_PER_DO_STEP, s->t, t_target, s->method, s->rtol);
+            return fail(m, reason, message, message_size);
+        }
+        if (solver_step(s, cs->work, solver_rhs, m, t_limit, reason, sizeof(reason))) {
+            return fail(m, reason, message, message_size);
+        }
+        cs->step_peak_known = 0;
+        cs->step_peak_committed = 0;
+        cut_by_event = m->params.has_backplate ? handle_wall_events(m) : 0;
+        /* in contact during the step (its frozen modes) or from its end on (the modes after its events) */
+        cs->step_contact_free = free_before && wall_free(m);
+        if (!cs->step_contact_free) m->last_contact_time = s->t;
+        if (!cut_by_event || s->t - s->t_old > 1e-12 * (1.0 + fabs(s->t))) {
+            cs->stalled_steps = 0;
+        } else if (++cs->stalled_steps > MAX_STALLED_STEPS) {
+            snprintf(reason, sizeof(reason),
+                     "the backplate switches chatter at t = %.9g s: %d steps in a row made no progress (solver %d, "
+                     "fixed_step = %g s, rtol = %g)",
+                     s->t, MAX_STALLED_STEPS, s->method, s->fixed_step, s->rtol);
+            return fail(m, reason, message, message_size);
+        }
+        if (check_divergence(m, message, message_size)) return -1;
+        if (model_load_switches_off(m, s->t)) {
+            /* the dense output of this step belongs to the loaded phase: take it before the switch */
+            solver_prepare_dense(s, cs->work, solver_rhs, m);
+            m->load_on = 0;
+            solver_set_phase(s, 0);
+        }
+        process_step(m, t_target);
+    }
+    if (cs->limit_exceeded) {
+        update_outputs(m, cs->limit_time);
+        m->time = cs->limit_time;
+        cs->terminated = 1;
+        snprintf(message, message_size,
+                 "peak_backplate_force = %.17g N exceeded peak_force_limit = %g N at t = %.17g s: the run stops there",
+                 m->peak_sampled, PARAM_PEAK_FORCE_LIMIT(m), cs->limit_time);
+        return MODEL_LIMIT_REACHED;
+    }
+    update_outputs(m, t_target);
+    m->time = t_target;
+    m->derivative_valid = 0;
+    return 0;
+}
+
+int cosimulation_check(const Model *m, char *message, size_t message_size) {
+    const CoSimulation *cs = &m->cs;
+    const Solver *s = &cs->solver;
+    const double interval = PARAM_PEAK_SAMPLE_INTERVAL(m);
+    int rows, along_x;
+    solver_layout(m, &rows, &along_x);
+    {
+        const int positions = (along_x ? 1 : 2) * rows * LATTICE_COLS, size = 2 * positions + LATTICE_N_QUADRATURES;
+        const int reduced = rows != LATTICE_ROWS || along_x;
+        if (cs->solver_rows != rows || cs->solver_along_x != along_x || s->n != size ||
+            s->n_second_order != positions || m->params.rows != LATTICE_ROWS || m->params.cols != LATTICE_COLS ||
+            s->weighted != reduced || s->norm_size != (double)N_STATE) {
+            snprintf(message, message_size,
+                     "the state is corrupt or foreign: its sizes (solver rows %d, along x %d, state %d, positions "
+                     "%d, lattice %d x %d, norm over %g) are not this FMU's (%d, %d, %d, %d, %d x %d, %d)",
+                     cs->solver_rows, cs->solver_along_x, s->n, s->n_second_order, m->params.rows, m->params.cols,
+                     s->norm_size, rows, along_x, size, positions, LATTICE_ROWS, LATTICE_COLS, N_STATE);
+            return -1;
+        }
+    }
+    if (s->method != PARAM_SOLVER(m) ||
+        (s->dense_power == DENSE_FROM_STAGES ? !(s->method == SOLVER_TSIT5 || s->method == SOLVER_DOPRI5)
+         : s->dense_power == DENSE_NYSTROM   ? s->method != SOLVER_FINE_RKN5
+                                             : s->dense_power < 0 || s->dense_power > SOLVER_DENSE_ROWS) ||
+        (s->phase != 0 && s->phase != 1)) {
+        snprintf(message, message_size, "the state is corrupt: its solver fields are out of range (solver %d of %d, "
+                 "dense output %d, phase %d)", s->method, PARAM_SOLVER(m), s->dense_power, s->phase);
+        return -1;
+    }
+    /* the solver is at or ahead of the communication time, and the next sample lies between them (samples
+     * are bounded per doStep only from the communication time on); Model Exchange leaves the solver at the
+     * start, the importer sets the time */
+    if (!m->exchange &&
+        (!(m->time >= 0.0 && m->time <= s->t && s->t <= DBL_MAX) ||
+         !((double)cs->next_sample >= m->time / interval - 2.0 && (double)cs->next_sample <= s->t / interval + 2.0))) {
+        snprintf(message, message_size, "the state is corrupt: its times are inconsistent (communication time %g s, "
+                 "solver time %g s, next sample %ld)", m->time, s->t, cs->next_sample);
+        return -1;
+    }
+    if ((cs->limit_exceeded != 0 && cs->limit_exceeded != 1) || (cs->terminated != 0 && cs->terminated != 1)) {
+        snprintf(message, message_size, "the state is corrupt: its peak_force_limit flags are out of range");
+        return -1;
+    }
+    return 0;
+}
