@@ -45,10 +45,11 @@ def reproduces_the_study(interface: Interface, scene) -> bool:
 def documentation_html(fmi_version: int, interface: Interface, identifier: str, scene) -> str:
     """The page for the FMU of `scene` (FMI 2 or 3)."""
     published = []
+    starts = {v.name: v.start for v in interface.exposed + interface.fixed}
     if reproduces_the_study(interface, scene):
         published = [(list(order), repr(peak)) for order, peak in PUBLISHED_PEAKS.items()]
     return render("documentation.html", identifier=identifier, summary=model_summary(interface, scene),
                   fmi_version=fmi_version, rows=interface.rows, cols=interface.cols, published=published,
-                  horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS,
+                  horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS, rtol=f"{starts['rtol']:g}",
                   reference_points=REFERENCE_POINTS, variables=[variable_row(v) for v in interface.exposed],
                   fixed=[v.name for v in interface.fixed])

@@ -41,7 +41,7 @@ REAL_PARAMETERS = {
     "c_wall": (10.0, lambda v: _finite(v) and v >= 0, "a finite number in [0, inf)"),
     "backplate_gap": (1e-3, _finite, "a finite number"),
     "peak_sample_interval": (0.01, lambda v: _finite(v) and v > 0, "a finite number in (0, inf)"),
-    "rtol": (1e-7, lambda v: _finite(v) and 1e-14 <= v <= 0.1, "a finite number in [1e-14, 0.1]"),
+    "rtol": (5e-8, lambda v: _finite(v) and 1e-14 <= v <= 0.1, "a finite number in [1e-14, 0.1]"),
     "atol": (1e-9, lambda v: _finite(v) and 0 < v <= 1, "a finite number in (0, 1]"),
 }
 INTEGER_PARAMETERS = {
