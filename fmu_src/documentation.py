@@ -6,6 +6,7 @@ FMU it ships in and the build stays a build.
 """
 from __future__ import annotations
 
+from fmu_src.fmi2_description import enumeration_alias
 from fmu_src.published import PUBLISHED_CONDITIONS, PUBLISHED_HORIZON, PUBLISHED_PEAKS, REFERENCE_POINTS
 from fmu_src.rendering import model_summary, render
 from fmu_src.variables import INDICATOR, Interface, Variable
@@ -21,12 +22,14 @@ def _format(value) -> str:
     return f"{value:g}"
 
 
-def variable_row(variable: Variable) -> dict:
+def variable_row(variable: Variable, fmi_version: int) -> dict:
     """One row of the variables table."""
     kind = "local" if variable.role == INDICATOR or variable.name.startswith("der(") else variable.causality
     if variable.enumeration:
         allowed = ", ".join(f"{code} = {name}" for code, (name, _) in enumerate(variable.items))
-        type_text = f"Enumeration {variable.enumeration}"
+        type_text = (f"Enumeration {variable.enumeration}" if fmi_version == 3 else
+                     f"Integer (its items named by the Enumeration {variable.enumeration} alias "
+                     f"{enumeration_alias(variable.name)})")
     else:
         allowed = variable.allowed_text() if variable.causality == "parameter" else ""
         type_text = variable.type
@@ -51,5 +54,5 @@ def documentation_html(fmi_version: int, interface: Interface, identifier: str, 
     return render("documentation.html", identifier=identifier, summary=model_summary(interface, scene),
                   fmi_version=fmi_version, rows=interface.rows, cols=interface.cols, published=published,
                   horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS, rtol=f"{starts['rtol']:g}",
-                  reference_points=REFERENCE_POINTS, variables=[variable_row(v) for v in interface.exposed],
+                  reference_points=REFERENCE_POINTS, variables=[variable_row(v, fmi_version) for v in interface.exposed],
                   fixed=[v.name for v in interface.fixed])

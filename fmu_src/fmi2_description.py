@@ -2,7 +2,8 @@
 
 The template is fmu_src/templates/fmi2_model_description.xml; this module hands it the table's variables
 flattened into FMI 2 scalars (an array `k` of size C becomes `k[1]` ... `k[C]`, consecutive value references)
-with their 1-based ScalarVariable indices, which <ModelStructure> refers to.
+with their 1-based ScalarVariable indices, which <ModelStructure> refers to. An enumeration parameter
+(diagonal_rule, solver) is an Integer with an Enumeration alias that names its items (`_elements`).
 """
 from __future__ import annotations
 
@@ -18,48 +19,73 @@ def _number(variable, value) -> str:
     return str(int(value)) if variable.type == INTEGER else repr(float(value))
 
 
+ENUMERATION_ALIAS_SUFFIX = "_item"
+
+
+def enumeration_alias(name: str) -> str:
+    """The name of the Enumeration alias that declares the items of the Integer parameter `name` in FMI 2."""
+    return name + ENUMERATION_ALIAS_SUFFIX
+
+
+def _elements(interface: Interface) -> list[tuple]:
+    """(variable, offset in it, element name, start, is the Enumeration alias) of every ScalarVariable, in order.
+
+    An enumeration parameter is an Integer, which every FMI 2 importer sets (libcosim sets no Enumeration), with
+    an Enumeration alias right after it: the same value reference, causality local, variability fixed and
+    initial calculated, so it is not settable, and the items' names in its declared type."""
+    elements = []
+    for variable in interface.exposed:
+        for offset, (name, start) in enumerate(zip(variable.element_names(), variable.element_starts())):
+            elements.append((variable, offset, name, start, False))
+            if variable.enumeration:
+                elements.append((variable, offset, enumeration_alias(name), None, True))
+    return elements
+
+
 def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[int], list[int]]:
     """The ScalarVariables in value-reference order, and the indices of the outputs, of the derivatives (in
     the order of the continuous states) and of the initial unknowns."""
     scalars, outputs, derivatives, initial_unknowns = [], [], [], []
     state_offsets = interface.state_offsets()
-    first_index, index = {}, 0  # ScalarVariable index (1-based) of each variable's first element
-    for variable in interface.exposed:
-        first_index[variable.name] = index + 1
-        index += variable.count
-    for variable in interface.exposed:
-        vr = interface.value_references[variable.name]
-        for offset, (name, start) in enumerate(zip(variable.element_names(), variable.element_starts())):
-            index = first_index[variable.name] + offset
-            if variable.causality == "parameter":
-                attributes = [("causality", "parameter"), ("variability", "fixed")]
-            else:
-                variability = "continuous" if variable.type == REAL else "discrete"
-                attributes = [("causality", variable.causality), ("variability", variability),
-                              ("initial", "calculated")]
-                if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
-                    initial_unknowns.append(index)
-            if variable.causality == "output":
-                outputs.append(index)
-            type_attributes = []
-            if variable.enumeration:
-                type_attributes.append(("declaredType", variable.enumeration))
-            if variable.causality == "parameter":
-                type_attributes.append(("start", c_literal(variable, start) if variable.type == INTEGER
-                                        else repr(float(start))))
-            if variable.unit:
-                type_attributes.append(("unit", variable.unit))
-            if variable.minimum is not None:
-                type_attributes.append(("min", _number(variable, variable.minimum)))
-            if variable.maximum is not None:
-                type_attributes.append(("max", _number(variable, variable.maximum)))
-            if variable.role == DERIVATIVE:
-                type_attributes.append(("derivative", str(first_index[variable.derivative_of] + offset)))
-                derivatives.append((state_offsets[variable.derivative_of] + offset, index))
-            scalars.append({"name": name, "value_reference": vr + offset, "attributes": attributes,
-                            "description": variable.description,
-                            "type": "Enumeration" if variable.enumeration else variable.type,
-                            "type_attributes": type_attributes})
+    elements = _elements(interface)
+    first_index = {}  # ScalarVariable index (1-based) of each variable's first element
+    for index, (variable, offset, _, _, alias) in enumerate(elements, start=1):
+        if offset == 0 and not alias:
+            first_index[variable.name] = index
+    for index, (variable, offset, name, start, alias) in enumerate(elements, start=1):
+        vr = interface.value_references[variable.name] + offset
+        if alias:
+            scalars.append({"name": name, "value_reference": vr,
+                            "attributes": [("causality", "local"), ("variability", "fixed"), ("initial", "calculated")],
+                            "description": f"{variable.element_names()[offset]} as the enumeration "
+                                           f"{variable.enumeration}: the same value, with its items' names",
+                            "type": "Enumeration", "type_attributes": [("declaredType", variable.enumeration)]})
+            continue
+        if variable.causality == "parameter":
+            attributes = [("causality", "parameter"), ("variability", "fixed")]
+        else:
+            variability = "continuous" if variable.type == REAL else "discrete"
+            attributes = [("causality", variable.causality), ("variability", variability), ("initial", "calculated")]
+            if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
+                initial_unknowns.append(index)
+        if variable.causality == "output":
+            outputs.append(index)
+        type_attributes = []
+        if variable.causality == "parameter":
+            type_attributes.append(("start", c_literal(variable, start) if variable.type == INTEGER
+                                    else repr(float(start))))
+        if variable.unit:
+            type_attributes.append(("unit", variable.unit))
+        if variable.minimum is not None:
+            type_attributes.append(("min", _number(variable, variable.minimum)))
+        if variable.maximum is not None:
+            type_attributes.append(("max", _number(variable, variable.maximum)))
+        if variable.role == DERIVATIVE:
+            type_attributes.append(("derivative", str(first_index[variable.derivative_of] + offset)))
+            derivatives.append((state_offsets[variable.derivative_of] + offset, index))
+        scalars.append({"name": name, "value_reference": vr, "attributes": attributes,
+                        "description": variable.description, "type": variable.type,
+                        "type_attributes": type_attributes})
     return scalars, outputs, [i for _, i in sorted(derivatives)], sorted(initial_unknowns)
 
 

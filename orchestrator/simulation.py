@@ -73,8 +73,14 @@ def model_description(fmu_path: str | Path):
 
 def enumeration_items(description, name: str) -> dict[str, int]:
     """The item names and codes the FMU declares for the enumeration parameter ``name`` ({} when it has none):
-    the one place names such as ``mean`` or ``rkn5`` are turned into the codes the FMU takes."""
-    variable = next((v for v in description.modelVariables if v.name == name), None)
+    the one place names such as ``mean`` or ``rkn5`` are turned into the codes the FMU takes. FMI 3 declares the
+    parameter an Enumeration; FMI 2 declares it an Integer (which every importer sets) and names the items in the
+    declared type of the Enumeration alias that shares its value reference."""
+    variables = description.modelVariables
+    variable = next((v for v in variables if v.name == name), None)
+    if variable is not None and variable.type != "Enumeration":
+        variable = next((v for v in variables if v.type == "Enumeration" and v.valueReference ==
+                         variable.valueReference), None)
     declared = getattr(variable, "declaredType", None)
     return {item.name: int(item.value) for item in (getattr(declared, "items", None) or [])}
 

@@ -96,13 +96,17 @@ def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path
                      "peak_backplate_force": fmi2["peak_backplate_force"].unit, "time": "s"}  # via declared types
 
     expected = {}
+    enumerations = {v.valueReference for v in fmi2.values() if v.type == "Enumeration"}  # FMI 2's item aliases
     for name, variable in fmi2.items():  # FMI 2 names stay; an array is named by its first element's vr
+        if variable.type == "Enumeration":
+            continue  # the alias naming an Integer parameter's items: FMI 3 declares the parameter an Enumeration
         derivative = name.startswith("der(")  # der(ux[1,1]) is an element of the FMI 3 array der(ux)
         base, _, index = name[4:-1].partition("[") if derivative else name.partition("[")
         if not index or index in ("1]", "1,1]"):
-            expected[f"der({base})" if derivative else base] = (
-                variable.valueReference, {"Real": "Float64", "Integer": "Int32", "Enumeration": "Enumeration"}[variable.type],
-                variable.causality)
+            fmi3_type = "Enumeration" if variable.valueReference in enumerations else {
+                "Real": "Float64", "Integer": "Int32"}[variable.type]
+            expected[f"der({base})" if derivative else base] = (variable.valueReference, fmi3_type,
+                                                                variable.causality)
     time = fmi3.pop("time")
     assert time.causality == "independent" and time.type == "Float64"
     assert time.valueReference not in {v[0] for v in expected.values()}

@@ -9,24 +9,58 @@ from fmpy import read_model_description, simulate_fmu
 
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from fmu_src.variables import all_variables
+from orchestrator.simulation import enumeration_items
 from test_fmi3 import Instance
 
 ENUMERATIONS = {v.name: v for v in all_variables(11, 11) if v.enumeration}
 
 
-def test_diagonal_rule_and_solver_are_enumerations_with_the_tables_values(fmu_path, fmu3_path):
+def test_diagonal_rule_and_solver_name_the_tables_items_in_both_versions(fmu_path, fmu3_path):
     assert set(ENUMERATIONS) == {"diagonal_rule", "solver"}
-    expected = {"DiagonalRule": [("receiver", 0), ("mean", 1)],
-                "Solver": [("dop853", 0), ("rk4", 1), ("semi_implicit_euler", 2), ("tsit5", 3), ("dopri5", 4),
-                   ("rkn5", 5)]}
+    expected = {"diagonal_rule": {"receiver": 0, "mean": 1},
+                "solver": {"dop853": 0, "rk4": 1, "semi_implicit_euler": 2, "tsit5": 3, "dopri5": 4, "rkn5": 5}}
     for path in (fmu_path, fmu3_path):
         description = read_model_description(str(path))
-        variables = {v.name: v for v in description.modelVariables}
         for name, variable in ENUMERATIONS.items():
-            declared = variables[name].declaredType
-            assert variables[name].type == "Enumeration" and declared.name == variable.enumeration
-            assert [(item.name, int(item.value)) for item in declared.items] == expected[declared.name]
-            assert int(variables[name].start) == 0
+            assert enumeration_items(description, name) == expected[name] == {
+                item: code for code, (item, _) in enumerate(variable.items)}
+    fmi2 = {v.name: v for v in read_model_description(str(fmu_path)).modelVariables}
+    fmi3 = {v.name: v for v in read_model_description(str(fmu3_path)).modelVariables}
+    for name, variable in ENUMERATIONS.items():
+        # FMI 2: an Integer parameter, which every importer sets, and a local Enumeration alias naming the items
+        parameter, alias = fmi2[name], fmi2[f"{name}_item"]
+        assert (parameter.type, parameter.causality, int(parameter.start)) == ("Integer", "parameter", 0)
+        assert (alias.type, alias.causality, alias.variability, alias.initial, alias.start) == (
+            "Enumeration", "local", "fixed", "calculated", None)
+        assert alias.valueReference == parameter.valueReference and alias.declaredType.name == variable.enumeration
+        # FMI 3: the parameter is the Enumeration itself
+        assert fmi3[name].type == "Enumeration" and fmi3[name].declaredType.name == variable.enumeration
+        assert f"{name}_item" not in fmi3
+
+
+def test_libcosim_sets_the_fmi2_diagonal_rule_as_an_integer(fmu_path, lattice):
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.ERROR)
+    horizon, step = 1.0, 0.01
+    code = enumeration_items(read_model_description(str(fmu_path)), "diagonal_rule")["mean"]
+    execution = CosimExecution.from_step_size(step_size=int(round(step * 1e9)))
+    index = execution.add_local_slave(CosimLocalSlave(fmu_path=str(fmu_path), instance_name="lattice"))
+    references = {v.name.decode(): v.reference for v in execution.slave_variables(index)}
+    for column, material in enumerate(PUBLISHED_BEST, 1):
+        assert execution.integer_initial_value(index, references[f"material[{column}]"], material)
+    assert execution.integer_initial_value(index, references["diagonal_rule"], code)
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    assert execution.simulate_until(target_time=int(round(horizon * 1e9))), execution.status()
+    peak = observer.last_real_values(index, [references["peak_backplate_force"]])[0]
+    mean = lattice.simulate(PUBLISHED_BEST, horizon=horizon, communication_step=step,
+                            parameters={"diagonal_rule": "mean"})["peak_backplate_force"]
+    receiver = lattice.simulate(PUBLISHED_BEST, horizon=horizon, communication_step=step)["peak_backplate_force"]
+    assert peak == pytest.approx(mean, rel=1e-9) and abs(mean - receiver) > 0.1 * receiver
 
 
 def test_fmi3_moves_an_enumeration_as_int64_and_refuses_int32(fmu_path, fmu3_path, lattice):
