@@ -122,7 +122,7 @@ def _checked_value(variable, description, kind: str, value, source: str) -> floa
         return number
     if variable.type not in INTEGER_TYPES:
         raise ValueError(f"{source}: {name} is a {variable.type} parameter, which design files do not set")
-    items = enumeration_items(description, name) if variable.type == "Enumeration" else {}
+    items = enumeration_items(description, name)
     if kind == "item" and items:
         if value not in items:
             raise ValueError(f"{source}: {name} = {value!r} is not allowed: allowed values are {sorted(items)}")
@@ -249,7 +249,7 @@ def design_parameters(fmu_path: str | Path, parameters: Mapping,
             raise _unknown(name, description, "parameters")
         if name in values:
             raise ValueError(f"parameters: {name} is given twice")
-        if isinstance(value, str) and variable.type != "Enumeration":  # text is for item names only
+        if isinstance(value, str) and not enumeration_items(description, name):  # text is for item names only
             raise ValueError(f"parameters: {name} = {value!r} is not a "
                              f"{'number' if variable.type in REAL_TYPES else 'integer'}")
         kind = "Real" if variable.type in REAL_TYPES else "item" if isinstance(value, str) else "Integer"
@@ -260,8 +260,8 @@ def design_parameters(fmu_path: str | Path, parameters: Mapping,
     result = []
     for name, value in values.items():
         note = None
-        if known[name].type == "Enumeration":
-            items = {code: item for item, code in enumeration_items(description, name).items()}
+        items = {code: item for item, code in enumeration_items(description, name).items()}
+        if items:
             note = f"{name} = {items[value]}"
         elif materials is not None and name.startswith("material["):
             note = f"column {name[len('material['):-1]}: material {value} ({materials.name_of(int(value))})"
