@@ -122,7 +122,7 @@ def _checked_value(variable, description, kind: str, value, source: str) -> floa
         return number
     if variable.type not in INTEGER_TYPES:
         raise ValueError(f"{source}: {name} is a {variable.type} parameter, which design files do not set")
-    items = enumeration_items(description, name) if variable.type == "Enumeration" else {}
+    items = enumeration_items(description, name)
     if kind == "item" and items:
         if value not in items:
             raise ValueError(f"{source}: {name} = {value!r} is not allowed: allowed values are {sorted(items)}")
@@ -249,7 +249,7 @@ def design_parameters(fmu_path: str | Path, parameters: Mapping,
             raise _unknown(name, description, "parameters")
         if name in values:
             raise ValueError(f"parameters: {name} is given twice")
-        if isinstance(value, str) and variable.type != "Enumeration":  # text is for item names only
+        if isinstance(value, str) and not enumeration_items(description, name):  # text is for item names only
             raise ValueError(f"parameters: {name} = {value!r} is not a "
                              f"{'number' if variable.type in REAL_TYPES else 'integer'}")
         kind = "Real" if variable.type in REAL_TYPES else "item" if isinstance(value, str) else "Integer"
@@ -260,13 +260,24 @@ def design_parameters(fmu_path: str | Path, parameters: Mapping,
     result = []
     for name, value in values.items():
         note = None
-        if known[name].type == "Enumeration":
-            items = {code: item for item, code in enumeration_items(description, name).items()}
+        items = {code: item for item, code in enumeration_items(description, name).items()}
+        if items:
             note = f"{name} = {items[value]}"
         elif materials is not None and name.startswith("material["):
             note = f"column {name[len('material['):-1]}: material {value} ({materials.name_of(int(value))})"
         result.append(DesignParameter(name, "Real" if known[name].type in REAL_TYPES else "Integer", value, note))
     return result
+
+
+def design_refusal(fmu_path: str | Path, parameters: Mapping, materials: MaterialTable | None = None) -> str | None:
+    """Why write_best_design_ssp would refuse this design (one line), or None: for a study to say so before
+    it runs (with a valid order, say its design space's baseline: a tool's refusal does not depend on the
+    order), and for its report to say instead of the file."""
+    try:
+        entries = design_parameters(fmu_path, parameters, materials)
+    except ValueError as error:
+        return str(error)
+    return _tool_problem(read_model_description(str(fmu_path)), entries)
 
 
 def write_best_design_ssp(fmu_path: str | Path, parameters: Mapping, out_path: str | Path, *, stop_time: float,
@@ -388,5 +399,5 @@ def read_design_parameters(ssp_path: str | Path) -> dict[str, float | int]:
     return values
 
 
-__all__ = ["COMPONENT", "DesignParameter", "SSD_NAME", "SSV_NAME", "SYSTEM", "design_parameters",
+__all__ = ["COMPONENT", "DesignParameter", "SSD_NAME", "SSV_NAME", "SYSTEM", "design_parameters", "design_refusal",
            "read_design_parameters", "write_best_design_ssp"]

@@ -29,7 +29,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from fmpy import read_model_description
 
 from fmu_src.published import PUBLISHED_PEAKS
 from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL
@@ -313,12 +312,6 @@ def test_omsimulator_runs_the_design_file_to_fmpys_peak(fmu_path, lattice, tmp_p
     assert abs(peak - default["peak_backplate_force"]) > 1.0  # the parameter set was applied, not ignored
 
 
-def diagonal_rule_is_an_fmi2_enumeration(fmu_path) -> bool:
-    description = read_model_description(str(fmu_path))
-    rule = next(v for v in description.modelVariables if v.name == "diagonal_rule")
-    return description.fmiVersion == "2.0" and rule.type == "Enumeration"
-
-
 def libcosim_design_peak(design: Path) -> float:
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
@@ -335,13 +328,9 @@ def libcosim_design_peak(design: Path) -> float:
 
 
 def test_the_mean_rule_design_runs_to_its_peak_in_libcosim_and_fmpy(fmu_path, lattice, tmp_path):
-    """The design of a --diagonal-rule mean search: libcosim and FMPy reproduce its peak to 1e-9, or, for an
-    FMU whose FMI 2 diagonal_rule is an Enumeration (which libcosim drops), the writer refuses it."""
+    """The design of a --diagonal-rule mean search: libcosim and FMPy reproduce its peak to 1e-9 (the writer
+    refuses such a design for an FMU libcosim would run differently: test_ssp_validation)."""
     parameters = {"material": list(MEAN_ORDER), "diagonal_rule": "mean"}
-    if diagonal_rule_is_an_fmi2_enumeration(fmu_path):
-        with pytest.raises(ValueError, match="diagonal_rule = mean: libcosim ignores FMI 2 Enumeration parameters"):
-            write_best_design_ssp(fmu_path, parameters, tmp_path / "mean.ssp", stop_time=DESIGN_HORIZON)
-        return
     design = write_best_design_ssp(fmu_path, parameters, tmp_path / "mean.ssp", stop_time=DESIGN_HORIZON)
     reported = lattice.simulate(MEAN_ORDER, horizon=DESIGN_HORIZON, parameters={"diagonal_rule": "mean"})
     receiver = lattice.simulate(MEAN_ORDER, horizon=DESIGN_HORIZON)
@@ -356,9 +345,6 @@ def test_the_mean_rule_design_runs_to_its_peak_in_libcosim_and_fmpy(fmu_path, la
 @pytest.mark.importers
 @pytest.mark.parametrize("entry", ["import_file", "ssp_class"])
 def test_omsimulator_runs_the_mean_rule_design_to_its_peak(fmu_path, lattice, tmp_path, entry):
-    if diagonal_rule_is_an_fmi2_enumeration(fmu_path):
-        pytest.skip("the writer refuses this FMU's mean-rule design (libcosim would drop diagonal_rule): "
-                    "test_the_mean_rule_design_runs_to_its_peak_in_libcosim_and_fmpy checks the refusal")
     design = write_best_design_ssp(fmu_path, {"material": list(MEAN_ORDER), "diagonal_rule": "mean"},
                                    tmp_path / "mean.ssp", stop_time=DESIGN_HORIZON)
     run = omsimulator_run(tmp_path, entry=entry, ssp=design, system=SYSTEM, component=COMPONENT,

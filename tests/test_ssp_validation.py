@@ -14,7 +14,7 @@ import pytest
 
 from fmu_src.materials import study_materials
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
-from orchestrator.ssp import SSD_NAME, SSV_NAME, read_design_parameters, write_best_design_ssp
+from orchestrator.ssp import SSD_NAME, SSV_NAME, design_refusal, read_design_parameters, write_best_design_ssp
 
 BASE = [(f"material[{j}]", "Integer", str(m)) for j, m in enumerate(PUBLISHED_BEST, 1)] + [
     ("F_total", "Real", "1100.0"), ("diagonal_rule", "Integer", "0")]
@@ -151,20 +151,39 @@ def test_the_parameter_set_names_the_materials_of_the_fmus_table(design_ssp, fmu
                               stop_time=1.0, materials=study_materials(11))
 
 
+def with_enumeration_rule(fmu_path, path):
+    """A copy of the FMU whose FMI 2 model description declares diagonal_rule an Enumeration (its items in the
+    declared type DiagonalRule), and nothing else changed: the writer reads the description, it runs nothing."""
+    import re
+
+    with zipfile.ZipFile(fmu_path) as source, zipfile.ZipFile(path, "w") as target:
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename == "modelDescription.xml":
+                text, count = re.subn(r'(name="diagonal_rule" [^>]*>\s*)<Integer start="0" min="0" max="1"/>',
+                                      r'\1<Enumeration declaredType="DiagonalRule" start="0"/>', data.decode())
+                assert count == 1, "the FMU's diagonal_rule is not the Integer this test rewrites"
+                data = text.encode()
+            target.writestr(item, data)
+    return path
+
+
 def test_a_design_libcosim_would_run_differently_is_refused(fmu_path, tmp_path):
     """libcosim exposes no FMI 2 Enumeration variable: a non-default diagonal_rule would be dropped there."""
     from fmpy import read_model_description
 
-    if read_model_description(str(fmu_path)).fmiVersion != "2.0" or next(
-            v for v in read_model_description(str(fmu_path)).modelVariables
-            if v.name == "diagonal_rule").type != "Enumeration":
-        pytest.skip("this FMU offers diagonal_rule as an Integer: libcosim applies it (test_ssp covers the run)")
+    enumeration_fmu = with_enumeration_rule(fmu_path, tmp_path / "MassSpringLattice.fmu")
+    rule = next(v for v in read_model_description(str(enumeration_fmu)).modelVariables if v.name == "diagonal_rule")
+    assert rule.type == "Enumeration"
+    mean = {"material": list(PUBLISHED_BEST), "diagonal_rule": "mean"}
     with pytest.raises(ValueError, match="diagonal_rule = mean: libcosim ignores FMI 2 Enumeration parameters"):
-        write_best_design_ssp(fmu_path, {"material": list(PUBLISHED_BEST), "diagonal_rule": "mean"},
-                              tmp_path / "mean.ssp", stop_time=1.0)
-    written = write_best_design_ssp(fmu_path, {"material": list(PUBLISHED_BEST), "diagonal_rule": "receiver"},
+        write_best_design_ssp(enumeration_fmu, mean, tmp_path / "mean.ssp", stop_time=1.0)
+    assert design_refusal(enumeration_fmu, mean).startswith("diagonal_rule = mean: libcosim ignores")
+    assert design_refusal(enumeration_fmu, {"material": list(PUBLISHED_BEST)}) is None
+    written = write_best_design_ssp(enumeration_fmu, {"material": list(PUBLISHED_BEST), "diagonal_rule": "receiver"},
                                     tmp_path / "receiver.ssp", stop_time=1.0)  # the default runs the same
     assert read_design_parameters(written)["diagonal_rule"] == 0
+    assert design_refusal(fmu_path, mean) is None  # the FMU offers diagonal_rule as an Integer, which libcosim sets
 
 
 def test_the_system_carries_the_annotations_of_omsimulator_and_libcosim(design_ssp):
