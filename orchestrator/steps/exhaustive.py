@@ -339,7 +339,8 @@ def draw_exhaustive(study, path: Path) -> str | None:
         axis.set_xlabel(f"{study.case.objective.outputs[0]} ({unit}), screening fidelity")
         axis.set_ylabel("designs")
         axis.set_title(f"Every design's value, {sweep.diagonal_rule} rule", fontsize=9)
-        axis.legend(fontsize=7)
+        if axis.get_legend_handles_labels()[0]:
+            axis.legend(fontsize=7)
         axis.grid(alpha=0.3)
     return save(figure, path)
 

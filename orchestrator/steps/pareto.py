@@ -138,7 +138,8 @@ def draw_pareto(study, path: Path) -> str | None:
     axis.set_ylabel(f"{outputs[1]} ({units[1]})")
     axis.set_title("The trade-off: each point a design; lower is better on both axes", fontsize=9)
     axis.grid(alpha=0.3)
-    axis.legend(fontsize=7)
+    if axis.get_legend_handles_labels()[0]:
+        axis.legend(fontsize=7)
     return save(figure, path)
 
 

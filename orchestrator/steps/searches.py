@@ -179,7 +179,8 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
         axis.set_ylabel(f"best {study.case.objective.outputs[0]} so far ({unit}), search fidelity")
         axis.set_title(f"{label} diagonal rule", fontsize=9)
         axis.grid(alpha=0.3)
-        axis.legend(fontsize=7)
+        if axis.get_legend_handles_labels()[0]:
+            axis.legend(fontsize=7)
     figure.suptitle(wrapped(f"Convergence over seeds: median and quartiles. {context_line}"), fontsize=9)
     return save(figure, path)
 

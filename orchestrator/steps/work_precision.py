@@ -96,7 +96,8 @@ def draw_work_precision(study, path: Path) -> str | None:
     axis.set_ylabel("relative error of the peak against rtol 1e-12")
     axis.set_title(f"Each solver setting of the FMU for the chosen design ({result.diagonal_rule} rule)", fontsize=9)
     axis.grid(alpha=0.3, which="both")
-    axis.legend(fontsize=7)
+    if axis.get_legend_handles_labels()[0]:
+        axis.legend(fontsize=7)
     return save(figure, path)
 
 
