@@ -321,7 +321,7 @@ class LatticeObjective(Objective):
                  parameters: dict | None = None, cases: Sequence[dict] | None = None, aggregate: str = "worst",
                  search_horizon: float | None = SEARCH_HORIZON, search_rtol: float | None = SEARCH_RTOL,
                  use_limits: bool = True, has_force_limit: bool = True, has_compression: bool = False,
-                 default_rule: str = "receiver"):
+                 default_rule: str = ""):
         if aggregate not in AGGREGATES:
             raise ValueError(f"aggregate {aggregate!r}: allowed values are {', '.join(AGGREGATES)}")
         if not (math.isfinite(horizon) and horizon > 0):
@@ -361,6 +361,7 @@ class LatticeObjective(Objective):
 
     @property
     def diagonal_rule(self) -> str:
+        """The rule the runs use (the FMU's default unless set; "" for an FMU without diagonal rules)."""
         return str(self.parameters.get("diagonal_rule", self.default_rule))
 
     @property

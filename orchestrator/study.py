@@ -209,7 +209,7 @@ def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: Materia
         case_lists[name] = tuple(dict.fromkeys(fmu.parameters[name].convert(v, "--case") for v in values))
     rule_parameter = fmu.parameters.get("diagonal_rule")
     rule_names = tuple(rule_parameter.items) if rule_parameter and rule_parameter.items else ()
-    rule_default = str(rule_parameter.start) if rule_parameter else "receiver"
+    rule_default = str(rule_parameter.start) if rule_parameter else ""
     if "diagonal_rule" in case_lists:
         rules: tuple[str, ...] = ()
     elif config.diagonal_rules:
@@ -219,7 +219,7 @@ def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: Materia
                                  f"(the rules {fmu.path.name} declares)")
         rules = tuple(dict.fromkeys(config.diagonal_rules))
     else:
-        rules = tuple(dict.fromkeys((rule_default,) + rule_names)) if rule_names else (rule_default,)
+        rules = tuple(dict.fromkeys((rule_default,) + rule_names)) if rule_names else ()
     horizon = float(config.horizon if config.horizon is not None else scene.horizon)
     if config.repeat and not fmu.has_repeat:
         raise ValueError(f"--repeat: {fmu.path.name} has no repeat_materials parameter (rebuild it)")

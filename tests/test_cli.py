@@ -305,3 +305,34 @@ def test_process_pool_workers_die_with_a_killed_main_process(fmu_path, tmp_path)
     while time.monotonic() < deadline and any(_alive(pid) for pid in workers):
         time.sleep(0.1)
     assert workers and not any(_alive(pid) for pid in workers)
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads child processes from /proc")
+def test_sigint_in_the_report_phase_and_resume_simulate_nothing_twice(fmu_path, tmp_path):
+    """The report's simulations (trajectories, solver sweep) are journalled tasks too: interrupted among them,
+    --resume runs only what was not finished."""
+    out = tmp_path / "r"
+    argv = ["--method", "sequential", "random", "--budget", "10", "--repeats", "1", "--no-sensitivity",
+            "--diagonal-rule", "receiver", "--horizon", "20", "--no-progress", "--workers", "2"]
+    command = [sys.executable, str(ROOT / "orchestrator" / "run.py"), "--fmu", str(fmu_path), "--out", str(out),
+               *argv]
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    journal = tmp_path / "r.partial" / "journal.jsonl"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and process.poll() is None:
+        if journal.is_file() and '"key":"record|' in journal.read_text():
+            break
+        time.sleep(0.02)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    finished = set(journal_keys(tmp_path / "r.partial"))
+    assert any(key.startswith("record|") for key in finished)
+    resumed = subprocess.run(command + ["--resume"], capture_output=True, text=True, timeout=600)
+    assert resumed.returncode == 0, resumed.stderr
+    keys = journal_keys(out)
+    assert len(keys) == len(set(keys)) and finished <= set(keys)
+    results = json.loads((out / "results.json").read_text())
+    assert results["evaluator"]["resumed"] == len(finished)
+    assert results["evaluator"]["simulated"] == len(keys) - len(finished)

@@ -70,7 +70,8 @@ class SearchesResult:
 
 
 def rule_label(rule: str | None) -> str:
-    return rule or "cases"
+    """How results name the diagonal rule they were found under (None: the load cases or the model set it)."""
+    return rule or "as set"
 
 
 def plan(methods: tuple[str, ...], seed: int, repeats: int) -> list[tuple[str, int]]:
@@ -133,7 +134,7 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
 
     import numpy as np
 
-    from fmu_src.published import REFERENCE_POINTS
+    from fmu_src.published import PUBLISHED_CONDITIONS, REFERENCE_POINTS
 
     from ..report.charts import COLOURS, METHOD_NAMES, best_so_far_matrix, plt, save, wrapped
 
@@ -167,7 +168,9 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
         if optimum is not None:
             axis.axhline(optimum.peak, color="crimson", lw=1, ls="--",
                          label=f"{'certified' if optimum.certified else 'known'} optimum: {optimum.peak:.2f} {unit}")
-        if study.case.objective.outputs == ("peak_backplate_force",) and label == "receiver" and known.get(label):
+        published = study.case.objective.outputs == ("peak_backplate_force",) and known.get(label) and \
+            label == PUBLISHED_CONDITIONS["diagonal_rule"]
+        if published:
             for point, marker in zip(REFERENCE_POINTS, "o^sD"):
                 axis.plot([point.evaluation or 100], [point.peak], marker=marker, color="crimson", ls="none",
                           label=f"published {point.label}: {point.peak:.2f} N")
