@@ -68,8 +68,9 @@ class Run:
     load_at_start: tuple[float, float, float] = field(default_factory=os.getloadavg)
 
     @classmethod
-    def start(cls, name: str, argv: list[str] | None) -> "Run":
-        return cls(name.rsplit(".", 1)[-1], list(sys.argv[1:] if argv is None else argv))
+    def start(cls, module_file: str, argv: list[str] | None) -> "Run":
+        """The run of the benchmark in ``module_file`` (its ``__file__``: bench/NAME.py is bench.NAME)."""
+        return cls(Path(module_file).stem, list(sys.argv[1:] if argv is None else argv))
 
     @property
     def command(self) -> str:
