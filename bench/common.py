@@ -6,6 +6,7 @@ import contextlib
 import math
 import statistics
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
@@ -13,7 +14,7 @@ from fmu_src.build import build_fmu
 from fmu_src.published import SEQUENTIAL_ORDER, STUDY_BEST_ORDER
 from orchestrator.design import DesignSpace
 from orchestrator.known_optima import known_optima
-from orchestrator.objective import SEARCH, SEARCH_HORIZON, LatticeObjective
+from orchestrator.objective import SEARCH, SEARCH_HORIZON, FMURun, LatticeObjective
 
 SEQUENTIAL = SEQUENTIAL_ORDER
 STUDY_BEST = STUDY_BEST_ORDER
@@ -85,6 +86,40 @@ def relative(value: float, reference: float) -> float:
     return abs(value / reference - 1.0) if reference else abs(value - reference)
 
 
+
+
+@dataclass(frozen=True)
+class WithoutLimit:
+    """An FMU run that never stops early: a chunk given it evaluates every design to its value (a chunk given
+    an ``FMURun`` lowers its force limit as its own best improves, and a design above it is censored)."""
+
+    run: FMURun
+
+    @property
+    def key(self) -> str:
+        return f"{self.run.key}|never limited"
+
+    def __call__(self, order):
+        return self.run(order)
+
+
+@contextlib.contextmanager
+def narrow_lattice(columns: int) -> Iterator[tuple[Path, Path]]:
+    """(scene file, FMU) of the study's armour scene with fewer columns (the study's material law with one
+    material per column), in a folder removed afterwards: a scene of one's own, as a user would write it."""
+    import json
+
+    from scenes import SCENE_DIR
+
+    with tempfile.TemporaryDirectory(prefix="bench_lattice_") as folder:
+        scene = json.loads((SCENE_DIR / "armour_11x11.json").read_text())
+        scene.update(name=f"armour_11x{columns}", model_identifier=f"MassSpringLattice11x{columns}", cols=columns,
+                     description=f"The study's armour scene with {columns} columns")
+        path = Path(folder) / f"armour_11x{columns}.json"
+        path.write_text(json.dumps(scene, indent=1))
+        yield path, build_fmu(scene=str(path), output=Path(folder) / f"MassSpringLattice11x{columns}.fmu")
+
+
 __all__ = ["BEST_KNOWN", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST", "add_fmu_option", "bench_orders",
-           "geometric_mean", "lattice_fmu", "order_text", "random_orders", "relative", "search_parameters",
-           "search_setting_text", "span"]
+           "geometric_mean", "lattice_fmu", "narrow_lattice", "order_text", "random_orders", "relative", "search_parameters",
+           "search_setting_text", "span", "WithoutLimit"]

@@ -15,7 +15,6 @@ orchestrator's Evaluator on a process pool of 1 .. W workers, designs per wall s
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import statistics
 import tempfile

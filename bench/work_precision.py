@@ -26,7 +26,7 @@ from reference import Scene
 from reference.simulate import simulate
 
 from .common import (BEST_KNOWN, FULL_HORIZON, REVERSED, SEQUENTIAL, STUDY_BEST, add_fmu_option, lattice_fmu,
-                     random_orders, relative, search_parameters, span)
+                     random_orders, relative, search_parameters)
 from .measurements import Page, Run, Table, write_page
 
 SEARCH_TARGET = 3e-5  # worst relative error the search ranking tolerates (bench.horizon_study measures the gaps)
