@@ -121,5 +121,6 @@ def narrow_lattice(columns: int) -> Iterator[tuple[Path, Path]]:
 
 
 __all__ = ["BEST_KNOWN", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST", "add_fmu_option", "bench_orders",
-           "geometric_mean", "lattice_fmu", "narrow_lattice", "order_text", "random_orders", "relative", "search_parameters",
+           "geometric_mean", "lattice_fmu", "narrow_lattice", "order_text", "random_orders", "relative",
+           "search_parameters",
            "search_setting_text", "span", "WithoutLimit"]

@@ -1,8 +1,8 @@
 """Exhaustive throughput: designs per core-second of the sweep's chunks, and of whole sweeps started with and
 without a short search's incumbent.
 
-    python -m bench.exhaustive_throughput            # about 5 min on 2 workers: chunks of 11 x 8, 9, 11; two 11 x 8 sweeps
-    python -m bench.exhaustive_throughput --quick    # about 1 min: chunks of 11 x 8; two 11 x 7 sweeps
+    python -m bench.exhaustive_throughput           # about 4 min, 2 workers: chunks of 11 x 8, 9, 11; two 11 x 8 sweeps
+    python -m bench.exhaustive_throughput --quick   # about 1 min: chunks of 11 x 8; two 11 x 7 sweeps
 
 Why: what an exhaustive sweep costs decides whether it runs here or on a cluster (the orchestrator refuses one
 beyond its local limit with the projected core-hours), and the force limit is what makes it affordable: a
@@ -137,14 +137,16 @@ def main(argv=None) -> int:
     page = Page(
         name=run.name, title="Exhaustive sweep throughput", headline=headline,
         summary=(
-            f"Screening at the search fidelity; the screening error bound is {SCREENING_ERROR:g} (relative), so the "
-            f"limit is the threshold {SCREENING_ERROR:g} above the incumbent (`screening_threshold`). Chunks: "
+            f"Screening at the search fidelity; the screening error bound is {SCREENING_ERROR:.0e} (relative), and the "
+            "limit is the largest screened value that can still be the optimum given the incumbent "
+            "(`screening_threshold`). Chunks: "
             f"{args.chunk_designs} designs from the middle rank, the fastest of {args.repeats} run(s), CPU time "
             "inside the chunk; the incumbent is the known optimum's value at the search fidelity. Sweeps: "
             f"11 x {args.sweep_columns}, receiver rule, {args.workers} worker process(es), designs per core-second "
             "over the chunks' CPU time, wall time of the whole run (the sweep, the verification of every candidate "
             "at full fidelity, the second integrator on the optimum and runner-up, the report)."),
-        tables=(Table(("lattice", "designs", "limit", "designs per core-second", "censored"), tuple(chunk_rows),
+        tables=(Table(("lattice", "designs of the lattice", "limit", "designs per core-second", "censored"),
+                      tuple(chunk_rows),
                       caption="**One chunk:**"),
                 Table(("sweep", "first chunks' limit", "designs", "censored", "designs per core-second", "CPU s",
                        "wall s", "optimum (full fidelity)", "certified"), tuple(sweep_rows),

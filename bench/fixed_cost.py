@@ -1,7 +1,7 @@
 """Fixed cost per run: what an evaluation costs apart from its integration, layer by layer.
 
-    python -m bench.fixed_cost            # about 40 s: 5 batches of 1000 runs per layer
-    python -m bench.fixed_cost --quick    # about 10 s: 3 batches of 300
+    python -m bench.fixed_cost            # about 1 min: 5 batches of 1000 runs per layer
+    python -m bench.fixed_cost --quick    # about 20 s: 3 batches of 300
 
 Why: a search evaluation integrates for about a millisecond, so what each run costs around the integration
 (fmi2Reset, setting the order and the parameters, initialisation, one doStep, reading the outputs, and the

@@ -1,7 +1,7 @@
 """The FMU's speed and accuracy on the study's 8 s scene, against the study's own way of computing it.
 
-    python -m bench.fmu_speed            # about 1 min: 20 FMU runs and 2 scipy runs per order
-    python -m bench.fmu_speed --quick    # about 20 s: 5 FMU runs and 1 scipy run per order
+    python -m bench.fmu_speed            # about 1.5 min: 20 FMU runs and 2 scipy runs per order
+    python -m bench.fmu_speed --quick    # about 40 s: 5 FMU runs and 1 scipy run per order
 
 Why: the FMU exists to make an evaluation cheap without making it wrong, so every speed figure comes with its
 accuracy. For the two published orders it times the FMU through fmpy (``orchestrator.simulation.LatticeFMU``:

@@ -1,8 +1,8 @@
 """Horizon and tolerance: is the searches' short horizon enough, and which tolerance keeps the ranking of the
 best orders?
 
-    python -m bench.horizon_study            # about 4 min on 2 workers: 200 random orders and 57 more
-    python -m bench.horizon_study --quick    # about 1 min: 30 random orders and 57 more
+    python -m bench.horizon_study            # about 2 min on 2 workers: 200 random orders and 57 more
+    python -m bench.horizon_study --quick    # about 30 s: 30 random orders and 57 more
 
 Why: the searches rank designs over ``orchestrator.objective.SEARCH_HORIZON`` with ``SEARCH_SOLVER`` at
 ``SEARCH_RTOL``; that is safe only if no design still touches the plate by then and the error is far below the
@@ -111,7 +111,8 @@ def main(argv=None) -> int:
     for h in HORIZONS[:-1]:
         values = {o: at(truth[o], h) for o in orders}
         diffs = [max(relative(values[o]["peak_backplate_force"], final[o]["peak_backplate_force"]),
-                     relative(values[o]["peak_backplate_force_continuous"], final[o]["peak_backplate_force_continuous"]))
+                     relative(values[o]["peak_backplate_force_continuous"],
+                              final[o]["peak_backplate_force_continuous"]))
                  for o in orders]
         guard = sum(1 for o in orders if values[o]["last_contact_time"] >= 0.9 * h)
         horizon_rows.append((f"{h:g} s", sum(d > SAME for d in diffs), f"{max(diffs):.1e}", guard))
@@ -134,7 +135,8 @@ def main(argv=None) -> int:
             by_truth = sorted(members, key=true_peak.get)[:TOP]
             by_tolerance = sorted(members, key=lambda o: peaks[o]["peak_backplate_force"])[:TOP]
             kept.append("yes" if by_truth == by_tolerance else "no")
-            taus.append(kendall_tau([true_peak[o] for o in members], [peaks[o]["peak_backplate_force"] for o in members]))
+            taus.append(kendall_tau([true_peak[o] for o in members],
+                                    [peaks[o]["peak_backplate_force"] for o in members]))
         tolerance_rows.append((f"{rtol:g}" + (" (the searches')" if rtol == SEARCH_RTOL else ""), f"{max(errors):.1e}",
                                f"{statistics.median(errors):.1e}", f"{max(errors) / smallest_gap:.2f}", *kept,
                                *(f"{t:.4f}" for t in taus)))

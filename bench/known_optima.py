@@ -1,7 +1,7 @@
 """Every search method against a known optimum: success rate, expected running time and final quality.
 
-    python -m bench.known_optima            # about 4 min on 2 workers: the 11 x 8 sweep, 6 methods x 20 seeds x 3 budgets
-    python -m bench.known_optima --quick    # about 1 min: the 11 x 7 sweep, 6 methods x 5 seeds x 2 budgets
+    python -m bench.known_optima            # about 5 min, 2 workers: the 11 x 8 sweep, 6 methods x 20 seeds x 3 budgets
+    python -m bench.known_optima --quick    # about 40 s: the 11 x 7 sweep, 6 methods x 5 seeds x 2 budgets
 
 Why: "several seeds agree" is not evidence that a search finds the optimum; where every design can be
 evaluated, a search's success can be counted. The armour scene narrowed to C columns is swept once at the
@@ -41,6 +41,11 @@ class Lookup:
     space: DesignSpace
     values: tuple[float | None, ...]
 
+    @property
+    def key(self) -> str:
+        """Its identity for the Evaluator's cache (one table per benchmark run; never its values' repr)."""
+        return f"sweep table of {self.space.key}"
+
     def __call__(self, order) -> Evaluation:
         value = self.values[self.space.rank(order)]
         return failed(order, "failed in the sweep") if value is None else Evaluation(tuple(order), value, OK)
@@ -52,8 +57,9 @@ def sweep_values(columns: int, workers: int) -> tuple[DesignSpace, tuple]:
         screening, = LatticeObjective(fmu, space, FULL_HORIZON).tasks(SEARCH)
         ranges = chunk_ranges(space.size, max(1, space.size // 100))
         with make_executor("process", workers) as executor:
-            chunks = Evaluator(executor).run([ScreenChunk(WithoutLimit(screening), space, a, b, 1, SCREENING_ERROR, None,
-                                                          all_values=True) for a, b in ranges])
+            every = WithoutLimit(screening)
+            chunks = Evaluator(executor).run([ScreenChunk(every, space, a, b, 1, SCREENING_ERROR, None, all_values=True)
+                                              for a, b in ranges])
         close_instances()
     bad = [c for c in chunks if not c.ok]
     if bad:

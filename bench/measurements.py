@@ -149,10 +149,12 @@ def _git(*arguments: str) -> str | None:
     return done.stdout.strip() if done.returncode == 0 else None
 
 
+MEASURED_CODE = ("bench", "fmu_src", "orchestrator", "reference", "scenes", "build_fmu.py", "pyproject.toml")
+
+
 def _dirty() -> bool:
-    """Whether the code differs from the commit (the measurement pages themselves do not count)."""
-    status = _git("status", "--porcelain", "--", ".", ":!docs/measurements")
-    return bool(status)
+    """Whether the code that is measured (not the documentation around it) differs from the commit."""
+    return bool(_git("status", "--porcelain", "--", *MEASURED_CODE))
 
 
 def cpu_model() -> str:

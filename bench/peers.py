@@ -1,8 +1,8 @@
 """The FMU against the strongest peers a Python user can install with pip, at equal accuracy.
 
     pip install -e ".[bench]"                # numba, jax, diffrax (benchmark-only)
-    python -m bench.peers                    # about 8 min: 5 orders, both scenes
-    python -m bench.peers --quick            # about 3 min: 3 orders, fewer rounds
+    python -m bench.peers                    # about 12 min: 5 orders, both scenes
+    python -m bench.peers --quick            # about 6 min: 3 orders, fewer rounds
 
 Why: "faster than scipy over numpy" says little; a user who cares would compile the right-hand side. Routes,
 each over SPEC.md's right-hand side written once in bench/peer_models.py (checked against reference/lattice.py
@@ -32,6 +32,7 @@ and JAX's compile times are measured apart and never enter a run's time. Also ch
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import math
 import os
 import statistics
@@ -348,7 +349,8 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
 
     ladder_rows = errors_at("fmu", scenario.fmu_rtol, scenario.fmu_atol)
     target = worst(ladder_rows)
-    log(f"FMU ({scenario.fmu_solver}) at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}: worst error {target:.2e} "
+    log(f"FMU ({scenario.fmu_solver}) at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}: "
+        f"worst error {target:.2e} "
         "(the target every peer must meet)")
     chosen = {"fmu": (scenario.fmu_rtol, scenario.fmu_atol), "fmu_whole": (scenario.fmu_rtol, scenario.fmu_atol)}
     top = math.log10(LADDER_START * scenario.fmu_rtol)
@@ -410,7 +412,8 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
                 row[key] = row["cpu_ms"] / base_cpu[row["order"]]
     extra = {"target": target, "chosen": chosen, "reference": reference,
              "lsoda_methods": sorted(routes["odeint"].lsoda_methods),
-             "diffrax_compile_cpu": routes["diffrax"].compile_cpu, "diffrax_compile_wall": routes["diffrax"].compile_wall}
+             "diffrax_compile_cpu": routes["diffrax"].compile_cpu,
+             "diffrax_compile_wall": routes["diffrax"].compile_wall}
     return {"rows": rows, "ladder": ladder_rows, **extra}
 
 
@@ -431,7 +434,8 @@ def summarise(scenario: Scenario, study: dict) -> list[dict]:
                      cpu_ms_min=min(r["cpu_ms"] for r in good), cpu_ms_max=max(r["cpu_ms"] for r in good),
                      cpu_ms_mean=statistics.fmean(r["cpu_ms"] for r in good),
                      rhs_min=min(r["rhs"] for r in good), rhs_max=max(r["rhs"] for r in good),
-                     us_per_rhs_min=min(r["us_per_rhs"] for r in good), us_per_rhs_max=max(r["us_per_rhs"] for r in good))
+                     us_per_rhs_min=min(r["us_per_rhs"] for r in good),
+                     us_per_rhs_max=max(r["us_per_rhs"] for r in good))
         ratios = [r["ratio_to_fmu"] for r in good if "ratio_to_fmu" in r]
         if ratios and name != "fmu":
             entry.update(ratio_min=min(ratios), ratio_max=max(ratios), ratio_geomean=math.exp(statistics.fmean(
@@ -466,7 +470,8 @@ def summary_rows(summary: list[dict]) -> tuple:
         rows.append((s["label"], f"{s['rtol']:.1e}", f"{s['worst_error']:.1e}",
                      f"{s['cpu_ms_min']:.2f}-{s['cpu_ms_max']:.2f}", f"{s['rhs_min']}-{s['rhs_max']}",
                      f"{s['us_per_rhs_min']:.2f}-{s['us_per_rhs_max']:.2f}",
-                     f"{s['ratio_min']:.1f}-{s['ratio_max']:.1f}x ({s['ratio_geomean']:.1f}x)" if "ratio_min" in s else "",
+                     f"{s['ratio_min']:.1f}-{s['ratio_max']:.1f}x ({s['ratio_geomean']:.1f}x)"
+                     if "ratio_min" in s else "",
                      f"{s['ratio_whole_min']:.1f}-{s['ratio_whole_max']:.1f}x ({s['ratio_whole_geomean']:.1f}x)"
                      if "ratio_whole_min" in s else ""))
     return tuple(rows)
@@ -484,18 +489,15 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="sequential, study's best and one random order; "
                         "fewer rounds")
     args = parser.parse_args(argv)
-    try:
-        import diffrax  # noqa: F401
-        import jax  # noqa: F401
-        import numba  # noqa: F401
-    except ImportError as exc:
-        parser.error(f"{exc.name} is not installed: pip install -e \".[bench]\"")
+    missing = [name for name in ("numba", "jax", "diffrax") if importlib.util.find_spec(name) is None]
+    if missing:
+        parser.error(f"{', '.join(missing)} not installed: pip install -e \".[bench]\"")
     orders = bench_orders(random_count=args.random_orders)
     if args.quick:
         orders = {k: orders[k] for k in ("sequential", "study's best", "random 1")}
+    numba_compile = compile_numba()  # first: the check below would compile the kernels too
     kernels = check_against_reference()
     print("kernels against reference/: " + ", ".join(f"{k} {v:.1e}" for k, v in kernels.items()), flush=True)
-    numba_compile = compile_numba()
     micro = rhs_microseconds()
     studies, summaries = {}, {}
     with lattice_fmu(args.fmu) as path, LatticeFMU(path) as fmu:
@@ -522,8 +524,8 @@ def main(argv=None) -> int:
                             + (f", LSODA {lsoda['ratio_geomean']:.1f}x" if lsoda and lsoda is not fastest else ""))
         if study["lsoda_methods"]:
             used = {1: "Adams (non-stiff)", 2: "BDF (stiff)"}
-            notes.append(f"{scenario.label}: LSODA used {', '.join(used.get(m, str(m)) for m in study['lsoda_methods'])} "
-                         "over the tolerance walk.")
+            methods = ", ".join(used.get(m, str(m)) for m in study["lsoda_methods"])
+            notes.append(f"{scenario.label}: LSODA used {methods} over the tolerance walk.")
         if name == "scene8s":
             checks = check_published(study, orders)
             worst = max(c["relative_deviation"] for c in checks) if checks else None

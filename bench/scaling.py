@@ -1,7 +1,7 @@
 """Scaling: how an evaluation's cost grows with the lattice, and how a search's throughput grows with workers.
 
-    python -m bench.scaling            # about 4 min: 14 lattices built and timed; 1 and 2 workers
-    python -m bench.scaling --quick    # about 1.5 min: 6 lattices; 1 and 2 workers
+    python -m bench.scaling            # about 5 min: 13 lattices built and timed; 1 and 2 workers
+    python -m bench.scaling --quick    # about 2 min: 5 lattices; 1 and 2 workers
 
 Why: a user's lattice is not the study's, and a user's machine has more cores. Lattice size: for square
 lattices R x R and for 11 rows by C columns the FMU is built (``fmu_src.build.build_fmu``, the study's material
@@ -138,7 +138,7 @@ def main(argv=None) -> int:
         throughput = worker_throughput(path, worker_counts, args.designs)
 
     size_rows = tuple(
-        (f"{t['rows']} x {t['cols']}", t.get("masses", t["rows"] * t["cols"]), t["evaluation"], "failed", "", "", "", "")
+        (f"{t['rows']} x {t['cols']}", t["rows"] * t["cols"], t["evaluation"], "failed", "", "", "", "")
         if t["failed"] else
         (f"{t['rows']} x {t['cols']}", t["masses"], t["evaluation"], f"{t['ms']:.2f}",
          f"{t['ms_range'][0]:.2f}-{t['ms_range'][1]:.2f}", f"{t['rhs']:.0f}", f"{t['us_per_rhs']:.2f}",

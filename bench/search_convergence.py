@@ -1,8 +1,8 @@
 """Search quality and convergence over seeds: how good each search's answer is at a budget, and how fast it
 gets there.
 
-    python -m bench.search_convergence            # about 6 min on 2 workers: 6 methods x 10 seeds x 100 designs
-    python -m bench.search_convergence --quick    # about 1 min: 6 methods x 3 seeds x 50 designs
+    python -m bench.search_convergence            # about 2 min on 2 workers: 6 methods x 10 seeds x 100 designs
+    python -m bench.search_convergence --quick    # about 30 s: 6 methods x 3 seeds x 50 designs
 
 Why: one run of a stochastic search is an anecdote; the claims about the searches (each beats the study's
 best within the study's budget, and which to use) are about the spread over seeds. Each method runs through
