@@ -1,22 +1,41 @@
-"""MkDocs hooks: the FMU reference page is generated from the one table of variables at every build.
+"""MkDocs hooks: the tables that must not drift from the code are generated from it at every build.
 
-``fmu-reference.md`` holds the prose; at the line ``<!-- the variables of the default FMU -->`` this hook
-puts the tables of every parameter, output and local variable of the default scene's FMU, with unit, range,
-default and description, read from ``fmu_src/variables.py`` through the scene (``scenes.Scene.interface``),
-exactly as the build reads them to write the model description. So the page cannot drift from the FMU.
+- ``fmu-reference.md``: at the line ``<!-- the variables of the default FMU -->`` go the tables of every
+  parameter, output and local variable of the default scene's FMU, with unit, range, default and description,
+  read from ``fmu_src/variables.py`` through the scene (``scenes.Scene.interface``), exactly as the build reads
+  them to write the model description.
+- ``optimisers.md``: at the line ``<!-- the options of every search -->`` goes each search's options with their
+  defaults, read from the searches themselves (``orchestrator.search.SEARCHES``).
 """
 from __future__ import annotations
 
-MARKER = "<!-- the variables of the default FMU -->"
-PAGE = "fmu-reference.md"
+VARIABLES = "<!-- the variables of the default FMU -->"
+OPTIONS = "<!-- the options of every search -->"
 
 
 def on_page_markdown(markdown: str, page, config, files) -> str:
-    if page.file.src_uri != PAGE:
+    generated = {"fmu-reference.md": (VARIABLES, variable_tables), "optimisers.md": (OPTIONS, search_options)}
+    if page.file.src_uri not in generated:
         return markdown
-    if MARKER not in markdown:
-        raise ValueError(f"{PAGE}: the line {MARKER} is missing (the hook puts the variable tables there)")
-    return markdown.replace(MARKER, variable_tables())
+    marker, make = generated[page.file.src_uri]
+    if marker not in markdown:
+        raise ValueError(f"{page.file.src_uri}: the line {marker} is missing (the hook puts its table there)")
+    return markdown.replace(marker, make())
+
+
+def search_options() -> str:
+    from orchestrator.search import SEARCHES
+    from orchestrator.search.polish import Polished
+
+    lines = ["| search | options (defaults) | polishing share of the budget |", "|---|---|---|"]
+    for name, search in SEARCHES.items():
+        options = ", ".join(f"`{key}` {value!r}" for key, value in search.OPTIONS.items() if key != "budget")
+        polish = "none" if search.POLISH is None else f"{search.POLISH:g}"
+        lines.append(f"| `{name}` | {cell(options) or 'none'} | {polish} |")
+    shared = ", ".join(f"`{key}` {value!r}" for key, value in Polished.OPTIONS.items()
+                       if key not in ("budget", "polish"))
+    lines += ["", f"Every search takes `budget`; a polished one also `polish` (its share above) and {shared}."]
+    return "\n".join(lines) + "\n"
 
 
 def variable_tables(scene_name: str = "armour_11x11") -> str:
