@@ -2,7 +2,7 @@
 without a short search's incumbent.
 
     python -m bench.exhaustive_throughput           # about 4 min, 2 workers: chunks of 11 x 8, 9, 11; two 11 x 8 sweeps
-    python -m bench.exhaustive_throughput --quick   # about 1 min: chunks of 11 x 8; two 11 x 7 sweeps
+    python -m bench.exhaustive_throughput --quick   # about 2 min: chunks of 11 x 8; two 11 x 7 sweeps
 
 Why: what an exhaustive sweep costs decides whether it runs here or on a cluster (the orchestrator refuses one
 beyond its local limit with the projected core-hours), and the force limit is what makes it affordable: a

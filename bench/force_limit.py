@@ -1,7 +1,7 @@
 """What the force limit (the FMU's ``peak_force_limit``) saves: per run, and per search.
 
     python -m bench.force_limit            # about 1.5 min: 40 orders x 5 passes; 3 searches x 3 seeds x 100 designs
-    python -m bench.force_limit --quick    # about 30 s: 20 orders x 2 passes; 3 searches x 1 seed x 60 designs
+    python -m bench.force_limit --quick    # about 40 s: 20 orders x 2 passes; 3 searches x 1 seed x 60 designs
 
 Why: a search only needs to know that a design is worse than a threshold it already has (the descent's current
 value, the annealing's Metropolis threshold, the exhaustive sweep's incumbent), so the FMU may stop such a run

@@ -1,7 +1,7 @@
 """Every search method against a known optimum: success rate, expected running time and final quality.
 
     python -m bench.known_optima            # about 5 min, 2 workers: the 11 x 8 sweep, 6 methods x 20 seeds x 3 budgets
-    python -m bench.known_optima --quick    # about 40 s: the 11 x 7 sweep, 6 methods x 5 seeds x 2 budgets
+    python -m bench.known_optima --quick    # about 1.5 min: the 11 x 7 sweep, 6 methods x 5 seeds x 2 budgets
 
 Why: "several seeds agree" is not evidence that a search finds the optimum; where every design can be
 evaluated, a search's success can be counted. The armour scene narrowed to C columns is swept once at the

@@ -1,8 +1,8 @@
 """The FMU against the strongest peers a Python user can install with pip, at equal accuracy.
 
     pip install -e ".[bench]"                # numba, jax, diffrax (benchmark-only)
-    python -m bench.peers                    # about 12 min: 5 orders, both scenes
-    python -m bench.peers --quick            # about 6 min: 3 orders, fewer rounds
+    python -m bench.peers                    # about 15 min: 5 orders, both scenes
+    python -m bench.peers --quick            # about 9 min: 3 orders, fewer rounds
 
 Why: "faster than scipy over numpy" says little; a user who cares would compile the right-hand side. Routes,
 each over SPEC.md's right-hand side written once in bench/peer_models.py (checked against reference/lattice.py

@@ -1,7 +1,7 @@
 """Scaling: how an evaluation's cost grows with the lattice, and how a search's throughput grows with workers.
 
     python -m bench.scaling            # about 5 min: 13 lattices built and timed; 1 and 2 workers
-    python -m bench.scaling --quick    # about 2 min: 5 lattices; 1 and 2 workers
+    python -m bench.scaling --quick    # about 2.5 min: 5 lattices; 1 and 2 workers
 
 Why: a user's lattice is not the study's, and a user's machine has more cores. Lattice size: for square
 lattices R x R and for 11 rows by C columns the FMU is built (``fmu_src.build.build_fmu``, the study's material

@@ -2,7 +2,7 @@
 gets there.
 
     python -m bench.search_convergence            # about 2 min on 2 workers: 6 methods x 10 seeds x 100 designs
-    python -m bench.search_convergence --quick    # about 30 s: 6 methods x 3 seeds x 50 designs
+    python -m bench.search_convergence --quick    # about 45 s: 6 methods x 3 seeds x 50 designs
 
 Why: one run of a stochastic search is an anecdote; the claims about the searches (each beats the study's
 best within the study's budget, and which to use) are about the spread over seeds. Each method runs through

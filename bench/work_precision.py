@@ -1,7 +1,7 @@
 """Work against precision of the FMU's solvers: what each setting costs, what it gets wrong, where it fails.
 
     python -m bench.work_precision            # about 3 min: 10 orders, both horizons, 2 timed passes
-    python -m bench.work_precision --quick    # about 40 s: 5 orders, fewer settings, one pass
+    python -m bench.work_precision --quick    # about 50 s: 5 orders, fewer settings, one pass
 
 Why: the searches' solver and tolerance (``orchestrator.objective.SEARCH_SOLVER`` and ``SEARCH_RTOL``), the
 FMU's default tolerance and the fixed-step solvers' limits are chosen from this. For every solver setting
