@@ -17,7 +17,6 @@ an incumbent) and once after a short annealing run that hands the sweep its best
 """
 from __future__ import annotations
 
-import argparse
 import math
 import tempfile
 import time
@@ -80,8 +79,7 @@ def sweep(scene: Path, fmu: Path, folder: Path, methods: tuple[str, ...], budget
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = argparse.ArgumentParser(prog="python -m bench.exhaustive_throughput",
-                                     description=__doc__.split("\n\n")[0])
+    parser = run.parser(__doc__, quick="chunks of 11 x 8 only (300 designs, once); 11 x 7 swept")
     parser.add_argument("--chunk-columns", nargs="+", type=int, default=[8, 9, 11], choices=sorted(KNOWN),
                         help="lattices 11 x C whose chunk is timed (those with a known optimum)")
     parser.add_argument("--chunk-designs", type=int, default=600, help="designs in the timed chunk")
@@ -89,7 +87,6 @@ def main(argv=None) -> int:
     parser.add_argument("--sweep-columns", type=int, default=8, help="the lattice 11 x C swept twice")
     parser.add_argument("--search-budget", type=int, default=100, help="designs of the short search before a sweep")
     parser.add_argument("--workers", type=int, default=2, help="worker processes of the sweeps")
-    parser.add_argument("--quick", action="store_true", help="chunks of 11 x 8 only (300 designs, once); 11 x 7 swept")
     args = parser.parse_args(argv)
     if args.quick:
         args.chunk_columns, args.chunk_designs, args.repeats, args.sweep_columns = [8], 300, 1, 7

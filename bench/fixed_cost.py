@@ -13,7 +13,6 @@ executor (cache, keys, the task protocol). The fastest batch counts.
 """
 from __future__ import annotations
 
-import argparse
 import time
 from dataclasses import fields
 
@@ -42,11 +41,10 @@ def fastest(batches, run_batch) -> float:
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = argparse.ArgumentParser(prog="python -m bench.fixed_cost", description=__doc__.split("\n\n")[0])
+    parser = run.parser(__doc__, quick="3 batches of 300 runs")
     add_fmu_option(parser)
     parser.add_argument("--runs", type=int, default=1000, help="runs per batch")
     parser.add_argument("--batches", type=int, default=5, help="batches per layer (the fastest counts)")
-    parser.add_argument("--quick", action="store_true", help="3 batches of 300 runs")
     args = parser.parse_args(argv)
     if args.quick:
         args.runs, args.batches = 300, 3

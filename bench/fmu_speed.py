@@ -12,7 +12,6 @@ the FMU at rtol 1e-13 and with the study's published number.
 """
 from __future__ import annotations
 
-import argparse
 import time
 
 from fmu_src.published import PUBLISHED_PEAKS
@@ -50,11 +49,10 @@ def time_scipy(order, rtol: float, atol: float, repeats: int):
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = argparse.ArgumentParser(prog="python -m bench.fmu_speed", description=__doc__.split("\n\n")[0])
+    parser = run.parser(__doc__, quick="5 FMU runs and 1 scipy run per order")
     add_fmu_option(parser)
     parser.add_argument("--repeats", type=int, default=20, help="FMU runs per order (the fastest counts)")
     parser.add_argument("--scipy-repeats", type=int, default=2, help="scipy runs per order and setting")
-    parser.add_argument("--quick", action="store_true", help="5 FMU runs and 1 scipy run per order")
     args = parser.parse_args(argv)
     if args.quick:
         args.repeats, args.scipy_repeats = 5, 1

@@ -15,7 +15,6 @@ fresh Evaluator per run), their CPU time, the evaluations censored and whether t
 """
 from __future__ import annotations
 
-import argparse
 import statistics
 import time
 
@@ -102,7 +101,7 @@ def per_search(path, methods, seeds: int, budget: int):
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = argparse.ArgumentParser(prog="python -m bench.force_limit", description=__doc__.split("\n\n")[0])
+    parser = run.parser(__doc__, quick="20 orders x 2 passes; 1 seed of 60 designs")
     add_fmu_option(parser)
     parser.add_argument("--orders", type=int, default=40, help="random orders of the per-run measurement")
     parser.add_argument("--seed", type=int, default=12, help="seed of the random orders")
@@ -110,7 +109,6 @@ def main(argv=None) -> int:
     parser.add_argument("--methods", nargs="+", default=list(METHODS), help="searches of the per-search measurement")
     parser.add_argument("--seeds", type=int, default=3, help="seeds per search")
     parser.add_argument("--budget", type=int, default=100, help="designs per search run")
-    parser.add_argument("--quick", action="store_true", help="20 orders x 2 passes; 1 seed of 60 designs")
     args = parser.parse_args(argv)
     if args.quick:
         args.orders, args.passes, args.seeds, args.budget = min(args.orders, 20), 2, 1, min(args.budget, 60)

@@ -16,7 +16,6 @@ the horizon equals a run that stops there.
 """
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
 import statistics
@@ -64,12 +63,11 @@ def at(trajectory, horizon: float) -> dict:
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = argparse.ArgumentParser(prog="python -m bench.horizon_study", description=__doc__.split("\n\n")[0])
+    parser = run.parser(__doc__, quick="30 random orders, four tolerances")
     add_fmu_option(parser)
     parser.add_argument("--orders", type=int, default=200, help="random orders (besides the 57 fixed ones)")
     parser.add_argument("--seed", type=int, default=7, help="seed of the random orders")
     parser.add_argument("--workers", type=int, default=2, help="worker processes")
-    parser.add_argument("--quick", action="store_true", help="30 random orders, four tolerances")
     args = parser.parse_args(argv)
     rtols = RTOLS
     if args.quick:

@@ -13,7 +13,6 @@ runs, a successful run counted up to its success, divided by the number of succe
 """
 from __future__ import annotations
 
-import argparse
 import math
 import statistics
 from dataclasses import dataclass
@@ -75,13 +74,12 @@ def ert(runs: list[dict]) -> float:
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = argparse.ArgumentParser(prog="python -m bench.known_optima", description=__doc__.split("\n\n")[0])
+    parser = run.parser(__doc__, quick="11 x 7, 5 seeds, budgets 100 and 300")
     parser.add_argument("--columns", type=int, default=8, help="the lattice 11 x C swept (C! designs)")
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     parser.add_argument("--budgets", nargs="+", type=int, default=list(BUDGETS))
     parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--workers", type=int, default=2, help="worker processes of the sweep")
-    parser.add_argument("--quick", action="store_true", help="11 x 7, 5 seeds, budgets 100 and 300")
     args = parser.parse_args(argv)
     if args.quick:
         args.columns, args.seeds, args.budgets = 7, min(args.seeds, 5), [b for b in args.budgets if b <= 300]

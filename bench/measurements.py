@@ -8,6 +8,7 @@ no page is ever edited by hand.
 """
 from __future__ import annotations
 
+import argparse
 import datetime
 import json
 import os
@@ -71,6 +72,12 @@ class Run:
     def start(cls, module_file: str, argv: list[str] | None) -> "Run":
         """The run of the benchmark in ``module_file`` (its ``__file__``: bench/NAME.py is bench.NAME)."""
         return cls(Path(module_file).stem, list(sys.argv[1:] if argv is None else argv))
+
+    def parser(self, doc: str, quick: str) -> argparse.ArgumentParser:
+        """The benchmark's command line: its docstring's first paragraph, and ``--quick`` (what it cuts)."""
+        parser = argparse.ArgumentParser(prog=f"python -m bench.{self.name}", description=doc.split("\n\n")[0])
+        parser.add_argument("--quick", action="store_true", help=quick)
+        return parser
 
     @property
     def command(self) -> str:

@@ -31,7 +31,6 @@ and JAX's compile times are measured apart and never enter a run's time. Also ch
 """
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import math
 import os
@@ -479,15 +478,14 @@ def summary_rows(summary: list[dict]) -> tuple:
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = argparse.ArgumentParser(prog="python -m bench.peers", description=__doc__.split("\n\n")[0])
+    parser = run.parser(__doc__, quick="sequential, study's best and one random order; "
+                        "fewer rounds")
     add_fmu_option(parser)
     parser.add_argument("--scenes", nargs="+", choices=("search", "scene8s"), default=["search", "scene8s"])
     parser.add_argument("--random-orders", type=int, default=2, help="random orders beside sequential, study's "
                         "best and reversed")
     parser.add_argument("--repeats", type=int, default=None, help="interleaved timing rounds (default 8 for the "
                         "search evaluation, 4 for the 8 s scene; --quick: 4 and 2)")
-    parser.add_argument("--quick", action="store_true", help="sequential, study's best and one random order; "
-                        "fewer rounds")
     args = parser.parse_args(argv)
     missing = [name for name in ("numba", "jax", "diffrax") if importlib.util.find_spec(name) is None]
     if missing:

@@ -14,7 +14,6 @@ orchestrator's Evaluator on a process pool of 1 .. W workers, designs per wall s
 """
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import tempfile
@@ -117,7 +116,7 @@ def worker_throughput(path, worker_counts, designs: int) -> list[tuple[int, floa
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = argparse.ArgumentParser(prog="python -m bench.scaling", description=__doc__.split("\n\n")[0])
+    parser = run.parser(__doc__, quick="sizes 5, 11, 20; 1 random order; 2 rounds; 600 designs")
     parser.add_argument("--fmu", help="the 11 x 11 FMU of the worker measurement (default: built from fmu_src/)")
     parser.add_argument("--sizes", nargs="+", type=int, default=list(SIZES), help="R of R x R and C of 11 x C")
     parser.add_argument("--random-orders", type=int, default=2, help="random orders beside the sequential one")
@@ -126,7 +125,6 @@ def main(argv=None) -> int:
     parser.add_argument("--workers", nargs="+", type=int, default=None,
                         help=f"worker counts of the throughput measurement (default 1 .. {os.cpu_count()})")
     parser.add_argument("--designs", type=int, default=2000, help="designs per worker count")
-    parser.add_argument("--quick", action="store_true", help="sizes 5, 11, 20; 1 random order; 2 rounds; 600 designs")
     args = parser.parse_args(argv)
     if args.quick:
         args.sizes, args.random_orders, args.rounds, args.designs = list(QUICK_SIZES), 1, 2, min(args.designs, 600)

@@ -13,7 +13,6 @@ that is compared with the study's published results.
 """
 from __future__ import annotations
 
-import argparse
 import statistics
 
 from fmu_src.published import STUDY_BEST, STUDY_PARTICLE_SWARM, STUDY_SEQUENTIAL, STUDY_SIMULATED_ANNEALING
@@ -38,13 +37,12 @@ def quartiles(values: list[float]) -> tuple[float, float, float]:
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = argparse.ArgumentParser(prog="python -m bench.search_convergence", description=__doc__.split("\n\n")[0])
+    parser = run.parser(__doc__, quick="3 seeds, 50 designs")
     add_fmu_option(parser)
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     parser.add_argument("--seeds", type=int, default=10, help="seeds per method (0 .. N-1)")
     parser.add_argument("--budget", type=int, default=100, help="distinct designs per run")
     parser.add_argument("--workers", type=int, default=2, help="worker processes")
-    parser.add_argument("--quick", action="store_true", help="3 seeds, 50 designs")
     args = parser.parse_args(argv)
     if args.quick:
         args.seeds, args.budget = min(args.seeds, 3), min(args.budget, 50)

@@ -16,7 +16,6 @@ reference is itself checked against scipy over the numpy model (``reference/``) 
 """
 from __future__ import annotations
 
-import argparse
 import math
 import time
 
@@ -75,12 +74,11 @@ def failure_kind(message: str) -> str:
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = argparse.ArgumentParser(prog="python -m bench.work_precision", description=__doc__.split("\n\n")[0])
+    parser = run.parser(__doc__, quick="1 random order, fewer settings, one pass")
     add_fmu_option(parser)
     parser.add_argument("--random-orders", type=int, default=6, help="random orders besides the four named ones")
     parser.add_argument("--seed", type=int, default=7, help="seed of the random orders")
     parser.add_argument("--passes", type=int, default=2, help="timed passes per setting (the fastest counts)")
-    parser.add_argument("--quick", action="store_true", help="1 random order, fewer settings, one pass")
     args = parser.parse_args(argv)
     if args.quick:
         args.random_orders, args.passes = min(args.random_orders, 1), 1
