@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from bench.common import IsolatedFMU
+from isolated import IsolatedFMU
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import LatticeFMU, SimulationError
 from reference import Scene
