@@ -136,8 +136,8 @@ def evaluate_chunk(objective: Callable[[Order], Any], space: DesignSpace, start:
     histogram: dict[int, int] = {}
     values: list[float | None] = []
     chunk_best = math.inf
-    current_limit = limit if objectives == 1 else None
-    limited = hasattr(objective, "with_limit") and objectives == 1
+    limited = hasattr(objective, "with_limit") and objectives == 1 and not all_values  # a table needs every value
+    current_limit = limit if limited else None
     evaluate = objective.with_limit(current_limit) if limited and current_limit is not None else objective
     for rank, order in enumerate(space.designs(start, stop), start=start):
         evaluation = safe_call(evaluate, order)

@@ -5,8 +5,8 @@ parameters (the diagonal rule, the load...), over which load cases and how they 
 space, and at which fidelity:
 
 - ``SEARCH``, what the searches rank by: a short horizon (``SEARCH_HORIZON``) at a looser tolerance with the
-  cheapest solver at that accuracy (``SEARCH_SOLVER`` at ``SEARCH_RTOL``; bench/solver_work_precision.py and
-  bench/horizon_study.py measure their error against the gaps between good designs), extended to the full
+  cheapest solver at that accuracy (``SEARCH_SOLVER`` at ``SEARCH_RTOL``; python -m bench.work_precision and
+  python -m bench.horizon_study measure their error against the gaps between good designs), extended to the full
   horizon for a design whose lattice still touches the plate near its end;
 - ``FULL``, what is reported: the whole scene at the FMU's default accuracy.
 
@@ -32,9 +32,9 @@ SEARCH = "search"
 FULL = "full"
 FIDELITIES = (SEARCH, FULL)
 
-SEARCH_HORIZON = 1.0  # s: every design has left the plate by then (bench/horizon_study.py)
-SEARCH_RTOL = 8e-6  # its error stays far below the gaps between good designs (bench/solver_work_precision.py)
-SEARCH_SOLVER = "rkn5"  # the cheapest pair at that accuracy (bench/solver_work_precision.py)
+SEARCH_HORIZON = 1.0  # s: every design has left the plate by then (python -m bench.horizon_study)
+SEARCH_RTOL = 8e-6  # its error stays far below the gaps between good designs (python -m bench.work_precision)
+SEARCH_SOLVER = "rkn5"  # the cheapest pair at that accuracy (python -m bench.work_precision)
 CONTACT_GUARD = 0.1  # a short horizon is trusted only when the lattice left the plate before its last tenth
 AGGREGATES = ("worst", "mean")
 

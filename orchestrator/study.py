@@ -53,7 +53,8 @@ class CaseConfig:
     load_angle: float | None = option(None, "load angle in degrees (0: along +x)", show_default="the scene's, 0",
                                       metavar="DEG", type=number("--load-angle"))
     horizon: float | None = option(None, f"simulated time of the full scene in s, at most {MAX_HORIZON:g}",
-                                   show_default="the scene's, 8 s", metavar="S", type=number("--horizon", 0, MAX_HORIZON))
+                                   show_default="the scene's, 8 s", metavar="S",
+                                   type=number("--horizon", 0, MAX_HORIZON))
     search_horizon: float = option(1.0, "horizon of the searches' cheaper objective in s (every reported number is "
                                    "re-evaluated over the full horizon); 0: the full horizon", metavar="S",
                                    type=number("--search-horizon", 0, MAX_HORIZON, allow_zero=True))

@@ -45,7 +45,7 @@ it (another chain, a higher current value) it decides nothing, so the design is 
 limit, and the loop evaluates it again without charging the budget (``reevaluations``).
 ``use_limits=False`` gives no limits and keeps every value.
 
-Why the defaults (bench/search_convergence.py, on the study's lattice at the study's budget):
+Why the defaults (python -m bench.search_convergence, on the study's lattice at the study's budget):
 - ``x0="sequential"``: chain 0 starts at the baseline a designer already has (``DesignSpace.baseline``), the
   others one random move from it: good designs are nearer the baseline than a random design is.
 - ``chains=4``: enough to fill a batch for a couple of workers, few enough that each chain takes many steps.

@@ -10,7 +10,7 @@ Why restarts: on random keys the distribution soon concentrates so that every sa
 designs; pycma then stops (flat fitness, tolx, ...) and, rather than let the budget go unused, a fresh
 CMA-ES starts from a new random mean (optionally with a larger population, IPOP-style).
 
-Why the defaults (bench/search_convergence.py with ``--option``, on the study's lattice at the study's budget):
+Why the defaults (python -m bench.search_convergence with ``--option``, on the study's lattice at the study's budget):
 - ``x0="sequential"``: the first mean is the keys of the baseline a designer already has
   (``DesignSpace.baseline``); from a random mean a small budget goes to far-away designs. Restarts
   (``restart_x0``) start from random means, for diversity.

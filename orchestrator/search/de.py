@@ -7,7 +7,7 @@ Start and polishing follow the particle swarm (``pso.py``): with ``x0="sequentia
 population is the keys of the space's baseline and the others scatter around them with Gaussian noise of
 ``spread`` per key (clipped to [0, 1]; ``spread=None``: uniform); the last ``polish`` fraction of
 ``budget`` goes to the descent by single moves from the best design (``polish.Polished``; the share as for
-CMA-ES and the swarm, bench/search_convergence.py). Restarts scatter uniformly.
+CMA-ES and the swarm, python -m bench.search_convergence). Restarts scatter uniformly.
 """
 from __future__ import annotations
 

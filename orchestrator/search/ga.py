@@ -9,7 +9,7 @@ plumbing, failures (+inf) and restarts are ``pymoo_search.PymooSearch``'s.
 Start and polishing follow the other optimisers: with ``x0="sequential"`` individual 0 of the first
 population is the space's baseline (the design a designer already has) and the rest are random; the last
 ``polish`` fraction of ``budget`` goes to the descent by single moves from the best design
-(``polish.Polished``, which ``make_search`` wraps it in; the share as for CMA-ES, bench/search_convergence.py).
+(``polish.Polished``, which ``make_search`` wraps it in; the share as for CMA-ES, python -m bench.search_convergence).
 """
 from __future__ import annotations
 

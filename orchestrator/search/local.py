@@ -7,7 +7,7 @@ and, through the same moves of ``DesignSpace``, the annealing.
 Why a descent for the last improvements: on random keys (CMA-ES, the swarm, differential evolution) one
 small step in key space changes a design in several columns at once, and late in a run most samples decode
 to designs already seen; the last improvements are single moves, which a first-improvement descent checks
-systematically (bench/search_convergence.py compares the optimisers with and without it).
+systematically (python -m bench.search_convergence compares the optimisers with and without it).
 
 Why a kick at a local optimum (iterated local search): with a large budget the descent reaches a local
 optimum (no single move improves it) long before the budget is spent. Rather than stop, it perturbs the best

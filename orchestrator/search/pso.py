@@ -8,7 +8,7 @@ decoding to the same designs. Why restarts: a collapsed swarm decodes to one des
 overall best is kept in ``state()``); re-scattering around the best design (``rescatter_best=True``) costs
 the diversity a restart is for.
 
-Why the defaults (bench/search_convergence.py with ``--option``, on the study's lattice at the study's budget):
+Why the defaults (python -m bench.search_convergence with ``--option``, on the study's lattice at the study's budget):
 - ``x0="sequential"``, ``spread=0.3``: the swarm starts around the keys of the baseline a designer already has
   (particle 0 exactly on it, the others with Gaussian noise of 0.3 on each key, a few columns), not
   uniformly: placing one particle there alone does little, since in a random swarm the baseline is rarely

@@ -13,10 +13,10 @@ from ..study import Step, StudyContext
 from ..types import Evaluation, Order, RunOutputs
 from .searches import EXHAUSTIVE, Searches, rule_label
 
-# The screening fidelity's relative error bound, at least ten times what bench/solver_work_precision.py and
-# bench/horizon_study.py measure for the searches' fidelity; every design within it of the best is verified.
+# The screening fidelity's relative error bound, at least ten times what python -m bench.work_precision and
+# python -m bench.horizon_study measure for the searches' fidelity; every design within it of the best is verified.
 SCREENING_ERROR = 1e-4
-# The full fidelity's own error bound (bench/work_precision.py measures the FMU's default accuracy).
+# The full fidelity's own error bound (python -m bench.work_precision measures the FMU's default accuracy).
 FULL_ERROR = 1e-6
 SECOND_INTEGRATOR = {"solver": "rkn5", "rtol": 1e-10, "atol": 1e-12}
 SECOND_INTEGRATOR_NAME = "Fine's Runge-Kutta-Nystrom 5(4) pair at rtol 1e-10"

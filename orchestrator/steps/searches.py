@@ -56,7 +56,8 @@ class SearchesConfig:
                 raise ValueError(f"{flag_of(SearchesConfig, name)} must be an integer of at least {low}, got {value!r}")
         unknown = [m for m in self.methods if m not in SEARCHES and m not in (EXHAUSTIVE, ALL)]
         if unknown:
-            raise ValueError(f"--method {unknown[0]}: allowed values are {', '.join(list(SEARCHES) + [EXHAUSTIVE, ALL])}")
+            allowed = ", ".join(list(SEARCHES) + [EXHAUSTIVE, ALL])
+            raise ValueError(f"--method {unknown[0]}: allowed values are {allowed}")
 
 
 @dataclass(frozen=True)

@@ -93,7 +93,8 @@ class Sensitivity(Step):
         found = []
         for name, change in variations(context, rule).items():
             varied = base.with_parameters(**change)
-            runs = run_searches(context, varied, METHODS, context.config(Searches).seed, 1, self.config.sensitivity_budget,
+            seed = context.config(Searches).seed
+            runs = run_searches(context, varied, METHODS, seed, 1, self.config.sensitivity_budget,
                                 name, options={"local": {"start": chosen.order}},
                                 progress_label=f"sensitivity: {name}")
             finalists = [o for run in runs for o in finalist_orders(run, 3)]

@@ -11,7 +11,7 @@ from ..study import Step, StudyContext
 from .answers import Answers
 from .finalists import baselines
 
-FORCE_HORIZON = 1.0  # s: the force peaks and ends well before (bench/horizon_study.py)
+FORCE_HORIZON = 1.0  # s: the force peaks and ends well before (python -m bench.horizon_study)
 FORCE_STEP = 1e-3
 ENERGY_STEP = 1e-2
 

@@ -1,5 +1,5 @@
 """Speed against accuracy of the FMU's solvers for the chosen design: each solver setting over the full
-scene, against the accuracy step's tight reference (bench/work_precision.py does it over many designs)."""
+scene, against the accuracy step's tight reference (python -m bench.work_precision does it over many designs)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
