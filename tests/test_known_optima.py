@@ -54,7 +54,7 @@ def test_a_known_optimum_is_reproduced_and_locally_optimal(lattices, columns):
         full, = lattice.evaluate([order], evaluator, FULL)
         around = space.neighbour_list(order)
         values = lattice.evaluate([order] + around, evaluator, SEARCH)
-    assert full.value == pytest.approx(data["peak_full"], rel=1e-9)
+    assert full.value == pytest.approx(data["peak_full"], rel=1e-6)  # the accuracy the FMU promises
     assert abs(values[0].value / full.value - 1) <= SCREENING_ERROR
     assert all(v.ok for v in values) and min(v.value for v in values[1:]) > values[0].value
 
