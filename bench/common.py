@@ -1,28 +1,26 @@
-"""What the benchmarks share: paths, the FMUs (built fresh), the orders, an FMU in a process that can be killed.
-
-Why a separate process: a solver setting past its limits can make the FMU's doStep run for ever (see
-tests/test_stability.py); a benchmark that sweeps such settings must survive that, so every run goes
-through :class:`IsolatedFMU`, which kills and restarts its worker when a run takes longer than a timeout.
-"""
+"""What the benchmarks share: the designs they measure, the FMU they measure (built fresh from fmu_src/ unless
+one is given) and the searches' FMU settings as the orchestrator sets them."""
 from __future__ import annotations
 
-import csv
+import contextlib
 import math
-import multiprocessing
-import sys
-import time
+import statistics
+import tempfile
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Iterator
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+from fmu_src.build import build_fmu
+from fmu_src.published import SEQUENTIAL_ORDER, STUDY_BEST_ORDER
+from orchestrator.design import DesignSpace
+from orchestrator.known_optima import known_optima
+from orchestrator.objective import SEARCH, SEARCH_HORIZON, FMURun, LatticeObjective
 
-SEQUENTIAL = tuple(range(1, 12))
-STUDY_BEST = (1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10)
-REVERSED = tuple(range(11, 0, -1))
-ALL_OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "peak_time", "last_contact_time",
-               "kinetic_energy", "potential_energy", "external_work", "dissipated_energy", "nonreciprocal_work",
-               "energy_balance_error", "rhs_evaluations", "steps_accepted", "steps_rejected")
+SEQUENTIAL = SEQUENTIAL_ORDER
+STUDY_BEST = STUDY_BEST_ORDER
+REVERSED = tuple(reversed(SEQUENTIAL_ORDER))
+FULL_HORIZON = 8.0  # s: the study's scene
+BEST_KNOWN = next(k.order for k in known_optima() if k.columns == 11 and k.diagonal_rule == "receiver")
 
 
 def random_orders(count: int, seed: int, n: int = 11) -> list[tuple[int, ...]]:
@@ -33,129 +31,96 @@ def random_orders(count: int, seed: int, n: int = 11) -> list[tuple[int, ...]]:
 
 
 def bench_orders(random_count: int = 2, seed: int = 2024) -> dict[str, tuple[int, ...]]:
-    """sequential, the study's best, reversed (the stiffest we know), and random ones."""
-    orders = {"sequential": SEQUENTIAL, "study_best": STUDY_BEST, "reversed": REVERSED}
+    """The sequential order, the study's best, the reversed order (the stiffest column last) and random ones."""
+    orders = {"sequential": SEQUENTIAL, "study's best": STUDY_BEST, "reversed": REVERSED}
     for k, order in enumerate(random_orders(random_count, seed)):
-        orders[f"random{k + 1}"] = order
+        orders[f"random {k + 1}"] = order
     return orders
 
 
 def order_text(order) -> str:
-    return "-".join(str(m) for m in order)
+    return "[" + ", ".join(str(m) for m in order) + "]"
 
 
-def build_fmus(out: Path, c: bool = True, reference: bool = False) -> dict[str, Path]:
-    """Build the C FMU (from fmu_src/ as it is now) and/or the reference FMU into out/fmus/."""
-    import build_fmu
-
-    folder = Path(out) / "fmus"
-    folder.mkdir(parents=True, exist_ok=True)
-    paths = {}
-    if c:
-        paths["c"] = build_fmu.build_fmu(output=folder / "MassSpringLattice.fmu")
-    if reference:
-        from reference.fmu import build_reference_fmu
-
-        paths["reference"] = build_reference_fmu(folder / "MassSpringLatticeReference.fmu")
-    return paths
+def add_fmu_option(parser) -> None:
+    parser.add_argument("--fmu", help="the FMU to measure (default: built from fmu_src/ into a temporary folder)")
 
 
-def write_csv(path: Path, rows: list[dict], columns: list[str] | None = None) -> None:
-    columns = columns or list(dict.fromkeys(k for row in rows for k in row))
-    with open(path, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns, extrasaction="ignore")
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: _cell(row.get(k)) for k in columns})
+@contextlib.contextmanager
+def lattice_fmu(given: str | None = None, rows: int | None = None, cols: int | None = None) -> Iterator[Path]:
+    """The FMU to measure: the one given, or the scene's FMU built now into a folder removed afterwards."""
+    if given:
+        path = Path(given)
+        if not path.is_file():
+            raise SystemExit(f"--fmu: no such file {given!r}")
+        yield path
+        return
+    with tempfile.TemporaryDirectory(prefix="bench_fmu_") as folder:
+        name = "MassSpringLattice.fmu" if rows is None and cols is None else f"Lattice{rows or 11}x{cols or 11}.fmu"
+        yield build_fmu(output=Path(folder) / name, rows=rows, cols=cols)
 
 
-def _cell(value):
-    if isinstance(value, float):
-        return "" if math.isnan(value) else repr(value)
-    if isinstance(value, (tuple, list)):
-        return order_text(value)
-    return "" if value is None else value
+def search_parameters(fmu_path, columns: int = 11) -> dict:
+    """The FMU parameters of a search evaluation, exactly as the orchestrator's objective sets them."""
+    objective = LatticeObjective(fmu_path, DesignSpace.permutations(columns), FULL_HORIZON)
+    return objective.run_parameters({}, SEARCH)
 
 
-# ---------------------------------------------------------------------------- an FMU in a killable process
-def _worker(connection, fmu_path: str) -> None:
-    from orchestrator.simulation import LatticeFMU, SimulationError
-
-    fmu = LatticeFMU(fmu_path, instance_name="isolated")
-    while True:
-        job = connection.recv()
-        if job is None:
-            break
-        order, horizon, parameters, outputs, options = job
-        start = time.perf_counter()
-        try:
-            result = fmu.simulate(order, horizon=horizon, parameters=parameters, outputs=outputs, **options)
-            connection.send(("ok", result, time.perf_counter() - start))
-        except SimulationError as exc:
-            connection.send(("error", str(exc), time.perf_counter() - start))
-        except Exception as exc:  # noqa: BLE001 - reported to the caller, never a number
-            connection.send(("error", f"{type(exc).__name__}: {exc}", time.perf_counter() - start))
-    fmu.close()
+def search_setting_text(parameters: dict) -> str:
+    return f"{parameters['solver']} at rtol {parameters['rtol']:g}, atol {parameters['atol']:g}, {SEARCH_HORIZON:g} s"
 
 
-class RunTimeout(RuntimeError):
-    """The FMU did not return within the timeout (its worker was killed)."""
+def geometric_mean(values) -> float:
+    values = list(values)
+    return math.exp(statistics.fmean(math.log(v) for v in values)) if values else math.nan
 
 
-class IsolatedFMU:
-    """``LatticeFMU.simulate`` in a worker process; a run over ``timeout`` seconds kills the worker.
+def span(values, format_: str = "{:.2f}") -> str:
+    """'a-b' over the values (one value when they agree at that precision)."""
+    values = list(values)
+    low, high = format_.format(min(values)), format_.format(max(values))
+    return low if low == high else f"{low}-{high}"
 
-    ``run`` returns ``(status, result_or_message, seconds)`` with status "ok", "error" (an FMI error: the
-    message is the FMU's) or "timeout"; seconds is measured in the worker around the simulation.
-    """
 
-    def __init__(self, fmu_path, timeout: float = 60.0):
-        self.fmu_path = str(fmu_path)
-        self.timeout = float(timeout)
-        self._context = multiprocessing.get_context("spawn")
-        self._process = None
-        self._connection = None
+def relative(value: float, reference: float) -> float:
+    return abs(value / reference - 1.0) if reference else abs(value - reference)
 
-    def _start(self) -> None:
-        parent, child = self._context.Pipe()
-        self._process = self._context.Process(target=_worker, args=(child, self.fmu_path), daemon=True)
-        self._process.start()
-        self._connection = parent
 
-    def run(self, order, horizon: float, parameters: dict | None = None, outputs=ALL_OUTPUTS,
-            timeout: float | None = None, **options):
-        """options: LatticeFMU.simulate's communication_step and record (a Trajectory comes back in the result)."""
-        if self._process is None or not self._process.is_alive():
-            self._start()
-        limit = self.timeout if timeout is None else timeout
-        self._connection.send((tuple(order) if order is not None else None, float(horizon), dict(parameters or {}),
-                               tuple(outputs), options))
-        if self._connection.poll(limit):
-            return self._connection.recv()
-        self.kill()
-        return "timeout", f"no return within {limit:g} s (worker killed)", limit
 
-    def kill(self) -> None:
-        if self._process is not None:
-            self._process.kill()
-            self._process.join()
-        self._process = None
-        self._connection = None
 
-    def close(self) -> None:
-        if self._process is not None and self._process.is_alive():
-            try:
-                self._connection.send(None)
-                self._process.join(timeout=10)
-            except (OSError, BrokenPipeError):
-                pass
-            if self._process.is_alive():
-                self._process.kill()
-                self._process.join()
-        self._process = None
+@dataclass(frozen=True)
+class WithoutLimit:
+    """An FMU run that never stops early: a chunk given it evaluates every design to its value (a chunk given
+    an ``FMURun`` lowers its force limit as its own best improves, and a design above it is censored)."""
 
-    def __enter__(self):
-        return self
+    run: FMURun
 
-    def __exit__(self, *exc_info):
-        self.close()
+    @property
+    def key(self) -> str:
+        return f"{self.run.key}|never limited"
+
+    def __call__(self, order):
+        return self.run(order)
+
+
+@contextlib.contextmanager
+def narrow_lattice(columns: int) -> Iterator[tuple[Path, Path]]:
+    """(scene file, FMU) of the study's armour scene with fewer columns (the study's material law with one
+    material per column), in a folder removed afterwards: a scene of one's own, as a user would write it."""
+    import json
+
+    from scenes import SCENE_DIR
+
+    with tempfile.TemporaryDirectory(prefix="bench_lattice_") as folder:
+        scene = json.loads((SCENE_DIR / "armour_11x11.json").read_text())
+        scene.update(name=f"armour_11x{columns}", model_identifier=f"MassSpringLattice11x{columns}", cols=columns,
+                     description=f"The study's armour scene with {columns} columns")
+        path = Path(folder) / f"armour_11x{columns}.json"
+        path.write_text(json.dumps(scene, indent=1))
+        yield path, build_fmu(scene=str(path), output=Path(folder) / f"MassSpringLattice11x{columns}.fmu")
+
+
+__all__ = ["BEST_KNOWN", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST", "add_fmu_option", "bench_orders",
+           "geometric_mean", "lattice_fmu", "narrow_lattice", "order_text", "random_orders", "relative",
+           "search_parameters",
+           "search_setting_text", "span", "WithoutLimit"]

@@ -1,59 +1,158 @@
-"""Orders per core-second of the exhaustive sweep's chunk task, without and with the force limit.
+"""Exhaustive throughput: designs per core-second of the sweep's chunks, and of whole sweeps started with and
+without a short search's incumbent.
 
-    python bench/exhaustive_throughput.py --cols 9 11 --incumbent 9=1493.546 11=1405.906
+    python -m bench.exhaustive_throughput           # about 4 min, 2 workers: chunks of 11 x 8, 9, 11; two 11 x 8 sweeps
+    python -m bench.exhaustive_throughput --quick   # about 2 min: chunks of 11 x 8; two 11 x 7 sweeps
 
-For each lattice (built with ``build_fmu.py --cols C``), one chunk of ``--orders`` orders from the middle
-of the ranks runs through ``orchestrator.exhaustive.evaluate_chunk`` at the searches' fidelity, in this
-process, ``--repeats`` times; the best CPU-time rate is printed (the machine is shared: CPU time, best of
-repeats).  With an incumbent (a peak the sweep has already found, e.g. the 11 x 9 best of a partial sweep
-or the best known 11-column order), the chunk runs as in a sweep that has it: every order is simulated
-with ``peak_force_limit`` at the incumbent's screening threshold and stops once its peak passes it.
+Why: what an exhaustive sweep costs decides whether it runs here or on a cluster (the orchestrator refuses one
+beyond its local limit with the projected core-hours), and the force limit is what makes it affordable: a
+chunk simulates each design with ``peak_force_limit`` at the screening threshold of the best value known, so
+a design worse than that stops early. Chunks: one chunk of designs from the middle of the ranks
+(``orchestrator.exhaustive.ScreenChunk`` through the Evaluator, in this process) with no limit at all, with
+no incumbent (the chunk lowers its limit as its own best improves, as a sweep's first chunks do) and with the
+limit at the threshold of the known optimum's own search-fidelity value, CPU time inside the chunk. Sweeps:
+the orchestrator's exhaustive step (``run_in_folder`` with the searches, the sweep, the verification of
+finalists and the answers) on the armour scene narrowed to C columns, once alone (the first chunks run without
+an incumbent) and once after a short annealing run that hands the sweep its best value.
 """
 from __future__ import annotations
 
-import argparse
 import math
-import subprocess
-import sys
 import tempfile
+import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from orchestrator.design import DesignSpace
+from orchestrator.executors import make_executor
+from orchestrator.exhaustive import ScreenChunk, screening_threshold
+from orchestrator.known_optima import known_optima
+from orchestrator.loop import Evaluator
+from orchestrator.objective import SEARCH, LatticeObjective, close_instances
+from orchestrator.runner import RunConfig, run_in_folder
+from orchestrator.steps import Answers, Exhaustive, Finalists, Searches
+from orchestrator.steps.exhaustive import SCREENING_ERROR
+from orchestrator.steps.searches import SearchesConfig
+from orchestrator.study import CaseConfig
 
-from orchestrator.exhaustive import evaluate_chunk, screening_threshold  # noqa: E402
-from orchestrator.objective import SEARCH, SampledPeak  # noqa: E402
+from .common import FULL_HORIZON, WithoutLimit, narrow_lattice, order_text
+from .measurements import Page, Run, Table, write_page
 
-SCREENING_ERROR = 1e-4
+KNOWN = {k.columns: k.order for k in known_optima() if k.diagonal_rule == "receiver" and k.rows == 11}
+
+
+def chunk_rates(columns: int, designs: int, repeats: int) -> dict:
+    """Designs per core-second of one chunk, without and with the limit at the known optimum's threshold."""
+    with narrow_lattice(columns) as (_, fmu):
+        space = DesignSpace.permutations(columns)
+        screening, = LatticeObjective(fmu, space, FULL_HORIZON).tasks(SEARCH)
+        incumbent = screening(KNOWN[columns]).value
+        limit = screening_threshold(incumbent, SCREENING_ERROR)
+        start = space.size // 2
+        with make_executor("serial") as executor:
+            Evaluator(executor).evaluate([(screening, KNOWN[columns])])  # this process opens the FMU first
+            out = {"incumbent": incumbent, "threshold": limit}
+            variants = (("no limit", WithoutLimit(screening), None), ("no incumbent", screening, None),
+                        ("limit", screening, limit))
+            for name, function, chunk_limit in variants:
+                best = None
+                for _ in range(repeats):
+                    chunk = Evaluator(executor).run([ScreenChunk(function, space, start, start + designs, 20,
+                                                                 SCREENING_ERROR, chunk_limit)])[0]
+                    if not chunk.ok:
+                        raise SystemExit(f"11 x {columns}: the chunk failed: {chunk.message}")
+                    if best is None or chunk.cpu_seconds < best.cpu_seconds:
+                        best = chunk
+                out[name] = best
+        close_instances()
+    return out
+
+
+def sweep(scene: Path, fmu: Path, folder: Path, methods: tuple[str, ...], budget: int, workers: int):
+    started = time.perf_counter()
+    outcome = run_in_folder(RunConfig(out=str(folder), workers=workers, progress=False),
+                            CaseConfig(scene=str(scene), fmu=str(fmu), diagonal_rules=("receiver",)),
+                            {Searches: SearchesConfig(methods=methods, budget=budget, repeats=1)},
+                            (Searches, Exhaustive, Finalists, Answers))
+    wall = time.perf_counter() - started
+    return outcome.study.steps["exhaustive"].sweeps[0], wall
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cols", nargs="+", type=int, default=[9, 11])
-    parser.add_argument("--incumbent", nargs="*", default=[], help="COLS=PEAK pairs")
-    parser.add_argument("--orders", type=int, default=600)
-    parser.add_argument("--repeats", type=int, default=3)
+    run = Run.start(__file__, argv)
+    parser = run.parser(__doc__, quick="chunks of 11 x 8 only (300 designs, once); 11 x 7 swept")
+    parser.add_argument("--chunk-columns", nargs="+", type=int, default=[8, 9, 11], choices=sorted(KNOWN),
+                        help="lattices 11 x C whose chunk is timed (those with a known optimum)")
+    parser.add_argument("--chunk-designs", type=int, default=600, help="designs in the timed chunk")
+    parser.add_argument("--repeats", type=int, default=3, help="timed runs of each chunk (the fastest counts)")
+    parser.add_argument("--sweep-columns", type=int, default=8, help="the lattice 11 x C swept twice")
+    parser.add_argument("--search-budget", type=int, default=100, help="designs of the short search before a sweep")
+    parser.add_argument("--workers", type=int, default=2, help="worker processes of the sweeps")
     args = parser.parse_args(argv)
-    incumbents = {int(k): float(v) for k, v in (item.split("=") for item in args.incumbent)}
-    with tempfile.TemporaryDirectory() as folder:
-        for cols in args.cols:
-            fmu = Path(folder) / f"lattice_11x{cols}.fmu"
-            subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--cols", str(cols), "-o", str(fmu)],
-                           check=True, stdout=subprocess.DEVNULL)
-            task = SampledPeak(fmu, cols, 8.0).tasks(SEARCH)[0]
-            start = math.factorial(cols) // 2
-            limits = [None] + ([screening_threshold(incumbents[cols], SCREENING_ERROR)] if cols in incumbents else [])
-            for limit in limits:
-                rates, chunk = [], None
-                for _ in range(args.repeats):
-                    chunk = evaluate_chunk(task, cols, start, start + args.orders, screening_error=SCREENING_ERROR,
-                                           objective_with_limit=task.with_limit if limit else None, limit=limit)
-                    rates.append(chunk["orders"] / chunk["cpu_seconds"])
-                what = "no limit" if limit is None else f"limit {limit:.3f} N"
-                print(f"11 x {cols}, {what}: {max(rates):.0f} orders per core-second (best of {args.repeats} x "
-                      f"{args.orders}); censored {chunk['n_censored']}, failed {chunk['n_failed']}", flush=True)
+    if args.quick:
+        args.chunk_columns, args.chunk_designs, args.repeats, args.sweep_columns = [8], 300, 1, 7
+
+    chunk_rows, rates = [], {}
+    for columns in args.chunk_columns:
+        measured = chunk_rates(columns, args.chunk_designs, args.repeats)
+        for name, what in (("no limit", "none: every design to its value"),
+                           ("no incumbent", "from the chunk's own best on"),
+                           ("limit", f"the incumbent's threshold, {measured['threshold']:.3f} N")):
+            chunk = measured[name]
+            rate = chunk.designs / chunk.cpu_seconds
+            rates[(columns, name)] = rate
+            chunk_rows.append((f"11 x {columns}", f"{math.factorial(columns):,}", what,
+                               f"{rate:.0f}", f"{chunk.censored} of {chunk.designs}"))
+    with narrow_lattice(args.sweep_columns) as (scene, fmu), tempfile.TemporaryDirectory(prefix="bench_sweep_") as out:
+        alone, alone_wall = sweep(scene, fmu, Path(out) / "alone", ("exhaustive",), args.search_budget, args.workers)
+        searched, searched_wall = sweep(scene, fmu, Path(out) / "searched", ("exhaustive", "sa"), args.search_budget,
+                                        args.workers)
+    sweep_rows = []
+    for label, result, wall in (("alone", alone, alone_wall),
+                                (f"after an annealing run of {args.search_budget} designs", searched, searched_wall)):
+        certificate = result.certificate
+        optimum = certificate.optimum
+        sweep_rows.append((label, "none" if result.initial_limit is None else f"{result.initial_limit:.3f} N",
+                           f"{certificate.designs:,}", f"{certificate.censored:,}",
+                           f"{result.designs_per_core_second:.0f}", f"{result.cpu_seconds:.1f}", f"{wall:.0f}",
+                           f"{order_text(optimum.order)} {optimum.full:.6f} N" if optimum else "none",
+                           "yes" if certificate.certified else "no: " + "; ".join(certificate.reasons)))
+    same = (alone.certificate.optimum and searched.certificate.optimum
+            and alone.certificate.optimum.order == searched.certificate.optimum.order)
+    notes = []
+    if (11, "limit") in rates:
+        hours = math.factorial(11) / rates[(11, "limit")] / 3600
+        free_hours = math.factorial(11) / rates[(11, "no limit")] / 3600
+        notes.append(f"At the 11 x 11 chunk rates, a sweep of all {math.factorial(11):,} orders costs about "
+                     f"{hours:.1f} core-hours with the limit ({free_hours:.1f} without): {hours / 16:.2f} hours on 16 "
+                     f"cores, {hours * 60 / 100:.0f} minutes on 100.")
+    notes.append(f"Both sweeps found the same optimum: {'yes' if same else 'NO'}.")
+    first = args.chunk_columns[0]
+    headline = (f"11 x {first} chunk: {rates[(first, 'no limit')]:.0f} designs per core-second without the limit, "
+                f"{rates[(first, 'limit')]:.0f} with it; an 11 x {args.sweep_columns} sweep "
+                f"{alone.designs_per_core_second:.0f} alone, {searched.designs_per_core_second:.0f} after a short "
+                "search")
+    page = Page(
+        name=run.name, title="Exhaustive sweep throughput", headline=headline,
+        summary=(
+            f"Screening at the search fidelity; the screening error bound is {SCREENING_ERROR:.0e} (relative), and the "
+            "limit is the largest screened value that can still be the optimum given the incumbent "
+            "(`screening_threshold`). Chunks: "
+            f"{args.chunk_designs} designs from the middle rank, the fastest of {args.repeats} run(s), CPU time "
+            "inside the chunk; the incumbent is the known optimum's value at the search fidelity. Sweeps: "
+            f"11 x {args.sweep_columns}, receiver rule, {args.workers} worker process(es), designs per core-second "
+            "over the chunks' CPU time, wall time of the whole run (the sweep, the verification of every candidate "
+            "at full fidelity, the second integrator on the optimum and runner-up, the report)."),
+        tables=(Table(("lattice", "designs of the lattice", "limit", "designs per core-second", "censored"),
+                      tuple(chunk_rows),
+                      caption="**One chunk:**"),
+                Table(("sweep", "first chunks' limit", "designs", "censored", "designs per core-second", "CPU s",
+                       "wall s", "optimum (full fidelity)", "certified"), tuple(sweep_rows),
+                      caption="**A whole sweep, with and without a short search's incumbent:**")),
+        notes=tuple(notes),
+    )
+    write_page(run, page)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

@@ -1,54 +1,92 @@
-"""Fixed cost per run through orchestrator.simulation: CPU time of a run that simulates (almost) nothing.
+"""Fixed cost per run: what an evaluation costs apart from its integration, layer by layer.
 
-    python bench/fixed_cost.py                  # 2000 runs of 1 ms of simulated time, 5 batches
-    python bench/fixed_cost.py --runs 500 --horizon 1e-4
+    python -m bench.fixed_cost            # about 1 min: 5 batches of 1000 runs per layer
+    python -m bench.fixed_cost --quick    # about 20 s: 3 batches of 300
 
-Each run is what a search evaluation costs apart from the integration: reset, setup, the order and the
-search tolerances set, initialisation, one doStep, the evaluation's 13 outputs read (as
-orchestrator.objective's FMU runs ask for them). The horizon is so short that the solver takes one or two
-steps; CPU time (time.process_time) per run, the minimum over batches (the machine is shared).
+Why: a search evaluation integrates for about a millisecond, so what each run costs around the integration
+(fmi2Reset, setting the order and the parameters, initialisation, one doStep, reading the outputs, and the
+orchestrator's own bookkeeping) must stay small beside it. The horizon is so short (1 ms simulated) that the
+solver takes a step or two. Each batch runs distinct random orders, timed with ``time.process_time``: through
+``orchestrator.simulation.LatticeFMU.simulate`` with the outputs an evaluation reads, through the objective's
+FMU run (``orchestrator.objective.FMURun``, which makes the Evaluation), and through the Evaluator on a serial
+executor (cache, keys, the task protocol). The fastest batch counts.
 """
 from __future__ import annotations
 
-import argparse
-import sys
-import tempfile
 import time
-from pathlib import Path
+from dataclasses import fields
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from orchestrator.executors import make_executor
+from orchestrator.loop import Evaluator
+from orchestrator.objective import FMURun, close_instances
+from orchestrator.simulation import LatticeFMU
+from orchestrator.types import RunOutputs
 
-import build_fmu  # noqa: E402
-from orchestrator.simulation import COUNTER_OUTPUTS, ENERGY_OUTPUTS, PEAK_OUTPUTS, LatticeFMU  # noqa: E402
-from orchestrator.objective import SEARCH_RTOL, search_tolerances  # noqa: E402
+from .common import add_fmu_option, lattice_fmu, random_orders, search_parameters
+from .measurements import Page, Run, Table, write_page
 
-OUTPUTS = PEAK_OUTPUTS + ENERGY_OUTPUTS + COUNTER_OUTPUTS + ("last_contact_time",)
+HORIZON = 1e-3  # s simulated per run: a step or two
+OUTPUTS = tuple(f.name for f in fields(RunOutputs) if f.name not in ("horizon", "max_compression"))
+
+
+def fastest(batches, run_batch) -> float:
+    """CPU seconds per run of the fastest batch."""
+    best = float("inf")
+    for orders in batches:
+        start = time.process_time()
+        run_batch(orders)
+        best = min(best, (time.process_time() - start) / len(orders))
+    return best
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--fmu", help="FMU to measure (default: build one from fmu_src/ into a temporary folder)")
-    parser.add_argument("--runs", type=int, default=2000, help="runs per batch")
-    parser.add_argument("--batches", type=int, default=5, help="batches (the fastest is reported)")
-    parser.add_argument("--horizon", type=float, default=1e-3, help="simulated time per run (s)")
+    run = Run.start(__file__, argv)
+    parser = run.parser(__doc__, quick="3 batches of 300 runs")
+    add_fmu_option(parser)
+    parser.add_argument("--runs", type=int, default=1000, help="runs per batch")
+    parser.add_argument("--batches", type=int, default=5, help="batches per layer (the fastest counts)")
     args = parser.parse_args(argv)
-    fmu_path = Path(args.fmu) if args.fmu else build_fmu.build_fmu(
-        output=Path(tempfile.mkdtemp(prefix="fixed_cost_")) / "MassSpringLattice.fmu")
-    parameters = search_tolerances(SEARCH_RTOL)
-    order = (1, 10, 9, 6, 4, 5, 7, 8, 3, 2, 11)
-    with LatticeFMU(fmu_path) as fmu:
-        fmu.simulate(order, horizon=args.horizon, parameters=parameters, outputs=OUTPUTS)  # warm up
-        per_run = []
-        for _ in range(args.batches):
-            start = time.process_time()
-            for _ in range(args.runs):
-                fmu.simulate(order, horizon=args.horizon, parameters=parameters, outputs=OUTPUTS)
-            per_run.append((time.process_time() - start) / args.runs)
-        result = fmu.simulate(order, horizon=args.horizon, parameters=parameters, outputs=OUTPUTS)
-    print(f"fixed cost per run ({args.horizon:g} s simulated, {result['rhs_evaluations']} right-hand sides, "
-          f"{len(OUTPUTS)} outputs read): min {1e3 * min(per_run):.4f} ms CPU, "
-          f"median {1e3 * sorted(per_run)[len(per_run) // 2]:.4f} ms over {args.batches} batches of {args.runs}")
+    if args.quick:
+        args.runs, args.batches = 300, 3
+    with lattice_fmu(args.fmu) as path:
+        parameters = search_parameters(path)
+        task = FMURun(str(path), HORIZON, tuple(sorted(parameters.items())))
+        layers = {}
+        with LatticeFMU(path) as fmu:
+            rhs = fmu.simulate(random_orders(1, 0)[0], horizon=HORIZON, parameters=parameters,
+                               outputs=OUTPUTS)["rhs_evaluations"]
+
+            def direct(orders):
+                for order in orders:
+                    fmu.simulate(order, horizon=HORIZON, parameters=parameters, outputs=OUTPUTS)
+            layers["LatticeFMU.simulate"] = fastest(
+                [random_orders(args.runs, seed) for seed in range(args.batches)], direct)
+        task(random_orders(1, 0)[0])  # opens this process's instance once
+
+        def objective_run(orders):
+            for order in orders:
+                task(order)
+        layers["FMURun (an Evaluation made)"] = fastest(
+            [random_orders(args.runs, 100 + seed) for seed in range(args.batches)], objective_run)
+        with make_executor("serial") as executor:
+            def evaluator_run(orders):
+                Evaluator(executor).evaluate([(task, order) for order in orders])
+            layers["Evaluator, serial executor"] = fastest(
+                [random_orders(args.runs, 200 + seed) for seed in range(args.batches)], evaluator_run)
+        close_instances()
+    rows = tuple((layer, f"{seconds * 1e3:.4f}") for layer, seconds in layers.items())
+    page = Page(
+        name=run.name, title="Fixed cost per run",
+        headline=(f"{layers['LatticeFMU.simulate'] * 1e3:.3f} ms CPU per FMU run around the integration, "
+                  f"{layers['Evaluator, serial executor'] * 1e3:.3f} ms through the Evaluator"),
+        summary=(
+            f"Runs of {HORIZON * 1e3:g} ms of simulated time ({rhs} right-hand sides) with the searches' parameters "
+            f"({', '.join(f'{k} {v:g}' if isinstance(v, float) else f'{k} {v}' for k, v in parameters.items())}), "
+            f"reading the {len(OUTPUTS)} outputs an evaluation reads; the fastest of {args.batches} batches of "
+            f"{args.runs} distinct random orders, CPU time per run."),
+        tables=(Table(("layer", "CPU ms per run"), rows),),
+    )
+    write_page(run, page)
     return 0
 
 

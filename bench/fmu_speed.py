@@ -1,104 +1,113 @@
-"""Milliseconds per evaluation of the published 8 s scene: the FMU through fmpy against scipy over numpy.
+"""The FMU's speed and accuracy on the study's 8 s scene, against the study's own way of computing it.
 
-    python bench/fmu_speed.py            # FMU: 20 runs per order; scipy: 2 runs per order
-    python bench/fmu_speed.py --quick
+    python -m bench.fmu_speed            # about 1.5 min: 20 FMU runs and 2 scipy runs per order
+    python -m bench.fmu_speed --quick    # about 40 s: 5 FMU runs and 1 scipy run per order
 
-Each route's peak is compared with a tight-tolerance reference (the FMU at rtol 1e-13), so every speed
-figure comes with its accuracy. The scipy route is the study's way of computing: solve_ivp(DOP853,
-rtol=1e-8) over the vectorised numpy model (reference/), sampling the force every 0.01 s; atol is
-solve_ivp's default (1e-6), as the issue names the route. That route is 66 to 540 times less accurate
-than the FMU's default, so the scipy route is also run at equal accuracy: the loosest of rtol 1e-8, 1e-9,
-1e-10 (atol = rtol * 1e-2) whose peak error is at most the FMU's (--no-equal-accuracy skips it).
+Why: the FMU exists to make an evaluation cheap without making it wrong, so every speed figure comes with its
+accuracy. For the two published orders it times the FMU through fmpy (``orchestrator.simulation.LatticeFMU``:
+reset, parameters, one doStep, outputs) at its defaults, and scipy's ``solve_ivp(DOP853)`` over the numpy
+reference model (``reference/``, the study's route) at the route's own setting (rtol 1e-8, atol 1e-6) and at the
+loosest rtol of 1e-8, 1e-9, 1e-10 (atol rtol / 100) whose error is at most the FMU's. Each peak is compared with
+the FMU at rtol 1e-13 and with the study's published number.
 """
 from __future__ import annotations
 
-import argparse
-import sys
 import time
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from fmu_src.published import PUBLISHED_PEAKS
+from orchestrator.simulation import LatticeFMU
+from reference import Scene
+from reference.simulate import simulate
 
-import build_fmu  # noqa: E402
-from orchestrator.simulation import LatticeFMU  # noqa: E402
-from reference import Scene  # noqa: E402
-from reference.simulate import simulate  # noqa: E402
+from .common import FULL_HORIZON, SEQUENTIAL, STUDY_BEST, add_fmu_option, lattice_fmu, order_text, relative, span
+from .measurements import Page, Run, Table, write_page
 
-ORDERS = {"sequential": tuple(range(1, 12)), "study's best": (1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10)}
-HORIZON = 8.0
+ORDERS = {"sequential": SEQUENTIAL, "study's best": STUDY_BEST}
+TIGHT = {"rtol": 1e-13, "atol": 1e-15}
+OUTPUTS = ("peak_backplate_force", "rhs_evaluations")
 
 
-def time_fmu(fmu: LatticeFMU, order, repeats: int, parameters=None) -> tuple[float, dict]:
-    times, result = [], None
+def time_fmu(fmu: LatticeFMU, order, repeats: int) -> tuple[float, dict]:
+    """The fastest of ``repeats`` runs at the FMU's defaults, and its outputs."""
+    best, result = float("inf"), None
     for _ in range(repeats):
         start = time.perf_counter()
-        result = fmu.simulate(order, horizon=HORIZON, parameters=parameters,
-                              outputs=("peak_backplate_force", "rhs_evaluations"))
-        times.append(time.perf_counter() - start)
-    return min(times), result
+        result = fmu.simulate(order, horizon=FULL_HORIZON, outputs=OUTPUTS)
+        best = min(best, time.perf_counter() - start)
+    return best, result
+
+
+def time_scipy(order, rtol: float, atol: float, repeats: int):
+    best, result = float("inf"), None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        result = simulate(Scene(order=order), horizon=FULL_HORIZON, rtol=rtol, atol=atol, method="DOP853",
+                          continuous_peak=False)
+        best = min(best, time.perf_counter() - start)
+    return best, result
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--fmu", help="FMU to measure (default: build models/MassSpringLattice.fmu if missing)")
-    parser.add_argument("--repeats", type=int, default=20, help="FMU runs per order (the minimum is reported)")
-    parser.add_argument("--scipy-repeats", type=int, default=2, help="scipy runs per order")
-    parser.add_argument("--quick", action="store_true", help="5 FMU runs and 1 scipy run per order")
-    parser.add_argument("--no-equal-accuracy", dest="equal_accuracy", action="store_false",
-                        help="skip the scipy route at the FMU's accuracy (a few seconds per order)")
+    run = Run.start(__file__, argv)
+    parser = run.parser(__doc__, quick="5 FMU runs and 1 scipy run per order")
+    add_fmu_option(parser)
+    parser.add_argument("--repeats", type=int, default=20, help="FMU runs per order (the fastest counts)")
+    parser.add_argument("--scipy-repeats", type=int, default=2, help="scipy runs per order and setting")
     args = parser.parse_args(argv)
     if args.quick:
         args.repeats, args.scipy_repeats = 5, 1
-    path = Path(args.fmu) if args.fmu else build_fmu.MODELS_DIR / "MassSpringLattice.fmu"
-    if not path.is_file():
-        build_fmu.build_fmu(output=path)
 
-    print(f"{'order':14s} {'route':34s} {'ms/eval':>10s} {'rhs evals':>10s} {'peak (N)':>20s} {'rel. error':>10s}")
-    ratios, equal_ratios = [], []
-    with LatticeFMU(path) as fmu:
+    rows, speedups, equal_speedups, fmu_errors, published_errors = [], [], [], [], []
+    with lattice_fmu(args.fmu) as path, LatticeFMU(path) as fmu:
         for label, order in ORDERS.items():
-            reference = fmu.simulate(order, horizon=HORIZON, parameters={"rtol": 1e-13, "atol": 1e-15},
-                                     outputs=("peak_backplate_force",))["peak_backplate_force"]
+            truth = fmu.simulate(order, horizon=FULL_HORIZON, parameters=TIGHT, outputs=OUTPUTS)["peak_backplate_force"]
             seconds, result = time_fmu(fmu, order, args.repeats)
-            fmu_error = abs(result["peak_backplate_force"] / reference - 1)
-            print(f"{label:14s} {'FMU via fmpy, default settings':34s} {seconds * 1e3:10.2f} "
-                  f"{result['rhs_evaluations']:10d} {result['peak_backplate_force']:20.12f} {fmu_error:10.1e}")
-            scene = Scene(order=order)
-            scipy_times = []
-            for _ in range(args.scipy_repeats):
-                start = time.perf_counter()
-                scipy_result = simulate(scene, horizon=HORIZON, rtol=1e-8, atol=1e-6, method="DOP853",
-                                        continuous_peak=False)
-                scipy_times.append(time.perf_counter() - start)
-            scipy_error = abs(scipy_result.peak_backplate_force / reference - 1)
-            print(f"{'':14s} {'scipy DOP853 rtol 1e-8 over numpy':34s} {min(scipy_times) * 1e3:10.1f} "
-                  f"{scipy_result.n_rhs:10d} {scipy_result.peak_backplate_force:20.12f} {scipy_error:10.1e}")
-            ratios.append(min(scipy_times) / seconds)
-            print(f"{'':14s} {'speed-up (scipy / FMU)':34s} {ratios[-1]:10.0f}x")
-            if args.equal_accuracy:
-                for rtol in (1e-8, 1e-9, 1e-10):
-                    start = time.perf_counter()
-                    matched = simulate(scene, horizon=HORIZON, rtol=rtol, atol=rtol * 1e-2, method="DOP853",
-                                       continuous_peak=False)
-                    matched_seconds = time.perf_counter() - start
-                    matched_error = abs(matched.peak_backplate_force / reference - 1)
-                    if matched_error <= fmu_error:
-                        break
-                route = f"scipy at equal accuracy (rtol {rtol:g})"
-                print(f"{'':14s} {route:34s} {matched_seconds * 1e3:10.1f} {matched.n_rhs:10d} "
-                      f"{matched.peak_backplate_force:20.12f} {matched_error:10.1e}")
-                if matched_error <= fmu_error:
-                    equal_ratios.append(matched_seconds / seconds)
-                    print(f"{'':14s} {'speed-up at equal accuracy':34s} {equal_ratios[-1]:10.0f}x")
-                else:
-                    print(f"{'':14s} {'(scipy never reached the FMU accuracy)':34s}")
-    print(f"\nreference: the FMU at rtol 1e-13; FMU default settings: rtol 1e-7, atol 1e-9, one doStep of {HORIZON} s")
-    print(f"smallest speed-up over the orders: {min(ratios):.0f}x (target: at least 100x)")
-    if equal_ratios:
-        print(f"smallest speed-up at equal accuracy: {min(equal_ratios):.0f}x")
+            peak = result["peak_backplate_force"]
+            error = relative(peak, truth)
+            fmu_errors.append(error)
+            published_errors.append(relative(peak, PUBLISHED_PEAKS[order]))
+            rows.append((label, "FMU through fmpy, defaults (DOP853, rtol 1e-7, atol 1e-9)", f"{seconds * 1e3:.2f}",
+                         result["rhs_evaluations"], f"{peak:.6f}", f"{error:.1e}", ""))
+            scipy_seconds, scipy = time_scipy(order, 1e-8, 1e-6, args.scipy_repeats)
+            scipy_error = relative(scipy.peak_backplate_force, truth)
+            speedups.append(scipy_seconds / seconds)
+            rows.append(("", "scipy DOP853 over numpy, rtol 1e-8, atol 1e-6", f"{scipy_seconds * 1e3:.1f}",
+                         scipy.n_rhs, f"{scipy.peak_backplate_force:.6f}", f"{scipy_error:.1e}",
+                         f"{speedups[-1]:.0f}x"))
+            for rtol in (1e-8, 1e-9, 1e-10):
+                matched_seconds, matched = time_scipy(order, rtol, rtol * 1e-2, args.scipy_repeats)
+                matched_error = relative(matched.peak_backplate_force, truth)
+                if matched_error <= error:
+                    break
+            reached = matched_error <= error
+            if reached:
+                equal_speedups.append(matched_seconds / seconds)
+            rows.append(("", f"scipy at the FMU's accuracy (rtol {rtol:g}, atol {rtol * 1e-2:g})"
+                         + ("" if reached else ": not reached"), f"{matched_seconds * 1e3:.1f}", matched.n_rhs,
+                         f"{matched.peak_backplate_force:.6f}", f"{matched_error:.1e}",
+                         f"{matched_seconds / seconds:.0f}x" if reached else ""))
+
+    equal = (f"{span(equal_speedups, '{:.0f}')}x faster than scipy at equal accuracy" if equal_speedups
+             else "scipy did not reach the FMU's accuracy by rtol 1e-10")
+    headline = (f"one 8 s evaluation: the FMU is {span(speedups, '{:.0f}')}x faster than the study's scipy route "
+                f"and {equal}; the FMU's error {span(fmu_errors, '{:.1e}')}")
+    page = Page(
+        name=run.name, title="FMU speed and accuracy against scipy",
+        headline=headline,
+        summary=(
+            f"One evaluation of the study's scene ({FULL_HORIZON:g} s, peak over the 0.01 s samples, receiver rule) "
+            f"for the two published orders, {', '.join(order_text(o) for o in ORDERS.values())}. Times are wall "
+            f"seconds of the fastest of {args.repeats} FMU runs and of {args.scipy_repeats} scipy run(s) per "
+            "setting, through `orchestrator.simulation.LatticeFMU` (reset, parameters, one doStep, outputs) and "
+            "`reference.simulate` (scipy's `solve_ivp` over the vectorised numpy model of `reference/`). The "
+            "error is relative to the FMU at rtol 1e-13, atol 1e-15 on the same order. At its defaults the FMU "
+            f"gives the published peaks to {span(published_errors, '{:.1e}')} (relative)."),
+        tables=(Table(("order", "route", "ms per evaluation", "right-hand sides", "peak (N)", "error",
+                       "scipy / FMU"), tuple(rows)),),
+    )
+    write_page(run, page)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

@@ -1,34 +1,37 @@
-"""What peak_force_limit saves: random orders over the search evaluation, with the limit at the best known peak
-against no limit.
+"""What the force limit (the FMU's ``peak_force_limit``) saves: per run, and per search.
 
-    python bench/force_limit.py                      # 40 random orders, 5 interleaved repeats
-    python bench/force_limit.py --orders 200 --repeats 3 --limit 1405.906
+    python -m bench.force_limit            # about 1.5 min: 40 orders x 5 passes; 3 searches x 3 seeds x 100 designs
+    python -m bench.force_limit --quick    # about 40 s: 20 orders x 2 passes; 3 searches x 1 seed x 60 designs
 
-Each order is run over the search horizon (1 s) at the searches' tolerances (orchestrator.objective) with and
-without the limit, the two interleaved so that the machine's load hits both alike; CPU time
-(time.process_time) per pass over all orders, the minimum over repeats. The right-hand sides (the FMU's own
-count, not noisy) are reported too. Every run that stays below the limit is checked to give the same peak
-bit for bit as the run without it. Then the sequential order with a limit of 1500 N: where it stops.
+Why: a search only needs to know that a design is worse than a threshold it already has (the descent's current
+value, the annealing's Metropolis threshold, the exhaustive sweep's incumbent), so the FMU may stop such a run
+as soon as its sampled peak passes the threshold. Per run: random orders over the search evaluation (the
+searches' solver, tolerance and horizon), with the limit at the best known order's own peak at that fidelity
+against no limit, the two interleaved pass by pass so that the machine's load hits both alike; CPU time per pass
+through ``orchestrator.simulation.LatticeFMU`` (the fastest pass) and right-hand sides; every run that stays
+below the limit must give the same peak bit for bit. Per search: each method's runs through
+``orchestrator.loop.run_search`` on the orchestrator's objective with and without limits (the same seeds, a
+fresh Evaluator per run), their CPU time, the evaluations censored and whether the best design is the same.
 """
 from __future__ import annotations
 
-import argparse
-import sys
-import tempfile
+import statistics
 import time
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from orchestrator.design import DesignSpace
+from orchestrator.executors import make_executor
+from orchestrator.loop import Evaluator, run_search
+from orchestrator.objective import SEARCH, SEARCH_HORIZON, LatticeObjective, close_instances
+from orchestrator.search import make_search
+from orchestrator.simulation import LatticeFMU
 
-import build_fmu  # noqa: E402
-from bench.common import SEQUENTIAL, random_orders  # noqa: E402
-from orchestrator.simulation import SOLVERS, LatticeFMU  # noqa: E402
-from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
+from .common import (BEST_KNOWN, FULL_HORIZON, SEQUENTIAL, add_fmu_option, lattice_fmu, random_orders,
+                     search_parameters,
+                     search_setting_text, span)
+from .measurements import Page, Run, Table, write_page
 
-BEST_KNOWN = (1, 10, 9, 6, 4, 5, 7, 8, 3, 2, 11)  # README: every search's best with 2000 evaluations
-BEST_KNOWN_PEAK = 1405.906  # N, its peak over 8 s (0.01 s samples)
 OUTPUTS = ("peak_backplate_force", "rhs_evaluations")
+METHODS = ("cmaes", "pso", "sa")
 
 
 def one_pass(fmu: LatticeFMU, orders, parameters, limit) -> tuple[float, list[dict]]:
@@ -38,52 +41,111 @@ def one_pass(fmu: LatticeFMU, orders, parameters, limit) -> tuple[float, list[di
     return time.process_time() - start, results
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--fmu", help="FMU to measure (default: build one from fmu_src/ into a temporary folder)")
-    parser.add_argument("--orders", type=int, default=40, help="random orders")
-    parser.add_argument("--seed", type=int, default=12, help="seed of the random orders")
-    parser.add_argument("--repeats", type=int, default=5, help="interleaved passes with and without the limit")
-    parser.add_argument("--limit", type=float, default=BEST_KNOWN_PEAK, help="peak_force_limit (N)")
-    parser.add_argument("--rtol", type=float, default=SEARCH_RTOL, help="the FMU's rtol (atol = rtol / 100)")
-    parser.add_argument("--solver", choices=sorted(SOLVERS), default="dop853", help="the FMU's solver")
-    args = parser.parse_args(argv)
-    fmu_path = Path(args.fmu) if args.fmu else build_fmu.build_fmu(
-        output=Path(tempfile.mkdtemp(prefix="force_limit_")) / "MassSpringLattice.fmu")
-    parameters = {**search_tolerances(args.rtol), "solver": SOLVERS[args.solver]}
-    orders = random_orders(args.orders, args.seed)
-    with LatticeFMU(fmu_path) as fmu:
-        one_pass(fmu, orders[:3], parameters, None)  # warm up
+def per_run(path, orders, passes: int):
+    parameters = search_parameters(path)
+    with LatticeFMU(path) as fmu:
+        limit = fmu.simulate(BEST_KNOWN, horizon=SEARCH_HORIZON, parameters=parameters,
+                             outputs=OUTPUTS)["peak_backplate_force"]
+        one_pass(fmu, orders[:3], parameters, None)  # warm caches before timing
         free_times, limited_times = [], []
-        for _ in range(args.repeats):
+        for _ in range(passes):
             seconds, free = one_pass(fmu, orders, parameters, None)
             free_times.append(seconds)
-            seconds, limited = one_pass(fmu, orders, parameters, args.limit)
+            seconds, limited = one_pass(fmu, orders, parameters, limit)
             limited_times.append(seconds)
-        sequential = fmu.simulate(SEQUENTIAL, horizon=SEARCH_HORIZON, parameters=parameters, outputs=OUTPUTS,
-                                  peak_force_limit=1500.0)
-
     censored = [r for r in limited if r["censored"]]
     below = [(f, r) for f, r in zip(free, limited) if not r["censored"]]
-    assert all(f["peak_backplate_force"] == r["peak_backplate_force"] for f, r in below), "not bit-identical"
-    assert all(f["peak_backplate_force"] > args.limit for f, r in zip(free, limited) if r["censored"])
-    free_rhs = sum(r["rhs_evaluations"] for r in free)
-    limited_rhs = sum(r["rhs_evaluations"] for r in limited)
-    reached = sorted(r["censored_at"] for r in censored)
-    print(f"{args.orders} random orders (seed {args.seed}), {SEARCH_HORIZON:g} s horizon, {args.solver}, "
-          f"rtol {parameters['rtol']:g}, "
-          f"atol {parameters['atol']:g}, limit {args.limit:g} N: {len(censored)} censored "
-          f"(stopped at {reached[0]:.2f}-{reached[-1]:.2f} s, median {reached[len(reached) // 2]:.2f} s)"
-          if censored else f"{args.orders} random orders: none censored")
-    print(f"  CPU per pass (min of {args.repeats}): without {1e3 * min(free_times):.1f} ms "
-          f"({1e3 * min(free_times) / args.orders:.2f} ms/order), with {1e3 * min(limited_times):.1f} ms "
-          f"({1e3 * min(limited_times) / args.orders:.2f} ms/order): 1/{min(free_times) / min(limited_times):.2f}")
-    print(f"  right-hand sides: without {free_rhs} ({free_rhs / args.orders:.0f}/order), with {limited_rhs} "
-          f"({limited_rhs / args.orders:.0f}/order): 1/{free_rhs / limited_rhs:.2f}")
-    print(f"  below the limit: {len(below)} orders, each bit-identical to its run without the limit")
-    print(f"sequential order, limit 1500 N: censored={sequential['censored']}, stopped at t = "
-          f"{sequential['censored_at']} s with peak {sequential['peak_backplate_force']:.3f} N, "
-          f"{sequential['rhs_evaluations']} right-hand sides")
+    if any(f["peak_backplate_force"] != r["peak_backplate_force"] for f, r in below):
+        raise SystemExit("a run below the limit did not give the same peak bit for bit as without the limit")
+    if any(f["peak_backplate_force"] <= limit for f, r in zip(free, limited) if r["censored"]):
+        raise SystemExit("a run was stopped although its peak stays below the limit")
+    return {"parameters": parameters, "limit": limit, "free_ms": min(free_times) * 1e3 / len(orders),
+            "limited_ms": min(limited_times) * 1e3 / len(orders),
+            "free_rhs": sum(r["rhs_evaluations"] for r in free) / len(orders),
+            "limited_rhs": sum(r["rhs_evaluations"] for r in limited) / len(orders), "censored": len(censored),
+            "below": len(below), "stopped": [r["censored_at"] for r in censored]}
+
+
+def per_search(path, methods, seeds: int, budget: int):
+    space = DesignSpace.permutations(11)
+    variants = {"with": LatticeObjective(path, space, FULL_HORIZON),
+                "without": LatticeObjective(path, space, FULL_HORIZON, use_limits=False)}
+    rows, ratios, same = [], [], True
+    variants["with"].tasks(SEARCH)[0](SEQUENTIAL)  # this process opens the FMU before anything is timed
+    with make_executor("serial") as executor:
+        for method in methods:
+            cpu = {name: [] for name in variants}
+            censored = reevaluated = 0
+            agree = 0
+            for seed in range(seeds):
+                bests = {}
+                for name, objective in variants.items():
+                    start = time.process_time()
+                    result = run_search(make_search(method, 11, seed, budget=budget), objective, budget,
+                                        Evaluator(executor), method_name=method, seed=seed)
+                    cpu[name].append(time.process_time() - start)
+                    bests[name] = result.best_order
+                    if name == "with":
+                        censored += result.censored
+                        reevaluated += result.reevaluated
+                agree += bests["with"] == bests["without"]
+            same &= agree == seeds
+            ratio = statistics.median(a / b for a, b in zip(cpu["with"], cpu["without"]))
+            ratios.append(ratio)
+            rows.append((method, seeds, budget, f"{statistics.median(cpu['with']):.2f}",
+                         f"{statistics.median(cpu['without']):.2f}", f"{ratio:.2f}",
+                         f"{censored} of {seeds * budget}", reevaluated, f"{agree} of {seeds}"))
+    close_instances()
+    return rows, ratios, same
+
+
+def main(argv=None) -> int:
+    run = Run.start(__file__, argv)
+    parser = run.parser(__doc__, quick="20 orders x 2 passes; 1 seed of 60 designs")
+    add_fmu_option(parser)
+    parser.add_argument("--orders", type=int, default=40, help="random orders of the per-run measurement")
+    parser.add_argument("--seed", type=int, default=12, help="seed of the random orders")
+    parser.add_argument("--passes", type=int, default=5, help="interleaved passes with and without the limit")
+    parser.add_argument("--methods", nargs="+", default=list(METHODS), help="searches of the per-search measurement")
+    parser.add_argument("--seeds", type=int, default=3, help="seeds per search")
+    parser.add_argument("--budget", type=int, default=100, help="designs per search run")
+    args = parser.parse_args(argv)
+    if args.quick:
+        args.orders, args.passes, args.seeds, args.budget = min(args.orders, 20), 2, 1, min(args.budget, 60)
+    with lattice_fmu(args.fmu) as path:
+        runs = per_run(path, random_orders(args.orders, args.seed), args.passes)
+        search_rows, ratios, same = per_search(path, args.methods, args.seeds, args.budget)
+    stopped = runs["stopped"]
+    run_rows = (
+        ("without the limit", f"{runs['free_ms']:.3f}", f"{runs['free_rhs']:.0f}", ""),
+        (f"limit {runs['limit']:.3f} N", f"{runs['limited_ms']:.3f}", f"{runs['limited_rhs']:.0f}",
+         f"{runs['censored']} of {args.orders}" + (f", stopped at {min(stopped):.2f}-{max(stopped):.2f} s"
+                                                   if stopped else "")),
+    )
+    saving = runs["free_ms"] / runs["limited_ms"]
+    page = Page(
+        name=run.name, title="What the force limit saves",
+        headline=(f"with the limit at the best known peak a random design's run costs 1/{saving:.1f} of its CPU "
+                  f"time; a search with limits {span(ratios)} of its CPU time without them"
+                  + (", the same best design in every run" if same else ", NOT always the same best design")),
+        summary=(
+            f"Per run: {args.orders} random orders (seed {args.seed}) over the search evaluation "
+            f"({search_setting_text(runs['parameters'])}), the limit at the peak of the best known order "
+            f"{list(BEST_KNOWN)} at that fidelity; CPU ms per order of the fastest of {args.passes} interleaved "
+            f"passes, right-hand sides per order. "
+            + (f"The {runs['below']} orders that stay below the limit gave the same peak bit for bit as without it "
+               "(checked). " if runs["below"] else "No order stays below the limit. ")
+            + "Per search: CPU seconds of a whole search run through "
+            "`run_search` on a serial executor (median over seeds), with the orchestrator's objective with limits "
+            "(the descent asks each neighbour with the current value, the annealing each move with its "
+            "Metropolis threshold) and without."),
+        tables=(Table(("run", "CPU ms per order", "right-hand sides per order", "censored"), run_rows,
+                      caption="**Per run:**"),
+                Table(("search", "seeds", "budget", "CPU s with limits", "CPU s without", "ratio (median)",
+                       "evaluations censored", "designs evaluated again", "same best design"), tuple(search_rows),
+                      caption="**Per search:**")),
+    )
+    write_page(run, page)
     return 0
 
 

@@ -1,335 +1,191 @@
-"""Horizon and fidelity: is a 1 s horizon enough, and which tolerance keeps the ranking of the best orders?
+"""Horizon and tolerance: is the searches' short horizon enough, and which tolerance keeps the ranking of the
+best orders?
 
-    python bench/horizon_study.py --out bench/out/horizon_study          # 200 random orders + 57 more, ~3 min
-    python bench/horizon_study.py --out DIR --quick                     # 40 random orders
-    python bench/horizon_study.py --out DIR --orders 1000 --workers 2
+    python -m bench.horizon_study            # about 2 min on 2 workers: 200 random orders and 57 more
+    python -m bench.horizon_study --quick    # about 30 s: 30 random orders and 57 more
 
-Orders: --orders random ones, the sequential order, the study's best, and the 55 single swaps of the
-study's best (a neighbourhood: the close competitors a search has to tell apart).
-
-Per order, one run of the C FMU to 8 s at rtol 1e-10 (the truth) is read at 0.5, 0.75, 1, 2 and 8 s (the
-FMU's peak outputs are running maxima, so one run gives the peak of every shorter horizon) with
-last_contact_time; then one run to 2 s at each tolerance of --rtols (atol = rtol * 1e-2), read at the same
-horizons. A sample of orders is also run separately at exactly 1 s and rtol 1e-5 (the searches' objective)
-to confirm that reading a long run at 1 s gives what a 1 s run gives.
-
-Writes DIR/horizon_study.csv (one row per order, tolerance and horizon), DIR/horizon_study_summary.csv
-(per tolerance and horizon: errors against the truth at 8 s, ranking kept or not), DIR/horizon_study.png,
-and prints the conclusion.
+Why: the searches rank designs over ``orchestrator.objective.SEARCH_HORIZON`` with ``SEARCH_SOLVER`` at
+``SEARCH_RTOL``; that is safe only if no design still touches the plate by then and the error is far below the
+gaps between good designs. Orders: random ones, the sequential order, the study's best and its 55 single swaps
+(close competitors a search has to tell apart). Per order one run to 8 s with DOP853 at rtol 1e-10 (the truth)
+is read at 0.5, 0.75, 1, 2 and 8 s (the FMU's peaks are running maxima, so one run gives every shorter
+horizon's peak), and one run to 2 s with the searches' solver at each tolerance is read at the search horizon.
+Every run is a recorded FMU run (``orchestrator.objective.RecordRun``) through the orchestrator's Evaluator on
+a process pool. A sample of orders is also run exactly as the searches run it, to confirm that a run read at
+the horizon equals a run that stops there.
 """
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
 import statistics
-import sys
-import time
-from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import (IsolatedFMU, ROOT, SEQUENTIAL, STUDY_BEST, build_fmus, order_text,  # noqa: E402
-                    random_orders, write_csv)
+from orchestrator.executors import make_executor
+from orchestrator.loop import Evaluator
+from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL, SEARCH_SOLVER, RecordRun, close_instances
+from orchestrator.simulation import LatticeFMU
 
-from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
+from .common import (SEQUENTIAL, STUDY_BEST, add_fmu_option, lattice_fmu, order_text, random_orders, relative,
+                     search_parameters)
+from .measurements import Page, Run, Table, write_page
 
 HORIZONS = (0.5, 0.75, 1.0, 2.0, 8.0)
-TRUTH_RTOL = 1e-10
-SEARCH = (SEARCH_HORIZON, SEARCH_RTOL)  # the orchestrator's search horizon and tolerance
-DEFAULT_RTOL = 1e-7  # the FMU's default: what the full-scene verification uses
-SAME = 1e-9  # relative difference below which two peaks count as the same number
+STEP = 0.25  # s between recorded points: every horizon above is one of them
+TRUTH = {"solver": "dop853", "rtol": 1e-10, "atol": 1e-12}
+RTOLS = (1e-3, 1e-4, 3e-5, 1e-5, 8e-6, 1e-6, 1e-7)
+SAME = 1e-9  # relative difference below which two peaks are the same number
+TOP = 10
 RECORD = ("peak_backplate_force", "peak_backplate_force_continuous", "peak_time", "last_contact_time")
 
 
 def swaps(order) -> list[tuple[int, ...]]:
     out = []
     for i, j in itertools.combinations(range(len(order)), 2):
-        o = list(order)
-        o[i], o[j] = o[j], o[i]
-        out.append(tuple(o))
-    return out
-
-
-def read_at(result: dict, horizons) -> dict[float, dict]:
-    """The recorded outputs at each horizon (communication points every 0.25 s from 0)."""
-    trajectory = result["trajectory"]
-    out = {}
-    for h in horizons:
-        i = int(round(h / 0.25))
-        assert abs(trajectory.time[i] - h) < 1e-9, (trajectory.time[i], h)
-        out[h] = {name: float(trajectory.values[name][i]) for name in RECORD}
+        swapped = list(order)
+        swapped[i], swapped[j] = swapped[j], swapped[i]
+        out.append(tuple(swapped))
     return out
 
 
 def kendall_tau(a: list[float], b: list[float]) -> float:
-    n, s = len(a), 0
-    for i in range(n):
-        for j in range(i + 1, n):
-            s += math.copysign(1, (a[i] - a[j]) * (b[i] - b[j])) if (a[i] - a[j]) * (b[i] - b[j]) != 0 else 0
-    return s / (n * (n - 1) / 2)
+    pairs = list(itertools.combinations(range(len(a)), 2))
+    concordance = sum(math.copysign(1, (a[i] - a[j]) * (b[i] - b[j])) for i, j in pairs
+                      if (a[i] - a[j]) * (b[i] - b[j]) != 0)
+    return concordance / len(pairs)
+
+
+def at(trajectory, horizon: float) -> dict:
+    index = int(round(horizon / STEP))
+    if abs(trajectory.time[index] - horizon) > 1e-9:
+        raise RuntimeError(f"recorded point {index} is at {trajectory.time[index]} s, not {horizon} s")
+    return {name: trajectory.values[name][index] for name in RECORD}
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default=str(ROOT / "bench" / "out" / "horizon_study"), help="output folder")
+    run = Run.start(__file__, argv)
+    parser = run.parser(__doc__, quick="30 random orders, four tolerances")
+    add_fmu_option(parser)
     parser.add_argument("--orders", type=int, default=200, help="random orders (besides the 57 fixed ones)")
     parser.add_argument("--seed", type=int, default=7, help="seed of the random orders")
-    parser.add_argument("--rtols", type=float, nargs="+", default=[1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8])
-    parser.add_argument("--top", type=int, default=10, help="size of the 'best orders' whose ranking must be kept")
-    parser.add_argument("--workers", type=int, default=1, help="FMU worker processes (default 1: one core)")
-    parser.add_argument("--timeout", type=float, default=60.0, help="seconds before a run counts as hung")
-    parser.add_argument("--fmu", help="use this FMU instead of building one from fmu_src/ into DIR/fmus")
-    parser.add_argument("--quick", action="store_true", help="40 random orders, 4 tolerances")
+    parser.add_argument("--workers", type=int, default=2, help="worker processes")
     args = parser.parse_args(argv)
+    rtols = RTOLS
     if args.quick:
-        args.orders = min(args.orders, 40)
-        args.rtols = [r for r in args.rtols if r in (1e-3, 1e-5, 1e-6, 1e-7)] or args.rtols
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    fmu_path = Path(args.fmu) if args.fmu else build_fmus(out)["c"]
+        args.orders = min(args.orders, 30)
+        rtols = (1e-4, 1e-5, SEARCH_RTOL, 1e-6)
+    kinds: dict[tuple, str] = {}
+    for order in random_orders(args.orders, args.seed):
+        kinds.setdefault(order, "random")
+    kinds.setdefault(SEQUENTIAL, "random")  # the baseline belongs to the random set's ranking
+    kinds[STUDY_BEST] = "neighbourhood"
+    for order in swaps(STUDY_BEST):
+        kinds.setdefault(order, "neighbourhood")
+    orders = list(kinds)
 
-    orders: dict[tuple, str] = {}
-    for o in random_orders(args.orders, args.seed):
-        orders.setdefault(o, "random")
-    orders.setdefault(SEQUENTIAL, "sequential")
-    orders[STUDY_BEST] = "study_best"
-    for o in swaps(STUDY_BEST):
-        orders.setdefault(o, "swap_of_study_best")
-    order_list = list(orders)
-    rtols = sorted(set(args.rtols), reverse=True)
-    print(f"horizon study: {len(order_list)} orders ({args.orders} random, the sequential, the study's best and "
-          f"its {len(swaps(STUDY_BEST))} swaps) x (truth at rtol {TRUTH_RTOL:g} to 8 s + {len(rtols)} tolerances to "
-          f"2 s), {args.workers} worker(s)", flush=True)
+    with lattice_fmu(args.fmu) as path:
+        search = search_parameters(path)
+        fmu_path = str(path)
 
-    started = time.perf_counter()
-    workers = [IsolatedFMU(fmu_path, timeout=args.timeout) for _ in range(max(1, args.workers))]
-    rows, failures = [], []
+        def recorded(order, horizon, parameters):
+            return RecordRun(fmu_path, order, horizon, STEP, tuple(sorted(parameters.items())), RECORD)
 
-    def study(index_order):
-        index, order = index_order
-        fmu = workers[index % len(workers)]
-        found = []
-        for rtol, horizon in [(TRUTH_RTOL, 8.0)] + [(r, 2.0) for r in rtols]:
-            # the truth by DOP853 (the FMU's default); the tolerances under study with the searches' solver
-            settings = ({**search_tolerances(rtol), "solver": "dop853"} if rtol == TRUTH_RTOL
-                        else search_tolerances(rtol))
-            status, result, seconds = fmu.run(order, horizon, settings, RECORD,
-                                              communication_step=0.25, record=RECORD)
-            if status != "ok":
-                failures.append({"order": order, "rtol": rtol, "status": status, "message": result})
-                continue
-            for h, values in read_at(result, [h for h in HORIZONS if h <= horizon]).items():
-                found.append({"order": order, "set": orders[order], "rtol": rtol, "horizon": h,
-                              "peak_sampled": values["peak_backplate_force"],
-                              "peak_continuous": values["peak_backplate_force_continuous"],
-                              "peak_time": values["peak_time"], "last_contact_time": values["last_contact_time"],
-                              "run_seconds": seconds, "run_horizon": horizon})
-        return found
+        tasks = [recorded(o, 8.0, TRUTH) for o in orders]
+        tasks += [recorded(o, 2.0, {**search, "rtol": r, "atol": r * 1e-2}) for r in rtols for o in orders]
+        direct_orders = orders[::max(1, len(orders) // 12)]
+        with make_executor("process", args.workers) as executor:
+            results = Evaluator(executor).run(tasks)
+        with LatticeFMU(path) as fmu:
+            direct = {o: fmu.simulate(o, horizon=SEARCH_HORIZON, parameters=search, outputs=RECORD)
+                      for o in direct_orders}
+        close_instances()
+    failed = [t for t in results if not t.ok]
+    if failed:
+        raise SystemExit(f"{len(failed)} runs failed, first {list(failed[0].order)}: {failed[0].message}")
+    truth = {o: t for o, t in zip(orders, results[:len(orders)])}
+    by_rtol = {r: dict(zip(orders, results[len(orders) * (k + 1):len(orders) * (k + 2)])) for k, r in enumerate(rtols)}
+    final = {o: at(truth[o], 8.0) for o in orders}
 
-    try:
-        with ThreadPoolExecutor(len(workers)) as pool:
-            for k, found in enumerate(pool.map(study, list(enumerate(order_list))), start=1):
-                rows += found
-                if k % 25 == 0 or k == len(order_list):
-                    print(f"  {k}/{len(order_list)} orders, {time.perf_counter() - started:.0f} s", flush=True)
-        # does a run read at 1 s equal a run that stops at 1 s? (the searches' own setting)
-        direct = []
-        horizon, rtol = SEARCH
-        for order in order_list[:: max(1, len(order_list) // 12)]:
-            status, result, _ = workers[0].run(order, horizon, search_tolerances(rtol), RECORD)
-            if status == "ok":
-                direct.append((order, result))
-    finally:
-        for fmu in workers:
-            fmu.close()
+    horizon_rows = []
+    for h in HORIZONS[:-1]:
+        values = {o: at(truth[o], h) for o in orders}
+        diffs = [max(relative(values[o]["peak_backplate_force"], final[o]["peak_backplate_force"]),
+                     relative(values[o]["peak_backplate_force_continuous"],
+                              final[o]["peak_backplate_force_continuous"]))
+                 for o in orders]
+        guard = sum(1 for o in orders if values[o]["last_contact_time"] >= 0.9 * h)
+        horizon_rows.append((f"{h:g} s", sum(d > SAME for d in diffs), f"{max(diffs):.1e}", guard))
 
-    write_csv(out / "horizon_study.csv", rows,
-              ["order", "set", "rtol", "horizon", "peak_sampled", "peak_continuous", "peak_time",
-               "last_contact_time", "run_seconds", "run_horizon"])
-    if failures:
-        write_csv(out / "horizon_study_failures.csv", failures)
-    summary, conclusion = analyse(rows, rtols, order_list, orders, args.top, direct, failures)
-    write_csv(out / "horizon_study_summary.csv", summary)
-    plot(rows, summary, rtols, out / "horizon_study.png", len(order_list))
-    print()
-    print("\n".join(conclusion))
-    print(f"wrote {out / 'horizon_study.csv'}, {out / 'horizon_study_summary.csv'}, {out / 'horizon_study.png'} in "
-          f"{time.perf_counter() - started:.0f} s")
+    groups = {name: [o for o in orders if kinds[o] == name] for name in ("random", "neighbourhood")}
+    true_peak = {o: final[o]["peak_backplate_force"] for o in orders}
+    gaps = {}
+    for name, members in groups.items():
+        best = sorted(members, key=true_peak.get)[:TOP]
+        gaps[name] = min(relative(true_peak[b], true_peak[a]) for a, b in zip(best, best[1:]))
+    smallest_gap = min(gaps.values())
+    tolerance_rows = []
+    errors_at = {}
+    for rtol in rtols:
+        peaks = {o: at(by_rtol[rtol][o], SEARCH_HORIZON) for o in orders}
+        errors = [relative(peaks[o]["peak_backplate_force"], true_peak[o]) for o in orders]
+        errors_at[rtol] = max(errors)
+        kept, taus = [], []
+        for name, members in groups.items():
+            by_truth = sorted(members, key=true_peak.get)[:TOP]
+            by_tolerance = sorted(members, key=lambda o: peaks[o]["peak_backplate_force"])[:TOP]
+            kept.append("yes" if by_truth == by_tolerance else "no")
+            taus.append(kendall_tau([true_peak[o] for o in members],
+                                    [peaks[o]["peak_backplate_force"] for o in members]))
+        tolerance_rows.append((f"{rtol:g}" + (" (the searches')" if rtol == SEARCH_RTOL else ""), f"{max(errors):.1e}",
+                               f"{statistics.median(errors):.1e}", f"{max(errors) / smallest_gap:.2f}", *kept,
+                               *(f"{t:.4f}" for t in taus)))
+    direct_difference = max(max(relative(direct[o]["peak_backplate_force"], at(by_rtol[SEARCH_RTOL][o], SEARCH_HORIZON)
+                                         ["peak_backplate_force"]) for o in direct_orders) if SEARCH_RTOL in by_rtol
+                            else 0.0, 0.0)
+    contact = [final[o]["last_contact_time"] for o in orders]
+    peak_times = [final[o]["peak_time"] for o in orders]
+    latest = max(orders, key=lambda o: final[o]["last_contact_time"])
+    safe = [r for r in rtols if errors_at[r] < smallest_gap / 10]
+    one_second = next(row for row in horizon_rows if row[0] == f"{SEARCH_HORIZON:g} s")
+    notes = [
+        f"The continuous peak comes at {min(peak_times):.3f}-{max(peak_times):.3f} s; the last contact with the "
+        f"plate ends at {min(contact):.3f}-{max(contact):.3f} s (median {statistics.median(contact):.3f} s; the "
+        f"latest: {order_text(latest)} at {final[latest]['last_contact_time']:.3f} s).",
+        f"The smallest relative gap between neighbours among the best {TOP} orders by the truth: {gaps['random']:.1e} "
+        f"in the random set, {gaps['neighbourhood']:.1e} among the study's best and its swaps. The loosest "
+        f"tolerance whose worst error is below a tenth of the smallest gap (so that the ranking is kept by accuracy, "
+        f"not by errors that happen to be alike): " + (f"rtol {max(safe):g}." if safe else "none of those tried."),
+    ]
+    if SEARCH_RTOL in by_rtol:
+        notes.append(f"A run stopped at {SEARCH_HORIZON:g} s with the searches' setting against the 2 s run read at "
+                     f"{SEARCH_HORIZON:g} s: largest relative difference {direct_difference:.1e} over "
+                     f"{len(direct_orders)} orders.")
+    headline = (f"at {SEARCH_HORIZON:g} s the peak equals the 8 s peak for {len(orders) - one_second[1]} of "
+                f"{len(orders)} orders; the last contact ends by {max(contact):.2f} s; the searches' "
+                f"{SEARCH_SOLVER} at rtol {SEARCH_RTOL:g} errs by at most "
+                + (f"{errors_at[SEARCH_RTOL]:.1e}" if SEARCH_RTOL in errors_at else "(not run)")
+                + f" against a smallest top-{TOP} gap of {smallest_gap:.1e}")
+    page = Page(
+        name=run.name, title="Horizon and tolerance of the search evaluation", headline=headline,
+        summary=(
+            f"{len(orders)} orders: {args.orders} random ones (seed {args.seed}), the sequential order, the study's "
+            f"best and its 55 single swaps. The truth is each order's run to 8 s with DOP853 at rtol 1e-10, atol "
+            f"1e-12, read at every horizon; the tolerances are runs to 2 s with the searches' solver "
+            f"({SEARCH_SOLVER}, atol = rtol / 100) read at {SEARCH_HORIZON:g} s and compared with the truth at 8 s. "
+            f"All runs through the orchestrator's Evaluator on {args.workers} worker process(es)."),
+        tables=(
+            Table(("horizon", "orders whose peak differs from the 8 s peak", "largest relative difference",
+                   "orders still touching the plate in its last tenth (re-run over the full horizon)"),
+                  tuple(horizon_rows), caption="**Shorter horizons against 8 s** (the truth's tolerance):"),
+            Table(("rtol", "worst error", "median error", "worst error / smallest top-10 gap",
+                   "top 10 kept, random set", "top 10 kept, neighbourhood", "Kendall tau, random set",
+                   "Kendall tau, neighbourhood"), tuple(tolerance_rows),
+                  caption=f"**Tolerances** ({SEARCH_HORIZON:g} s peak against the truth at 8 s):"),
+        ),
+        notes=tuple(notes),
+    )
+    write_page(run, page)
     return 0
 
 
-def analyse(rows, rtols, order_list, orders, top, direct, failures):
-    table = {(r["order"], r["rtol"], r["horizon"]): r for r in rows}
-    truth = {o: table[(o, TRUTH_RTOL, 8.0)] for o in order_list if (o, TRUTH_RTOL, 8.0) in table}
-    complete = [o for o in order_list if o in truth]
-    rel = lambda a, b: abs(a / b - 1) if b else abs(a - b)  # noqa: E731
-    summary, lines = [], []
-
-    # 1. horizons, at the truth's tolerance
-    contact = [truth[o]["last_contact_time"] for o in complete]
-    peak_times = [truth[o]["peak_time"] for o in complete]
-    latest = max(complete, key=lambda o: truth[o]["last_contact_time"])
-    lines.append(f"HORIZON ({len(complete)} orders, rtol {TRUTH_RTOL:g}): the continuous peak comes at "
-                 f"{min(peak_times):.3f}-{max(peak_times):.3f} s; the last contact with the plate ends at "
-                 f"{min(contact):.3f}-{max(contact):.3f} s (median {statistics.median(contact):.3f} s; latest: "
-                 f"{order_text(latest)} ({orders[latest]}) at {truth[latest]['last_contact_time']:.3f} s)")
-    for h in HORIZONS[:-1]:
-        diffs_s = [rel(table[(o, TRUTH_RTOL, h)]["peak_sampled"], truth[o]["peak_sampled"]) for o in complete]
-        diffs_c = [rel(table[(o, TRUTH_RTOL, h)]["peak_continuous"], truth[o]["peak_continuous"]) for o in complete]
-        differ = sum(1 for a, b in zip(diffs_s, diffs_c) if max(a, b) > SAME)
-        guard = sum(1 for o in complete if table[(o, TRUTH_RTOL, h)]["last_contact_time"] >= 0.9 * h)
-        summary.append({"kind": "horizon", "rtol": TRUTH_RTOL, "horizon": h, "orders": len(complete),
-                        "orders_differing_from_8s": differ, "max_rel_diff_sampled": max(diffs_s),
-                        "max_rel_diff_continuous": max(diffs_c), "orders_in_contact_in_last_10pct": guard})
-        lines.append(f"  {h:4g} s: the peak differs from the 8 s peak (> {SAME:g}) for {differ} of {len(complete)} "
-                     f"orders (max rel. diff sampled {max(diffs_s):.1e}, continuous {max(diffs_c):.1e}); "
-                     f"{guard} would trigger the 8 s fallback (contact in the last 10%)")
-
-    # 2. tolerances: the 1 s peak at each tolerance against the truth at 8 s; the ranking of the best orders
-    def ranking(values: dict) -> list:
-        return sorted(values, key=lambda o: values[o])
-
-    groups = {"random": [o for o in complete if orders[o] in ("random", "sequential", "study_best")],
-              "neighbourhood": [o for o in complete if orders[o] in ("study_best", "swap_of_study_best")]}
-    true_peak = {o: truth[o]["peak_sampled"] for o in complete}
-    gaps = {}
-    for name, members in groups.items():
-        best = ranking({o: true_peak[o] for o in members})[:top]
-        gaps[name] = min(rel(true_peak[b], true_peak[a]) for a, b in zip(best, best[1:])) if len(best) > 1 else math.nan
-    lines.append(f"TOLERANCE (the 1 s, sampled peak at each rtol against the truth at 8 s; 'top {top}' = the best "
-                 f"{top} orders by the truth; smallest relative gap between neighbours in the top {top}: random "
-                 f"set {gaps['random']:.1e}, study-best neighbourhood {gaps['neighbourhood']:.1e})")
-    kept_all = {}
-    for rtol in rtols:
-        at = {o: table.get((o, rtol, SEARCH[0])) for o in complete}
-        have = [o for o in complete if at[o] is not None]
-        err_s = [rel(at[o]["peak_sampled"], truth[o]["peak_sampled"]) for o in have]
-        err_c = [rel(at[o]["peak_continuous"], truth[o]["peak_continuous"]) for o in have]
-        seconds = statistics.mean(at[o]["run_seconds"] for o in have) if have else math.nan
-        row = {"kind": "tolerance", "rtol": rtol, "horizon": SEARCH[0], "orders": len(have),
-               "max_rel_err_sampled": max(err_s, default=math.nan),
-               "median_rel_err_sampled": statistics.median(err_s) if err_s else math.nan,
-               "max_rel_err_continuous": max(err_c, default=math.nan),
-               "seconds_per_2s_run": seconds}
-        kept = True
-        for name, members in groups.items():
-            members = [o for o in members if at.get(o) is not None]
-            by_truth = ranking({o: true_peak[o] for o in members})
-            by_tol = ranking({o: at[o]["peak_sampled"] for o in members})
-            same_top = by_truth[:top] == by_tol[:top]
-            row[f"top{top}_kept_{name}"] = same_top
-            row[f"kendall_tau_{name}"] = kendall_tau([true_peak[o] for o in members],
-                                                      [at[o]["peak_sampled"] for o in members])
-            row[f"best_kept_{name}"] = by_truth[:1] == by_tol[:1]
-            kept = kept and same_top
-        kept_all[rtol] = kept
-        summary.append(row)
-        lines.append(f"  rtol {rtol:7.0e}: max rel. error {row['max_rel_err_sampled']:.1e} sampled, "
-                     f"{row['max_rel_err_continuous']:.1e} continuous; top {top} ranking kept: random set "
-                     f"{row[f'top{top}_kept_random']}, neighbourhood {row[f'top{top}_kept_neighbourhood']} "
-                     f"(Kendall tau {row['kendall_tau_random']:.4f} / {row['kendall_tau_neighbourhood']:.4f}); "
-                     f"{seconds * 1e3:.1f} ms per 2 s run")
-    loosest = None
-    for rtol in rtols:  # loosest first: the loosest such that it and every tighter one keep the ranking
-        if all(kept_all[r] for r in rtols if r <= rtol):
-            loosest = rtol
-            break
-    if direct:
-        key = lambda o: (o, SEARCH[1], SEARCH[0])  # noqa: E731
-        worst = max(max(rel(r["peak_backplate_force"], table[key(o)]["peak_sampled"]),
-                        rel(r["peak_backplate_force_continuous"], table[key(o)]["peak_continuous"]))
-                    for o, r in direct if key(o) in table)
-        lines.append(f"a run stopped at {SEARCH[0]:g} s (rtol {SEARCH[1]:g}) against the 2 s run read at 1 s: "
-                     f"max rel. diff {worst:.1e} over {len(direct)} orders")
-    if failures:
-        lines.append(f"FAILED runs: {len(failures)} (see horizon_study_failures.csv): "
-                     + "; ".join(f"{order_text(f['order'])} rtol {f['rtol']:g}: {f['status']}" for f in failures[:5]))
-
-    one_s = next(s for s in summary if s["kind"] == "horizon" and s["horizon"] == 1.0)
-    search_row = next((s for s in summary if s["kind"] == "tolerance" and s["rtol"] == SEARCH[1]), None)
-    lines.append("CONCLUSION")
-    lines.append(f"  1 s horizon: {'the same peak as 8 s for every order' if one_s['orders_differing_from_8s'] == 0 else 'DIFFERS from 8 s for ' + str(one_s['orders_differing_from_8s']) + ' orders'} "
-                 f"(max rel. diff {max(one_s['max_rel_diff_sampled'], one_s['max_rel_diff_continuous']):.1e}); "
-                 f"the latest contact ends at {max(contact):.3f} s")
-    lines.append(f"  loosest tolerance that keeps the top-{top} ranking (random set and the neighbourhood, and every "
-                 f"tighter one does too): {'none of those tried' if loosest is None else f'rtol {loosest:g}'}")
-    smallest_gap = min(g for g in gaps.values() if not math.isnan(g))
-    safe = [s["rtol"] for s in summary if s["kind"] == "tolerance"
-            and max(s["max_rel_err_sampled"], s["max_rel_err_continuous"]) < smallest_gap / 10]
-    lines.append(f"  loosest tolerance whose error is below a tenth of the smallest top-{top} gap ({smallest_gap:.1e}), "
-                 f"so that the ranking is kept by accuracy and not by errors that happen to be alike: "
-                 f"{'none' if not safe else f'rtol {max(safe):g}'}")
-    if search_row:
-        lines.append(f"  the searches' setting ({SEARCH[0]:g} s, rtol {SEARCH[1]:g}): max rel. error "
-                     f"{search_row['max_rel_err_sampled']:.1e} against the 8 s truth; ranking kept: {kept_all.get(SEARCH[1])}")
-    return summary, lines
-
-
-def plot(rows, summary, rtols, path: Path, n_orders: int) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    fig, axes = plt.subplots(1, 3, figsize=(17, 5.6))
-    truth = [r for r in rows if r["rtol"] == TRUTH_RTOL and r["horizon"] == 8.0]
-    ax = axes[0]
-    ax.hist([r["last_contact_time"] for r in truth], bins=30, color="tab:blue", alpha=0.7, label="last contact ends")
-    ax.hist([r["peak_time"] for r in truth], bins=30, color="tab:red", alpha=0.6, label="continuous peak")
-    for h in HORIZONS[:-1]:
-        ax.axvline(h, color="black", ls=":", lw=1)
-        ax.text(h, ax.get_ylim()[1] * 0.95, f" {h:g} s", fontsize=8, va="top")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("orders")
-    ax.set_title(f"When the peak comes and contact ends ({n_orders} orders, 8 s runs)")
-    ax.legend(fontsize=8)
-
-    ax = axes[1]
-    rows_h = [x for x in summary if x["kind"] == "horizon"]
-    positions = np.arange(len(rows_h))
-    differ = [x["orders_differing_from_8s"] for x in rows_h]
-    touching = [x["orders_in_contact_in_last_10pct"] for x in rows_h]
-    ax.bar(positions - 0.2, differ, 0.4, color="tab:red", label=f"peak differs from the 8 s peak (> {SAME:g})")
-    ax.bar(positions + 0.2, touching, 0.4, color="tab:blue",
-           label="still touching the plate in the last 10% (the search fidelity re-runs these over 8 s)")
-    for x, row in zip(positions, rows_h):
-        worst = max(row["max_rel_diff_sampled"], row["max_rel_diff_continuous"])
-        ax.text(x - 0.2, 0.5, f"max diff\n{worst:.0e}", ha="center", va="bottom", fontsize=7, rotation=90)
-    ax.set_xticks(positions, [f"{x['horizon']:g} s" for x in rows_h])
-    ax.set_ylim(0, n_orders * 1.15)
-    ax.set_ylabel(f"orders (of {n_orders})")
-    ax.set_title(f"Shorter horizons against 8 s (rtol {TRUTH_RTOL:g})")
-    ax.legend(fontsize=8, loc="upper right")
-
-    ax = axes[2]
-    tol = [s for s in summary if s["kind"] == "tolerance"]
-    x = [s["rtol"] for s in tol]
-    ax.plot(x, [s["max_rel_err_sampled"] for s in tol], "o-", label="max error, sampled peak")
-    ax.plot(x, [s["median_rel_err_sampled"] for s in tol], "s--", label="median error, sampled peak")
-    ax.plot(x, [s["max_rel_err_continuous"] for s in tol], "^-", label="max error, continuous peak")
-    for s in tol:
-        kept = all(v for k, v in s.items() if k.startswith("top") and k.endswith(("random", "neighbourhood")))
-        ax.annotate("ranking kept" if kept else "ranking CHANGED", (s["rtol"], s["max_rel_err_sampled"]),
-                    fontsize=7, rotation=30, xytext=(4, 4), textcoords="offset points",
-                    color="darkgreen" if kept else "darkred")
-    ax.plot(x, x, color="grey", lw=0.8, ls=":", label="error = rtol")
-    ax.axvline(SEARCH[1], color="tab:purple", lw=1, ls="--", label=f"searches' rtol ({SEARCH[1]:g})")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.invert_xaxis()
-    ax.set_xlabel("rtol (atol = rtol * 1e-2)")
-    ax.set_ylabel("relative error of the 1 s peak against the 8 s truth")
-    ax.set_title("Tolerance: error and ranking of the best orders")
-    ax.legend(fontsize=8, loc="lower left")
-    for a in axes[1:]:
-        a.grid(True, which="both", alpha=0.25)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

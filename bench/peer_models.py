@@ -1,9 +1,10 @@
 """SPEC.md's right-hand side as the strongest pip-installable peers would write it: numba and JAX.
 
-Used by bench/peers.py (scipy's odeint/LSODA and solve_ivp/DOP853 over the numba right-hand side, diffrax's
+Used by bench.peers (scipy's odeint/LSODA and solve_ivp/DOP853 over the numba right-hand side, diffrax's
 Tsit5 over the JAX one). Both are written once here from SPEC.md sections 2-5, on the grid (every spring
-visited once, no index arrays), and tests/test_peer_models.py checks them against
-reference/lattice.py's right-hand side to 1e-12 on random states.
+visited once, no index arrays), and :func:`check_against_reference`, which bench.peers runs before it times
+anything, compares them with reference/lattice.py's right-hand side to 1e-12 on random states: a peer is timed
+only while it computes the same model.
 
 The scene's numbers come from a reference.Scene (it validates the order and the material table); what a
 kernel needs is packed by :func:`pack` into four small arrays, so one compiled kernel serves every order:
@@ -137,7 +138,7 @@ def numba_kernels():
         fx[:] = 0.0
         fy[:] = 0.0
         k0, a0, c0 = scalars[0], scalars[1], scalars[2]
-        # one branch-free loop per spring family (13% faster than one loop over masses with four tests)
+        # one branch-free loop per spring family (faster than one loop over the masses with four tests)
         for i in range(R):  # horizontal (i, j)-(i, j+1): k0, alpha0, c0
             for j in range(C - 1):
                 a = i * C + j
@@ -257,3 +258,79 @@ def jax_rhs(rows: int, cols: int, equal_diagonal_alphas: bool = True):
         return jnp.concatenate([y[2 * N:], fx.ravel() * scalars[6], fy.ravel() * scalars[6]])
 
     return rhs
+
+
+# ------------------------------------------------------------------------------------- the check
+KERNEL_TOLERANCE = 1e-12  # max |kernel - reference| / max |reference|
+
+
+def check_scenes():
+    """Scenes that reach every branch of the kernels: the published orders, the mean rule, another lattice, load
+    angle and mass, a table whose two diagonal ends see different alphas, a lattice without a wall."""
+    from reference import Scene
+
+    return [
+        ("published sequential", Scene()),
+        ("study's best", Scene(order=(1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10))),
+        ("mean rule", Scene(order=(3, 1, 11, 2, 10, 4, 9, 5, 8, 6, 7), diagonal_rule="mean")),
+        ("7 x 5, angled load, mass 2", Scene(rows=7, cols=5, order=(2, 5, 1, 4, 3), load_angle=30.0, mass=2.0)),
+        ("4 x 6, own table", Scene(rows=4, cols=6, order=(6, 1, 5, 2, 4, 3), k=np.linspace(50, 150, 6),
+                                   k_diag=np.linspace(10, 60, 6), c=np.linspace(1, 6, 6),
+                                   alpha=np.linspace(5, 12, 6), alpha_diag=np.linspace(4, 14, 6))),
+        ("no wall", Scene(rows=5, cols=5, wall=False)),
+    ]
+
+
+def random_states(scene, count: int = 4, seed: int = 7):
+    """Displacements up to 0.1 m (exp(alpha |r|) well away from 1) with the last column pushed past the wall in
+    about half the rows, velocities of both signs, and one spring of zero length (its force must be 0, not nan)."""
+    rng = np.random.default_rng(seed)
+    N = scene.n_masses
+    states = []
+    for _ in range(count):
+        y = np.concatenate([rng.uniform(-0.1, 0.1, 2 * N), rng.uniform(-3.0, 3.0, 2 * N)])
+        wall = np.arange(scene.rows) * scene.cols + scene.cols - 1
+        y[wall] += rng.choice([0.0, 0.05], scene.rows)
+        y[0], y[N] = y[1], y[N + 1]
+        states.append(y)
+    return states
+
+
+def check_against_reference() -> dict[str, float]:
+    """The worst relative difference of each kernel (numba as odeint and solve_ivp call it, JAX, the backplate
+    force) from reference/lattice.py over the check scenes; raises ValueError past KERNEL_TOLERANCE."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    from reference import backplate_force as reference_backplate_force, rhs as reference_rhs
+
+    rhs_odeint, rhs_solve_ivp, _ = numba_kernels()
+    compiled, worst = {}, {"numba": 0.0, "jax": 0.0, "backplate force": 0.0}
+    for label, scene in check_scenes():
+        packed = pack(scene)
+        key = (scene.rows, scene.cols, packed.equal_diagonal_alphas)
+        if key not in compiled:
+            compiled[key] = jax.jit(jax_rhs(*key))
+        states = random_states(scene)
+        for y in states:
+            for load_on in (True, False):
+                want = reference_rhs(scene, 0.0, y, load_on=load_on)
+                scale = np.max(np.abs(want))
+                flag = 1.0 if load_on else 0.0
+                for name, got in (("numba", rhs_odeint(y, 0.0, flag, *packed.kernel_args())),
+                                  ("numba", rhs_solve_ivp(0.0, y, flag, *packed.kernel_args())),
+                                  ("jax", np.asarray(compiled[key](y, flag, *packed.kernel_args())))):
+                    difference = np.max(np.abs(got - want)) / scale if np.all(np.isfinite(got)) else np.inf
+                    worst[name] = max(worst[name], float(difference))
+                    if not difference <= KERNEL_TOLERANCE:
+                        raise ValueError(f"the {name} right-hand side differs from reference/ by {difference:.1e} "
+                                         f"(relative) on the scene {label!r}")
+        if scene.wall:
+            stacked = np.array(states)
+            want = reference_backplate_force(scene, stacked.T)
+            got = backplate_force(packed, stacked)
+            difference = float(np.max(np.abs(got - want)) / max(np.max(np.abs(want)), 1e-300))
+            worst["backplate force"] = max(worst["backplate force"], difference)
+            if not difference <= KERNEL_TOLERANCE:
+                raise ValueError(f"the backplate force differs from reference/ by {difference:.1e} on {label!r}")
+    return worst

@@ -1,56 +1,42 @@
 """The FMU against the strongest peers a Python user can install with pip, at equal accuracy.
 
-    pip install -e .[bench]                           # numba, jax, diffrax (benchmark-only)
-    python bench/peers.py --out bench/out/peers       # ~8 min on a loaded 2-core machine
-    python bench/peers.py --out DIR --quick           # ~3 min: 3 orders, fewer repeats
+    pip install -e ".[bench]"                # numba, jax, diffrax (benchmark-only)
+    python -m bench.peers                    # about 15 min: 5 orders, both scenes
+    python -m bench.peers --quick            # about 9 min: 3 orders, fewer rounds
 
-Routes, each over SPEC.md's right-hand side written once in bench/peer_models.py (checked against
-reference/lattice.py to 1e-12 by tests/test_peer_models.py), each in two phases split at the load's
-switch-off, with the backplate force sampled every 0.01 s from its own dense output (SPEC 6):
+Why: "faster than scipy over numpy" says little; a user who cares would compile the right-hand side. Routes,
+each over SPEC.md's right-hand side written once in bench/peer_models.py (checked against reference/lattice.py
+to 1e-12 before anything is timed), each in two phases split at the load's switch-off, with the backplate
+force sampled every 0.01 s from its own dense output (SPEC 6):
 - the FMU through fmpy (orchestrator.simulation.LatticeFMU: reset, parameters, one doStep, outputs), as it
   ships (use_symmetry 1: for the armour scene it integrates ux and vx of the upper half, the whole lattice's
   solution with the whole lattice's steps), and with use_symmetry 0 (the whole lattice, as the peers
-  integrate it), so that the lead is shown at equal model too;
+  integrate it), so that the comparison is shown at equal model too;
 - scipy.integrate.odeint (LSODA) over a numba right-hand side;
 - scipy.integrate.solve_ivp(method="DOP853") over the same numba right-hand side;
 - diffrax Tsit5 with a PID controller over a JAX right-hand side, the whole solve jit-compiled (CPU, x64).
-The peers step across the backplate's switches (the FMU locates them as events); what that costs them
-in accuracy is what the tolerance search below pays for.
+The peers step across the backplate's switches (the FMU locates them as events); what that costs them in
+accuracy is what the tolerance walk below pays for.
 
-Two scenes: the 8 s scene (the FMU at its default DOP853, rtol 1e-7, atol 1e-9) and the search evaluation
-(1 s, the FMU as the searches run it: orchestrator.objective.search_tolerances, their solver and rtol,
-atol = rtol / 100). Equal accuracy: the error of a run is the relative error of its sampled peak against a tight
-reference (the FMU's DOP853 at rtol 1e-13, atol 1e-15); the target is the
-FMU's worst error over the orders at its setting; for each peer the tolerance ladder (rtol from 100 times
-the FMU's down to 1e-12, four steps per decade, atol = rtol / 100) is walked from loose to tight, and the
-peer is timed at the first rtol whose worst error over the orders is within the target and whose next
-tighter rtol is too (so a lucky loose setting is not taken).
-
-Timing: CPU time per run (time.process_time: all threads of this process), the runs of all routes
-interleaved order by order and round by round (the route that goes first rotates), the minimum over
---repeats rounds per route and order: the machine is shared, and the minimum is the least disturbed run.
-numba's and JAX's compile times are measured apart and never enter a run's time. Per-order set-up that is
-not the solver's (packing an order's constants into arrays) is done before timing, in the peers' favour.
-
-Right-hand sides: the FMU's counter; odeint's and solve_ivp's own counts (nfe, nfev); for diffrax an
-exact count from a second compiled solve whose right-hand side increments a host counter (not timed).
-
-Also checks the published peaks (1747.779979851872 N, 1497.8867334973704 N) to 1e-5 with every route
-over the 8 s scene at its equal-accuracy tolerance.
-
-Writes DIR/peers.csv (every route, scene and order), DIR/peers_summary.csv, DIR/peers_ladder.csv (the
-tolerance walk) and DIR/peers.png (CPU per run against worst error, per scene).
+Two scenes: the 8 s scene (the FMU at its default DOP853, rtol 1e-7, atol 1e-9) and the search evaluation (the
+FMU as the searches run it: the orchestrator's solver, rtol and horizon). Equal accuracy: the error of a run
+is the relative error of its sampled peak against the FMU's DOP853 at rtol 1e-13; the target is the FMU's
+worst error over the orders at its setting; each peer walks a tolerance ladder (rtol from 100 times the FMU's
+down to 1e-12, four steps per decade, atol = rtol / 100) from loose to tight and is timed at the first rtol
+whose worst error over the orders is within the target and whose next tighter rtol is too (so that a lucky
+loose setting is not taken). Timing: CPU time per run (time.process_time), the routes interleaved order by
+order and round by round (the first route rotates), the fastest of the rounds per route and order; numba's
+and JAX's compile times are measured apart and never enter a run's time. Also checks the published peaks to
+1e-5 with every route over the 8 s scene.
 """
 from __future__ import annotations
 
-import argparse
+import importlib.util
 import math
 import os
 import statistics
-import sys
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 # one thread for XLA's own kernels: the FMU and scipy run on one core, and process_time would count the others
@@ -58,16 +44,16 @@ os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import ROOT, SEQUENTIAL, STUDY_BEST, bench_orders, build_fmus, order_text, write_csv  # noqa: E402
-from peer_models import backplate_force, jax_rhs, numba_kernels, pack  # noqa: E402
-
-from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL, search_tolerances  # noqa: E402
+from fmu_src.published import PUBLISHED_PEAKS  # noqa: E402
+from orchestrator.objective import SEARCH_HORIZON  # noqa: E402
 from orchestrator.simulation import LatticeFMU, SimulationError  # noqa: E402
 from reference import Scene  # noqa: E402
 from reference.simulate import sample_times  # noqa: E402
 
-PUBLISHED = {SEQUENTIAL: 1747.779979851872, STUDY_BEST: 1497.8867334973704}
+from .common import STUDY_BEST, add_fmu_option, bench_orders, lattice_fmu, order_text, search_parameters  # noqa: E402
+from .measurements import Page, Run, Table, write_page  # noqa: E402
+from .peer_models import backplate_force, check_against_reference, jax_rhs, numba_kernels, pack  # noqa: E402
+
 PUBLISHED_TOLERANCE = 1e-5
 SAMPLE_INTERVAL = 0.01
 REFERENCE_TOLERANCES = {"rtol": 1e-13, "atol": 1e-15}
@@ -89,15 +75,15 @@ class Scenario:
     fmu_rtol: float
     fmu_atol: float
     fmu_solver: str  # the FMU's solver parameter, by name (orchestrator.simulation.SOLVERS)
-    accuracy_bound: float | None = None  # an absolute bound the scene's evaluation must meet (checked)
 
 
-_SEARCH = search_tolerances(SEARCH_RTOL)  # what the searches run: their solver and rtol, atol rtol / 100
-SCENARIOS = {
-    "scene8s": Scenario("scene8s", "8 s scene", 8.0, 1e-7, 1e-9, "dop853"),
-    "search": Scenario("search", "search evaluation (1 s)", SEARCH_HORIZON, _SEARCH["rtol"], _SEARCH["atol"],
-                       _SEARCH["solver"], accuracy_bound=3e-5),
-}
+def scenarios(search: dict) -> dict[str, Scenario]:
+    """The two scenes: the searches' evaluation (``search``: the orchestrator's parameters) and the 8 s scene."""
+    return {
+        "search": Scenario("search", f"search evaluation ({SEARCH_HORIZON:g} s)", SEARCH_HORIZON, search["rtol"],
+                           search["atol"], search["solver"]),
+        "scene8s": Scenario("scene8s", "8 s scene", 8.0, 1e-7, 1e-9, "dop853"),
+    }
 
 
 class RouteFailed(RuntimeError):
@@ -362,10 +348,9 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
 
     ladder_rows = errors_at("fmu", scenario.fmu_rtol, scenario.fmu_atol)
     target = worst(ladder_rows)
-    log(f"FMU ({scenario.fmu_solver}) at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}: worst error {target:.2e} "
+    log(f"FMU ({scenario.fmu_solver}) at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}: "
+        f"worst error {target:.2e} "
         "(the target every peer must meet)")
-    if scenario.accuracy_bound is not None and not target <= scenario.accuracy_bound:
-        log(f"  NOTE: the FMU's worst error exceeds the scene's bound {scenario.accuracy_bound:g}")
     chosen = {"fmu": (scenario.fmu_rtol, scenario.fmu_atol), "fmu_whole": (scenario.fmu_rtol, scenario.fmu_atol)}
     top = math.log10(LADDER_START * scenario.fmu_rtol)
     steps = int(round((top - math.log10(LADDER_END)) * LADDER_STEPS_PER_DECADE))
@@ -426,7 +411,8 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
                 row[key] = row["cpu_ms"] / base_cpu[row["order"]]
     extra = {"target": target, "chosen": chosen, "reference": reference,
              "lsoda_methods": sorted(routes["odeint"].lsoda_methods),
-             "diffrax_compile_cpu": routes["diffrax"].compile_cpu, "diffrax_compile_wall": routes["diffrax"].compile_wall}
+             "diffrax_compile_cpu": routes["diffrax"].compile_cpu,
+             "diffrax_compile_wall": routes["diffrax"].compile_wall}
     return {"rows": rows, "ladder": ladder_rows, **extra}
 
 
@@ -447,7 +433,8 @@ def summarise(scenario: Scenario, study: dict) -> list[dict]:
                      cpu_ms_min=min(r["cpu_ms"] for r in good), cpu_ms_max=max(r["cpu_ms"] for r in good),
                      cpu_ms_mean=statistics.fmean(r["cpu_ms"] for r in good),
                      rhs_min=min(r["rhs"] for r in good), rhs_max=max(r["rhs"] for r in good),
-                     us_per_rhs_min=min(r["us_per_rhs"] for r in good), us_per_rhs_max=max(r["us_per_rhs"] for r in good))
+                     us_per_rhs_min=min(r["us_per_rhs"] for r in good),
+                     us_per_rhs_max=max(r["us_per_rhs"] for r in good))
         ratios = [r["ratio_to_fmu"] for r in good if "ratio_to_fmu" in r]
         if ratios and name != "fmu":
             entry.update(ratio_min=min(ratios), ratio_max=max(ratios), ratio_geomean=math.exp(statistics.fmean(
@@ -465,144 +452,105 @@ def check_published(study: dict, orders: dict) -> list[dict]:
     out = []
     for row in study["rows"]:
         order = tuple(row["order_materials"])
-        if order in PUBLISHED and "peak" in row:
-            deviation = abs(row["peak"] / PUBLISHED[order] - 1)
-            out.append({"route": row["route"], "order": row["order"], "peak": row["peak"], "published": PUBLISHED[order],
+        if order in PUBLISHED_PEAKS and "peak" in row:
+            deviation = abs(row["peak"] / PUBLISHED_PEAKS[order] - 1)
+            out.append({"route": row["route"], "order": row["order"], "peak": row["peak"],
+                        "published": PUBLISHED_PEAKS[order],
                         "relative_deviation": deviation, "ok": deviation <= PUBLISHED_TOLERANCE})
     return out
 
 
-def chart(path: Path, studies: dict, summaries: dict) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    colours = {"fmu": "C3", "fmu_whole": "C4", "odeint": "C0", "dop853": "C1", "diffrax": "C2"}
-    fig, axes = plt.subplots(1, len(studies), figsize=(6.2 * len(studies), 4.6), squeeze=False)
-    for ax, (name, study) in zip(axes[0], studies.items()):
-        scenario = SCENARIOS[name]
-        for route in ROUTES:
-            rows = [r for r in study["ladder"] if r["route"] == route]
-            by_rtol = {}
-            for r in rows:
-                by_rtol.setdefault(r["rtol"], []).append(r)
-            xs, ys = [], []
-            for rtol, group in sorted(by_rtol.items(), reverse=True):
-                if all(math.isfinite(r["error"]) for r in group):
-                    xs.append(statistics.median(r["cpu_ms_single"] for r in group))
-                    ys.append(max(r["error"] for r in group))
-            if route in PEERS and xs:
-                ax.plot(xs, ys, "-", marker=".", color=colours[route], alpha=0.45, lw=1)
-            entry = next((s for s in summaries[name] if s["route"] == route and "cpu_ms_mean" in s), None)
-            if entry:
-                ratio = f", {entry['ratio_geomean']:.1f}x FMU" if "ratio_geomean" in entry else ""
-                ax.plot([entry["cpu_ms_mean"]], [max(entry["worst_error"], 1e-16)], "o", ms=9, color=colours[route],
-                        label=f"{entry['label']}: rtol {entry['rtol']:.1e}{ratio}")
-        ax.axhline(study["target"], color="0.4", ls="--", lw=0.8)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("CPU ms per run (line: one sweep run, median over orders; dot: min of interleaved repeats)")
-        ax.set_ylabel("worst relative error of the sampled peak")
-        ax.set_title(f"{scenario.label}: FMU target {study['target']:.1e} (dashed)")
-        ax.legend(fontsize=7, loc="upper right")
-        ax.xaxis.label.set_size(7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+def summary_rows(summary: list[dict]) -> tuple:
+    rows = []
+    for s in summary:
+        if "cpu_ms_min" not in s:
+            rows.append((s["label"], s["status"], "", "", "", "", "", ""))
+            continue
+        rows.append((s["label"], f"{s['rtol']:.1e}", f"{s['worst_error']:.1e}",
+                     f"{s['cpu_ms_min']:.2f}-{s['cpu_ms_max']:.2f}", f"{s['rhs_min']}-{s['rhs_max']}",
+                     f"{s['us_per_rhs_min']:.2f}-{s['us_per_rhs_max']:.2f}",
+                     f"{s['ratio_min']:.1f}-{s['ratio_max']:.1f}x ({s['ratio_geomean']:.1f}x)"
+                     if "ratio_min" in s else "",
+                     f"{s['ratio_whole_min']:.1f}-{s['ratio_whole_max']:.1f}x ({s['ratio_whole_geomean']:.1f}x)"
+                     if "ratio_whole_min" in s else ""))
+    return tuple(rows)
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default=str(ROOT / "bench" / "out" / "peers"), help="folder for CSVs and chart")
-    parser.add_argument("--fmu", help="FMU to measure (default: built fresh from fmu_src/ into --out)")
-    parser.add_argument("--scenes", nargs="+", choices=sorted(SCENARIOS), default=["search", "scene8s"])
-    parser.add_argument("--random-orders", type=int, default=2, help="random orders beside sequential, study's "
-                        "best and reversed (default 2)")
-    parser.add_argument("--repeats", type=int, default=None, help="interleaved timing rounds (default 8 for "
-                        "the search evaluation, 4 for the 8 s scene; --quick: 4 and 2)")
-    parser.add_argument("--quick", action="store_true", help="sequential, study's best and one random order; "
+    run = Run.start(__file__, argv)
+    parser = run.parser(__doc__, quick="sequential, study's best and one random order; "
                         "fewer rounds")
+    add_fmu_option(parser)
+    parser.add_argument("--scenes", nargs="+", choices=("search", "scene8s"), default=["search", "scene8s"])
+    parser.add_argument("--random-orders", type=int, default=2, help="random orders beside sequential, study's "
+                        "best and reversed")
+    parser.add_argument("--repeats", type=int, default=None, help="interleaved timing rounds (default 8 for the "
+                        "search evaluation, 4 for the 8 s scene; --quick: 4 and 2)")
     args = parser.parse_args(argv)
-    try:
-        import diffrax  # noqa: F401
-        import jax  # noqa: F401
-        import numba  # noqa: F401
-    except ImportError as exc:
-        parser.error(f"{exc.name} is not installed: pip install -e .[bench]")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    missing = [name for name in ("numba", "jax", "diffrax") if importlib.util.find_spec(name) is None]
+    if missing:
+        parser.error(f"{', '.join(missing)} not installed: pip install -e \".[bench]\"")
     orders = bench_orders(random_count=args.random_orders)
     if args.quick:
-        orders = {k: orders[k] for k in ("sequential", "study_best", "random1")}
-    fmu_path = Path(args.fmu) if args.fmu else build_fmus(out)["c"]
-
-    log_lines = []
-
-    def log(text):
-        print(text, flush=True)
-        log_lines.append(text)
-
-    numba_compile = compile_numba()
-    log(f"numba compile (both right-hand sides): {numba_compile['cpu']:.2f} s CPU, {numba_compile['wall']:.2f} s wall")
+        orders = {k: orders[k] for k in ("sequential", "study's best", "random 1")}
+    numba_compile = compile_numba()  # first: the check below would compile the kernels too
+    kernels = check_against_reference()
+    print("kernels against reference/: " + ", ".join(f"{k} {v:.1e}" for k, v in kernels.items()), flush=True)
     micro = rhs_microseconds()
-    log(f"one numba right-hand side, CPU us: {micro['numba']:.2f} in a compiled loop, "
-        f"{micro['numba_from_python']:.2f} called from Python")
-    log(f"orders: {', '.join(f'{k} {order_text(v)}' for k, v in orders.items())}")
-
     studies, summaries = {}, {}
-    with LatticeFMU(fmu_path) as fmu:
+    with lattice_fmu(args.fmu) as path, LatticeFMU(path) as fmu:
+        plan = scenarios(search_parameters(path))
         for name in args.scenes:
-            scenario = SCENARIOS[name]
             repeats = args.repeats or ((4 if name == "search" else 2) if args.quick else (8 if name == "search" else 4))
-            studies[name] = study_scenario(scenario, fmu, orders, repeats, log)
-            summaries[name] = summarise(scenario, studies[name])
-
-    all_rows, ladder, summary_rows = [], [], []
+            studies[name] = study_scenario(plan[name], fmu, orders, repeats, lambda text: print(text, flush=True))
+            summaries[name] = summarise(plan[name], studies[name])
+    tables, notes, headline = [], [], []
     for name in studies:
-        scenario = SCENARIOS[name]
-        all_rows += studies[name]["rows"]
-        ladder += studies[name]["ladder"]
-        summary_rows += summaries[name]
-        log(f"\n{scenario.label}: CPU per run, min of interleaved repeats per order, range over "
-            f"{len(orders)} orders; target error {studies[name]['target']:.2e}")
-        log(f"{'route':34s} {'rtol':>8s} {'worst err':>9s} {'CPU ms':>15s} {'RHS':>13s} {'us/RHS':>11s} "
-            f"{'peer/FMU (geo)':>20s} {'peer/whole FMU':>20s}")
-        for s in summaries[name]:
-            if "cpu_ms_min" not in s:
-                log(f"{s['label']:34s} {s['status']}")
-                continue
-            ratio = f"{s['ratio_min']:.1f}-{s['ratio_max']:.1f}x ({s['ratio_geomean']:.1f})" if "ratio_min" in s else ""
-            whole = (f"{s['ratio_whole_min']:.1f}-{s['ratio_whole_max']:.1f}x ({s['ratio_whole_geomean']:.1f})"
-                     if "ratio_whole_min" in s else "")
-            log(f"{s['label'][:34]:34s} {s['rtol']:8.1e} {s['worst_error']:9.1e} "
-                f"{s['cpu_ms_min']:7.2f}-{s['cpu_ms_max']:<7.2f} {s['rhs_min']:6d}-{s['rhs_max']:<6d} "
-                f"{s['us_per_rhs_min']:5.2f}-{s['us_per_rhs_max']:<5.2f} {ratio:>20s} {whole:>20s}")
-        if studies[name]["lsoda_methods"]:
+        scenario, study = plan[name], studies[name]
+        tables.append(Table(("route", "rtol", "worst error", "CPU ms per run", "right-hand sides", "us per "
+                             "right-hand side", "peer / FMU (geometric mean)", "peer / whole-lattice FMU"),
+                            summary_rows(summaries[name]),
+                            caption=f"**{scenario.label.capitalize()}** (the FMU: {scenario.fmu_solver} at rtol "
+                                    f"{scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}; target error "
+                                    f"{study['target']:.1e}):"))
+        lsoda = next((s for s in summaries[name] if s["route"] == "odeint" and "ratio_geomean" in s), None)
+        fastest = min((s for s in summaries[name] if s["route"] in PEERS and "ratio_geomean" in s),
+                      key=lambda s: s["ratio_geomean"], default=None)
+        if fastest:
+            headline.append(f"{scenario.label}: the closest peer ({LABELS[fastest['route']]}) takes "
+                            f"{fastest['ratio_geomean']:.1f}x the FMU's CPU time"
+                            + (f", LSODA {lsoda['ratio_geomean']:.1f}x" if lsoda and lsoda is not fastest else ""))
+        if study["lsoda_methods"]:
             used = {1: "Adams (non-stiff)", 2: "BDF (stiff)"}
-            jacobians = [r["lsoda_jacobians"] for r in studies[name]["rows"] if r["route"] == "odeint" and "rhs" in r]
-            log(f"LSODA used (over the whole tolerance walk): "
-                f"{', '.join(used.get(m, str(m)) for m in studies[name]['lsoda_methods'])}; at the timed setting "
-                f"{min(jacobians)}-{max(jacobians)} finite-difference Jacobians per run")
+            methods = ", ".join(used.get(m, str(m)) for m in study["lsoda_methods"])
+            notes.append(f"{scenario.label}: LSODA used {methods} over the tolerance walk.")
         if name == "scene8s":
-            checks = check_published(studies[name], orders)
-            for c in checks:
-                log(f"published check {c['route']:8s} {c['order']:11s} {c['peak']:.9f} vs {c['published']:.9f}: "
-                    f"{c['relative_deviation']:.1e} {'ok' if c['ok'] else 'FAILED'} (<= {PUBLISHED_TOLERANCE:g})")
-            write_csv(out / "peers_published_check.csv", checks)
-    log(f"\ncompile times (never in a run's time): numba {numba_compile['cpu']:.2f} s CPU; diffrax "
-        + ", ".join(f"{SCENARIOS[n].label} {studies[n]['diffrax_compile_cpu']:.1f} s CPU" for n in studies))
-    log("CPU time per run is process_time (all threads of the process); the machine was shared with other jobs.")
-
-    write_csv(out / "peers.csv", all_rows)
-    write_csv(out / "peers_ladder.csv", ladder)
-    write_csv(out / "peers_summary.csv", summary_rows)
-    (out / "peers.txt").write_text("\n".join(log_lines) + "\n")
-    chart(out / "peers.png", studies, summaries)
-    print(f"wrote {out}/peers.csv, peers_summary.csv, peers_ladder.csv, peers.txt, peers.png")
+            checks = check_published(study, orders)
+            worst = max(c["relative_deviation"] for c in checks) if checks else None
+            if worst is not None:
+                notes.append(f"Every route gives both published peaks to {worst:.1e} (relative) at its 8 s setting "
+                             f"({'within' if worst <= PUBLISHED_TOLERANCE else 'NOT within'} the "
+                             f"{PUBLISHED_TOLERANCE:g} checked).")
+    notes.append(f"Before timing, the kernels were checked against reference/lattice.py on "
+                 f"{len(kernels)} quantities over six scenes: worst relative difference "
+                 + ", ".join(f"{k} {v:.1e}" for k, v in kernels.items()) + ".")
+    notes.append(f"Compile times, never in a run's time: numba {numba_compile['cpu']:.1f} s CPU; diffrax "
+                 + ", ".join(f"{plan[n].label} {studies[n]['diffrax_compile_cpu']:.1f} s CPU" for n in studies)
+                 + f". One numba right-hand side costs {micro['numba']:.2f} us in a compiled loop and "
+                 f"{micro['numba_from_python']:.2f} us called from Python; the rest of a peer's time per right-hand "
+                 "side is its solver's own work.")
+    page = Page(
+        name=run.name, title="The FMU against its peers at equal accuracy", headline="; ".join(headline),
+        summary=(
+            f"{len(orders)} orders ({', '.join(f'{k} {order_text(v)}' for k, v in orders.items())}). Each peer runs "
+            "at the loosest rtol (quarter decades, atol = rtol / 100) whose worst sampled-peak error over the orders "
+            "(against the FMU's DOP853 at rtol 1e-13) is within the FMU's, confirmed by the next tighter one. CPU "
+            "time per run (`process_time`), the routes interleaved, the fastest round per order; ranges over the "
+            "orders. The whole-lattice FMU (`use_symmetry` 0) integrates what the peers integrate."),
+        tables=tuple(tables), notes=tuple(notes))
+    write_page(run, page)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

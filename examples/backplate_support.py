@@ -27,15 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
-
-import build_fmu  # noqa: E402
+from fmu_src import build as build_fmu
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 
 SUPPORT_SOURCE = Path(__file__).resolve().parent / "support_fmu" / "support.c"
 SUPPORT_GUID = "{b0d1e5a4-5c1b-4d7e-9f00-5a11e5ba0001}"  # the same literal as in support.c
-PUBLISHED_BEST = (1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10)
 NANOSECONDS = 1_000_000_000
 # name: (value reference, causality, start); the value references are support.c's enum
 SUPPORT_VARIABLES = {
@@ -204,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--mass", type=float, default=20.0, help="support mass m in kg (default 20)")
     parser.add_argument("--stiffness", type=float, default=2.0e4, help="support stiffness k in N/m (default 2e4)")
     parser.add_argument("--damping", type=float, default=200.0, help="support damping c in N s/m (default 200)")
-    parser.add_argument("-o", "--output", default=str(ROOT / "results" / "backplate_support.png"),
+    parser.add_argument("-o", "--output", default=str(Path("results") / "backplate_support.png"),
                         help="where to write the picture (default results/backplate_support.png)")
     args = parser.parse_args(argv)
     try:

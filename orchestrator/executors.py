@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import shutil
 import signal
 import sys
 import tempfile
@@ -20,6 +21,7 @@ from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from typing import Any, Callable, Iterator
 
 EXECUTORS = ("serial", "process", "dask")
+LOCAL_CLUSTER_START = 120.0  # s a local Dask cluster may take to start all its workers
 
 
 class SerialExecutor(Executor):
@@ -102,7 +104,6 @@ class ResilientProcessPool(Executor):
     def __init__(self, workers: int, temp_root: str | None = None) -> None:
         self.slots = int(workers)
         self.temp_root = temp_root
-        self.renewals = 0
         self._pool = self._new_pool()
 
     def _new_pool(self) -> ProcessPoolExecutor:
@@ -123,7 +124,6 @@ class ResilientProcessPool(Executor):
     def renew(self) -> None:
         self.kill()
         self._pool = self._new_pool()
-        self.renewals += 1
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
@@ -139,7 +139,9 @@ def _executor(kind: str, workers: int | None, scheduler: str | None,
         finally:
             executor.shutdown()
     elif kind == "process":
-        pool = ResilientProcessPool(int(workers or os.cpu_count() or 1), temp_root)
+        own_root = temp_root is None  # the workers' extracted FMUs go here; a killed worker cannot remove its own
+        root = tempfile.mkdtemp(prefix="lattice-workers-") if own_root else temp_root
+        pool = ResilientProcessPool(int(workers or os.cpu_count() or 1), root)
         try:
             yield pool
         except BaseException:
@@ -147,11 +149,20 @@ def _executor(kind: str, workers: int | None, scheduler: str | None,
             raise
         else:
             pool.shutdown(wait=True)
+        finally:
+            if own_root:
+                shutil.rmtree(root, ignore_errors=True)
     else:
-        yield from _dask(workers, scheduler)
+        own_root = temp_root is None and not scheduler
+        root = tempfile.mkdtemp(prefix="lattice-workers-") if own_root else temp_root
+        try:
+            yield from _dask(workers, scheduler, root)
+        finally:
+            if own_root:
+                shutil.rmtree(root, ignore_errors=True)
 
 
-def _dask(workers: int | None, scheduler: str | None) -> Iterator[Executor]:
+def _dask(workers: int | None, scheduler: str | None, temp_root: str | None) -> Iterator[Executor]:
     try:
         from distributed import Client, LocalCluster  # imported lazily: dask is slow to import
     except ImportError:
@@ -162,10 +173,16 @@ def _dask(workers: int | None, scheduler: str | None) -> Iterator[Executor]:
         if scheduler:
             client = stack.enter_context(Client(scheduler))
         else:
+            count = int(workers or os.cpu_count() or 1)
             cluster = stack.enter_context(LocalCluster(
-                n_workers=int(workers or os.cpu_count() or 1), threads_per_worker=1,
-                processes=True, dashboard_address=None, silence_logs=logging.ERROR))
+                n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
+                silence_logs=logging.ERROR, local_directory=temp_root))
             client = stack.enter_context(Client(cluster))
+            try:  # every worker, or none: a cluster half started would run the study at a fraction of its speed
+                client.wait_for_workers(count, timeout=LOCAL_CLUSTER_START)
+            except TimeoutError:
+                raise RuntimeError(f"the local Dask cluster did not start its {count} workers within "
+                                   f"{LOCAL_CLUSTER_START:g} s; give fewer --workers") from None
         from .dask_plugin import CloseFMUs
 
         client.register_plugin(CloseFMUs(), name="lattice-close-fmus")

@@ -1,25 +1,25 @@
-"""The evaluation loop: ask a batch, evaluate the new orders in parallel, tell; and the one guarded path.
+"""How everything is evaluated: the one Evaluator, and the search loop on top of it.
 
-``Evaluator`` is the only way anything is simulated (the searches, the verification of finalists, the
-local check, the report's sensitivity study): it runs tasks through one Executor, caches them, appends
-each finished one to the run's journal, turns every failure (an exception, a dead worker, an evaluation
-past its time limit) into a failed evaluation, and replaces a broken process pool.
+``Evaluator`` is the only way anything is simulated: the searches, the verification of finalists, the final
+descent, the sensitivity study, the exhaustive sweep's chunks, the accuracy checks, the trajectories and the
+solver sweep of the report. A *task* is a picklable object with a ``key`` (what it computes: the cache and
+journal identity), a call that computes it in a worker, ``failure(message, seconds)`` (its result when it
+could not run) and ``keep(result)`` (whether the result belongs in the journal). The evaluator runs tasks
+through one Executor and guards them:
 
-Guarantees (why each one exists):
-- *Budget*: ``budget`` counts evaluations of distinct orders and is never
-  exceeded; the study's cost was dominated by simulations, so that is what a
-  user pays for and compares methods by.  An order evaluated again because its
-  earlier run stopped at a lower limit is logged, not charged again.
-- *Cache by order*: an order asked again (random keys map many points to one
-  order; annealing chains revisit) is answered from the cache for free.
-- *Determinism*: results are collected and processed in ask order, never in
-  completion order, so a run is identical whatever the executor and the number
-  of workers.
-- *Failures are data*: a failed evaluation is recorded (status, message), told
-  to the search as ``None``, and the search goes on.
-- *Termination*: the budget, the search's own ``stop()``, every order of 1..n
-  evaluated, or the stall guard (no new order for ``stall_batches`` batches in
-  a row) ends the run; ``stop_reason`` says which.
+- *Cache*: a key is computed once per run; a resumed run starts with its journal's results.
+- *Journal*: each finished result is appended as it arrives (time-outs and a task's own transient failures
+  are not: they run again on resume).
+- *Bounded work in flight*: at most two tasks per worker are submitted at a time.
+- *Time limit*: counted from when a task starts in its worker, never from its submission: the process pool
+  and Dask start queued tasks first in, first out, so the k-th queued task starts when the k-th task before it
+  finishes.
+- *Failures are data*: an exception, a dead worker, a task past its time limit is that task's failed result.
+  A dead worker breaks a process pool: the pool is replaced and the tasks that were in flight run again one at
+  a time, so only the task that kills a worker fails.
+
+``run_search`` drives an ask/tell search within a budget of distinct designs, processing results in ask order,
+so a run is identical whatever the executor and the number of workers.
 """
 from __future__ import annotations
 
@@ -28,105 +28,88 @@ import time
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterable, Protocol, Sequence
 
+from .design import DesignSpace, as_design
 from .executors import executor_slots
-from .objective import SEARCH, Objective, as_objective
-from .search.base import Search
-from .types import Above, Evaluation, Order, as_order, check_evaluation, failed, is_permutation, safe_call
+from .types import Above, Evaluation, Order, failed, safe_call
 
 STALL_BATCHES = 200
 
 
-@dataclass
-class SearchRun:
-    """Everything one run of one search produced.
-
-    ``evaluations[k]`` is evaluation number ``k + 1`` (indices are 1-based, as
-    in "found at evaluation 4"), in the order first evaluated; cache hits are
-    not evaluations. An order censored below a limit that later matters to the
-    search is evaluated again and appears once more (``n_reevaluated``; see
-    ``run_search``): the budget counts distinct orders, so ``n_evaluations`` is
-    the budget plus those.
-    """
-
-    method: str
-    seed: int
-    budget: int
-    evaluations: list[Evaluation] = field(default_factory=list)
-    best_order: Order | None = None
-    best_peak: float | None = None          # None when every evaluation failed
-    best_index: int | None = None           # 1-based index of the best evaluation
-    n_failed: int = 0
-    n_censored: int = 0                      # stopped early above a limit the search gave (never a peak)
-    n_reevaluated: int = 0                   # evaluations of an order seen censored (beyond the budget)
-    stalled: bool = False
-    stop_reason: str = ""
-    wall_seconds: float = 0.0
-    diagnostics: dict = field(default_factory=dict)   # search.state() at the end
-    batches: int = 0
-    cache_hits: int = 0                      # asked orders answered from the cache
+class Task(Protocol):
+    """What the evaluator runs (see the module docstring)."""
 
     @property
-    def n_evaluations(self) -> int:
-        return len(self.evaluations)
+    def key(self) -> str: ...
 
-    def best_so_far(self) -> list[float | None]:
-        """Best ok value after each evaluation (None until the first ok one)."""
-        curve: list[float | None] = []
-        best: float | None = None
-        for evaluation in self.evaluations:
-            if evaluation.ok and (best is None or evaluation.peak < best):
-                best = evaluation.peak
-            curve.append(best)
-        return curve
+    def __call__(self) -> Any: ...
 
-    def outcome(self) -> list[tuple[Order, float | None, str, str]]:
-        """(order, peak, status, message) per evaluation: what must be identical
-        for the same seed whatever the executor (wall times are not)."""
-        return [(e.order, e.peak, e.status, e.message) for e in self.evaluations]
+    def failure(self, message: str, seconds: float) -> Any: ...
 
-    def records(self) -> list[dict[str, Any]]:
-        """One flat dict per evaluation (index is 1-based), e.g. for a CSV."""
-        return [{"method": self.method, "seed": self.seed, "index": k,
-                 "order": list(e.order), "peak": e.peak, "status": e.status,
-                 "message": e.message, "seconds": e.seconds, **e.details}
-                for k, e in enumerate(self.evaluations, start=1)]
+    def keep(self, result: Any) -> bool: ...
 
 
-def _censored_below(evaluation: Evaluation, limit: float | None) -> bool:
-    """Censored at a lower limit than the one now asked (or asked with none): what is known no longer
-    answers the search, so the order is evaluated again."""
-    return evaluation.censored and (limit is None or limit > evaluation.lower_bound)
+def function_key(function: Any) -> str:
+    """The identity of an evaluation function: its own ``key`` (an FMU run's settings), else its repr."""
+    key = getattr(function, "key", None)
+    return key if isinstance(key, str) else f"{type(function).__module__}.{type(function).__qualname__}:{function!r}"
 
 
-def told_value(evaluation: Evaluation) -> float | Above | None:
-    """What a search is told: the peak, Above(limit) for a censored evaluation, None for a failure."""
-    if evaluation.ok:
-        return evaluation.peak
-    if evaluation.censored:
-        return Above(evaluation.lower_bound)
-    return None
+@dataclass(frozen=True)
+class EvaluateDesign:
+    """One design through one evaluation function (``order -> Evaluation``)."""
+
+    function: Callable[[Order], Any]
+    order: Order
+
+    @property
+    def key(self) -> str:
+        return f"{function_key(self.function)}#{','.join(map(str, self.order))}"
+
+    def __call__(self) -> Evaluation:
+        return safe_call(self.function, self.order)
+
+    def failure(self, message: str, seconds: float) -> Evaluation:
+        return failed(self.order, message, seconds)
+
+    def keep(self, result: Any) -> bool:
+        return True
 
 
-def task_key(task: Any) -> str:
-    """The cache and journal key of a task: its own ``key`` when it has one (FMURun), else its repr."""
-    key = getattr(task, "key", None)
-    return key if isinstance(key, str) else f"{type(task).__module__}.{type(task).__qualname__}:{task!r}"
+def run_task(task: Task) -> Any:
+    """What a worker runs: the task, or its failure when it raised (a task must never kill its worker)."""
+    start = time.perf_counter()
+    try:
+        return task()
+    except MemoryError:
+        return task.failure("out of memory (free memory, or use fewer --workers)", time.perf_counter() - start)
+    except Exception as exc:  # noqa: BLE001 - a task's error is its failed result
+        return task.failure(f"{type(exc).__name__}: {exc}", time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class EvaluatorState:
+    """What the evaluator did in this run."""
+
+    simulated: int
+    cache_hits: int
+    resumed: int
+    pool_renewals: int
+    timeouts: int
+    journal_repaired: bool
+
+
+@dataclass
+class _Flight:
+    key: str
+    task: Any
+    sequence: int
+    submitted: float
 
 
 class Evaluator:
-    """Runs (task, order) pairs through one Executor: cached, journalled, guarded.
-
-    - *Cache*: a (task, order) pair is simulated once per run; a resumed run starts with the journal's.
-    - *Journal*: each finished evaluation is appended as it arrives, so an interruption loses only what
-      was in flight.
-    - *In flight*: at most ``2 * slots`` evaluations are submitted at a time, so a crash costs little and
-      a time limit can be measured from submission (at most one evaluation queued ahead per worker).
-    - *Failures*: an exception, a dead worker or a run past ``time_limit`` seconds is a failed evaluation
-      with its reason. A dead worker breaks a process pool: the pool is replaced and the orders that were
-      in flight are tried again one at a time, so only the order that kills a worker fails.
-    """
+    """Runs tasks through one Executor: cached, journalled, guarded (see the module docstring)."""
 
     def __init__(self, executor: Executor, journal=None, time_limit: float | None = None):
         if time_limit is not None and not (math.isfinite(time_limit) and time_limit > 0):
@@ -134,145 +117,212 @@ class Evaluator:
         self.executor = executor
         self.journal = journal
         self.time_limit = time_limit
-        self.cache: dict[tuple[str, Order], Evaluation] = dict(journal.load()) if journal is not None else {}
+        self.cache: dict[str, Any] = journal.load() if journal is not None else {}
         self.resumed = len(self.cache)
         self.simulated = 0
         self.cache_hits = 0
         self.pool_renewals = 0
         self.timeouts = 0
+        self._slots = executor_slots(executor)
+        self._new_generation()
 
-    def run(self, items: Sequence[tuple[Callable[[Order], Evaluation], Order]],
-            progress: Callable[[int], Any] | None = None) -> list[Evaluation]:
-        """The evaluation of every (task, order), in the given order."""
-        keyed = [((task_key(task), as_order(order)), task, as_order(order)) for task, order in items]
-        todo: dict[tuple[str, Order], tuple[Any, Order]] = {}
-        for key, task, order in keyed:
-            if key in self.cache:
-                self.cache_hits += 1
-            elif key not in todo:
-                todo[key] = (task, order)
-        if todo:
-            self._run_all(todo, progress)
-        return [self.cache[key] for key, _, _ in keyed]
+    def _new_generation(self) -> None:
+        """A fresh pool: submissions and completions are counted anew for the start times."""
+        self._submissions = 0
+        self._completions: list[float] = []
 
-    def cached(self, task: Any, order: Order) -> Evaluation | None:
-        """The evaluation of (task, order) if this run already has it."""
-        return self.cache.get((task_key(task), as_order(order)))
+    # ------------------------------------------------------------------------------------------ public
+    def run(self, tasks: Iterable[Task], progress: Callable[[int], Any] | None = None,
+            on_result: Callable[[int, Any], Any] | None = None) -> list[Any]:
+        """The result of every task, in the given order. ``tasks`` is pulled lazily, one when a worker can
+        take it, so a task may be built from the results so far (``on_result(index, result)`` is called as
+        each becomes known, cache hits at once); ``progress(done)`` counts finished tasks."""
+        results: dict[int, Any] = {}
+        waiting: dict[str, list[int]] = {}
+        flights: dict[Future, _Flight] = {}
+        alone: list[_Flight] = []
+        source = iter(enumerate(tasks))
+        exhausted = False
+        count = 0
+        done = [0]
 
-    def _record(self, key: tuple[str, Order], evaluation: Evaluation) -> None:
-        self.cache[key] = evaluation
-        self.simulated += 1
-        if self.journal is not None:
-            self.journal.append(key[0], evaluation)
+        def deliver(index: int, result: Any) -> None:
+            results[index] = result
+            done[0] += 1
+            if on_result is not None:
+                on_result(index, result)
+            if progress is not None:
+                progress(done[0])
 
-    def _run_all(self, todo: dict, progress) -> None:
-        pending = list(todo.items())
-        pending.reverse()  # pop() from the end keeps submission in the given order
-        in_flight: dict[Future, tuple[tuple[str, Order], Any, Order, float]] = {}
-        limit = 2 * executor_slots(self.executor)
-        retry_alone: list = []
-        done = 0
-        while pending or in_flight or retry_alone:
-            while pending and len(in_flight) < limit:
-                key, (task, order) = pending.pop()
-                future = self._submit(task, order)
-                if future is None:
-                    self._record(key, failed(order, "executor: could not submit (the executor is shut down)"))
-                    continue
-                in_flight[future] = (key, task, order, time.monotonic())
-            if not in_flight and retry_alone:
-                self._retry_alone(retry_alone)
-                done += len(retry_alone)
-                retry_alone = []
-                continue
-            timeout = None
-            if self.time_limit is not None:
-                oldest = min(started for _, _, _, started in in_flight.values())
-                timeout = max(0.0, oldest + self.time_limit - time.monotonic())
-            finished, _ = wait(list(in_flight), timeout=timeout, return_when=FIRST_COMPLETED)
-            broken = False
-            for future in finished:
-                key, task, order, started = in_flight.pop(future)
+        def finish(flight: _Flight, result: Any, journal: bool = True) -> None:
+            self._record(flight.key, flight.task, result, journal)
+            for index in waiting.pop(flight.key):
+                deliver(index, result)
+
+        while True:
+            while not exhausted and len(flights) < 2 * self._slots and not alone:
                 try:
-                    evaluation = check_evaluation(future.result(), order)
+                    index, task = next(source)
+                except StopIteration:
+                    exhausted = True
+                    break
+                count = index + 1
+                key = task.key
+                if key in self.cache:
+                    self.cache_hits += 1
+                    deliver(index, self.cache[key])
+                elif key in waiting:
+                    waiting[key].append(index)
+                else:
+                    waiting[key] = [index]
+                    flight = _Flight(key, task, 0, 0.0)
+                    future = self._submit(flight)
+                    if future is None:
+                        finish(flight, task.failure("executor: could not submit (the executor is shut down)", 0.0),
+                               journal=False)
+                    else:
+                        flights[future] = flight
+            if not flights:
+                if alone:
+                    for flight in alone:
+                        finish(flight, *self._run_alone(flight))
+                    alone = []
+                    continue
+                if exhausted:
+                    break
+                continue
+            finished, _ = wait(list(flights), timeout=self._wait_timeout(flights), return_when=FIRST_COMPLETED)
+            broken = False
+            for future in sorted(finished, key=lambda f: flights[f].sequence):
+                flight = flights.pop(future)
+                self._completions.append(time.monotonic())
+                try:
+                    result = future.result()
                 except BrokenProcessPool:
                     broken = True
-                    retry_alone.append((key, task, order))
+                    alone.append(flight)
                     continue
-                except Exception as exc:  # noqa: BLE001 - a worker's error is this order's failure
-                    evaluation = failed(order, f"executor: {type(exc).__name__}: {exc}")
-                self._record(key, evaluation)
-                done += 1
-                if progress is not None:
-                    progress(done)
-            if not finished and self.time_limit is not None:
-                self._expire(in_flight, pending)
-            if broken:
-                # every other evaluation in flight died with the pool: try each again, one at a time
-                retry_alone += [(key, task, order) for key, task, order, _ in in_flight.values()]
-                in_flight.clear()
+                except Exception as exc:  # noqa: BLE001 - the executor's error is this task's failure
+                    result = flight.task.failure(f"executor: {type(exc).__name__}: {exc}", 0.0)
+                finish(flight, result)
+            if not finished:
+                for flight in self._expire(flights):
+                    finish(flight, flight.task.failure(self._timeout_message(), self.time_limit), journal=False)
+            if broken:  # every other task in flight died with the pool: each runs again, alone
+                alone += sorted(flights.values(), key=lambda f: f.sequence)
+                flights.clear()
                 self._renew()
+        return [results[i] for i in range(count)]
 
-    def _submit(self, task, order) -> Future | None:
-        try:
-            return self.executor.submit(safe_call, task, order)
-        except BrokenProcessPool:
+    def evaluate(self, pairs: Sequence[tuple[Callable[[Order], Any], Sequence[int]]],
+                 progress: Callable[[int], Any] | None = None) -> list[Evaluation]:
+        """Every (function, design) pair's Evaluation, in order."""
+        return self.run([EvaluateDesign(function, as_design(order)) for function, order in pairs], progress)
+
+    def cached(self, task: Task) -> Any | None:
+        """The result of ``task`` if this run already has it."""
+        return self.cache.get(task.key)
+
+    def known(self, function: Callable[[Order], Any]) -> list[Evaluation]:
+        """Every evaluation this run has of ``function`` (an FMU run's settings), whatever the design."""
+        prefix = function_key(function) + "#"
+        return [result for key, result in self.cache.items() if key.startswith(prefix)]
+
+    def state(self) -> EvaluatorState:
+        return EvaluatorState(self.simulated, self.cache_hits, self.resumed, self.pool_renewals, self.timeouts,
+                              bool(getattr(self.journal, "repaired", False)))
+
+    # ------------------------------------------------------------------------------------------ guards
+    def _record(self, key: str, task: Any, result: Any, journal: bool) -> None:
+        self.cache[key] = result
+        self.simulated += 1
+        if journal and self.journal is not None and task.keep(result):
+            self.journal.append(key, result)
+
+    def _submit(self, flight: _Flight) -> Future | None:
+        for attempt in range(2):
+            try:
+                future = self.executor.submit(run_task, flight.task)
+            except BrokenProcessPool:
+                self._renew()
+                continue
+            except RuntimeError:
+                return None
+            flight.sequence = self._submissions
+            flight.submitted = time.monotonic()
+            self._submissions += 1
+            return future
+        return None
+
+    def _started_at(self, flight: _Flight) -> float | None:
+        """When the task started in its worker (first in, first out), or None while it is still queued."""
+        before = flight.sequence - self._slots
+        if before < 0:
+            return flight.submitted
+        if before < len(self._completions):
+            return max(flight.submitted, self._completions[before])
+        return None
+
+    def _wait_timeout(self, flights: dict[Future, _Flight]) -> float | None:
+        if self.time_limit is None:
+            return None
+        starts = [s for s in (self._started_at(f) for f in flights.values()) if s is not None]
+        if not starts:
+            return None
+        return max(0.0, min(starts) + self.time_limit - time.monotonic())
+
+    def _timeout_message(self) -> str:
+        return (f"exceeded the time limit of {self.time_limit:g} s of its own run time (--time-limit; it runs "
+                "again on --resume)")
+
+    def _expire(self, flights: dict[Future, _Flight]) -> list[_Flight]:
+        """The tasks past their time limit, taken out of ``flights``; on a process pool (a hung process is
+        stopped only by ending it) the pool is replaced and the others in flight run again."""
+        now = time.monotonic()
+        expired = []
+        for future, flight in list(flights.items()):
+            started = self._started_at(flight)
+            if started is not None and now - started >= self.time_limit:
+                self.timeouts += 1
+                future.cancel()
+                del flights[future]
+                expired.append(flight)
+        if expired and hasattr(self.executor, "renew"):
+            survivors = sorted(flights.values(), key=lambda f: f.sequence)
+            flights.clear()
             self._renew()
-        except RuntimeError:
-            return None
-        try:
-            return self.executor.submit(safe_call, task, order)
-        except Exception:  # noqa: BLE001
-            return None
+            for flight in survivors:
+                future = self._submit(flight)
+                if future is not None:
+                    flights[future] = flight
+        return expired
 
     def _renew(self) -> None:
         renew = getattr(self.executor, "renew", None)
         if renew is not None:
             renew()
             self.pool_renewals += 1
+        self._new_generation()
 
-    def _expire(self, in_flight: dict, pending: list) -> None:
-        """Fails the evaluations past the time limit; the others in flight are submitted again."""
-        now = time.monotonic()
-        for future, (key, task, order, started) in list(in_flight.items()):
-            if now - started >= self.time_limit:
+    def _run_alone(self, flight: _Flight) -> tuple[Any, bool]:
+        """A task whose worker died, alone on a fresh pool: (its result, whether to journal it)."""
+        future = self._submit(flight)
+        if future is None:
+            return flight.task.failure("executor: could not submit (the executor is shut down)", 0.0), False
+        try:
+            finished, _ = wait([future], timeout=self.time_limit)
+            if not finished:
                 self.timeouts += 1
-                future.cancel()
-                del in_flight[future]
-                self._record(key, failed(order, f"exceeded the time limit of {self.time_limit:g} s per evaluation"))
-        if hasattr(self.executor, "renew"):  # a hung process cannot be stopped but by ending it
-            for future, (key, task, order, _) in in_flight.items():
-                pending.append((key, (task, order)))
-            in_flight.clear()
+                self._renew()
+                return flight.task.failure(self._timeout_message(), self.time_limit), False
+            return future.result(), True
+        except BrokenProcessPool as exc:
             self._renew()
-
-    def _retry_alone(self, items: list) -> None:
-        """Orders whose worker died: each alone on a fresh pool; one that kills it again has failed."""
-        for key, task, order in items:
-            future = self._submit(task, order)
-            if future is None:
-                self._record(key, failed(order, "executor: could not submit (the executor is shut down)"))
-                continue
-            try:
-                finished, _ = wait([future], timeout=self.time_limit)
-                if not finished:
-                    raise TimeoutError(f"exceeded the time limit of {self.time_limit:g} s per evaluation")
-                evaluation = check_evaluation(future.result(), order)
-            except BrokenProcessPool as exc:
-                evaluation = failed(order, f"executor: BrokenProcessPool: the worker died evaluating this order "
-                                           f"twice ({exc})")
-                self._renew()
-            except TimeoutError as exc:
-                self.timeouts += 1
-                evaluation = failed(order, str(exc))
-                self._renew()
-            except Exception as exc:  # noqa: BLE001
-                evaluation = failed(order, f"executor: {type(exc).__name__}: {exc}")
-            self._record(key, evaluation)
-
-    def state(self) -> dict:
-        return {"simulated": self.simulated, "cache_hits": self.cache_hits, "resumed": self.resumed,
-                "pool_renewals": self.pool_renewals, "timeouts": self.timeouts}
+            return flight.task.failure(f"executor: the worker died running this task twice ({exc})", 0.0), True
+        except Exception as exc:  # noqa: BLE001
+            return flight.task.failure(f"executor: {type(exc).__name__}: {exc}", 0.0), True
+        finally:
+            self._completions.append(time.monotonic())
 
 
 def as_evaluator(executor_or_evaluator) -> Evaluator:
@@ -281,55 +331,120 @@ def as_evaluator(executor_or_evaluator) -> Evaluator:
     return Evaluator(executor_or_evaluator)
 
 
-def run_search(search: Search, objective, budget: int, evaluator, *, method_name: str, seed: int,
-               progress: Callable[[int], Any] | None = None, fidelity: str = SEARCH,
-               stall_batches: int = STALL_BATCHES) -> SearchRun:
-    """Drive ``search`` until the budget, its stop, exhaustion or a stall.
+# ---------------------------------------------------------------------------------------------- searches
+@dataclass(frozen=True)
+class SearchRun:
+    """Everything one run of one search produced.
 
-    ``objective``: an ``Objective`` (or any ``order -> Evaluation`` callable); ``evaluator``: an
-    ``Evaluator`` (or a bare Executor, wrapped in one). Each batch: dedupe the asked orders, evaluate the
-    ones this run has not seen through the objective and the evaluator, process the results in ask
-    order, tell the search every asked order's value (None for failures, ``Above(limit)`` when censored).
-    An order already seen censored is evaluated again when the search gives limits and asks it with no
-    limit or a higher one than it was censored at (the annealing, whose thresholds vary from chain to
-    chain); that run is logged in ``evaluations`` but not charged to the budget, which counts distinct
-    orders, so that a search makes the same asks whether or not the evaluator honours its limits (its FMU
-    time is in the evaluation's ``seconds`` like any other). When the remaining budget is
-    smaller than the number of new orders, only the first ``remaining`` are evaluated and the run stops
-    without telling the search (pycma must not be told a partial population).
-
-    ``progress(n_done)`` is called with the number of evaluations done so far as results arrive (for a
-    progress bar; it never affects the results).
+    ``evaluations[k]`` is evaluation number ``k + 1`` (1-based, as in "found at evaluation 4"), in the order
+    first evaluated; cache hits are not evaluations. ``budget`` counts distinct designs: a design evaluated
+    again because its earlier run stopped at a lower force limit is an extra evaluation (``reevaluated``), so
+    ``len(evaluations)`` is at most ``budget + reevaluated``.
     """
-    if int(budget) != budget or budget < 0:
+
+    method: str
+    seed: int
+    budget: int
+    label: str  # what the run searched for (the diagonal rule, a variation of the case)
+    evaluations: tuple[Evaluation, ...]
+    best_order: Order | None
+    best_value: float | None  # None when no evaluation gave a value
+    best_index: int | None  # 1-based index of the best evaluation
+    failed: int
+    censored: int  # stopped early above a limit the search gave (never a value)
+    reevaluated: int
+    distinct: int  # distinct designs evaluated (what the budget bounds)
+    stalled: bool
+    truncated: bool  # the budget ran out inside a batch: its first designs were evaluated, the search not told
+    stop_reason: str
+    wall_seconds: float
+    batches: int
+    cache_hits: int
+    diagnostics: dict[str, Any] = field(default_factory=dict)  # the search's own state() at the end
+
+    @property
+    def n_evaluations(self) -> int:
+        return len(self.evaluations)
+
+    def best_so_far(self) -> list[float | None]:
+        """Best value after each evaluation (None until the first one with a value)."""
+        curve: list[float | None] = []
+        best: float | None = None
+        for evaluation in self.evaluations:
+            if evaluation.ok and (best is None or evaluation.value < best):
+                best = evaluation.value
+            curve.append(best)
+        return curve
+
+
+def _censored_below(evaluation: Evaluation, limit: float | None) -> bool:
+    """Censored at a lower limit than the one now asked (or asked with none): what is known no longer
+    answers the search, so the design is evaluated again."""
+    return evaluation.censored and (limit is None or limit > evaluation.lower_bound)
+
+
+def told_value(evaluation: Evaluation, objectives: int = 1):
+    """What a search is told: the value (a tuple of values for a multi-objective search), Above(limit) for a
+    censored evaluation, None for a failure."""
+    if evaluation.ok:
+        return tuple(evaluation.values) if objectives > 1 else evaluation.value
+    if evaluation.censored:
+        return Above(evaluation.lower_bound)
+    return None
+
+
+def search_space(search) -> DesignSpace:
+    space = getattr(search, "space", None)
+    return space if space is not None else DesignSpace.permutations(search.n)
+
+
+def run_search(search, objective, budget: int, evaluator, *, method_name: str, seed: int, label: str = "",
+               progress: Callable[[int], Any] | None = None, fidelity: str = "search",
+               stall_batches: int = STALL_BATCHES) -> SearchRun:
+    """Drive ``search`` until the budget, its stop, exhaustion of the space or a stall.
+
+    Each batch: dedupe the asked designs, evaluate the ones this run has not seen through the objective and
+    the evaluator, process the results in ask order, tell the search every asked design's value. A design
+    already seen censored is evaluated again when the search asks it with no limit or a higher one (the
+    annealing); that run is not charged to the budget, so the search makes the same asks whether or not the
+    evaluator honours its limits. When the remaining budget is smaller than the batch's new designs, only the
+    first ``remaining`` are evaluated and the run stops without telling the search (pycma must not be told a
+    partial population).
+    """
+    from .objective import as_objective
+
+    if isinstance(budget, bool) or int(budget) != budget or budget < 0:
         raise ValueError(f"budget must be a non-negative integer, got {budget!r}")
     budget = int(budget)
-    objective: Objective = as_objective(objective)
+    objective = as_objective(objective)
     evaluator = as_evaluator(evaluator)
-    run = SearchRun(method=method_name, seed=int(seed), budget=budget)
+    space = search_space(search)
+    objectives = int(getattr(search, "n_objectives", 1) or 1)
     seen: dict[Order, Evaluation] = {}
+    evaluations: list[Evaluation] = []
+    best_order = best_value = best_index = None
+    n_failed = n_censored = n_reevaluated = batches = cache_hits = no_new = 0
+    stalled = truncated = False
     start = time.perf_counter()
-    no_new = 0
-    total_orders = math.factorial(search.n) if search.n <= 12 else None
 
     while True:
         if len(seen) >= budget:
-            run.stop_reason = f"budget of {budget} evaluations used"
+            stop_reason = f"budget of {budget} designs used"
             break
         if search.stop():
-            run.stop_reason = "the search stopped itself"
+            stop_reason = "the search stopped itself"
             break
-        if total_orders is not None and len(seen) >= total_orders:
-            run.stop_reason = f"all {total_orders} orders of 1..{search.n} evaluated"
+        if len(seen) >= space.size:
+            stop_reason = f"every design of the space evaluated ({space.size})"
             break
-
-        asked = [as_order(o) for o in search.ask()]
+        asked = [as_design(o) for o in search.ask()]
         asked_limits = search.limits()
         limit_of = dict(zip(asked, asked_limits)) if asked_limits is not None else {}
         for order in asked:
-            if len(order) != search.n or not is_permutation(order):
-                raise ValueError(f"{method_name}: the search asked {order}, not a permutation of 1..{search.n}")
-        unique = list(dict.fromkeys(asked))  # first occurrence, ask order
+            problem = space.problem(order)
+            if problem is not None:
+                raise ValueError(f"{method_name}: the search asked {list(order)}: {problem}")
+        unique = list(dict.fromkeys(asked))
         fresh = [o for o in unique if o not in seen]
         remaining = budget - len(seen)
         truncated = len(fresh) > remaining
@@ -338,37 +453,52 @@ def run_search(search: Search, objective, budget: int, evaluator, *, method_name
         else:
             new = [o for o in unique if o not in seen
                    or (asked_limits is not None and _censored_below(seen[o], limit_of.get(o)))]
-        run.cache_hits += len(asked) - len(new)
-
-        done = len(run.evaluations)
+        cache_hits += len(asked) - len(new)
+        done = len(evaluations)
         results = objective.evaluate(new, evaluator, fidelity,
                                      progress=None if progress is None else (lambda k, d=done: progress(d + k)),
                                      limits=[limit_of.get(o) for o in new] if limit_of else None)
         for order, evaluation in zip(new, results):
-            run.n_reevaluated += order in seen
+            n_reevaluated += order in seen
             seen[order] = evaluation
-            run.evaluations.append(evaluation)
+            evaluations.append(evaluation)
             if evaluation.censored:
-                run.n_censored += 1
+                n_censored += 1
             elif not evaluation.ok:
-                run.n_failed += 1
-            elif run.best_peak is None or evaluation.peak < run.best_peak:
-                run.best_order, run.best_peak = order, evaluation.peak
-                run.best_index = len(run.evaluations)
-        run.batches += 1
+                n_failed += 1
+            elif best_value is None or evaluation.value < best_value:
+                best_order, best_value, best_index = order, evaluation.value, len(evaluations)
+        batches += 1
         if truncated:
-            run.stop_reason = (f"budget of {budget} evaluations used "
-                               f"(last batch cut to {len(new)} new orders, not told)")
+            stop_reason = (f"budget of {budget} designs used inside a batch: its first {len(new)} new designs were "
+                           "evaluated, the search was not told them")
             break
-        search.tell(asked, [told_value(seen[o]) for o in asked])
-
+        search.tell(asked, [told_value(seen[o], objectives) for o in asked])
         no_new = 0 if fresh else no_new + 1
         if no_new >= stall_batches:
-            run.stalled = True
-            run.stop_reason = (f"stalled: {stall_batches} batches in a row asked only orders "
-                               f"already evaluated ({len(seen)} distinct so far)")
+            stalled = True
+            stop_reason = (f"stalled: {stall_batches} batches in a row asked only designs already evaluated "
+                           f"({len(seen)} distinct so far)")
             break
+    return SearchRun(method=method_name, seed=int(seed), budget=budget, label=label, evaluations=tuple(evaluations),
+                     best_order=best_order, best_value=best_value, best_index=best_index, failed=n_failed,
+                     censored=n_censored, reevaluated=n_reevaluated, distinct=len(seen), stalled=stalled,
+                     truncated=truncated, stop_reason=stop_reason, wall_seconds=time.perf_counter() - start,
+                     batches=batches, cache_hits=cache_hits, diagnostics=_jsonable(search.state()))
 
-    run.wall_seconds = time.perf_counter() - start
-    run.diagnostics = search.state()
-    return run
+
+def _jsonable(value: Any) -> Any:
+    """A search's diagnostics as plain JSON data (tuples as lists, numpy scalars as numbers)."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if hasattr(value, "item"):
+        return value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+__all__ = ["EvaluateDesign", "Evaluator", "EvaluatorState", "SearchRun", "Task", "as_evaluator", "function_key",
+           "run_search", "run_task", "told_value"]

@@ -1,44 +1,66 @@
 """What is minimised: one object, the way pymoo's ``Problem`` is the model handed to ``minimize``.
 
-An objective says what it measures and in which unit, and evaluates orders at two fidelities:
-``SEARCH`` (what the searches rank by: a short horizon at a looser tolerance) and ``FULL`` (what is
-reported: the whole scene at the FMU's default accuracy). The searches, the verification of finalists,
-the local-optimality check and the report all call it, always through the one guarded evaluation path
-(``orchestrator.loop.Evaluator``): an objective turns an order into *tasks* (one FMU run per load case),
-the evaluator runs, caches, journals and guards the tasks, and the objective combines their results.
+An objective says which FMU outputs it minimises (one, or two or three for a Pareto front), under which
+parameters (the diagonal rule, the load...), over which load cases and how they combine, over which design
+space, and at which fidelity:
 
-The sampled and the continuous peak are classes; the diagonal rule, the scene parameters and the load
-cases are values of an instance. A new objective is one class and one line in ``OBJECTIVES``.
+- ``SEARCH``, what the searches rank by: a short horizon (``SEARCH_HORIZON``) at a looser tolerance with the
+  cheapest solver at that accuracy (``SEARCH_SOLVER`` at ``SEARCH_RTOL``; python -m bench.work_precision and
+  python -m bench.horizon_study measure their error against the gaps between good designs), extended to the full
+  horizon for a design whose lattice still touches the plate near its end;
+- ``FULL``, what is reported: the whole scene at the FMU's default accuracy.
+
+An objective turns a design into tasks (one FMU run per load case) that the one evaluator runs, caches and
+journals, and combines their results. The outputs that can be minimised are the FMU's maxima over the run
+(``RUN_MAXIMA``).
 """
 from __future__ import annotations
 
+import atexit
 import itertools
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any, Callable, ClassVar, Sequence
 
-from .simulation import COUNTER_OUTPUTS, ENERGY_OUTPUTS, PEAK_OUTPUTS, LatticeFMU, SimulationError, model_description
-from .types import OK, Evaluation, Order, as_order, censored, failed
+from .design import DesignSpace, as_design
+from .loop import EvaluateDesign, function_key
+from .simulation import LatticeFMU, SimulationError
+from .types import OK, CaseValue, Evaluation, Order, RunOutputs, censored, failed
 
 SEARCH = "search"
 FULL = "full"
 FIDELITIES = (SEARCH, FULL)
 
-# The searches' cheaper fidelity. bench/horizon_study.py over 257 orders: every order leaves the plate for good
-# before 0.74 s, so 1 s gives the 8 s peak; an error of 3e-5 is a fourteenth of the smallest gap between the best
-# ten orders (4.3e-4) and keeps their ranking. bench/solver_work_precision.py over 43 orders against DOP853 at
-# rtol 1e-12: Fine's Runge-Kutta-Nystrom 5(4) pair (bench/method_study.py found it the cheapest of eight
-# methods) at rtol 8e-6 errs by at most 2.3e-5 with 836 right-hand sides, where Tsitouras' 5(4) pair needs 1018
-# at rtol 1e-5 (2.7e-5) and DOP853 1394 (2.3e-5); CPU 1.24 against 1.44 and 1.81 ms per order. At rtol 1e-5
-# the Nystrom pair errs by 3.03e-5, just past the bound. Full fidelity keeps the FMU's default, DOP853.
-SEARCH_HORIZON = 1.0
-SEARCH_RTOL = 8e-6
-SEARCH_SOLVER = "rkn5"
-# A short horizon is trusted only when the lattice left the plate before its last CONTACT_GUARD fraction.
-CONTACT_GUARD = 0.1
+SEARCH_HORIZON = 1.0  # s: every design has left the plate by then (python -m bench.horizon_study)
+SEARCH_RTOL = 8e-6  # its error stays far below the gaps between good designs (python -m bench.work_precision)
+SEARCH_SOLVER = "rkn5"  # the cheapest pair at that accuracy (python -m bench.work_precision)
+CONTACT_GUARD = 0.1  # a short horizon is trusted only when the lattice left the plate before its last tenth
 AGGREGATES = ("worst", "mean")
 
+
+@dataclass(frozen=True)
+class Quantity:
+    """An FMU output that is a maximum over the run, and what it measures."""
+
+    output: str
+    label: str
+    unit: str
+    limits: bool  # a force limit on the sampled peak bounds it from below (the FMU may stop early)
+    short: str = ""  # a few words for a table's row or a chart's axis
+
+
+RUN_MAXIMA = {q.output: q for q in (
+    Quantity("peak_backplate_force", "peak backplate force over the samples every peak_sample_interval "
+             "(the study's sampled peak)", "N", True, "peak backplate force (sampled)"),
+    Quantity("peak_backplate_force_continuous", "peak backplate force over the continuous solution", "N", True,
+             "peak backplate force (continuous)"),
+    Quantity("max_compression", "largest compression of the stack along the load (mean x-displacement of "
+             "column 1 minus that of column C)", "m", False, "largest compression"),
+)}
+ALIASES = {"sampled": "peak_backplate_force", "continuous": "peak_backplate_force_continuous"}
+
+_RUN_OUTPUTS = tuple(f.name for f in fields(RunOutputs) if f.name not in ("horizon", "max_compression"))
 _INSTANCES: dict[str, LatticeFMU] = {}  # one open FMU per file and process
 
 
@@ -57,29 +79,43 @@ def close_instances() -> None:
         instance.close()
 
 
-def search_tolerances(rtol: float) -> dict:
-    """The FMU's settings for a search at rtol: the search solver, atol two decades below rtol (as the
-    horizon study ran them)."""
-    return {"solver": SEARCH_SOLVER, "rtol": rtol, "atol": rtol * 1e-2}
+atexit.register(close_instances)  # a process that used FMU runs directly leaves no extracted FMU behind
 
 
+def output_names(text: str | Sequence[str]) -> tuple[str, ...]:
+    """``"sampled"``, ``"peak_backplate_force,max_compression"`` ... as FMU output names; refuses the rest."""
+    names = [t.strip() for t in (text.split(",") if isinstance(text, str) else text)]
+    result = []
+    for name in names:
+        name = ALIASES.get(name, name)
+        if name not in RUN_MAXIMA:
+            raise ValueError(f"objective {name!r}: allowed values are {', '.join(list(ALIASES) + list(RUN_MAXIMA))} "
+                             "(one, or two or three separated by commas)")
+        result.append(name)
+    if not 1 <= len(result) <= 3 or len(set(result)) != len(result):
+        raise ValueError(f"objective {','.join(names)}: give one output, or two or three different ones")
+    return tuple(result)
+
+
+# ---------------------------------------------------------------------------------------------- one FMU run
 @dataclass(frozen=True)
 class FMURun:
-    """One FMU run of one order: the unit the evaluator schedules, caches and journals.
+    """One FMU run of a design: the evaluation function the evaluator schedules.
 
-    Frozen and made of plain values, so it pickles to any executor and is a cache key. ``output`` is the
-    FMU output that becomes ``Evaluation.peak``; both peaks, the energies and the counters go to
-    ``details`` whichever is optimised. A short horizon is simulated again over ``fallback_horizon`` when a
-    column-C mass still touched the plate in the horizon's last CONTACT_GUARD (details["horizon"] says
-    which was used).
+    Frozen and made of plain values, so it pickles to any executor and its ``key`` names what it computes
+    (the FMU file is identified by its hash in the run's settings, not by where it lies). ``outputs`` are the
+    objective's: the first is ``Evaluation.value``, and all of them ``Evaluation.values`` when there are
+    several. A short horizon is simulated again over ``fallback_horizon`` when a column-C mass still touched
+    the plate in the horizon's last CONTACT_GUARD.
     """
 
     fmu_path: str
     horizon: float
-    parameters: tuple = ()
-    output: str = "peak_backplate_force"
+    parameters: tuple[tuple[str, Any], ...] = ()
+    outputs: tuple[str, ...] = ("peak_backplate_force",)
     fallback_horizon: float | None = None
-    force_limit: float | None = None  # N: stop once the sampled peak passes it (a censored evaluation)
+    force_limit: float | None = None  # stop once the sampled peak passes it (a censored evaluation)
+    compression: bool = False  # whether the FMU has max_compression
 
     def __post_init__(self):
         if not (math.isfinite(self.horizon) and self.horizon > 0):
@@ -87,64 +123,111 @@ class FMURun:
 
     @property
     def key(self) -> str:
-        """A stable text key for the journal (the FMU file is fingerprinted by the run, not here)."""
-        return (f"{self.output}|{self.horizon!r}|{self.fallback_horizon!r}|"
+        return (f"{','.join(self.outputs)}|{self.horizon!r}|{self.fallback_horizon!r}|"
                 + ",".join(f"{k}={v!r}" for k, v in self.parameters)
                 + ("" if self.force_limit is None else f"|limit={self.force_limit!r}"))
 
     def with_limit(self, limit: float | None) -> "FMURun":
         return replace(self, force_limit=None if limit is None else float(limit))
 
-    def simulate(self, order: Order, horizon: float) -> dict:
+    def _simulate(self, order: Order, horizon: float) -> dict:
         parameters = dict(self.parameters)
         if self.force_limit is not None:
             parameters["peak_force_limit"] = self.force_limit
-        return fmu_instance(self.fmu_path).simulate(
-            order, horizon=horizon, parameters=parameters,
-            outputs=PEAK_OUTPUTS + ENERGY_OUTPUTS + COUNTER_OUTPUTS + ("last_contact_time",))
+        names = _RUN_OUTPUTS + (("max_compression",) if self.compression else ())
+        return fmu_instance(self.fmu_path).simulate(order, horizon=horizon, parameters=parameters, outputs=names)
 
     def __call__(self, order: Order) -> Evaluation:
         start = time.perf_counter()
         horizon = self.horizon
         try:
-            result = self.simulate(order, horizon)
+            result = self._simulate(order, horizon)
             if result.get("censored"):
                 return censored(order, self.force_limit, result.get("censored_at"), time.perf_counter() - start,
-                                {"rhs_evaluations": result.get("rhs_evaluations"), "horizon": horizon})
+                                work=int(result["rhs_evaluations"]))
+            work = 0
             if self.fallback_horizon and result["last_contact_time"] >= (1.0 - CONTACT_GUARD) * horizon:
                 horizon = max(self.fallback_horizon, horizon)
-                result = self.simulate(order, horizon)
+                work = int(result["rhs_evaluations"])
+                result = self._simulate(order, horizon)
         except (SimulationError, ValueError) as exc:
             return failed(order, str(exc), time.perf_counter() - start)
-        details = {
-            "peak_sampled": result["peak_backplate_force"],
-            "peak_continuous": result["peak_backplate_force_continuous"],
-            "peak_time": result["peak_time"],
-            "last_contact_time": result["last_contact_time"],
-            "energy_balance_error": result["energy_balance_error"],
-            "external_work": result["external_work"],
-            "dissipated_energy": result["dissipated_energy"],
-            "nonreciprocal_work": result["nonreciprocal_work"],
-            "rhs_evaluations": result["rhs_evaluations"],
-            "horizon": horizon,
-        }
-        return Evaluation(as_order(order), float(result[self.output]), OK, "", time.perf_counter() - start,
-                          details)
+        outputs = RunOutputs(**{name: result[name] for name in _RUN_OUTPUTS}, horizon=horizon,
+                             max_compression=result.get("max_compression"))
+        values = tuple(float(result[name]) for name in self.outputs)
+        return Evaluation(as_design(order), values[0], OK, "", time.perf_counter() - start, outputs,
+                          values if len(values) > 1 else (), work=work + int(result["rhs_evaluations"]))
 
 
+@dataclass(frozen=True)
+class Trajectory:
+    """Outputs of one run at every communication point (a chart's data)."""
+
+    kind: ClassVar[str] = "trajectory"
+    order: Order
+    status: str
+    message: str
+    time: tuple[float, ...]
+    values: dict[str, tuple[float, ...]]
+    seconds: float
+
+    @property
+    def ok(self) -> bool:
+        return self.status == OK
+
+
+@dataclass(frozen=True)
+class RecordRun:
+    """One FMU run that records ``outputs`` every ``step`` seconds: a task of the evaluator."""
+
+    fmu_path: str
+    order: Order
+    horizon: float
+    step: float
+    parameters: tuple[tuple[str, Any], ...]
+    outputs: tuple[str, ...]
+
+    @property
+    def key(self) -> str:
+        return (f"record|{','.join(self.outputs)}|{self.horizon!r}|{self.step!r}|"
+                + ",".join(f"{k}={v!r}" for k, v in self.parameters) + "#" + ",".join(map(str, self.order)))
+
+    def __call__(self) -> Trajectory:
+        start = time.perf_counter()
+        try:
+            result = fmu_instance(self.fmu_path).simulate(self.order, horizon=self.horizon,
+                                                          parameters=dict(self.parameters),
+                                                          communication_step=self.step, record=self.outputs)
+        except (SimulationError, ValueError) as exc:
+            return self.failure(str(exc), time.perf_counter() - start)
+        trajectory = result["trajectory"]
+        return Trajectory(self.order, OK, "", tuple(float(t) for t in trajectory.time),
+                          {name: tuple(float(v) for v in trajectory.values[name]) for name in self.outputs},
+                          time.perf_counter() - start)
+
+    def failure(self, message: str, seconds: float) -> Trajectory:
+        return Trajectory(self.order, "failed", message, (), {}, seconds)
+
+    def keep(self, result: Trajectory) -> bool:
+        return True
+
+
+# ---------------------------------------------------------------------------------------------- objectives
 class Objective:
     """The interface every objective offers (pymoo's Problem: the model, not the algorithm).
 
-    ``tasks(fidelity)`` are picklable callables ``order -> Evaluation``, one per load case;
-    ``combine(order, evaluations)`` makes the order's value from them. ``evaluate`` is the convenience
-    that runs both through an evaluator.
+    ``tasks(fidelity)`` are picklable functions ``design -> Evaluation``, one per load case;
+    ``combine(design, evaluations)`` makes the design's value from them; ``evaluate`` runs both through an
+    evaluator.
     """
 
-    name: ClassVar[str] = "objective"
-    quantity: ClassVar[str] = "value"
-    unit: ClassVar[str] = ""
-    n_var: int
+    space: DesignSpace
+    n_objectives: int = 1
     supports_limits = False  # can an evaluation stop early once its value passes a limit?
+
+    @property
+    def n_var(self) -> int:
+        return self.space.columns
 
     def tasks(self, fidelity: str) -> list[Callable[[Order], Evaluation]]:
         raise NotImplementedError
@@ -152,186 +235,200 @@ class Objective:
     def combine(self, order: Order, evaluations: Sequence[Evaluation]) -> Evaluation:
         return evaluations[0]
 
-    def describe(self) -> dict:
-        return {"name": self.name, "quantity": self.quantity, "unit": self.unit}
-
     def evaluate(self, orders: Sequence[Sequence[int]], evaluator, fidelity: str = SEARCH,
                  progress: Callable[[int], Any] | None = None,
                  limits: Sequence[float | None] | None = None) -> list[Evaluation]:
-        """Every order's value at ``fidelity``, through ``evaluator`` (failures stay failures).
+        """Every design's evaluation at ``fidelity`` through ``evaluator`` (failures stay failures).
 
-        ``limits``: per order, a value above which only "above" matters (a search fidelity only, and only
-        where ``supports_limits``): such an evaluation may come back censored. An exact value already in
-        the evaluator's cache is always preferred to a censored one."""
+        ``limits``: per design, a value above which only "above" matters (the search fidelity, and only where
+        ``supports_limits``): such an evaluation may come back censored. An exact value already in the
+        evaluator's cache is always preferred to a censored one."""
         if fidelity not in FIDELITIES:
             raise ValueError(f"fidelity {fidelity!r}: allowed values are {', '.join(FIDELITIES)}")
-        orders = [as_order(o) for o in orders]
+        orders = [as_design(o) for o in orders]
         tasks = self.tasks(fidelity)
-        per_order = len(tasks)
+        per_design = len(tasks)
         use_limits = limits is not None and self.supports_limits and fidelity == SEARCH
         items = []
         for index, order in enumerate(orders):
             limit = limits[index] if use_limits else None
             for task in tasks:
-                if limit is not None and math.isfinite(limit) and evaluator.cached(task, order) is None:
-                    items.append((task.with_limit(limit), order))
+                exact = EvaluateDesign(task, order)
+                if limit is not None and math.isfinite(limit) and evaluator.cached(exact) is None:
+                    items.append(EvaluateDesign(task.with_limit(limit), order))
                 else:
-                    items.append((task, order))
+                    items.append(exact)
         reported = [0]
 
-        def ticks(done_tasks: int) -> None:  # progress in orders, not in FMU runs
-            if done_tasks // per_order > reported[0]:
-                reported[0] = done_tasks // per_order
+        def ticks(done_tasks: int) -> None:  # progress in designs, not in FMU runs
+            if done_tasks // per_design > reported[0]:
+                reported[0] = done_tasks // per_design
                 progress(reported[0])
         results = evaluator.run(items, progress=ticks if progress is not None else None)
-        return [self.combine(order, results[i * per_order:(i + 1) * per_order]) for i, order in enumerate(orders)]
+        return [self.combine(order, results[i * per_design:(i + 1) * per_design]) for i, order in enumerate(orders)]
 
 
 class CallableObjective(Objective):
-    """Any ``order -> Evaluation | float`` callable as an objective, the same at both fidelities.
+    """Any ``design -> Evaluation | float`` function as an objective, the same at both fidelities: cheap
+    problems with known optima test the searches and the loop through the same path as the FMU."""
 
-    Why: the cheap problems with known optima (``search/problems.py``) test the searches and the loop in
-    milliseconds through the same path as the FMU.
-    """
-
-    name = "callable"
-
-    def __init__(self, function: Callable[[Order], Any], n_var: int | None = None):
+    def __init__(self, function: Callable[[Order], Any], n_var: int | None = None, space: DesignSpace | None = None):
         self.function = function
-        self.n_var = n_var if n_var is not None else getattr(function, "n", 0)
+        self.space = space or getattr(function, "space", None) or DesignSpace.permutations(
+            n_var if n_var is not None else getattr(function, "n", 1))
+        self.n_objectives = int(getattr(function, "n_objectives", 1))
 
     def tasks(self, fidelity: str) -> list[Callable[[Order], Evaluation]]:
         return [self.function]
 
-    def describe(self) -> dict:
-        return {"name": self.name, "function": type(self.function).__name__}
+    @property
+    def key(self) -> str:
+        return function_key(self.function)
 
 
 def as_objective(objective: Any) -> Objective:
     return objective if isinstance(objective, Objective) else CallableObjective(objective)
 
 
-class PeakObjective(Objective):
-    """A peak backplate force of the lattice FMU over one or more load cases.
+@dataclass(frozen=True)
+class ObjectiveDescription:
+    """What an objective minimises, for results.json and the report."""
 
-    ``parameters``: FMU parameters of every run (F_total, diagonal_rule, ...). ``cases``: a list of
-    parameter dicts, each one FMU run per order on top of ``parameters``; the order's value is their
-    ``aggregate`` (``worst``: the largest peak; ``mean``). ``horizon``: the full scene's; the search
-    fidelity runs ``search_horizon`` at ``search_rtol`` (None: the full horizon, the FMU's tolerance).
+    outputs: tuple[str, ...]
+    labels: tuple[str, ...]
+    short_labels: tuple[str, ...]
+    units: tuple[str, ...]
+    diagonal_rule: str
+    parameters: dict[str, Any]
+    cases: tuple[dict[str, Any], ...]
+    aggregate: str | None
+    horizon: float
+    search_horizon: float
+    search_rtol: float | None
+    search_solver: str
+
+
+class LatticeObjective(Objective):
+    """FMU outputs of the lattice over one or more load cases.
+
+    ``parameters``: FMU parameters of every run (diagonal_rule, F_total, ...). ``cases``: parameter dicts,
+    each one FMU run per design on top of ``parameters``; a design's value is their ``aggregate`` (``worst``:
+    the largest; ``mean``), output by output. ``horizon``: the full scene's; the search fidelity runs
+    ``search_horizon`` at ``search_rtol`` (None: the full horizon at the FMU's tolerance).
     """
 
-    output: ClassVar[str] = "peak_backplate_force"
-    unit = "N"
-
-    def __init__(self, fmu_path, n_var: int, horizon: float, parameters: dict | None = None,
-                 cases: Sequence[dict] | None = None, aggregate: str = "worst",
+    def __init__(self, fmu_path, space: DesignSpace, horizon: float, outputs: Sequence[str] = ("peak_backplate_force",),
+                 parameters: dict | None = None, cases: Sequence[dict] | None = None, aggregate: str = "worst",
                  search_horizon: float | None = SEARCH_HORIZON, search_rtol: float | None = SEARCH_RTOL,
-                 use_limits: bool = True):
+                 use_limits: bool = True, has_force_limit: bool = True, has_compression: bool = False,
+                 default_rule: str = ""):
         if aggregate not in AGGREGATES:
             raise ValueError(f"aggregate {aggregate!r}: allowed values are {', '.join(AGGREGATES)}")
         if not (math.isfinite(horizon) and horizon > 0):
             raise ValueError(f"horizon must be a finite number of seconds > 0, got {horizon}")
         self.fmu_path = str(fmu_path)
-        self.n_var = int(n_var)
+        self.space = space
         self.horizon = float(horizon)
+        self.outputs = output_names(outputs)
+        if "max_compression" in self.outputs and not has_compression:
+            raise ValueError("objective max_compression: this FMU has no max_compression output (rebuild it)")
+        self.n_objectives = len(self.outputs)
         self.parameters = {k: v for k, v in (parameters or {}).items() if v is not None}
         self.cases = [dict(case) for case in (cases or [{}])] or [{}]
         self.aggregate = aggregate
         self.search_horizon = min(search_horizon or self.horizon, self.horizon)
         self.search_rtol = search_rtol
-        self.use_limits = use_limits  # False: every evaluation runs to the end (bench/force_limit_search.py)
+        self.use_limits = use_limits
+        self.has_force_limit = has_force_limit
+        self.has_compression = has_compression
+        self.default_rule = default_rule
+
+    def _copy(self, **changes) -> "LatticeObjective":
+        arguments = dict(fmu_path=self.fmu_path, space=self.space, horizon=self.horizon, outputs=self.outputs,
+                         parameters=self.parameters, cases=self.cases, aggregate=self.aggregate,
+                         search_horizon=self.search_horizon, search_rtol=self.search_rtol,
+                         use_limits=self.use_limits, has_force_limit=self.has_force_limit,
+                         has_compression=self.has_compression, default_rule=self.default_rule)
+        arguments.update(changes)
+        return LatticeObjective(**arguments)
 
     @property
     def supports_limits(self) -> bool:
-        """A limit on the sampled peak bounds this objective (the continuous peak is at least the sampled
-        one; the worst case is at least each case) when the FMU has ``peak_force_limit``."""
-        if not self.use_limits or (self.aggregate != "worst" and len(self.cases) > 1):
-            return False
-        if not hasattr(self, "_fmu_has_limit"):
-            names = {v.name for v in model_description(self.fmu_path).modelVariables}
-            self._fmu_has_limit = "peak_force_limit" in names
-        return self._fmu_has_limit
+        """A limit on the sampled peak bounds a single peak objective from below (the continuous peak is at least
+        the sampled one, the worst case at least each case) when the FMU has ``peak_force_limit``."""
+        return (self.use_limits and self.has_force_limit and self.n_objectives == 1
+                and RUN_MAXIMA[self.outputs[0]].limits and (self.aggregate == "worst" or len(self.cases) == 1))
 
-    def with_parameters(self, **parameters) -> "PeakObjective":
+    @property
+    def diagonal_rule(self) -> str:
+        """The rule the runs use (the FMU's default unless set; "" for an FMU without diagonal rules)."""
+        return str(self.parameters.get("diagonal_rule", self.default_rule))
+
+    @property
+    def unit(self) -> str:
+        return RUN_MAXIMA[self.outputs[0]].unit
+
+    def with_parameters(self, **parameters) -> "LatticeObjective":
         """The same objective with some FMU parameters changed (the other diagonal rule, another load)."""
-        return type(self)(self.fmu_path, self.n_var, self.horizon, {**self.parameters, **parameters},
-                          self.cases, self.aggregate, self.search_horizon, self.search_rtol, self.use_limits)
+        return self._copy(parameters={**self.parameters, **parameters})
 
-    def with_cases(self, cases: Sequence[dict] | None, aggregate: str = "worst") -> "PeakObjective":
-        return type(self)(self.fmu_path, self.n_var, self.horizon, self.parameters, cases, aggregate,
-                          self.search_horizon, self.search_rtol, self.use_limits)
+    def with_cases(self, cases: Sequence[dict] | None, aggregate: str = "worst") -> "LatticeObjective":
+        return self._copy(cases=cases, aggregate=aggregate)
 
-    def case_parameters(self, case: dict) -> dict:
-        return {**self.parameters, **case}
+    def with_outputs(self, outputs: Sequence[str]) -> "LatticeObjective":
+        return self._copy(outputs=outputs)
+
+    def run_parameters(self, case: dict, fidelity: str) -> dict:
+        """The FMU parameters of one case's run at ``fidelity``."""
+        parameters = {**self.parameters, **case}
+        if fidelity == SEARCH and self.search_rtol is not None:  # what the user set stays theirs
+            parameters = {"solver": SEARCH_SOLVER, "rtol": self.search_rtol, "atol": self.search_rtol * 1e-2,
+                          **parameters}
+        return parameters
 
     def tasks(self, fidelity: str) -> list[FMURun]:
         runs = []
         for case in self.cases:
-            parameters = self.case_parameters(case)
+            parameters = tuple(sorted(self.run_parameters(case, fidelity).items()))
             if fidelity == SEARCH:
-                if self.search_rtol is not None:  # what the user set (a solver, a tolerance) stays theirs
-                    parameters = {**search_tolerances(self.search_rtol), **parameters}
-                runs.append(FMURun(self.fmu_path, self.search_horizon, tuple(sorted(parameters.items())),
-                                   self.output, fallback_horizon=self.horizon))
+                runs.append(FMURun(self.fmu_path, self.search_horizon, parameters, self.outputs,
+                                   fallback_horizon=self.horizon, compression=self.has_compression))
             else:
-                runs.append(FMURun(self.fmu_path, self.horizon, tuple(sorted(parameters.items())), self.output))
+                runs.append(FMURun(self.fmu_path, self.horizon, parameters, self.outputs,
+                                   compression=self.has_compression))
         return runs
 
     def combine(self, order: Order, evaluations: Sequence[Evaluation]) -> Evaluation:
         if len(self.cases) == 1:
             return evaluations[0]
         seconds = sum(e.seconds for e in evaluations)
-        cases = [{"parameters": case, "peak": e.peak, "status": e.status, **({"message": e.message} if not e.ok else {})}
-                 for case, e in zip(self.cases, evaluations)]
+        cases = tuple(CaseValue(case, e.value, e.status, "" if e.ok else e.message)
+                      for case, e in zip(self.cases, evaluations))
         bad = next((e for e in evaluations if not e.ok and not e.censored), None)
         if bad is not None:
             case = self.cases[evaluations.index(bad)]
-            return replace(failed(order, f"case {case}: {bad.message}", seconds), details={"cases": cases})
+            return failed(order, f"case {case}: {bad.message}", seconds, cases=cases)
         above = next((e for e in evaluations if e.censored), None)
         if above is not None:  # one case above the limit: the worst of the cases is above it too
-            return censored(order, above.lower_bound, above.details.get("censored_at"), seconds, {"cases": cases})
-        peaks = [e.peak for e in evaluations]
-        value = max(peaks) if self.aggregate == "worst" else sum(peaks) / len(peaks)
-        worst = evaluations[peaks.index(max(peaks))]
-        details = {**worst.details, "cases": cases, "aggregate": self.aggregate}
-        return Evaluation(as_order(order), float(value), OK, "", seconds, details)
+            return censored(order, above.lower_bound, above.stopped_at, seconds, cases=cases)
+        columns = [e.values or (e.value,) for e in evaluations]
+        if self.aggregate == "worst":
+            values = tuple(max(column[i] for column in columns) for i in range(self.n_objectives))
+        else:
+            values = tuple(sum(column[i] for column in columns) / len(columns) for i in range(self.n_objectives))
+        worst = max(evaluations, key=lambda e: e.value)
+        work = sum(e.work or 0 for e in evaluations)
+        return Evaluation(as_design(order), values[0], OK, "", seconds, worst.outputs,
+                          values if self.n_objectives > 1 else (), cases=cases, work=work)
 
-    def describe(self) -> dict:
-        return {"name": self.name, "quantity": self.quantity, "unit": self.unit, "output": self.output,
-                "diagonal_rule": self.parameters.get("diagonal_rule", "receiver"),
-                "parameters": dict(self.parameters), "cases": self.cases if self.cases != [{}] else [],
-                "aggregate": self.aggregate if self.cases != [{}] else None, "horizon": self.horizon,
-                "search_horizon": self.search_horizon, "search_rtol": self.search_rtol}
-
-
-class SampledPeak(PeakObjective):
-    """The study's objective: the largest of the backplate force's samples every peak_sample_interval."""
-
-    name = "sampled"
-    quantity = "peak backplate force over 0.01 s samples (reproduces the study)"
-    output = "peak_backplate_force"
-
-
-class ContinuousPeak(PeakObjective):
-    """The true maximum of the backplate force over the continuous solution."""
-
-    name = "continuous"
-    quantity = "peak backplate force over the continuous solution"
-    output = "peak_backplate_force_continuous"
-
-
-OBJECTIVES: dict[str, type[PeakObjective]] = {
-    "sampled": SampledPeak,
-    "continuous": ContinuousPeak,
-}
-
-
-def make_objective(name: str, *args, **kwargs) -> PeakObjective:
-    try:
-        cls = OBJECTIVES[name]
-    except KeyError:
-        raise ValueError(f"objective {name!r}: allowed values are {', '.join(OBJECTIVES)}") from None
-    return cls(*args, **kwargs)
+    def describe(self) -> ObjectiveDescription:
+        return ObjectiveDescription(
+            outputs=self.outputs, labels=tuple(RUN_MAXIMA[o].label for o in self.outputs),
+            short_labels=tuple(RUN_MAXIMA[o].short for o in self.outputs),
+            units=tuple(RUN_MAXIMA[o].unit for o in self.outputs), diagonal_rule=self.diagonal_rule,
+            parameters=dict(self.parameters), cases=tuple(self.cases) if self.cases != [{}] else (),
+            aggregate=self.aggregate if self.cases != [{}] else None, horizon=self.horizon,
+            search_horizon=self.search_horizon, search_rtol=self.search_rtol, search_solver=SEARCH_SOLVER)
 
 
 def expand_cases(case_lists: dict[str, Sequence[Any]]) -> list[dict]:
@@ -341,3 +438,12 @@ def expand_cases(case_lists: dict[str, Sequence[Any]]) -> list[dict]:
     names = list(case_lists)
     return [dict(zip(names, values)) for values in itertools.product(*(case_lists[n] for n in names))]
 
+
+def count_cases(case_lists: dict[str, Sequence[Any]]) -> int:
+    return math.prod(len(v) for v in case_lists.values()) if case_lists else 1
+
+
+__all__ = ["AGGREGATES", "ALIASES", "CONTACT_GUARD", "CallableObjective", "FIDELITIES", "FMURun", "FULL",
+           "LatticeObjective", "Objective", "ObjectiveDescription", "Quantity", "RUN_MAXIMA", "RecordRun", "SEARCH",
+           "SEARCH_HORIZON", "SEARCH_RTOL", "SEARCH_SOLVER", "as_objective", "close_instances", "count_cases",
+           "expand_cases", "fmu_instance", "output_names", "Trajectory"]

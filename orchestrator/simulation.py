@@ -27,8 +27,6 @@ PEAK_OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "peak
 ENERGY_OUTPUTS = ("kinetic_energy", "potential_energy", "external_work", "dissipated_energy",
                   "nonreciprocal_work", "energy_balance_error")
 COUNTER_OUTPUTS = ("rhs_evaluations", "steps_accepted", "steps_rejected")
-DIAGONAL_RULES = {"receiver": 0, "mean": 1}
-SOLVERS = {"dop853": 0, "rk4": 1, "semi_implicit_euler": 2, "tsit5": 3, "dopri5": 4, "rkn5": 5}
 
 
 # FMU log messages, routed by instance name to the LatticeFMU that owns the instance. fmpy's logger proxy
@@ -125,10 +123,19 @@ class LatticeFMU:
         self._messages: list[str] = []
         self._name = f"{instance_name}-{next(_INSTANCE_NUMBERS)}"  # unique: the log is routed by name
         _MESSAGES[self._name] = self._messages
-        self._slave = FMU2Slave(guid=self.model_description.guid, unzipDirectory=self._unzip_dir,
-                                modelIdentifier=self.model_description.coSimulation.modelIdentifier,
-                                instanceName=self._name)
-        self._slave.instantiate(callbacks=_CALLBACKS, loggingOn=True)  # pythonfmu logs nothing without it
+        self._slave = None
+        try:
+            self._slave = FMU2Slave(guid=self.model_description.guid, unzipDirectory=self._unzip_dir,
+                                    modelIdentifier=self.model_description.coSimulation.modelIdentifier,
+                                    instanceName=self._name)
+            self._slave.instantiate(callbacks=_CALLBACKS, loggingOn=True)  # pythonfmu logs nothing without it
+        except Exception as exc:  # noqa: BLE001 - the FMU's own reason, in one line
+            reason = "; ".join(self._messages) or str(exc) or type(exc).__name__
+            _MESSAGES.pop(self._name, None)
+            shutil.rmtree(self._unzip_dir, ignore_errors=True)
+            raise SimulationError(f"{self.fmu_path.name} cannot be instantiated: {reason}") from None
+        self._enumerations = {name: items for name in self.variables
+                              if (items := enumeration_items(self.model_description, name))}
         self._api = _DirectCalls(self._slave)
         self._setters: dict[tuple, _Setter] = {}
         self._readers: dict[tuple, _Reader] = {}
@@ -201,10 +208,9 @@ class LatticeFMU:
             if len(order) != self.columns:
                 raise ValueError(f"order: expected {self.columns} materials (a permutation of "
                                  f"1..{self.columns}), got {len(order)}")
-        for name in ("diagonal_rule", "solver"):
-            if isinstance(parameters.get(name), str):
-                parameters[name] = _choice(name, parameters[name], DIAGONAL_RULES if name == "diagonal_rule"
-                                           else SOLVERS)
+        for name, value in parameters.items():
+            if isinstance(value, str):
+                parameters[name] = _choice(name, value, self._enumerations.get(name, {}))
         setter = self._setter(order is not None, tuple(parameters))
         reader = self._reader(tuple(outputs))
         stopped_at = None
@@ -370,7 +376,9 @@ def _choice(name: str, value: str, allowed: dict) -> int:
     try:
         return allowed[value]
     except KeyError:
-        raise ValueError(f"{name}={value!r}: allowed values are {sorted(allowed)}") from None
+        if not allowed:
+            raise ValueError(f"{name}={value!r}: {name} takes a number, not a name") from None
+        raise ValueError(f"{name}={value!r}: allowed values are {', '.join(allowed)}") from None
 
 
 def _int32(name: str, value) -> int:

@@ -1,43 +1,80 @@
-"""The few types every layer shares: an order, an evaluation, and the safe call.
+"""The few types every layer shares: an evaluation and its parts, and the guards that keep them honest.
 
-An *objective* is any picklable callable ``objective(order) -> Evaluation``.
-It runs wherever the executor puts it (this process, a process pool, a Dask
-worker), so it must be defined at module top level (or be an instance of a
-top-level class).  The search layer never sees what is behind it.
+An evaluation is what one design is worth under an objective: its value (the objective's number), the FMU's
+outputs that explain it, or why there is no number (failed) or only a bound (censored). A failure is never a
+number, so it can never be mistaken for a good or a bad value.
 """
 from __future__ import annotations
 
 import math
 import numbers
 import time
-from dataclasses import dataclass, field, replace
-from typing import Any, Callable
+from dataclasses import dataclass, replace
+from typing import Any, Callable, ClassVar
 
-Order = tuple[int, ...]
-"""Material number per column, a permutation of 1..n."""
+from .design import Design, as_design
+
+Order = Design
+"""Material number per column (kept as the study's word: a material order)."""
 
 OK = "ok"
 FAILED = "failed"
-CENSORED = "censored"  # the run stopped once the peak passed a limit: known only to be above it
+CENSORED = "censored"  # the run stopped once the value passed a limit: known only to be above it
+STATUSES = (OK, FAILED, CENSORED)
+
+
+@dataclass(frozen=True)
+class RunOutputs:
+    """The FMU's outputs at the end of one run (for several load cases: the run that gave the value)."""
+
+    peak_backplate_force: float  # N, the largest of the samples every peak_sample_interval (the study's)
+    peak_backplate_force_continuous: float  # N, over the continuous solution
+    peak_time: float  # s, time of the continuous peak
+    last_contact_time: float  # s, when a column-C mass last touched the backplate
+    kinetic_energy: float
+    potential_energy: float
+    external_work: float
+    dissipated_energy: float
+    nonreciprocal_work: float
+    energy_balance_error: float
+    rhs_evaluations: int
+    steps_accepted: int
+    steps_rejected: int
+    horizon: float  # s simulated (a short horizon is extended while the lattice still touches the plate)
+    max_compression: float | None = None  # m; None for an FMU without that output
+
+
+@dataclass(frozen=True)
+class CaseValue:
+    """One load case of a design's evaluation: its parameters and its value."""
+
+    parameters: dict[str, Any]
+    value: float | None
+    status: str
+    message: str = ""
 
 
 @dataclass(frozen=True)
 class Evaluation:
-    """The outcome of one objective call.
+    """One design under one objective.
 
-    ``peak`` is ``None`` exactly when ``status`` is not ``"ok"``: a failure is never
-    a number, so it can never be mistaken for a good (or bad) value.  A
-    ``"censored"`` evaluation stopped early at a force limit: its peak is only
-    known to be above ``details["censored_above"]`` (reached at
-    ``details["censored_at"]`` s), and it is never reported as a peak.
+    ``value`` is None exactly when ``status`` is not ``ok``. A ``censored`` evaluation stopped early at a
+    limit: its value is only known to be above ``limit`` (reached at ``stopped_at`` s). ``values`` holds each
+    objective output when the objective has several (the Pareto front); ``cases`` each load case's value.
     """
 
     order: Order
-    peak: float | None          # objective value; None when the evaluation failed
-    status: str                 # "ok" or "failed"
-    message: str = ""           # why it failed
-    seconds: float = 0.0        # wall time of the simulation
-    details: dict = field(default_factory=dict)  # e.g. {"peak_sampled":..., "peak_continuous":...}
+    value: float | None
+    status: str
+    message: str = ""
+    seconds: float = 0.0  # the evaluation's own run time (never queue time)
+    outputs: RunOutputs | None = None
+    values: tuple[float, ...] = ()
+    limit: float | None = None
+    stopped_at: float | None = None
+    cases: tuple[CaseValue, ...] = ()
+    work: int | None = None  # right-hand sides the FMU evaluated (a censored run's too): what it cost
+    kind: ClassVar[str] = "evaluation"  # what the journal calls this result
 
     @property
     def ok(self) -> bool:
@@ -49,8 +86,8 @@ class Evaluation:
 
     @property
     def lower_bound(self) -> float | None:
-        """For a censored evaluation, the limit its peak is above."""
-        return self.details.get("censored_above") if self.censored else None
+        """For a censored evaluation, the limit its value is above."""
+        return self.limit if self.censored else None
 
 
 @dataclass(frozen=True)
@@ -60,81 +97,69 @@ class Above:
     limit: float
 
 
-def as_order(order: Any) -> Order:
-    """Normalise any sequence of integers (numpy included) to a tuple of ints."""
-    return tuple(int(x) for x in order)
+def failed(order: Any, message: str, seconds: float = 0.0, **fields: Any) -> Evaluation:
+    """A failed evaluation (value None)."""
+    return Evaluation(as_design(order), None, FAILED, str(message), float(seconds), **fields)
 
 
-def is_permutation(order: Order) -> bool:
-    return sorted(order) == list(range(1, len(order) + 1))
-
-
-def failed(order: Any, message: str, seconds: float = 0.0, details: dict | None = None) -> Evaluation:
-    """A failed evaluation (peak None)."""
-    return Evaluation(as_order(order), None, FAILED, str(message), float(seconds), dict(details or {}))
-
-
-def censored(order: Any, limit: float, reached_at: float | None, seconds: float = 0.0,
-             details: dict | None = None) -> Evaluation:
-    """An evaluation stopped once its peak passed ``limit`` (at ``reached_at`` s)."""
-    return Evaluation(as_order(order), None, CENSORED, f"peak above {limit:g}, reached at t = {reached_at}",
-                      float(seconds), {**(details or {}), "censored_above": float(limit), "censored_at": reached_at})
+def censored(order: Any, limit: float, stopped_at: float | None, seconds: float = 0.0, **fields: Any) -> Evaluation:
+    """An evaluation stopped once its value passed ``limit`` (at ``stopped_at`` s)."""
+    at = "" if stopped_at is None else f", reached at t = {stopped_at:.6g} s"
+    return Evaluation(as_design(order), None, CENSORED, f"value above {limit:g}{at}", float(seconds),
+                      limit=float(limit), stopped_at=stopped_at, **fields)
 
 
 def check_evaluation(result: Any, order: Any) -> Evaluation:
-    """Guard: make whatever an objective returned into a trustworthy Evaluation.
+    """Make whatever an objective returned into a trustworthy Evaluation.
 
-    Why: a NaN or an infinity compares in surprising ways and would silently
-    become the "best" or poison a ranking, so every non-finite peak becomes a
-    failure.  Also accepted for convenience: a plain real number (wrapped as ok).
-    A failed evaluation always has ``peak=None``; an evaluation for another
-    order than the one asked is a bug in the objective and becomes a failure.
+    A NaN or an infinity compares in surprising ways and would silently become the "best" or poison a
+    ranking, so every non-finite value becomes a failure; an evaluation for another design than the one
+    asked is a bug in the objective and becomes a failure. A plain real number is accepted as an ok value.
     """
-    order = as_order(order)
+    order = as_design(order)
     if isinstance(result, numbers.Real) and not isinstance(result, bool):
         result = Evaluation(order, float(result), OK)
     if not isinstance(result, Evaluation):
         return failed(order, f"objective returned {type(result).__name__}, not an Evaluation")
-    if as_order(result.order) != order:
-        return failed(order, f"objective returned an evaluation for order {result.order}, asked {order}",
-                      result.seconds, result.details)
+    if as_design(result.order) != order:
+        return failed(order, f"objective returned an evaluation for {list(result.order)}, asked {list(order)}",
+                      result.seconds)
+    if result.status not in STATUSES:
+        return failed(order, f"unknown status {result.status!r}: {result.message}", result.seconds)
     if result.status == FAILED:
-        if result.peak is not None or result.order != order:
-            return replace(result, order=order, peak=None)
-        return result
+        return result if result.value is None and result.order == order else replace(result, order=order, value=None)
     if result.status == CENSORED:
-        limit = result.details.get("censored_above")
+        limit = result.limit
         if not isinstance(limit, (int, float)) or isinstance(limit, bool) or not math.isfinite(limit):
-            return failed(order, f"censored evaluation without a finite limit: {limit!r}", result.seconds,
-                          result.details)
-        return replace(result, order=order, peak=None) if result.peak is not None or result.order != order else result
-    if result.status != OK:
-        return failed(order, f"unknown status {result.status!r}: {result.message}", result.seconds, result.details)
-    peak = result.peak
+            return failed(order, f"censored evaluation without a finite limit: {limit!r}", result.seconds)
+        return result if result.value is None and result.order == order else replace(result, order=order, value=None)
     try:
-        value = float(peak)  # type: ignore[arg-type]
+        value = float(result.value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
-        return failed(order, f"peak is not a number: {peak!r}", result.seconds, result.details)
+        return failed(order, f"value is not a number: {result.value!r}", result.seconds)
     if not math.isfinite(value):
-        return failed(order, f"non-finite peak: {value}", result.seconds, result.details)
-    if value != peak or type(peak) is not float or result.order != order:
-        return replace(result, order=order, peak=value)
+        return failed(order, f"non-finite value: {value}", result.seconds)
+    if any(not (isinstance(v, (int, float)) and math.isfinite(v)) for v in result.values):
+        return failed(order, f"non-finite objective values: {list(result.values)}", result.seconds)
+    if value != result.value or type(result.value) is not float or result.order != order:
+        return replace(result, order=order, value=value)
     return result
 
 
 def safe_call(objective: Callable[[Order], Any], order: Any) -> Evaluation:
     """Call the objective; never raise.
 
-    Why: one bad order (a solver error, an FMI error) must cost one failed
-    evaluation, not the whole search.  An exception becomes a failed Evaluation
-    whose message is the exception text; the result then goes through
-    :func:`check_evaluation`.  When the objective did not time itself
-    (``seconds == 0``) the wall time of the call is filled in.
+    One bad design (a solver error, an FMI error) must cost one failed evaluation, not the whole search. An
+    exception becomes a failed Evaluation whose message is the exception text; the result then goes through
+    :func:`check_evaluation`. When the objective did not time itself the wall time of the call is filled in.
     """
-    order = as_order(order)
+    order = as_design(order)
     start = time.perf_counter()
     try:
         result = objective(order)
+    except MemoryError:
+        return failed(order, "out of memory in the evaluation (free memory or use fewer --workers)",
+                      time.perf_counter() - start)
     except Exception as exc:  # noqa: BLE001 - the point is to catch everything
         return failed(order, f"{type(exc).__name__}: {exc}", time.perf_counter() - start)
     elapsed = time.perf_counter() - start
@@ -142,3 +167,7 @@ def safe_call(objective: Callable[[Order], Any], order: Any) -> Evaluation:
     if evaluation.seconds == 0.0:
         evaluation = replace(evaluation, seconds=elapsed)
     return evaluation
+
+
+__all__ = ["Above", "CENSORED", "CaseValue", "Evaluation", "FAILED", "OK", "Order", "RunOutputs", "STATUSES",
+           "censored", "check_evaluation", "failed", "safe_call"]

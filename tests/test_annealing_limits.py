@@ -7,14 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from orchestrator.executors import make_executor
-from orchestrator.loop import run_search
-from orchestrator.objective import CallableObjective
 from orchestrator.search import make_search
 from orchestrator.search.annealing import Annealing, metropolis_threshold
 from orchestrator.search.base import FAILURE
-from orchestrator.search.problems import Limited, LimitedObjective, QuadraticAssignment
 from orchestrator.types import Above
+from problems import QuadraticAssignment
+from search_loop import run
 
 QAP8 = QuadraticAssignment.random(8, 1)
 
@@ -35,20 +33,12 @@ def record_steps(monkeypatch) -> list[tuple]:
     return steps
 
 
-def anneal(objective, seed: int, budget: int = 300, **options):
-    with make_executor("serial") as executor:
-        search = make_search("sa", 8, seed, budget=budget, **options)
-        return run_search(search, objective, budget, executor, method_name="sa", seed=seed)
+HONOURING, IGNORING = True, False  # evaluations stop above the limit asked (like the FMU's peak_force_limit), or
+# every one runs to the end: full values, whatever the limit
 
 
-def honouring():
-    """QAP8 whose evaluations stop above the limit they are asked with (like the FMU's peak_force_limit)."""
-    return LimitedObjective.of(QAP8, 8)
-
-
-def ignoring():
-    """The same evaluations, but every one runs to the end: full values, whatever the limit."""
-    return CallableObjective(Limited(QAP8), 8)
+def anneal(honour_limits: bool, seed: int, budget: int = 300, **options):
+    return run(make_search("sa", 8, seed, budget=budget, **options), QAP8.value, budget, honour_limits=honour_limits)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
@@ -58,20 +48,20 @@ def test_the_same_decisions_whether_or_not_the_evaluator_honours_the_limits(monk
     annealing alone: in the polishing phase, local.Descent after a kick judges a neighbour censored below its
     new current value as not better, which full values can contradict.)"""
     steps = record_steps(monkeypatch)
-    limited = anneal(honouring(), seed, polish=0.0)
+    limited = anneal(HONOURING, seed, polish=0.0)
     limited_steps = list(steps)
     steps.clear()
-    full = anneal(ignoring(), seed, polish=0.0)
+    full = anneal(IGNORING, seed, polish=0.0)
     assert limited.n_censored > 100 and full.n_censored == 0
     assert limited_steps == steps and len(steps) > 200
-    assert list(dict.fromkeys(e.order for e in limited.evaluations)) == [e.order for e in full.evaluations]
-    assert (limited.best_order, limited.best_peak) == (full.best_order, full.best_peak)
+    assert limited.designs() == [e.design for e in full.evaluations]
+    assert (limited.best_design, limited.best_value) == (full.best_design, full.best_value)
 
 
-def check_metropolis_decisions(steps: list[tuple], run) -> None:
+def check_metropolis_decisions(steps: list[tuple], result) -> None:
     """Each step accepts exactly when the true value is at most the current value or below the threshold
     (current - T ln u), and no told move was left undecided."""
-    assert run.diagnostics["undecided"] == 0
+    assert result.diagnostics["undecided"] == 0
     worse_rejected = 0
     for _, order, current, threshold, accepted in steps:
         value = QAP8.value(order)
@@ -83,9 +73,9 @@ def check_metropolis_decisions(steps: list[tuple], run) -> None:
 
 def test_every_decision_is_the_metropolis_decision_on_the_true_value(monkeypatch):
     steps = record_steps(monkeypatch)
-    run = anneal(honouring(), 5, polish=0.0)
-    assert run.n_censored > 100 and run.n_reevaluated > 0
-    check_metropolis_decisions(steps, run)
+    result = anneal(HONOURING, 5, polish=0.0)
+    assert result.n_censored > 100 and result.n_reevaluated > 0
+    check_metropolis_decisions(steps, result)
 
 
 def test_a_limit_below_the_threshold_is_caught(monkeypatch):
@@ -94,9 +84,9 @@ def test_a_limit_below_the_threshold_is_caught(monkeypatch):
     monkeypatch.setattr(Annealing, "_limit", lambda self, c, threshold: (
         None if not math.isfinite(threshold) else threshold - 0.05 * (threshold - self.current_value[c])))
     steps = record_steps(monkeypatch)
-    run = anneal(honouring(), 5, polish=0.0)
+    result = anneal(HONOURING, 5, polish=0.0)
     with pytest.raises(AssertionError):
-        check_metropolis_decisions(steps, run)
+        check_metropolis_decisions(steps, result)
 
 
 def test_each_asked_limit_is_at_least_the_threshold_of_its_proposal():
@@ -164,9 +154,8 @@ def test_the_temperature_check_bounds_censored_moves_and_still_flags(t0, verdict
     """A forced T0 far too low: the worsening moves come back censored, each known only to be accepted at T0
     with probability below poor_low / 2, and the check still says too low; far too high: nothing is
     censored and it says too high. Same verdict when the evaluator ignores the limits."""
-    for objective in (honouring(), ignoring()):
-        run = anneal(objective, 0, budget=200, t0=t0)
-        state = run.diagnostics
+    for honour_limits in (HONOURING, IGNORING):
+        state = anneal(honour_limits, 0, budget=200, t0=t0).diagnostics
         low, high = state["initial_acceptance_at_t0_bounds"]
         assert 0.0 <= low <= high <= 1.0
         assert state["poor_temperature"] and verdict in state["poor_temperature"], state
@@ -175,27 +164,27 @@ def test_the_temperature_check_bounds_censored_moves_and_still_flags(t0, verdict
             assert "censored" in state["poor_temperature"]
         else:
             assert state["window_censored"] == 0 and low >= 0.98
-    assert honouring_censors_some(run=anneal(honouring(), 0, budget=200, t0=1e-6))
+    assert honouring_censors_some(anneal(HONOURING, 0, budget=200, t0=1e-6))
 
 
-def honouring_censors_some(run) -> bool:
-    return run.n_censored > 0 and all(e.peak is None for e in run.evaluations if e.censored)
+def honouring_censors_some(result) -> bool:
+    return result.n_censored > 0 and all(e.value is None for e in result.evaluations if e.censored_above is not None)
 
 
 def test_a_censored_order_met_again_below_a_higher_threshold_is_evaluated_again():
     """Censored at L1, proposed again from a chain whose threshold is above L1: not decided on what is known, so
     evaluated again with the higher limit; the loop logs it but does not charge the budget."""
-    run = anneal(honouring(), 2, budget=300, polish=0.0)
-    assert run.n_reevaluated > 0
-    assert len({e.order for e in run.evaluations}) == 300 == run.n_evaluations - run.n_reevaluated
+    result = anneal(HONOURING, 2, budget=300, polish=0.0)
+    assert result.n_reevaluated > 0
+    assert len(result.designs()) == 300 == result.n_evaluations - result.n_reevaluated
     first: dict = {}
-    for evaluation in run.evaluations:
-        if evaluation.order in first:
-            earlier = first[evaluation.order]
-            assert earlier.censored  # only a censored order is evaluated again ...
-            assert evaluation.ok or evaluation.lower_bound > earlier.lower_bound  # ... with a higher limit
-        first[evaluation.order] = evaluation
-    assert run.diagnostics["reevaluations"] >= run.n_reevaluated
+    for evaluation in result.evaluations:
+        if evaluation.design in first:
+            earlier = first[evaluation.design]
+            assert earlier.censored_above is not None  # only a censored design is evaluated again ...
+            assert evaluation.censored_above is None or evaluation.censored_above > earlier.censored_above  # ... higher
+        first[evaluation.design] = evaluation
+    assert result.diagnostics["reevaluations"] >= result.n_reevaluated
 
 
 def test_a_kick_onto_a_censored_order_gets_its_value():
@@ -221,8 +210,7 @@ def test_use_limits_false_asks_for_exact_values():
         orders = search.ask()
         assert all(limit is None for limit in search.limits())
         search.tell(orders, [value(o) for o in orders])
-    run = anneal(honouring(), 0, budget=200, use_limits=False, polish=0.0)
-    assert run.n_censored == 0
+    assert anneal(HONOURING, 0, budget=200, use_limits=False, polish=0.0).n_censored == 0
     with pytest.raises(ValueError, match="use_limits must be True or False"):
         make_search("sa", 8, 0, use_limits="no")
 
@@ -232,20 +220,24 @@ def test_on_the_fmu_the_limit_saves_right_hand_sides_and_changes_no_decision(fmu
     the same best for the annealing with its polishing phase (100 evaluations: no kick yet), and fewer
     right-hand sides than without limits, and than with limits in the polishing phase only (use_limits=False:
     how the annealing ran before)."""
-    from orchestrator.objective import SampledPeak
+    from orchestrator.executors import make_executor
+    from orchestrator.loop import run_search
+    from orchestrator.design import DesignSpace
+    from orchestrator.objective import LatticeObjective
 
     runs = {}
     for name, objective_limits, search_limits in (("limited", True, True), ("full", False, True),
                                                    ("polish only", True, False)):
         with make_executor("serial") as executor:
             runs[name] = run_search(make_search("sa", 11, 0, budget=100, use_limits=search_limits),
-                                    SampledPeak(fmu_path, 11, 8.0, use_limits=objective_limits), 100, executor,
+                                    LatticeObjective(fmu_path, DesignSpace(11, 11), 8.0, use_limits=objective_limits),
+                                    100, executor,
                                     method_name="sa", seed=0)
     limited, full = runs["limited"], runs["full"]
-    assert limited.n_censored > runs["polish only"].n_censored > 0 == full.n_censored
-    assert limited.n_failed == full.n_failed == 0
+    assert limited.censored > runs["polish only"].censored > 0 == full.censored
+    assert limited.failed == full.failed == 0
     assert list(dict.fromkeys(e.order for e in limited.evaluations)) == [e.order for e in full.evaluations]
-    assert (limited.best_order, limited.best_peak) == (full.best_order, full.best_peak)
+    assert (limited.best_order, limited.best_value) == (full.best_order, full.best_value)
     assert limited.diagnostics["censored_told"] > 0 and limited.diagnostics["phase"] == "polish"
-    rhs = {name: sum(e.details.get("rhs_evaluations") or 0 for e in run.evaluations) for name, run in runs.items()}
+    rhs = {name: sum(e.work or 0 for e in r.evaluations) for name, r in runs.items()}
     assert rhs["limited"] < 0.9 * rhs["polish only"] and rhs["limited"] < 0.75 * rhs["full"], rhs

@@ -11,20 +11,22 @@ from orchestrator.journal import Journal
 from orchestrator.loop import Evaluator, run_search, told_value
 from orchestrator.search import make_search
 from orchestrator.search.base import FAILURE, to_internal
-from orchestrator.search.problems import LimitedObjective, QuadraticAssignment, brute_force
+from problems import LimitedObjective, QuadraticAssignment, brute_force
 from orchestrator.types import Above, Evaluation, censored, check_evaluation
+
+KINDS = {"evaluation": Evaluation}
 
 QAP = QuadraticAssignment.random(7, 3)
 
 
 def test_a_censored_evaluation_is_not_a_number():
     evaluation = censored((1, 2, 3), 1500.0, 0.31, 0.002)
-    assert not evaluation.ok and evaluation.censored and evaluation.peak is None
+    assert not evaluation.ok and evaluation.censored and evaluation.value is None
     assert evaluation.lower_bound == 1500.0 and "above 1500" in evaluation.message
     assert check_evaluation(evaluation, (1, 2, 3)) == evaluation
-    smuggled = Evaluation((1, 2, 3), 1.0, "censored", details={"censored_above": 1500.0})
-    assert check_evaluation(smuggled, (1, 2, 3)).peak is None  # a number sent with it is dropped
-    no_limit = Evaluation((1, 2, 3), None, "censored", details={"censored_above": math.nan})
+    smuggled = Evaluation((1, 2, 3), 1.0, "censored", limit=1500.0)
+    assert check_evaluation(smuggled, (1, 2, 3)).value is None  # a number sent with it is dropped
+    no_limit = Evaluation((1, 2, 3), None, "censored", limit=math.nan)
     assert check_evaluation(no_limit, (1, 2, 3)).status == "failed"
     told = told_value(evaluation)
     assert isinstance(told, Above) and not isinstance(told, float) and to_internal(told) == FAILURE
@@ -36,22 +38,20 @@ def test_the_descent_with_limits_finds_the_same_optimum_for_less_and_no_consumer
     (Seed 1: from seed 0 three kicks end at a local optimum with full values too.)"""
     objective = LimitedObjective.of(QAP, 7)
     _, optimum = brute_force(QAP, 7)
-    with make_executor("serial") as executor, Journal(tmp_path, {"test": 1}) as journal:
+    with make_executor("serial") as executor, Journal(tmp_path, {"test": 1}, KINDS) as journal:
         evaluator = Evaluator(executor, journal)
         run = run_search(make_search("local", 7, 1, kicks=3), objective, 400, evaluator, method_name="local",
                          seed=1)
         full = run_search(make_search("local", 7, 1, kicks=3), QAP, 400, executor, method_name="local", seed=1)
-    assert run.n_censored > run.n_evaluations / 2 and run.n_failed == 0
-    assert run.best_peak == pytest.approx(optimum) == full.best_peak
+    assert run.censored > run.n_evaluations / 2 and run.failed == 0
+    assert run.best_value == pytest.approx(optimum) == full.best_value
     assert all(value is not None for value in run.best_so_far()[run.best_index - 1:])
-    assert run.best_peak == min(e.peak for e in run.evaluations if e.ok)
-    records = run.records()
-    assert all(r["peak"] is None for r in records if r["status"] == "censored")
+    assert run.best_value == min(e.value for e in run.evaluations if e.ok)
+    assert all(e.value is None for e in run.evaluations if e.censored)
     lines = [json.loads(line) for line in (tmp_path / "journal.jsonl").read_text().splitlines()[1:]]
-    assert any(line["status"] == "censored" and line["peak"] is None for line in lines)
-    with Journal(tmp_path, {"test": 1}, resume=True) as journal:
-        assert all(e.peak is None for e in journal.load().values() if e.censored)
-    assert 0 < run.diagnostics["censored_told"] <= run.n_censored  # a last batch cut by the budget is not told
+    assert any(line["result"]["status"] == "censored" and line["result"]["value"] is None for line in lines)
+    with Journal(tmp_path, {"test": 1}, KINDS, resume=True) as journal:
+        assert all(e.value is None for e in journal.load().values() if e.censored)
 
 
 def test_the_descent_asks_again_a_neighbour_censored_below_its_current_value():

@@ -1,4 +1,5 @@
-"""The FMU in importers we did not write: libcosim (every run), FMI4j and fmi-sim (opt-in: -m importers).
+"""The FMU in importers we did not write: libcosim (every run); FMI4j, fmi-sim and OMSimulator (opt-in:
+-m importers).
 
 Each importer sets a material order, co-simulates 8 s in 0.01 s communication steps, reads
 peak_backplate_force and must agree with fmpy to 1e-9 relative (the FMU is deterministic and independent of
@@ -9,19 +10,31 @@ and the Model Exchange interface with its own (forward Euler) solver.
 The heavy toolchains are built once and cached (default ~/.cache/mass-spring-lattice, or $MSL_CACHE_DIR):
 the FMI4j Maven project's classes and dependency jars, keyed by a hash of tests/fmi4j/, and the fmi-sim
 binary installed there by `cargo install fmi-sim` (or $FMI_SIM, or an fmi-sim on PATH).
+
+OMSimulator 3 lives in an environment of its own (`pip install omsimulator` downloads binaries at install
+time; the README says how to build it from source): $OMSIMULATOR_PYTHON names that environment's Python
+(for example /work/oms-venv/bin/python), which runs tests/omsimulator/oms_run.py. Without it the OMSimulator
+tests are skipped. They cover FMI 2 Co-Simulation, FMI 2 Model Exchange at OMSimulator's defaults and at a
+tight tolerance, FMI 3 Co-Simulation with the order set, and the design file through the C entry
+oms_importFile and the Python SSP class.
 """
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import shutil
 import subprocess
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
-from conftest import PUBLISHED_BEST, PUBLISHED_SEQUENTIAL
+from fmu_src.published import PUBLISHED_PEAKS
+from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL
+from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import LatticeFMU
+from orchestrator.ssp import COMPONENT, SYSTEM, read_design_parameters, write_best_design_ssp
 
 ORDERS = [PUBLISHED_BEST, PUBLISHED_SEQUENTIAL]
 ORDER_IDS = ["published_best", "sequential"]
@@ -204,3 +217,138 @@ def test_fmi_sim_runs_model_exchange_with_its_euler_solver(tmp_path):
     assert final["time"] == 1.0 and final["steps_accepted"] > 1e5 - 10  # 1e5 Euler steps and the events
     assert final["peak_backplate_force"] == pytest.approx(1497.8867334973704, rel=1e-3)
     assert abs(final["energy_balance_error"]) <= 1e-3 * final["external_work"]
+
+
+# ------------------------------------------------------------------------------------------------ OMSimulator
+
+OMSIMULATOR_DRIVER = Path(__file__).resolve().parent / "omsimulator" / "oms_run.py"
+DESIGN_HORIZON = 1.0  # the peak and the last contact come before 1 s
+DESIGN = {"material": list(PUBLISHED_BEST), "F_total": 1100.0, "c_wall": 12.0}  # order + non-default parameters
+MEAN_ORDER = (5, 1, 2, 3, 8, 7, 6, 4, 9, 10, 11)  # a design searched under the mean rule
+
+
+@dataclass(frozen=True)
+class OMSimulatorRun:
+    values: dict
+    failures: list  # the calls whose status was not ok
+    errors: list  # the error lines of OMSimulator's log
+
+
+def omsimulator_run(tmp_path: Path, **request) -> OMSimulatorRun:
+    """Runs tests/omsimulator/oms_run.py with $OMSIMULATOR_PYTHON; its temporary files stay in tmp_path."""
+    python = os.environ.get("OMSIMULATOR_PYTHON")
+    if not python:
+        pytest.skip("OMSimulator: set OMSIMULATOR_PYTHON to the Python of an environment with OMSimulator 3 "
+                    "(README: OMSimulator)")
+    assert Path(python).is_file(), f"OMSIMULATOR_PYTHON={python} is not a file"
+    work = tmp_path / "omsimulator"
+    work.mkdir(exist_ok=True)
+    request = {"temp_dir": str(work), **{k: str(v) if isinstance(v, Path) else v for k, v in request.items()}}
+    (work / "request.json").write_text(json.dumps(request))
+    result = subprocess.run([python, str(OMSIMULATOR_DRIVER), str(work / "request.json")], capture_output=True,
+                            text=True, timeout=900, cwd=work, env={**os.environ, "TMPDIR": str(work)})
+    lines = result.stdout.splitlines()
+    replies = [line[len("RESULT "):] for line in lines if line.startswith("RESULT ")]
+    assert result.returncode == 0 and len(replies) == 1, (
+        f"OMSimulator exited with {result.returncode}:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}")
+    reply = json.loads(replies[0])
+    return OMSimulatorRun(reply["values"], reply["failures"], [line for line in lines if line.startswith("error:")])
+
+
+def order_parameters(order) -> dict:
+    return {f"material[{column}]": material for column, material in enumerate(order, 1)}
+
+
+def assert_clean(run: OMSimulatorRun, importer: str) -> None:
+    assert not run.failures and not run.errors, f"{importer}: {run.failures} {run.errors[:5]}"
+
+
+@pytest.mark.importers
+@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
+def test_omsimulator_co_simulation_agrees_with_fmpy(fmu_path, fmpy_peaks, tmp_path, order):
+    run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu_path, system="wc", stop_time=HORIZON,
+                          integers=order_parameters(order), outputs=["peak_backplate_force"])
+    assert_clean(run, "OMSimulator (FMI 2.0 CS)")
+    assert_agrees(run.values["peak_backplate_force"], fmpy_peaks[order], "OMSimulator (FMI 2.0 CS)")
+
+
+@pytest.mark.importers
+@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
+@pytest.mark.parametrize("tolerance, relative", [(None, 1e-3), (1e-9, 1e-6)], ids=["defaults", "rtol_1e-9"])
+def test_omsimulator_model_exchange_reaches_the_published_peak(fmu_path, tmp_path, order, tolerance, relative):
+    """OMSimulator integrates Model Exchange with CVODE (BDF), by default at rtol 1e-4 and steps of at most
+    1e-3 s, and re-initialises CVODE after every event; a lost wall switch must not cost more than that."""
+    run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu_path, system="sc", stop_time=HORIZON, tolerance=tolerance,
+                          integers=order_parameters(order), outputs=["peak_backplate_force", "energy_balance_error"])
+    assert_clean(run, "OMSimulator (FMI 2.0 ME)")
+    peak = run.values["peak_backplate_force"]
+    assert abs(peak - PUBLISHED_PEAKS[order]) <= relative * PUBLISHED_PEAKS[order], (
+        f"OMSimulator ME ({'defaults' if tolerance is None else f'rtol {tolerance}'}) gives {peak!r}, published "
+        f"{PUBLISHED_PEAKS[order]!r}; energy_balance_error {run.values['energy_balance_error']!r} J")
+
+
+@pytest.mark.importers
+@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
+def test_omsimulator_runs_the_fmi3_fmu_with_the_order_set(fmu3_path, tmp_path, order):
+    run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu3_path, system="wc", stop_time=HORIZON,
+                          integers=order_parameters(order), outputs=["peak_backplate_force"])
+    assert_clean(run, "OMSimulator (FMI 3.0 CS)")
+    peak = run.values["peak_backplate_force"]
+    assert abs(peak - PUBLISHED_PEAKS[order]) <= 1e-6 * PUBLISHED_PEAKS[order], (peak, PUBLISHED_PEAKS[order])
+
+
+@pytest.mark.importers
+@pytest.mark.parametrize("entry", ["import_file", "ssp_class"])
+def test_omsimulator_runs_the_design_file_to_fmpys_peak(fmu_path, lattice, tmp_path, entry):
+    design = write_best_design_ssp(fmu_path, DESIGN, tmp_path / "best_design.ssp", stop_time=DESIGN_HORIZON)
+    run = omsimulator_run(tmp_path, entry=entry, ssp=design, system=SYSTEM, component=COMPONENT,
+                          outputs=["peak_backplate_force"])
+    assert_clean(run, f"OMSimulator ({entry})")
+    parameters = {k: v for k, v in DESIGN.items() if k != "material"}
+    expected = lattice.simulate(PUBLISHED_BEST, horizon=DESIGN_HORIZON, parameters=parameters)
+    default = lattice.simulate(PUBLISHED_BEST, horizon=DESIGN_HORIZON)
+    peak = run.values["peak_backplate_force"]
+    assert_agrees(peak, expected["peak_backplate_force"], f"OMSimulator ({entry})")
+    assert abs(peak - default["peak_backplate_force"]) > 1.0  # the parameter set was applied, not ignored
+
+
+def libcosim_design_peak(design: Path) -> float:
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+
+    log_output_level(CosimLogLevel.ERROR)
+    execution = CosimExecution.from_ssp_file(str(design))  # the step comes from the .ssd
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    index = execution.slave_index_from_instance_name(COMPONENT)
+    references = {v.name.decode(): v.reference for v in execution.slave_variables(index)}
+    assert execution.simulate_until(target_time=int(round(DESIGN_HORIZON * 1e9))), execution.status()
+    return observer.last_real_values(index, [references["peak_backplate_force"]])[0]
+
+
+def test_the_mean_rule_design_runs_to_its_peak_in_libcosim_and_fmpy(fmu_path, lattice, tmp_path):
+    """The design of a --diagonal-rule mean search: libcosim and FMPy reproduce its peak to 1e-9 (the writer
+    refuses such a design for an FMU libcosim would run differently: test_ssp_validation)."""
+    parameters = {"material": list(MEAN_ORDER), "diagonal_rule": "mean"}
+    design = write_best_design_ssp(fmu_path, parameters, tmp_path / "mean.ssp", stop_time=DESIGN_HORIZON)
+    reported = lattice.simulate(MEAN_ORDER, horizon=DESIGN_HORIZON, parameters={"diagonal_rule": "mean"})
+    receiver = lattice.simulate(MEAN_ORDER, horizon=DESIGN_HORIZON)
+    assert abs(reported["peak_backplate_force"] - receiver["peak_backplate_force"]) > 1.0  # the rules differ
+    assert_agrees(libcosim_design_peak(design), reported["peak_backplate_force"], "libcosim (mean design)")
+    start_values = read_design_parameters(design)  # what FMPy applies: fmpy.simulate_fmu(start_values=...)
+    order = [start_values.pop(f"material[{j}]") for j in range(1, len(MEAN_ORDER) + 1)]
+    rerun = lattice.simulate(order, horizon=DESIGN_HORIZON, parameters=start_values)
+    assert_agrees(rerun["peak_backplate_force"], reported["peak_backplate_force"], "FMPy (mean design)")
+
+
+@pytest.mark.importers
+@pytest.mark.parametrize("entry", ["import_file", "ssp_class"])
+def test_omsimulator_runs_the_mean_rule_design_to_its_peak(fmu_path, lattice, tmp_path, entry):
+    design = write_best_design_ssp(fmu_path, {"material": list(MEAN_ORDER), "diagonal_rule": "mean"},
+                                   tmp_path / "mean.ssp", stop_time=DESIGN_HORIZON)
+    run = omsimulator_run(tmp_path, entry=entry, ssp=design, system=SYSTEM, component=COMPONENT,
+                          outputs=["peak_backplate_force"])
+    assert_clean(run, f"OMSimulator ({entry}, mean design)")
+    reported = lattice.simulate(MEAN_ORDER, horizon=DESIGN_HORIZON, parameters={"diagonal_rule": "mean"})
+    assert_agrees(run.values["peak_backplate_force"], reported["peak_backplate_force"], f"OMSimulator ({entry})")

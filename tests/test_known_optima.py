@@ -1,8 +1,7 @@
-"""The 11 x 8 and 11 x 9 lattices' optima, found by the exhaustive sweep (bench/exhaustive_sweep.py), as test data.
+"""The known optima (orchestrator/known_optima.json): each one reproduced by a freshly built FMU, locally
+optimal, and the table's certified 11 x 11 entry is the one the project's whole sweep gave.
 
-Fast (8 columns; slow for 9): the stored optimum is reproduced by a freshly built FMU at full fidelity, its
-search-fidelity value is within the screening bound, and no single swap or insertion improves it.  Slow: the
-whole 8-column sweep (40,320 orders) finds it again.
+Fast for 8 columns; slow for 9 columns and for the whole 8-column sweep, which certifies its optimum again.
 """
 from __future__ import annotations
 
@@ -11,88 +10,74 @@ from pathlib import Path
 
 import pytest
 
-import build_fmu
+from fmu_src.build import build_fmu
+from orchestrator import run as cli
+from orchestrator.design import DesignSpace
 from orchestrator.executors import make_executor
-from orchestrator.exhaustive import run_exhaustive
-from orchestrator.search.local import neighbours
-from orchestrator.objective import FULL, SEARCH, SampledPeak
+from orchestrator.known_optima import known_optima
+from orchestrator.loop import Evaluator
+from orchestrator.objective import FULL, SEARCH, LatticeObjective
 
 DATA = Path(__file__).parent / "data"
-KNOWN = json.loads((DATA / "known_optimum_11x8.json").read_text())
 COLUMNS = [8, pytest.param(9, marks=pytest.mark.slow)]
+SCREENING_ERROR = 1e-4
 
 
-def known(columns):
+def stored(columns):
     return json.loads((DATA / f"known_optimum_11x{columns}.json").read_text())
 
 
 @pytest.fixture(scope="module")
 def lattices(tmp_path_factory):
-    """Freshly built 11 x C FMUs, one per C, built on first use."""
     built = {}
 
     def fmu(columns):
         if columns not in built:
-            built[columns] = build_fmu.build_fmu(output=tmp_path_factory.mktemp(f"fmu{columns}")
-                                                 / f"lattice_11x{columns}.fmu", cols=columns, werror=True)
+            built[columns] = build_fmu("armour_11x11", tmp_path_factory.mktemp(f"fmu{columns}") / "lattice.fmu",
+                                       cols=columns, werror=True)
         return built[columns]
     return fmu
 
 
-@pytest.fixture(scope="module")
-def fmu8(lattices):
-    return lattices(8)
-
-
-def fidelities(fmu, columns=8):
-    """(search, full): the objective's one FMU run per order at each fidelity."""
-    objective = SampledPeak(fmu, columns, 8.0)
-    return objective.tasks(SEARCH)[0], objective.tasks(FULL)[0]
+def objective(fmu, columns):
+    return LatticeObjective(fmu, DesignSpace.permutations(columns), 8.0)
 
 
 @pytest.mark.parametrize("columns", COLUMNS)
-def test_stored_optimum_is_reproduced_at_both_fidelities(lattices, columns):
-    data = known(columns)
+def test_a_known_optimum_is_reproduced_and_locally_optimal(lattices, columns):
+    data = stored(columns)
     order = tuple(data["order"])
-    search, full = fidelities(lattices(columns), columns)
-    screened, full = search(order), full(order)
-    assert screened.ok and full.ok
-    assert full.peak == pytest.approx(data["peak_full"], rel=1e-9)
-    # the search fidelity's solver may change (it did, DOP853 -> Tsit5); its value stays within the bound
-    assert abs(screened.peak / data["peak_full"] - 1) <= data["screening_error"]
+    lattice = objective(lattices(columns), columns)
+    space = lattice.space
+    with make_executor("process", workers=2) as executor:
+        evaluator = Evaluator(executor)
+        full, = lattice.evaluate([order], evaluator, FULL)
+        around = space.neighbour_list(order)
+        values = lattice.evaluate([order] + around, evaluator, SEARCH)
+    assert full.value == pytest.approx(data["peak_full"], rel=1e-6)  # the accuracy the FMU promises
+    assert abs(values[0].value / full.value - 1) <= SCREENING_ERROR
+    assert all(v.ok for v in values) and min(v.value for v in values[1:]) > values[0].value
 
 
-@pytest.mark.parametrize("columns", COLUMNS)
-def test_stored_optimum_is_locally_optimal(lattices, columns):
-    """Every one of its swap and insertion neighbours (70 for 8 columns, 92 for 9) is worse at the search
-    fidelity."""
-    data = known(columns)
-    objective, _ = fidelities(lattices(columns), columns)
-    order = tuple(data["order"])
-    around = neighbours(order)
-    assert len(around) == columns * (columns - 1) // 2 + (columns - 1) ** 2 - (columns - 1)
-    values = [objective(o) for o in around]
-    assert all(v.ok for v in values)
-    best = objective(order)
-    assert best.ok and min(v.peak for v in values) > best.peak
+def test_the_table_holds_the_test_data_and_the_certified_sweep():
+    table = {(k.rows, k.columns): k for k in known_optima()}
+    for columns in (8, 9):
+        data = stored(columns)
+        assert list(table[(11, columns)].order) == data["order"]
+        assert table[(11, columns)].peak == data["peak_full"]
+    eleven = table[(11, 11)]
+    assert eleven.certified and eleven.order == (1, 10, 9, 6, 4, 5, 7, 8, 3, 2, 11)
+    assert eleven.runner_up == (1, 10, 9, 6, 5, 4, 7, 8, 3, 2, 11) and eleven.runner_up_peak > eleven.peak
 
 
 @pytest.mark.slow
-def test_exhaustive_sweep_finds_the_stored_optimum(fmu8, tmp_path):
-    with make_executor("process", workers=2) as executor:
-        search, full = fidelities(fmu8)
-        result = run_exhaustive(search, 8, executor, tmp_path, 1008, full_objective=full,
-                                objective_with_limit=search.with_limit,  # the FMU's peak_force_limit
-                                screening_error=KNOWN["screening_error"], full_error=KNOWN["full_error"])
-    assert result["orders"] == 40320 and result["failed"] == 0 and result["censored"] > 30000
-    assert result["optimum"]["order"] == KNOWN["order"]
-    assert result["optimum"]["peak"] == pytest.approx(KNOWN["peak_full"], rel=1e-9)
-
-
-def test_the_report_s_known_optima_are_the_test_data():
-    """orchestrator/known_optima.json (what the report draws) holds the swept optima of tests/data."""
-    table = json.loads((Path(__file__).resolve().parents[1] / "orchestrator" / "known_optima.json").read_text())
-    for columns in (8, 9):
-        stored = known(columns)
-        entry = next(e for e in table["optima"] if e["columns"] == columns)
-        assert entry["order"] == stored["order"] and entry["peak"] == stored["peak_full"] and entry["proven"]
+def test_the_whole_8_column_sweep_certifies_the_known_optimum(lattices, tmp_path, capfd):
+    out = tmp_path / "sweep8"
+    code = cli.main(["--fmu", str(lattices(8)), "--cols", "8", "--out", str(out), "--method", "exhaustive", "cmaes",
+                     "--budget", "300", "--repeats", "1", "--diagonal-rule", "receiver", "--no-sensitivity",
+                     "--no-progress", "--workers", "2"])
+    assert code == 0, capfd.readouterr().err
+    certificate = json.loads((out / "exhaustive" / "certificate.json").read_text())
+    assert certificate["certified"], certificate["reasons"]
+    assert certificate["covered_once"] and certificate["designs"] == 40320
+    assert certificate["optimum"]["order"] == stored(8)["order"]

@@ -10,7 +10,7 @@ from scipy.linalg import expm
 from fmu_src import build as build_library
 import reference
 from orchestrator.simulation import LatticeFMU
-from orchestrator.study import StudyConfig, run_study
+from orchestrator import run as cli
 from scenes import SCENE_DIR, Scene, scene_names
 
 SCENES = scene_names()
@@ -71,11 +71,12 @@ def test_free_scenes_conserve_momentum_and_energy(scene_fmus, name):
     assert result["peak_backplate_force"] == 0.0  # no backplate in a free scene
 
 
-def test_a_scene_without_materials_to_order_is_refused_by_the_orchestrator(scene_fmus, tmp_path):
-    config = StudyConfig(methods=("random",), budget=2, repeats=1, executor="serial", out=str(tmp_path),
-                         fmu=str(scene_fmus["free_5x5"]), scene="free_5x5", progress=False)
-    with pytest.raises(ValueError, match="no material order to search"):
-        run_study(config)
+def test_a_scene_without_materials_to_order_is_refused_by_the_orchestrator(scene_fmus, tmp_path, capfd):
+    code = cli.main(["--method", "random", "--budget", "2", "--repeats", "1", "--executor", "serial", "--out",
+                     str(tmp_path / "out"), "--fmu", str(scene_fmus["free_5x5"]), "--scene", "free_5x5",
+                     "--no-progress"])
+    err = capfd.readouterr().err
+    assert code == 2 and "no material order to search" in err and len(err.strip().splitlines()) == 1, err
 
 
 def test_unknown_scene_names_the_known_ones():

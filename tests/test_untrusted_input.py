@@ -21,7 +21,7 @@ import zlib
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from bench.common import IsolatedFMU
+from isolated import IsolatedFMU
 from conftest import ROOT
 from fmu_src.published import PUBLISHED_PEAKS, STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import LatticeFMU

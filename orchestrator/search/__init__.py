@@ -1,24 +1,29 @@
-"""Search strategies behind one ask/tell protocol (see ``base.py``).
+"""Search strategies behind one ask/tell protocol (see ``base.py``), over a design space
+(``orchestrator.design.DesignSpace``: permutations, C of M materials, or repetition).
 
-    search = make_search("sa", n=11, seed=0, budget=100)
+    search = make_search("sa", DesignSpace(5, 8), seed=0, budget=100)
     while not search.stop():
-        orders = search.ask()
-        search.tell(orders, [value_or_None(o) for o in orders])
+        designs = search.ask()
+        search.tell(designs, [value_or_None(d) for d in designs])
 
-``orchestrator.loop.run_search`` does this with a cache, a budget and an
-executor.  Searches never see an objective or an executor.
+The loop does this with a cache, a budget and an executor; searches never see an objective or an executor.
+A search of several objectives (``SEARCHES[name].n_objectives > 1``: ``nsga2``) is told a vector per design
+and answers with ``pareto_front()``; ``pareto.hypervolume`` measures a front.
 """
 from __future__ import annotations
 
 from typing import Any
 
+from ..design import DesignSpace
 from .annealing import Annealing
-from .base import FAILURE, Search, keys_to_order
+from .base import FAILURE, Search, as_space
 from .baselines import RandomSearch, Sequential
 from .cmaes import CMAES
 from .de import DifferentialEvolution
 from .ga import GeneticAlgorithm
 from .local import LocalSearch
+from .nsga2 import NSGA2
+from .pareto import ParetoPoint, hypervolume, non_dominated, pareto_front, reference_point
 from .polish import Polished
 from .pso import PSO
 
@@ -31,22 +36,25 @@ SEARCHES: dict[str, type[Search]] = {
     "random": RandomSearch,
     "sequential": Sequential,
     "local": LocalSearch,
+    "nsga2": NSGA2,
 }
 
 
-def make_search(name: str, n: int, seed: int, **options: Any) -> Search:
-    """Build a search by name, composed with its polishing phase (``polish.Polished``) when it has one.
+def make_search(name: str, space: DesignSpace | int, seed: int, **options: Any) -> Search:
+    """Build a search by name over ``space`` (an int n: the permutations of n materials), composed with its
+    polishing phase (``polish.Polished``) when it has one.
 
     ``polish`` (default: the search's ``POLISH``) and ``polish_batch`` configure that phase; the search
-    itself is given ``budget`` minus the polished share.  Unknown name or option -> ValueError naming
-    the allowed ones.
+    itself is given ``budget`` minus the polished share. Unknown name or option -> ValueError naming the
+    allowed ones.
     """
     try:
         cls = SEARCHES[name]
     except (KeyError, TypeError):
         raise ValueError(f"unknown search {name!r}; allowed: {', '.join(SEARCHES)}") from None
+    space = as_space(space)
     if cls.POLISH is None:
-        return cls(n, seed, **options)
+        return cls(space, seed, **options)
     polish = options.pop("polish", cls.POLISH)
     polish_batch = options.pop("polish_batch", 4)
     try:
@@ -59,10 +67,10 @@ def make_search(name: str, n: int, seed: int, **options: Any) -> Search:
     inner_options = dict(options)
     if budget is not None:
         inner_options["budget"] = max(1, int(budget) - round(fraction * int(budget)))
-    inner = cls(n, seed, **inner_options)
+    inner = cls(space, seed, **inner_options)
     return Polished(inner, polish=fraction, polish_batch=polish_batch, budget=budget)
 
 
-__all__ = ["SEARCHES", "make_search", "Search", "CMAES", "PSO", "Annealing", "RandomSearch",
-           "Sequential", "LocalSearch", "Polished", "GeneticAlgorithm", "DifferentialEvolution", "FAILURE",
-           "keys_to_order"]
+__all__ = ["SEARCHES", "make_search", "Search", "CMAES", "PSO", "Annealing", "RandomSearch", "Sequential",
+           "LocalSearch", "Polished", "GeneticAlgorithm", "DifferentialEvolution", "NSGA2", "FAILURE",
+           "ParetoPoint", "hypervolume", "non_dominated", "pareto_front", "reference_point"]

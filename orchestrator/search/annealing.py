@@ -1,101 +1,58 @@
-"""Simulated annealing over permutations, with several chains in parallel.
+"""Simulated annealing over a design space, with several chains in parallel.
 
-Why several chains: a batch is one proposal per chain, so ``chains``
-evaluations run in parallel and independent chains hedge against one chain
-freezing in a poor basin.
+Why several chains: a batch is one proposal per chain, so ``chains`` evaluations run in parallel, and
+independent chains hedge against one chain freezing in a poor basin.
 
-Why an automatic initial temperature: the study's annealing did worse than the
-plain sequential order; a temperature that is too low makes annealing a greedy
-descent from a random start, one that is too high makes it a random walk.  So
-T0 is measured: the chains first take ``calibration`` greedy steps, and T0 is
-chosen so that the mean Metropolis acceptance ``exp(-delta/T0)`` of the
-*worsening* moves seen equals ``initial_acceptance`` (default 0.2, see below).
-A forced ``t0`` skips this.  Either way T0 is checked against the worsening
-moves the chains actually meet once annealing has begun: if the first
-``window`` of them would be accepted at T0 with a mean probability
-``exp(-delta/T0)`` of ~0 or ~1, ``state()["poor_temperature"]`` says so.  The
-check uses T0, not the moves' own (falling) temperatures: with a short budget
-the temperature drops a hundredfold within those moves, so how many were
-actually accepted (reported too) mostly measures the schedule and the luck of
-which deltas came first, not T0.  The calibration itself can misfire when few of
-its steps worsen: seed 2 on the 11-column lattice saw two worsening deltas,
-0.4 N and 83 N, and the mean acceptance of 0.2 puts T0 at 0.45 N, where the
-moves met next (mostly 50 to 4000 N) are accepted with probability 0.02; the
-check flags it.  Calibrating only after 3, 5 or 8 worsening deltas did not
-help at 100 evaluations (medians 1411.9, 1418.7, 1418.0 N over seeds 0-19,
-against 1412.1 N), because such a run becomes a greedy descent that the
-polishing phase continues, which is about as good at that budget.
+Why an automatic initial temperature: too low a temperature makes annealing a greedy descent from its start,
+too high a random walk. So T0 is measured: the chains first take ``calibration`` greedy steps, and T0 is
+chosen so that the mean Metropolis acceptance ``exp(-delta/T0)`` of the *worsening* moves seen equals
+``initial_acceptance``. A forced ``t0`` skips this. Either way T0 is checked against the worsening moves the
+chains meet once annealing has begun: if the first ``window`` of them would be accepted at T0 with a mean
+probability ``exp(-delta/T0)`` of about 0 or 1, ``state()["poor_temperature"]`` says so. The check uses T0,
+not the moves' own falling temperatures: with a short budget the temperature drops a hundredfold within the
+window, so the share actually accepted (reported too) measures the schedule more than T0. The calibration
+can misfire when few of its steps worsen (two small deltas put T0 far below the deltas met next); the check
+flags that.
 
-Why cooling by budget: the temperature falls geometrically from T0 to
-``t_final_ratio * T0`` as the number of *distinct* orders evaluated goes from
-the end of calibration to the start of the polishing phase
-(``budget - round(polish * budget)``, see ``polish.py``), so the schedule ends
-when the annealing's share of the budget does, whatever the cache-hit rate.
+Why cooling by budget: the temperature falls geometrically from T0 to ``t_final_ratio * T0`` as the number
+of *distinct* designs evaluated goes from the end of calibration to the annealing's share of the budget (the
+part before the polishing phase, see ``polish.py``), so the schedule ends when that share does, whatever the
+cache-hit rate.
 
-Why free steps: the search remembers every value it was told.  A proposal whose
-value is already known is accepted or rejected on the spot (exactly what would
-happen if it were asked and answered from the loop's cache), and the chain
-proposes again; so nearly every asked order is new and costs budget, instead of
-batches of cache hits.  A chain that cannot find an unknown neighbour within
-``max_free`` tries (it sits in a fully explored local optimum) is kicked: a few
-random moves from its current order, accepted unconditionally.
+Why free steps: the search remembers every value it was told. A proposal whose value is already known is
+accepted or rejected on the spot (exactly what would happen if it were asked and answered from the loop's
+cache), and the chain proposes again; so nearly every asked design is new and costs budget. A chain that
+finds no unknown neighbour within ``max_free`` tries (it sits in a fully explored local optimum) is kicked:
+a few random moves from its current design, accepted unconditionally.
 
-Why the Metropolis uniform is drawn before the evaluation (the force limit):
-a proposal v from the chain's current value c at temperature T is accepted
-iff v <= c or u < exp(-(v - c)/T), i.e. iff v <= c or v < c - T ln u.  With u
-drawn when the proposal is made (kept with it) and T taken for the number of
-orders known once the batch is told (as before), that threshold is known
-before the evaluation, so ``limits()`` hands it to the loop: the FMU may stop
-once the peak passes it, and the censored evaluation ("above L") is a
-rejection.  Only accept/reject uses the threshold; no limit is given where the
-value itself is used: calibration steps (their deltas set T0), an ``init`` or
-a kick (taken whatever the value), a chain whose current value failed.  While
-the temperature check's window is open (its first ``window`` worsening moves
-after T0) the limit is raised to at least c + T0 ln(2/poor_low): a move
-censored there would be accepted at T0 with probability below poor_low/2, so
-the check still tells a too-low T0 (it bounds a censored move's acceptance,
-never guesses it; see ``_state``).
-The search keeps of a told value only what its limit asked for: the number if
-it is at most the limit, else "above the limit" (``self.above``), whether the
-evaluation stopped there or ran on.  So it makes the same decisions and asks,
-whether or not the evaluator honours the limits (the key test,
-``tests/test_annealing_limits.py``); limits change the cost only.  A known
-"above b" is a free rejection when b is at or above the new threshold; below
-it (another chain, a higher current value) it decides nothing, so the order is
-asked again with the new limit; the loop evaluates it again without charging
-the budget (``reevaluations``; on the 11-column lattice 3 in 120 runs of 100
-evaluations; at 1000 evaluations about 3 % of the FMU runs: raising each
-limit to the highest chain value avoided most of them but cost more
-right-hand sides than they do).  Drawing u first changes the random stream (one draw per
-proposal where there was one per worsening move, after its evaluation), so
-runs differ from those before this change: over seeds 0-119 at 100
-evaluations the median best at the search fidelity moved from 1414.9 to
-1416.3 N (paired difference 3.0 +- 1.9 N, within noise; with the old stream
-the same code gives the old runs bit for bit).  ``use_limits=False`` gives no
-limits and keeps every value.
+Why the Metropolis uniform is drawn before the evaluation (the force limit): a proposal v from the chain's
+current value c at temperature T is accepted iff v <= c or u < exp(-(v - c)/T), i.e. iff v <= c or
+v < c - T ln u. With u drawn when the proposal is made (kept with it) and T taken for the number of designs
+known once the batch is told, that threshold is known before the evaluation, so ``limits()`` hands it to the
+loop: the FMU may stop once the peak passes it, and the censored evaluation ("above L") is a rejection. Only
+accept/reject uses the threshold; no limit is given where the value itself is used: calibration steps (their
+deltas set T0), an ``init`` or a kick (taken whatever the value), a chain whose current value failed. While
+the temperature check's window is open (its first ``window`` worsening moves after T0) the limit is raised
+to at least c + T0 ln(2/poor_low): a move censored there would be accepted at T0 with probability below
+poor_low/2, so the check still tells a too-low T0 (it bounds a censored move's acceptance, never guesses
+it; see ``_state``).
 
-Why the small-budget defaults (measured before u was drawn first, with the old
-random stream, on the 11-column lattice: searches on
-the 1 s search objective with 100 evaluations, the best order re-evaluated
-over the full 8 s, median over seeds 0-19; the best order we know is at
-1405.9 N, the sequential one at 1747.8 N; each step adds to the previous):
-- ``x0="sequential"``: chain 0 starts at the sequential order 1..n, the
-  baseline a user already has, the other chains at one random move from it,
-  instead of at random orders: 1493 -> 1446 N.
-- ``chains=4`` (was 8): with 100 evaluations, 8 chains get about 12 steps
-  each; 4 chains still fill a batch for a couple of workers: 1446 -> 1430 N.
-- ``initial_acceptance=0.2`` (was 0.5): T0 is calibrated on the deltas seen
-  near the start, which are large when the start is far from good orders
-  (hundreds of N from the sequential one, a few N between good orders), so a
-  high target acceptance makes the first part of a short run a random walk:
-  1430 -> 1422 N.  (With polishing: 0.1, 0.2, 0.3, 0.5 gave 1415, 1412, 1411,
-  1418 N.)
-- ``polish=0.3``: the last 30 % of the budget goes to a descent by single
-  swaps and insertions from the best order (``local.py``), which checks
-  neighbours systematically where the cold end of the annealing samples them
-  at random: 1422 -> 1412 N (0.5: 1410 N but 5 seeds in 20 above 1430 N
-  against 2 at 0.3).  With 2000 evaluations SA found the best known order in
-  each of seeds 0-2.
+The search keeps of a told value only what its limit asked for: the number if it is at most the limit, else
+"above the limit" (``self.above``), whether the evaluation stopped there or ran on. So it makes the same
+decisions and asks whether or not the evaluator honours the limits (tests/test_annealing_limits.py); limits
+change the cost only. A known "above b" is a free rejection when b is at or above the new threshold; below
+it (another chain, a higher current value) it decides nothing, so the design is asked again with the new
+limit, and the loop evaluates it again without charging the budget (``reevaluations``).
+``use_limits=False`` gives no limits and keeps every value.
+
+Why the defaults (python -m bench.search_convergence, on the study's lattice at the study's budget):
+- ``x0="sequential"``: chain 0 starts at the baseline a designer already has (``DesignSpace.baseline``), the
+  others one random move from it: good designs are nearer the baseline than a random design is.
+- ``chains=4``: enough to fill a batch for a couple of workers, few enough that each chain takes many steps.
+- ``initial_acceptance=0.2``: T0 is calibrated on deltas near the start, large where the start is far from
+  good designs, so a higher target makes the first part of a short run a random walk.
+- ``polish=0.3``: the last 30 % of the budget goes to the descent (``local.py``), which checks neighbours
+  systematically where the cold end of the annealing samples them at random.
 """
 from __future__ import annotations
 
@@ -106,9 +63,8 @@ from typing import Any
 
 import numpy as np
 
-from ..types import Order
-from .base import FAILURE, Search, random_order
-from .local import random_move
+from ..design import Design, DesignSpace
+from .base import FAILURE, Search
 
 
 def metropolis_threshold(current: float, temperature: float | None, u: float | None) -> float:
@@ -126,10 +82,11 @@ def metropolis_threshold(current: float, temperature: float | None, u: float | N
 
 @dataclass(frozen=True)
 class Proposal:
-    """One chain's asked order: ``kind`` "init", "kick" (taken whatever its value) or "move" (a Metropolis
-    step, with the uniform ``u`` and temperature drawn when it was proposed, its threshold and its limit)."""
+    """One chain's asked design (``order``): ``kind`` "init", "kick" (taken whatever its value) or "move" (a
+    Metropolis step, with the uniform ``u`` and temperature drawn when it was proposed, its threshold and its
+    limit)."""
 
-    order: Order
+    order: Design
     kind: str
     u: float | None = None
     temperature: float | None = None
@@ -145,15 +102,16 @@ class Annealing(Search):
       t0=None                force the initial temperature (skips calibration).
       initial_acceptance=0.2 target acceptance of worsening moves at T0.
       t_final_ratio=1e-3     final temperature / T0.
-      swap_prob=0.5          probability of a swap move (else an insertion move).
+      swap_prob=0.5          probability of a swap (else an insertion) for a move that is not a
+                             replacement (``DesignSpace.random_move``).
       calibration=None       worsening/improving deltas sampled before T0 is set
                              (default max(10, 2 * chains)).
       window=30              worsening moves after T0 used to check the temperature.
       poor_low=0.02, poor_high=0.98   bounds of their mean acceptance at T0.
       max_free=500           proposals tried per chain and batch before a kick.
       kick=3                 random moves in a kick.
-      x0="sequential"        chain 0 starts at 1..n, the others one random move from
-                             it; "random": every chain at a random order.
+      x0="sequential"        chain 0 starts at the space's baseline, the others one random move
+                             from it; "random": every chain at a random design.
       use_limits=True        give the loop each proposal's Metropolis threshold as its limit.
       polish=0.3             fraction of ``budget`` left to the final descent (0 = none).
       polish_batch=4         batch size of that descent.
@@ -166,8 +124,8 @@ class Annealing(Search):
                "poor_low": 0.02, "poor_high": 0.98, "max_free": 500, "kick": 3,
                "x0": "sequential", "use_limits": True}
 
-    def __init__(self, n: int, seed: int, **options: Any) -> None:
-        super().__init__(n, seed, **options)
+    def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:
+        super().__init__(space, seed, **options)
         o = self.options
         if o["x0"] not in ("sequential", "random"):
             raise ValueError("sa: x0 must be 'sequential' or 'random'")
@@ -185,8 +143,7 @@ class Annealing(Search):
         if not isinstance(o["use_limits"], bool):
             raise ValueError(f"sa: use_limits must be True or False, got {o['use_limits']!r}")
         self.calibration = int(o["calibration"] or max(10, 2 * self.chains))
-        self.total_orders = math.factorial(self.n) if self.n <= 12 else None
-        self.current: list[Order | None] = [None] * self.chains
+        self.current: list[Design | None] = [None] * self.chains
         self.current_value = [FAILURE] * self.chains
         self._proposals: list[Proposal] = []
         self.deltas: list[float] = []
@@ -202,11 +159,11 @@ class Annealing(Search):
         self.window_uphill: list[bool] = []  # accepted or not, at the temperature of the time
         self.window_deltas: list[float] = []  # the delta, or for a censored move the lower bound it is above
         self.window_exact: list[bool] = []    # False: a censored move, its delta only known to exceed the bound
-        # what this search knows of an order beyond its memo: only that it is above this bound (censored,
+        # what this search knows of a design beyond its memo: only that it is above this bound (censored,
         # or told a value above the limit it was asked with: see "Why the Metropolis uniform ...")
-        self.above: dict[Order, float] = {}
+        self.above: dict[Design, float] = {}
         self._limits: list[float | None] = []
-        self.reevaluations = 0  # orders asked again: known only above a bound below a threshold that matters
+        self.reevaluations = 0  # designs asked again: known only above a bound below a threshold that matters
         self.undecided = 0  # told censored below their own threshold (a limit lower than asked): rejected
         self.recent: deque[bool] = deque(maxlen=200)
 
@@ -216,7 +173,7 @@ class Annealing(Search):
         return self._temperature_at(len(self.memo))
 
     def _temperature_at(self, evaluated: int) -> float | None:
-        """The temperature once ``evaluated`` distinct orders are known."""
+        """The temperature once ``evaluated`` distinct designs are known."""
         if self.t0 is None:
             return None
         span = max(1, self.anneal_budget - self.memo_at_t0)
@@ -243,13 +200,13 @@ class Annealing(Search):
         self.memo_at_t0 = len(self.memo)
 
     # -- moves ------------------------------------------------------------
-    def _neighbour(self, order: Order) -> Order:
-        return random_move(self.rng, order, float(self.options["swap_prob"]))
+    def _neighbour(self, design: Design) -> Design:
+        return self.space.random_move(self.rng, design, float(self.options["swap_prob"]))
 
-    def _step(self, c: int, order: Order, value: float, threshold: float, *, free: bool,
+    def _step(self, c: int, order: Design, value: float, threshold: float, *, free: bool,
               calibrating: bool) -> bool:
         """One Metropolis step of chain c (greedy while calibrating): accept iff value <= current or
-        value < threshold. An order known only to be above a bound (``self.above``) is rejected when the
+        value < threshold. A design known only to be above a bound (``self.above``) is rejected when the
         bound is at or above the threshold; below it the step is not decided: returns False, changes
         nothing."""
         current = self.current_value[c]
@@ -297,17 +254,17 @@ class Annealing(Search):
         return threshold if math.isfinite(threshold) else None
 
     # -- protocol ---------------------------------------------------------
-    def _ask(self) -> list[Order]:
+    def _ask(self) -> list[Design]:
         self._proposals = []
         for c in range(self.chains):
             current = self.current[c]
             if current is None:
                 if self.options["x0"] == "sequential" and c == 0:
-                    start = tuple(range(1, self.n + 1))
+                    start = self.space.baseline()
                 elif self.options["x0"] == "sequential":
-                    start = self._neighbour(tuple(range(1, self.n + 1)))
+                    start = self._neighbour(self.space.baseline())
                 else:
-                    start = random_order(self.rng, self.n)
+                    start = self.space.random(self.rng)
                 self._proposals.append(Proposal(start, "init"))
                 continue
             for _ in range(int(self.options["max_free"])):
@@ -329,7 +286,7 @@ class Annealing(Search):
                 self.kicks += 1
                 self.reevaluations += kicked in self.above
                 self._proposals.append(Proposal(kicked, "kick"))
-        # a move is judged at the temperature of when it is told, once this batch's new orders are counted
+        # a move is judged at the temperature of when it is told, once this batch's new designs are counted
         told_at = self._temperature_at(len(self.memo) + len({p.order for p in self._proposals} - self.memo.keys()))
         for c, p in enumerate(self._proposals):
             if p.kind == "move" and p.u is not None:
@@ -337,9 +294,9 @@ class Annealing(Search):
                 self._proposals[c] = Proposal(p.order, "move", p.u, told_at, threshold, self._limit(c, threshold))
             elif p.kind == "move":  # a calibration step: greedy, on the exact value
                 self._proposals[c] = Proposal(p.order, "move", None, None, self.current_value[c])
-        # an order asked by several chains is evaluated once: each gets the highest of their limits (None
+        # a design asked by several chains is evaluated once: each gets the highest of their limits (None
         # if one needs the exact value)
-        merged: dict[Order, float | None] = {}
+        merged: dict[Design, float | None] = {}
         for p in self._proposals:
             if p.order not in merged:
                 merged[p.order] = p.limit
@@ -349,10 +306,10 @@ class Annealing(Search):
         return [p.order for p in self._proposals]
 
     def limits(self) -> list[float | None]:
-        """Each asked order's limit (see ``_limit``); None for an init, a kick or a calibration step."""
+        """Each asked design's limit (see ``_limit``); None for an init, a kick or a calibration step."""
         return list(self._limits)
 
-    def _learn(self, order: Order, value: float, limit: float | None) -> None:
+    def _learn(self, order: Design, value: float, limit: float | None) -> None:
         """What the search keeps of a told value: the number if it is at most the limit asked (or none
         was), else only that it is above the limit, whether the evaluation stopped there (censored) or
         ran on. So its decisions and asks are the same whether or not the evaluator honours limits."""
@@ -364,7 +321,7 @@ class Annealing(Search):
         else:
             self.above.pop(order, None)
 
-    def _tell(self, orders: list[Order], values: list[float]) -> None:
+    def _tell(self, designs: list[Design], values: list[float]) -> None:
         for proposal, value, limit in zip(self._proposals, values, self._limits):
             self._learn(proposal.order, value, limit)
         for c, (proposal, value) in enumerate(zip(self._proposals, values)):
@@ -387,7 +344,7 @@ class Annealing(Search):
                 self.current[c], self.current_value[c] = proposal.order, value
 
     def _stop(self) -> bool:
-        return self.total_orders is not None and len(self.memo) >= self.total_orders
+        return len(self.memo) >= self.space.size
 
     def _state(self) -> dict[str, Any]:
         low, high = float(self.options["poor_low"]), float(self.options["poor_high"])

@@ -1,25 +1,18 @@
-"""The one local search over permutations: swap and insertion neighbourhoods.
+"""The one local search over a design space: its swap, insertion and replacement moves.
 
-It serves three places: the polishing phase that ends every optimiser's budget
-(``polish.Polished``), the study's final descent from its best order
-(``LocalSearch`` with no kicks, which stops at a local optimum), and the
-annealing's moves (``random_move``).
+It serves three places: the polishing phase that ends every optimiser's budget (``polish.Polished``), the
+study's final descent from its best design (``LocalSearch`` with no kicks, which stops at a local optimum),
+and, through the same moves of ``DesignSpace``, the annealing.
 
-Why a polishing phase: CMA-ES and the particle swarm work on random keys,
-where one small step in key space can change an order in several places at
-once and where, late in a run, most samples decode to orders already seen.
-Neither is good at the last few improvements, which are single swaps or
-insertions of materials.  A plain first-improvement descent over those moves
-is: on the 11-column lattice, from the sequential order, it gets within about
-0.5 % of the best order we know in 100 evaluations.  So every optimiser
-(``cmaes``, ``pso``, ``sa``) hands the last ``polish`` fraction of its budget
-to a :class:`Descent` started at its best order (see ``base.Search``).
+Why a descent for the last improvements: on random keys (CMA-ES, the swarm, differential evolution) one
+small step in key space changes a design in several columns at once, and late in a run most samples decode
+to designs already seen; the last improvements are single moves, which a first-improvement descent checks
+systematically (python -m bench.search_convergence compares the optimisers with and without it).
 
-Why a kick at a local optimum (iterated local search): with a large budget the
-descent reaches a local optimum (no single swap or insertion improves it)
-long before the budget is spent.  Rather than stop, it perturbs the best local
-optimum found by ``kick`` random moves and descends again; the best local
-optimum is kept as the home from which the next kick starts.
+Why a kick at a local optimum (iterated local search): with a large budget the descent reaches a local
+optimum (no single move improves it) long before the budget is spent. Rather than stop, it perturbs the best
+local optimum found by ``kick`` random moves and descends again; the best local optimum is kept as the home
+from which the next kick starts.
 """
 from __future__ import annotations
 
@@ -28,120 +21,68 @@ from typing import Sequence
 
 import numpy as np
 
-from ..types import Order
-from .base import Search
+from ..design import Design, DesignSpace, as_design
+from .base import Search, as_space
 
 
-def neighbours(order: Sequence[int]) -> list[Order]:
-    """Every distinct order one swap or one insertion away from ``order`` (swaps first).
-
-    For n columns: n(n-1)/2 swaps and (n-1)^2 distinct insertions, of which
-    the n-1 moving a material by one column are adjacent swaps: n = 11 gives
-    55 + 100 - 10 = 145 neighbours.
-    """
-    p = tuple(order)
-    n = len(p)
-    out: dict[Order, None] = {}
-    for i in range(n):
-        for j in range(i + 1, n):
-            q = list(p)
-            q[i], q[j] = q[j], q[i]
-            out[tuple(q)] = None
-    for i in range(n):
-        for j in range(n):
-            if i != j:
-                q = list(p)
-                q.insert(j, q.pop(i))
-                out[tuple(q)] = None
-    out.pop(p, None)
-    return list(out)
-
-
-def random_move(rng: np.random.Generator, order: Order, swap_prob: float = 0.5) -> Order:
-    """One random swap (probability ``swap_prob``) or insertion."""
-    n = len(order)
-    if n < 2:
-        return order
-    p = list(order)
-    i, j = (int(k) for k in rng.choice(n, size=2, replace=False))
-    if rng.random() < swap_prob:
-        p[i], p[j] = p[j], p[i]
-    else:
-        p.insert(j, p.pop(i))
-    return tuple(p)
-
-
-def sequential_keys(n: int) -> np.ndarray:
-    """Random keys in [0, 1], evenly spaced, that decode to the sequential order 1..n."""
-    return order_to_keys(tuple(range(1, n + 1)))
-
-
-def order_to_keys(order: Sequence[int], dim: int | None = None) -> np.ndarray:
-    """Evenly spaced keys in [0, 1] that decode (``keys_to_order``) to ``order``.
-
-    Key of material m = (column of m - 1) / (n - 1); extra dimensions (``dim`` > n,
-    ignored by the decoding) get 0.5.
-    """
-    n = len(order)
-    keys = np.full(max(dim or n, n), 0.5)
-    for column, material in enumerate(order):
-        keys[int(material) - 1] = column / (n - 1) if n > 1 else 0.5
-    return keys
+def neighbours(design: Sequence[int], space: DesignSpace | None = None) -> list[Design]:
+    """Every distinct design one move away (``DesignSpace.neighbour_list``: swaps, then insertions, then
+    replacements); ``space`` defaults to the permutations of ``len(design)`` materials."""
+    space = space or DesignSpace.permutations(len(design))
+    return space.neighbour_list(design)
 
 
 class Descent:
-    """Batched first-improvement descent by swaps and insertions, with kicks.
+    """Batched first-improvement descent by the space's moves, with kicks.
 
-    ``propose(memo, above)`` returns up to ``batch`` neighbours of the current
-    order whose values are not yet known, in a random order; a neighbour already
-    in ``memo`` is judged on the spot for free (if it is better the descent moves
-    there and scans its neighbours instead), unless it is only known to be above
-    a bound (``above``: censored) below the current value, which decides nothing:
-    it is asked again (after a kick the current value can be above the limit
-    such a neighbour was censored at).  ``update(orders, values)`` moves
-    to the best improving order of the batch, if any.  When every neighbour of
-    the current order is known and none is better, the current order is a
-    local optimum: the best local optimum so far becomes the home, and the next
-    proposal is the home perturbed by ``kick`` random moves, which becomes the
-    current order whatever its value.
+    ``propose(memo, above)`` returns up to ``batch`` neighbours of the current design whose values are not
+    yet known, in a random order; a neighbour already in ``memo`` is judged on the spot for free (if it is
+    better the descent moves there and scans its neighbours instead), unless it is only known to be above a
+    bound (``above``: censored) below the current value, which decides nothing: it is asked again (after a
+    kick the current value can be above the limit such a neighbour was censored at). ``update(designs,
+    values)`` moves to the best improving design of the batch, if any. When every neighbour of the current
+    design is known and none is better, the current design is a local optimum: the best local optimum so far
+    becomes the home, and the next proposal is the home perturbed by ``kick`` random moves, which becomes the
+    current design whatever its value.
 
-    Why batches: a batch of ``batch`` neighbours is evaluated in parallel; the
-    descent then takes the best of them (a batch of 2-4 lost nothing against
-    one at a time in our trials on the lattice).
+    Why batches: a batch of neighbours is evaluated in parallel; the descent then takes the best of them.
     """
 
-    def __init__(self, rng: np.random.Generator, batch: int = 4, kick: int = 3,
-                 max_kick_tries: int = 100, max_kicks: int | None = None) -> None:
+    def __init__(self, rng: np.random.Generator, batch: int = 4, kick: int = 3, max_kick_tries: int = 100,
+                 max_kicks: int | None = None, space: DesignSpace | int | None = None) -> None:
+        self.space = None if space is None else as_space(space)  # None: the permutations of the start design
         self.rng = rng
         self.max_kicks = max_kicks  # None: kick for ever; 0: stop at the first local optimum
         self.finished = False
         self.batch = max(1, int(batch))
         self.kick = max(1, int(kick))
         self.max_kick_tries = int(max_kick_tries)
-        self.current: Order | None = None
+        self.current: Design | None = None
         self.current_value = math.inf
-        self.home: Order | None = None
+        self.home: Design | None = None
         self.home_value = math.inf
-        self._queue: list[Order] = []
-        self._kicked: Order | None = None
+        self._queue: list[Design] = []
+        self._kicked: Design | None = None
         self.moves = self.free_moves = self.kicks = self.local_optima = 0
         self.asked_again = 0  # neighbours censored below the current value, asked again
 
-    def start(self, order: Order, value: float) -> None:
-        self._set_current(order, value)
+    def start(self, design: Sequence[int], value: float) -> None:
+        design = as_design(design)
+        self.space = self.space or DesignSpace.permutations(len(design))
+        self._set_current(self.space.check(design, "descent: start"), value)
 
-    def _set_current(self, order: Order, value: float) -> None:
-        self.current, self.current_value = tuple(order), float(value)
-        queue = neighbours(self.current)
+    def _set_current(self, design: Design, value: float) -> None:
+        self.current, self.current_value = design, float(value)
+        queue = self.space.neighbour_list(design)
         self.rng.shuffle(queue)
         self._queue = queue
 
-    def propose(self, memo: dict[Order, float], above: dict[Order, float] | None = None) -> list[Order]:
+    def propose(self, memo: dict[Design, float], above: dict[Design, float] | None = None) -> list[Design]:
         above = above or {}
         if self.current is None:
             raise RuntimeError("Descent.propose before start")
         self._kicked = None
-        out: list[Order] = []
+        out: list[Design] = []
         tries = 0
         while len(out) < self.batch:
             if not self._queue:
@@ -156,7 +97,7 @@ class Descent:
                     return []
                 kicked = self.home
                 for _ in range(self.kick):
-                    kicked = random_move(self.rng, kicked)
+                    kicked = self.space.random_move(self.rng, kicked)
                 self.kicks += 1
                 tries += 1
                 if kicked in memo and kicked not in above:  # a censored one: asked for its value
@@ -181,22 +122,22 @@ class Descent:
             out.append(q)
         return out
 
-    def limits(self, orders: list[Order]) -> list[float | None]:
-        """Only a neighbour better than the current order matters: its evaluation may stop once the peak
-        passes the current value. A kicked order is taken whatever its value, so it needs the value."""
+    def limits(self, designs: list[Design]) -> list[float | None]:
+        """Only a neighbour better than the current design matters: its evaluation may stop once the peak
+        passes the current value. A kicked design is taken whatever its value, so it needs the value."""
         if self._kicked is not None or not math.isfinite(self.current_value):
-            return [None] * len(orders)
-        return [self.current_value] * len(orders)
+            return [None] * len(designs)
+        return [self.current_value] * len(designs)
 
-    def update(self, orders: list[Order], values: list[float]) -> None:
-        if self._kicked is not None and orders == [self._kicked]:
+    def update(self, designs: list[Design], values: list[float]) -> None:
+        if self._kicked is not None and designs == [self._kicked]:
             self._kicked = None
-            self._set_current(orders[0], values[0])
+            self._set_current(designs[0], values[0])
             return
         best = None
-        for order, value in zip(orders, values):
+        for design, value in zip(designs, values):
             if value < self.current_value and (best is None or value < best[1]):
-                best = (order, value)
+                best = (design, value)
         if best is not None:
             self.moves += 1
             self._set_current(*best)
@@ -208,9 +149,9 @@ class Descent:
                 "home_value": None if not math.isfinite(self.home_value) else self.home_value}
 
 
-
 class LocalSearch(Search):
-    """The descent as a search of its own (ask/tell): from ``start`` until a local optimum.
+    """The descent as a search of its own (ask/tell): from ``start`` (default: the space's baseline) until a
+    local optimum.
 
     ``kicks``: how many kicks after a local optimum (0: stop at the first one, the study's final descent;
     None: an iterated local search that never stops, a baseline). Registered as the ``local`` method.
@@ -219,18 +160,16 @@ class LocalSearch(Search):
     name = "local"
     OPTIONS = {"start": None, "batch": 4, "kicks": None, "budget": None}
 
-    def __init__(self, n: int, seed: int, **options) -> None:
-        super().__init__(n, seed, **options)
+    def __init__(self, space: DesignSpace | int, seed: int, **options) -> None:
+        super().__init__(space, seed, **options)
         start = self.options["start"]
-        self.start = tuple(int(m) for m in start) if start is not None else tuple(range(1, self.n + 1))
-        if sorted(self.start) != list(range(1, self.n + 1)):
-            raise ValueError(f"local: start must be a permutation of 1..{self.n}, got {list(self.start)}")
+        self.start = self.space.check(start, "local: start") if start is not None else self.space.baseline()
         kicks = self.options["kicks"]
         self.descent = Descent(self.rng, batch=int(self.options["batch"]),
-                               max_kicks=None if kicks is None else int(kicks))
+                               max_kicks=None if kicks is None else int(kicks), space=self.space)
         self._started = False
 
-    def _ask(self) -> list[Order]:
+    def _ask(self) -> list[Design]:
         if not self._started:
             self._asked = [self.start]
         else:
@@ -240,12 +179,12 @@ class LocalSearch(Search):
     def limits(self) -> list[float | None] | None:
         return self.descent.limits(self._asked) if self._started else None
 
-    def _tell(self, orders: list[Order], values: list[float]) -> None:
+    def _tell(self, designs: list[Design], values: list[float]) -> None:
         if not self._started:
             self._started = True
-            self.descent.start(orders[0], values[0])
+            self.descent.start(designs[0], values[0])
         else:
-            self.descent.update(orders, values)
+            self.descent.update(designs, values)
 
     def _stop(self) -> bool:
         return self.descent.finished

@@ -1,45 +1,44 @@
 """A search composed with the one local search for the end of its budget.
 
-Why a polishing phase: CMA-ES and the particle swarm work on random keys, where one small step in key
-space can change an order in several places at once and where, late in a run, most samples decode to
-orders already seen; annealing samples neighbours at random where a descent checks them systematically.
-None is good at the last few improvements, which are single swaps or insertions. So ``make_search`` wraps
-each optimiser in ``Polished``: the optimiser gets the first ``budget - round(polish * budget)`` distinct
-orders, then a ``local.Descent`` (with kicks: an iterated local search) starts at the best order found.
-The switch happens between two batches. ``state()["phase"]`` says which phase the search is in.
+Why a polishing phase: the optimisers on random keys change a design in several columns per step and late in
+a run mostly decode to designs already seen; the annealing samples neighbours at random where a descent
+checks them one by one. The last improvements are single moves (swaps, insertions, replacements), so
+``make_search`` wraps each optimiser in ``Polished``: the optimiser gets the first ``budget - round(polish *
+budget)`` distinct designs, then a ``local.Descent`` (with kicks: an iterated local search) starts at the best
+design found. The switch happens between two batches. ``state()["phase"]`` says which phase the search is in.
 """
 from __future__ import annotations
 
 from typing import Any
 
-from ..types import Order
+from ..design import Design
 from .base import Search
 from .local import Descent
 
 
 class Polished(Search):
-    """``inner`` for its share of ``budget``, then a descent by swaps and insertions from the best order."""
+    """``inner`` for its share of ``budget``, then a descent by the space's moves from the best design."""
 
     OPTIONS = {"polish": 0.0, "polish_batch": 4, "budget": None}
 
     def __init__(self, inner: Search, **options: Any) -> None:
         self.name = inner.name
-        super().__init__(inner.n, inner.seed, **options)
+        super().__init__(inner.space, inner.seed, **options)
         polish = self.options["polish"]
         if polish is None or not 0.0 <= float(polish) <= 1.0:
             raise ValueError(f"{self.name}: polish must be a fraction in [0, 1], got {polish!r}")
         self.inner = inner
-        self.rng = inner.rng  # one stream of draws, as when the descent lived inside the search
+        self.rng = inner.rng  # one stream of draws for the optimiser and its descent
         budget = self.options["budget"]
         self.switch_at = None if budget is None or not polish else int(budget) - round(float(polish) * int(budget))
         self.descent: Descent | None = None
         self.polish_started_at: int | None = None
         self._polishing_batch = False
 
-    def _ask(self) -> list[Order]:
+    def _ask(self) -> list[Design]:
         if self.descent is None and self.switch_at is not None and self.best_order is not None \
                 and len(self.memo) >= self.switch_at:
-            self.descent = Descent(self.rng, batch=int(self.options["polish_batch"] or 4))
+            self.descent = Descent(self.rng, batch=int(self.options["polish_batch"] or 4), space=self.space)
             self.descent.start(self.best_order, self.best_value)
             self.polish_started_at = len(self.memo)
         self._polishing_batch = self.descent is not None
@@ -50,15 +49,15 @@ class Polished(Search):
     def limits(self) -> list[float | None] | None:
         return self.descent.limits(self._asked) if self._polishing_batch else self.inner.limits()
 
-    def tell(self, orders, values) -> None:
+    def tell(self, designs, values) -> None:
         self._told = list(values)  # the inner search is told what was told (Above stays Above), not +inf
-        super().tell(orders, values)
+        super().tell(designs, values)
 
-    def _tell(self, orders: list[Order], values: list[float]) -> None:
+    def _tell(self, designs: list[Design], values: list[float]) -> None:
         if self._polishing_batch:
-            self.descent.update(orders, values)
+            self.descent.update(designs, values)
         else:
-            self.inner.tell(orders, self._told)
+            self.inner.tell(designs, self._told)
 
     def _stop(self) -> bool:
         return self.descent is None and self.inner.stop()

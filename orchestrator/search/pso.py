@@ -1,39 +1,23 @@
-"""Particle swarm on random keys.
+"""Particle swarm on random keys (decoded by ``DesignSpace.from_keys``, as CMA-ES decodes its samples).
 
-Why these constants: inertia 0.7298 and acceleration 1.49618 are Clerc and
-Kennedy's constriction values, the standard convergent setting.  Why velocity
-clamping and a [0, 1] box: random keys only matter relative to each other, so
-without a bound the swarm can drift or blow up while decoding to the same
-orders.  Why restarts: a collapsed swarm decodes to one order over and over;
-after ``stagnation`` iterations without improving its global best, the swarm
-is scattered again (the overall best is kept in ``state()``), uniformly:
-re-scattering around the best order so far (``rescatter_best=True``) costs
-the diversity a restart is for (on the 8-material quadratic-assignment test,
-polishing off, it found the optimum in 0 of 6 seeds against 3 of 6).
+Why these constants: inertia 0.7298 and acceleration 1.49618 are Clerc and Kennedy's constriction values,
+the standard convergent setting. Why velocity clamping and a [0, 1] box: random keys only matter relative to
+each other (or, with repetition, within [0, 1]), so without a bound the swarm can drift or blow up while
+decoding to the same designs. Why restarts: a collapsed swarm decodes to one design over and over; after
+``stagnation`` iterations without improving its global best, the swarm is scattered again uniformly (the
+overall best is kept in ``state()``); re-scattering around the best design (``rescatter_best=True``) costs
+the diversity a restart is for.
 
-Why the small-budget defaults (measured on the 11-column lattice: searches on
-the 1 s search objective with 100 evaluations, the best order re-evaluated
-over the full 8 s, median over seeds 0-19 unless said; the best order we know
-is at 1405.9 N, the sequential one at 1747.8 N):
-- ``x0="sequential"``, ``spread=0.3``: the swarm starts around the keys of
-  the sequential order, the baseline a user already has (particle 0 exactly
-  on it, the others with Gaussian noise of 0.3 on each key, about three
-  columns), instead of uniformly at random.  Seeding only one particle there
-  did little (1485 -> 1469 N, seeds 0-9, no polishing): in a random swarm the
-  baseline is rarely even the best particle.  Spreads 0.2 and 0.4 were worse
-  than 0.3 (1455 and 1458 N against 1439 N, 16 particles, polish 0.5,
-  seeds 0-9).
-- ``swarm=10`` (was 10 + 2 sqrt(n) = 16 for n = 11): with 100 evaluations a
-  swarm of 16 gets a handful of iterations; 10 gave 1426 N against 1439 N
-  (seeds 0-9, polish 0.5).  6 and 8 were within noise of 10.
-- ``polish=0.7``: the last 70 % of the budget goes to a descent by single
-  swaps and insertions from the best order (``local.py``).  On random keys the
-  swarm is the weakest of the three at the last few improvements; 0.5, 0.6,
-  0.7 gave 1428, 1421, 1414 N (1 seed in 20 above 1430 N at 0.7, 4 at 0.6).
-  With 2000 evaluations the polishing phase (an iterated local search) found
-  the best known order in each of seeds 0-2.
-- ``topology="ring"`` stays: "global" was no better with polishing (1413 N at
-  polish 0.6, 1416 N at 0.7, with 4-5 seeds in 20 above 1430 N).
+Why the defaults (python -m bench.search_convergence with ``--option``, on the study's lattice at the study's budget):
+- ``x0="sequential"``, ``spread=0.3``: the swarm starts around the keys of the baseline a designer already has
+  (particle 0 exactly on it, the others with Gaussian noise of 0.3 on each key, a few columns), not
+  uniformly: placing one particle there alone does little, since in a random swarm the baseline is rarely
+  even the best particle.
+- ``swarm=10``: a small budget gives a larger swarm only a handful of iterations.
+- ``polish=0.7``: the last 70 % of the budget goes to the descent by single moves from the best design
+  (``local.py``); on random keys the swarm is weak at the last few improvements.
+- ``topology="ring"``: each particle follows the best of itself and its two ring neighbours, which keeps the
+  swarm diverse for longer than following the swarm's best.
 """
 from __future__ import annotations
 
@@ -42,9 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from ..types import Order
-from .base import Search, keys_to_order
-from .local import order_to_keys, sequential_keys
+from ..design import Design, DesignSpace
+from .base import Search
 
 
 class PSO(Search):
@@ -53,10 +36,10 @@ class PSO(Search):
     Options:
       swarm       number of particles (batch size); default 10.
       x0          "sequential" (default): the swarm starts around the keys of the
-                  order 1..n; "random": uniform in [0, 1].
+                  space's baseline; "random": uniform in [0, 1].
       spread      standard deviation of the keys around the start (default 0.3;
                   None: only particle 0 is placed, the rest stay uniform).
-      rescatter_best  re-scatter around the best order so far, with ``spread``
+      rescatter_best  re-scatter around the best design so far, with ``spread``
                   (default False: uniformly).
       polish      fraction of ``budget`` left to the final descent (default 0.7;
                   0 = none).  polish_batch: its batch size (default 4).
@@ -68,9 +51,7 @@ class PSO(Search):
                   is re-scattered (default 20; 0 = never).
       topology    "ring" (default: each particle follows the best of itself and
                   its two ring neighbours) or "global" (everyone follows the
-                  swarm's best).  The ring keeps the swarm diverse for longer;
-                  on small quadratic-assignment tests it found the optimum in
-                  19/20 seeds against 13/20 for the global best (n=7, budget 400).
+                  swarm's best).
     """
 
     name = "pso"
@@ -79,32 +60,33 @@ class PSO(Search):
                "vmax": 0.2, "stagnation": 20, "topology": "ring", "budget": None,
                "x0": "sequential", "spread": 0.3, "rescatter_best": False}
 
-    def __init__(self, n: int, seed: int, **options: Any) -> None:
-        super().__init__(n, seed, **options)
+    def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:
+        super().__init__(space, seed, **options)
         if self.options["x0"] not in ("sequential", "random"):
-            raise ValueError("pso: x0 must be 'sequential' or 'random'")
-        self.size = int(self.options["swarm"] or (10 + int(2 * math.sqrt(self.n))))
+            raise ValueError(f"pso: x0 must be 'sequential' or 'random', got {self.options['x0']!r}")
+        self.dim = self.space.key_dimension
+        self.size = int(self.options["swarm"] or (10 + int(2 * math.sqrt(self.dim))))
         if self.size < 1:
-            raise ValueError("pso: swarm must be at least 1")
+            raise ValueError(f"pso: swarm must be at least 1, got {self.options['swarm']!r}")
         self.w = float(self.options["inertia"])
         self.c1 = float(self.options["cognitive"])
         self.c2 = float(self.options["social"])
         self.vmax = float(self.options["vmax"])
         self.topology = self.options["topology"]
         if self.topology not in ("global", "ring"):
-            raise ValueError("pso: topology must be 'global' or 'ring'")
+            raise ValueError(f"pso: topology must be 'global' or 'ring', got {self.topology!r}")
         self.restarts = 0
         self.iterations = 0
         self._scatter()
 
     def _scatter(self) -> None:
-        self.x = self.rng.uniform(0.0, 1.0, (self.size, self.n))
-        self.v = self.rng.uniform(-self.vmax, self.vmax, (self.size, self.n))
+        self.x = self.rng.uniform(0.0, 1.0, (self.size, self.dim))
+        self.v = self.rng.uniform(-self.vmax, self.vmax, (self.size, self.dim))
         centre = None
         if self.restarts == 0 and self.options["x0"] == "sequential":
-            centre = sequential_keys(self.n)
+            centre = self.space.to_keys(self.space.baseline())
         elif self.restarts > 0 and self.options["rescatter_best"] and self.best_order is not None:
-            centre = order_to_keys(self.best_order)
+            centre = self.space.to_keys(self.best_order)
         if centre is not None:
             spread = self.options["spread"]
             if spread is not None:
@@ -117,10 +99,10 @@ class PSO(Search):
         self.since_improvement = 0
         self._fresh = True  # the first tell after scattering sets the personal bests
 
-    def _ask(self) -> list[Order]:
-        return [keys_to_order(x) for x in self.x]
+    def _ask(self) -> list[Design]:
+        return [self.space.from_keys(x) for x in self.x]
 
-    def _tell(self, orders: list[Order], values: list[float]) -> None:
+    def _tell(self, designs: list[Design], values: list[float]) -> None:
         f = np.asarray(values, dtype=float)
         better = f < self.pbest_f
         if self._fresh:

@@ -1,0 +1,3 @@
+"""The benchmarks behind the figures the documentation quotes: each is ``python -m bench.NAME`` and writes its
+own measurement page, ``docs/measurements/NAME.md`` (see ``bench.measurements``). Nothing in the tests or the
+package imports them."""

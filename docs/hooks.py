@@ -1,0 +1,102 @@
+"""MkDocs hooks: the tables that must not drift from the code are generated from it at every build.
+
+- ``fmu-reference.md``: at the line ``<!-- the variables of the default FMU -->`` go the tables of every
+  parameter, output and local variable of the default scene's FMU, with unit, range, default and description,
+  read from ``fmu_src/variables.py`` through the scene (``scenes.Scene.interface``), exactly as the build reads
+  them to write the model description.
+- ``optimisers.md``: at the line ``<!-- the options of every search -->`` goes each search's options with their
+  defaults, read from the searches themselves (``orchestrator.search.SEARCHES``).
+"""
+from __future__ import annotations
+
+VARIABLES = "<!-- the variables of the default FMU -->"
+OPTIONS = "<!-- the options of every search -->"
+
+
+def on_page_markdown(markdown: str, page, config, files) -> str:
+    generated = {"fmu-reference.md": (VARIABLES, variable_tables), "optimisers.md": (OPTIONS, search_options)}
+    if page.file.src_uri not in generated:
+        return markdown
+    marker, make = generated[page.file.src_uri]
+    if marker not in markdown:
+        raise ValueError(f"{page.file.src_uri}: the line {marker} is missing (the hook puts its table there)")
+    return markdown.replace(marker, make())
+
+
+def search_options() -> str:
+    from orchestrator.search import SEARCHES
+    from orchestrator.search.polish import Polished
+
+    lines = ["| search | options (defaults) | polishing share of the budget |", "|---|---|---|"]
+    for name, search in SEARCHES.items():
+        options = ", ".join(f"`{key}` {value!r}" for key, value in search.OPTIONS.items() if key != "budget")
+        polish = "none" if search.POLISH is None else f"{search.POLISH:g}"
+        lines.append(f"| `{name}` | {cell(options) or 'none'} | {polish} |")
+    shared = ", ".join(f"`{key}` {value!r}" for key, value in Polished.OPTIONS.items()
+                       if key not in ("budget", "polish"))
+    lines += ["", f"Every search takes `budget`; a polished one also `polish` (its share above) and {shared}."]
+    return "\n".join(lines) + "\n"
+
+
+def variable_tables(scene_name: str = "armour_11x11") -> str:
+    from scenes import Scene
+
+    scene = Scene.load(scene_name)
+    interface = scene.interface()
+    headings = {"parameter": "Parameters", "output": "Outputs",
+                "local": "Continuous states, derivatives and event indicators (local variables)"}
+    lines = [f"The default FMU is the scene `{scene.name}`: a lattice of {interface.rows} rows by {interface.cols} "
+             "columns. Arrays are written with their first and last element; in FMI 2 each element is a scalar "
+             "variable of its own. A range in brackets includes its end, in parentheses excludes it.", ""]
+    for causality, heading in headings.items():
+        lines += [f"## {heading}", "", "| name | type | unit | range | default | description |",
+                  "|---|---|---|---|---|---|"]
+        lines += [row(v) for v in interface.exposed if v.causality == causality]
+        lines.append("")
+    if interface.fixed:
+        lines += ["## Compiled in by this scene", "",
+                  "These parameters of the model are constants of the default FMU (another scene may expose them): "
+                  + ", ".join(f"`{v.name}` = {start_text(v.start)}" for v in interface.fixed) + ".", ""]
+    return "\n".join(lines)
+
+
+def row(variable) -> str:
+    return "| " + " | ".join(cell(text) for text in (
+        name_text(variable), type_text(variable), f"`{variable.unit}`" if variable.unit else "",
+        range_text(variable), start_text(variable.start) if variable.causality == "parameter" else "",
+        variable.description)) + " |"
+
+
+def name_text(variable) -> str:
+    names = variable.element_names()
+    if len(names) == 1:
+        return f"`{names[0]}`"
+    return f"`{names[0]}` ... `{names[-1]}`"
+
+
+def type_text(variable) -> str:
+    if variable.enumeration:
+        return f"Enumeration `{variable.enumeration}`"
+    return variable.type
+
+
+def range_text(variable) -> str:
+    if variable.causality != "parameter":
+        return ""
+    if variable.enumeration:
+        return ", ".join(f"`{name}` ({code})" for code, (name, _) in enumerate(variable.items))
+    return variable.allowed_text()
+
+
+def start_text(start) -> str:
+    if start is None:
+        return ""
+    if isinstance(start, tuple):
+        if all(s == start[0] for s in start):
+            return f"{start[0]:g} each"
+        return ", ".join(f"{s:g}" for s in start)
+    return f"{start:g}"
+
+
+def cell(text: str) -> str:
+    return str(text).replace("|", "\\|").replace("\n", " ")

@@ -1,0 +1,203 @@
+"""The FMU a study runs: found, checked, built when needed and instantiated once, before any search.
+
+``prepare_fmu`` is the one place that decides which FMU a run uses: the one given (``--fmu``), or the scene's
+in ``models/``, built when it is missing, rebuilt when it was built from other sources (its GUID) or its
+binary cannot be instantiated here (a foreign build). It is instantiated once in this process, so a broken
+FMU is refused at once with its own log message, not after a whole study. The study receives the result, a
+``PreparedFMU``: the file, its hash (how journals and checkpoints identify it, wherever it lies) and what its
+model description says (columns, materials, parameters with their types, ranges and enumeration items).
+"""
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .journal import file_sha256
+from .simulation import LatticeFMU, SimulationError, enumeration_items, material_columns, model_description
+
+
+class FMUError(ValueError):
+    """An FMU that cannot be used, with the reason in one line."""
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One scalar parameter of the FMU as its model description declares it."""
+
+    name: str
+    type: str  # Real, Integer, Enumeration or Boolean
+    start: Any
+    minimum: float | None
+    maximum: float | None
+    unit: str | None
+    description: str
+    items: dict[str, int] = field(default_factory=dict)  # an enumeration's names and codes
+
+    def allowed(self) -> str:
+        if self.items:
+            return ", ".join(self.items)
+        low = "-inf" if self.minimum is None else f"{self.minimum:g}"
+        high = "inf" if self.maximum is None else f"{self.maximum:g}"
+        kind = "an integer" if self.type in ("Integer", "Boolean") else "a finite number"
+        return f"{kind} in [{low}, {high}]"
+
+    def convert(self, text: Any, option: str) -> Any:
+        """``text`` as this parameter's value (an enumeration by its name or code), or a one-line ValueError
+        naming ``option`` and the allowed values."""
+        if self.items:
+            names = {str(code): name for name, code in self.items.items()}
+            value = str(text).strip()
+            if value in self.items:
+                return value
+            if value in names:
+                return names[value]
+            raise ValueError(f"{option} {self.name}={text}: allowed values are {self.allowed()}")
+        try:
+            number = float(text)
+        except (TypeError, ValueError):
+            raise ValueError(f"{option} {self.name}={text}: not a number; allowed: {self.allowed()}") from None
+        if self.type in ("Integer", "Boolean"):
+            if not math.isfinite(number) or number != int(number):
+                raise ValueError(f"{option} {self.name}={text}: not an integer; allowed: {self.allowed()}")
+            number = int(number)
+        low = -math.inf if self.minimum is None else self.minimum
+        high = math.inf if self.maximum is None else self.maximum
+        if not math.isfinite(number) or not low <= number <= high:
+            raise ValueError(f"{option} {self.name}={text}: allowed values are {self.allowed()}")
+        return number
+
+
+@dataclass(frozen=True)
+class PreparedFMU:
+    """An FMU checked and instantiated once; what the study needs to know of it."""
+
+    path: Path
+    sha256: str
+    identifier: str
+    guid: str
+    rows: int
+    columns: int
+    materials: int
+    parameters: dict[str, Parameter]  # the scalar parameters (array elements are not here)
+    outputs: tuple[str, ...]
+
+    @property
+    def has_force_limit(self) -> bool:
+        return "peak_force_limit" in self.parameters
+
+    @property
+    def has_compression(self) -> bool:
+        return "max_compression" in self.outputs
+
+    @property
+    def has_repeat(self) -> bool:
+        return "repeat_materials" in self.parameters
+
+    @property
+    def description(self):
+        return model_description(self.path)
+
+    def start(self, name: str, default: Any = None) -> Any:
+        parameter = self.parameters.get(name)
+        return default if parameter is None else parameter.start
+
+    def is_default(self, name: str, value: Any) -> bool:
+        """Whether ``value`` is what the FMU runs with when ``name`` is not set."""
+        parameter = self.parameters.get(name)
+        return parameter is not None and value == parameter.start
+
+
+def describe(path: Path, rows: int) -> PreparedFMU:
+    """What the FMU's model description says (no instantiation)."""
+    try:
+        description = model_description(path)
+    except Exception as exc:  # noqa: BLE001 - one line for a file that is not an FMU
+        raise FMUError(f"--fmu {path}: not a readable FMU ({type(exc).__name__}: {exc})") from None
+    if description.coSimulation is None:
+        raise FMUError(f"--fmu {path}: it has no Co-Simulation interface; the study runs Co-Simulation FMUs")
+    parameters = {}
+    for variable in description.modelVariables:
+        if variable.causality != "parameter" or "[" in variable.name:
+            continue
+        items = enumeration_items(description, variable.name)
+        start = variable.start
+        if items:
+            start = next((n for n, c in items.items() if str(c) == str(start)), start)
+        elif variable.type == "Real" and start is not None:
+            start = float(start)
+        elif variable.type in ("Integer", "Boolean") and start is not None:
+            start = int(start) if variable.type == "Integer" else int(str(start).lower() in ("1", "true"))
+        parameters[variable.name] = Parameter(
+            variable.name, variable.type, start,
+            None if getattr(variable, "min", None) in (None, "") else float(variable.min),
+            None if getattr(variable, "max", None) in (None, "") else float(variable.max),
+            getattr(variable, "unit", None), variable.description or "", items)
+    outputs = tuple(v.name for v in description.modelVariables if v.causality == "output")
+    materials = sum(1 for v in description.modelVariables if v.name.startswith("k["))
+    columns = material_columns(description)
+    return PreparedFMU(path, file_sha256(path), description.coSimulation.modelIdentifier, description.guid, rows,
+                       columns, materials or columns, parameters, outputs)
+
+
+def instantiate_once(path: Path) -> None:
+    """Instantiates the FMU here and frees it: a broken or foreign binary fails now, with the FMU's message."""
+    try:
+        LatticeFMU(path, instance_name="check").close()
+    except (SimulationError, OSError) as exc:
+        raise FMUError(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
+
+
+def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
+    """The FMU of ``scene`` (a ``scenes.Scene``): ``fmu`` when given (checked, never rebuilt), else the
+    scene's FMU in models/, built or rebuilt as needed."""
+    if fmu:
+        path = Path(fmu)
+        if not path.is_file():
+            raise FMUError(f"--fmu {fmu}: no such file (build one with `python build_fmu.py`)")
+        prepared = describe(path, scene.rows)
+        if prepared.columns < 2:
+            raise FMUError(f"--fmu {fmu}: {prepared.columns} column(s) with a material parameter: there is no "
+                           "material order to search (give a scene with a material per column)")
+        if prepared.columns != scene.cols:
+            raise FMUError(f"--fmu {fmu}: its lattice has {prepared.columns} columns, scene {scene.name} "
+                           f"{scene.cols}; give the FMU's --scene or --cols {prepared.columns}")
+        try:
+            instantiate_once(path)
+        except FMUError as exc:
+            raise FMUError(f"--fmu {fmu}: {exc}") from None
+        return prepared
+    from fmu_src import build
+
+    path = build.MODELS_DIR / f"{scene.model_identifier}.fmu"
+    expected = build.model_guid(scene.interface(), scene.model_identifier)
+    reason = None
+    if not path.is_file():
+        reason = f"building {path} (scene {scene.name}) ..."
+    elif _guid(path) != expected:
+        reason = f"rebuilding {path}: it was built from other sources or for another scene"
+    if reason:
+        print(reason, file=sys.stderr)
+        build.build_fmu(scene, path)
+    try:
+        instantiate_once(path)
+    except FMUError as exc:
+        print(f"rebuilding {path}: its binary cannot be instantiated here ({exc})", file=sys.stderr)
+        build.build_fmu(scene, path)
+        try:
+            instantiate_once(path)
+        except FMUError as again:
+            raise FMUError(f"{path} was rebuilt but still cannot be instantiated: {again}") from None
+    return describe(path, scene.rows)
+
+
+def _guid(path: Path) -> str | None:
+    try:
+        return model_description(path).guid
+    except Exception:  # noqa: BLE001 - unreadable: rebuilt
+        return None
+
+
+__all__ = ["FMUError", "Parameter", "PreparedFMU", "describe", "instantiate_once", "prepare_fmu"]

@@ -1,0 +1,56 @@
+"""The known optima (known_optima.json): which design is the optimum of a case, and whether it is certified.
+
+An answer that matches one says so (status ``certified`` or ``known``); every other answer is the best found.
+A known optimum holds only for the case it was found on: the study's materials and lattice, the default load,
+the sampled peak over the scene's horizon, one diagonal rule and no other parameter or load case.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from fmu_src.materials import study_materials
+
+from .types import Order
+
+TABLE = Path(__file__).with_name("known_optima.json")
+
+
+@dataclass(frozen=True)
+class KnownOptimum:
+    rows: int
+    columns: int
+    objective: str
+    diagonal_rule: str
+    horizon: float
+    order: Order
+    peak: float
+    certified: bool
+    source: str
+    command: str
+    runner_up: Order | None = None  # the second best design, where the sweep gave it
+    runner_up_peak: float | None = None
+
+
+@lru_cache(maxsize=1)
+def known_optima() -> tuple[KnownOptimum, ...]:
+    table = json.loads(TABLE.read_text())
+    return tuple(KnownOptimum(e["rows"], e["columns"], e["objective"], e["diagonal_rule"], float(e["horizon"]),
+                              tuple(e["order"]), float(e["peak"]), bool(e["certified"]), e["source"], e["command"],
+                              tuple(e["runner_up"]["order"]) if "runner_up" in e else None,
+                              float(e["runner_up"]["peak"]) if "runner_up" in e else None)
+                 for e in table["optima"])
+
+
+def known_optimum(case, rule: str) -> KnownOptimum | None:
+    """The known optimum of ``case`` (an ``orchestrator.study.Case``) under ``rule``, if there is one."""
+    if (case.outputs != ("peak_backplate_force",) or case.parameters or case.case_lists
+            or case.space.kind != "permutation" or case.materials != study_materials(case.space.materials)):
+        return None
+    return next((k for k in known_optima() if k.rows == case.rows and k.columns == case.columns
+                 and k.diagonal_rule == rule and k.horizon == case.horizon), None)
+
+
+__all__ = ["KnownOptimum", "TABLE", "known_optima", "known_optimum"]

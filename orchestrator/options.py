@@ -1,0 +1,140 @@
+"""Command-line options declared where they are used: on the fields of frozen config dataclasses.
+
+Each config (the run's, the case's, each step's) declares its options with :func:`option`; the CLI builds one
+argument group per config from those declarations (in the spirit of PythonFMU's per-module parsers), shows
+every real default in ``--help``, and builds the config from what was given. ``given(config)`` says which
+options the user spelled out, so that an option that means nothing in a run is refused, not ignored.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+from typing import Any, Callable
+
+_GIVEN = "_options_given"
+
+
+def option(default: Any, help: str, *, flag: str | None = None, type: Callable[[str], Any] | None = None,
+           choices: Any = None, nargs: str | int | None = None, metavar: str | None = None,
+           action: str | None = None, show_default: str | None = None):
+    """A dataclass field that is also a command-line option (``--name-with-dashes`` unless ``flag``).
+
+    ``show_default`` replaces the shown default (e.g. "the scene's, 1200 N"); ``action`` "store_true" or
+    "store_false" makes a flag (the field's default is then the value without the flag)."""
+    metadata = {"help": help, "flag": flag, "type": type, "choices": choices, "nargs": nargs, "metavar": metavar,
+                "action": action, "show_default": show_default}
+    if isinstance(default, (list, dict, set)):
+        raise TypeError("option defaults must be immutable (use a tuple)")
+    return dataclasses.field(default=default, metadata={"option": metadata})
+
+
+def flag_of(config_type: type, name: str) -> str:
+    """The command-line spelling of a config field."""
+    meta = next(f for f in dataclasses.fields(config_type) if f.name == name).metadata["option"]
+    return meta["flag"] or "--" + name.replace("_", "-")
+
+
+def _shown(value: Any) -> str:
+    if isinstance(value, tuple):
+        return " ".join(str(v) for v in value) if value else "none"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def add_options(parser: argparse.ArgumentParser, config_type: type, title: str, description: str | None = None) -> None:
+    """An argument group of ``parser`` with ``config_type``'s options."""
+    group = parser.add_argument_group(title, description)
+    for f in dataclasses.fields(config_type):
+        meta = f.metadata.get("option")
+        if meta is None:
+            continue
+        shown = meta["show_default"] if meta["show_default"] is not None else _shown(f.default)
+        help_text = meta["help"]
+        if meta["action"] not in ("store_true", "store_false"):
+            help_text += f" (default: {shown})"
+        kwargs: dict[str, Any] = {"dest": f"{config_type.__name__}.{f.name}", "default": argparse.SUPPRESS,
+                                  "help": help_text}
+        if meta["action"] == "append":
+            kwargs["action"] = "append"
+            kwargs["metavar"] = meta["metavar"] or f.name.upper()
+        elif meta["action"]:
+            kwargs["action"] = meta["action"]
+        else:
+            for key in ("type", "choices", "nargs", "metavar"):
+                if meta[key] is not None:
+                    kwargs[key] = meta[key]
+            if meta["metavar"] is None and meta["choices"] is None:
+                kwargs["metavar"] = f.name.upper()
+        group.add_argument(meta["flag"] or "--" + f.name.replace("_", "-"), **kwargs)
+
+
+def config_from(config_type: type, namespace: argparse.Namespace, **extra: Any):
+    """``config_type`` built from the options given (the rest at their defaults); ``given(config)`` tells
+    which were given. A ValueError from the config's own checks reaches the caller as it is."""
+    prefix = f"{config_type.__name__}."
+    values = {key[len(prefix):]: value for key, value in vars(namespace).items() if key.startswith(prefix)}
+    for name, value in values.items():
+        meta = next(f for f in dataclasses.fields(config_type) if f.name == name).metadata["option"]
+        if meta["nargs"] in ("+", "*") or isinstance(meta["nargs"], int):
+            values[name] = tuple(value)
+    config = config_type(**{**values, **extra})
+    object.__setattr__(config, _GIVEN, frozenset(values))
+    return config
+
+
+def given(config: Any) -> frozenset[str]:
+    """The fields of ``config`` that were given on the command line (none for a config built in code)."""
+    return getattr(config, _GIVEN, frozenset())
+
+
+# ---------------------------------------------------------------------------------------------- value types
+def number(flag: str, low: float | None = None, high: float | None = None, *, low_inclusive: bool = False,
+           allow_zero: bool = False) -> Callable[[str], float]:
+    """An argparse type: a finite number in (low, high] ([low, high] with ``low_inclusive``), or 0 when
+    ``allow_zero`` (meaning: none)."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{flag} must be a number, got {text!r}") from None
+        if allow_zero and value == 0:
+            return value
+        below = low is not None and (value < low if low_inclusive else value <= low)
+        if not math.isfinite(value) or below or (high is not None and value > high):
+            left = "[" if low_inclusive else "("
+            if low is not None and high is not None:
+                bounds = f"in {left}{low:g}, {high:g}]"
+            elif low is not None:
+                bounds = f">= {low:g}" if low_inclusive else f"> {low:g}"
+            else:
+                bounds = ""
+            raise argparse.ArgumentTypeError(f"{flag} must be a finite number{' ' + bounds if bounds else ''}"
+                                             f"{' (or 0: none)' if allow_zero else ''}, got {text!r}")
+        return value
+    return parse
+
+
+def check_number(flag: str, value: Any, low: float | None = None, high: float | None = None, **kwargs) -> float:
+    """A config's own check of a number (the same rule as the option's type), as a ValueError."""
+    try:
+        return number(flag, low, high, **kwargs)(str(value))
+    except argparse.ArgumentTypeError as exc:
+        raise ValueError(str(exc)) from None
+
+
+def integer(flag: str, low: int, high: int | None = None) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{flag} must be an integer, got {text!r}") from None
+        if value < low or (high is not None and value > high):
+            upper = f" and at most {high}" if high is not None else ""
+            raise argparse.ArgumentTypeError(f"{flag} must be at least {low}{upper}, got {value}")
+        return value
+    return parse
+
+
+__all__ = ["add_options", "check_number", "config_from", "flag_of", "given", "integer", "number", "option"]

@@ -1,0 +1,171 @@
+"""The report folder of a study: results.json, evaluations.csv, the design files, the charts and report.html.
+
+The report only renders: every number comes from the study's typed results (``StudyResult``); nothing here
+simulates. HTML and the design files are rendered from templates (jinja2, autoescaped), one template per step
+under ``orchestrator/templates/report/``.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import jinja2
+import markupsafe
+
+from ..records import to_record
+from ..study import StudyResult
+
+RESULTS_FORMAT = "lattice-results/1"
+TERMS = {
+    "sampled peak": "the largest backplate force among the samples every 0.01 s (peak_sample_interval): what "
+                    "the study computed and published",
+    "continuous peak": "the largest backplate force over the continuous solution (between the samples too); "
+                       "at least the sampled peak",
+    "search fidelity": "the cheaper evaluation the searches rank by: a 1 s horizon (extended while the lattice "
+                       "still touches the plate) at a looser tolerance; every reported number is at full "
+                       "fidelity, the whole scene at the FMU's default accuracy",
+    "censored": "an evaluation the FMU stopped as soon as its peak passed a force limit the search gave "
+                "(it could no longer win): its value is only known to be above that limit, and it is never "
+                "reported as a value",
+    "regret": "what keeping the chosen design costs under a variation of the case: its value there minus the "
+              "best value this study knows for that variation",
+    "screening error": "how far the search fidelity's value of a design is from its full-fidelity value "
+                       "(relative); an answer is safe when it is far smaller than the gap to the runner-up",
+    "receiver rule": "each diagonal spring takes its constants from the column of the mass it pushes (as the "
+                     "study computed): between columns of different materials the two ends feel different "
+                     "forces, so Newton's third law does not hold there",
+    "mean rule": "each diagonal spring uses the mean of its two columns' constants: reciprocal, physically "
+                 "consistent",
+}
+
+
+def _env() -> jinja2.Environment:
+    env = jinja2.Environment(loader=jinja2.PackageLoader("orchestrator", "templates"),
+                             autoescape=jinja2.select_autoescape(["html", "j2"]), undefined=jinja2.StrictUndefined,
+                             trim_blocks=True, lstrip_blocks=True)
+    env.filters["n"] = _number
+    env.filters["order"] = lambda order: "[" + ", ".join(str(m) for m in order) + "]" if order else "none"
+    env.filters["sci"] = lambda v, digits=1: "n/a" if v is None or (isinstance(v, float) and math.isnan(v)) \
+        else f"{v:.{digits}e}"
+    return env
+
+
+def _number(value: Any, digits: int = 2) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "n/a"
+    return f"{value:,.{digits}f}"
+
+
+def case_line(study: StudyResult) -> str:
+    return study.case.line()
+
+
+def results_record(study: StudyResult) -> dict:
+    """results.json: the answers first, then the case and every step's result, as the typed results hold them."""
+    steps = {name: to_record(result) for name, result in study.steps.items()}
+    answers = steps.get("answers", {}).get("answers", [])
+    return {"format": RESULTS_FORMAT, "answers": answers, "pareto": _pareto_points(study),
+            "case": to_record(study.case), "case_line": case_line(study),
+            "fmu": {"path": study.fmu_path, "sha256": study.fmu_sha256},
+            "steps": steps, "evaluator": to_record(study.evaluator), "wall_seconds": study.wall_seconds,
+            "run": study.run_id, "terms": TERMS}
+
+
+def _pareto_points(study: StudyResult) -> list:
+    pareto = study.steps.get("pareto")
+    if pareto is None:
+        return []
+    outputs = study.case.objective.outputs
+    return [{"diagonal_rule": front.diagonal_rule, "order": list(point.order),
+             "objectives": dict(zip(outputs, point.values))} for front in pareto.fronts for point in front.points]
+
+
+
+def write_evaluations_csv(study: StudyResult, path: Path) -> None:
+    """Every evaluation of the searches (journal.jsonl has every task of the run)."""
+    fields = ["diagonal_rule", "method", "seed", "index", "order", "value", "status", "censored_above", "seconds",
+              "horizon", "message"]
+    searches = study.steps.get("searches")
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(fields)
+        for run in (searches.runs if searches else ()):
+            for index, e in enumerate(run.evaluations, start=1):
+                writer.writerow([run.label, run.method, run.seed, index, " ".join(map(str, e.order)),
+                                 "" if e.value is None else repr(e.value), e.status,
+                                 "" if e.limit is None else repr(e.limit), f"{e.seconds:.6f}",
+                                 "" if e.outputs is None else e.outputs.horizon, e.message])
+
+
+def write_design_files(study: StudyResult, out: Path, steps, materials) -> dict[str, str]:
+    """Each step's design files; {file: why it was not written} for those the writer refused (a design a named
+    tool would run differently)."""
+    from ..ssp import write_best_design_ssp
+
+    refused = {}
+    for step in steps:
+        if study.steps.get(step.name) is None:
+            continue
+        for name, order, rule in step.design_files(study):
+            parameters = {"material": list(order), **study.case.parameters}
+            if rule in study.case.rules:
+                parameters["diagonal_rule"] = rule
+            try:
+                write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon,
+                                      materials=materials)
+            except (ValueError, OSError) as exc:
+                refused[name] = str(exc).splitlines()[0]
+    return refused
+
+
+def write_certificates(study: StudyResult, out: Path) -> list[str]:
+    exhaustive = study.steps.get("exhaustive")
+    if exhaustive is None:
+        return []
+    folder = out / "exhaustive"
+    folder.mkdir(exist_ok=True)
+    written = []
+    for index, sweep in enumerate(exhaustive.sweeps):
+        name = "certificate.json" if index == 0 else f"certificate_{sweep.diagonal_rule}.json"
+        (folder / name).write_text(json.dumps(to_record(sweep.certificate), indent=1))
+        written.append(f"exhaustive/{name}")
+    return written
+
+
+def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> Path:
+    """Everything a study gives, into ``out``; returns the path of report.html."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    answers = study.steps.get("answers")
+    known = answers.known_optima if answers else {}
+    figures = {}
+    for step in steps:
+        if study.steps.get(step.name) is not None and step.chart_file:
+            made = step.chart(study, out / step.chart_file)
+            if made:
+                figures[step.name] = made
+    refused = write_design_files(study, out, steps, materials)
+    certificates = write_certificates(study, out)
+    record = results_record(study)
+    record["design_files_refused"] = refused
+    (out / "results.json").write_text(json.dumps(record, indent=1, allow_nan=False))
+    write_evaluations_csv(study, out / "evaluations.csv")
+    env = _env()
+    sections = []
+    for step in steps:
+        result = study.steps.get(step.name)
+        if result is None or not step.template or step.name == "answers":
+            continue
+        sections.append(markupsafe.Markup(env.get_template(f"report/{step.template}").render(
+            result=result, study=study, charts=figures, title=step.title, terms=TERMS, refused=refused)))
+    page = env.get_template("report/report.html.j2").render(
+        study=study, case_line=study.case.line(), answers=answers, charts=figures, sections=sections, terms=TERMS,
+        refused=refused, certificates=certificates, known=known)
+    (out / "report.html").write_text(page)
+    return out / "report.html"
+
+
+__all__ = ["TERMS", "case_line", "results_record", "write_report"]

@@ -1,0 +1,213 @@
+"""Where a run writes, so that no command can lose what a run computed.
+
+- A run works in ``OUT.partial/`` (its journal, then its report) and, once finished, swaps it with ``OUT/`` in
+  one atomic rename (Linux ``renameat2(RENAME_EXCHANGE)``; elsewhere two renames): ``OUT/`` always holds a
+  whole finished run, or nothing, never a mix of two runs.
+- ``OUT.partial/`` holding an unfinished run is refused without ``--resume`` (continue it) or ``--overwrite``
+  (start anew, keeping the old journal under another name).
+- One run per folder: ``.OUT.lock`` beside it is held (``flock``) for the run's life, with the holder's pid
+  and host in it; a second run or resume is refused, naming them; a dead run's lock does not block (the
+  kernel drops a dead process's lock).
+- A folder that holds files but no run of this program is never replaced.
+- Each run has a temporary folder (``lattice-run-<pid>-*`` in TMPDIR) removed when it ends; a run also
+  removes those of dead predecessors (a SIGKILL leaves one behind).
+"""
+from __future__ import annotations
+
+import ctypes
+import errno
+import fcntl
+import os
+import shutil
+import socket
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .journal import JOURNAL_NAME, Journal, JournalError, JournalState
+
+TEMP_PREFIX = "lattice-run-"
+RENAME_EXCHANGE = 2
+
+
+class FolderError(ValueError):
+    """A folder a run may not use, with why and what to do, in one line."""
+
+
+def _option(out: Path) -> str:
+    return f"--out {out}"
+
+
+@dataclass
+class RunFolder:
+    """The folders and the lock of one run on ``out``."""
+
+    out: Path
+    partial: Path
+    lock_path: Path
+    resume: bool
+    previous: JournalState | None = None  # the run being resumed or replaced
+    _lock_handle: object | None = None
+
+    @classmethod
+    def open(cls, out: str | os.PathLike, *, resume: bool, overwrite: bool) -> "RunFolder":
+        """Take the lock and prepare ``OUT.partial`` for a new run, a resumed one, or the replay of a finished one."""
+        out = Path(os.path.abspath(out))
+        if out == Path(out.anchor):
+            raise FolderError(f"{_option(out)}: the root folder cannot hold a run; give a folder for the report")
+        partial = out.with_name(out.name + ".partial")
+        folder = cls(out, partial, out.with_name(f".{out.name}.lock"), resume)
+        folder._lock()
+        try:
+            folder._prepare(resume, overwrite)
+        except BaseException:
+            folder.release()
+            raise
+        return folder
+
+    # ------------------------------------------------------------------------------------------ lock
+    def _lock(self) -> None:
+        try:
+            self.out.parent.mkdir(parents=True, exist_ok=True)
+            handle = open(self.lock_path, "a+")
+        except OSError as exc:
+            raise FolderError(f"{_option(self.out)}: cannot write in {self.out.parent} "
+                              f"({exc.strerror or exc})") from None
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.seek(0)
+            holder = handle.read().strip() or "another process"
+            handle.close()
+            raise FolderError(f"{_option(self.out)} is in use by a running run ({holder}); wait for it to end or "
+                              "give another --out") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"pid {os.getpid()} on {socket.gethostname()} since {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
+        handle.flush()
+        self._lock_handle = handle
+
+    def release(self) -> None:
+        if self._lock_handle is not None:
+            handle, self._lock_handle = self._lock_handle, None
+            try:
+                handle.seek(0)
+                handle.truncate()
+                fcntl.flock(handle, fcntl.LOCK_UN)
+            finally:
+                handle.close()
+
+    # ------------------------------------------------------------------------------------------ prepare
+    def _prepare(self, resume: bool, overwrite: bool) -> None:
+        pending = Journal.inspect(self.partial) if self.partial.is_dir() else None
+        if pending is not None and pending.finished:  # finished, but killed before it was swapped in
+            self._finished_run()
+            self.publish()
+            pending = None
+        if pending is not None:
+            if resume:
+                self.previous = pending
+                return
+            if not overwrite:
+                raise FolderError(
+                    f"{_option(self.out)}: {self.partial} holds an unfinished run ({pending.entries} results, "
+                    f"started {pending.created}); continue it with --resume, or start anew with --overwrite "
+                    f"(which keeps its journal as journal-{pending.run_id}.jsonl)")
+            pending.path.rename(self.partial / f"journal-{pending.run_id}.jsonl")
+            return
+        if self.partial.exists():
+            shutil.rmtree(self.partial)  # a leftover without a journal: nothing to keep
+        finished = self._finished_run()
+        if resume and finished is None:
+            raise FolderError(f"{_option(self.out)}: there is no run to resume (no journal in {self.out} or "
+                              f"{self.partial}); start the run without --resume")
+        self.partial.mkdir(parents=True)
+        if resume:  # a finished run: replayed from its journal, the report written again
+            self.previous = finished
+            shutil.copy2(finished.path, self.partial / JOURNAL_NAME)
+
+    def _finished_run(self) -> JournalState | None:
+        if not self.out.exists():
+            return None
+        if not self.out.is_dir():
+            raise FolderError(f"{_option(self.out)} is a file; give a folder for the report")
+        try:
+            state = Journal.inspect(self.out)
+        except JournalError as exc:
+            raise FolderError(f"{_option(self.out)}: {exc}; give another --out") from None
+        if state is None:
+            if any(self.out.iterdir()):
+                raise FolderError(f"{_option(self.out)} holds files that are not a run of this program; give an "
+                                  "empty or new folder")
+            return None
+        return state
+
+    # ------------------------------------------------------------------------------------------ publish
+    def publish(self) -> Path:
+        """Swap the finished ``OUT.partial`` in as ``OUT`` (the previous run goes as a whole)."""
+        if not self.out.exists():
+            os.rename(self.partial, self.out)
+            return self.out
+        if not _exchange(self.partial, self.out):
+            old = self.out.with_name(f".{self.out.name}.previous-{os.getpid()}")
+            os.rename(self.out, old)
+            os.rename(self.partial, self.out)
+            self.partial = old
+        shutil.rmtree(self.partial, ignore_errors=True)
+        return self.out
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Atomically swap two paths (Linux renameat2); False where the system cannot."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    at_fdcwd = -100
+    if renameat2(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), RENAME_EXCHANGE) == 0:
+        return True
+    if ctypes.get_errno() in (errno.ENOSYS, errno.EINVAL, errno.EXDEV):
+        return False
+    raise OSError(ctypes.get_errno(), os.strerror(ctypes.get_errno()), str(b))
+
+
+# ---------------------------------------------------------------------------------------------- temp folders
+def make_temp_root() -> str:
+    """This run's temporary folder, after removing those of runs that died without removing theirs."""
+    remove_dead_temp_roots()
+    try:
+        return tempfile.mkdtemp(prefix=f"{TEMP_PREFIX}{os.getpid()}-")
+    except OSError as exc:
+        raise FolderError(f"cannot create a temporary folder in {tempfile.gettempdir()} ({exc.strerror or exc}); "
+                          "free space there or set TMPDIR to another folder") from None
+
+
+def remove_dead_temp_roots() -> int:
+    """Removes the temporary folders of runs whose process is gone; returns how many."""
+    removed = 0
+    for path in Path(tempfile.gettempdir()).glob(f"{TEMP_PREFIX}*"):
+        pid_text = path.name[len(TEMP_PREFIX):].split("-", 1)[0]
+        if not pid_text.isdigit() or not path.is_dir():
+            continue
+        pid = int(pid_text)
+        if pid == os.getpid() or _alive(pid):
+            continue
+        shutil.rmtree(path, ignore_errors=True)
+        removed += 1
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+__all__ = ["FolderError", "RunFolder", "TEMP_PREFIX", "make_temp_root", "remove_dead_temp_roots"]

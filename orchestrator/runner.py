@@ -1,0 +1,198 @@
+"""One run of a study in a report folder, from options to a published report.
+
+``run_in_folder`` is what the command line calls: it takes the folder's lock, finds and checks the FMU,
+resolves the case, refuses (before any simulation) options that mean nothing in this run and work beyond a
+stated bound, opens the journal and the executor, runs the study's steps, renders the report and swaps the
+finished folder in (``orchestrator.runfolder``).
+"""
+from __future__ import annotations
+
+import logging
+import os
+import shutil
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from fmu_src.materials import load_materials, study_materials
+
+from .executors import EXECUTORS, SerialExecutor, make_executor
+from .exhaustive import ChunkResult
+from .fmu import PreparedFMU, prepare_fmu
+from .journal import Journal
+from .loop import Evaluator
+from .objective import RUN_MAXIMA, Trajectory, close_instances, count_cases
+from .options import integer, number, option
+from .progress import Progress
+from .records import to_record
+from .runfolder import RunFolder, make_temp_root
+from .study import MAX_RUNS_PER_DESIGN, CaseConfig, StudyContext, StudyResult, resolve_case, run_study
+from .types import Evaluation
+
+RESULT_KINDS = {cls.kind: cls for cls in (Evaluation, ChunkResult, Trajectory)}
+SETTINGS_FORMAT = 1
+MAX_WORKERS_PER_CORE = 4
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """Where and how a study runs (none of it changes a result)."""
+
+    out: str = option("results", "report folder; while the run works it writes OUT.partial, swapped in as a whole "
+                      "when the run finishes", metavar="DIR")
+    resume: bool = option(False, "continue the run of --out from its journal (same settings), simulating nothing "
+                          "it finished", action="store_true")
+    overwrite: bool = option(False, "start anew although --out holds an unfinished run (its journal is kept as "
+                             "journal-RUNID.jsonl)", action="store_true")
+    executor: str = option("process", "where evaluations run", choices=EXECUTORS)
+    workers: int | None = option(None, "worker processes", type=integer("--workers", 1, 10**6),
+                                 show_default=f"all cores ({os.cpu_count()})")
+    scheduler: str | None = option(None, "address of a Dask scheduler (only with --executor dask)",
+                                   show_default="a local Dask cluster of --workers processes", metavar="ADDRESS")
+    time_limit: float = option(120.0, "seconds one evaluation may run (its own run time, not its time in a queue) "
+                               "before it is failed; it runs again on --resume", type=number("--time-limit", 0),
+                               metavar="S")
+    confirm_cost: bool = option(False, "run work beyond the stated bounds (an exhaustive sweep beyond 10! designs "
+                                "on Dask, more than 1000 FMU runs per design, more workers than 4 per core)",
+                                action="store_true")
+    progress: bool = option(True, "no progress bars", flag="--no-progress", action="store_false")
+    debug: bool = option(False, "tracebacks instead of one-line errors", action="store_true")
+
+    def __post_init__(self):
+        if self.resume and self.overwrite:
+            raise ValueError("--resume and --overwrite: give one of them (continue the run, or start anew)")
+        if self.scheduler is not None and self.executor != "dask":
+            raise ValueError("--scheduler: only with --executor dask")
+
+
+class NoResult(RuntimeError):
+    """The study finished without an answer (every evaluation failed, or nothing touched the plate)."""
+
+
+@dataclass(frozen=True)
+class Outcome:
+    study: StudyResult
+    report: Path
+    folder: Path
+    resumed: bool
+
+
+def resolve_scene(case: CaseConfig, materials):
+    """The scene to run: the named one, with the lattice's columns and the material table given."""
+    from scenes import Scene
+
+    scene = Scene.load(case.scene)
+    if case.cols is not None or materials is not None:
+        from fmu_src import build
+
+        extra = {"materials": materials} if materials is not None else {}
+        scene = build.resolve_scene(scene, cols=case.cols, **extra)
+    return scene
+
+
+def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
+    """Work beyond a stated bound is refused with its projected size unless confirmed (what was beyond a bound
+    goes into ``beyond``)."""
+    cores = os.cpu_count() or 1
+    workers = run.workers or cores
+    if run.scheduler is None and workers > MAX_WORKERS_PER_CORE * cores:
+        beyond.append("workers")
+        if not run.confirm_cost:
+            raise ValueError(f"--workers {workers}: more than {MAX_WORKERS_PER_CORE} per core ({cores} cores here) "
+                             f"would slow every evaluation down; give at most {MAX_WORKERS_PER_CORE * cores}, or "
+                             "confirm with --confirm-cost")
+    runs = count_cases(case.case_lists)
+    if runs > MAX_RUNS_PER_DESIGN:
+        beyond.append("case")
+        if not run.confirm_cost:
+            raise ValueError(f"--case: {runs:,} FMU runs per design (the product of the lists) is beyond "
+                             f"{MAX_RUNS_PER_DESIGN:,}; a search of 200 designs would run {200 * runs:,}; give "
+                             "shorter lists, or confirm with --confirm-cost")
+
+
+def check_confirmation(run: RunConfig, beyond: list[str]) -> None:
+    """A confirmation with nothing to confirm is refused: it would hide a mistake in the command."""
+    from .exhaustive import MAX_LOCAL_DESIGNS
+
+    if run.confirm_cost and not beyond:
+        raise ValueError("--confirm-cost: nothing in this run is beyond a bound (an exhaustive sweep beyond "
+                         f"{MAX_LOCAL_DESIGNS:,} designs, more than {MAX_RUNS_PER_DESIGN} FMU runs per design, more "
+                         f"than {MAX_WORKERS_PER_CORE} workers per core); leave it out")
+
+
+def settings(case, fmu: PreparedFMU, steps) -> dict:
+    """What decides the results, by value (a resumed run must match it): the FMU by its hash, never its path."""
+    return {"format": SETTINGS_FORMAT, "fmu_sha256": fmu.sha256, "case": to_record(case),
+            "steps": {step.name: to_record(step.config) for step in steps}}
+
+
+def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, step_types) -> Outcome:
+    folder = RunFolder.open(run.out, resume=run.resume, overwrite=run.overwrite)
+    temp_root = make_temp_root()
+    previous_tempdir = tempfile.tempdir
+    tempfile.tempdir = temp_root  # this process's extractions too; removed with the run
+    try:
+        materials = load_materials(case_config.materials) if case_config.materials else None
+        scene = resolve_scene(case_config, materials)
+        fmu = prepare_fmu(scene, case_config.fmu)
+        if materials is not None and len(materials) != fmu.materials:
+            raise ValueError(f"--materials {case_config.materials}: {len(materials)} materials, but "
+                             f"{fmu.path.name} has a table of {fmu.materials}")
+        table = materials or study_materials(fmu.materials)
+        case = resolve_case(case_config, scene, fmu, table)
+        steps = [step_type(step_configs.get(step_type)) for step_type in step_types]
+        context = StudyContext(fmu=fmu, case=case, evaluator=Evaluator(SerialExecutor()), steps=steps,
+                               progress=Progress(run.progress), executor_kind=run.executor,
+                               confirm_cost=run.confirm_cost)
+        check_bounds(run, case, context.beyond_bounds)
+        for step in steps:
+            step.check(context)
+        check_confirmation(run, context.beyond_bounds)
+        with Journal(folder.partial, settings(case, fmu, steps), RESULT_KINDS,
+                     resume=folder.previous is not None) as journal, \
+                make_executor(run.executor, run.workers, run.scheduler, temp_root) as executor:
+            context.evaluator = Evaluator(executor, journal, run.time_limit)
+            if journal.repaired:
+                print(f"{journal.path}: its last line was cut off (the run was killed); that task runs again",
+                      file=sys.stderr)
+            study = run_study(context, journal.run_id)
+            report = write(study, folder.partial, steps, table)
+            journal.finish()
+        published = folder.publish()
+        check_answer(study, case)
+        return Outcome(study, published / report.name, published, folder.previous is not None)
+    finally:
+        tempfile.tempdir = previous_tempdir
+        close_instances()
+        shutil.rmtree(temp_root, ignore_errors=True)
+        folder.release()
+
+
+def write(study: StudyResult, out: Path, steps, table) -> Path:
+    from .report import write_report
+
+    logging.getLogger("matplotlib").setLevel(logging.WARNING)
+    return write_report(study, out, steps, table)
+
+
+def check_answer(study: StudyResult, case) -> None:
+    """A finished study without a usable answer exits non-zero, saying why, after its report was written."""
+    answers = study.steps.get("answers")
+    pareto = study.steps.get("pareto")
+    if pareto is not None:
+        if not any(front.points for front in pareto.fronts):
+            raise NoResult("no design was evaluated successfully; the reasons are in evaluations.csv")
+        return
+    if answers is None or not answers.answers:
+        searches = study.steps.get("searches")
+        reasons = sorted({e.message for r in (searches.runs if searches else ()) for e in r.evaluations
+                          if not e.ok and not e.censored})
+        raise NoResult(f"no design was evaluated successfully ({reasons[0] if reasons else 'no evaluation ran'})")
+    if RUN_MAXIMA[case.outputs[0]].unit == "N" and all(
+            a.outputs is not None and a.outputs.last_contact_time == 0 and a.peak == 0 for a in answers.answers):
+        raise NoResult("no design touches the backplate in this case (every peak is 0 N): there is nothing to "
+                       "minimise; check --load, --load-angle and the scene")
+
+
+__all__ = ["NoResult", "Outcome", "RESULT_KINDS", "RunConfig", "run_in_folder", "settings"]

@@ -1,0 +1,28 @@
+"""The study's steps, in the order they run: one file per feature, one line here."""
+from __future__ import annotations
+
+from .accuracy import Accuracy
+from .answers import Answers
+from .descent import Descent
+from .exhaustive import Exhaustive
+from .finalists import Finalists
+from .pareto import Pareto
+from .searches import Searches
+from .sensitivity import Sensitivity
+from .trajectories import Trajectories
+from .work_precision import WorkPrecision
+
+STEPS = (
+    Searches,
+    Exhaustive,
+    Finalists,
+    Descent,
+    Pareto,
+    Answers,
+    Sensitivity,
+    Accuracy,
+    Trajectories,
+    WorkPrecision,
+)
+
+__all__ = ["STEPS"] + [step.__name__ for step in STEPS]

@@ -1,0 +1,212 @@
+"""The designer's answer: for each diagonal rule searched, the design to build, its value under every rule,
+and how sure we are (how many runs reached it, whether it is a local optimum, whether it is certified)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..known_optima import KnownOptimum, known_optimum
+from ..objective import FULL, SEARCH
+from ..study import Step, StudyContext
+from ..types import Evaluation, Order, RunOutputs
+from .descent import Descent
+from .exhaustive import Exhaustive
+from .finalists import Finalists, best_of, finalist_orders
+from .searches import Searches, rule_label
+
+CERTIFIED, KNOWN, BEST_FOUND = "certified", "known", "best_found"
+BASELINE_METHODS = ("sequential", "random")
+
+
+@dataclass(frozen=True)
+class Evidence:
+    runs_reaching: int  # optimiser runs whose own answer (best finalist at full fidelity) is this design
+    runs: int  # optimiser runs under this rule (the baselines not counted)
+    local_optimum: bool | None  # None: not checked (--no-local-check)
+    status: str  # certified, known or best_found
+    status_source: str  # what the status rests on
+
+
+@dataclass(frozen=True)
+class EnergyFlows:
+    external_work: float
+    nonreciprocal_work: float
+    dissipated_energy: float
+
+
+@dataclass(frozen=True)
+class Answer:
+    diagonal_rule: str
+    order: Order
+    materials: tuple[str, ...]  # the material of each column, by name
+    objective: str  # the FMU output minimised
+    peak: float  # the objective's value at full fidelity (the peak backplate force by default)
+    peak_other_rule: float | None  # the same design's value under the other rule (two rules searched)
+    values_by_rule: dict[str, float | None]
+    energy_by_rule: dict[str, EnergyFlows | None]
+    outputs: RunOutputs | None
+    evidence: Evidence
+    design_file: str
+    runner_up: Order | None  # the next best design known under the rule: evaluated here, or the sweep's
+    runner_up_peak: float | None
+    search_relative_error: float | None  # the search fidelity's value of this design against its full one
+
+
+@dataclass(frozen=True)
+class AnswersResult:
+    answers: tuple[Answer, ...]
+    known_optima: dict[str, KnownOptimum | None]  # by rule: the known optimum of this case, if any
+
+    def for_rule(self, label: str) -> Answer | None:
+        return next((a for a in self.answers if a.diagonal_rule == label), None)
+
+    @property
+    def chosen(self) -> Answer | None:
+        """The answer of the rule the user chose (the first searched)."""
+        return self.answers[0] if self.answers else None
+
+
+def design_file(index: int, label: str) -> str:
+    return "best_design.ssp" if index == 0 else f"design_{label}.ssp"
+
+
+def rule_best(context: StudyContext, label: str) -> Evaluation | None:
+    """A rule's best design at full fidelity: over its finalists and the end of its final descent."""
+    finalists = context.result(Finalists)
+    candidates = list(finalists.for_rule(label).evaluations) if finalists else []
+    descent = context.result(Descent)
+    check = descent.for_rule(label) if descent else None
+    if check is not None:
+        candidates.append(check.full)
+    return best_of(candidates)
+
+
+def run_answer(run, context: StudyContext, label: str) -> Order | None:
+    """A search run's own answer: its best finalist at full fidelity."""
+    finalists = context.result(Finalists).for_rule(label)
+    full = [finalists.value_of(o) for o in finalist_orders(run, context.config(Searches).finalists)]
+    best = best_of([e for e in full if e is not None])
+    return best.order if best else None
+
+
+class Answers(Step):
+    name = "answers"
+    title = "The answer"
+    template = "answers.html.j2"
+    chart_file = "lattice.png"
+
+    def applies(self, context: StudyContext) -> bool:
+        return context.result(Finalists) is not None
+
+    def run(self, context: StudyContext) -> AnswersResult:
+        searched = context.result(Searches)
+        descent = context.result(Descent)
+        swept = context.result(Exhaustive)
+        rules = context.rules
+        answers = []
+        for index, rule in enumerate(rules):
+            label = rule_label(rule)
+            best = rule_best(context, label)
+            if best is None:
+                continue
+            values, energy = {}, {}
+            for judge in rules:
+                evaluation = (best if judge == rule else
+                              context.objective(judge).evaluate([best.order], context.evaluator, FULL)[0])
+                values[rule_label(judge)] = evaluation.value
+                outputs = evaluation.outputs
+                energy[rule_label(judge)] = None if outputs is None else EnergyFlows(
+                    outputs.external_work, outputs.nonreciprocal_work, outputs.dissipated_energy)
+            other_values = [v for k, v in values.items() if k != label]
+            runs = [r for r in (searched.runs_for(label) if searched else []) if r.method not in BASELINE_METHODS]
+            reaching = sum(1 for r in runs if run_answer(r, context, label) == best.order)
+            check = descent.for_rule(label) if descent else None
+            local = None if check is None else (check.locally_optimal and check.order == best.order)
+            status, source = self.status(context, rule, label, best.order, swept)
+            objective = context.objective(rule)
+            full_task, = objective.with_cases(None).tasks(FULL) if len(context.case.cases) == 1 else (None,)
+            others = [(e.value, e.order) for e in (context.evaluator.known(full_task) if full_task else [])
+                      if e.ok and e.order != best.order]
+            sweep = swept.for_rule(label) if swept else None
+            if sweep and sweep.certificate.optimum and sweep.certificate.optimum.order == best.order \
+                    and sweep.certificate.runner_up and sweep.certificate.runner_up.full is not None:
+                others.append((sweep.certificate.runner_up.full, sweep.certificate.runner_up.order))
+            known = known_optimum(context.case, rule or context.case.rule_default)
+            if known is not None and known.order == best.order and known.runner_up is not None:
+                others.append((known.runner_up_peak, known.runner_up))
+            runner = min(others) if others else None
+            search = objective.evaluate([best.order], context.evaluator, SEARCH)[0]
+            answers.append(Answer(
+                diagonal_rule=label, order=best.order,
+                materials=tuple(context.case.materials.name_of(m) for m in best.order),
+                objective=context.case.outputs[0], peak=best.value,
+                peak_other_rule=other_values[0] if len(other_values) == 1 else None, values_by_rule=values,
+                energy_by_rule=energy, outputs=best.outputs,
+                evidence=Evidence(reaching, len(runs), local, status, source),
+                design_file=design_file(index, label), runner_up=runner[1] if runner else None,
+                runner_up_peak=runner[0] if runner else None,
+                search_relative_error=abs(search.value / best.value - 1) if search.ok and best.value else None))
+        known = {rule_label(r): known_optimum(context.case, r or context.case.rule_default) for r in rules}
+        return AnswersResult(tuple(answers), known)
+
+    @staticmethod
+    def status(context: StudyContext, rule, label: str, order: Order, swept) -> tuple[str, str]:
+        sweep = swept.for_rule(label) if swept else None
+        if sweep is not None and sweep.certificate.optimum and sweep.certificate.optimum.order == order:
+            if sweep.certificate.certified:
+                return CERTIFIED, "this run's exhaustive sweep (exhaustive/certificate.json)"
+            return KNOWN, "this run's exhaustive sweep, not certified: " + "; ".join(sweep.certificate.reasons)
+        known = known_optimum(context.case, rule or context.case.rule_default)
+        if known is not None and known.order == order:
+            what = "certified" if known.certified else "found"
+            return (CERTIFIED if known.certified else KNOWN), f"{what} by `{known.command}` ({known.source})"
+        if known is not None:
+            return BEST_FOUND, (f"the known optimum is {list(known.order)} at {known.peak:.4f} N "
+                                f"({'certified' if known.certified else 'exhaustive sweep'})")
+        return BEST_FOUND, "the best design the searches found; no exhaustive sweep of this case"
+
+    def chart(self, study, path):
+        return draw_lattice(study, path)
+
+    def design_files(self, study):
+        result = study.steps.get(self.name)
+        return [(a.design_file, a.order, a.diagonal_rule) for a in (result.answers if result else ())]
+
+
+def draw_lattice(study, path: Path) -> str | None:
+    import numpy as np
+    import matplotlib
+    from ..report.charts import plt, save
+
+    answers = study.steps.get("answers")
+    if answers is None or not answers.answers:
+        return None
+    case = study.case
+    materials = case.materials
+    designs = [(f"{a.diagonal_rule} rule's answer", a.order) for a in answers.answers]
+    figure, axes = plt.subplots(1, len(designs), figsize=(4.6 * len(designs), 4.4), squeeze=False)
+    stiffness = np.array([m["k"] for m in materials])
+    colour_map = plt.get_cmap("viridis")
+    low, high = float(stiffness.min()), float(stiffness.max())
+    norm = (matplotlib.colors.LogNorm(vmin=low, vmax=high) if low > 0 and high > low
+            else matplotlib.colors.Normalize(vmin=low, vmax=high if high > low else low + 1.0))
+    for axis, (label, order) in zip(axes[0], designs):
+        x, y = np.meshgrid(np.arange(case.columns), np.arange(case.rows))
+        k = np.tile(np.array([materials[m - 1]["k"] for m in order]), (case.rows, 1))
+        axis.scatter(x, y, c=k, cmap=colour_map, norm=norm, s=55, edgecolors="k", lw=0.3)
+        axis.axvline(case.columns - 1 + 0.5, color="dimgray", lw=4)
+        axis.annotate("", xy=(-0.2, case.rows / 2 - 0.5), xytext=(-1.2, case.rows / 2 - 0.5),
+                      arrowprops=dict(arrowstyle="->", lw=2, color="crimson"))
+        axis.set_title(label, fontsize=9)
+        axis.set_xticks(range(case.columns))
+        axis.set_xticklabels([materials[m - 1]["name"] for m in order], fontsize=7, rotation=60)
+        axis.set_yticks([])
+        axis.set_xlim(-1.5, case.columns + 0.2)
+    bar = figure.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=colour_map), ax=axes[0].tolist())
+    bar.set_label("vertical spring constant k of the column's material (N)")
+    figure.suptitle("Load from the left on column 1, backplate on the right (grey bar)", fontsize=9)
+    return save(figure, path, tight=False)
+
+
+__all__ = ["Answer", "Answers", "AnswersResult", "BEST_FOUND", "CERTIFIED", "EnergyFlows", "Evidence", "KNOWN",
+           "design_file", "rule_best"]

@@ -1,0 +1,99 @@
+"""The final descent: from each rule's best finalist, single moves until none improves, and the check that
+the design it ends at is a local optimum (every swap, insertion and, in a catalogue, replacement evaluated)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..design import MOVES
+from ..loop import run_search
+from ..objective import FULL, SEARCH
+from ..options import option
+from ..search import make_search
+from ..study import Step, StudyContext
+from ..types import Evaluation, Order
+from .finalists import Finalists
+from .searches import Searches, rule_label
+
+MAX_DESCENT = 5000  # designs a descent may evaluate (it stops at the first local optimum long before)
+
+
+@dataclass(frozen=True)
+class DescentConfig:
+    local_check: bool = option(True, "skip the final descent and local-optimality check of each rule's best design",
+                               flag="--no-local-check", action="store_false")
+
+
+@dataclass(frozen=True)
+class LocalCheck:
+    """Whether the design a descent ended at is a local optimum at the search fidelity."""
+
+    diagonal_rule: str
+    start: Order
+    order: Order
+    evaluations: int
+    improvements: int
+    checked: dict[str, int]  # neighbours evaluated, by move
+    neighbours: dict[str, int]  # neighbours there are, by move
+    failed: int
+    censored: int  # stopped once above the value they had to beat: not better
+    locally_optimal: bool
+    nearest_neighbour_gap: float | None  # the best neighbour's value minus the design's (search fidelity)
+    full: Evaluation  # the design at full fidelity
+    stop_reason: str
+
+
+@dataclass(frozen=True)
+class DescentResult:
+    rules: tuple[LocalCheck, ...]
+
+    def for_rule(self, label: str) -> LocalCheck | None:
+        return next((c for c in self.rules if c.diagonal_rule == label), None)
+
+
+def local_check(context: StudyContext, rule: str | None, start: Order, seed: int) -> LocalCheck:
+    objective = context.objective(rule)
+    space = context.case.space
+    descent = make_search("local", space, seed, start=start, kicks=0)
+    run = run_search(descent, objective, MAX_DESCENT, context.evaluator, method_name="local", seed=seed,
+                     label=rule_label(rule))
+    end = run.best_order or start
+    moves = space.neighbours(end)
+    values = {e.order: e for e in run.evaluations}
+    own = values.get(end) or objective.evaluate([end], context.evaluator, SEARCH)[0]
+    around = {move: [values[o] for o in designs if o in values] for move, designs in moves.items()}
+    every = [e for move in MOVES for e in around[move]]
+    good = [e for e in every if e.ok]
+    above = [e for e in every if e.censored]
+    complete = all(len(around[m]) == len(moves[m]) for m in MOVES)
+    optimal = bool(complete and own.ok and len(good) + len(above) == len(every)
+                   and all(e.value >= own.value for e in good) and all(e.lower_bound >= own.value for e in above))
+    curve = [v for v in run.best_so_far() if v is not None]
+    improvements = sum(1 for a, b in zip(curve, curve[1:]) if b < a)
+    full = objective.evaluate([end], context.evaluator, FULL)[0]
+    return LocalCheck(rule_label(rule), start, end, run.n_evaluations, improvements,
+                      {m: len(around[m]) for m in MOVES}, {m: len(moves[m]) for m in MOVES},
+                      sum(1 for e in every if not e.ok and not e.censored), len(above), optimal,
+                      (min(e.value for e in good) - own.value) if good and own.ok else None, full, run.stop_reason)
+
+
+class Descent(Step):
+    name = "local_optimality"
+    title = "Local optimality"
+    template = "descent.html.j2"
+    Config = DescentConfig
+
+    def applies(self, context: StudyContext) -> bool:
+        return self.config.local_check and context.result(Finalists) is not None
+
+    def run(self, context: StudyContext) -> DescentResult:
+        finalists = context.result(Finalists)
+        seed = context.config(Searches).seed
+        checks = []
+        for rule in context.rules:
+            best = finalists.for_rule(rule_label(rule)).best
+            if best is not None:
+                checks.append(local_check(context, rule, best.order, seed))
+        return DescentResult(tuple(checks))
+
+
+__all__ = ["Descent", "DescentConfig", "DescentResult", "LocalCheck", "local_check"]

@@ -1,0 +1,349 @@
+"""The exhaustive sweep: every design of the space under each diagonal rule, verified, with a certificate."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, ChunkResult, Scored, ScreenChunk, chunk_ranges,
+                          coverage, not_strongly_dominated, projected_cost, screening_threshold)
+from ..objective import FULL, SEARCH, FMURun
+from ..options import integer, option
+from ..study import Step, StudyContext
+from ..types import Evaluation, Order, RunOutputs
+from .searches import EXHAUSTIVE, Searches, rule_label
+
+# The screening fidelity's relative error bound, at least ten times what python -m bench.work_precision and
+# python -m bench.horizon_study measure for the searches' fidelity; every design within it of the best is verified.
+SCREENING_ERROR = 1e-4
+# The full fidelity's own error bound (python -m bench.work_precision measures the FMU's default accuracy).
+FULL_ERROR = 1e-6
+SECOND_INTEGRATOR = {"solver": "rkn5", "rtol": 1e-10, "atol": 1e-12}
+SECOND_INTEGRATOR_NAME = "Fine's Runge-Kutta-Nystrom 5(4) pair at rtol 1e-10"
+BEST_PER_CHUNK = 20
+VERIFY_TOP = 5
+
+
+@dataclass(frozen=True)
+class ExhaustiveConfig:
+    chunk_size: int | None = option(None, "designs per chunk of the exhaustive sweep (a chunk is one task: "
+                                    "journalled, resumed, retried)", type=integer("--chunk-size", 1, 10**9),
+                                    show_default="about 200 chunks")
+
+
+@dataclass(frozen=True)
+class Verified:
+    """A design checked at full fidelity (and, for the optimum and the runner-up, by a second integrator)."""
+
+    order: Order
+    full: float | None
+    screened: float | None
+    second: float | None = None
+    status: str = "ok"
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """The evidence that the sweep's optimum is the optimum (``certified`` only when all of it holds)."""
+
+    diagonal_rule: str
+    space: str
+    designs: int
+    chunks: int
+    ranks: str
+    covered_once: bool
+    screened: int
+    censored: int
+    failed: int
+    verified: int
+    screening_error: float
+    max_screening_error_seen: float | None
+    screening_bound_held: bool
+    second_integrator: str
+    optimum: Verified | None
+    runner_up: Verified | None
+    gap: float | None
+    integration_error: float | None
+    certified: bool
+    reasons: tuple[str, ...]  # why not certified (empty when certified)
+
+
+@dataclass(frozen=True)
+class Sweep:
+    diagonal_rule: str
+    certificate: Certificate
+    chunk_size: int
+    chunks_resumed: int
+    initial_limit: float | None
+    top: tuple[Scored, ...]
+    histogram: tuple[tuple[int, int], ...]
+    histogram_resolution: float
+    verified: tuple[Evaluation, ...]
+    cpu_seconds: float
+    designs_per_core_second: float | None
+
+
+@dataclass(frozen=True)
+class FrontPoint:
+    """A design on a Pareto front and its objective values at full fidelity."""
+
+    order: Order
+    values: tuple[float, ...]
+    outputs: RunOutputs | None = None
+
+
+@dataclass(frozen=True)
+class FrontSweep:
+    """A sweep with several objectives: the exact Pareto front of the space."""
+
+    diagonal_rule: str
+    space: str
+    designs: int
+    chunks: int
+    ranks: str
+    covered_once: bool
+    failed: int
+    candidates: int  # designs no other beats on every objective by more than the screening error
+    screening_error: float
+    max_screening_error_seen: float | None
+    front: tuple[FrontPoint, ...]
+    exact: bool
+    reasons: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ExhaustiveResult:
+    sweeps: tuple[Sweep, ...]
+    fronts: tuple[FrontSweep, ...] = ()
+
+    def for_rule(self, label: str) -> Sweep | None:
+        return next((s for s in self.sweeps if s.diagonal_rule == label), None)
+
+    def front_for_rule(self, label: str) -> FrontSweep | None:
+        return next((f for f in self.fronts if f.diagonal_rule == label), None)
+
+
+class Exhaustive(Step):
+    name = "exhaustive"
+    title = "Exhaustive sweep"
+    template = "exhaustive.html.j2"
+    chart_file = "exhaustive.png"
+    Config = ExhaustiveConfig
+
+    def applies(self, context: StudyContext) -> bool:
+        return EXHAUSTIVE in context.config(Searches).methods
+
+    def check(self, context: StudyContext) -> None:
+        if not self.applies(context):
+            if "chunk_size" in context.given(Exhaustive):
+                raise ValueError("--chunk-size: only with --method exhaustive")
+            return
+        if len(context.case.cases) > 1:
+            raise ValueError("--method exhaustive: one load case only (without --case)")
+        space = context.case.space
+        if space.size > MAX_LOCAL_DESIGNS:
+            context.beyond_bounds.append("exhaustive")
+        if space.size > MAX_LOCAL_DESIGNS and not (context.executor_kind == "dask" and context.confirm_cost):
+            screening, = context.objective(context.rules[0]).tasks(SEARCH)
+            rate, hours = projected_cost(screening, space, context.evaluator)
+            raise ValueError(
+                f"--method exhaustive: {space.size:,} designs is beyond the local limit of {MAX_LOCAL_DESIGNS:,}: "
+                f"projected {hours:,.1f} core-hours at {rate:,.0f} designs per core-second (measured here); run it "
+                "on a Dask cluster, confirmed: --executor dask --scheduler ADDRESS --confirm-cost")
+
+    def run(self, context: StudyContext) -> ExhaustiveResult:
+        if len(context.case.outputs) > 1:
+            return ExhaustiveResult((), tuple(self.sweep_front(context, rule) for rule in context.rules))
+        return ExhaustiveResult(tuple(self.sweep(context, rule) for rule in context.rules))
+
+    def chunks(self, context: StudyContext, label: str, tasks, count: int) -> list[ChunkResult]:
+        with context.progress.bar(count, f"exhaustive sweep ({label})", unit="chunk") as bar:
+            return context.evaluator.run(tasks, progress=bar)
+
+    def sweep_front(self, context: StudyContext, rule: str | None) -> FrontSweep:
+        """Every design with several objectives: the candidates of the chunks merged, verified at full
+        fidelity, the non-dominated ones the exact front."""
+        from ..search.pareto import non_dominated
+
+        label = rule_label(rule)
+        objective = context.objective(rule)
+        space = context.case.space
+        screening, = objective.tasks(SEARCH)
+        chunk_size = self.config.chunk_size or max(1, -(-space.size // 200))
+        ranges = chunk_ranges(space.size, chunk_size)
+        tasks = (ScreenChunk(screening, space, a, b, BEST_PER_CHUNK, SCREENING_ERROR, None, objectives=len(
+            context.case.outputs)) for a, b in ranges)
+        chunks = self.chunks(context, label, tasks, len(ranges))
+        good = [c for c in chunks if c.ok]
+        within = [s for c in good for s in c.within]
+        mask = not_strongly_dominated([s.values for s in within], SCREENING_ERROR)
+        candidates = [s for s, k in zip(within, mask) if k]
+        failures = [f.order for c in good for f in c.failures]
+        orders = list(dict.fromkeys([s.order for s in candidates] + failures))
+        full = objective.evaluate(orders, context.evaluator, FULL)
+        ok = [e for e in full if e.ok]
+        screened = {s.order: s.values for s in candidates}
+        errors = [abs(a / b - 1) for e in ok if e.order in screened for a, b in zip(screened[e.order], e.values) if b]
+        front_mask = non_dominated([e.values for e in ok]) if ok else []
+        front = tuple(sorted((FrontPoint(e.order, e.values, e.outputs) for e, k in zip(ok, front_mask) if k),
+                             key=lambda p: p.values))
+        covered, ranks = coverage(good, space.size)
+        reasons = []
+        if not covered:
+            reasons.append(f"the chunks do not cover the space exactly once ({ranks})")
+        if len(good) < len(chunks):
+            reasons.append(f"{len(chunks) - len(good)} chunk(s) failed")
+        unverified = [e for e in full if not e.ok and e.order in failures]
+        if unverified:
+            reasons.append(f"{len(unverified)} design(s) failed at screening and at full fidelity")
+        largest = max(errors) if errors else None
+        if largest is None or largest > SCREENING_ERROR:
+            reasons.append("the screening error bound did not hold" if largest is not None else "nothing verified")
+        return FrontSweep(label, space.describe(), space.size, len(ranges), ranks, covered,
+                          sum(c.failed for c in good), len(candidates), SCREENING_ERROR, largest, front,
+                          not reasons, tuple(reasons))
+
+    def sweep(self, context: StudyContext, rule: str | None) -> Sweep:
+        label = rule_label(rule)
+        objective = context.objective(rule)
+        space = context.case.space
+        screening, = objective.tasks(SEARCH)
+        searched = context.result(Searches)
+        known = [e.value for run in (searched.runs_for(label) if searched else []) for e in run.evaluations if e.ok]
+        best = [min(known) if known else math.inf]
+        chunk_size = self.config.chunk_size or max(1, -(-space.size // 200))
+        ranges = chunk_ranges(space.size, chunk_size)
+        limits = objective.supports_limits
+        initial_limit = screening_threshold(best[0], SCREENING_ERROR) if limits and math.isfinite(best[0]) else None
+        resumed_before = context.evaluator.cache_hits
+
+        def tasks():
+            for start, stop in ranges:
+                limit = screening_threshold(best[0], SCREENING_ERROR) if limits and math.isfinite(best[0]) else None
+                yield ScreenChunk(screening, space, start, stop, BEST_PER_CHUNK, SCREENING_ERROR, limit)
+
+        def on_result(index: int, chunk: ChunkResult) -> None:
+            if chunk.ok and chunk.best:
+                best[0] = min(best[0], chunk.best[0].value)
+
+        with context.progress.bar(len(ranges), f"exhaustive sweep ({label})", unit="chunk") as bar:
+            chunks: list[ChunkResult] = context.evaluator.run(tasks(), progress=bar, on_result=on_result)
+        resumed = context.evaluator.cache_hits - resumed_before
+        good = [c for c in chunks if c.ok]
+        scored = sorted((s for c in good for s in c.best), key=lambda s: s.value)
+        screened_best = scored[0].value if scored else None
+        threshold = screening_threshold(screened_best, SCREENING_ERROR) if screened_best is not None else None
+        candidates = sorted((s for c in good for s in c.within if threshold is not None and s.value <= threshold),
+                            key=lambda s: s.value)
+        failures = [f.order for c in good for f in c.failures]
+        orders = list(dict.fromkeys([s.order for s in candidates] + failures + [s.order for s in scored[:VERIFY_TOP]]))
+        full = dict(zip(orders, objective.evaluate(orders, context.evaluator, FULL)))
+        screened = {s.order: s.value for s in scored + candidates}
+        ok = sorted((e for e in full.values() if e.ok), key=lambda e: e.value)
+        errors = [abs(screened[e.order] / e.value - 1) for e in ok if e.order in screened and e.value]
+        second = self.second_integrator(context, objective, [e.order for e in ok[:2]])
+        certificate = self.certify(label, space, chunks, ranges, screened, ok, errors, second, len(orders),
+                                   [c for c in chunks if not c.ok], failures, full)
+        histogram: dict[int, int] = {}
+        for chunk in good:
+            for index, count in chunk.histogram:
+                histogram[index] = histogram.get(index, 0) + count
+        cpu = sum(c.cpu_seconds for c in good)
+        return Sweep(label, certificate, chunk_size, resumed, initial_limit, tuple(scored[:BEST_PER_CHUNK]),
+                     tuple(sorted(histogram.items())), HISTOGRAM_RESOLUTION, tuple(full.values()), cpu,
+                     sum(c.designs for c in good) / cpu if cpu > 0 else None)
+
+    @staticmethod
+    def second_integrator(context: StudyContext, objective, orders: list[Order]) -> dict[Order, Evaluation]:
+        full, = objective.tasks(FULL)
+        parameters = tuple(sorted({**dict(full.parameters), **SECOND_INTEGRATOR}.items()))
+        second = FMURun(full.fmu_path, full.horizon, parameters, full.outputs, compression=full.compression)
+        return dict(zip(orders, context.evaluator.evaluate([(second, o) for o in orders])))
+
+    @staticmethod
+    def certify(label, space, chunks, ranges, screened, ok, errors, second, verified_count, failed_chunks,
+                failures, full) -> Certificate:
+        reasons = []
+        covered, ranks = coverage([c for c in chunks if c.ok], space.size)
+        if not covered:
+            reasons.append(f"the chunks do not cover the space exactly once ({ranks})")
+        if failed_chunks:
+            reasons.append(f"{len(failed_chunks)} chunk(s) failed: {failed_chunks[0].message}")
+        unverified = [o for o in failures if not full[o].ok]
+        if unverified:
+            reasons.append(f"{len(unverified)} design(s) failed at screening and at full fidelity "
+                           f"(first: {list(unverified[0])}: {full[unverified[0]].message})")
+        largest = max(errors) if errors else None
+        held = largest is not None and largest <= SCREENING_ERROR
+        if not held:
+            reasons.append("the screening error bound did not hold" if largest is not None
+                           else "no design was verified at full fidelity")
+
+        def verified(e: Evaluation | None) -> Verified | None:
+            if e is None:
+                return None
+            other = second.get(e.order)
+            return Verified(e.order, e.value, screened.get(e.order), other.value if other and other.ok else None)
+
+        optimum = verified(ok[0] if ok else None)
+        runner_up = verified(ok[1] if len(ok) > 1 else None)
+        gap = integration = None
+        if optimum and runner_up:
+            gap = runner_up.full - optimum.full
+            if optimum.second is None or runner_up.second is None:
+                reasons.append("the second integrator failed on the optimum or the runner-up")
+            else:
+                integration = max(abs(optimum.full - optimum.second), abs(runner_up.full - runner_up.second))
+                if not gap > 2 * integration:
+                    reasons.append(f"the gap to the runner-up ({gap:.3g}) is not larger than twice the integration "
+                                   f"error ({integration:.3g})")
+        elif optimum is None:
+            reasons.append("no design has a value")
+        good = [c for c in chunks if c.ok]
+        return Certificate(
+            diagonal_rule=label, space=space.describe(), designs=space.size, chunks=len(ranges), ranks=ranks,
+            covered_once=covered, screened=sum(c.designs - c.failed - c.censored for c in good),
+            censored=sum(c.censored for c in good), failed=sum(c.failed for c in good), verified=verified_count,
+            screening_error=SCREENING_ERROR, max_screening_error_seen=largest, screening_bound_held=held,
+            second_integrator=SECOND_INTEGRATOR_NAME, optimum=optimum, runner_up=runner_up, gap=gap,
+            integration_error=integration, certified=not reasons, reasons=tuple(reasons))
+
+    def chart(self, study, path):
+        return draw_exhaustive(study, path)
+
+
+def draw_exhaustive(study, path: Path) -> str | None:
+    import numpy as np
+    from ..report.charts import plt, save
+
+    result = study.steps.get("exhaustive")
+    if result is None:
+        return None
+    figure, axes = plt.subplots(1, len(result.sweeps), figsize=(7 * len(result.sweeps), 4.5), squeeze=False)
+    unit = study.case.objective.units[0]
+    for axis, sweep in zip(axes[0], result.sweeps):
+        bins = sweep.histogram
+        certificate = sweep.certificate
+        if bins:
+            lefts = np.array([(1 + sweep.histogram_resolution) ** k for k, _ in bins])
+            axis.bar(lefts, [v for _, v in bins], width=lefts * sweep.histogram_resolution, align="edge",
+                     color="tab:gray", label=f"{certificate.screened:,} designs screened to a value"
+                     + (f"; {certificate.censored:,} more stopped above the force limit (censored)"
+                        if certificate.censored else ""))
+        if certificate.optimum:
+            axis.axvline(certificate.optimum.full, color="crimson", lw=2,
+                         label=f"optimum {list(certificate.optimum.order)}: {certificate.optimum.full:.4f} {unit}")
+        if bins:
+            axis.set_yscale("log")
+        axis.set_xlabel(f"{study.case.objective.outputs[0]} ({unit}), screening fidelity")
+        axis.set_ylabel("designs")
+        axis.set_title(f"Every design's value, {sweep.diagonal_rule} rule", fontsize=9)
+        if axis.get_legend_handles_labels()[0]:
+            axis.legend(fontsize=7)
+        axis.grid(alpha=0.3)
+    return save(figure, path)
+
+
+__all__ = ["Certificate", "Exhaustive", "ExhaustiveConfig", "ExhaustiveResult", "FULL_ERROR", "FrontPoint",
+           "FrontSweep", "SCREENING_ERROR", "Sweep", "Verified"]

@@ -1,0 +1,113 @@
+"""How the chosen design holds up when the case changes: each standard variation of the load, the duration,
+the angle and the diagonal rule, the designs compared against the best design known for that variation."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from ..objective import FULL
+from ..options import integer, option
+from ..study import Step, StudyContext
+from ..types import Evaluation, Order
+from .answers import Answers
+from .finalists import baselines, best_of, finalist_orders
+from .searches import Searches, run_searches
+
+METHODS = ("sa", "local")  # annealing from the baseline, an iterated local search from the chosen design
+
+
+@dataclass(frozen=True)
+class SensitivityConfig:
+    sensitivity: bool = option(True, "do not evaluate the chosen design under the standard variations of the case",
+                               flag="--no-sensitivity", action="store_false")
+    sensitivity_budget: int = option(100, "designs each short search evaluates for a variation",
+                                     type=integer("--sensitivity-budget", 1, 10**9))
+
+
+@dataclass(frozen=True)
+class Compared:
+    label: str
+    order: Order
+    value: float | None
+    regret: float | None  # value minus the best known for the variation (what keeping this design costs)
+    status: str
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class Variation:
+    name: str
+    parameters: dict[str, Any]
+    best_known: Evaluation | None  # the best design this study knows for the variation (full fidelity)
+    designs: tuple[Compared, ...]
+
+
+@dataclass(frozen=True)
+class SensitivityResult:
+    budget: int
+    methods: tuple[str, ...]
+    diagonal_rule: str
+    variations: tuple[Variation, ...]
+
+
+def variations(context: StudyContext, rule: str) -> dict[str, dict[str, Any]]:
+    """The standard variations as FMU parameters (those the FMU has): load 0.5x and 2x, load duration 0.5x and
+    2x, each other diagonal rule, load angle 30 degrees."""
+    fmu, parameters = context.fmu, context.case.parameters
+    load = float(parameters.get("F_total", fmu.start("F_total", 1200.0)))
+    duration = float(parameters.get("t_active", fmu.start("t_active", 0.15)))
+    found = {"load 0.5x": {"F_total": 0.5 * load}, "load 2x": {"F_total": 2.0 * load},
+             "load duration 0.5x": {"t_active": 0.5 * duration}, "load duration 2x": {"t_active": 2.0 * duration}}
+    rules = fmu.parameters.get("diagonal_rule")
+    for other in (rules.items if rules else ()):
+        if other != rule:
+            found[f"{other} diagonal rule"] = {"diagonal_rule": other}
+    found["load angle 30 deg"] = {"load_angle": 30.0}
+    return {name: change for name, change in found.items() if set(change) <= set(fmu.parameters)}
+
+
+class Sensitivity(Step):
+    name = "sensitivity"
+    title = "How the chosen design holds up when the case changes"
+    template = "sensitivity.html.j2"
+    Config = SensitivityConfig
+
+    def applies(self, context: StudyContext) -> bool:
+        answers = context.result(Answers)
+        return self.config.sensitivity and answers is not None and answers.chosen is not None
+
+    def check(self, context: StudyContext) -> None:
+        if not self.config.sensitivity and "sensitivity_budget" in context.given(Sensitivity):
+            raise ValueError("--sensitivity-budget: not with --no-sensitivity")
+
+    def run(self, context: StudyContext) -> SensitivityResult:
+        answers = context.result(Answers)
+        chosen = answers.chosen
+        rule = chosen.diagonal_rule
+        base = context.objective(rule if rule in context.case.rules else None).with_cases(None)
+        compared = {"chosen": chosen.order}
+        for answer in answers.answers[1:]:
+            compared[f"{answer.diagonal_rule} rule's answer"] = answer.order
+        for label, order in baselines(context).items():
+            compared.setdefault(label, order)
+        found = []
+        for name, change in variations(context, rule).items():
+            varied = base.with_parameters(**change)
+            seed = context.config(Searches).seed
+            runs = run_searches(context, varied, METHODS, seed, 1, self.config.sensitivity_budget,
+                                name, options={"local": {"start": chosen.order}},
+                                progress_label=f"sensitivity: {name}")
+            finalists = [o for run in runs for o in finalist_orders(run, 3)]
+            orders = list(dict.fromkeys(list(compared.values()) + finalists))
+            full = dict(zip(orders, varied.evaluate(orders, context.evaluator, FULL)))
+            full_task, = varied.tasks(FULL)
+            best = best_of(list(full.values()) + context.evaluator.known(full_task))
+            designs = tuple(Compared(label, order, full[order].value,
+                                     (full[order].value - best.value) if full[order].ok and best else None,
+                                     full[order].status, "" if full[order].ok else full[order].message)
+                            for label, order in compared.items())
+            found.append(Variation(name, change, best, designs))
+        return SensitivityResult(self.config.sensitivity_budget, METHODS, rule, tuple(found))
+
+
+__all__ = ["Compared", "Sensitivity", "SensitivityConfig", "SensitivityResult", "Variation", "variations"]

@@ -1,0 +1,114 @@
+"""The force on the backplate over time for the answers and the baselines, and the energy balance of each
+answer: the report's charts, computed as tasks of the evaluator (journalled, resumed, parallel)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..objective import FULL, RecordRun, Trajectory
+from ..simulation import ENERGY_OUTPUTS
+from ..study import Step, StudyContext
+from .answers import Answers
+from .finalists import baselines
+
+FORCE_HORIZON = 1.0  # s: the force peaks and ends well before (python -m bench.horizon_study)
+FORCE_STEP = 1e-3
+ENERGY_STEP = 1e-2
+
+
+@dataclass(frozen=True)
+class LabelledTrajectory:
+    label: str
+    diagonal_rule: str
+    trajectory: Trajectory
+
+
+@dataclass(frozen=True)
+class TrajectoriesResult:
+    force: tuple[LabelledTrajectory, ...]  # backplate_force under the chosen design's rule
+    energy: tuple[LabelledTrajectory, ...]  # each answer's energy terms under its own rule
+
+
+def record(context: StudyContext, rule_label: str, order, horizon: float, step: float, outputs) -> RecordRun:
+    rule = rule_label if rule_label in context.case.rules else None
+    full, = context.objective(rule).with_cases(None).tasks(FULL)
+    return RecordRun(full.fmu_path, order, horizon, step, full.parameters, tuple(outputs))
+
+
+class Trajectories(Step):
+    name = "trajectories"
+    title = "Force over time and energy balance"
+    template = "trajectories.html.j2"
+    chart_file = "force_energy.png"
+
+    def applies(self, context: StudyContext) -> bool:
+        answers = context.result(Answers)
+        return answers is not None and answers.chosen is not None
+
+    def run(self, context: StudyContext) -> TrajectoriesResult:
+        answers = context.result(Answers).answers
+        chosen = answers[0]
+        designs = {f"{a.diagonal_rule} rule's answer": a.order for a in answers}
+        for label, order in baselines(context).items():
+            designs.setdefault(label, order)
+        horizon = min(FORCE_HORIZON, context.case.horizon)
+        force_tasks = [record(context, chosen.diagonal_rule, order, horizon, FORCE_STEP, ("backplate_force",))
+                       for order in designs.values()]
+        energy_tasks = [record(context, a.diagonal_rule, a.order, context.case.horizon, ENERGY_STEP, ENERGY_OUTPUTS)
+                        for a in answers]
+        results = context.evaluator.run(force_tasks + energy_tasks)
+        force = tuple(LabelledTrajectory(label, chosen.diagonal_rule, t)
+                      for label, t in zip(designs, results[:len(force_tasks)]))
+        energy = tuple(LabelledTrajectory(f"{a.diagonal_rule} rule's answer", a.diagonal_rule, t)
+                       for a, t in zip(answers, results[len(force_tasks):]))
+        return TrajectoriesResult(force, energy)
+
+    def chart(self, study, path):
+        return draw_force_and_energy(study, path, study.case.line())
+
+
+def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
+    import numpy as np
+    from ..report.charts import plt, save, wrapped
+
+    trajectories = study.steps.get("trajectories")
+    if trajectories is None:
+        return None
+    figure, (force_axis, energy_axis) = plt.subplots(1, 2, figsize=(13, 4.8))
+    colours = ["tab:blue", "tab:red", "black", "tab:gray", "tab:green"]
+    for labelled, colour in zip(trajectories.force, colours):
+        t = labelled.trajectory
+        if not t.ok:
+            continue
+        force = np.array(t.values["backplate_force"])
+        time = np.array(t.time)
+        samples = np.abs(time / 0.01 - np.round(time / 0.01)) < 1e-6
+        sampled = force[samples].max() if samples.any() else float("nan")
+        force_axis.plot(time, force, color=colour,
+                        label=f"{labelled.label} {list(t.order)}: peak {force.max():.1f} N every 1 ms, "
+                              f"{sampled:.1f} N at the 0.01 s samples")
+    force_axis.set_xlabel("time (s)")
+    force_axis.set_ylabel("backplate force (N)")
+    force_axis.set_title(f"Force on the backplate ({trajectories.force[0].diagonal_rule if trajectories.force else ''}"
+                         f" rule), recorded every 1 ms", fontsize=9)
+    force_axis.grid(alpha=0.3)
+    if force_axis.get_legend_handles_labels()[0]:
+        force_axis.legend(fontsize=6.5, loc="upper right")
+    names = {"kinetic_energy": "KE", "potential_energy": "PE", "external_work": "W_ext",
+             "dissipated_energy": "D", "nonreciprocal_work": "W_nr", "energy_balance_error": "balance error"}
+    if trajectories.energy and trajectories.energy[0].trajectory.ok:
+        first = trajectories.energy[0]
+        for name, values in first.trajectory.values.items():
+            energy_axis.plot(first.trajectory.time, values, ":" if name == "energy_balance_error" else "-",
+                             label=names.get(name, name))
+        energy_axis.set_title(f"Energy of the {first.label} ({first.diagonal_rule} rule): "
+                              "W_ext + W_nr = KE + PE + D", fontsize=9)
+        energy_axis.legend(fontsize=7)
+    energy_axis.set_xlabel("time (s)")
+    energy_axis.set_ylabel("energy (J)")
+    energy_axis.grid(alpha=0.3)
+    figure.suptitle(wrapped(context_line), fontsize=9)
+    return save(figure, path)
+
+
+__all__ = ["LabelledTrajectory", "Trajectories", "TrajectoriesResult"]

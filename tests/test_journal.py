@@ -1,0 +1,179 @@
+"""The journal and the run folder: nothing a command, a kill or an edit does loses work or is trusted blindly."""
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+
+import pytest
+
+from orchestrator.journal import JOURNAL_NAME, Journal, JournalError
+from orchestrator.runfolder import FolderError, RunFolder, TEMP_PREFIX, make_temp_root, remove_dead_temp_roots
+from orchestrator.types import Evaluation, RunOutputs, failed
+
+KINDS = {"evaluation": Evaluation}
+SETTINGS = {"case": {"F_total": 1200.0, "rules": ["receiver", "mean"]}, "fmu_sha256": "abc"}
+
+
+def evaluation(order=(1, 2, 3), value=1405.9057831694442):
+    outputs = RunOutputs(value, value + 1.5, 0.31, 0.72, 1.0, 2.0, 3.0, 4.0, -5.0, 1e-7, 100, 10, 2, 8.0, None)
+    return Evaluation(order, value, "ok", "", 0.001, outputs)
+
+
+def write(folder, entries):
+    with Journal(folder, SETTINGS, KINDS) as journal:
+        for key, result in entries:
+            journal.append(key, result)
+        return journal.run_id
+
+
+def test_a_resumed_journal_gives_back_the_typed_results_bit_for_bit(tmp_path):
+    entries = [("a#1,2,3", evaluation()), ("a#3,2,1", failed((3, 2, 1), "diverged")),
+               ("b#1,2,3", evaluation(value=0.1 + 0.2))]
+    write(tmp_path, entries)
+    with Journal(tmp_path, SETTINGS, KINDS, resume=True) as journal:
+        loaded = journal.load()
+    assert loaded == dict(entries)
+    assert loaded["b#1,2,3"].value == 0.1 + 0.2  # repr round trip: exact
+
+
+def test_settings_are_compared_by_value_and_a_difference_is_named(tmp_path):
+    write(tmp_path, [])
+    with Journal(tmp_path, json.loads(json.dumps(SETTINGS)), KINDS, resume=True):
+        pass
+    other = {**SETTINGS, "case": {**SETTINGS["case"], "F_total": 2400.0}}
+    with pytest.raises(JournalError, match=r"case\.F_total=1200\.0 there, 2400\.0 here"):
+        Journal(tmp_path, other, KINDS, resume=True)
+
+
+def test_a_cut_last_line_is_removed_before_the_resume_appends(tmp_path):
+    write(tmp_path, [("a#1,2,3", evaluation()), ("a#2,1,3", evaluation((2, 1, 3)))])
+    path = tmp_path / JOURNAL_NAME
+    data = path.read_bytes()
+    path.write_bytes(data[:-40])  # a kill or a full disk in the middle of the last line
+    with Journal(tmp_path, SETTINGS, KINDS, resume=True) as journal:
+        assert journal.repaired
+        assert set(journal.load()) == {"a#1,2,3"}
+        journal.append("a#2,1,3", evaluation((2, 1, 3)))
+    for _ in range(2):  # every later resume still reads it
+        with Journal(tmp_path, SETTINGS, KINDS, resume=True) as journal:
+            assert not journal.repaired and set(journal.load()) == {"a#1,2,3", "a#2,1,3"}
+
+
+def test_a_changed_or_forged_line_is_refused_with_its_number(tmp_path):
+    write(tmp_path, [("a#1,2,3", evaluation()), ("a#1,3,2", evaluation((1, 3, 2), 1500.0))])
+    path = tmp_path / JOURNAL_NAME
+    lines = path.read_text().splitlines()
+    forged = json.loads(lines[2])
+    forged["result"]["value"] = 1000.0  # this run's key, another value
+    path.write_text("\n".join(lines[:2] + [json.dumps(forged)]) + "\n")
+    with pytest.raises(JournalError, match=r"line 3 fails its checksum"):
+        Journal(tmp_path, SETTINGS, KINDS, resume=True)
+
+
+def test_a_line_of_another_run_is_refused(tmp_path):
+    write(tmp_path / "one", [("a#1,2,3", evaluation())])
+    write(tmp_path / "two", [("a#1,2,3", evaluation())])
+    one = (tmp_path / "one" / JOURNAL_NAME).read_text().splitlines()
+    two = (tmp_path / "two" / JOURNAL_NAME).read_text().splitlines()
+    (tmp_path / "one" / JOURNAL_NAME).write_text("\n".join(one + two[1:]) + "\n")
+    with pytest.raises(JournalError, match="line 3 belongs to another run"):
+        Journal(tmp_path / "one", SETTINGS, KINDS, resume=True)
+
+
+def test_a_new_journal_never_replaces_an_existing_one(tmp_path):
+    write(tmp_path, [("a#1,2,3", evaluation())])
+    with pytest.raises(FileExistsError):
+        Journal(tmp_path, SETTINGS, KINDS)
+    assert Journal.inspect(tmp_path).entries == 1
+
+
+# ---------------------------------------------------------------------------------------------- run folders
+def start(out, **flags):
+    folder = RunFolder.open(out, resume=flags.get("resume", False), overwrite=flags.get("overwrite", False))
+    return folder
+
+
+def finish(folder, entries=()):
+    with Journal(folder.partial, SETTINGS, KINDS, resume=folder.previous is not None) as journal:
+        for key, result in entries:
+            journal.append(key, result)
+        (folder.partial / "report.html").write_text(journal.run_id)
+        journal.finish()
+    folder.publish()
+    folder.release()
+
+
+def test_an_unfinished_run_is_refused_without_resume_and_kept_with_overwrite(tmp_path):
+    out = tmp_path / "results"
+    folder = start(out)
+    with Journal(folder.partial, SETTINGS, KINDS) as journal:
+        journal.append("a#1,2,3", evaluation())
+        first = journal.run_id
+    folder.release()  # the run died
+    with pytest.raises(FolderError, match=r"holds an unfinished run \(1 results.*--resume.*--overwrite"):
+        start(out)
+    resumed = start(out, resume=True)
+    assert resumed.previous.run_id == first
+    resumed.release()
+    again = start(out, overwrite=True)
+    assert (again.partial / f"journal-{first}.jsonl").is_file()
+    finish(again)
+    assert (out / f"journal-{first}.jsonl").is_file() and (out / "report.html").is_file()
+
+
+def test_a_finished_run_is_replaced_only_as_a_whole(tmp_path):
+    out = tmp_path / "results"
+    finish(start(out), [("a#1,2,3", evaluation())])
+    first = (out / "report.html").read_text()
+    second = start(out)  # the same command again: the old run stays until the new one is finished
+    assert (out / "report.html").read_text() == first and (out / JOURNAL_NAME).is_file()
+    finish(second)
+    assert (out / "report.html").read_text() != first
+    assert not second.partial.exists()
+    replay = start(out, resume=True)  # a finished run resumed: its journal replayed, its report rewritten
+    assert replay.previous.finished and (replay.partial / JOURNAL_NAME).is_file()
+    finish(replay)
+    assert Journal.inspect(out).finished
+
+
+def test_one_run_per_folder(tmp_path):
+    out = tmp_path / "results"
+    holder = start(out)
+    with pytest.raises(FolderError, match=rf"in use by a running run \(pid {os.getpid()} on "):
+        start(out, resume=True)
+    holder.release()
+    start(out).release()
+
+
+def _hold_lock_then_die(out, ready):
+    RunFolder.open(out, resume=False, overwrite=False)
+    ready.set()
+    os._exit(0)  # dies holding the lock
+
+
+def test_a_dead_runs_lock_does_not_block(tmp_path):
+    out = tmp_path / "results"
+    ready = multiprocessing.Event()
+    process = multiprocessing.get_context("fork").Process(target=_hold_lock_then_die, args=(out, ready))
+    process.start()
+    process.join(10)
+    assert ready.is_set()
+    start(out).release()
+
+
+def test_a_folder_of_other_files_is_never_replaced(tmp_path):
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "thesis.tex").write_text("precious")
+    with pytest.raises(FolderError, match="holds files that are not a run of this program"):
+        start(tmp_path / "mine")
+    assert (tmp_path / "mine" / "thesis.tex").read_text() == "precious"
+
+
+def test_a_dead_runs_temporary_folder_is_removed_by_the_next_run(tmp_path, monkeypatch):
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    dead = tmp_path / f"{TEMP_PREFIX}999999999-x"
+    dead.mkdir()
+    mine = make_temp_root()
+    assert not dead.exists() and os.path.isdir(mine)
+    assert remove_dead_temp_roots() == 0
