@@ -86,8 +86,7 @@ def resolve_scene(case: CaseConfig, materials):
     if case.cols is not None or materials is not None:
         from fmu_src import build
 
-        extra = {"materials": materials} if materials is not None else {}
-        scene = build.resolve_scene(scene, cols=case.cols, **extra)
+        scene = build.resolve_scene(scene, cols=case.cols, materials=materials)
     return scene
 
 
@@ -139,7 +138,7 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
         if materials is not None and len(materials) != fmu.materials:
             raise ValueError(f"--materials {case_config.materials}: {len(materials)} materials, but "
                              f"{fmu.path.name} has a table of {fmu.materials}")
-        table = materials or study_materials(fmu.materials)
+        table = materials or scene.material_table() or study_materials(fmu.materials)
         case = resolve_case(case_config, scene, fmu, table)
         steps = [step_type(step_configs.get(step_type)) for step_type in step_types]
         context = StudyContext(fmu=fmu, case=case, evaluator=Evaluator(SerialExecutor()), steps=steps,

@@ -185,7 +185,8 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
         axis.grid(alpha=0.3)
         if axis.get_legend_handles_labels()[0]:
             axis.legend(fontsize=7)
-    figure.suptitle(wrapped(f"Convergence over seeds: median and quartiles. {context_line}"), fontsize=9)
+    figure.suptitle(wrapped(f"Convergence over seeds: median and quartiles. {context_line}", 100 * len(labels)),
+                    fontsize=9)
     return save(figure, path)
 
 
