@@ -16,6 +16,7 @@ INTEGER = "Integer"
 UNITS = ("N", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg", "m/s", "m/s2", "W")
 # The categories the FMI glue logs under (fmi2/, fmi3/), declared in both model descriptions.
 LOG_CATEGORIES = (("logStatusError", "Why a call failed"),
+                  ("logStatusWarning", "Model Exchange: a backplate switch the importer did not handle as an event"),
                   ("logStatusDiscard", "Why a step stopped early (peak_force_limit)"))
 
 # Roles in the continuous-time contract (fmu_src/lattice/model.h), what Model Exchange declares as its

@@ -425,10 +425,12 @@ fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
 fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation) {
     Instance *instance = (Instance *)c;
+    int event;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!allowed(instance, "fmi2CompletedIntegratorStep", IN(STATE_CONTINUOUS_TIME))) return fmi2Error;
-    model_completed_point(instance->common.model);
-    if (enterEventMode) *enterEventMode = fmi2False; /* every switch is a state or time event */
+    /* a backplate mode that contradicts the state is a switch the importer did not handle: ask for an event */
+    event = model_completed_point(instance->common.model);
+    if (enterEventMode) *enterEventMode = event ? fmi2True : fmi2False;
     if (terminateSimulation) *terminateSimulation = fmi2False;
     return fmi2OK;
 }
@@ -450,14 +452,31 @@ fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n
                          model_set_states(instance->common.model, x, nx, message, sizeof(message)), message);
 }
 
+/* An importer that goes on in continuous-time mode after fmi2CompletedIntegratorStep asked for event mode: the
+ * model switches the contradicting backplate modes itself and says so (fmi2Warning). 1 when it did. */
+static int lost_events_switched(Instance *instance) {
+    int switched;
+    if (instance->common.state != STATE_CONTINUOUS_TIME) return 0;
+    switched = model_switch_lost_events(instance->common.model);
+    if (switched) {
+        log_message(instance, fmi2Warning, "logStatusWarning",
+                    "fmi2GetDerivatives: at t = %.17g s the backplate mode of %d row(s) contradicted the state and "
+                    "the importer went on without the event fmi2CompletedIntegratorStep asked for: the model "
+                    "switched them itself (located only to the importer's step)",
+                    model_time(instance->common.model), switched);
+    }
+    return switched;
+}
+
 fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     if (!allowed(instance, "fmi2GetDerivatives", ME_STATES_AND_AFTER)) return fmi2Error;
     if (!derivatives) return error(instance, "fmi2GetDerivatives", "derivatives is NULL");
-    return model_outcome(instance, "fmi2GetDerivatives",
-                         model_get_derivatives(instance->common.model, derivatives, nx, message, sizeof(message)),
-                         message);
+    if (model_get_derivatives(instance->common.model, derivatives, nx, message, sizeof(message))) {
+        return error(instance, "fmi2GetDerivatives", message);
+    }
+    return lost_events_switched(instance) ? fmi2Warning : fmi2OK;
 }
 
 fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni) {

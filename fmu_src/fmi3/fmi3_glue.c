@@ -679,10 +679,12 @@ fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c) {
 fmi3Status fmi3CompletedIntegratorStep(fmi3Instance c, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation) {
     Instance *instance = (Instance *)c;
+    int event;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!allowed(instance, "fmi3CompletedIntegratorStep", IN(STATE_CONTINUOUS_TIME))) return fmi3Error;
-    model_completed_point(instance->common.model);
-    if (enterEventMode) *enterEventMode = fmi3False; /* every switch is a state or time event */
+    /* a backplate mode that contradicts the state is a switch the importer did not handle: ask for an event */
+    event = model_completed_point(instance->common.model);
+    if (enterEventMode) *enterEventMode = event ? fmi3True : fmi3False;
     if (terminateSimulation) *terminateSimulation = fmi3False;
     return fmi3OK;
 }
@@ -706,15 +708,31 @@ fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 continuousS
                          message);
 }
 
+/* An importer that goes on in continuous-time mode after fmi3CompletedIntegratorStep asked for event mode: the
+ * model switches the contradicting backplate modes itself and says so (fmi3Warning). 1 when it did. */
+static int lost_events_switched(Instance *instance) {
+    int switched;
+    if (instance->common.state != STATE_CONTINUOUS_TIME) return 0;
+    switched = model_switch_lost_events(instance->common.model);
+    if (switched) {
+        log_message(instance, fmi3Warning, "logStatusWarning",
+                    "fmi3GetContinuousStateDerivatives: at t = %.17g s the backplate mode of %d row(s) contradicted "
+                    "the state and the importer went on without the event fmi3CompletedIntegratorStep asked for: "
+                    "the model switched them itself (located only to the importer's step)",
+                    model_time(instance->common.model), switched);
+    }
+    return switched;
+}
+
 fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 derivatives[], size_t nContinuousStates) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     if (!allowed(instance, "fmi3GetContinuousStateDerivatives", ME_STATES_AND_AFTER)) return fmi3Error;
     if (!derivatives) return error(instance, "fmi3GetContinuousStateDerivatives", "derivatives is NULL");
-    return model_outcome(instance, "fmi3GetContinuousStateDerivatives",
-                         model_get_derivatives(instance->common.model, derivatives, nContinuousStates, message,
-                                               sizeof(message)),
-                         message);
+    if (model_get_derivatives(instance->common.model, derivatives, nContinuousStates, message, sizeof(message))) {
+        return error(instance, "fmi3GetContinuousStateDerivatives", message);
+    }
+    return lost_events_switched(instance) ? fmi3Warning : fmi3OK;
 }
 
 fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 eventIndicators[], size_t nEventIndicators) {

@@ -50,6 +50,7 @@ struct Model {
     int exchange;      /* Model Exchange: the importer integrates output_state (model_exchange_begin) */
     int outputs_stale; /* Model Exchange: the outputs still describe an earlier state */
     long exchange_evaluations, exchange_points; /* derivative evaluations and completed points (ME) */
+    int switch_pending; /* Model Exchange: a completed point found a mode that contradicts the state */
     CoSimulation cs;
 };
 

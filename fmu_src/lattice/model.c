@@ -346,8 +346,9 @@ int model_check(const Model *m, char *message, size_t message_size) {
     }
     if (!m->initialized) return 0; /* the solver, the lattice and the modes are set up at initialisation */
     if (check_material_order(m, message, message_size)) return -1;
-    if (m->exchange != 0 && m->exchange != 1) {
-        snprintf(message, message_size, "the state is corrupt: its interface flag is %d", m->exchange);
+    if ((m->exchange != 0 && m->exchange != 1) || (m->switch_pending != 0 && m->switch_pending != 1)) {
+        snprintf(message, message_size, "the state is corrupt: its interface flags are %d, %d", m->exchange,
+                 m->switch_pending);
         return -1;
     }
     if (cosimulation_check(m, message, message_size)) return -1;
@@ -454,27 +455,74 @@ int model_get_event_indicators(const Model *m, double *z, size_t n, char *messag
     return 0;
 }
 
-void model_event_update(Model *m, int *changed, int *next_event_time_defined, double *next_event_time) {
-    signed char modes[LATTICE_ROWS];
+/* The backplate modes of the importer's state, an indicator exactly at its threshold decided by the direction
+ * of motion: at ux = backplate_gap the row is in contact when it moves into the plate (vx > 0, or at rest
+ * accelerating into it), and in contact at vx = 0 the damper acts when it accelerates into the plate. */
+static void modes_of_state(Model *m, signed char *modes) {
+    const double *y = m->output_state;
     int i;
-    record_point(m); /* the point the event happens at, before anything switches */
-    *changed = 0;
-    if (m->params.has_backplate) {
-        model_wall_modes(m, m->output_state, LATTICE_ROWS, 2 * N_MASSES, modes);
-        for (i = 0; i < LATTICE_ROWS; i++) {
-            *changed = *changed || modes[i] != m->wall_mode[i];
-            m->wall_mode[i] = modes[i];
+    model_wall_modes(m, y, LATTICE_ROWS, 2 * N_MASSES, modes);
+    for (i = 0; i < LATTICE_ROWS && m->params.has_backplate; i++) {
+        const int mass = LAST_COLUMN_MASS(i);
+        const double penetration = y[mass] - m->params.backplate_gap, vx = y[2 * N_MASSES + mass];
+        if (penetration < 0.0 || (penetration > 0.0 && vx != 0.0)) continue;
+        update_derivatives(m); /* the acceleration, under the modes in force */
+        {
+            const double ax = m->derivative[2 * N_MASSES + mass];
+            const double inward = vx != 0.0 ? vx : ax;
+            if (penetration == 0.0 && !(inward > 0.0)) {
+                modes[i] = WALL_FREE;
+            } else {
+                modes[i] = (vx > 0.0 || (vx == 0.0 && ax > 0.0)) ? WALL_APPROACHING : WALL_RECEDING;
+            }
         }
     }
-    if (model_load_switches_off(m, m->time)) {
-        m->load_on = 0;
-        *changed = 1;
-    }
-    *next_event_time_defined = model_next_time_event(m, next_event_time);
-    if (*changed) m->derivative_valid = 0;
 }
 
-void model_completed_point(Model *m) {
+/* Switches the backplate modes to those of the state; 1 when any changed. */
+static int switch_wall_modes(Model *m) {
+    signed char modes[LATTICE_ROWS];
+    int i, changed = 0;
+    if (!m->params.has_backplate) return 0;
+    modes_of_state(m, modes);
+    for (i = 0; i < LATTICE_ROWS; i++) {
+        changed = changed || modes[i] != m->wall_mode[i];
+        m->wall_mode[i] = modes[i];
+    }
+    if (changed) m->derivative_valid = 0;
+    return changed;
+}
+
+void model_event_update(Model *m, int *changed, int *next_event_time_defined, double *next_event_time) {
+    record_point(m); /* the point the event happens at, before anything switches */
+    *changed = switch_wall_modes(m);
+    if (model_load_switches_off(m, m->time)) {
+        m->load_on = 0;
+        m->derivative_valid = 0;
+        *changed = 1;
+    }
+    m->switch_pending = 0;
+    *next_event_time_defined = model_next_time_event(m, next_event_time);
+}
+
+int model_completed_point(Model *m) {
+    signed char modes[LATTICE_ROWS];
+    int i;
     m->exchange_points++;
     record_point(m);
+    if (!m->params.has_backplate) return 0;
+    modes_of_state(m, modes);
+    for (i = 0; i < LATTICE_ROWS; i++) m->switch_pending = m->switch_pending || modes[i] != m->wall_mode[i];
+    return m->switch_pending;
+}
+
+int model_switch_lost_events(Model *m) {
+    signed char before[LATTICE_ROWS];
+    int i, switched = 0;
+    if (!m->switch_pending) return 0;
+    memcpy(before, m->wall_mode, sizeof(before));
+    switch_wall_modes(m);
+    for (i = 0; i < LATTICE_ROWS; i++) switched += before[i] != m->wall_mode[i];
+    m->switch_pending = 0;
+    return switched;
 }

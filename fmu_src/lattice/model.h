@@ -81,12 +81,21 @@ int model_get_derivatives(Model *m, double *dx, size_t n, char *message, size_t 
 int model_get_event_indicators(const Model *m, double *z, size_t n, char *message, size_t message_size);
 
 /* Event mode at the current time and state: switches the load off at t_active and the backplate modes to
- * those of the state; says whether the discrete states changed and when the next time event is. */
+ * those of the state (an indicator that is exactly zero by the direction the row moves in, so that a switch
+ * does not wait for an indicator to leave zero: an importer that restarts on an exact zero may never report
+ * it leaving); says whether the discrete states changed and when the next time event is. */
 void model_event_update(Model *m, int *changed, int *next_event_time_defined, double *next_event_time);
 
 /* The importer completed a step or reached an event: the peaks and the last contact over the points it
- * shows the model (the only ones the model sees). */
-void model_completed_point(Model *m);
+ * shows the model (the only ones the model sees). Returns 1 when a row's backplate mode contradicts its state
+ * there (a switch the importer did not handle as an event): the importer should enter event mode. */
+int model_completed_point(Model *m);
+
+/* Model Exchange's answer to an importer that goes on integrating after model_completed_point asked for an
+ * event: the rows whose mode still contradicts the state are switched here, so the physics stays right (to
+ * the accuracy lost at the switch); returns how many rows were switched (0 when none was pending). Called in
+ * continuous-time mode only. */
+int model_switch_lost_events(Model *m);
 
 /* 1 once the run stopped at peak_force_limit (FMI's "terminated" status), else 0. */
 int model_terminated(const Model *m);
