@@ -90,7 +90,6 @@ def generate_header(interface: Interface, guid: str) -> str:
         "    int causality;",
         "    double start, minimum, maximum;",
         "    int minimum_exclusive;",
-        "    int array_size; /* elements from here to the end of its array (1 for a scalar) */",
         "    const char *allowed;",
         "    int state, derivative, indicator; /* index in the contract's vectors (model.h), or -1 */",
         "    int enumeration; /* an Integer declared as an FMI enumeration (FMI 3 moves it as Int64) */",
@@ -117,7 +116,7 @@ def generate_header(interface: Interface, guid: str) -> str:
             start_text = "0.0" if start is None else repr(float(start))
             indexes = ", ".join(str(base + index if base >= 0 else -1) for base in (state, derivative, indicator))
             rows.append(f'    {{"{name}", {type_code}, {causality}, {start_text}, {low}, {high}, '
-                        f'{int(variable.minimum_exclusive)}, {variable.count - index}, '
+                        f'{int(variable.minimum_exclusive)}, '
                         f'"{variable.allowed_text()}", {indexes}, {int(variable.enumeration is not None)}}}')
     lines.append("/* The variable table and the compiled-in arrays: in the one file that defines MODEL_VARIABLE_TABLES. */")
     lines.append("#ifdef MODEL_VARIABLE_TABLES")

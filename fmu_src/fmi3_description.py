@@ -4,12 +4,14 @@ variable table, through the templates fmu_src/templates/fmi3_*.xml.
 `fmu_src.build.build_fmu(..., fmi_version=3)` calls in here; everything else (the C header model_variables.h,
 the model's C code, compiling, zipping) is shared with FMI 2. The differences from FMI 2:
 
-- an array is one variable: `material` is an Int32 variable with `<Dimension start="11"/>` and the value
-  reference of its first element (the states `ux`, ... are 11 x 11 arrays, `der(ux)` their derivatives); Real becomes Float64 and Integer becomes Int32. Scalars keep their FMI 2
-  names and value references, so a caller that knows one FMU knows the other.
+- every variable is a scalar with FMI 2's name (`material[1]` ... `material[C]`, `ux[1,1]`, `der(ux[1,1])`):
+  importers without FMI 3 arrays (OMSimulator 3) set and read them all, and one parameter dict serves both.
+- a value reference is the variable's 1-based position in <ModelVariables> (FMI 2's plus VR_OFFSET), `time`
+  last: an importer that reads a derivative's `derivative` attribute (the state's value reference) as an index
+  into the variable list, as OMSimulator 3 does, finds the state there.
+- Real becomes Float64, Integer Int32, and an enumeration parameter is an Enumeration (moved as Int64).
 - a Float64 variable's unit comes from a declared type in <TypeDefinitions>, named after the unit.
-- FMI 3 wants exactly one independent variable: `time`, with the first value reference past the model's
-  variables (fmi3/fmi3_glue.c answers it from the model's time).
+- FMI 3 wants exactly one independent variable: `time` (fmi3/fmi3_glue.c answers it from the model's time).
 - the sources are listed in sources/buildDescription.xml, not in modelDescription.xml.
 - binaries go to `binaries/<architecture>-<system>/` (e.g. x86_64-linux).
 """
@@ -32,6 +34,8 @@ TYPE_NAMES = {REAL: "Float64", INTEGER: "Int32"}  # an Integer with an enumerati
 # A Float64 variable gets its unit through a declared type named after the unit (<Float64Type name="N.s/m"
 # unit="N.s/m"/>), not through a unit attribute: both are FMI 3.0, but fmi-sim 0.7 (Rust) refuses a unit
 # attribute on a variable.
+# FMI 3 value reference = the model's (FMI 2's) + VR_OFFSET: the 1-based position in <ModelVariables>
+VR_OFFSET = 1
 OUTPUT_SUFFIX = "-fmi3"  # models/MassSpringLattice-fmi3.fmu beside the FMI 2 models/MassSpringLattice.fmu
 
 
@@ -59,57 +63,60 @@ def _number(variable: Variable, value) -> str:
     return str(int(value)) if variable.type == INTEGER else repr(float(value))
 
 
-def model_variable(variable: Variable, vr: int, state_vr: int | None = None) -> dict:
-    """One FMI 3 variable: its element (Float64, Int32, Enumeration), attributes in order, dimensions."""
-    attributes = [("name", variable.name), ("valueReference", str(vr))]
-    if variable.causality == "parameter":
-        attributes += [("causality", "parameter"), ("variability", "fixed"),
-                       ("start", " ".join(c_literal(variable, start) for start in variable.element_starts()))]
-    else:
-        variability = "continuous" if variable.type == REAL else "discrete"
-        attributes += [("causality", variable.causality), ("variability", variability), ("initial", "calculated")]
-    if state_vr is not None:
-        attributes.append(("derivative", str(state_vr)))
-    attributes.append(("description", variable.description))
-    if variable.unit and variable.type == REAL:  # FMI 3 integers have no unit
-        attributes.append(("declaredType", variable.unit))
-    if variable.enumeration:
-        attributes.append(("declaredType", variable.enumeration))
-    if variable.minimum is not None:
-        attributes.append(("min", _number(variable, variable.minimum)))
-    if variable.maximum is not None:
-        attributes.append(("max", _number(variable, variable.maximum)))
-    dimensions = [] if variable.size is None else list(variable.shape or (variable.size,))
-    return {"tag": "Enumeration" if variable.enumeration else TYPE_NAMES[variable.type], "attributes": attributes,
-            "dimensions": dimensions}
+def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, int]]]:
+    """Every variable as a scalar (FMI 2's elements and names), value reference = its 1-based position in
+    <ModelVariables>, then `time`; and <ModelStructure>'s elements (Output, ContinuousStateDerivative in the
+    order of the continuous states, InitialUnknown, EventIndicator) with their value references."""
+    variables, outputs, initial_unknowns, derivatives, indicators = [], [], [], [], []
+    references, state_offsets = interface.value_references, interface.state_offsets()
+    for variable in interface.exposed:
+        first = references[variable.name] + VR_OFFSET
+        for offset, (name, start) in enumerate(zip(variable.element_names(), variable.element_starts())):
+            vr = first + offset
+            attributes = [("name", name), ("valueReference", str(vr))]
+            if variable.causality == "parameter":
+                attributes += [("causality", "parameter"), ("variability", "fixed"),
+                               ("start", c_literal(variable, start))]
+            else:
+                variability = "continuous" if variable.type == REAL else "discrete"
+                attributes += [("causality", variable.causality), ("variability", variability),
+                               ("initial", "calculated")]
+            if variable.role == DERIVATIVE:
+                attributes.append(("derivative", str(references[variable.derivative_of] + VR_OFFSET + offset)))
+                derivatives.append((state_offsets[variable.derivative_of] + offset, vr))
+            attributes.append(("description", variable.description))
+            if variable.unit and variable.type == REAL:  # FMI 3 integers have no unit
+                attributes.append(("declaredType", variable.unit))
+            if variable.enumeration:
+                attributes.append(("declaredType", variable.enumeration))
+            if variable.minimum is not None:
+                attributes.append(("min", _number(variable, variable.minimum)))
+            if variable.maximum is not None:
+                attributes.append(("max", _number(variable, variable.maximum)))
+            variables.append({"tag": "Enumeration" if variable.enumeration else TYPE_NAMES[variable.type],
+                              "attributes": attributes})
+            if variable.causality == "output":
+                outputs.append(vr)
+            if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
+                initial_unknowns.append(vr)
+            if variable.role == INDICATOR:
+                indicators.append(vr)
+    time_vr = len(variables) + VR_OFFSET
+    variables.append({"tag": "Float64", "attributes": [
+        ("name", "time"), ("valueReference", str(time_vr)), ("causality", "independent"),
+        ("variability", "continuous"), ("declaredType", "s"), ("description", "Simulation time")]})
+    structure = ([("Output", vr) for vr in outputs]
+                 + [("ContinuousStateDerivative", vr) for _, vr in sorted(derivatives)]
+                 + [("InitialUnknown", vr) for vr in initial_unknowns]
+                 + [("EventIndicator", vr) for vr in indicators])
+    return variables, structure
 
 
 def generate_model_description(interface: Interface, identifier: str, token: str, scene) -> str:
     """modelDescription.xml (FMI 3.0, Model Exchange and Co-Simulation) from the same table as the header and the
     FMI 2 XML."""
-    variables, outputs, initial_unknowns, derivatives, indicators = [], [], [], [], []
-    references = interface.value_references
-    for variable in interface.exposed:
-        vr = references[variable.name]
-        derivative_of = references[variable.derivative_of] if variable.role == DERIVATIVE else None
-        variables.append(model_variable(variable, vr, derivative_of))
-        if variable.causality == "output":
-            outputs.append(vr)
-        if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
-            initial_unknowns.append(vr)
-        if variable.role == DERIVATIVE:  # in the order of the continuous states (lattice.h's layout)
-            derivatives.append((interface.state_offsets()[variable.derivative_of], vr))
-        if variable.role == INDICATOR:
-            indicators.append(vr)
-    time_vr = sum(v.count for v in interface.exposed)
-    variables.append({"tag": "Float64", "dimensions": [], "attributes": [
-        ("name", "time"), ("valueReference", str(time_vr)), ("causality", "independent"),
-        ("variability", "continuous"), ("declaredType", "s"), ("description", "Simulation time")]})
+    variables, structure = model_variables(interface)
     used = [unit for unit in UNITS if unit == "s" or any(v.unit == unit and v.type == REAL for v in interface.exposed)]
-    structure = ([("Output", vr) for vr in outputs]
-                 + [("ContinuousStateDerivative", vr) for _, vr in sorted(derivatives)]
-                 + [("InitialUnknown", vr) for vr in initial_unknowns]
-                 + [("EventIndicator", vr) for vr in indicators])
     return render("fmi3_model_description.xml", identifier=identifier, token=token,
                   description=model_summary(interface, scene), units=UNITS, unit_types=used,
                   enumerations=enumeration_types(interface), log_categories=LOG_CATEGORIES,

@@ -1,8 +1,9 @@
-"""The FMI 3.0 co-simulation FMU (`build_fmu.py --fmi-version 3`): same model code, arrays as variables.
+"""The FMI 3.0 FMU (`build_fmu.py --fmi-version 3`): same model code, every variable a scalar.
 
-Checked through fmpy: validation, the model description derived from the same table as FMI 2 (names and
-value references kept; `material` one Int32 array), bit-identical peaks and outputs to the FMI 2 FMU, the
-array and error handling of fmi3/fmi3_glue.c, and FMU states. fmi-sim runs it in tests/test_importers.py.
+Checked through fmpy: validation, the model description derived from the same table as FMI 2 (FMI 2's names,
+`material[1]` ... `material[11]` as Int32 scalars; value reference = position in <ModelVariables>, so a
+`derivative` read as an index finds its state), bit-identical peaks and outputs to the FMI 2 FMU, the error
+handling of fmi3/fmi3_glue.c, and FMU states. fmi-sim runs it in tests/test_importers.py.
 """
 from __future__ import annotations
 
@@ -38,10 +39,13 @@ class Instance:
     def vr(self, name):
         return self.variables[name].valueReference
 
+    def material_vrs(self):
+        return [self.vr(f"material[{j}]") for j in range(1, 12)]
+
     def start(self, order=None, stop=HORIZON):
         self.slave.enterInitializationMode(startTime=0.0, stopTime=stop)
         if order is not None:
-            self.slave.setInt32([self.vr("material")], list(order))
+            self.slave.setInt32(self.material_vrs(), list(order))
         self.slave.exitInitializationMode()
 
     def run(self, order, horizon=HORIZON, step=STEP):
@@ -81,42 +85,49 @@ def test_fmpy_validation_finds_no_problem(fmu3_path):
 def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path):
     fmi2 = {v.name: v for v in read_model_description(str(fmu_path)).modelVariables}
     description = read_model_description(str(fmu3_path))
-    fmi3 = {v.name: v for v in description.modelVariables}
+    variables = description.modelVariables
+    fmi3 = {v.name: v for v in variables}
     assert description.fmiVersion == "3.0"
     assert description.coSimulation is not None and description.modelExchange is not None
 
-    material = fmi3["material"]
-    assert material.type == "Int32" and material.causality == "parameter"
-    assert [int(d.start) for d in material.dimensions] == [11]
-    assert [int(x) for x in str(material.start).split()] == list(range(1, 12))
-    assert fmi3["k"].type == "Float64" and [int(d.start) for d in fmi3["k"].dimensions] == [11]
-    assert float(str(fmi3["k"].start).split()[1]) == float(fmi2["k[2]"].start)
-    units = {name: fmi3[name].declaredType.unit for name in ("k", "c", "F_total", "peak_backplate_force", "time")}
-    assert units == {"k": fmi2["k[1]"].unit, "c": fmi2["c[1]"].unit, "F_total": fmi2["F_total"].unit,
+    # FMI 2's scalars, names and order (its Enumeration aliases aside), no arrays, time last
+    assert [v.name for v in variables] == [n for n, v in fmi2.items() if v.type != "Enumeration"] + ["time"]
+    assert not any(v.dimensions for v in variables)
+    material = [fmi3[f"material[{j}]"] for j in range(1, 12)]
+    assert all(v.type == "Int32" and v.causality == "parameter" for v in material)
+    assert [int(v.start) for v in material] == list(range(1, 12))
+    assert float(fmi3["k[2]"].start) == float(fmi2["k[2]"].start)
+    units = {name: fmi3[name].declaredType.unit for name in ("k[1]", "c[1]", "F_total", "peak_backplate_force", "time")}
+    assert units == {"k[1]": fmi2["k[1]"].unit, "c[1]": fmi2["c[1]"].unit, "F_total": fmi2["F_total"].unit,
                      "peak_backplate_force": fmi2["peak_backplate_force"].unit, "time": "s"}  # via declared types
-
-    expected = {}
-    enumerations = {v.valueReference for v in fmi2.values() if v.type == "Enumeration"}  # FMI 2's item aliases
-    for name, variable in fmi2.items():  # FMI 2 names stay; an array is named by its first element's vr
-        if variable.type == "Enumeration":
-            continue  # the alias naming an Integer parameter's items: FMI 3 declares the parameter an Enumeration
-        derivative = name.startswith("der(")  # der(ux[1,1]) is an element of the FMI 3 array der(ux)
-        base, _, index = name[4:-1].partition("[") if derivative else name.partition("[")
-        if not index or index in ("1]", "1,1]"):
-            fmi3_type = "Enumeration" if variable.valueReference in enumerations else {
-                "Real": "Float64", "Integer": "Int32"}[variable.type]
-            expected[f"der({base})" if derivative else base] = (variable.valueReference, fmi3_type,
-                                                                variable.causality)
-    time = fmi3.pop("time")
-    assert time.causality == "independent" and time.type == "Float64"
-    assert time.valueReference not in {v[0] for v in expected.values()}
-    assert {name: (v.valueReference, v.type, v.causality) for name, v in fmi3.items()} == expected
+    for name, variable in fmi3.items():
+        if name == "time":
+            assert variable.causality == "independent" and variable.type == "Float64"
+            continue
+        fmi2_type = "Enumeration" if any(a.type == "Enumeration" and a.valueReference == fmi2[name].valueReference
+                                         for a in fmi2.values()) else fmi2[name].type
+        assert (variable.type, variable.causality) == (
+            {"Real": "Float64", "Integer": "Int32", "Enumeration": "Enumeration"}[fmi2_type], fmi2[name].causality)
+        assert variable.valueReference == fmi2[name].valueReference + 1
 
     with zipfile.ZipFile(fmu3_path) as archive:
         names = archive.namelist()
         build_description = archive.read("sources/buildDescription.xml").decode()
     assert "binaries/x86_64-linux/MassSpringLattice.so" in names
     assert 'name="fmi3/fmi3_glue.c"' in build_description and 'name="lattice/model.c"' in build_description
+
+
+def test_a_derivative_read_as_an_index_finds_its_state(fmu3_path):
+    """OMSimulator 3 takes a derivative's `derivative` attribute (the state's value reference) as the state's
+    1-based position in the variable list: both readings give the same variable."""
+    description = read_model_description(str(fmu3_path))
+    variables = description.modelVariables
+    derivatives = [v for v in variables if v.derivative is not None]
+    assert len(derivatives) == description.numberOfContinuousStates == 4 * 121 + 3
+    for variable in derivatives:
+        state = variable.derivative
+        assert variables[state.valueReference - 1] is state and variable.name == f"der({state.name})"
+    assert all(v.valueReference == position for position, v in enumerate(variables, 1))
 
 
 @pytest.fixture(scope="module")
@@ -135,29 +146,32 @@ def test_same_numbers_as_fmi2_to_the_last_bit(instance, fmi2_results, order):
     assert instance.slave.getFloat64([instance.vr("time")]) == [HORIZON]
 
 
-def test_fmpy_simulate_fmu_takes_the_material_array(fmu3_path, fmi2_results):
+def test_fmpy_simulate_fmu_sets_the_order_by_its_scalars(fmu3_path, fmi2_results):
     result = simulate_fmu(str(fmu3_path), stop_time=HORIZON, output_interval=STEP,
-                          start_values={"material": list(PUBLISHED_BEST)}, output=["peak_backplate_force"])
+                          start_values={f"material[{j}]": m for j, m in enumerate(PUBLISHED_BEST, 1)},
+                          output=["peak_backplate_force"])
     assert result["peak_backplate_force"][-1] == fmi2_results[PUBLISHED_BEST]["peak_backplate_force"]
 
 
-def test_arrays_are_read_and_written_whole(instance):
-    vr = instance.vr("material")
-    assert instance.slave.getInt32([vr], 11) == list(range(1, 12))
+def test_scalars_are_read_and_written_several_at_a_time(instance):
+    vrs = instance.material_vrs()
+    assert instance.slave.getInt32(vrs) == list(range(1, 12))
     instance.slave.enterInitializationMode(startTime=0.0, stopTime=1.0)
-    instance.slave.setInt32([vr], list(PUBLISHED_BEST))
-    assert instance.slave.getInt32([vr], 11) == list(PUBLISHED_BEST)
-    k, alpha = instance.vr("k"), instance.vr("alpha")
-    values = instance.slave.getFloat64([k, instance.vr("F_total"), alpha], 23)
-    assert values[0] == 100.0 and values[11] == 1200.0 and values[12:] == [10.0] * 11
-    instance.slave.setFloat64([instance.vr("F_total"), k], [600.0] + [50.0] * 11)
-    assert instance.slave.getFloat64([k], 11) == [50.0] * 11
+    instance.slave.setInt32(vrs, list(PUBLISHED_BEST))
+    assert instance.slave.getInt32(vrs) == list(PUBLISHED_BEST)
+    k = [instance.vr(f"k[{m}]") for m in range(1, 12)]
+    values = instance.slave.getFloat64(k + [instance.vr("F_total"), instance.vr("time")])
+    assert values[0] == 100.0 and values[11] == 1200.0 and values[12] == 0.0
+    instance.slave.setFloat64([instance.vr("F_total")] + k, [600.0] + [50.0] * 11)
+    assert instance.slave.getFloat64(k) == [50.0] * 11
 
 
 @pytest.mark.parametrize("call, expected", [
-    (lambda f: f.slave.getInt32([f.vr("material") + 3], 8), "not a variable"),  # the middle of the array
-    (lambda f: f.slave.getInt32([f.vr("material")], 5), "nValues"),
-    (lambda f: f.slave.getFloat64([f.vr("material")], 11), "not a Float64"),
+    (lambda f: f.slave.getInt32([0]), "not an Int32 variable of this FMU"),  # before the first variable
+    (lambda f: f.slave.getInt32([f.vr("time") + 1]), "not an Int32 variable of this FMU"),  # after time
+    (lambda f: f.slave.getInt32([f.vr("material[1]")], 5), "nValues"),
+    (lambda f: f.slave.getFloat64([f.vr("material[1]")]), "not a Float64"),
+    (lambda f: f.slave.getInt32([f.vr("time")]), "is time"),
     (lambda f: f.slave.setFloat64([f.vr("peak_backplate_force")], [1.0]), "output"),
     (lambda f: f.slave.setFloat64([f.vr("time")], [1.0]), "independent"),
     (lambda f: f.slave.getBoolean([0]), "no Boolean"),
@@ -195,7 +209,7 @@ def test_an_instantiation_token_of_another_build_is_refused(fmu3_path):
 
 def test_a_bad_material_order_is_refused_and_reset_recovers(instance):
     instance.slave.enterInitializationMode(startTime=0.0, stopTime=1.0)
-    instance.slave.setInt32([instance.vr("material")], [1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11])
+    instance.slave.setInt32(instance.material_vrs(), [1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11])
     with pytest.raises(FMICallException):
         instance.slave.exitInitializationMode()
     assert any("permutation of 1..11" in message for message in instance.messages), instance.messages

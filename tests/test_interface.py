@@ -65,7 +65,8 @@ def test_libcosim_sets_the_fmi2_diagonal_rule_as_an_integer(fmu_path, lattice):
 
 def test_fmi3_moves_an_enumeration_as_int64_and_refuses_int32(fmu_path, fmu3_path, lattice):
     result = simulate_fmu(str(fmu3_path), stop_time=1.0, output_interval=0.01,
-                          start_values={"material": list(PUBLISHED_BEST), "diagonal_rule": 1},
+                          start_values={**{f"material[{j}]": m for j, m in enumerate(PUBLISHED_BEST, 1)},
+                                        "diagonal_rule": 1},
                           output=["peak_backplate_force"])
     mean = lattice.simulate(PUBLISHED_BEST, horizon=1.0, parameters={"diagonal_rule": "mean"})
     assert result["peak_backplate_force"][-1] == mean["peak_backplate_force"]  # the same model, bit for bit

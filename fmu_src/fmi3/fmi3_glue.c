@@ -1,14 +1,14 @@
-/* FMI 3.0 glue, Co-Simulation and Model Exchange: the FMI 3 state machine, arrays, logging and FMU states over
- * the model API.
+/* FMI 3.0 glue, Co-Simulation and Model Exchange: the FMI 3 state machine, logging and FMU states over the model
+ * API.
  *
  * Like fmi2/fmi2_glue.c it knows nothing of springs: every model question goes through lattice/model.h
  * (Model Exchange hands the importer the model's continuous-time contract). What FMI 3 adds here:
- * - arrays are variables: `material` is one Int32 variable whose value reference is that of its first
- *   element; model_variable_count(vr) says how many values a get or set of vr moves. Value references in
- *   the middle of an array are not variables of the FMU and are refused.
- * - the independent variable `time` (FMI 3 requires one); its value reference is the first one past the
- *   model's variables.
- * - Real is Float64 and Integer is Int32; every other FMI 3 type is refused (the FMU has none).
+ * - every variable is a scalar, and its value reference is the model's plus VR_OFFSET: its 1-based position in
+ *   modelDescription.xml (fmu_src/fmi3_description.py), where importers that read `derivative` as an index
+ *   look for a state.
+ * - the independent variable `time` (FMI 3 requires one): the value reference after the model's variables.
+ * - Real is Float64, Integer Int32 and an enumeration Int64; every other FMI 3 type is refused (the FMU has
+ *   none).
  */
 #include <stdarg.h>
 #include <stdio.h>
@@ -65,55 +65,47 @@ static int allowed(Instance *instance, const char *function, unsigned int states
     return 0;
 }
 
-/* The value reference of `time`: the first one past the model's variables. */
-static fmi3ValueReference time_reference(void) {
-    fmi3ValueReference vr = 0;
-    while (model_variable_count(vr) > 0) vr++;
-    return vr;
-}
+#define VR_OFFSET 1u /* FMI 3 value reference = the model's + VR_OFFSET */
 
-/* A value reference is a variable of the FMU when it is `time` or the first element of a model variable
- * (an element in the middle of an array has exactly one element more before it). */
-static int is_variable(fmi3ValueReference vr) {
-    const int count = model_variable_count(vr);
-    if (count <= 0) return 0;
-    return vr == 0 || model_variable_count(vr - 1) != count + 1;
-}
+/* The value reference of `time`: the one after the model's variables. */
+static fmi3ValueReference time_reference(void) { return (fmi3ValueReference)model_value_reference_count() + VR_OFFSET; }
 
 /* What a variable is moved as: Float64 (MODEL_TYPE_REAL), Int32 (MODEL_TYPE_INTEGER) or, for an Integer
- * declared as an enumeration, Int64 (FMI 3 moves enumerations with fmi3GetInt64 and fmi3SetInt64). */
+ * declared as an enumeration, Int64 (FMI 3 moves enumerations with fmi3GetInt64 and fmi3SetInt64); -1 for a
+ * value reference that is no model variable. */
 #define KIND_ENUMERATION 2
 static int kind_of(fmi3ValueReference vr) {
-    return model_variable_is_enumeration(vr) ? KIND_ENUMERATION : model_variable_type(vr);
+    if (vr < VR_OFFSET || vr - VR_OFFSET >= model_value_reference_count()) return -1;
+    return model_variable_is_enumeration(vr - VR_OFFSET) ? KIND_ENUMERATION : model_variable_type(vr - VR_OFFSET);
 }
 
-/* Checks a get or set call's value references and that nValues is the sum of their sizes. */
+/* Checks a get or set call's value references (each one scalar of the type, or `time` where allowed) and that
+ * nValues is their number. */
 static int check_values(Instance *instance, const char *function, const fmi3ValueReference vr[], size_t nvr,
                         size_t nValues, int type, int time_allowed) {
+    static const char *kinds[] = {"a Float64", "an Int32", "an Enumeration (Int64)"};
     char message[MESSAGE_SIZE];
     const fmi3ValueReference time_vr = time_reference();
-    size_t i, total = 0;
+    size_t i;
     for (i = 0; i < nvr; i++) {
-        if (time_allowed && vr[i] == time_vr) {
-            total += 1;
-            continue;
-        }
-        if (!is_variable(vr[i])) {
-            snprintf(message, sizeof(message), "value reference %u is not a variable of this FMU", vr[i]);
+        const int kind = kind_of(vr[i]);
+        if (vr[i] == time_vr && time_allowed) continue;
+        if (vr[i] == time_vr || kind < 0) {
+            snprintf(message, sizeof(message), vr[i] == time_vr ? "value reference %u is time, not %s variable"
+                                                                : "value reference %u is not %s variable of this FMU",
+                     vr[i], kinds[type]);
             error(instance, function, message);
             return -1;
         }
-        if (kind_of(vr[i]) != type) {
-            static const char *kinds[] = {"a Float64", "an Int32", "an Enumeration (Int64)"};
+        if (kind != type) {
             snprintf(message, sizeof(message), "value reference %u is not %s variable", vr[i], kinds[type]);
             error(instance, function, message);
             return -1;
         }
-        total += (size_t)model_variable_count(vr[i]);
     }
-    if (total != nValues) {
-        snprintf(message, sizeof(message), "nValues is %lu but the %lu value references have %lu values",
-                 (unsigned long)nValues, (unsigned long)nvr, (unsigned long)total);
+    if (nValues != nvr) {
+        snprintf(message, sizeof(message), "nValues is %lu but the %lu value references are scalars (%lu values)",
+                 (unsigned long)nValues, (unsigned long)nvr, (unsigned long)nvr);
         error(instance, function, message);
         return -1;
     }
@@ -276,45 +268,54 @@ fmi3Status fmi3Reset(fmi3Instance c) {
     return fmi3OK;
 }
 
-/* Float64 and Int32: the model's Real and Integer variables, arrays element by element. */
+/* Float64, Int32 and Int64: the model's Real and Integer variables (and its enumerations as Int64). */
 fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Float64 values[],
                           size_t nValues) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     const fmi3ValueReference time_vr = time_reference();
-    size_t i, k = 0;
-    int e;
+    size_t i;
     if (!allowed(instance, "fmi3GetFloat64", ANY_STATE)) return fmi3Error;
     if (check_values(instance, "fmi3GetFloat64", vr, nvr, nValues, MODEL_TYPE_REAL, 1)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] == time_vr) {
-            values[k++] = model_time(instance->common.model);
-            continue;
-        }
-        for (e = 0; e < model_variable_count(vr[i]); e++) {
-            if (model_get_real(instance->common.model, vr[i] + (unsigned int)e, &values[k++], message, sizeof(message))) {
-                return error(instance, "fmi3GetFloat64", message);
-            }
+            values[i] = model_time(instance->common.model);
+        } else if (model_get_real(instance->common.model, vr[i] - VR_OFFSET, &values[i], message, sizeof(message))) {
+            return error(instance, "fmi3GetFloat64", message);
         }
     }
     return fmi3OK;
 }
 
+/* An Integer or enumeration read into `value`; 0, or -1 when the model refused (the reason logged). */
+static int get_integer(Instance *instance, const char *function, fmi3ValueReference vr, int *value) {
+    char message[MESSAGE_SIZE];
+    if (model_get_integer(instance->common.model, vr - VR_OFFSET, value, message, sizeof(message))) {
+        error(instance, function, message);
+        return -1;
+    }
+    return 0;
+}
+
+static int set_integer(Instance *instance, const char *function, fmi3ValueReference vr, int value) {
+    char message[MESSAGE_SIZE];
+    if (model_set_integer(instance->common.model, vr - VR_OFFSET, value, message, sizeof(message))) {
+        error(instance, function, message);
+        return -1;
+    }
+    return 0;
+}
+
 fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Int32 values[],
                         size_t nValues) {
     Instance *instance = (Instance *)c;
-    char message[MESSAGE_SIZE];
-    size_t i, k = 0;
-    int e, value;
+    size_t i;
+    int value;
     if (!allowed(instance, "fmi3GetInt32", ANY_STATE)) return fmi3Error;
     if (check_values(instance, "fmi3GetInt32", vr, nvr, nValues, MODEL_TYPE_INTEGER, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
-        for (e = 0; e < model_variable_count(vr[i]); e++) {
-            if (model_get_integer(instance->common.model, vr[i] + (unsigned int)e, &value, message, sizeof(message))) {
-                return error(instance, "fmi3GetInt32", message);
-            }
-            values[k++] = (fmi3Int32)value;
-        }
+        if (get_integer(instance, "fmi3GetInt32", vr[i], &value)) return fmi3Error;
+        values[i] = (fmi3Int32)value;
     }
     return fmi3OK;
 }
@@ -325,8 +326,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     const fmi3ValueReference time_vr = time_reference();
-    size_t i, k = 0;
-    int e;
+    size_t i;
     if (!allowed(instance, "fmi3SetFloat64", ANY_STATE)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] == time_vr) {
@@ -335,10 +335,8 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     }
     if (check_values(instance, "fmi3SetFloat64", vr, nvr, nValues, MODEL_TYPE_REAL, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
-        for (e = 0; e < model_variable_count(vr[i]); e++) {
-            if (model_set_real(instance->common.model, vr[i] + (unsigned int)e, values[k++], message, sizeof(message))) {
-                return error(instance, "fmi3SetFloat64", message);
-            }
+        if (model_set_real(instance->common.model, vr[i] - VR_OFFSET, values[i], message, sizeof(message))) {
+            return error(instance, "fmi3SetFloat64", message);
         }
     }
     return fmi3OK;
@@ -347,18 +345,11 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
 fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Int32 values[],
                         size_t nValues) {
     Instance *instance = (Instance *)c;
-    char message[MESSAGE_SIZE];
-    size_t i, k = 0;
-    int e;
+    size_t i;
     if (!allowed(instance, "fmi3SetInt32", ANY_STATE)) return fmi3Error;
     if (check_values(instance, "fmi3SetInt32", vr, nvr, nValues, MODEL_TYPE_INTEGER, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
-        for (e = 0; e < model_variable_count(vr[i]); e++) {
-            if (model_set_integer(instance->common.model, vr[i] + (unsigned int)e, (int)values[k++], message,
-                                  sizeof(message))) {
-                return error(instance, "fmi3SetInt32", message);
-            }
-        }
+        if (set_integer(instance, "fmi3SetInt32", vr[i], (int)values[i])) return fmi3Error;
     }
     return fmi3OK;
 }
@@ -367,15 +358,12 @@ fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
 fmi3Status fmi3GetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Int64 values[],
                         size_t nValues) {
     Instance *instance = (Instance *)c;
-    char message[MESSAGE_SIZE];
     size_t i;
     int value;
     if (!allowed(instance, "fmi3GetInt64", ANY_STATE)) return fmi3Error;
     if (check_values(instance, "fmi3GetInt64", vr, nvr, nValues, KIND_ENUMERATION, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
-        if (model_get_integer(instance->common.model, vr[i], &value, message, sizeof(message))) {
-            return error(instance, "fmi3GetInt64", message);
-        }
+        if (get_integer(instance, "fmi3GetInt64", vr[i], &value)) return fmi3Error;
         values[i] = (fmi3Int64)value;
     }
     return fmi3OK;
@@ -384,16 +372,13 @@ fmi3Status fmi3GetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
 fmi3Status fmi3SetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Int64 values[],
                         size_t nValues) {
     Instance *instance = (Instance *)c;
-    char message[MESSAGE_SIZE];
     size_t i;
     if (!allowed(instance, "fmi3SetInt64", ANY_STATE)) return fmi3Error;
     if (check_values(instance, "fmi3SetInt64", vr, nvr, nValues, KIND_ENUMERATION, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         /* a value beyond Int32 is beyond every enumeration's items: the model refuses it with their names */
         const int value = values[i] > 1000000 ? 1000000 : values[i] < -1000000 ? -1000000 : (int)values[i];
-        if (model_set_integer(instance->common.model, vr[i], value, message, sizeof(message))) {
-            return error(instance, "fmi3SetInt64", message);
-        }
+        if (set_integer(instance, "fmi3SetInt64", vr[i], value)) return fmi3Error;
     }
     return fmi3OK;
 }

@@ -84,9 +84,7 @@ void model_reset(Model *m) {
     }
 }
 
-int model_variable_count(unsigned int vr) {
-    return vr < N_VALUE_REFERENCES ? VARIABLES[vr].array_size : 0;
-}
+unsigned int model_value_reference_count(void) { return N_VALUE_REFERENCES; }
 
 int model_variable_type(unsigned int vr) { return vr < N_VALUE_REFERENCES ? VARIABLES[vr].type : -1; }
 int model_variable_is_enumeration(unsigned int vr) { return vr < N_VALUE_REFERENCES && VARIABLES[vr].enumeration; }

@@ -28,8 +28,8 @@ int model_set_integer(Model *m, unsigned int vr, int value, char *message, size_
 int model_get_real(Model *m, unsigned int vr, double *value, char *message, size_t message_size);
 int model_get_integer(Model *m, unsigned int vr, int *value, char *message, size_t message_size);
 
-/* Number of elements of the variable at vr (FMI 3 arrays), or 0 when vr is unknown. */
-int model_variable_count(unsigned int vr);
+/* How many value references the model's variables take (0 .. count - 1); the type of the one at vr, or -1. */
+unsigned int model_value_reference_count(void);
 int model_variable_type(unsigned int vr);
 /* 1 when the Integer variable at vr is declared as an FMI enumeration (FMI 3 moves it as Int64). */
 int model_variable_is_enumeration(unsigned int vr);
