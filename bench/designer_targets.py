@@ -59,7 +59,7 @@ def own_table() -> MaterialTable:
 def study(folder: Path, case: CaseConfig, methods, budget: int, repeats: int, workers: int, steps=STUDY_STEPS,
           seed: int = 0):
     configs = {Searches: SearchesConfig(methods=methods, budget=budget, repeats=repeats, seed=seed),
-               Descent: DescentConfig(local_check=True), Sensitivity: SensitivityConfig(sensitivity=False)}
+               Descent: DescentConfig(enabled=True), Sensitivity: SensitivityConfig(enabled=False)}
     return run_in_folder(RunConfig(out=str(folder), workers=workers, progress=False), case, configs, steps)
 
 

@@ -179,6 +179,18 @@ def check_answer(study: StudyResult, case) -> None:
     """A finished study without a usable answer exits non-zero, saying why, after its report was written."""
     answers = study.steps.get("answers")
     pareto = study.steps.get("pareto")
+    exhaustive = study.steps.get("exhaustive")
+    for sweep in (exhaustive.sweeps if exhaustive else ()):
+        certificate = sweep.certificate
+        if certificate.max_screening_error_seen is not None and not certificate.screening_bound_held:
+            raise NoResult(f"the exhaustive sweep's screening error ({certificate.max_screening_error_seen:.2g}) "
+                           f"passed its bound ({certificate.screening_error:g}) under the {sweep.diagonal_rule} rule: "
+                           "designs it pruned may be better than its optimum, which is not certain")
+    for front in (exhaustive.fronts if exhaustive else ()):
+        if front.max_screening_error_seen is not None and front.max_screening_error_seen > front.screening_error:
+            raise NoResult(f"the exhaustive sweep's screening error ({front.max_screening_error_seen:.2g}) passed "
+                           f"its bound ({front.screening_error:g}) under the {front.diagonal_rule} rule: its front "
+                           "may miss designs")
     if pareto is not None:
         if not any(front.points for front in pareto.fronts):
             raise NoResult("no design was evaluated successfully; the reasons are in evaluations.csv")

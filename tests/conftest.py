@@ -1,24 +1,11 @@
 """Shared fixtures: the FMU and the C core are built once per test session, into a temporary folder."""
-import sys
 from pathlib import Path
 
 import pytest
 
+from fmu_src import build as build_fmu
+
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
-
-import build_fmu  # noqa: E402
-
-PUBLISHED_SEQUENTIAL = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11)
-PUBLISHED_BEST = (1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10)
-PUBLISHED_PEAKS = {PUBLISHED_SEQUENTIAL: 1747.779979851872, PUBLISHED_BEST: 1497.8867334973704}
-
-
-def pytest_configure(config):
-    config.addinivalue_line("markers", "slow: takes more than ~20 s (run with -m slow)")
-    config.addinivalue_line("markers", "importers: FMI4j and fmi-sim, opt-in (run with -m importers; needs "
-                                       "java + mvn, cargo + libclang-dev; the first run builds them for minutes)")
 
 
 def pytest_collection_modifyitems(config, items):

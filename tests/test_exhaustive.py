@@ -150,3 +150,26 @@ def test_a_tampered_chunk_is_refused_never_trusted(fmu6, tmp_path, capfd):
     assert cli.main(["--fmu", str(fmu6), "--out", str(out), "--resume", *SWEEP]) == 2
     err = capfd.readouterr().err
     assert f"line {number + 1} fails its checksum" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_forged_chunk_with_a_valid_checksum_is_caught_by_the_verification(fmu6, tmp_path, capfd):
+    """Beyond the checksum: a chunk whose best value was lowered and its line re-signed makes the sweep's
+    verification see a screening error far past its bound; the run says so and exits 3, never certifying."""
+    from orchestrator.journal import _sum
+
+    out = tmp_path / "sweep"
+    assert cli.main(["--fmu", str(fmu6), "--out", str(out), *SWEEP]) == 0
+    journal = out / "journal.jsonl"
+    lines = journal.read_text().splitlines()
+    number = next(i for i, line in enumerate(lines) if '"kind":"chunk"' in line and '"best":[{' in line)
+    entry = json.loads(lines[number])
+    entry.pop("sum")
+    entry["result"]["best"][0]["value"] *= 0.5
+    lines[number] = json.dumps({**entry, "sum": _sum(entry)}, separators=(",", ":"))
+    journal.write_text("\n".join(lines) + "\n")
+    capfd.readouterr()
+    assert cli.main(["--fmu", str(fmu6), "--out", str(out), "--resume", *SWEEP]) == 3
+    err = capfd.readouterr().err
+    assert "screening error" in err and "passed its bound" in err and len(err.strip().splitlines()) == 1
+    certificate = json.loads((out / "exhaustive" / "certificate.json").read_text())
+    assert not certificate["certified"] and not certificate["screening_bound_held"]

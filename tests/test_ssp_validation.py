@@ -203,7 +203,7 @@ def test_the_system_carries_the_annotations_of_omsimulator_and_libcosim(design_s
 
 
 def with_design_space(design_ssp, path, materials: int, repeat_start: int, entries):
-    """A copy of the design file whose FMU declares ``materials`` materials (material[j] in 1..M) and a
+    """A copy of the design file whose FMU declares ``materials`` materials (material[j] in 1..M) and its
     repeat_materials parameter starting at ``repeat_start``, bound to the parameter set ``entries``. Only the
     model description changes: the reader does not run the FMU."""
     import io
@@ -220,11 +220,9 @@ def with_design_space(design_ssp, path, materials: int, repeat_start: int, entri
                         if member.filename == "modelDescription.xml":
                             text = re.sub(r'(<Integer start="\d+" min="1" max=")\d+("/>)', rf"\g<1>{materials}\2",
                                           content.decode())
-                            text = text.replace("  </ModelVariables>", f"""    <ScalarVariable name="repeat_materials" \
-valueReference="9999" causality="parameter" variability="fixed" description="1: a material may fill several columns">
-      <Integer start="{repeat_start}" min="0" max="1"/>
-    </ScalarVariable>
-  </ModelVariables>""")
+                            text, found = re.subn(r'(name="repeat_materials"[^>]*>\s*<Integer start=")\d+(")',
+                                                  rf"\g<1>{repeat_start}\2", text)
+                            assert found == 1, "the FMU declares repeat_materials once"
                             content = text.encode()
                         copy.writestr(member, content)
                 data = buffer.getvalue()

@@ -19,7 +19,7 @@ MAX_DESCENT = 5000  # designs a descent may evaluate (it stops at the first loca
 
 @dataclass(frozen=True)
 class DescentConfig:
-    local_check: bool = option(True, "skip the final descent and local-optimality check of each rule's best design",
+    enabled: bool = option(True, "skip the final descent and local-optimality check of each rule's best design",
                                flag="--no-local-check", action="store_false")
 
 
@@ -50,7 +50,7 @@ class DescentResult:
         return next((c for c in self.rules if c.diagonal_rule == label), None)
 
 
-def local_check(context: StudyContext, rule: str | None, start: Order, seed: int) -> LocalCheck:
+def check_local_optimum(context: StudyContext, rule: str | None, start: Order, seed: int) -> LocalCheck:
     objective = context.objective(rule)
     space = context.case.space
     descent = make_search("local", space, seed, start=start, kicks=0)
@@ -83,7 +83,7 @@ class Descent(Step):
     Config = DescentConfig
 
     def applies(self, context: StudyContext) -> bool:
-        return self.config.local_check and context.result(Finalists) is not None
+        return self.config.enabled and context.result(Finalists) is not None
 
     def run(self, context: StudyContext) -> DescentResult:
         finalists = context.result(Finalists)
@@ -92,8 +92,8 @@ class Descent(Step):
         for rule in context.rules:
             best = finalists.for_rule(rule_label(rule)).best
             if best is not None:
-                checks.append(local_check(context, rule, best.order, seed))
+                checks.append(check_local_optimum(context, rule, best.order, seed))
         return DescentResult(tuple(checks))
 
 
-__all__ = ["Descent", "DescentConfig", "DescentResult", "LocalCheck", "local_check"]
+__all__ = ["Descent", "DescentConfig", "DescentResult", "LocalCheck", "check_local_optimum"]

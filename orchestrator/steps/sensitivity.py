@@ -18,10 +18,10 @@ METHODS = ("sa", "local")  # annealing from the baseline, an iterated local sear
 
 @dataclass(frozen=True)
 class SensitivityConfig:
-    sensitivity: bool = option(True, "do not evaluate the chosen design under the standard variations of the case",
+    enabled: bool = option(True, "do not evaluate the chosen design under the standard variations of the case",
                                flag="--no-sensitivity", action="store_false")
-    sensitivity_budget: int = option(100, "designs each short search evaluates for a variation",
-                                     type=integer("--sensitivity-budget", 1, 10**9))
+    budget: int = option(100, "designs each short search evaluates for a variation", flag="--sensitivity-budget",
+                         type=integer("--sensitivity-budget", 1, 10**9))
 
 
 @dataclass(frozen=True)
@@ -74,10 +74,10 @@ class Sensitivity(Step):
 
     def applies(self, context: StudyContext) -> bool:
         answers = context.result(Answers)
-        return self.config.sensitivity and answers is not None and answers.chosen is not None
+        return self.config.enabled and answers is not None and answers.chosen is not None
 
     def check(self, context: StudyContext) -> None:
-        if not self.config.sensitivity and "sensitivity_budget" in context.given(Sensitivity):
+        if not self.config.enabled and "budget" in context.given(Sensitivity):
             raise ValueError("--sensitivity-budget: not with --no-sensitivity")
 
     def run(self, context: StudyContext) -> SensitivityResult:
@@ -94,7 +94,7 @@ class Sensitivity(Step):
         for name, change in variations(context, rule).items():
             varied = base.with_parameters(**change)
             seed = context.config(Searches).seed
-            runs = run_searches(context, varied, METHODS, seed, 1, self.config.sensitivity_budget,
+            runs = run_searches(context, varied, METHODS, seed, 1, self.config.budget,
                                 name, options={"local": {"start": chosen.order}},
                                 progress_label=f"sensitivity: {name}")
             finalists = [o for run in runs for o in finalist_orders(run, 3)]
@@ -107,7 +107,7 @@ class Sensitivity(Step):
                                      full[order].status, "" if full[order].ok else full[order].message)
                             for label, order in compared.items())
             found.append(Variation(name, change, best, designs))
-        return SensitivityResult(self.config.sensitivity_budget, METHODS, rule, tuple(found))
+        return SensitivityResult(self.config.budget, METHODS, rule, tuple(found))
 
 
 __all__ = ["Compared", "Sensitivity", "SensitivityConfig", "SensitivityResult", "Variation", "variations"]

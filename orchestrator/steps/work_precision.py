@@ -11,7 +11,6 @@ from .accuracy import Accuracy, relative_difference
 from .answers import Answers
 
 TARGET = 1e-6  # the relative accuracy the FMU's default promises for the reported peaks
-DEFAULT_SETTING = ("DOP853 (adaptive)", "rtol 1e-07")
 SETTINGS = ([("DOP853 (adaptive)", {"solver": "dop853", "rtol": r, "atol": r * 1e-2}, f"rtol {r:g}")
              for r in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)]
             + [("RK4 (fixed step)", {"solver": "rk4", "fixed_step": h}, f"step {h:g} s")
@@ -34,6 +33,7 @@ class SolverPoint:
 class WorkPrecisionResult:
     diagonal_rule: str
     target: float
+    default: SolverPoint  # the FMU's own default setting: what every reported number used
     points: tuple[SolverPoint, ...]
 
 
@@ -54,16 +54,20 @@ class WorkPrecision(Step):
         full, = context.objective(rule).tasks(FULL)
         runs = [replace(full, parameters=tuple(sorted({**dict(full.parameters), **settings}.items())))
                 for _, settings, _ in SETTINGS]
-        results = context.evaluator.evaluate([(run, answer.order) for run in runs])
-        points = []
-        for (family, _, label), evaluation in zip(SETTINGS, results):
-            if evaluation.ok:
-                error = relative_difference(evaluation.value, reference)
-                points.append(SolverPoint(family, label, evaluation.seconds, error,
-                                          "ok" if error <= TARGET else "inaccurate"))
-            else:
-                points.append(SolverPoint(family, label, evaluation.seconds, None, "failed", evaluation.message))
-        return WorkPrecisionResult(answer.diagonal_rule, TARGET, tuple(points))
+        fmu = context.fmu
+        default_label = (f"default: {fmu.start('solver', 'dop853')} at rtol {fmu.start('rtol', 0):g}, "
+                         f"atol {fmu.start('atol', 0):g}")
+        results = context.evaluator.evaluate([(run, answer.order) for run in [full] + runs])
+        points = [self.point(family, label, e, reference)
+                  for (family, _, label), e in zip([("the FMU's default", None, default_label)] + SETTINGS, results)]
+        return WorkPrecisionResult(answer.diagonal_rule, TARGET, points[0], tuple(points[1:]))
+
+    @staticmethod
+    def point(family: str, label: str, evaluation, reference: float) -> SolverPoint:
+        if not evaluation.ok:
+            return SolverPoint(family, label, evaluation.seconds, None, "failed", evaluation.message)
+        error = relative_difference(evaluation.value, reference)
+        return SolverPoint(family, label, evaluation.seconds, error, "ok" if error <= TARGET else "inaccurate")
 
     def chart(self, study, path):
         return draw_work_precision(study, path)
@@ -88,6 +92,10 @@ def draw_work_precision(study, path: Path) -> str | None:
         if bad:
             axis.plot([max(p.seconds, 1e-5) for p in bad], [1.0] * len(bad), "x", color=colour, ms=9,
                       label=f"{family}: failed with an FMI error ({', '.join(p.setting for p in bad)})")
+    default = result.default
+    if default.relative_error is not None:
+        axis.plot([default.seconds], [max(default.relative_error, 1e-16)], "*", ms=15, color="gold",
+                  markeredgecolor="k", label=f"the FMU's {default.setting}: what every number above used")
     axis.axhline(result.target, color="crimson", ls="--", lw=1, label=f"{result.target:g}: the accuracy target")
     if any(p.relative_error is not None for p in result.points):
         axis.set_xscale("log")
@@ -101,4 +109,4 @@ def draw_work_precision(study, path: Path) -> str | None:
     return save(figure, path)
 
 
-__all__ = ["DEFAULT_SETTING", "SETTINGS", "SolverPoint", "WorkPrecision", "WorkPrecisionResult"]
+__all__ = ["SETTINGS", "SolverPoint", "WorkPrecision", "WorkPrecisionResult"]
