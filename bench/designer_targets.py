@@ -27,11 +27,11 @@ import numpy as np
 from fmu_src.materials import Material, MaterialTable, study_materials, write_materials_csv
 from orchestrator.executors import make_executor
 from orchestrator.loop import Evaluator
-from orchestrator.objective import FULL, FMURun
+from orchestrator.objective import FMURun
 from orchestrator.runner import RunConfig, run_in_folder
 from orchestrator.search.pareto import hypervolume, reference_point
 from orchestrator.simulation import LatticeFMU
-from orchestrator.steps import STEPS, Answers, Exhaustive, Finalists, Pareto, Searches
+from orchestrator.steps import Answers, Exhaustive, Finalists, Pareto, Searches
 from orchestrator.steps.descent import DescentConfig, Descent
 from orchestrator.steps.searches import SearchesConfig
 from orchestrator.steps.sensitivity import Sensitivity, SensitivityConfig

@@ -15,7 +15,6 @@ Every FMU run that could hang goes through bench.common.IsolatedFMU (a worker pr
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pytest
