@@ -159,7 +159,7 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
             report = write(study, folder.partial, steps, table)
             journal.finish()
         published = folder.publish()
-        check_answer(study, case)
+        check_answer(study, case, {step.name for step in steps})
         return Outcome(study, published / report.name, published, folder.previous is not None)
     finally:
         tempfile.tempdir = previous_tempdir
@@ -175,8 +175,9 @@ def write(study: StudyResult, out: Path, steps, table) -> Path:
     return write_report(study, out, steps, table)
 
 
-def check_answer(study: StudyResult, case) -> None:
-    """A finished study without a usable answer exits non-zero, saying why, after its report was written."""
+def check_answer(study: StudyResult, case, names: set[str]) -> None:
+    """A finished study without a usable answer exits non-zero, saying why, after its report was written
+    (``names``: the study's steps; one without the answer's steps is not asked for an answer)."""
     answers = study.steps.get("answers")
     pareto = study.steps.get("pareto")
     exhaustive = study.steps.get("exhaustive")
@@ -194,6 +195,8 @@ def check_answer(study: StudyResult, case) -> None:
     if pareto is not None:
         if not any(front.points for front in pareto.fronts):
             raise NoResult("no design was evaluated successfully; the reasons are in evaluations.csv")
+        return
+    if "answers" not in names:
         return
     if answers is None or not answers.answers:
         searches = study.steps.get("searches")
