@@ -120,7 +120,7 @@ def generate_header(interface: Interface, guid: str) -> str:
             rows.append(f'    {{"{name}", {type_code}, {causality}, {start_text}, {low}, {high}, '
                         f'{int(variable.minimum_exclusive)}, '
                         f'"{variable.allowed_text()}", {indexes}, {int(variable.enumeration is not None)}}}')
-    lines.append("/* The variable table and the compiled-in arrays: in the one file that defines MODEL_VARIABLE_TABLES. */")
+    lines.append("/* The variable table and the compiled-in arrays: in the file that defines MODEL_VARIABLE_TABLES. */")
     lines.append("#ifdef MODEL_VARIABLE_TABLES")
     lines.append("static const VariableInfo VARIABLES[N_VALUE_REFERENCES] = {")
     lines.append(",\n".join(rows))

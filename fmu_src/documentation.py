@@ -52,7 +52,8 @@ def documentation_html(fmi_version: int, interface: Interface, identifier: str, 
         published = [(list(order), repr(peak)) for order, peak in PUBLISHED_PEAKS.items()]
     return render("documentation.html", identifier=identifier, summary=model_summary(interface, scene),
                   fmi_version=fmi_version, rows=interface.rows, cols=interface.cols, published=published,
-                  horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS, rtol=f"{starts['rtol']:g}",
+                  horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS,
+                  rtol=f"{starts['rtol']:g}",
                   reference_points=REFERENCE_POINTS, variables=[variable_row(v, fmi_version) for v in interface.exposed],
                   fixed=[v.name for v in interface.fixed],
                   materials=(scene.material_table() or study_materials(interface.cols)).materials)

@@ -19,6 +19,12 @@ def _number(variable, value) -> str:
     return str(int(value)) if variable.type == INTEGER else repr(float(value))
 
 
+def range_attributes(variable) -> list[tuple[str, str]]:
+    """min and max as both model descriptions write them (where the table gives them)."""
+    bounds = (("min", variable.minimum), ("max", variable.maximum))
+    return [(key, _number(variable, value)) for key, value in bounds if value is not None]
+
+
 ENUMERATION_ALIAS_SUFFIX = "_item"
 
 
@@ -76,10 +82,7 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[
                                     else repr(float(start))))
         if variable.unit:
             type_attributes.append(("unit", variable.unit))
-        if variable.minimum is not None:
-            type_attributes.append(("min", _number(variable, variable.minimum)))
-        if variable.maximum is not None:
-            type_attributes.append(("max", _number(variable, variable.maximum)))
+        type_attributes += range_attributes(variable)
         if variable.role == DERIVATIVE:
             type_attributes.append(("derivative", str(first_index[variable.derivative_of] + offset)))
             derivatives.append((state_offsets[variable.derivative_of] + offset, index))

@@ -23,10 +23,9 @@ import uuid
 from pathlib import Path
 
 from fmu_src import MODEL_HEADERS, MODEL_SOURCES
-from fmu_src.fmi2_description import enumeration_types
+from fmu_src.fmi2_description import enumeration_types, range_attributes
 from fmu_src.rendering import default_experiment, model_summary, render
-from fmu_src.variables import (DERIVATIVE, INDICATOR, INTEGER, LOG_CATEGORIES, REAL, STATE, UNITS, Interface,
-                               Variable, c_literal)
+from fmu_src.variables import DERIVATIVE, INDICATOR, INTEGER, LOG_CATEGORIES, REAL, STATE, UNITS, Interface, c_literal
 
 C_SOURCES = ["fmi3/fmi3_glue.c"] + MODEL_SOURCES
 C_HEADERS = ["include/fmi3Functions.h", "include/fmi3FunctionTypes.h", "include/fmi3PlatformTypes.h"] + MODEL_HEADERS
@@ -59,10 +58,6 @@ def instantiation_token(fmi2_guid: str, source_dir: Path) -> str:
     return "{" + str(uuid.UUID(bytes=digest.digest()[:16], version=5)) + "}"
 
 
-def _number(variable: Variable, value) -> str:
-    return str(int(value)) if variable.type == INTEGER else repr(float(value))
-
-
 def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, int]]]:
     """Every variable as a scalar (FMI 2's elements and names), value reference = its 1-based position in
     <ModelVariables>, then `time`; and <ModelStructure>'s elements (Output, ContinuousStateDerivative in the
@@ -89,10 +84,7 @@ def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, i
                 attributes.append(("declaredType", variable.unit))
             if variable.enumeration:
                 attributes.append(("declaredType", variable.enumeration))
-            if variable.minimum is not None:
-                attributes.append(("min", _number(variable, variable.minimum)))
-            if variable.maximum is not None:
-                attributes.append(("max", _number(variable, variable.maximum)))
+            attributes += range_attributes(variable)
             variables.append({"tag": "Enumeration" if variable.enumeration else TYPE_NAMES[variable.type],
                               "attributes": attributes})
             if variable.causality == "output":

@@ -7,6 +7,7 @@ handling of fmi3/fmi3_glue.c, and FMU states. fmi-sim runs it in tests/test_impo
 """
 from __future__ import annotations
 
+import shutil
 import zipfile
 
 import pytest
@@ -28,7 +29,8 @@ class Instance:
         self.description = read_model_description(str(fmu3_path))
         self.variables = {v.name: v for v in self.description.modelVariables}
         self.messages: list[str] = []
-        self.slave = FMU3Slave(guid=self.description.guid, unzipDirectory=extract(str(fmu3_path)),
+        self.unzip_dir = extract(str(fmu3_path))
+        self.slave = FMU3Slave(guid=self.description.guid, unzipDirectory=self.unzip_dir,
                                modelIdentifier=self.description.coSimulation.modelIdentifier, instanceName=name)
         self._callback = fmi3LogMessageCallback(self._log)
         self.slave.instantiate(logMessage=self._callback)
@@ -69,6 +71,7 @@ class Instance:
 
     def close(self):
         self.slave.freeInstance()
+        shutil.rmtree(self.unzip_dir, ignore_errors=True)
 
 
 @pytest.fixture()
@@ -196,11 +199,12 @@ def test_a_wrong_step_is_refused_with_a_reason_and_the_instance_steps_on(instanc
     assert instance.slave.getFloat64([instance.vr("time")]) == [0.1]
 
 
-def test_an_instantiation_token_of_another_build_is_refused(fmu3_path):
+def test_an_instantiation_token_of_another_build_is_refused(fmu3_path, tmp_path):
     description = read_model_description(str(fmu3_path))
     messages = []
     callback = fmi3LogMessageCallback(lambda environment, status, category, message: messages.append(message.decode()))
-    slave = FMU3Slave(guid="{00000000-0000-0000-0000-000000000000}", unzipDirectory=extract(str(fmu3_path)),
+    slave = FMU3Slave(guid="{00000000-0000-0000-0000-000000000000}",
+                      unzipDirectory=extract(str(fmu3_path), str(tmp_path / "unzipped")),
                       modelIdentifier=description.coSimulation.modelIdentifier, instanceName="stranger")
     with pytest.raises(Exception, match="Failed to instantiate"):  # fmpy's words for a NULL instance
         slave.instantiate(logMessage=callback)

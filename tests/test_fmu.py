@@ -133,8 +133,8 @@ def test_unknown_parameter_and_wrong_order_length_are_refused(lattice):
         lattice.simulate((1, 2, 3), horizon=0.1)
 
 
-def test_outputs_are_defined_right_after_initialisation(fmu_path):
-    description, slave = _slave(fmu_path)
+def test_outputs_are_defined_right_after_initialisation(fmu_path, unzipped):
+    description, slave = _slave(fmu_path, unzipped)
     try:
         _start(description, slave, PUBLISHED_BEST)
         values = slave.getReal([_vr(description, name) for name in ALL_OUTPUTS if name not in COUNTER_OUTPUTS])
@@ -144,8 +144,8 @@ def test_outputs_are_defined_right_after_initialisation(fmu_path):
         slave.freeInstance()
 
 
-def test_outputs_cannot_be_set(fmu_path):
-    description, slave = _slave(fmu_path)
+def test_outputs_cannot_be_set(fmu_path, unzipped):
+    description, slave = _slave(fmu_path, unzipped)
     try:
         slave.setupExperiment(startTime=0.0)
         slave.enterInitializationMode()
@@ -161,9 +161,14 @@ def test_reset_gives_bit_identical_results(lattice):
     assert lattice.simulate(PUBLISHED_BEST, horizon=2.0, outputs=ALL_OUTPUTS) == first
 
 
-def _slave(fmu_path, unzip_dir=None, name="instance"):
+@pytest.fixture(scope="module")
+def unzipped(fmu_path, tmp_path_factory):
+    """The FMU extracted once for this module's instances (removed with the session's temporary folders)."""
+    return extract(str(fmu_path), str(tmp_path_factory.mktemp("unzipped")))
+
+
+def _slave(fmu_path, unzip_dir, name="instance"):
     description = read_model_description(str(fmu_path))
-    unzip_dir = unzip_dir or extract(str(fmu_path))
     slave = FMU2Slave(guid=description.guid, unzipDirectory=unzip_dir,
                       modelIdentifier=description.coSimulation.modelIdentifier, instanceName=name)
     slave.instantiate()
@@ -181,8 +186,8 @@ def _start(description, slave, order, stop=2.0):
     slave.exitInitializationMode()
 
 
-def test_instances_in_one_process_are_independent(fmu_path):
-    unzip_dir = extract(str(fmu_path))  # one shared library, two instances: no global state may leak
+def test_instances_in_one_process_are_independent(fmu_path, unzipped):
+    unzip_dir = unzipped  # one shared library, two instances: no global state may leak
     description, first = _slave(fmu_path, unzip_dir, "first")
     _, second = _slave(fmu_path, unzip_dir, "second")
     peak = [_vr(description, "peak_backplate_force"), _vr(description, "external_work")]
@@ -206,8 +211,8 @@ def test_instances_in_one_process_are_independent(fmu_path):
         alone.freeInstance()
 
 
-def test_get_set_and_serialize_fmu_state(fmu_path):
-    description, slave = _slave(fmu_path)
+def test_get_set_and_serialize_fmu_state(fmu_path, unzipped):
+    description, slave = _slave(fmu_path, unzipped)
     outputs = [_vr(description, name) for name in PEAK_OUTPUTS + ENERGY_OUTPUTS]
     try:
         _start(description, slave, PUBLISHED_BEST)
@@ -229,9 +234,9 @@ def test_get_set_and_serialize_fmu_state(fmu_path):
         slave.freeInstance()
 
 
-def test_a_foreign_or_truncated_serialized_state_is_refused(fmu_path):
+def test_a_foreign_or_truncated_serialized_state_is_refused(fmu_path, unzipped):
     """A serialised state is checked before it becomes an FMU state: its size, then its magic number."""
-    description, slave = _slave(fmu_path)
+    description, slave = _slave(fmu_path, unzipped)
     try:
         _start(description, slave, PUBLISHED_BEST)
         state = slave.getFMUstate()
@@ -251,8 +256,8 @@ def test_a_diverging_fixed_step_solver_ends_in_an_error_not_a_number(lattice):
         lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters={"solver": "rk4", "fixed_step": 0.05})
 
 
-def test_stepping_past_the_stop_time_is_refused(fmu_path):
-    description, slave = _slave(fmu_path)
+def test_stepping_past_the_stop_time_is_refused(fmu_path, unzipped):
+    description, slave = _slave(fmu_path, unzipped)
     try:
         _start(description, slave, PUBLISHED_SEQUENTIAL, stop=0.5)
         with pytest.raises(FMICallException):

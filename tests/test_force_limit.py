@@ -91,10 +91,10 @@ def test_a_compiled_in_negative_limit_is_refused_at_exit_initialization(tmp_path
             fmu.simulate(None, horizon=0.1)
 
 
-def test_fmi2_status_after_the_limit(fmu_path):
+def test_fmi2_status_after_the_limit(fmu_path, tmp_path):
     description = read_model_description(str(fmu_path))
     vr = {v.name: v.valueReference for v in description.modelVariables}
-    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(fmu_path)),
+    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(fmu_path), str(tmp_path / "unzipped")),
                       modelIdentifier=description.coSimulation.modelIdentifier, instanceName="limit")
     slave.instantiate()
     slave.setupExperiment(startTime=0.0, stopTime=1.0)
@@ -118,11 +118,11 @@ def test_fmi2_status_after_the_limit(fmu_path):
 
 
 @pytest.mark.parametrize("early_return_allowed", [True, False], ids=["early_return", "no_early_return"])
-def test_fmi3_terminates_with_an_early_return_when_allowed(fmu3_path, lattice, early_return_allowed):
+def test_fmi3_terminates_with_an_early_return_when_allowed(fmu3_path, lattice, early_return_allowed, tmp_path):
     description = read_model_description(str(fmu3_path))
     vr = {v.name: v.valueReference for v in description.modelVariables}
     assert description.coSimulation.mightReturnEarlyFromDoStep
-    slave = FMU3Slave(guid=description.guid, unzipDirectory=extract(str(fmu3_path)),
+    slave = FMU3Slave(guid=description.guid, unzipDirectory=extract(str(fmu3_path), str(tmp_path / "unzipped")),
                       modelIdentifier=description.coSimulation.modelIdentifier, instanceName="limit3")
     callback = fmi3LogMessageCallback(lambda *args: None)
     slave.instantiate(logMessage=callback, earlyReturnAllowed=early_return_allowed)
@@ -146,12 +146,12 @@ def test_fmi3_terminates_with_an_early_return_when_allowed(fmu3_path, lattice, e
 
 
 @pytest.mark.parametrize("solver", [3, 4], ids=["tsit5", "dopri5"])
-def test_the_states_of_a_limited_run_are_accepted_and_resume_it(fmu_path, solver):
+def test_the_states_of_a_limited_run_are_accepted_and_resume_it(fmu_path, solver, tmp_path):
     """Every state a run with a 5(4) pair saves (its dense output read from the stage rows), up to and after the
     stop at the limit, passes the FMU's state checks; a state from the middle continues to the same stop."""
     description = read_model_description(str(fmu_path))
     vr = {v.name: v.valueReference for v in description.modelVariables}
-    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(fmu_path)),
+    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(fmu_path), str(tmp_path / "unzipped")),
                       modelIdentifier=description.coSimulation.modelIdentifier, instanceName="states")
     slave.instantiate()
     slave.setupExperiment(startTime=0.0, stopTime=1.0)

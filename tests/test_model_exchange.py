@@ -7,6 +7,7 @@ importer that breaks the calling sequence or passes vectors of the wrong size ge
 from __future__ import annotations
 
 import ctypes
+import shutil
 
 import numpy as np
 import pytest
@@ -91,9 +92,18 @@ class Logged:
         self.name, self.messages = name, []
         _MESSAGES[name] = self.messages
         interface = self.description.modelExchange if kind is FMU2Model else self.description.coSimulation
-        self.fmu = kind(guid=self.description.guid, unzipDirectory=extract(str(fmu_path)),
+        self.unzip_dir = extract(str(fmu_path))
+        self.fmu = kind(guid=self.description.guid, unzipDirectory=self.unzip_dir,
                         modelIdentifier=interface.modelIdentifier, instanceName=name)
         self.fmu.instantiate(callbacks=_CALLBACKS, loggingOn=True)
+
+    def to_continuous_time(self):
+        """Set up, initialise and enter continuous-time mode at t = 0, the lattice at rest."""
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+        self.fmu.newDiscreteStates()
+        self.fmu.enterContinuousTimeMode()
 
     def refuses(self, call, *reason):
         """The call fails with fmi2Error and its log message says why."""
@@ -107,6 +117,7 @@ class Logged:
     def close(self):
         self.fmu.freeInstance()
         _MESSAGES.pop(self.name, None)
+        shutil.rmtree(self.unzip_dir, ignore_errors=True)
 
 
 def test_bad_calling_sequences_and_sizes_are_refused_with_a_reason(fmu_path):
@@ -158,13 +169,13 @@ def test_a_co_simulation_instance_refuses_model_exchange_calls(fmu_path):
         cs.close()
 
 
-def test_fmi3_model_exchange_refuses_wrong_sizes_and_sequences_with_a_reason(fmu3_path):
+def test_fmi3_model_exchange_refuses_wrong_sizes_and_sequences_with_a_reason(fmu3_path, tmp_path):
     from fmpy.fmi3 import FMU3Model, fmi3LogMessageCallback
 
     description = read_model_description(str(fmu3_path))
     messages = []
     callback = fmi3LogMessageCallback(lambda environment, status, category, message: messages.append(message.decode()))
-    model = FMU3Model(guid=description.guid, unzipDirectory=extract(str(fmu3_path)),
+    model = FMU3Model(guid=description.guid, unzipDirectory=extract(str(fmu3_path), str(tmp_path / "unzipped")),
                       modelIdentifier=description.modelExchange.modelIdentifier, instanceName="me3")
     model.instantiate(logMessage=callback)
     nx, nz = description.numberOfContinuousStates, description.numberOfEventIndicators
@@ -195,11 +206,7 @@ def test_fmu_states_round_trip_in_model_exchange_and_stay_in_their_interface(fmu
     nx = me.description.numberOfContinuousStates
     x, dx, again = np.zeros(nx), np.zeros(nx), np.zeros(nx)
     try:
-        me.fmu.setupExperiment(startTime=0.0)
-        me.fmu.enterInitializationMode()
-        me.fmu.exitInitializationMode()
-        me.fmu.newDiscreteStates()
-        me.fmu.enterContinuousTimeMode()
+        me.to_continuous_time()
         x[0] = 0.01  # a displaced corner mass pulls on its neighbours
         me.fmu.setContinuousStates(as_pointer(x), nx)
         me.fmu.getDerivatives(as_pointer(dx), nx)
@@ -260,11 +267,7 @@ def test_completed_step_asks_for_an_event_when_a_mode_contradicts_the_state(fmu_
     nx = me.description.numberOfContinuousStates
     x = np.zeros(nx)
     try:
-        me.fmu.setupExperiment(startTime=0.0)
-        me.fmu.enterInitializationMode()
-        me.fmu.exitInitializationMode()
-        me.fmu.newDiscreteStates()
-        me.fmu.enterContinuousTimeMode()
+        me.to_continuous_time()
         me.fmu.setContinuousStates(as_pointer(x), nx)
         assert me.fmu.completedIntegratorStep()[0] is False  # at rest, every row free and off the plate
         x[COLS - 1] = 2e-3  # row 1's column-C mass 1 mm into the plate, its mode still free

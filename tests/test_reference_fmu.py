@@ -122,12 +122,12 @@ def test_a_start_pressed_into_the_plate_is_physics_not_divergence(reference_fmu_
                                                                  rel=1e-6)
 
 
-def test_stepping_past_the_stop_time_is_refused(reference_fmu_path):
+def test_stepping_past_the_stop_time_is_refused(reference_fmu_path, tmp_path):
     from fmpy import extract
     from fmpy.fmi2 import FMU2Slave
 
     md = read_model_description(str(reference_fmu_path))
-    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(reference_fmu_path)),
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(reference_fmu_path), str(tmp_path / "unzipped")),
                       modelIdentifier=md.coSimulation.modelIdentifier, instanceName="stop")
     slave.instantiate()
     try:

@@ -242,6 +242,20 @@ static int check_time(const InstanceCommon *common, double communication_point, 
     return 0;
 }
 
+int instance_switch_lost_events(InstanceCommon *common, char *message, size_t message_size) {
+    int switched;
+    if (common->state != STATE_CONTINUOUS_TIME) return 0;
+    switched = model_switch_lost_events(common->model);
+    if (switched) {
+        snprintf(message, message_size,
+                 "at t = %.17g s the backplate mode of %d row(s) contradicted the state and the importer went on "
+                 "without the event the completed step asked for: the model switched them itself (located only "
+                 "to the importer's step)",
+                 model_time(common->model), switched);
+    }
+    return switched;
+}
+
 int instance_set_time(InstanceCommon *common, double time, char *message, size_t message_size) {
     if (!(time >= common->start_time)) {
         snprintf(message, message_size, "time %.17g is before the start time %.17g", time, common->start_time);

@@ -80,6 +80,11 @@ int instance_initialize(InstanceCommon *common, char *message, size_t message_si
 int instance_do_step(InstanceCommon *common, double communication_point, double step_size, char *message,
                      size_t message_size);
 
+/* Model Exchange in continuous-time mode, when the importer asks for derivatives: the backplate switches the
+ * model had to make itself because the importer went on without the event a completed step asked for
+ * (model_switch_lost_events). Returns how many rows it switched, with the warning's text in message. */
+int instance_switch_lost_events(InstanceCommon *common, char *message, size_t message_size);
+
 /* Model Exchange's fmi2SetTime / fmi3SetTime: -1 and why for a time before the start time. */
 int instance_set_time(InstanceCommon *common, double time, char *message, size_t message_size);
 

@@ -455,17 +455,10 @@ fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n
 /* An importer that goes on in continuous-time mode after fmi2CompletedIntegratorStep asked for event mode: the
  * model switches the contradicting backplate modes itself and says so (fmi2Warning). 1 when it did. */
 static int lost_events_switched(Instance *instance) {
-    int switched;
-    if (instance->common.state != STATE_CONTINUOUS_TIME) return 0;
-    switched = model_switch_lost_events(instance->common.model);
-    if (switched) {
-        log_message(instance, fmi2Warning, "logStatusWarning",
-                    "fmi2GetDerivatives: at t = %.17g s the backplate mode of %d row(s) contradicted the state and "
-                    "the importer went on without the event fmi2CompletedIntegratorStep asked for: the model "
-                    "switched them itself (located only to the importer's step)",
-                    model_time(instance->common.model), switched);
-    }
-    return switched;
+    char message[MESSAGE_SIZE];
+    if (!instance_switch_lost_events(&instance->common, message, sizeof(message))) return 0;
+    log_message(instance, fmi2Warning, "logStatusWarning", "fmi2GetDerivatives: %s", message);
+    return 1;
 }
 
 fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {

@@ -696,17 +696,10 @@ fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 continuousS
 /* An importer that goes on in continuous-time mode after fmi3CompletedIntegratorStep asked for event mode: the
  * model switches the contradicting backplate modes itself and says so (fmi3Warning). 1 when it did. */
 static int lost_events_switched(Instance *instance) {
-    int switched;
-    if (instance->common.state != STATE_CONTINUOUS_TIME) return 0;
-    switched = model_switch_lost_events(instance->common.model);
-    if (switched) {
-        log_message(instance, fmi3Warning, "logStatusWarning",
-                    "fmi3GetContinuousStateDerivatives: at t = %.17g s the backplate mode of %d row(s) contradicted "
-                    "the state and the importer went on without the event fmi3CompletedIntegratorStep asked for: "
-                    "the model switched them itself (located only to the importer's step)",
-                    model_time(instance->common.model), switched);
-    }
-    return switched;
+    char message[MESSAGE_SIZE];
+    if (!instance_switch_lost_events(&instance->common, message, sizeof(message))) return 0;
+    log_message(instance, fmi3Warning, "logStatusWarning", "fmi3GetContinuousStateDerivatives: %s", message);
+    return 1;
 }
 
 fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 derivatives[], size_t nContinuousStates) {

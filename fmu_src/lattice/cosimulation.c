@@ -104,29 +104,34 @@ static double state_component(Model *m, int component, double t) {
     return solver_interpolate(s, m->cs.work, component, t);
 }
 
-static double backplate_force_at(Model *m, double t) {
+/* Component i at time t of the last step: from the dense output, or (hermite) the free cubic Hermite first look. */
+static double look(Model *m, int component, double t, int hermite) {
+    if (hermite) return solver_interpolate_hermite(&m->cs.solver, m->cs.work, component, t);
+    return state_component(m, component, t);
+}
+
+/* The backplate force at time t of the last step (its column-C masses). */
+static double backplate_force_of(Model *m, double t, int hermite) {
     double ux[LATTICE_ROWS], vx[LATTICE_ROWS];
     const int vx_base = solver_vx_base(m);
     int i;
     for (i = 0; i < m->cs.solver_rows; i++) {
         const int mass = LAST_COLUMN_MASS(i);
-        ux[i] = state_component(m, mass, t);
-        vx[i] = state_component(m, vx_base + mass, t);
+        ux[i] = look(m, mass, t, hermite);
+        vx[i] = look(m, vx_base + mass, t, hermite);
     }
     return model_backplate_force_of_column(m, ux, vx, m->cs.solver_rows);
 }
 
-/* The compression of the lattice at time t of the last step (its first and last columns), from the dense output,
- * or (hermite) from the free cubic Hermite first look. */
+static double backplate_force_at(Model *m, double t) { return backplate_force_of(m, t, 0); }
+
+/* The compression of the lattice at time t of the last step (its first and last columns). */
 static double compression_at(Model *m, double t, int hermite) {
     double first[LATTICE_ROWS], last[LATTICE_ROWS];
     int i;
     for (i = 0; i < m->cs.solver_rows; i++) {
-        const int mass = i * LATTICE_COLS;
-        first[i] = hermite ? solver_interpolate_hermite(&m->cs.solver, m->cs.work, mass, t)
-                           : state_component(m, mass, t);
-        last[i] = hermite ? solver_interpolate_hermite(&m->cs.solver, m->cs.work, LAST_COLUMN_MASS(i), t)
-                          : state_component(m, LAST_COLUMN_MASS(i), t);
+        first[i] = look(m, i * LATTICE_COLS, t, hermite);
+        last[i] = look(m, LAST_COLUMN_MASS(i), t, hermite);
     }
     return model_compression_of_columns(m, first, last, m->cs.solver_rows);
 }
@@ -139,18 +144,6 @@ static double sample_compression(Model *m, double t) {
         if (cheap < (1.0 - PEAK_PREFILTER_MARGIN) * m->max_compression) return cheap;
     }
     return compression_at(m, t, 0);
-}
-
-static double backplate_force_hermite(Model *m, double t) {
-    double ux[LATTICE_ROWS], vx[LATTICE_ROWS];
-    const int vx_base = solver_vx_base(m);
-    int i;
-    for (i = 0; i < m->cs.solver_rows; i++) {
-        const int mass = LAST_COLUMN_MASS(i);
-        ux[i] = solver_interpolate_hermite(&m->cs.solver, m->cs.work, mass, t);
-        vx[i] = solver_interpolate_hermite(&m->cs.solver, m->cs.work, vx_base + mass, t);
-    }
-    return model_backplate_force_of_column(m, ux, vx, m->cs.solver_rows);
 }
 
 /* Brent's minimiser without derivatives (R. P. Brent, Algorithms for Minimization without Derivatives,
@@ -237,7 +230,7 @@ static void maximum_in_step(Model *m, double a, double b, double *value, double 
     }
     cheap_best = best;
     for (i = 1; i < PEAK_PREFILTER_POINTS; i++) {
-        cheap_best = fmax(cheap_best, backplate_force_hermite(m, a + (b - a) * i / PEAK_PREFILTER_POINTS));
+        cheap_best = fmax(cheap_best, backplate_force_of(m, a + (b - a) * i / PEAK_PREFILTER_POINTS, 1));
     }
     if (cheap_best <= 0.0 || cheap_best < (1.0 - PEAK_PREFILTER_MARGIN) * m->peak_continuous) {
         *value = best;
