@@ -60,6 +60,19 @@ def lattice_fmu(given: str | None = None, rows: int | None = None, cols: int | N
         yield build_fmu(output=Path(folder) / name, rows=rows, cols=cols)
 
 
+def default_setting(fmu_path) -> dict:
+    """The FMU's own default solver settings, as its model description declares them."""
+    from orchestrator.fmu import describe
+
+    prepared = describe(Path(fmu_path), 11)
+    return {name: prepared.start(name) for name in ("solver", "rtol", "atol")}
+
+
+def setting_text(setting: dict) -> str:
+    return f"{setting['solver'].upper() if setting['solver'] == 'dop853' else setting['solver']}, rtol " \
+           f"{setting['rtol']:g}, atol {setting['atol']:g}"
+
+
 def search_parameters(fmu_path, columns: int = 11) -> dict:
     """The FMU parameters of a search evaluation, exactly as the orchestrator's objective sets them."""
     objective = LatticeObjective(fmu_path, DesignSpace.permutations(columns), FULL_HORIZON)
@@ -120,7 +133,7 @@ def narrow_lattice(columns: int) -> Iterator[tuple[Path, Path]]:
         yield path, build_fmu(scene=str(path), output=Path(folder) / f"MassSpringLattice11x{columns}.fmu")
 
 
-__all__ = ["BEST_KNOWN", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST", "add_fmu_option", "bench_orders",
+__all__ = ["BEST_KNOWN", "default_setting", "setting_text", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST", "add_fmu_option", "bench_orders",
            "geometric_mean", "lattice_fmu", "narrow_lattice", "order_text", "random_orders", "relative",
            "search_parameters",
            "search_setting_text", "span", "WithoutLimit"]

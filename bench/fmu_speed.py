@@ -19,7 +19,7 @@ from orchestrator.simulation import LatticeFMU
 from reference import Scene
 from reference.simulate import simulate
 
-from .common import FULL_HORIZON, SEQUENTIAL, STUDY_BEST, add_fmu_option, lattice_fmu, order_text, relative, span
+from .common import FULL_HORIZON, default_setting, setting_text, SEQUENTIAL, STUDY_BEST, add_fmu_option, lattice_fmu, order_text, relative, span
 from .measurements import Page, Run, Table, write_page
 
 ORDERS = {"sequential": SEQUENTIAL, "study's best": STUDY_BEST}
@@ -66,7 +66,8 @@ def main(argv=None) -> int:
             error = relative(peak, truth)
             fmu_errors.append(error)
             published_errors.append(relative(peak, PUBLISHED_PEAKS[order]))
-            rows.append((label, "FMU through fmpy, defaults (DOP853, rtol 1e-7, atol 1e-9)", f"{seconds * 1e3:.2f}",
+            rows.append((label, f"FMU through fmpy, defaults ({setting_text(default_setting(path))})",
+                         f"{seconds * 1e3:.2f}",
                          result["rhs_evaluations"], f"{peak:.6f}", f"{error:.1e}", ""))
             scipy_seconds, scipy = time_scipy(order, 1e-8, 1e-6, args.scipy_repeats)
             scipy_error = relative(scipy.peak_backplate_force, truth)

@@ -18,7 +18,7 @@ force sampled every 0.01 s from its own dense output (SPEC 6):
 The peers step across the backplate's switches (the FMU locates them as events); what that costs them in
 accuracy is what the tolerance walk below pays for.
 
-Two scenes: the 8 s scene (the FMU at its default DOP853, rtol 1e-7, atol 1e-9) and the search evaluation (the
+Two scenes: the 8 s scene (the FMU at its default setting, read from its model description) and the search evaluation (the
 FMU as the searches run it: the orchestrator's solver, rtol and horizon). Equal accuracy: the error of a run
 is the relative error of its sampled peak against the FMU's DOP853 at rtol 1e-13; the target is the FMU's
 worst error over the orders at its setting; each peer walks a tolerance ladder (rtol from 100 times the FMU's
@@ -50,7 +50,8 @@ from orchestrator.simulation import LatticeFMU, SimulationError  # noqa: E402
 from reference import Scene  # noqa: E402
 from reference.simulate import sample_times  # noqa: E402
 
-from .common import STUDY_BEST, add_fmu_option, bench_orders, lattice_fmu, order_text, search_parameters  # noqa: E402
+from .common import (STUDY_BEST, add_fmu_option, bench_orders, default_setting, lattice_fmu, order_text,  # noqa: E402
+                     search_parameters)
 from .measurements import Page, Run, Table, write_page  # noqa: E402
 from .peer_models import backplate_force, check_against_reference, jax_rhs, numba_kernels, pack  # noqa: E402
 
@@ -74,15 +75,16 @@ class Scenario:
     horizon: float
     fmu_rtol: float
     fmu_atol: float
-    fmu_solver: str  # the FMU's solver parameter, by name (orchestrator.simulation.SOLVERS)
+    fmu_solver: str  # the FMU's solver parameter, by the name its model description declares
 
 
-def scenarios(search: dict) -> dict[str, Scenario]:
-    """The two scenes: the searches' evaluation (``search``: the orchestrator's parameters) and the 8 s scene."""
+def scenarios(search: dict, default: dict) -> dict[str, Scenario]:
+    """The two scenes: the searches' evaluation (``search``: the orchestrator's parameters) and the 8 s scene at
+    the FMU's default setting (``default``: read from the FMU)."""
     return {
         "search": Scenario("search", f"search evaluation ({SEARCH_HORIZON:g} s)", SEARCH_HORIZON, search["rtol"],
                            search["atol"], search["solver"]),
-        "scene8s": Scenario("scene8s", "8 s scene", 8.0, 1e-7, 1e-9, "dop853"),
+        "scene8s": Scenario("scene8s", "8 s scene", 8.0, default["rtol"], default["atol"], default["solver"]),
     }
 
 
@@ -499,7 +501,7 @@ def main(argv=None) -> int:
     micro = rhs_microseconds()
     studies, summaries = {}, {}
     with lattice_fmu(args.fmu) as path, LatticeFMU(path) as fmu:
-        plan = scenarios(search_parameters(path))
+        plan = scenarios(search_parameters(path), default_setting(path))
         for name in args.scenes:
             repeats = args.repeats or ((4 if name == "search" else 2) if args.quick else (8 if name == "search" else 4))
             studies[name] = study_scenario(plan[name], fmu, orders, repeats, lambda text: print(text, flush=True))

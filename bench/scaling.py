@@ -29,7 +29,8 @@ from orchestrator.loop import EvaluateDesign, Evaluator
 from orchestrator.objective import SEARCH, SEARCH_HORIZON, LatticeObjective, close_instances
 from orchestrator.simulation import LatticeFMU, SimulationError
 
-from .common import FULL_HORIZON, lattice_fmu, random_orders, search_parameters, search_setting_text
+from .common import (FULL_HORIZON, default_setting, lattice_fmu, random_orders, search_parameters,
+                     search_setting_text, setting_text)
 from .measurements import Page, Run, Table, write_page
 
 SIZES = (5, 8, 11, 14, 20, 25, 31)
@@ -133,6 +134,7 @@ def main(argv=None) -> int:
     table, fits = lattice_costs(args.sizes, args.random_orders, args.rounds, args.seed)
     with lattice_fmu(args.fmu) as path:
         setting = search_setting_text(search_parameters(path))
+        default = setting_text(default_setting(path))
         throughput = worker_throughput(path, worker_counts, args.designs)
 
     size_rows = tuple(
@@ -154,8 +156,8 @@ def main(argv=None) -> int:
         summary=(
             f"Lattice size: square lattices and 11 x C for sizes {', '.join(map(str, args.sizes))}, the sequential "
             f"order and {args.random_orders} random order(s) each, the fastest of {args.rounds} interleaved rounds; "
-            f"search: the searches' setting ({setting}); scene: {FULL_HORIZON:g} s at the FMU's default (DOP853, "
-            "rtol 1e-7). The FMU as it ships (`use_symmetry` 1: under a load along x it leaves out uy and vy, and "
+            f"search: the searches' setting ({setting}); scene: {FULL_HORIZON:g} s at the FMU's default ({default}). "
+            "The FMU as it ships (`use_symmetry` 1: under a load along x it leaves out uy and vy, and "
             "with an odd number of rows it integrates the upper half), so odd and even row counts lie on two lines. "
             f"From the size at which the last contact comes after {SEARCH_HORIZON:g} s the searches re-run a design "
             f"over the full horizon. Workers: {args.designs} random designs at the search fidelity through the "

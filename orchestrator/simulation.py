@@ -206,8 +206,7 @@ class LatticeFMU:
         if order is not None:
             order = [_int32("order", m) for m in order]
             if len(order) != self.columns:
-                raise ValueError(f"order: expected {self.columns} materials (a permutation of "
-                                 f"1..{self.columns}), got {len(order)}")
+                raise ValueError(f"order: expected one material per column ({self.columns}), got {len(order)}")
         for name, value in parameters.items():
             if isinstance(value, str):
                 parameters[name] = _choice(name, value, self._enumerations.get(name, {}))
