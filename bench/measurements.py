@@ -108,17 +108,41 @@ def write_page(run: Run, page: Page) -> Path:
     return path
 
 
-def write_index() -> Path:
-    """docs/measurements/index.md: every page's title and headline, from the pages' front matter."""
+README = ROOT / "README.md"
+README_START = "<!-- measurements: written by bench/measurements.py from docs/measurements; never by hand -->"
+README_END = "<!-- measurements: end -->"
+
+
+def index_entries() -> list[dict]:
+    """Every page's title, headline and provenance, from the pages' front matter."""
     entries = []
     for path in sorted(PAGES.glob("*.md")):
         if path.name == "index.md":
             continue
         meta = front_matter(path.read_text())
-        entries.append({"file": path.name, "title": meta.get("title", path.stem), "headline": meta.get("headline", "")})
+        entries.append({"file": path.name, "title": meta.get("title", path.stem), "headline": meta.get("headline", ""),
+                        "command": meta.get("command", ""), "commit": meta.get("commit", ""),
+                        "date": meta.get("date", "")})
+    return entries
+
+
+def write_index() -> Path:
+    """docs/measurements/index.md and the README's table of headlines, both from the pages' front matter."""
+    entries = index_entries()
     path = PAGES / "index.md"
     path.write_text(_environment().get_template("index.md.j2").render(entries=entries))
+    if README.exists():
+        README.write_text(readme_with_headlines(README.read_text(), entries))
     return path
+
+
+def readme_with_headlines(readme: str, entries: list[dict]) -> str:
+    """The README with the block between its two measurement markers rendered anew (the rest untouched)."""
+    start, end = readme.find(README_START), readme.find(README_END)
+    if start < 0 or end < start:
+        raise ValueError(f"README.md has no block between {README_START!r} and {README_END!r}")
+    block = _environment().get_template("readme_headlines.md.j2").render(entries=entries)
+    return readme[:start + len(README_START)] + "\n" + block + readme[end:]
 
 
 def front_matter(text: str) -> dict:
@@ -190,4 +214,5 @@ def duration(seconds: float) -> str:
     return f"{seconds / 60:.1f} min"
 
 
-__all__ = ["Page", "Run", "RunInfo", "Table", "cell", "front_matter", "write_index", "write_page"]
+__all__ = ["Page", "Run", "RunInfo", "Table", "cell", "front_matter", "index_entries", "readme_with_headlines",
+           "write_index", "write_page"]

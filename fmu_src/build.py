@@ -17,8 +17,10 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import uuid
 import zipfile
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
@@ -158,19 +160,70 @@ def compiler_command() -> list[str]:
     return (os.environ.get("CC") or "cc").split()
 
 
+# A folder of compiled objects keyed by everything the compiler reads for each (see object_key); unset, every
+# build compiles. The test suite sets it for its session, so the sources the FMUs of its tests share (the
+# physics core and the solvers do not read the generated header) compile once.
+BUILD_CACHE_VARIABLE = "LATTICE_BUILD_CACHE"
+
+
 def compile_shared_library(sources: list[Path], output: Path, include_dirs: list[Path], werror: bool) -> None:
-    """Compiles C99 sources into a shared library; with werror any warning fails the build."""
+    """Compiles C99 sources into a shared library, each source into its own object (side by side on the
+    machine's cores), then links them; with werror any warning fails the build."""
     output.parent.mkdir(parents=True, exist_ok=True)
-    command = compiler_command() + ["-std=c99", *OPTIMISATION_FLAGS, "-fPIC", "-shared", *WARNING_FLAGS]
-    if werror:
-        command.append("-Werror")
-    command += [f"-I{d}" for d in include_dirs]
-    command += [str(s) for s in sources] + ["-o", str(output), "-lm"]
+    flags = ["-std=c99", *OPTIMISATION_FLAGS, "-fPIC", *WARNING_FLAGS] + (["-Werror"] if werror else [])
+    flags += [f"-I{d}" for d in include_dirs]
+    cache = os.environ.get(BUILD_CACHE_VARIABLE)
+    with tempfile.TemporaryDirectory(prefix="compile_") as folder:
+        objects = [Path(folder) / f"{index}_{source.stem}.o" for index, source in enumerate(sources)]
+        with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+            warnings = list(pool.map(lambda pair: _compile_object(pair[0], pair[1], flags, werror, cache),
+                                     zip(sources, objects)))
+        link = compiler_command() + ["-shared", *[str(o) for o in objects], "-o", str(output), "-lm"]
+        warnings.append(_run_compiler(link, werror))
+    for warning in filter(None, warnings):
+        print(warning, file=sys.stderr)
+
+
+def _compile_object(source: Path, output: Path, flags: list[str], werror: bool, cache: str | None) -> str:
+    """Compiles one source (or copies its object from the cache); returns what the compiler warned."""
+    command = compiler_command() + flags + ["-c", str(source), "-o", str(output)]
+    cached = Path(cache) / object_key(flags, source) if cache else None
+    if cached is not None and cached.is_file():
+        shutil.copyfile(cached, output)
+        return ""
+    warning = _run_compiler(command, werror)
+    if cached is not None and not warning:  # an object that warned compiles again, so its warning shows again
+        cached.parent.mkdir(parents=True, exist_ok=True)
+        partial = cached.with_name(f"{cached.name}.{os.getpid()}.{threading.get_ident()}.partial")
+        shutil.copyfile(output, partial)
+        partial.replace(cached)
+    return warning
+
+
+def _run_compiler(command: list[str], werror: bool) -> str:
     result = subprocess.run(command, capture_output=True, text=True)
     if result.returncode != 0 or (werror and result.stderr.strip()):
         raise RuntimeError(f"C build failed: {' '.join(command)}\n{result.stderr}")
-    if result.stderr.strip():
-        print(result.stderr, file=sys.stderr)
+    return result.stderr.strip()
+
+
+def object_key(flags: list[str], source: Path) -> str:
+    """What one object depends on: the compiler (its command and version), the flags, and the content of the
+    source and of every header it includes outside the system's (the compiler's own list, ``-MM``)."""
+    compiler = compiler_command()
+    listed = subprocess.run(compiler + flags + ["-MM", str(source)], capture_output=True, text=True)
+    if listed.returncode != 0:
+        raise RuntimeError(f"C build failed: {' '.join(compiler + flags + ['-MM', str(source)])}\n{listed.stderr}")
+    rule = listed.stdout.replace("\\\n", " ").replace("\\ ", "\0").split(": ", 1)[1]
+    dependencies = [name.replace("\0", " ") for name in rule.split()]
+    version = subprocess.run(compiler + ["--version"], capture_output=True, text=True).stdout
+    digest = hashlib.sha256()
+    for part in [*compiler, version, *(f for f in flags if not f.startswith("-I"))]:
+        digest.update(part.encode() + b"\0")
+    for dependency in dependencies:
+        path = Path(dependency)
+        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest() + ".o"
 
 
 def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, cols: int | None = None,

@@ -1,4 +1,12 @@
-"""Shared fixtures: the FMU and the C core are built once per test session, into a temporary folder."""
+"""Shared fixtures: the FMU and the C core are built once per test session, into a temporary folder.
+
+The session compiles each distinct set of C sources once (fmu_src.build's LATTICE_BUILD_CACHE, a temporary
+folder removed when the session ends, inherited by the command lines the tests start): the many FMUs the tests
+build alike differ only in their paths, and every build still generates, zips and checks its own FMU.
+"""
+import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -6,6 +14,14 @@ import pytest
 from fmu_src import build as build_fmu
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def pytest_configure(config):
+    if build_fmu.BUILD_CACHE_VARIABLE not in os.environ:
+        folder = tempfile.mkdtemp(prefix="lattice_build_cache_")
+        os.environ[build_fmu.BUILD_CACHE_VARIABLE] = folder
+        config.add_cleanup(lambda: (shutil.rmtree(folder, ignore_errors=True),
+                                    os.environ.pop(build_fmu.BUILD_CACHE_VARIABLE, None)))
 
 
 def pytest_collection_modifyitems(config, items):

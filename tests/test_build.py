@@ -88,3 +88,41 @@ def test_every_description_declares_the_one_tables_units_and_log_categories(fmu_
     root = ElementTree.fromstring(_read(fmu_path if version == 2 else fmu3_path, "modelDescription.xml"))
     assert [unit.get("name") for unit in root.iter("Unit")] == list(UNITS)
     assert [(c.get("name"), c.get("description")) for c in root.iter("Category")] == list(LOG_CATEGORIES)
+
+
+def test_the_build_cache_compiles_each_set_of_sources_once_and_a_changed_file_again(tmp_path, monkeypatch):
+    cache = tmp_path / "cache"
+    monkeypatch.setenv(build.BUILD_CACHE_VARIABLE, str(cache))
+    sources = tmp_path / "src with spaces"  # as make escapes them in the compiler's list of headers
+    sources.mkdir()
+    (sources / "value.h").write_text("#define VALUE 1\n")
+    (sources / "lib.c").write_text('#include "value.h"\nint value(void) { return VALUE; }\n')
+    compiled = []
+    run = build.subprocess.run
+
+    def counted(command, *args, **kwargs):
+        if "-c" in command:
+            compiled.append(command)
+        return run(command, *args, **kwargs)
+    monkeypatch.setattr(build.subprocess, "run", counted)
+
+    def library(name):
+        output = tmp_path / name
+        build.compile_shared_library([sources / "lib.c"], output, [sources], werror=True)
+        return output.read_bytes()
+
+    first, again = library("first.so"), library("again.so")
+    assert first == again and len(compiled) == 1 and len(list(cache.iterdir())) == 1
+    (sources / "value.h").write_text("#define VALUE 2\n")  # a header the compiler reads, not a source named
+    assert library("changed.so") != first and len(compiled) == 2
+    build.compile_shared_library([sources / "lib.c"], tmp_path / "plain.so", [sources], werror=False)
+    assert len(compiled) == 3  # -Werror is part of what a library depends on
+
+
+def test_a_build_that_warns_is_not_cached_so_its_warning_is_printed_every_time(tmp_path, monkeypatch, capfd):
+    monkeypatch.setenv(build.BUILD_CACHE_VARIABLE, str(tmp_path / "cache"))
+    (tmp_path / "lib.c").write_text("int value(int unused) { return 1; }\n")
+    for name in ("a.so", "b.so"):
+        build.compile_shared_library([tmp_path / "lib.c"], tmp_path / name, [], werror=False)
+        assert "unused" in capfd.readouterr().err
+    assert not (tmp_path / "cache").exists()

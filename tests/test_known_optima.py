@@ -81,3 +81,16 @@ def test_the_whole_8_column_sweep_certifies_the_known_optimum(lattices, tmp_path
     assert certificate["certified"], certificate["reasons"]
     assert certificate["covered_once"] and certificate["designs"] == 40320
     assert certificate["optimum"]["order"] == stored(8)["order"]
+
+
+def test_the_readme_quotes_the_certified_optimum_as_the_table_holds_it():
+    from math import factorial
+
+    from fmu_src.published import PUBLISHED_PEAKS
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text().replace("\n", " ")
+    eleven = {(k.rows, k.columns): k for k in known_optima()}[(11, 11)]
+    assert f"is {list(eleven.order)} at {eleven.peak:.2f} N" in readme
+    assert f"({eleven.runner_up_peak - eleven.peak:.4f} N higher)" in readme
+    assert f"all {factorial(11):,} orders certified it" in readme
+    assert f"{min(PUBLISHED_PEAKS.values()):.2f} N for the study's best published order" in readme
