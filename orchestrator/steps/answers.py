@@ -158,8 +158,8 @@ class Answers(Step):
             return KNOWN, "this run's exhaustive sweep, not certified: " + "; ".join(sweep.certificate.reasons)
         known = known_optimum(context.case, rule or context.case.rule_default)
         if known is not None and known.order == order:
-            what = "certified" if known.certified else "found"
-            return (CERTIFIED if known.certified else KNOWN), f"{what} by `{known.command}` ({known.source})"
+            return (CERTIFIED if known.certified else KNOWN), (
+                f"{known.source} (orchestrator/known_optima.json; to sweep it again: `{known.command}`)")
         if known is not None:
             return BEST_FOUND, (f"the known optimum is {list(known.order)} at {known.peak:.4f} N "
                                 f"({'certified' if known.certified else 'exhaustive sweep'})")
