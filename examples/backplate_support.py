@@ -206,7 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         order = tuple(int(m) for m in args.order.split(","))
     except ValueError:
-        parser.error(f"--order {args.order!r}: give integers separated by commas, e.g. 1,7,5,9,3,6,11,8,2,4,10")
+        parser.error(f"--order {args.order!r}: give integers separated by commas, e.g. 1,2,3,4,5,6,7,8,9,10,11")
     lattice_fmu = Path(args.lattice_fmu)
     if not lattice_fmu.is_file():
         print(f"{lattice_fmu} not found: building it", file=sys.stderr)

@@ -1,44 +1,58 @@
 """The measurement pages and the README's table of their headlines agree, and every page says how it was made.
 
-The README quotes the pages' headlines in a block that bench/measurements.py writes; a page regenerated without
-its README block (or a figure typed into the block by hand) is caught here.
+The README quotes the pages' headlines in a block that the benchmarks write (bench/measurements.py) whenever
+one writes its page; a page regenerated without its README block, or a figure typed into the block by hand, is
+caught here. Nothing is imported from bench/: the pages and the README are read as a reader reads them.
 """
 from __future__ import annotations
 
-import sys
+import json
+import re
 from pathlib import Path
 
-import pytest
-
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-measurements = pytest.importorskip("bench.measurements")
+PAGES = sorted(p for p in (ROOT / "docs" / "measurements").glob("*.md") if p.name != "index.md")
+START = "<!-- measurements: written by bench/measurements.py from docs/measurements; never by hand -->"
+END = "<!-- measurements: end -->"
 
 
-def test_the_readme_block_is_the_pages_headlines_as_written():
-    readme = measurements.README.read_text()
-    assert readme == measurements.readme_with_headlines(readme, measurements.index_entries())
+def front_matter(path: Path) -> dict:
+    lines = path.read_text().splitlines()
+    assert lines[0] == "---", f"{path.name} has no front matter"
+    meta = {}
+    for line in lines[1:lines.index("---", 1)]:
+        key, _, value = line.partition(": ")
+        meta[key] = json.loads(value)
+    return meta
+
+
+def readme_rows() -> dict[str, str]:
+    readme = (ROOT / "README.md").read_text()
+    assert START in readme and END in readme
+    block = readme[readme.index(START) + len(START):readme.index(END)]
+    return {m.group(1): line for line in block.splitlines()
+            for m in [re.search(r"\(docs/measurements/([\w.]+\.md)\)", line)] if m}
+
+
+def cell(text: str) -> str:
+    return text.replace("|", "\\|").replace("\n", " ")
 
 
 def test_every_page_names_its_command_commit_and_date():
-    entries = measurements.index_entries()
-    assert entries, "no measurement pages"
-    for entry in entries:
-        assert entry["command"].startswith(f"python -m bench.{Path(entry['file']).stem}"), entry
-        assert len(entry["commit"]) == 7 and entry["date"][:2] == "20", entry
-        assert entry["headline"], entry
+    assert PAGES, "no measurement pages"
+    for page in PAGES:
+        meta = front_matter(page)
+        assert meta["benchmark"] == page.stem and meta["headline"] and meta["title"], page.name
+        assert meta["command"].startswith(f"python -m bench.{page.stem}"), page.name
+        assert re.fullmatch(r"[0-9a-f]{7}", meta["commit"]) and re.fullmatch(r"20\d\d-\d\d-\d\d", meta["date"])
+        assert f"<!-- Written by `{meta['command']}`;" in page.read_text(), page.name
 
 
-def test_a_readme_without_its_markers_is_refused_in_one_line():
-    with pytest.raises(ValueError, match="README.md has no block"):
-        measurements.readme_with_headlines("# a README\n", measurements.index_entries())
-
-
-def test_only_the_block_changes():
-    readme = f"before\n{measurements.README_START}\nold figures\n{measurements.README_END}\nafter\n"
-    entry = {"file": "x.md", "title": "X", "headline": "1 | 2", "command": "python -m bench.x", "commit": "abcdef0",
-             "date": "2026-12-01"}
-    written = measurements.readme_with_headlines(readme, [entry])
-    assert written.startswith(f"before\n{measurements.README_START}\n") and written.endswith(
-        f"{measurements.README_END}\nafter\n")
-    assert "old figures" not in written and "1 \\| 2" in written and "abcdef0, 2026-12-01" in written
+def test_the_readme_block_holds_each_pages_headline_as_written_and_nothing_else():
+    rows = readme_rows()
+    assert sorted(rows) == [p.name for p in PAGES]
+    for page in PAGES:
+        meta = front_matter(page)
+        row = rows[page.name]
+        assert f"| {cell(meta['headline'])} |" in row, page.name
+        assert f"`{cell(meta['command'])}` at {meta['commit']}, {meta['date']}" in row, page.name

@@ -10,7 +10,7 @@
   for ever (wall-event chattering); semi-implicit Euler's work integral lags one step, so its divergence
   check refuses stable steps; an error's reason is lost when two FMU instances live in one process.
 
-Every FMU run that could hang goes through bench.common.IsolatedFMU (a worker process with a timeout).
+Every FMU run that could hang goes through tests/isolated.py's IsolatedFMU (a worker process with a timeout).
 """
 from __future__ import annotations
 
