@@ -7,7 +7,8 @@ Why: the FMU exists to make an evaluation cheap without making it wrong, so ever
 accuracy. For the two published orders it times the FMU through fmpy (``orchestrator.simulation.LatticeFMU``:
 reset, parameters, one doStep, outputs) at its defaults, and scipy's ``solve_ivp(DOP853)`` over the numpy
 reference model (``reference/``, the study's route) at the route's own setting (rtol 1e-8, atol 1e-6) and at the
-loosest rtol of 1e-8, 1e-9, 1e-10 (atol rtol / 100) whose error is at most the FMU's. Each peak is compared with
+loosest rtol of a 1-2-5 grid from 1e-8 to 1e-10 (atol rtol / 100) whose error is at most the FMU's: a grid of
+decades would hand scipy up to ten times the FMU's accuracy, and its cost with it. Each peak is compared with
 the FMU at rtol 1e-13 and with the study's published number.
 """
 from __future__ import annotations
@@ -19,9 +20,11 @@ from orchestrator.simulation import LatticeFMU
 from reference import Scene
 from reference.simulate import simulate
 
-from .common import FULL_HORIZON, default_setting, setting_text, SEQUENTIAL, STUDY_BEST, add_fmu_option, lattice_fmu, order_text, relative, span
+from .common import (FULL_HORIZON, SEQUENTIAL, STUDY_BEST, add_fmu_option, default_setting, lattice_fmu, order_text,
+                     relative, setting_text, span)
 from .measurements import Page, Run, Table, write_page
 
+MATCHING_RTOLS = (1e-8, 5e-9, 2e-9, 1e-9, 5e-10, 2e-10, 1e-10)
 ORDERS = {"sequential": SEQUENTIAL, "study's best": STUDY_BEST}
 TIGHT = {"rtol": 1e-13, "atol": 1e-15}
 OUTPUTS = ("peak_backplate_force", "rhs_evaluations")
@@ -75,7 +78,7 @@ def main(argv=None) -> int:
             rows.append(("", "scipy DOP853 over numpy, rtol 1e-8, atol 1e-6", f"{scipy_seconds * 1e3:.1f}",
                          scipy.n_rhs, f"{scipy.peak_backplate_force:.6f}", f"{scipy_error:.1e}",
                          f"{speedups[-1]:.0f}x"))
-            for rtol in (1e-8, 1e-9, 1e-10):
+            for rtol in MATCHING_RTOLS:
                 matched_seconds, matched = time_scipy(order, rtol, rtol * 1e-2, args.scipy_repeats)
                 matched_error = relative(matched.peak_backplate_force, truth)
                 if matched_error <= error:
@@ -88,8 +91,8 @@ def main(argv=None) -> int:
                          f"{matched.peak_backplate_force:.6f}", f"{matched_error:.1e}",
                          f"{matched_seconds / seconds:.0f}x" if reached else ""))
 
-    equal = (f"{span(equal_speedups, '{:.0f}')}x faster than scipy at equal accuracy" if equal_speedups
-             else "scipy did not reach the FMU's accuracy by rtol 1e-10")
+    equal = (f"{span(equal_speedups, '{:.0f}')}x faster than scipy at the FMU's accuracy or better"
+             if equal_speedups else f"scipy did not reach the FMU's accuracy by rtol {MATCHING_RTOLS[-1]:g}")
     headline = (f"one 8 s evaluation: the FMU is {span(speedups, '{:.0f}')}x faster than the study's scipy route "
                 f"and {equal}; the FMU's error {span(fmu_errors, '{:.1e}')}")
     page = Page(

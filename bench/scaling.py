@@ -25,7 +25,8 @@ import numpy as np
 from fmu_src.build import build_fmu
 from orchestrator.design import DesignSpace
 from orchestrator.executors import make_executor
-from orchestrator.loop import EvaluateDesign, Evaluator
+from orchestrator.loop import Evaluator
+from orchestrator.tasks import EvaluateDesign
 from orchestrator.objective import SEARCH, SEARCH_HORIZON, LatticeObjective, close_instances
 from orchestrator.simulation import LatticeFMU, SimulationError
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, ClassVar
 
 from .design import DesignSpace
-from .loop import function_key
+from .tasks import function_key
 from .types import Order, safe_call
 
 MAX_LOCAL_DESIGNS = math.factorial(10)

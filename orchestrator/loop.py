@@ -2,10 +2,8 @@
 
 ``Evaluator`` is the only way anything is simulated: the searches, the verification of finalists, the final
 descent, the sensitivity study, the exhaustive sweep's chunks, the accuracy checks, the trajectories and the
-solver sweep of the report. A *task* is a picklable object with a ``key`` (what it computes: the cache and
-journal identity), a call that computes it in a worker, ``failure(message, seconds)`` (its result when it
-could not run) and ``keep(result)`` (whether the result belongs in the journal). The evaluator runs tasks
-through one Executor and guards them:
+solver sweep of the report. It runs *tasks* (``orchestrator.tasks``: what a task is, and the task of one
+design) through one Executor and guards them:
 
 - *Cache*: a key is computed once per run; a resumed run starts with its journal's results.
 - *Journal*: each finished result is appended as it arrives (time-outs and a task's own transient failures
@@ -28,64 +26,14 @@ import time
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable, Protocol, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 from .design import DesignSpace, as_design
 from .executors import executor_slots
-from .types import Above, Evaluation, Order, failed, safe_call
+from .tasks import EvaluateDesign, Task, function_key, run_task
+from .types import Above, Evaluation, Order
 
 STALL_BATCHES = 200
-
-
-class Task(Protocol):
-    """What the evaluator runs (see the module docstring)."""
-
-    @property
-    def key(self) -> str: ...
-
-    def __call__(self) -> Any: ...
-
-    def failure(self, message: str, seconds: float) -> Any: ...
-
-    def keep(self, result: Any) -> bool: ...
-
-
-def function_key(function: Any) -> str:
-    """The identity of an evaluation function: its own ``key`` (an FMU run's settings), else its repr."""
-    key = getattr(function, "key", None)
-    return key if isinstance(key, str) else f"{type(function).__module__}.{type(function).__qualname__}:{function!r}"
-
-
-@dataclass(frozen=True)
-class EvaluateDesign:
-    """One design through one evaluation function (``order -> Evaluation``)."""
-
-    function: Callable[[Order], Any]
-    order: Order
-
-    @property
-    def key(self) -> str:
-        return f"{function_key(self.function)}#{','.join(map(str, self.order))}"
-
-    def __call__(self) -> Evaluation:
-        return safe_call(self.function, self.order)
-
-    def failure(self, message: str, seconds: float) -> Evaluation:
-        return failed(self.order, message, seconds)
-
-    def keep(self, result: Any) -> bool:
-        return True
-
-
-def run_task(task: Task) -> Any:
-    """What a worker runs: the task, or its failure when it raised (a task must never kill its worker)."""
-    start = time.perf_counter()
-    try:
-        return task()
-    except MemoryError:
-        return task.failure("out of memory (free memory, or use fewer --workers)", time.perf_counter() - start)
-    except Exception as exc:  # noqa: BLE001 - a task's error is its failed result
-        return task.failure(f"{type(exc).__name__}: {exc}", time.perf_counter() - start)
 
 
 @dataclass(frozen=True)
@@ -500,5 +448,4 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-__all__ = ["EvaluateDesign", "Evaluator", "EvaluatorState", "SearchRun", "Task", "as_evaluator", "function_key",
-           "run_search", "run_task", "told_value"]
+__all__ = ["Evaluator", "EvaluatorState", "SearchRun", "as_evaluator", "run_search", "told_value"]

@@ -24,7 +24,7 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, Callable, ClassVar, Sequence
 
 from .design import DesignSpace, as_design
-from .loop import EvaluateDesign, function_key
+from .tasks import EvaluateDesign, function_key
 from .simulation import LatticeFMU, SimulationError
 from .types import OK, CaseValue, Evaluation, Order, RunOutputs, censored, failed
 

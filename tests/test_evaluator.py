@@ -9,7 +9,8 @@ import pytest
 
 from orchestrator.executors import make_executor
 from orchestrator.journal import Journal
-from orchestrator.loop import EvaluateDesign, Evaluator
+from orchestrator.loop import Evaluator
+from orchestrator.tasks import EvaluateDesign
 from orchestrator.types import Evaluation, failed
 
 KINDS = {"evaluation": Evaluation}

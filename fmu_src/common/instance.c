@@ -13,8 +13,8 @@
 /* The layout of a saved (and serialised) FMU state, in host byte order: this header, then the model's bytes.
  * The checksum is CRC-32 (zlib's) over every byte after it, so a state that was damaged in transit or on disk
  * is refused; the sizes and the build are checked before anything is read from the model's bytes, and
- * model_check then checks every field that sizes or indexes memory, so a crafted state (a changed size with
- * a recomputed checksum) is refused too. */
+ * model_check and model_driver_check then check every field that sizes or indexes memory, so a crafted state
+ * (a changed size with a recomputed checksum) is refused too. */
 #define STATE_FORMAT 2u
 typedef struct {
     uint32_t magic;      /* offset 0: the FMI version's magic number */
@@ -108,8 +108,8 @@ void instance_save(const InstanceCommon *common, unsigned int magic, unsigned ch
 }
 
 /* NULL when `size` bytes at `bytes` are an intact state of this build for this FMI version, else why not:
- * the sizes, version and build first, then the checksum; the model's own fields last (model_check), read
- * from an aligned copy in `scratch` (model_size() bytes). */
+ * the sizes, version and build first, then the checksum; the fields of the model and of its driver last
+ * (model_check, model_driver_check), read from an aligned copy in `scratch` (model_size() bytes). */
 static const char *check_saved_state(unsigned int magic, const unsigned char *bytes, size_t size, Model *scratch,
                                      char *reason, size_t reason_size) {
     SavedHeader header;
@@ -137,7 +137,7 @@ static const char *check_saved_state(unsigned int magic, const unsigned char *by
         return "the state is corrupt: its instance fields are out of range";
     }
     memcpy(scratch, bytes + sizeof(header), model_size());
-    if (model_check(scratch, reason, reason_size)) return reason;
+    if (model_check(scratch, reason, reason_size) || model_driver_check(scratch, reason, reason_size)) return reason;
     return NULL;
 }
 
@@ -221,6 +221,7 @@ int instance_initialize(InstanceCommon *common, char *message, size_t message_si
         common->state = STATE_ERROR;
         return -1;
     }
+    model_driver_initialize(common->model);
     if (common->model_exchange && model_exchange_begin(common->model, message, message_size)) {
         common->state = STATE_ERROR;
         return -1;

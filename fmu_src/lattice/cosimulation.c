@@ -410,7 +410,7 @@ static int handle_wall_events(Model *m) {
     return cut;
 }
 
-void cosimulation_initialize(Model *m) {
+void model_driver_initialize(Model *m) {
     CoSimulation *cs = &m->cs;
     solver_layout(m, &cs->solver_rows, &cs->solver_along_x);
     solver_init(&cs->solver, cs->work, PARAM_SOLVER(m), solver_quadrature_base(m) + LATTICE_N_QUADRATURES,
@@ -592,11 +592,12 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
     return 0;
 }
 
-int cosimulation_check(const Model *m, char *message, size_t message_size) {
+int model_driver_check(const Model *m, char *message, size_t message_size) {
     const CoSimulation *cs = &m->cs;
     const Solver *s = &cs->solver;
     const double interval = PARAM_PEAK_SAMPLE_INTERVAL(m);
     int rows, along_x;
+    if (!m->initialized) return 0; /* the solver is set up at initialisation */
     solver_layout(m, &rows, &along_x);
     {
         const int positions = (along_x ? 1 : 2) * rows * LATTICE_COLS, size = 2 * positions + LATTICE_N_QUADRATURES;

@@ -7,7 +7,8 @@
  * solution (use_symmetry: the reduced layout of lattice.h). Its answers never depend on where the importer
  * communicates, so one doStep over the horizon gives the same numbers as 800 doSteps of 0.01 s.
  *
- * model_advance and model_terminated (model.h) are the driver's; so is this state, which the Model holds
+ * model_driver_initialize, model_advance, model_terminated and model_driver_check (model.h) are the driver's;
+ * so is this state, which the Model holds
  * (flat, so an FMU state is a memcpy).
  */
 #ifndef LATTICE_COSIMULATION_H
@@ -39,13 +40,5 @@ typedef struct {
     double whole_state[N_STATE]; /* scratch: the solver's state as the whole lattice's */
     double work[SOLVER_WORKSPACE_SIZE(N_STATE)];
 } CoSimulation;
-
-/* Sets up the solver at the model's time in its start state (after the model's own initialisation), with
- * the outputs of that state. */
-void cosimulation_initialize(Model *m);
-
-/* 0 when the driver's part of a model read from an FMU state could have been made by this build (its layout,
- * solver fields, times and flags), else -1 and why. Only for an initialised model. */
-int cosimulation_check(const Model *m, char *message, size_t message_size);
 
 #endif

@@ -357,7 +357,6 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
         lattice_energies(&m->params, m->output_state, &kinetic, &m->initial_energy);
     }
     m->initialized = 1;
-    cosimulation_initialize(m);
     return 0;
 }
 
@@ -384,7 +383,6 @@ int model_check(const Model *m, char *message, size_t message_size) {
                  m->switch_pending);
         return -1;
     }
-    if (cosimulation_check(m, message, message_size)) return -1;
     if (m->exchange && !(m->time >= 0.0 && m->time <= DBL_MAX)) { /* the importer sets the time */
         snprintf(message, message_size, "the state is corrupt: its time %g s is not allowed", m->time);
         return -1;

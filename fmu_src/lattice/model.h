@@ -45,14 +45,22 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
 #define MODEL_LIMIT_REACHED 1
 int model_advance(Model *m, double t_target, char *message, size_t message_size);
 
+/* The Co-Simulation driver's (cosimulation.c), called by the glue beside the model's own: sets up the solver
+ * at the model's time in its start state, with the outputs of that state (after model_initialize); and 0 when
+ * the driver's part of a model read from an FMU state could have been made by this build (its layout, solver
+ * fields, times and flags), else -1 and why (after model_check; an uninitialised model has none). */
+void model_driver_initialize(Model *m);
+int model_driver_check(const Model *m, char *message, size_t message_size);
+
 double model_time(const Model *m);
 
 /* Whether a step failed (the model refuses to go on until reset); a refused argument is not a failure. */
 int model_has_failed(const Model *m);
 
 /* 0 when a model read from an FMU state could have been made by this build: every parameter in range, and
- * every field that sizes or indexes memory (state size, lattice size, solver, modes) this build's; else -1 and
- * why. The model must be a properly aligned copy (model_size() bytes). */
+ * every field of the model's that sizes or indexes memory (material order, lattice size, modes) this build's;
+ * else -1 and why (the driver's fields: model_driver_check). The model must be a properly aligned copy
+ * (model_size() bytes). */
 int model_check(const Model *m, char *message, size_t message_size);
 /* The continuous-time contract, as the Reference FMUs' model.h has it (getContinuousStates,
  * getDerivatives, getEventIndicators, eventUpdate). Model Exchange hands it to the importer's solver; the
