@@ -20,6 +20,7 @@ import fcntl
 import os
 import shutil
 import socket
+import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -116,9 +117,14 @@ class RunFolder:
                     f"(which keeps its journal as journal-{pending.run_id}.jsonl)")
             pending.path.rename(self.partial / f"journal-{pending.run_id}.jsonl")
             return
-        if self.partial.exists():
-            shutil.rmtree(self.partial)  # a leftover without a journal: nothing to keep
+        started = self.partial.exists()
+        if started:
+            shutil.rmtree(self.partial)  # a run stopped before its journal was written: nothing to keep
         finished = self._finished_run()
+        if resume and finished is None and started:
+            print(f"nothing to resume in {self.partial} (the run stopped before its first result): starting it",
+                  file=sys.stderr)
+            resume = False
         if resume and finished is None:
             raise FolderError(f"{_option(self.out)}: there is no run to resume (no journal in {self.out} or "
                               f"{self.partial}); start the run without --resume")

@@ -214,6 +214,14 @@ def test_the_same_command_again_never_wipes_an_unfinished_run(fmu_path, tmp_path
     assert not partial.exists() and len(set(journal_keys(out))) == len(journal_keys(out))
 
 
+def test_resume_after_a_kill_before_the_first_result_starts_the_run(fmu_path, tmp_path, capfd):
+    out = tmp_path / "results"
+    (tmp_path / "results.partial").mkdir()  # what a run killed before it wrote its journal leaves
+    assert main("--fmu", fmu_path, "--out", out, "--diagonal-rule", "receiver", *QUICK, "--resume") == 0
+    assert "nothing to resume" in capfd.readouterr().err
+    assert (out / "results.json").is_file() and not (tmp_path / "results.partial").exists()
+
+
 def test_the_test_run_leaves_nothing_in_tmpdir(fmu_path, tmp_path):
     temp = tmp_path / "tmp"
     temp.mkdir()
