@@ -5,7 +5,8 @@ descent, the sensitivity study, the exhaustive sweep's chunks, the accuracy chec
 solver sweep of the report. It runs *tasks* (``orchestrator.tasks``: what a task is, and the task of one
 design) through one Executor and guards them:
 
-- *Cache*: a key is computed once per run; a resumed run starts with its journal's results.
+- *Cache*: a key is computed once per run; a resumed run reaches its journal's results as it asks for them,
+  so it knows at each point what the interrupted run knew there.
 - *Journal*: each finished result is appended as it arrives (time-outs and a task's own transient failures
   are not: they run again on resume).
 - *Bounded work in flight*: at most two tasks per worker are submitted at a time.
@@ -65,8 +66,12 @@ class Evaluator:
         self.executor = executor
         self.journal = journal
         self.time_limit = time_limit
-        self.cache: dict[str, Any] = journal.load() if journal is not None else {}
-        self.resumed = len(self.cache)
+        # A resumed run's journal, reached key by key: a result moves into the cache when the run first asks
+        # for it, so what the run knows at each point (``cached``, ``known``) is what it knew then when it ran
+        # uninterrupted, and its searches are told the same values and ask the same designs.
+        self._journalled: dict[str, Any] = journal.load() if journal is not None else {}
+        self.cache: dict[str, Any] = {}
+        self.resumed = len(self._journalled)
         self.simulated = 0
         self.cache_hits = 0
         self.pool_renewals = 0
@@ -116,6 +121,8 @@ class Evaluator:
                     break
                 count = index + 1
                 key = task.key
+                if key not in self.cache and key in self._journalled:
+                    self.cache[key] = self._journalled.pop(key)
                 if key in self.cache:
                     self.cache_hits += 1
                     deliver(index, self.cache[key])
@@ -168,11 +175,11 @@ class Evaluator:
         return self.run([EvaluateDesign(function, as_design(order)) for function, order in pairs], progress)
 
     def cached(self, task: Task) -> Any | None:
-        """The result of ``task`` if this run already has it."""
+        """The result of ``task`` if this run has reached it (asked for it, or simulated it)."""
         return self.cache.get(task.key)
 
     def known(self, function: Callable[[Order], Any]) -> list[Evaluation]:
-        """Every evaluation this run has of ``function`` (an FMU run's settings), whatever the design."""
+        """Every evaluation this run has reached of ``function`` (an FMU run's settings), whatever the design."""
         prefix = function_key(function) + "#"
         return [result for key, result in self.cache.items() if key.startswith(prefix)]
 

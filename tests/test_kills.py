@@ -45,11 +45,17 @@ def essence(folder: Path):
 
 
 def killed_and_resumed(fmu, out, argv, rng):
-    """KILLS runs each killed with SIGKILL at a random moment (the first without --resume), then one to the end."""
+    """KILLS runs each killed with SIGKILL at a random moment of the run (the first without --resume), then one
+    to the end. A moment of the run: once its folder exists, so from before its first result on; a process
+    killed while Python still imports has started no run, and --resume there is refused by design."""
+    partial = out.with_name(out.name + ".partial")
     for attempt in range(KILLS):
         process = subprocess.Popen(command(fmu, out, argv + (["--resume"] if attempt else [])),
                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        time.sleep(rng.uniform(1.0, 6.0))
+        started = time.monotonic()
+        while not partial.exists() and process.poll() is None and time.monotonic() - started < 120:
+            time.sleep(0.01)
+        time.sleep(rng.uniform(0.0, 5.0))
         if process.poll() is None:
             process.send_signal(signal.SIGKILL)
         process.wait(timeout=60)

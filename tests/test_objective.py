@@ -111,3 +111,28 @@ def test_dask_gives_the_same_search_as_a_process_pool(fmu_path):
                              seed=3)
         results[kind] = [(e.order, e.value) for e in run.evaluations]
     assert results["dask"] == results["process"] and len(results["dask"]) == 16
+
+
+def test_a_resumed_run_knows_at_each_point_only_what_the_interrupted_run_knew_there(fmu_path, tmp_path):
+    """A censored evaluation, then the same design's exact value later in the run: resumed, the censored ask
+    is answered censored again (from the journal), not with the exact value the journal also holds, so a search
+    is told what it was told and nothing is simulated anew."""
+    from orchestrator.journal import Journal
+    from orchestrator.types import Evaluation
+
+    lattice = objective(fmu_path)
+    limit = 0.5 * PUBLISHED_PEAKS[SEQUENTIAL_ORDER]
+
+    def the_run(resume):
+        with make_executor("serial") as executor, \
+                Journal(tmp_path, {"run": 1}, {"evaluation": Evaluation}, resume=resume) as journal:
+            evaluator = Evaluator(executor, journal)
+            first, = lattice.evaluate([SEQUENTIAL_ORDER], evaluator, SEARCH, limits=[limit])
+            later, = lattice.evaluate([SEQUENTIAL_ORDER], evaluator, SEARCH)
+            again, = lattice.evaluate([SEQUENTIAL_ORDER], evaluator, SEARCH, limits=[limit])
+            return first, later, again, evaluator.simulated
+
+    first, later, again, simulated = the_run(resume=False)
+    assert first.censored and later.ok and again.ok and simulated == 2  # an exact value, once known, is used
+    resumed = the_run(resume=True)
+    assert resumed[0].censored and resumed[1].ok and resumed[2].ok and resumed[3] == 0
