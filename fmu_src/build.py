@@ -10,6 +10,7 @@ model, every variable and the study's published numbers, rendered without simula
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import platform
@@ -28,7 +29,7 @@ from fmu_src import fmi2_description as fmi2
 from fmu_src import fmi3_description as fmi3
 from fmu_src.documentation import documentation_html
 from fmu_src.materials import MaterialTable, load_materials
-from fmu_src.variables import DERIVATIVE, INDICATOR, INTEGER, REAL, STATE, Interface, c_literal, plotted_masses
+from fmu_src.variables import DERIVATIVE, INDICATOR, REAL, STATE, Interface, c_literal, plotted_masses
 from scenes import DEFAULT_SCENE, Scene, check_identifier
 
 SOURCE_DIR = Path(__file__).resolve().parent  # the C sources ship as package data of fmu_src
@@ -207,18 +208,24 @@ def _run_compiler(command: list[str], werror: bool) -> str:
     return result.stderr.strip()
 
 
+@functools.lru_cache(maxsize=None)
+def compiler_version(compiler: tuple[str, ...]) -> str:
+    """What ``cc --version`` says, asked once per compiler and process."""
+    return subprocess.run([*compiler, "--version"], capture_output=True, text=True).stdout
+
+
 def object_key(flags: list[str], source: Path) -> str:
     """What one object depends on: the compiler (its command and version), the flags, and the content of the
     source and of every header it includes outside the system's (the compiler's own list, ``-MM``)."""
     compiler = compiler_command()
-    listed = subprocess.run(compiler + flags + ["-MM", str(source)], capture_output=True, text=True)
+    command = compiler + flags + ["-MM", str(source)]
+    listed = subprocess.run(command, capture_output=True, text=True)
     if listed.returncode != 0:
-        raise RuntimeError(f"C build failed: {' '.join(compiler + flags + ['-MM', str(source)])}\n{listed.stderr}")
+        raise RuntimeError(f"C build failed: {' '.join(command)}\n{listed.stderr}")
     rule = listed.stdout.replace("\\\n", " ").replace("\\ ", "\0").split(": ", 1)[1]
     dependencies = [name.replace("\0", " ") for name in rule.split()]
-    version = subprocess.run(compiler + ["--version"], capture_output=True, text=True).stdout
     digest = hashlib.sha256()
-    for part in [*compiler, version, *(f for f in flags if not f.startswith("-I"))]:
+    for part in [*compiler, compiler_version(tuple(compiler)), *(f for f in flags if not f.startswith("-I"))]:
         digest.update(part.encode() + b"\0")
     for dependency in dependencies:
         path = Path(dependency)
