@@ -25,7 +25,6 @@ import platform
 import shutil
 import struct
 from dataclasses import dataclass
-from pathlib import Path
 
 # Flags every platform's build adds to fmu_src.build's: the numbers must not depend on the compiler's default.
 PORTABLE_FLAGS = ("-ffp-contract=off",)
@@ -117,23 +116,28 @@ _PE_MACHINES = {0x8664: "x86_64", 0xAA64: "aarch64"}
 
 
 def library_machine(path: str | os.PathLike) -> tuple[str, str]:
-    """(format, architecture) of a shared library from its header: ("ELF", "x86_64"), ("PE", "x86_64"), ...;
-    ValueError for a file that is neither a 64-bit ELF nor a PE image."""
-    data = Path(path).read_bytes()[:4096]
+    """(format, architecture) of a shared library file: see header_machine."""
+    with open(path, "rb") as handle:
+        return header_machine(handle.read(4096), str(path))
+
+
+def header_machine(data: bytes, what: str = "the file") -> tuple[str, str]:
+    """(format, architecture) from the first bytes of a shared library: ("ELF", "x86_64"), ("PE", "aarch64"),
+    ...; ValueError for what is neither a 64-bit ELF nor a PE image."""
     if data[:4] == b"\x7fELF":
         if data[4] != 2:
-            raise ValueError(f"{path}: a 32-bit ELF")
+            raise ValueError(f"{what}: a 32-bit ELF")
         endian = "<" if data[5] == 1 else ">"
         (machine,) = struct.unpack_from(endian + "H", data, 18)
         return "ELF", _ELF_MACHINES.get(machine, f"unknown machine {machine:#x}")
     if data[:2] == b"MZ":
         (offset,) = struct.unpack_from("<I", data, 0x3C)
         if data[offset:offset + 4] != b"PE\0\0":
-            raise ValueError(f"{path}: an MZ file without a PE header")
+            raise ValueError(f"{what}: an MZ file without a PE header")
         (machine,) = struct.unpack_from("<H", data, offset + 4)
         return "PE", _PE_MACHINES.get(machine, f"unknown machine {machine:#x}")
-    raise ValueError(f"{path}: neither an ELF nor a PE file")
+    raise ValueError(f"{what}: neither an ELF nor a PE file")
 
 
-__all__ = ["ALL_PLATFORMS", "PLATFORMS", "PORTABLE_FLAGS", "TargetPlatform", "compiler_for", "library_machine",
+__all__ = ["ALL_PLATFORMS", "PLATFORMS", "PORTABLE_FLAGS", "TargetPlatform", "compiler_for", "header_machine", "library_machine",
            "native_platform", "parse_platforms"]
