@@ -30,6 +30,7 @@ from fmu_src import fmi3_description as fmi3
 from fmu_src.documentation import documentation_html
 from fmu_src.materials import MaterialTable, load_materials
 from fmu_src.platforms import PORTABLE_FLAGS, TargetPlatform, compiler_for, parse_platforms
+from fmu_src.reference_results import carries_reference_results, extra_files
 from fmu_src.variables import DERIVATIVE, INDICATOR, REAL, STATE, Interface, c_literal, plotted_masses
 from scenes import DEFAULT_SCENE, Scene, check_identifier
 
@@ -274,11 +275,13 @@ def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, col
 def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None = None,
               rows: int | None = None, cols: int | None = None, werror: bool = False, fmi_version: int = 2,
               materials: MaterialTable | str | os.PathLike | None = None,
-              platforms: str | None = None) -> Path:
+              platforms: str | None = None, reference_results: bool = True) -> Path:
     """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0);
     `materials` (a MaterialTable or a table file) replaces the scene's material table: the FMU's
     k[1..M], k_diag[1..M], c[1..M], alpha[1..M], alpha_diag[1..M] start with its values. `platforms` ('all'
-    or a comma list of fmu_src.platforms.PLATFORMS) says whose binaries the FMU carries; None, this machine's."""
+    or a comma list of fmu_src.platforms.PLATFORMS) says whose binaries the FMU carries; None, this machine's.
+    The armour scene's FMU carries its reference results (fmu_src/reference_results.py) unless
+    reference_results is False."""
     targets = parse_platforms(platforms, fmi_version) if platforms is not None else None
     scene = resolve_scene(scene, rows, cols, output, materials)
     interface = scene.interface()
@@ -305,6 +308,10 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
         else:
             description = fmi2.generate_model_description(interface, identifier, guid, scene)
         (staging / "modelDescription.xml").write_text(description)
+        if reference_results and carries_reference_results(scene):
+            for name, content in extra_files(identifier).items():
+                (staging / name).parent.mkdir(parents=True, exist_ok=True)
+                (staging / name).write_bytes(content)
         (staging / "documentation").mkdir()
         (staging / "documentation" / "index.html").write_text(
             documentation_html(fmi_version, interface, identifier, scene))
