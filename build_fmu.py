@@ -5,6 +5,7 @@
     python build_fmu.py --rows 7 --cols 9 -o models/Lattice7x9.fmu
     python build_fmu.py --materials my_materials.csv --cols 5   # M materials of a table over 5 columns
     python build_fmu.py --fmi-version 3      # models/MassSpringLattice-fmi3.fmu
+    python build_fmu.py --platforms all --fmi-version 3   # binaries for x86_64-linux, x86_64-windows, aarch64-linux
     lattice-build ...                        # the same, installed as a console script (pip install .)
 
 The scenes are the library module `scenes` (scenes/__init__.py and the JSON files beside it); FMUs are
@@ -38,6 +39,14 @@ def main(argv: list[str] | None = None) -> int:
                         help="where to write the .fmu (default models/<identifier>.fmu under the current folder)")
     parser.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
                         help="2: FMI 2.0 (default); 3: FMI 3.0, written to models/<identifier>-fmi3.fmu")
+    parser.add_argument("--platforms", metavar="LIST",
+                        help="whose binaries the FMU carries: 'all' or a comma list of x86_64-linux, x86_64-windows, "
+                             "aarch64-linux (default: this machine's only). Compilers: cc (this machine's; $CC), "
+                             "x86_64-w64-mingw32-gcc (Debian: gcc-mingw-w64-x86-64), aarch64-linux-gnu-gcc (Debian: "
+                             "gcc-aarch64-linux-gnu), x86_64-linux-gnu-gcc elsewhere; CC_X86_64_LINUX, "
+                             "CC_X86_64_WINDOWS, CC_AARCH64_LINUX override them. FMI 2 names one folder (linux64) for "
+                             "both Linux architectures, so there 'all' is x86_64-linux and x86_64-windows, and "
+                             "aarch64-linux goes into an FMU of its own")
     parser.add_argument("--werror", action="store_true", help="fail on any compiler warning (CI does)")
     parser.add_argument("--reference", action="store_true",
                         help="build the reference FMU instead (pythonfmu over the numpy/scipy model of reference/): "
@@ -47,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.cross_check:
         if (args.output or args.rows or args.cols or args.materials or args.reference or args.scene != DEFAULT_SCENE
-                or args.fmi_version != 2):
+                or args.fmi_version != 2 or args.platforms):
             parser.error("--cross-check builds its own scenes and versions: give it with --werror only")
         from fmu_src.cross_check import main as cross_check
         return cross_check(args.cross_check, werror=args.werror)
@@ -58,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     try:
         path = build_fmu(args.scene, args.output, args.rows, args.cols, werror=args.werror,
-                         fmi_version=args.fmi_version, materials=args.materials)
+                         fmi_version=args.fmi_version, materials=args.materials, platforms=args.platforms)
     except (ValueError, RuntimeError) as exc:
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return 2

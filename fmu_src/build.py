@@ -29,6 +29,8 @@ from fmu_src import fmi2_description as fmi2
 from fmu_src import fmi3_description as fmi3
 from fmu_src.documentation import documentation_html
 from fmu_src.materials import MaterialTable, load_materials
+from fmu_src.platforms import PORTABLE_FLAGS, TargetPlatform, compiler_for, parse_platforms
+from fmu_src.reference_results import carries_reference_results, extra_files
 from fmu_src.variables import DERIVATIVE, INDICATOR, REAL, STATE, Interface, c_literal, plotted_masses
 from scenes import DEFAULT_SCENE, Scene, check_identifier
 
@@ -167,28 +169,36 @@ def compiler_command() -> list[str]:
 BUILD_CACHE_VARIABLE = "LATTICE_BUILD_CACHE"
 
 
-def compile_shared_library(sources: list[Path], output: Path, include_dirs: list[Path], werror: bool) -> None:
+def compile_shared_library(sources: list[Path], output: Path, include_dirs: list[Path], werror: bool,
+                           target: TargetPlatform | None = None) -> None:
     """Compiles C99 sources into a shared library, each source into its own object (side by side on the
-    machine's cores), then links them; with werror any warning fails the build."""
+    machine's cores), then links them; with werror any warning fails the build. `target` (fmu_src.platforms)
+    builds for that platform with its compiler; None, for this machine with $CC or cc."""
     output.parent.mkdir(parents=True, exist_ok=True)
-    flags = ["-std=c99", *OPTIMISATION_FLAGS, "-fPIC", *WARNING_FLAGS] + (["-Werror"] if werror else [])
+    compiler = compiler_for(target) if target is not None else compiler_command()
+    # A DLL's code is position independent without -fPIC (which MinGW's GCC does not take).
+    position_independent = [] if target is not None and target.suffix == ".dll" else ["-fPIC"]
+    flags = ["-std=c99", *OPTIMISATION_FLAGS, *PORTABLE_FLAGS, *position_independent, *WARNING_FLAGS]
+    flags += ["-Werror"] if werror else []
     flags += [f"-I{d}" for d in include_dirs]
     cache = os.environ.get(BUILD_CACHE_VARIABLE)
     with tempfile.TemporaryDirectory(prefix="compile_") as folder:
         objects = [Path(folder) / f"{index}_{source.stem}.o" for index, source in enumerate(sources)]
         with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
-            warnings = list(pool.map(lambda pair: _compile_object(pair[0], pair[1], flags, werror, cache),
+            warnings = list(pool.map(lambda pair: _compile_object(compiler, pair[0], pair[1], flags, werror, cache),
                                      zip(sources, objects)))
-        link = compiler_command() + ["-shared", *[str(o) for o in objects], "-o", str(output), "-lm"]
+        link = compiler + ["-shared", *[str(o) for o in objects], "-o", str(output), "-lm"]
+        link += list(target.link_flags) if target is not None else []
         warnings.append(_run_compiler(link, werror))
     for warning in filter(None, warnings):
         print(warning, file=sys.stderr)
 
 
-def _compile_object(source: Path, output: Path, flags: list[str], werror: bool, cache: str | None) -> str:
+def _compile_object(compiler: list[str], source: Path, output: Path, flags: list[str], werror: bool,
+                    cache: str | None) -> str:
     """Compiles one source (or copies its object from the cache); returns what the compiler warned."""
-    command = compiler_command() + flags + ["-c", str(source), "-o", str(output)]
-    cached = Path(cache) / object_key(flags, source) if cache else None
+    command = compiler + flags + ["-c", str(source), "-o", str(output)]
+    cached = Path(cache) / object_key(flags, source, compiler) if cache else None
     if cached is not None and cached.is_file():
         shutil.copyfile(cached, output)
         return ""
@@ -210,14 +220,17 @@ def _run_compiler(command: list[str], werror: bool) -> str:
 
 @functools.lru_cache(maxsize=None)
 def compiler_version(compiler: tuple[str, ...]) -> str:
-    """What ``cc --version`` says, asked once per compiler and process."""
-    return subprocess.run([*compiler, "--version"], capture_output=True, text=True).stdout
+    """What ``cc --version`` and ``cc -dumpmachine`` (the target it builds for) say, asked once per compiler
+    and process."""
+    version = subprocess.run([*compiler, "--version"], capture_output=True, text=True).stdout
+    machine = subprocess.run([*compiler, "-dumpmachine"], capture_output=True, text=True).stdout
+    return version + machine
 
 
-def object_key(flags: list[str], source: Path) -> str:
-    """What one object depends on: the compiler (its command and version), the flags, and the content of the
-    source and of every header it includes outside the system's (the compiler's own list, ``-MM``)."""
-    compiler = compiler_command()
+def object_key(flags: list[str], source: Path, compiler: list[str] | None = None) -> str:
+    """What one object depends on: the compiler (its command, version and target), the flags, and the content
+    of the source and of every header it includes outside the system's (the compiler's own list, ``-MM``)."""
+    compiler = compiler or compiler_command()
     command = compiler + flags + ["-MM", str(source)]
     listed = subprocess.run(command, capture_output=True, text=True)
     if listed.returncode != 0:
@@ -261,10 +274,15 @@ def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, col
 
 def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None = None,
               rows: int | None = None, cols: int | None = None, werror: bool = False, fmi_version: int = 2,
-              materials: MaterialTable | str | os.PathLike | None = None) -> Path:
+              materials: MaterialTable | str | os.PathLike | None = None,
+              platforms: str | None = None, reference_results: bool = True) -> Path:
     """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0);
     `materials` (a MaterialTable or a table file) replaces the scene's material table: the FMU's
-    k[1..M], k_diag[1..M], c[1..M], alpha[1..M], alpha_diag[1..M] start with its values."""
+    k[1..M], k_diag[1..M], c[1..M], alpha[1..M], alpha_diag[1..M] start with its values. `platforms` ('all'
+    or a comma list of fmu_src.platforms.PLATFORMS) says whose binaries the FMU carries; None, this machine's.
+    The armour scene's FMU carries its reference results (fmu_src/reference_results.py) unless
+    reference_results is False."""
+    targets = parse_platforms(platforms, fmi_version) if platforms is not None else None
     scene = resolve_scene(scene, rows, cols, output, materials)
     interface = scene.interface()
     identifier = check_identifier("model_identifier", scene.model_identifier)
@@ -290,11 +308,19 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
         else:
             description = fmi2.generate_model_description(interface, identifier, guid, scene)
         (staging / "modelDescription.xml").write_text(description)
+        if reference_results and carries_reference_results(scene):
+            for name, content in extra_files(identifier).items():
+                (staging / name).parent.mkdir(parents=True, exist_ok=True)
+                (staging / name).write_bytes(content)
         (staging / "documentation").mkdir()
         (staging / "documentation" / "index.html").write_text(
             documentation_html(fmi_version, interface, identifier, scene))
-        binary = staging / "binaries" / folder / f"{identifier}{suffix}"
-        compile_shared_library([sources / name for name in c_sources], binary, [sources], werror)
+        if targets is None:
+            binary = staging / "binaries" / folder / f"{identifier}{suffix}"
+            compile_shared_library([sources / name for name in c_sources], binary, [sources], werror)
+        for target in targets or ():
+            binary = staging / "binaries" / target.folder(fmi_version) / f"{identifier}{target.suffix}"
+            compile_shared_library([sources / name for name in c_sources], binary, [sources], werror, target)
         output.parent.mkdir(parents=True, exist_ok=True)
         partial = output.with_suffix(".fmu.partial")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as archive:

@@ -128,9 +128,12 @@ def reference_result(fmu: Path, stop_time: float, step_size: float) -> tuple[np.
 
 def with_reference(fmu: Path, target: Path, reference_csv: Path, stop_time: float, step_size: float) -> None:
     """A copy of ``fmu`` at ``target`` with the reference result and its FMI-LS-REF manifest in extra/."""
+    from fmu_src.reference_results import LS_DESCRIPTION, LS_NAME, LS_VERSION
+
+    description = f"Outputs from 0 to {stop_time!r} s every {step_size!r} s, by the FMU's Co-Simulation at its default parameters"
     manifest = _TEMPLATES.get_template("fmi_ls_ref_manifest.xml").render(
-        reference=reference_csv.name, description=f"Outputs from 0 to {stop_time!r} s every {step_size!r} s, by the "
-                                                  "FMU's Co-Simulation at its default parameters")
+        ls_name=LS_NAME, ls_version=LS_VERSION, ls_description=LS_DESCRIPTION,
+        related=[{"source": reference_csv.name, "description": description}])
     partial = target.with_name(target.name + ".partial")
     with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as archive:
         for item in source.infolist():
