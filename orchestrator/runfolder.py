@@ -157,12 +157,12 @@ class RunFolder:
         if not self.out.exists():
             os.rename(self.partial, self.out)
             return self.out
+        previous = self.partial  # where the exchange leaves the previous run
         if not _exchange(self.partial, self.out):
-            old = self.out.with_name(f".{self.out.name}.previous-{os.getpid()}")
-            os.rename(self.out, old)
+            previous = self.out.with_name(f".{self.out.name}.previous-{os.getpid()}")
+            os.rename(self.out, previous)
             os.rename(self.partial, self.out)
-            self.partial = old
-        shutil.rmtree(self.partial, ignore_errors=True)
+        shutil.rmtree(previous, ignore_errors=True)
         return self.out
 
 
