@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import multiprocessing
 import os
 import shutil
 import signal
@@ -22,6 +23,9 @@ from typing import Any, Callable, Iterator
 
 EXECUTORS = ("serial", "process", "dask")
 LOCAL_CLUSTER_START = 120.0  # s a local Dask cluster may take to start all its workers
+# The process pool's start method: unset, the platform's default (spawn on Windows and macOS); set to spawn on
+# Linux, the whole test suite runs the way a Windows or macOS user's runs do (every task and argument pickled).
+START_METHOD_VARIABLE = "LATTICE_START_METHOD"
 
 
 class SerialExecutor(Executor):
@@ -72,24 +76,42 @@ def make_executor(kind: str, workers: int | None = None, scheduler: str | None =
     return _executor(kind, workers, scheduler, temp_root)  # bad arguments fail here, not at `with`
 
 
+def pool_start_method() -> str | None:
+    """The start method the process pool uses: ``LATTICE_START_METHOD`` when set, else None (the platform's
+    default); an unknown one is refused in one line naming the allowed values."""
+    method = os.environ.get(START_METHOD_VARIABLE, "").strip()
+    if not method:
+        return None
+    allowed = multiprocessing.get_all_start_methods()
+    if method not in allowed:
+        raise ValueError(f"{START_METHOD_VARIABLE}={method!r} is not a start method of this platform; "
+                         f"allowed: {', '.join(allowed)}")
+    return method
+
+
 def _worker_start(temp_root: str | None) -> None:
     """Runs first in every pool worker.
 
     Ctrl-C reaches the whole process group: the main process ends the run, so a worker ignores SIGINT
     (no traceback from each worker). On Linux a worker also dies with the main process, even a killed
-    one, so no worker outlives its run. Extracted FMUs go under the run's temp root, which the main
-    process removes when the run ends.
+    one, so no worker outlives its run; elsewhere (no prctl) the pool's own shutdown and kill apply.
+    Extracted FMUs go under the run's temp root, which the main process removes when the run ends.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-
-            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-        except OSError:  # pragma: no cover - another libc: the pool's own shutdown still applies
-            pass
+        _die_with_parent()
     if temp_root:
         tempfile.tempdir = temp_root
+
+
+def _die_with_parent() -> None:
+    """Linux's parent-death signal (prctl PR_SET_PDEATHSIG), where the C library offers it; nothing elsewhere."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG, from the loaded C library
+    except (ImportError, OSError, AttributeError):  # pragma: no cover - no such C library or call
+        pass
 
 
 class ResilientProcessPool(Executor):
@@ -107,7 +129,9 @@ class ResilientProcessPool(Executor):
         self._pool = self._new_pool()
 
     def _new_pool(self) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(max_workers=self.slots, initializer=_worker_start, initargs=(self.temp_root,))
+        method = pool_start_method()
+        return ProcessPoolExecutor(max_workers=self.slots, initializer=_worker_start, initargs=(self.temp_root,),
+                                   mp_context=multiprocessing.get_context(method) if method else None)
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
         return self._pool.submit(fn, *args, **kwargs)

@@ -2,7 +2,10 @@
 
 ``prepare_fmu`` is the one place that decides which FMU a run uses: the one given (``--fmu``), or the scene's
 in ``models/``, built when it is missing, rebuilt when it was built from other sources (its GUID) or its
-binary cannot be instantiated here (a foreign build). It is instantiated once in this process, so a broken
+binary cannot be instantiated here (a foreign build). Where no C compiler is found, the scene's FMU comes from
+the prebuilt ones an installed wheel carries (``orchestrator/prebuilt/``, see setup.py) when one was built
+from these sources for this scene; any other scene (a custom lattice, a material table) is refused in one line
+naming the compiler to install. It is instantiated once in this process, so a broken
 FMU is refused at once with its own log message, not after a whole study. The study receives the result, a
 ``PreparedFMU``: the file, its hash (how journals and checkpoints identify it, wherever it lies) and what its
 model description says (columns, materials, parameters with their types, ranges and enumeration items).
@@ -10,6 +13,9 @@ model description says (columns, materials, parameters with their types, ranges 
 from __future__ import annotations
 
 import math
+import os
+import platform
+import shutil
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -179,18 +185,68 @@ def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
     elif _guid(path) != expected:
         reason = f"rebuilding {path}: it was built from other sources or for another scene"
     if reason:
-        print(reason, file=sys.stderr)
-        build.build_fmu(scene, path)
+        _build_or_copy_prebuilt(scene, path, expected, reason)
     try:
         instantiate_once(path)
     except FMUError as exc:
-        print(f"rebuilding {path}: its binary cannot be instantiated here ({exc})", file=sys.stderr)
-        build.build_fmu(scene, path)
+        _build_or_copy_prebuilt(scene, path, expected,
+                                f"rebuilding {path}: its binary cannot be instantiated here ({exc})", foreign=str(exc))
         try:
             instantiate_once(path)
         except FMUError as again:
             raise FMUError(f"{path} was rebuilt but still cannot be instantiated: {again}") from None
     return describe(path, scene.rows)
+
+
+PREBUILT_DIR = Path(__file__).resolve().parent / "prebuilt"  # filled by setup.py in a wheel; absent in a checkout
+
+
+def compiler_found() -> bool:
+    """Whether the C compiler the build would call (``$CC``, else ``cc``) is there to call."""
+    from fmu_src import build
+
+    return shutil.which(build.compiler_command()[0]) is not None
+
+
+def compiler_hint() -> str:
+    """What to install on this platform so that ``fmu_src.build`` finds a C compiler (gcc-style flags)."""
+    system = platform.system()
+    if system == "Windows":
+        return "install MinGW-w64 gcc (for example MSYS2's mingw-w64-ucrt-x86_64-gcc) and set CC=gcc"
+    if system == "Darwin":
+        return "install Apple's command line tools: xcode-select --install"
+    return "install gcc (Debian, Ubuntu: apt-get install gcc; Fedora: dnf install gcc)"
+
+
+def _build_or_copy_prebuilt(scene, path: Path, expected: str, reason: str, foreign: str | None = None) -> None:
+    """Builds the scene's FMU at ``path``; without a compiler, copies the wheel's prebuilt FMU of this scene
+    there, or refuses in one line. ``foreign``: why the FMU at ``path`` could not be instantiated."""
+    from fmu_src import build
+
+    if compiler_found():
+        print(reason, file=sys.stderr)
+        build.build_fmu(scene, path)
+        return
+    compiler = os.environ.get("CC") or "cc"
+    prebuilt = PREBUILT_DIR / path.name
+    usable = prebuilt.is_file() and _guid(prebuilt) == expected
+    if usable and not (foreign is not None and _same_file(prebuilt, path)):
+        print(f"no C compiler ({compiler}) found: using the prebuilt {path.name} this installation carries",
+              file=sys.stderr)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(prebuilt, path)
+        return
+    if foreign is not None:
+        what = f"{path} cannot be instantiated on this machine ({platform.system()} {platform.machine()}: {foreign})"
+    else:
+        what = (f"{path.name} (scene {scene.name}, {scene.rows} x {scene.cols}, with its material table) must be "
+                "built from C, no prebuilt FMU matches it")
+    raise FMUError(f"{what}, and no C compiler was found (CC={compiler}): {compiler_hint()}; or give a built FMU "
+                   "with --fmu")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    return b.is_file() and a.read_bytes() == b.read_bytes()
 
 
 def _guid(path: Path) -> str | None:
@@ -200,4 +256,5 @@ def _guid(path: Path) -> str | None:
         return None
 
 
-__all__ = ["FMUError", "Parameter", "PreparedFMU", "describe", "instantiate_once", "prepare_fmu"]
+__all__ = ["FMUError", "PREBUILT_DIR", "Parameter", "PreparedFMU", "compiler_found", "compiler_hint", "describe",
+           "instantiate_once", "prepare_fmu"]

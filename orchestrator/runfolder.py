@@ -1,22 +1,22 @@
 """Where a run writes, so that no command can lose what a run computed.
 
 - A run works in ``OUT.partial/`` (its journal, then its report) and, once finished, swaps it with ``OUT/`` in
-  one atomic rename (Linux ``renameat2(RENAME_EXCHANGE)``; elsewhere two renames): ``OUT/`` always holds a
-  whole finished run, or nothing, never a mix of two runs.
+  one atomic rename (Linux ``renameat2(RENAME_EXCHANGE)``; elsewhere, or where the C library lacks it, two
+  renames, between which ``OUT/`` is absent): ``OUT/`` always holds a whole finished run, or nothing, never a
+  mix of two runs.
 - ``OUT.partial/`` holding an unfinished run is refused without ``--resume`` (continue it) or ``--overwrite``
   (start anew, keeping the old journal under another name).
-- One run per folder: ``.OUT.lock`` beside it is held (``flock``) for the run's life, with the holder's pid
-  and host in it; a second run or resume is refused, naming them; a dead run's lock does not block (the
-  kernel drops a dead process's lock).
+- One run per folder: ``.OUT.lock`` beside it is held for the run's life (portalocker: ``flock`` on POSIX,
+  ``msvcrt.locking`` on Windows), with the holder's pid and host in it; a second run or resume is refused,
+  naming them (on Windows the locked file cannot be read, so it says "another process"); a dead run's lock
+  does not block (the system drops a dead process's lock).
 - A folder that holds files but no run of this program is never replaced.
 - Each run has a temporary folder (``lattice-run-<pid>-*`` in TMPDIR) removed when it ends; a run also
   removes those of dead predecessors (a SIGKILL leaves one behind).
 """
 from __future__ import annotations
 
-import ctypes
 import errno
-import fcntl
 import os
 import shutil
 import socket
@@ -25,6 +25,9 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+import portalocker
+import psutil
 
 from .journal import JOURNAL_NAME, Journal, JournalError, JournalState
 
@@ -76,10 +79,9 @@ class RunFolder:
             raise FolderError(f"{_option(self.out)}: cannot write in {self.out.parent} "
                               f"({exc.strerror or exc})") from None
         try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            handle.seek(0)
-            holder = handle.read().strip() or "another process"
+            portalocker.lock(handle, portalocker.LOCK_EX | portalocker.LOCK_NB)
+        except (portalocker.exceptions.LockException, OSError):
+            holder = _holder(handle)
             handle.close()
             raise FolderError(f"{_option(self.out)} is in use by a running run ({holder}); wait for it to end or "
                               "give another --out") from None
@@ -95,7 +97,7 @@ class RunFolder:
             try:
                 handle.seek(0)
                 handle.truncate()
-                fcntl.flock(handle, fcntl.LOCK_UN)
+                portalocker.unlock(handle)
             finally:
                 handle.close()
 
@@ -155,18 +157,31 @@ class RunFolder:
         if not self.out.exists():
             os.rename(self.partial, self.out)
             return self.out
+        previous = self.partial  # where the exchange leaves the previous run
         if not _exchange(self.partial, self.out):
-            old = self.out.with_name(f".{self.out.name}.previous-{os.getpid()}")
-            os.rename(self.out, old)
+            previous = self.out.with_name(f".{self.out.name}.previous-{os.getpid()}")
+            os.rename(self.out, previous)
             os.rename(self.partial, self.out)
-            self.partial = old
-        shutil.rmtree(self.partial, ignore_errors=True)
+        shutil.rmtree(previous, ignore_errors=True)
         return self.out
+
+
+def _holder(handle) -> str:
+    """Who holds the lock, as its holder wrote it; Windows forbids reading a file another process locked."""
+    try:
+        handle.seek(0)
+        return handle.read().strip() or "another process"
+    except OSError:
+        return "another process"
 
 
 def _exchange(a: Path, b: Path) -> bool:
     """Atomically swap two paths (Linux renameat2); False where the system cannot."""
+    if not sys.platform.startswith("linux"):
+        return False
     try:
+        import ctypes
+
         libc = ctypes.CDLL(None, use_errno=True)
         renameat2 = libc.renameat2
     except (OSError, AttributeError):
@@ -207,13 +222,8 @@ def remove_dead_temp_roots() -> int:
 
 
 def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
+    """Whether a process ``pid`` exists (psutil: ``os.kill(pid, 0)`` would send Ctrl-C on Windows)."""
+    return psutil.pid_exists(pid)
 
 
 __all__ = ["FolderError", "RunFolder", "TEMP_PREFIX", "make_temp_root", "remove_dead_temp_roots"]

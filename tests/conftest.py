@@ -11,12 +11,18 @@ from pathlib import Path
 
 import pytest
 
+from compatibility import add_option, check_recording
 from fmu_src import build as build_fmu
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def pytest_addoption(parser):
+    add_option(parser)  # --record-compatibility: the importer tests write their compatibility rows
+
+
 def pytest_configure(config):
+    check_recording(config)
     if build_fmu.BUILD_CACHE_VARIABLE not in os.environ:
         folder = tempfile.mkdtemp(prefix="lattice_build_cache_")
         os.environ[build_fmu.BUILD_CACHE_VARIABLE] = folder

@@ -20,16 +20,21 @@ oms_importFile and the Python SSP class.
 """
 from __future__ import annotations
 
+import contextlib
+import functools
 import hashlib
+import importlib.metadata
 import json
 import os
 import shutil
 import subprocess
+import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
+from compatibility import RowRecorder, compatibility_row
 from fmu_src.published import PUBLISHED_PEAKS
 from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
@@ -37,9 +42,10 @@ from orchestrator.simulation import LatticeFMU
 from orchestrator.ssp import COMPONENT, SYSTEM, read_design_parameters, write_best_design_ssp
 
 ORDERS = [PUBLISHED_BEST, PUBLISHED_SEQUENTIAL]
-ORDER_IDS = ["published_best", "sequential"]
 HORIZON, STEP = 8.0, 0.01
 RELATIVE_TOLERANCE = 1e-9
+AGREES = (f"both published orders' peak_backplate_force within {RELATIVE_TOLERANCE:g} of fmpy's on the same FMU "
+          f"({HORIZON:g} s in {STEP:g} s communication steps)")
 FMI4J_PROJECT = Path(__file__).resolve().parent / "fmi4j"
 CACHE_DIR = Path(os.environ.get("MSL_CACHE_DIR") or Path.home() / ".cache" / "mass-spring-lattice")
 
@@ -80,9 +86,13 @@ def libcosim_peak(fmu_path, order, horizon=HORIZON, step=STEP) -> float:
     return observer.last_real_values(index, [references["peak_backplate_force"]])[0]
 
 
-@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
-def test_libcosim_agrees_with_fmpy(fmu_path, fmpy_peaks, order):
-    assert_agrees(libcosim_peak(fmu_path, order), fmpy_peaks[order], "libcosim")
+def test_libcosim_agrees_with_fmpy(request, fmu_path, fmpy_peaks):
+    with compatibility_row(request, "libcosim (libcosimpy)", importlib.metadata.version("libcosimpy"),
+                           fmi_version="2.0", interface="CS", checked=AGREES) as row:
+        for order in ORDERS:
+            peak = libcosim_peak(fmu_path, order)
+            row.reached(order, peak)
+            assert_agrees(peak, fmpy_peaks[order], f"libcosim, order {order}")
 
 
 # ------------------------------------------------------------------------------------------------------- FMI4j
@@ -126,11 +136,20 @@ def fmi4j_peaks(fmu_path, orders) -> dict:
     return peaks
 
 
+def fmi4j_version() -> str:
+    """The FMI4j version tests/fmi4j/pom.xml builds against."""
+    namespace = {"m": "http://maven.apache.org/POM/4.0.0"}
+    return ElementTree.parse(FMI4J_PROJECT / "pom.xml").getroot().find("m:properties/m:fmi4j.version", namespace).text
+
+
 @pytest.mark.importers
-def test_fmi4j_agrees_with_fmpy(fmu_path, fmpy_peaks):
-    peaks = fmi4j_peaks(fmu_path, ORDERS)  # one JVM for both orders
-    for order in ORDERS:
-        assert_agrees(peaks[order], fmpy_peaks[order], f"FMI4j, order {order}")
+def test_fmi4j_agrees_with_fmpy(request, fmu_path, fmpy_peaks):
+    with compatibility_row(request, "FMI4j", fmi4j_version(), fmi_version="2.0", interface="CS",
+                           checked=AGREES) as row:
+        peaks = fmi4j_peaks(fmu_path, ORDERS)  # one JVM for both orders
+        for order in ORDERS:
+            row.reached(order, peaks[order])
+            assert_agrees(peaks[order], fmpy_peaks[order], f"FMI4j, order {order}")
 
 
 # ----------------------------------------------------------------------------------------------------- fmi-sim
@@ -157,6 +176,14 @@ def fmi_sim_binary() -> str:
     return str(cached)
 
 
+@functools.lru_cache(maxsize=None)
+def fmi_sim_version(binary: str) -> str:
+    """What `fmi-sim --version` says (its last word), or the version these tests install."""
+    done = subprocess.run([binary, "--version"], capture_output=True, text=True, timeout=60)
+    words = done.stdout.split()
+    return words[-1] if done.returncode == 0 and words else FMI_SIM_VERSION
+
+
 def fmi_sim_peak(fmu, csv: Path, init_values=()) -> float:
     """Runs fmi-sim co-simulation for 8 s in 0.01 s steps; the last row's peak_backplate_force."""
     command = [fmi_sim_binary(), "--model", str(fmu), "-o", str(csv), "co-simulation", "-f", repr(HORIZON),
@@ -173,27 +200,40 @@ def fmi_sim_peak(fmu, csv: Path, init_values=()) -> float:
 
 
 @pytest.mark.importers
-@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
-def test_fmi_sim_agrees_with_fmpy(fmu_path, fmpy_peaks, tmp_path, order):
-    init_values = [(f"material[{column}]", material) for column, material in enumerate(order, 1)]
-    assert_agrees(fmi_sim_peak(fmu_path, tmp_path / "out.csv", init_values), fmpy_peaks[order], "fmi-sim (FMI 2.0)")
+def test_fmi_sim_agrees_with_fmpy(request, fmu_path, fmpy_peaks, tmp_path):
+    with compatibility_row(request, "fmi-sim", fmi_sim_version(fmi_sim_binary()), fmi_version="2.0", interface="CS",
+                           checked=AGREES) as row:
+        for order in ORDERS:
+            init_values = [(f"material[{column}]", material) for column, material in enumerate(order, 1)]
+            peak = fmi_sim_peak(fmu_path, tmp_path / "out.csv", init_values)
+            row.reached(order, peak)
+            assert_agrees(peak, fmpy_peaks[order], f"fmi-sim (FMI 2.0), order {order}")
 
 
 @pytest.mark.importers
-@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
-def test_fmi_sim_runs_the_fmi3_fmu_to_the_same_peak(tmp_path, fmpy_peaks, order):
+def test_fmi_sim_runs_the_fmi3_fmu_to_the_same_peak(request, tmp_path, fmpy_peaks):
     """fmi-sim 0.7 sets one scalar per --init-values, not an FMI 3 array, so the order goes in as the start
     value of `material` in the FMU itself (a scene parameter of build_fmu.py)."""
     import build_fmu
 
-    scene = build_fmu.Scene.load(build_fmu.DEFAULT_SCENE)
-    scene.parameters = {**scene.parameters, "material": list(order)}
-    fmu3 = build_fmu.build_fmu(scene, tmp_path / "MassSpringLattice-fmi3.fmu", werror=True, fmi_version=3)
-    assert_agrees(fmi_sim_peak(fmu3, tmp_path / "out.csv"), fmpy_peaks[order], "fmi-sim (FMI 3.0)")
+    with compatibility_row(request, "fmi-sim", fmi_sim_version(fmi_sim_binary()), fmi_version="3.0", interface="CS",
+                           checked=AGREES, note="the order set as the FMU's start values (fmi-sim sets no array "
+                                                "element)") as row:
+        for order in ORDERS:
+            scene = build_fmu.Scene.load(build_fmu.DEFAULT_SCENE)
+            scene.parameters = {**scene.parameters, "material": list(order)}
+            fmu3 = build_fmu.build_fmu(scene, tmp_path / "MassSpringLattice-fmi3.fmu", werror=True, fmi_version=3)
+            peak = fmi_sim_peak(fmu3, tmp_path / "out.csv")
+            row.reached(order, peak)
+            assert_agrees(peak, fmpy_peaks[order], f"fmi-sim (FMI 3.0), order {order}")
+
+
+EULER_CHECKED = ("the published best order's peak within 1e-3 of the published peak and the energy balance closed "
+                 "to 1e-3 of the work put in (1 s of forward Euler at 1e-5 s)")
 
 
 @pytest.mark.importers
-def test_fmi_sim_runs_model_exchange_with_its_euler_solver(tmp_path):
+def test_fmi_sim_runs_model_exchange_with_its_euler_solver(request, tmp_path):
     """fmi-sim 0.7 integrates Model Exchange with forward Euler at the DefaultExperiment's step (its --step did
     not change it), so the FMU is built with a 1e-5 s step for it (at 0.01 s explicit Euler diverges). Euler is
     first order: it reaches the published best peak to 1e-3, and the energy integrals, which it integrates as
@@ -202,21 +242,26 @@ def test_fmi_sim_runs_model_exchange_with_its_euler_solver(tmp_path):
 
     scene = build_fmu.Scene.load(build_fmu.DEFAULT_SCENE)
     scene.communication_step, scene.horizon = 1e-5, 1.0
-    fmu = build_fmu.build_fmu(scene, tmp_path / "MassSpringLattice.fmu", werror=True)
-    csv = tmp_path / "me.csv"
-    command = [fmi_sim_binary(), "--model", str(fmu), "-o", str(csv), "model-exchange", "-f", "1"]
-    for column, material in enumerate(PUBLISHED_BEST, 1):
-        command += ["--init-values", f"material[{column}]={material}"]
-    result = subprocess.run(command, capture_output=True, text=True, timeout=600,
-                            env={**os.environ, "RUST_BACKTRACE": "0", "RUST_LOG": "warn"})
-    assert result.returncode == 0, f"fmi-sim failed:\n{result.stderr[-5000:]}"
-    lines = csv.read_text().splitlines()
-    header, last = lines[0].split(","), lines[-1].split(",")
-    final = {name: float(last[header.index(name)]) for name in ("time", "peak_backplate_force", "steps_accepted",
-                                                                "external_work", "energy_balance_error")}
-    assert final["time"] == 1.0 and final["steps_accepted"] > 1e5 - 10  # 1e5 Euler steps and the events
-    assert final["peak_backplate_force"] == pytest.approx(1497.8867334973704, rel=1e-3)
-    assert abs(final["energy_balance_error"]) <= 1e-3 * final["external_work"]
+    binary = fmi_sim_binary()
+    with compatibility_row(request, "fmi-sim", fmi_sim_version(binary), fmi_version="2.0", interface="ME",
+                           checked=EULER_CHECKED, note="its Model Exchange is forward Euler at the model's "
+                                                       "default step: the FMU built with a 1e-5 s step") as row:
+        fmu = build_fmu.build_fmu(scene, tmp_path / "MassSpringLattice.fmu", werror=True)
+        csv = tmp_path / "me.csv"
+        command = [binary, "--model", str(fmu), "-o", str(csv), "model-exchange", "-f", "1"]
+        for column, material in enumerate(PUBLISHED_BEST, 1):
+            command += ["--init-values", f"material[{column}]={material}"]
+        result = subprocess.run(command, capture_output=True, text=True, timeout=600,
+                                env={**os.environ, "RUST_BACKTRACE": "0", "RUST_LOG": "warn"})
+        assert result.returncode == 0, f"fmi-sim failed:\n{result.stderr[-5000:]}"
+        lines = csv.read_text().splitlines()
+        header, last = lines[0].split(","), lines[-1].split(",")
+        final = {name: float(last[header.index(name)]) for name in ("time", "peak_backplate_force",
+                                                                    "steps_accepted", "external_work",
+                                                                    "energy_balance_error")}
+        assert final["time"] == 1.0 and final["steps_accepted"] > 1e5 - 10  # 1e5 Euler steps and the events
+        assert row.reached(PUBLISHED_BEST, final["peak_backplate_force"]) <= 1e-3
+        assert abs(final["energy_balance_error"]) <= 1e-3 * final["external_work"]
 
 
 # ------------------------------------------------------------------------------------------------ OMSimulator
@@ -255,6 +300,23 @@ def omsimulator_run(tmp_path: Path, **request) -> OMSimulatorRun:
     return OMSimulatorRun(reply["values"], reply["failures"], [line for line in lines if line.startswith("error:")])
 
 
+@functools.lru_cache(maxsize=None)
+def omsimulator_version(python: str) -> str:
+    done = subprocess.run([python, "-c", "import OMSimulator; print(OMSimulator.version)"], capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0 and done.stdout.strip(), f"OMSimulator.version: {done.stderr[-2000:]}"
+    return done.stdout.strip().splitlines()[-1]
+
+
+def omsimulator_row(request, fmi_version: str, interface: str, checked: str, note: str | None = None):
+    python = os.environ.get("OMSIMULATOR_PYTHON")
+    if not python:
+        pytest.skip("OMSimulator: set OMSIMULATOR_PYTHON to the Python of an environment with OMSimulator 3 "
+                    "(README: OMSimulator)")
+    return compatibility_row(request, "OMSimulator", omsimulator_version(python), fmi_version=fmi_version,
+                             interface=interface, checked=checked, note=note)
+
+
 def order_parameters(order) -> dict:
     return {f"material[{column}]": material for column, material in enumerate(order, 1)}
 
@@ -264,37 +326,48 @@ def assert_clean(run: OMSimulatorRun, importer: str) -> None:
 
 
 @pytest.mark.importers
-@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
-def test_omsimulator_co_simulation_agrees_with_fmpy(fmu_path, fmpy_peaks, tmp_path, order):
-    run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu_path, system="wc", stop_time=HORIZON,
-                          integers=order_parameters(order), outputs=["peak_backplate_force"])
-    assert_clean(run, "OMSimulator (FMI 2.0 CS)")
-    assert_agrees(run.values["peak_backplate_force"], fmpy_peaks[order], "OMSimulator (FMI 2.0 CS)")
+def test_omsimulator_co_simulation_agrees_with_fmpy(request, fmu_path, fmpy_peaks, tmp_path):
+    with omsimulator_row(request, "2.0", "CS", AGREES) as row:
+        for order in ORDERS:
+            run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu_path, system="wc", stop_time=HORIZON,
+                                  integers=order_parameters(order), outputs=["peak_backplate_force"])
+            assert_clean(run, "OMSimulator (FMI 2.0 CS)")
+            row.reached(order, run.values["peak_backplate_force"])
+            assert_agrees(run.values["peak_backplate_force"], fmpy_peaks[order], "OMSimulator (FMI 2.0 CS)")
 
 
 @pytest.mark.importers
-@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
 @pytest.mark.parametrize("tolerance, relative", [(None, 1e-3), (1e-9, 1e-6)], ids=["defaults", "rtol_1e-9"])
-def test_omsimulator_model_exchange_reaches_the_published_peak(fmu_path, tmp_path, order, tolerance, relative):
+def test_omsimulator_model_exchange_reaches_the_published_peak(request, fmu_path, tmp_path, tolerance, relative):
     """OMSimulator integrates Model Exchange with CVODE (BDF), by default at rtol 1e-4 and steps of at most
-    1e-3 s, and re-initialises CVODE after every event; a lost wall switch must not cost more than that."""
-    run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu_path, system="sc", stop_time=HORIZON, tolerance=tolerance,
-                          integers=order_parameters(order), outputs=["peak_backplate_force", "energy_balance_error"])
-    assert_clean(run, "OMSimulator (FMI 2.0 ME)")
-    peak = run.values["peak_backplate_force"]
-    assert abs(peak - PUBLISHED_PEAKS[order]) <= relative * PUBLISHED_PEAKS[order], (
-        f"OMSimulator ME ({'defaults' if tolerance is None else f'rtol {tolerance}'}) gives {peak!r}, published "
-        f"{PUBLISHED_PEAKS[order]!r}; energy_balance_error {run.values['energy_balance_error']!r} J")
+    1e-3 s, and re-initialises CVODE after every event; a lost wall switch must not cost more than that. The
+    compatibility row is the tight tolerance's (one row per importer, version, platform, FMI and interface)."""
+    checked = f"both published orders' peak_backplate_force within {relative:g} of the published peaks"
+    rows = (omsimulator_row(request, "2.0", "ME", f"{checked} (CVODE at rtol {tolerance:g})",
+                            note="at its default rtol 1e-4: within 1e-3") if tolerance
+            else contextlib.nullcontext(RowRecorder()))
+    with rows as row:
+        for order in ORDERS:
+            run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu_path, system="sc", stop_time=HORIZON,
+                                  tolerance=tolerance, integers=order_parameters(order),
+                                  outputs=["peak_backplate_force", "energy_balance_error"])
+            assert_clean(run, "OMSimulator (FMI 2.0 ME)")
+            peak = run.values["peak_backplate_force"]
+            assert row.reached(order, peak) <= relative, (
+                f"OMSimulator ME ({'defaults' if tolerance is None else f'rtol {tolerance}'}) gives {peak!r}, "
+                f"published {PUBLISHED_PEAKS[order]!r}; energy_balance_error {run.values['energy_balance_error']!r} J")
 
 
 @pytest.mark.importers
-@pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
-def test_omsimulator_runs_the_fmi3_fmu_with_the_order_set(fmu3_path, tmp_path, order):
-    run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu3_path, system="wc", stop_time=HORIZON,
-                          integers=order_parameters(order), outputs=["peak_backplate_force"])
-    assert_clean(run, "OMSimulator (FMI 3.0 CS)")
-    peak = run.values["peak_backplate_force"]
-    assert abs(peak - PUBLISHED_PEAKS[order]) <= 1e-6 * PUBLISHED_PEAKS[order], (peak, PUBLISHED_PEAKS[order])
+def test_omsimulator_runs_the_fmi3_fmu_with_the_order_set(request, fmu3_path, tmp_path):
+    with omsimulator_row(request, "3.0", "CS", "both published orders' peak_backplate_force within 1e-06 of the "
+                                               "published peaks") as row:
+        for order in ORDERS:
+            run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu3_path, system="wc", stop_time=HORIZON,
+                                  integers=order_parameters(order), outputs=["peak_backplate_force"])
+            assert_clean(run, "OMSimulator (FMI 3.0 CS)")
+            peak = run.values["peak_backplate_force"]
+            assert row.reached(order, peak) <= 1e-6, (peak, PUBLISHED_PEAKS[order])
 
 
 @pytest.mark.importers

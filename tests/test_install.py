@@ -2,7 +2,8 @@
 
 The project is copied to a temporary folder, installed from there into a fresh virtual environment, and the
 copy is deleted before anything runs: whatever the scripts need (the FMU's C sources, the scene files) must
-have been installed. The fresh environment sees this environment's site-packages for the dependencies only
+have been installed. The copy's models/ holds the session's FMU, as build_fmu.py leaves it before a wheel is
+built: the installation carries it (setup.py), and runs the default scene from it where no compiler is found. The fresh environment sees this environment's site-packages for the dependencies only
 (a path in a .pth file: the editable install of this checkout that lives there is not activated); pip
 fetches only the build backend (setuptools), as for any `pip install .`.
 """
@@ -24,11 +25,13 @@ SOURCE_IGNORE = shutil.ignore_patterns(".git", "models", "results", "build", "*.
 
 
 @pytest.fixture(scope="module")
-def installed(tmp_path_factory):
+def installed(tmp_path_factory, fmu_path):
     """The bin folder of a fresh virtual environment with the project installed from a deleted copy."""
     folder = tmp_path_factory.mktemp("install")
     source, environment = folder / "source", folder / "venv"
     shutil.copytree(ROOT, source, ignore=SOURCE_IGNORE)
+    (source / "models").mkdir()
+    shutil.copy(fmu_path, source / "models" / "MassSpringLattice.fmu")
     venv.EnvBuilder(with_pip=False).create(environment)
     python = environment / "bin" / "python"
     site_packages = subprocess.run([python, "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
@@ -42,8 +45,9 @@ def installed(tmp_path_factory):
     return environment / "bin"
 
 
-def run(command, cwd, timeout=300):
-    environment = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+def run(command, cwd, timeout=300, environment=None):
+    environment = {**{k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")},
+                   **(environment or {})}
     return subprocess.run(command, capture_output=True, text=True, cwd=cwd, env=environment, timeout=timeout)
 
 
@@ -83,3 +87,21 @@ def test_a_bad_scene_is_one_line(installed, tmp_path):
     result = run([installed / "lattice-build", "--scene", "../../etc/passwd"], tmp_path)
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and "scene" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_without_a_compiler_the_installed_package_runs_the_default_scene_and_refuses_another(installed, tmp_path,
+                                                                                            fmu_path):
+    """CC names no compiler: the default scene runs from the FMU the installation carries; another lattice
+    is refused in one line naming the compiler to install."""
+    no_compiler = {"CC": str(tmp_path / "no-such-cc")}
+    search = [installed / "lattice-search", "--method", "sequential", "--budget", "1", "--repeats", "1",
+              "--executor", "serial", "--no-progress", "--no-local-check", "--no-sensitivity",
+              "--diagonal-rule", "receiver"]
+    result = run([*search, "--out", "report"], tmp_path, environment=no_compiler)
+    assert result.returncode == 0, result.stderr
+    assert "no C compiler" in result.stderr and "using the prebuilt MassSpringLattice.fmu" in result.stderr
+    assert (tmp_path / "models" / "MassSpringLattice.fmu").read_bytes() == fmu_path.read_bytes()
+    assert (tmp_path / "report" / "results.json").is_file()
+    result = run([*search, "--cols", "5", "--out", "report5"], tmp_path, environment=no_compiler)
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert "no C compiler was found" in result.stderr and "apt-get install gcc" in result.stderr

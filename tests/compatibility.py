@@ -1,0 +1,108 @@
+"""The one way a test records its row of the compatibility page (bench/compatibility.py defines the row).
+
+    with compatibility_row(request, "libcosim", version, fmi_version="2.0", interface="CS",
+                           checked="...") as row:
+        for order in ORDERS:
+            peak = ...
+            row.reached(order, peak)     # its relative error on the published peak
+            assert ...
+
+The test's checks run as always; only under ``python -m pytest --record-compatibility`` is the row written to
+tests/compatibility_results/: "pass" with ``checked`` as its message when the block ends, "fail" with the
+first line of the error when a check fails (and the test still fails). A skipped test writes nothing.
+Recording is refused while the code differs from its commit, since a row names the commit it ran at.
+"""
+from __future__ import annotations
+
+import contextlib
+import datetime
+import shlex
+import subprocess
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+from bench.compatibility import RESULTS, CompatibilityRow, Result, write_row
+from fmu_src.fmi3_description import platform_folder
+from fmu_src.published import PUBLISHED_PEAKS
+
+ROOT = Path(__file__).resolve().parents[1]
+RECORD_OPTION = "--record-compatibility"
+# What a row depends on: a change anywhere but in the rows, the docs and the notes makes the commit a lie.
+NOT_CODE = (":(exclude)tests/compatibility_results", ":(exclude)docs", ":(exclude)*.md")
+
+
+def add_option(parser) -> None:
+    parser.addoption(RECORD_OPTION, action="store_true",
+                     help="write each importer test's row to tests/compatibility_results/ (the compatibility page's "
+                          "source; then run python -m bench.compatibility)")
+
+
+def check_recording(config) -> None:
+    """Refuses --record-compatibility where the rows could not name the commit they ran at."""
+    if not config.getoption(RECORD_OPTION):
+        return
+    status = _git("status", "--porcelain", "--", ".", *NOT_CODE)
+    if status is None:
+        raise pytest.UsageError(f"{RECORD_OPTION}: this is not a git checkout; a row names the commit it ran at")
+    if status:
+        raise pytest.UsageError(f"{RECORD_OPTION}: the code differs from its commit ({status.splitlines()[0].strip()}"
+                                " ...); commit first, since a row names the commit it ran at")
+
+
+@dataclass
+class RowRecorder:
+    """What the test reached: the relative error of each peak against the published one."""
+
+    errors: list[float] = field(default_factory=list)
+
+    def reached(self, order, peak: float) -> float:
+        published = PUBLISHED_PEAKS[tuple(order)]
+        error = abs(peak - published) / published
+        self.errors.append(error)
+        return error
+
+
+@contextlib.contextmanager
+def compatibility_row(request, importer: str, importer_version: str, *, fmi_version: str, interface: str,
+                      checked: str, note: str | None = None, platform: str | None = None):
+    recorder = RowRecorder()
+    record = request.config.getoption(RECORD_OPTION)
+    try:
+        yield recorder
+    except (pytest.skip.Exception, KeyboardInterrupt):
+        raise
+    except BaseException as exc:
+        if record:
+            message = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:300]
+            _write(request, importer, importer_version, fmi_version, interface, Result("fail", message), recorder,
+                   note, platform)
+        raise
+    if record:
+        _write(request, importer, importer_version, fmi_version, interface, Result("pass", checked), recorder, note,
+               platform)
+
+
+def reproducing_command(request) -> str:
+    """The command that runs this test again, from the checkout's root."""
+    marker = " -m importers" if request.node.get_closest_marker("importers") else ""
+    return f"python -m pytest{marker} {shlex.quote(request.node.nodeid)}"
+
+
+def _write(request, importer, importer_version, fmi_version, interface, result, recorder, note, platform) -> None:
+    row = CompatibilityRow(
+        importer=importer, importer_version=importer_version, platform=platform or platform_folder()[0],
+        fmi_version=fmi_version, interface=interface, result=result,
+        worst_error=max(recorder.errors) if recorder.errors else None,
+        date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d"),
+        commit=_git("rev-parse", "HEAD") or "unknown", command=reproducing_command(request), note=note)
+    write_row(row, RESULTS)
+
+
+def _git(*arguments: str) -> str | None:
+    try:
+        done = subprocess.run(["git", "-C", str(ROOT), *arguments], capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    return done.stdout.strip() if done.returncode == 0 else None
