@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -155,6 +156,7 @@ def test_a_study_where_every_evaluation_fails_exits_3_with_the_reason(fmu_path, 
                 "--diagonal-rule", "receiver", *QUICK)
     line = one_line(capfd)
     assert code == 3 and "no design was evaluated successfully" in line and "diverged" in line, line
+    assert re.search(r": \d+ evaluations failed; every one: ", line), line
     assert (tmp_path / "r" / "report.html").is_file()
 
 
