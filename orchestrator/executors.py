@@ -57,7 +57,7 @@ class SerialExecutor(Executor):
 
 
 def make_executor(kind: str, workers: int | None = None, scheduler: str | None = None,
-                  temp_root: str | None = None) -> contextlib.AbstractContextManager[Executor]:
+                  temp_root: str | None = None, fmus: tuple = ()) -> contextlib.AbstractContextManager[Executor]:
     """Context manager yielding an Executor; everything is shut down on exit.
 
     kind:
@@ -67,13 +67,16 @@ def make_executor(kind: str, workers: int | None = None, scheduler: str | None =
       "dask"     ``Client(scheduler).get_executor()``; with no scheduler address, a
                  ``LocalCluster`` of ``workers`` single-threaded worker processes
                  (default ``os.cpu_count()``), closed on exit.  An external
-                 cluster's workers must be able to import the objective's module.
+                 cluster's workers must be able to import the objective's module
+                 (the project installed); they need no folder of the client's:
+                 each FMU of ``fmus`` (paths) is sent to every worker as bytes
+                 (``dask_plugin.ShipFMU``) and the tasks run the worker's copy.
     """
     if kind not in EXECUTORS:
         raise ValueError(f"unknown executor {kind!r}; allowed: {', '.join(EXECUTORS)}")
     if workers is not None and int(workers) < 1:
         raise ValueError(f"workers must be at least 1, got {workers!r}")
-    return _executor(kind, workers, scheduler, temp_root)  # bad arguments fail here, not at `with`
+    return _executor(kind, workers, scheduler, temp_root, tuple(fmus))  # bad arguments fail here, not at `with`
 
 
 def pool_start_method() -> str | None:
@@ -155,7 +158,7 @@ class ResilientProcessPool(Executor):
 
 @contextlib.contextmanager
 def _executor(kind: str, workers: int | None, scheduler: str | None,
-              temp_root: str | None = None) -> Iterator[Executor]:
+              temp_root: str | None = None, fmus: tuple = ()) -> Iterator[Executor]:
     if kind == "serial":
         executor = SerialExecutor()
         try:
@@ -180,13 +183,13 @@ def _executor(kind: str, workers: int | None, scheduler: str | None,
         own_root = temp_root is None and not scheduler
         root = tempfile.mkdtemp(prefix="lattice-workers-") if own_root else temp_root
         try:
-            yield from _dask(workers, scheduler, root)
+            yield from _dask(workers, scheduler, root, fmus)
         finally:
             if own_root:
                 shutil.rmtree(root, ignore_errors=True)
 
 
-def _dask(workers: int | None, scheduler: str | None, temp_root: str | None) -> Iterator[Executor]:
+def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmus: tuple = ()) -> Iterator[Executor]:
     try:
         from distributed import Client, LocalCluster  # imported lazily: dask is slow to import
     except ImportError:
@@ -207,9 +210,12 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None) -> 
             except TimeoutError:
                 raise RuntimeError(f"the local Dask cluster did not start its {count} workers within "
                                    f"{LOCAL_CLUSTER_START:g} s; give fewer --workers") from None
-        from .dask_plugin import CloseFMUs
+        from .dask_plugin import CloseFMUs, ShipFMU
 
         client.register_plugin(CloseFMUs(), name="lattice-close-fmus")
+        for path in fmus:
+            plugin = ShipFMU(path)
+            client.register_plugin(plugin, name=plugin.plugin_name)  # raises the reason of a worker that cannot run it
         # pure=False: every submit is its own task; Dask never merges two calls by
         # hashing their arguments (the loop already removes duplicate orders).
         executor = client.get_executor(pure=False)

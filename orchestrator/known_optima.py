@@ -46,11 +46,24 @@ def known_optima() -> tuple[KnownOptimum, ...]:
 
 def known_optimum(case, rule: str) -> KnownOptimum | None:
     """The known optimum of ``case`` (an ``orchestrator.study.Case``) under ``rule``, if there is one."""
-    if (case.outputs != ("peak_backplate_force",) or case.parameters or case.case_lists
+    if case.outputs != ("peak_backplate_force",):
+        return None
+    return known_optimum_of(case, rule, "peak_backplate_force")
+
+
+def known_optimum_of(case, rule: str, output: str) -> KnownOptimum | None:
+    """The known optimum of one of the case's objectives, ``output``, alone: for a case of several objectives,
+    the design at that end of the true Pareto front (what a front must never report a point dominated by)."""
+    if (output not in case.outputs or case.parameters or case.case_lists
             or case.space.kind != "permutation" or case.materials != study_materials(case.space.materials)):
         return None
     return next((k for k in known_optima() if k.rows == case.rows and k.columns == case.columns
-                 and k.diagonal_rule == rule and k.horizon == case.horizon), None)
+                 and k.objective == output and k.diagonal_rule == rule and k.horizon == case.horizon), None)
 
 
-__all__ = ["KnownOptimum", "TABLE", "known_optima", "known_optimum"]
+def known_ends(case, rule: str) -> tuple[KnownOptimum, ...]:
+    """The known optimum of each of the case's objectives alone (none, one per objective that has one)."""
+    return tuple(k for k in (known_optimum_of(case, rule, output) for output in case.outputs) if k is not None)
+
+
+__all__ = ["KnownOptimum", "TABLE", "known_optima", "known_ends", "known_optimum", "known_optimum_of"]

@@ -23,6 +23,7 @@ so a run is identical whatever the executor and the number of workers.
 from __future__ import annotations
 
 import math
+import re
 import time
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -47,6 +48,19 @@ class EvaluatorState:
     pool_renewals: int
     timeouts: int
     journal_repaired: bool
+    failed: int = 0  # evaluations (designs) that failed, among the results this run reached
+    failure_causes: tuple[tuple[str, int], ...] = ()  # the most common causes and how many failed of each
+
+
+def failures_of(result: Any) -> list[str]:
+    """The cause of each evaluation a result counts as failed: an evaluation or a recorded run that failed is
+    one; an exhaustive chunk is one per design that failed, or all its designs when it could not run."""
+    if getattr(result, "ok", True) or getattr(result, "censored", False):
+        failures = getattr(result, "failures", ())
+        extra = max(0, int(getattr(result, "failed", 0) or 0) - len(failures))
+        return [f.message for f in failures] + ["(cause not kept)"] * extra
+    designs = getattr(result, "designs", 1)
+    return [getattr(result, "message", "") or "no message"] * int(designs)
 
 
 @dataclass
@@ -76,6 +90,8 @@ class Evaluator:
         self.cache_hits = 0
         self.pool_renewals = 0
         self.timeouts = 0
+        self.failed = 0
+        self._causes: dict[str, tuple[str, int]] = {}  # a cause's kind -> (its first message, count)
         self._slots = executor_slots(executor)
         self._new_generation()
 
@@ -123,6 +139,7 @@ class Evaluator:
                 key = task.key
                 if key not in self.cache and key in self._journalled:
                     self.cache[key] = self._journalled.pop(key)
+                    self._tally(self.cache[key])
                 if key in self.cache:
                     self.cache_hits += 1
                     deliver(index, self.cache[key])
@@ -184,13 +201,24 @@ class Evaluator:
         return [result for key, result in self.cache.items() if key.startswith(prefix)]
 
     def state(self) -> EvaluatorState:
+        causes = tuple(sorted(self._causes.values(), key=lambda item: (-item[1], item[0]))[:3])
         return EvaluatorState(self.simulated, self.cache_hits, self.resumed, self.pool_renewals, self.timeouts,
-                              bool(getattr(self.journal, "repaired", False)))
+                              bool(getattr(self.journal, "repaired", False)), self.failed, causes)
+
+    def _tally(self, result: Any) -> None:
+        """Counts failed evaluations by cause: messages that differ only in their numbers (the time a solution
+        diverged, a design's index) are one cause, named by its first message."""
+        for cause in failures_of(result):
+            self.failed += 1
+            kind = re.sub(r"\d+(\.\d*)?([eE][-+]?\d+)?", "#", cause)
+            example, count = self._causes.get(kind, (cause, 0))
+            self._causes[kind] = (example, count + 1)
 
     # ------------------------------------------------------------------------------------------ guards
     def _record(self, key: str, task: Any, result: Any, journal: bool) -> None:
         self.cache[key] = result
         self.simulated += 1
+        self._tally(result)
         if journal and self.journal is not None and task.keep(result):
             self.journal.append(key, result)
 

@@ -62,13 +62,29 @@ ALIASES = {"sampled": "peak_backplate_force", "continuous": "peak_backplate_forc
 
 _RUN_OUTPUTS = tuple(f.name for f in fields(RunOutputs) if f.name not in ("horizon", "max_compression"))
 _INSTANCES: dict[str, LatticeFMU] = {}  # one open FMU per file and process
+_SHIPPED: dict[str, str] = {}  # on a Dask worker: the FMU's SHA-256 -> this worker's copy of it
+_SHIP_ERRORS: dict[str, str] = {}  # on a Dask worker: the FMU's SHA-256 -> why this worker cannot run it
 
 
-def fmu_instance(fmu_path: str) -> LatticeFMU:
-    """This process's instance of the FMU (opened on first use, then reused with fmi2Reset)."""
-    instance = _INSTANCES.get(fmu_path)
+def register_shipped_fmu(sha256: str, path: str | None, error: str | None = None) -> None:
+    """Where this process keeps the FMU of that hash (a Dask worker's copy of the bytes the client sent), or why
+    it cannot run it: a task naming the hash runs this copy, never a file at the client's path."""
+    if error is None:
+        _SHIPPED[sha256] = str(path)
+        _SHIP_ERRORS.pop(sha256, None)
+    else:
+        _SHIP_ERRORS[sha256] = error
+
+
+def fmu_instance(fmu_path: str, fmu_sha256: str = "") -> LatticeFMU:
+    """This process's instance of the FMU (opened on first use, then reused with fmi2Reset): the copy shipped
+    to this worker when there is one for the hash, else the file at ``fmu_path``."""
+    if fmu_sha256 in _SHIP_ERRORS:
+        raise SimulationError(_SHIP_ERRORS[fmu_sha256])
+    path = _SHIPPED.get(fmu_sha256, fmu_path) if fmu_sha256 else fmu_path
+    instance = _INSTANCES.get(path)
     if instance is None:
-        instance = _INSTANCES[fmu_path] = LatticeFMU(fmu_path, instance_name="objective")
+        instance = _INSTANCES[path] = LatticeFMU(path, instance_name="objective")
     return instance
 
 
@@ -116,6 +132,7 @@ class FMURun:
     fallback_horizon: float | None = None
     force_limit: float | None = None  # stop once the sampled peak passes it (a censored evaluation)
     compression: bool = False  # whether the FMU has max_compression
+    fmu_sha256: str = ""  # the FMU's content: a Dask worker runs its own copy of it, wherever the client keeps it
 
     def __post_init__(self):
         if not (math.isfinite(self.horizon) and self.horizon > 0):
@@ -135,7 +152,8 @@ class FMURun:
         if self.force_limit is not None:
             parameters["peak_force_limit"] = self.force_limit
         names = _RUN_OUTPUTS + (("max_compression",) if self.compression else ())
-        return fmu_instance(self.fmu_path).simulate(order, horizon=horizon, parameters=parameters, outputs=names)
+        return fmu_instance(self.fmu_path, self.fmu_sha256).simulate(order, horizon=horizon, parameters=parameters,
+                                                                      outputs=names)
 
     def __call__(self, order: Order) -> Evaluation:
         start = time.perf_counter()
@@ -186,6 +204,7 @@ class RecordRun:
     step: float
     parameters: tuple[tuple[str, Any], ...]
     outputs: tuple[str, ...]
+    fmu_sha256: str = ""  # as FMURun's
 
     @property
     def key(self) -> str:
@@ -195,7 +214,7 @@ class RecordRun:
     def __call__(self) -> Trajectory:
         start = time.perf_counter()
         try:
-            result = fmu_instance(self.fmu_path).simulate(self.order, horizon=self.horizon,
+            result = fmu_instance(self.fmu_path, self.fmu_sha256).simulate(self.order, horizon=self.horizon,
                                                           parameters=dict(self.parameters),
                                                           communication_step=self.step, record=self.outputs)
         except (SimulationError, ValueError) as exc:
@@ -321,12 +340,13 @@ class LatticeObjective(Objective):
                  parameters: dict | None = None, cases: Sequence[dict] | None = None, aggregate: str = "worst",
                  search_horizon: float | None = SEARCH_HORIZON, search_rtol: float | None = SEARCH_RTOL,
                  use_limits: bool = True, has_force_limit: bool = True, has_compression: bool = False,
-                 default_rule: str = ""):
+                 default_rule: str = "", fmu_sha256: str = ""):
         if aggregate not in AGGREGATES:
             raise ValueError(f"aggregate {aggregate!r}: allowed values are {', '.join(AGGREGATES)}")
         if not (math.isfinite(horizon) and horizon > 0):
             raise ValueError(f"horizon must be a finite number of seconds > 0, got {horizon}")
         self.fmu_path = str(fmu_path)
+        self.fmu_sha256 = fmu_sha256
         self.space = space
         self.horizon = float(horizon)
         self.outputs = output_names(outputs)
@@ -348,7 +368,8 @@ class LatticeObjective(Objective):
                          parameters=self.parameters, cases=self.cases, aggregate=self.aggregate,
                          search_horizon=self.search_horizon, search_rtol=self.search_rtol,
                          use_limits=self.use_limits, has_force_limit=self.has_force_limit,
-                         has_compression=self.has_compression, default_rule=self.default_rule)
+                         has_compression=self.has_compression, default_rule=self.default_rule,
+                         fmu_sha256=self.fmu_sha256)
         arguments.update(changes)
         return LatticeObjective(**arguments)
 
@@ -392,10 +413,11 @@ class LatticeObjective(Objective):
             parameters = tuple(sorted(self.run_parameters(case, fidelity).items()))
             if fidelity == SEARCH:
                 runs.append(FMURun(self.fmu_path, self.search_horizon, parameters, self.outputs,
-                                   fallback_horizon=self.horizon, compression=self.has_compression))
+                                   fallback_horizon=self.horizon, compression=self.has_compression,
+                                   fmu_sha256=self.fmu_sha256))
             else:
                 runs.append(FMURun(self.fmu_path, self.horizon, parameters, self.outputs,
-                                   compression=self.has_compression))
+                                   compression=self.has_compression, fmu_sha256=self.fmu_sha256))
         return runs
 
     def combine(self, order: Order, evaluations: Sequence[Evaluation]) -> Evaluation:
@@ -446,4 +468,4 @@ def count_cases(case_lists: dict[str, Sequence[Any]]) -> int:
 __all__ = ["AGGREGATES", "ALIASES", "CONTACT_GUARD", "CallableObjective", "FIDELITIES", "FMURun", "FULL",
            "LatticeObjective", "Objective", "ObjectiveDescription", "Quantity", "RUN_MAXIMA", "RecordRun", "SEARCH",
            "SEARCH_HORIZON", "SEARCH_RTOL", "SEARCH_SOLVER", "as_objective", "close_instances", "count_cases",
-           "expand_cases", "fmu_instance", "output_names", "Trajectory"]
+           "expand_cases", "fmu_instance", "output_names", "register_shipped_fmu", "Trajectory"]

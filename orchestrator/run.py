@@ -95,6 +95,15 @@ def one_line(exc: BaseException) -> str:
     return text.splitlines()[0] if text else type(exc).__name__
 
 
+def front_sureness_line(sureness) -> str:
+    """How sure a front is, in a few words: exact, or how many runs reached it and what would settle it."""
+    if sureness.exact:
+        return "exact: every design of the space swept"
+    ends = "".join(f"; the known optimum of {k.output} alone {'is' if k.on_front else 'is NOT'} on it"
+                   for k in sureness.known_ends)
+    return f"best found{ends}; {sureness.settle}"
+
+
 def print_answer(outcome) -> None:
     """The answer in a few lines, as the report's first screen gives it."""
     from orchestrator.report import case_line
@@ -113,7 +122,8 @@ def print_answer(outcome) -> None:
               f"{local[evidence.local_optimum]}; {answer.design_file}")
     pareto = study.steps.get("pareto")
     for front in (pareto.fronts if pareto else ()):
-        print(f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front; "
+        print(f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front "
+              f"({front_sureness_line(front.sureness)}); "
               + "; ".join(f"{c.label} {list(c.order)} ({c.design_file})" for c in front.chosen))
     print(f"report: {outcome.report}")
 

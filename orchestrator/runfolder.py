@@ -9,7 +9,9 @@
 - One run per folder: ``.OUT.lock`` beside it is held for the run's life (portalocker: ``flock`` on POSIX,
   ``msvcrt.locking`` on Windows), with the holder's pid and host in it; a second run or resume is refused,
   naming them (on Windows the locked file cannot be read, so it says "another process"); a dead run's lock
-  does not block (the system drops a dead process's lock).
+  does not block (the system drops a dead process's lock). The run removes its lock file when it ends, so a
+  finished run leaves nothing beside ``OUT/`` (the lock holds only if the file it locked is still the one at
+  that path: a run that locked a file another run had just removed tries again).
 - A folder that holds files but no run of this program is never replaced.
 - Each run has a temporary folder (``lattice-run-<pid>-*`` in TMPDIR) removed when it ends; a run also
   removes those of dead predecessors (a SIGKILL leaves one behind).
@@ -72,24 +74,36 @@ class RunFolder:
 
     # ------------------------------------------------------------------------------------------ lock
     def _lock(self) -> None:
-        try:
-            self.out.parent.mkdir(parents=True, exist_ok=True)
-            handle = open(self.lock_path, "a+")
-        except OSError as exc:
-            raise FolderError(f"{_option(self.out)}: cannot write in {self.out.parent} "
-                              f"({exc.strerror or exc})") from None
-        try:
-            portalocker.lock(handle, portalocker.LOCK_EX | portalocker.LOCK_NB)
-        except (portalocker.exceptions.LockException, OSError):
-            holder = _holder(handle)
-            handle.close()
-            raise FolderError(f"{_option(self.out)} is in use by a running run ({holder}); wait for it to end or "
-                              "give another --out") from None
+        while True:
+            try:
+                self.out.parent.mkdir(parents=True, exist_ok=True)
+                handle = open(self.lock_path, "a+")
+            except OSError as exc:
+                raise FolderError(f"{_option(self.out)}: cannot write in {self.out.parent} "
+                                  f"({exc.strerror or exc})") from None
+            try:
+                portalocker.lock(handle, portalocker.LOCK_EX | portalocker.LOCK_NB)
+            except (portalocker.exceptions.LockException, OSError):
+                holder = _holder(handle)
+                handle.close()
+                raise FolderError(f"{_option(self.out)} is in use by a running run ({holder}); wait for it to end "
+                                  "or give another --out") from None
+            if self._still_at_path(handle):
+                break
+            handle.close()  # the run that held it removed it as we opened it: lock the file now at the path
         handle.seek(0)
         handle.truncate()
         handle.write(f"pid {os.getpid()} on {socket.gethostname()} since {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
         handle.flush()
         self._lock_handle = handle
+
+    def _still_at_path(self, handle) -> bool:
+        try:
+            at_path = os.stat(self.lock_path)
+        except FileNotFoundError:
+            return False
+        held = os.fstat(handle.fileno())
+        return (at_path.st_dev, at_path.st_ino) == (held.st_dev, held.st_ino)
 
     def release(self) -> None:
         if self._lock_handle is not None:
@@ -97,9 +111,16 @@ class RunFolder:
             try:
                 handle.seek(0)
                 handle.truncate()
+                if os.name == "posix" and self._still_at_path(handle):
+                    self.lock_path.unlink()  # removed while held: a run waiting on it tries the path again
                 portalocker.unlock(handle)
             finally:
                 handle.close()
+            if os.name != "posix":  # Windows removes no open file: after closing, a run may hold it already
+                try:
+                    self.lock_path.unlink()
+                except OSError:
+                    pass
 
     # ------------------------------------------------------------------------------------------ prepare
     def _prepare(self, resume: bool, overwrite: bool) -> None:

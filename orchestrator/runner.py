@@ -150,7 +150,7 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
         check_confirmation(run, context.beyond_bounds)
         with Journal(folder.partial, settings(case, fmu, steps), RESULT_KINDS,
                      resume=folder.previous is not None) as journal, \
-                make_executor(run.executor, run.workers, run.scheduler, temp_root) as executor:
+                make_executor(run.executor, run.workers, run.scheduler, temp_root, (fmu.path,)) as executor:
             context.evaluator = Evaluator(executor, journal, run.time_limit)
             if journal.repaired:
                 print(f"{journal.path}: its last line was cut off (the run was killed); that task runs again",
@@ -175,6 +175,17 @@ def write(study: StudyResult, out: Path, steps, table) -> Path:
     return write_report(study, out, steps, table)
 
 
+def failure_summary(study: StudyResult) -> str:
+    """How many evaluations failed and the most common cause, in one line (the console's; the report and
+    evaluations.csv give every one)."""
+    state = study.evaluator
+    if not state.failed:
+        return "no evaluation ran"
+    cause, count = state.failure_causes[0]
+    return (f"{state.failed:,} evaluation{'s' if state.failed > 1 else ''} failed; "
+            f"{'every one' if count == state.failed else f'{count:,} of them'}: {cause}")
+
+
 def check_answer(study: StudyResult, case, names: set[str]) -> None:
     """A finished study without a usable answer exits non-zero, saying why, after its report was written
     (``names``: the study's steps; one without the answer's steps is not asked for an answer)."""
@@ -194,15 +205,12 @@ def check_answer(study: StudyResult, case, names: set[str]) -> None:
                            "may miss designs")
     if pareto is not None:
         if not any(front.points for front in pareto.fronts):
-            raise NoResult("no design was evaluated successfully; the reasons are in evaluations.csv")
+            raise NoResult(f"no design was evaluated successfully: {failure_summary(study)}")
         return
     if "answers" not in names:
         return
     if answers is None or not answers.answers:
-        searches = study.steps.get("searches")
-        reasons = sorted({e.message for r in (searches.runs if searches else ()) for e in r.evaluations
-                          if not e.ok and not e.censored})
-        raise NoResult(f"no design was evaluated successfully ({reasons[0] if reasons else 'no evaluation ran'})")
+        raise NoResult(f"no design was evaluated successfully: {failure_summary(study)}")
     if RUN_MAXIMA[case.outputs[0]].unit == "N" and all(
             a.outputs is not None and a.outputs.last_contact_time == 0 and a.peak == 0 for a in answers.answers):
         raise NoResult("no design touches the backplate in this case (every peak is 0 N): there is nothing to "

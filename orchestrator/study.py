@@ -116,7 +116,7 @@ class Case:
         return LatticeObjective(fmu.path, self.space, self.horizon, self.outputs, parameters, self.cases,
                                 self.aggregate, self.search_horizon, self.search_rtol,
                                 has_force_limit=fmu.has_force_limit, has_compression=fmu.has_compression,
-                                default_rule=rule or self.rule_default)
+                                default_rule=rule or self.rule_default, fmu_sha256=fmu.sha256)
 
     def describe(self, fmu: PreparedFMU) -> "CaseDescription":
         objective = self.objective(fmu, self.rules[0] if self.rules else None).describe()

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -155,11 +156,13 @@ def test_a_study_where_every_evaluation_fails_exits_3_with_the_reason(fmu_path, 
                 "--diagonal-rule", "receiver", *QUICK)
     line = one_line(capfd)
     assert code == 3 and "no design was evaluated successfully" in line and "diverged" in line, line
+    assert re.search(r": \d+ evaluations failed; every one: ", line), line
     assert (tmp_path / "r" / "report.html").is_file()
 
 
 def test_a_study_where_nothing_touches_the_plate_says_so_and_exits_3(fmu_path, tmp_path, capfd):
-    code = main("--fmu", fmu_path, "--out", tmp_path / "r", "--load", "-5", "--diagonal-rule", "receiver", *QUICK)
+    code = main("--fmu", fmu_path, "--out", tmp_path / "r", "--load", "5", "--load-angle", "180", "--diagonal-rule",
+                "receiver", *QUICK)
     line = one_line(capfd)
     assert code == 3 and "no design touches the backplate" in line, line
 

@@ -26,8 +26,10 @@ import hashlib
 import importlib.metadata
 import json
 import os
+import re
 import shutil
 import subprocess
+import sys
 import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
@@ -157,6 +159,60 @@ def test_fmi4j_agrees_with_fmpy(request, fmu_path, fmpy_peaks):
 FMI_SIM_VERSION = "0.7.0"  # what these tests were written against; FMI 3 notes below are about this version
 
 
+LIBRARY_FOLDERS = (Path("/usr/lib"), Path("/usr/lib64"), Path("/usr/local/lib"), Path("/usr/local/lib64"))
+LIBCLANG_NAME = re.compile(r"libclang(-\d+(\.\d+)*)?\.so(\.\d+)*")  # not libclang-cpp, libclangAST...
+
+
+def is_libclang(name: str) -> bool:
+    """Whether a file name is one bindgen (clang-sys) loads as libclang: libclang.so, libclang-14.so, libclang.so.1."""
+    return LIBCLANG_NAME.fullmatch(name) is not None
+
+
+def libclang_library() -> Path | None:
+    """The libclang a cargo build of fmi-sim would load, where clang-sys looks for it: $LIBCLANG_PATH, llvm-config's
+    library folder, the system's library folders; None when there is none (building would fail after minutes)."""
+    folders = []
+    if os.environ.get("LIBCLANG_PATH"):
+        given = Path(os.environ["LIBCLANG_PATH"])
+        folders.append(given.parent if given.is_file() else given)
+    llvm_config = shutil.which("llvm-config")
+    if llvm_config:
+        done = subprocess.run([llvm_config, "--libdir"], capture_output=True, text=True)
+        if done.returncode == 0 and done.stdout.strip():
+            folders.append(Path(done.stdout.strip()))
+    for root in LIBRARY_FOLDERS:
+        folders += [root, *root.glob("llvm-*/lib"), *root.glob("*-linux-gnu")]
+    for folder in folders:
+        found = sorted(p for p in folder.glob("libclang*.so*") if is_libclang(p.name)) if folder.is_dir() else []
+        if found:
+            return found[0]
+    return None
+
+
+def test_libclang_is_told_from_its_neighbours():
+    assert all(is_libclang(n) for n in ("libclang.so", "libclang.so.1", "libclang-14.so", "libclang-14.0.6.so",
+                                        "libclang-14.so.1"))
+    assert not any(is_libclang(n) for n in ("libclang-cpp.so.14", "libclang-cpp.so", "libclangAST.a",
+                                            "libclangBasic.so"))
+
+
+def test_without_libclang_fmi_sim_is_skipped_with_the_reason_not_built(tmp_path, monkeypatch):
+    """Where only libclang-cpp is installed, a cargo build of fmi-sim fails after minutes: skip at once, saying why."""
+    lib = tmp_path / "usr" / "lib" / "llvm-14" / "lib"
+    lib.mkdir(parents=True)
+    (lib / "libclang-cpp.so.14").write_bytes(b"")
+    monkeypatch.setattr(sys.modules[__name__], "LIBRARY_FOLDERS", (tmp_path / "usr" / "lib",))
+    monkeypatch.setattr(sys.modules[__name__], "CACHE_DIR", tmp_path / "cache")
+    monkeypatch.delenv("LIBCLANG_PATH", raising=False)
+    monkeypatch.delenv("FMI_SIM", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path))  # no llvm-config, no fmi-sim
+    (tmp_path / "cargo").write_text("#!/bin/sh\nexit 99\n")
+    (tmp_path / "cargo").chmod(0o755)
+    assert libclang_library() is None
+    with pytest.raises(pytest.skip.Exception, match="needs libclang"):
+        fmi_sim_binary()
+
+
 def fmi_sim_binary() -> str:
     """$FMI_SIM, an fmi-sim on PATH, or the cached one; built with cargo into the cache on first use."""
     cached = CACHE_DIR / f"fmi-sim-{FMI_SIM_VERSION}" / "bin" / "fmi-sim"
@@ -166,9 +222,9 @@ def fmi_sim_binary() -> str:
     if shutil.which("cargo") is None:
         pytest.skip("fmi-sim: not installed and no cargo to build it (install Rust, then "
                     f"`cargo install fmi-sim --version {FMI_SIM_VERSION} --locked`, or set FMI_SIM)")
-    if not (os.environ.get("LIBCLANG_PATH") or list(Path("/usr/lib").glob("llvm-*/lib/libclang*.so*"))
-            or list(Path("/usr/lib").glob("*/libclang*.so*"))):
-        pytest.skip("fmi-sim: building it needs libclang (Debian: apt-get install -y libclang-dev)")
+    if libclang_library() is None:
+        pytest.skip("fmi-sim: building it needs libclang, and there is none here (libclang-cpp is another library; "
+                    "Debian: apt-get install -y libclang-dev, or set LIBCLANG_PATH)")
     command = ["cargo", "install", "fmi-sim", "--version", FMI_SIM_VERSION, "--locked",
                "--root", str(cached.parents[1])]
     result = subprocess.run(command, capture_output=True, text=True, timeout=3600)  # minutes on 2 cores, once

@@ -146,6 +146,38 @@ def test_one_run_per_folder(tmp_path):
     start(out).release()
 
 
+def test_a_finished_run_leaves_no_lock_file_beside_its_folder(tmp_path):
+    out = tmp_path / "results"
+    run = start(out)
+    assert run.lock_path.is_file()
+    finish(run)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results"]
+
+
+def test_a_lock_removed_as_it_was_taken_is_taken_again_at_the_path(tmp_path, monkeypatch):
+    """The run that held the lock removes its file as another run locks it: that run must lock the file now at
+    the path (a third run would create and lock it), not the removed one."""
+    import fcntl
+
+    out = tmp_path / "results"
+    lock_path = out.with_name(f".{out.name}.lock")
+    real_flock, locked = fcntl.flock, []
+
+    def flock_as_the_holder_leaves(handle, operation):
+        real_flock(handle, operation)
+        if operation & fcntl.LOCK_EX and not locked:
+            lock_path.unlink()  # the holder ended between our open and our flock
+        locked.append(os.fstat(handle.fileno()).st_ino)
+
+    monkeypatch.setattr(fcntl, "flock", flock_as_the_holder_leaves)
+    run = start(out)
+    monkeypatch.setattr(fcntl, "flock", real_flock)
+    assert len(locked) == 2  # it tried again
+    with open(lock_path) as other, pytest.raises(BlockingIOError):
+        fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)  # the file at the path is the one it holds
+    run.release()
+
+
 def _hold_lock_then_die(out, ready):
     RunFolder.open(out, resume=False, overwrite=False)
     ready.set()

@@ -49,6 +49,8 @@ CRAFTED = {
     "force not a number": ("F_total", replaced("F_total", "Real", "heavy"), "not a number"),
     "force as Integer": ("F_total", replaced("F_total", "Integer", "1100"), "given as Integer"),
     "force as String": ("F_total", replaced("F_total", "String", "1100"), "given as String"),
+    "force far below its range": ("F_total", replaced("F_total", "Real", "-1e300"), "outside its range"),
+    "force above its range": ("F_total", replaced("F_total", "Real", "1e300"), "outside its range"),
     "tolerance below its minimum": ("rtol", added(("rtol", "Real", "1e-20")), "outside its range"),
     "angle above its maximum": ("load_angle", added(("load_angle", "Real", "400.0")), "outside its range"),
     "negative mass": ("mass", added(("mass", "Real", "-1.0")), "outside its range"),

@@ -15,6 +15,11 @@ of cache hits costs a generation without news. So once the first population is t
 is already known counts as a duplicate (pymoo then breeds another); when pymoo finds no new child at all,
 the search restarts.
 
+Why seeds: a front found from random designs alone can miss the ends a single-objective search or an
+exhaustive sweep already knows (the best design on one objective is an end of the true front), and then
+report as an end a design that known design dominates. ``seeds`` (the known single-objective answers) join
+the first population after the baseline, so the front starts from what is known and works inwards.
+
 The answer is ``pareto_front()``: the non-dominated set of every design told so far (not only of the current
 population, which survival may have thinned). Restarts (see ``pymoo_search``) begin from that front, topped
 up with random designs, so that a restart keeps what the search knows.
@@ -32,7 +37,7 @@ from pymoo.problems.static import StaticProblem
 
 from ..design import Design, DesignSpace
 from ..types import Above
-from .base import FAILURE
+from .base import FAILURE, as_space
 from .ga import check_genetic_options
 from .pareto import ParetoPoint, pareto_front
 from .pymoo_search import DecodedGenes, Genome, PymooSearch
@@ -63,13 +68,15 @@ class NSGA2(PymooSearch):
       mutation_prob=1.0  probability that a child is mutated (pymoo's default for inversion mutation, and
                          its discrete-variable example's: a child unlike its parents is more often new).
       x0="sequential"    individual 0 of the first population is the space's baseline; "random": none is.
+      seeds=()           designs placed in the first population (after the baseline), e.g. known optima of
+                         each objective; at most pop_size of them count.
       stagnation=20      generations of only known designs before a restart (0 = never).
     """
 
     name = "nsga2"
     n_objectives = 2  # the default of ``objectives``; an instance has its own
-    OPTIONS = {"objectives": 2, "pop_size": 20, "mutation_prob": 1.0, "x0": "sequential", "stagnation": 20,
-               "budget": None}
+    OPTIONS = {"objectives": 2, "pop_size": 20, "mutation_prob": 1.0, "x0": "sequential", "seeds": (),
+               "stagnation": 20, "budget": None}
 
     def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:
         merged = {**self.OPTIONS, **options}
@@ -78,6 +85,8 @@ class NSGA2(PymooSearch):
             raise ValueError(f"nsga2: objectives must be one of {', '.join(map(str, OBJECTIVE_COUNTS))}, "
                              f"got {merged['objectives']!r}")
         self.n_objectives = int(merged["objectives"])
+        space_ = as_space(space)
+        self.seeds = tuple(dict.fromkeys(space_.check(d, f"{self.name} seeds") for d in (merged["seeds"] or ())))
         self.worst = np.zeros(self.n_objectives)  # per objective, the worst finite value told so far
         self._seen_finite = False
         super().__init__(space, seed, **options)
@@ -110,9 +119,12 @@ class NSGA2(PymooSearch):
     def _initial_X(self, first: bool) -> np.ndarray:
         size = int(self.options["pop_size"])
         X = self.genome.sample(self.problem, size, self.rng)
-        if first and self.options["x0"] == "sequential":
-            X[0] = self.genome.encode(self.space.baseline())
-        elif not first:
+        if first:
+            start = [self.space.baseline()] if self.options["x0"] == "sequential" else []
+            start += [d for d in self.seeds if d not in start]
+            for i, design in enumerate(start[:size]):
+                X[i] = self.genome.encode(design)
+        else:
             front = [self.genome.encode(p.design) for p in self.pareto_front()][:size]
             if front:
                 X[:len(front)] = front

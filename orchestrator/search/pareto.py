@@ -54,6 +54,22 @@ def non_dominated(points: Sequence[Sequence[float]] | np.ndarray) -> np.ndarray:
     return ~np.any(at_most & better, axis=0)
 
 
+def dominated_by(points: Sequence[Sequence[float]] | np.ndarray,
+                 others: Sequence[Sequence[float]] | np.ndarray) -> np.ndarray:
+    """A boolean mask: True for each of ``points`` that some row of ``others`` dominates (at least as good on
+    every objective, better on one). What a reported front must never contain: a point that a design the
+    study evaluated, or a known optimum, dominates."""
+    F = objective_matrix(points)
+    G = objective_matrix(others, "others")
+    if F.shape[0] == 0 or G.shape[0] == 0:
+        return np.zeros(F.shape[0], dtype=bool)
+    if F.shape[1] != G.shape[1]:
+        raise ValueError(f"points have {F.shape[1]} objectives but others have {G.shape[1]}")
+    at_most = np.all(G[:, None, :] <= F[None, :, :], axis=2)  # at_most[j, i]: other j is at most point i
+    better = np.any(G[:, None, :] < F[None, :, :], axis=2)
+    return np.any(at_most & better, axis=0)
+
+
 def hypervolume(points: Sequence[Sequence[float]] | np.ndarray, reference_point: Sequence[float]) -> float:
     """The hypervolume of ``points`` (minimised objectives) with respect to ``reference_point``: the measure
     of the region each point dominates and the reference point bounds. Points not strictly better than the
@@ -100,4 +116,4 @@ def pareto_front(designs: Sequence[Design], points: Sequence[Sequence[float]] | 
     return sorted(front, key=lambda p: (p.objectives, p.design))
 
 
-__all__ = ["ParetoPoint", "hypervolume", "non_dominated", "pareto_front", "reference_point"]
+__all__ = ["ParetoPoint", "dominated_by", "hypervolume", "non_dominated", "pareto_front", "reference_point"]

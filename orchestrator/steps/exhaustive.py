@@ -258,7 +258,8 @@ class Exhaustive(Step):
     def second_integrator(context: StudyContext, objective, orders: list[Order]) -> dict[Order, Evaluation]:
         full, = objective.tasks(FULL)
         parameters = tuple(sorted({**dict(full.parameters), **SECOND_INTEGRATOR}.items()))
-        second = FMURun(full.fmu_path, full.horizon, parameters, full.outputs, compression=full.compression)
+        second = FMURun(full.fmu_path, full.horizon, parameters, full.outputs, compression=full.compression,
+                        fmu_sha256=full.fmu_sha256)
         return dict(zip(orders, context.evaluator.evaluate([(second, o) for o in orders])))
 
     @staticmethod

@@ -8,11 +8,12 @@ from pathlib import Path
 import numpy as np
 
 from ..exhaustive import not_strongly_dominated
+from ..known_optima import known_ends
 from ..objective import FULL
 from ..study import Step, StudyContext
 from ..types import Order
 from .exhaustive import SCREENING_ERROR, Exhaustive, FrontPoint
-from .searches import Searches, rule_label
+from .searches import Searches, multi_objective, rule_label
 
 
 @dataclass(frozen=True)
@@ -21,6 +22,33 @@ class ChosenPoint:
     order: Order
     values: tuple[float, ...]
     design_file: str
+
+
+AGREEMENT = 0.999  # a run agrees with the best known front when its own front covers this share of its hypervolume
+
+
+@dataclass(frozen=True)
+class KnownEnd:
+    """A known optimum of one objective alone (orchestrator/known_optima.json): an end of the true front."""
+
+    output: str
+    order: Order
+    certified: bool
+    values: tuple[float, ...] | None  # every objective at full fidelity; None: its evaluation failed
+    on_front: bool  # the reported front holds it (or a design equal to it on every objective)
+
+
+@dataclass(frozen=True)
+class FrontSureness:
+    """How far to trust a front: exact from a sweep; otherwise how closely the runs agree, and what settles it."""
+
+    exact: bool
+    runs: int  # runs of a multi-objective search under the rule (the baselines not counted)
+    runs_agreeing: int  # runs whose own front covers ``agreement`` of the best known front's hypervolume
+    agreement: float
+    coverage: tuple[float, ...]  # per run: its front's hypervolume / the best known front's (search fidelity)
+    known_ends: tuple[KnownEnd, ...]
+    settle: str  # what would settle the front, with its cost; "" when it is exact
 
 
 @dataclass(frozen=True)
@@ -32,12 +60,66 @@ class Front:
     hypervolume: float
     reference_point: tuple[float, ...]
     chosen: tuple[ChosenPoint, ...]
+    sureness: FrontSureness
 
 
 @dataclass(frozen=True)
 class ParetoResult:
     outputs: tuple[str, ...]
     fronts: tuple[Front, ...]
+
+
+def undominated(evaluations) -> tuple[FrontPoint, ...]:
+    """The evaluations no other one dominates, as front points sorted by the objectives: never a point that a
+    design of ``evaluations`` (every design evaluated at full fidelity, the known optima among them) dominates."""
+    from ..search.pareto import dominated_by
+
+    evaluations = list(evaluations)
+    if not evaluations:
+        return ()
+    values = [e.values for e in evaluations]
+    beaten = dominated_by(values, values)
+    return tuple(sorted((FrontPoint(e.order, e.values, e.outputs) for e, out in zip(evaluations, beaten) if not out),
+                        key=lambda p: (p.values, p.order)))
+
+
+def run_fronts(runs) -> list[list[tuple[float, ...]]]:
+    """Each run's own non-dominated set, at the search fidelity it was told."""
+    from ..search.pareto import non_dominated
+
+    fronts = []
+    for run in runs:
+        values = [e.values for e in run.evaluations if e.ok and e.values]
+        fronts.append([v for v, k in zip(values, non_dominated(values)) if k] if values else [])
+    return fronts
+
+
+def coverage(fronts: list[list[tuple[float, ...]]]) -> tuple[float, ...]:
+    """Each front's hypervolume against the best known front's (their union's), with one reference point."""
+    from ..search.pareto import hypervolume, non_dominated, reference_point
+
+    union = [v for front in fronts for v in front]
+    if not union:
+        return tuple(0.0 for _ in fronts)
+    best = [v for v, k in zip(union, non_dominated(union)) if k]
+    reference = reference_point(best)
+    total = hypervolume(best, reference)
+    return tuple(hypervolume(front, reference) / total if total > 0 and front else 0.0 for front in fronts)
+
+
+def settle_advice(context: StudyContext, runs, agreeing: int) -> str:
+    """What would settle the front, with its cost at the rate the searches measured."""
+    budget = context.config(Searches).budget
+    seconds = [e.seconds for run in runs for e in run.evaluations]
+    rate = sum(seconds) / len(seconds) if seconds else None
+    size = context.case.space.size
+    sweep = (f"--method exhaustive sweeps all {size:,} designs and gives the exact front"
+             + (f" (about {size * rate / 3600:.2g} core-hours at this run's rate)" if rate else ""))
+    if runs and agreeing == len(runs):
+        return f"every run reached the same front; {sweep}"
+    more = (f"--budget {2 * budget} (about {len(runs) * budget * rate:.0f} more core-seconds over the "
+            f"{len(runs)} runs)" if rate else f"--budget {2 * budget}")
+    return f"{agreeing} of {len(runs)} runs reached it: raise {more} until the runs agree, or {sweep}"
 
 
 def knee(values: np.ndarray) -> int:
@@ -71,13 +153,18 @@ class Pareto(Step):
         return len(context.case.outputs) > 1
 
     def run(self, context: StudyContext) -> ParetoResult:
-        from ..search.pareto import hypervolume, non_dominated, reference_point
+        from ..search.pareto import hypervolume, reference_point
 
         searched = context.result(Searches)
         swept = context.result(Exhaustive)
         fronts = []
         for rule in context.rules:
             label = rule_label(rule)
+            objective = context.objective(rule)
+            runs = [r for r in (searched.runs_for(label) if searched else ()) if multi_objective(r.method)]
+            ends = known_ends(context.case, rule or context.case.rule_default)
+            end_values = {e.order: e for e in objective.evaluate([k.order for k in ends], context.evaluator, FULL)
+                          if e.ok}
             exact = swept.front_for_rule(label) if swept else None
             if exact is not None:
                 points, source, is_exact = exact.front, "exhaustive sweep of the whole space", exact.exact
@@ -87,19 +174,45 @@ class Pareto(Step):
                 found = list(evaluated.values())
                 mask = not_strongly_dominated([e.values for e in found], SCREENING_ERROR) if found else []
                 candidates = [e.order for e, k in zip(found, mask) if k]
-                full = [e for e in context.objective(rule).evaluate(candidates, context.evaluator, FULL) if e.ok]
-                keep = non_dominated([e.values for e in full]) if full else []
-                points = tuple(sorted((FrontPoint(e.order, e.values, e.outputs) for e, k in zip(full, keep) if k),
-                                      key=lambda p: p.values))
-                source, is_exact = f"the searches' {len(evaluated)} designs, verified at full fidelity", False
+                full = [e for e in objective.evaluate(candidates, context.evaluator, FULL) if e.ok]
+                pool = {e.order: e for e in full + list(end_values.values()) + self.evaluated(context, objective)}
+                points = undominated(pool.values())
+                source = (f"the searches' {len(evaluated)} designs"
+                          + (f" and the known optimum of {len(ends)} objective{'s' if len(ends) > 1 else ''} alone"
+                             if ends else "") + ", verified at full fidelity")
+                is_exact = False
             if points:
                 reference = tuple(float(v) for v in reference_point([p.values for p in points]))
                 volume = hypervolume([p.values for p in points], reference)
             else:
                 reference, volume = (), 0.0
             fronts.append(Front(label, points, is_exact, source, volume, reference,
-                                choose(points, context.case.outputs, label)))
+                                choose(points, context.case.outputs, label),
+                                self.sureness(context, runs, points, is_exact, ends, end_values)))
         return ParetoResult(context.case.outputs, tuple(fronts))
+
+    @staticmethod
+    def evaluated(context: StudyContext, objective) -> list:
+        """Every design this run evaluated at full fidelity on these objectives (one load case: the FMU run's
+        own results; several: the combined values are not kept, so none)."""
+        if len(context.case.cases) != 1:
+            return []
+        task, = objective.with_cases(None).tasks(FULL)
+        return [e for e in context.evaluator.known(task) if e.ok and len(e.values) == len(context.case.outputs)]
+
+    @staticmethod
+    def sureness(context: StudyContext, runs, points, is_exact: bool, ends, end_values) -> FrontSureness:
+        on_front = {p.order for p in points}
+        front_values = {tuple(p.values) for p in points}
+        known = tuple(KnownEnd(k.objective, k.order, k.certified,
+                               tuple(end_values[k.order].values) if k.order in end_values else None,
+                               k.order in on_front or (k.order in end_values
+                                                       and tuple(end_values[k.order].values) in front_values))
+                      for k in ends)
+        shares = coverage(run_fronts(runs))
+        agreeing = sum(1 for share in shares if share >= AGREEMENT)
+        return FrontSureness(is_exact, len(runs), agreeing, AGREEMENT, shares, known,
+                             "" if is_exact else settle_advice(context, runs, agreeing))
 
     def chart(self, study, path):
         return draw_pareto(study, path)
@@ -134,6 +247,11 @@ def draw_pareto(study, path: Path) -> str | None:
             for chosen in front.chosen:
                 axis.annotate(chosen.label, chosen.values[:2], fontsize=7, textcoords="offset points",
                               xytext=(5, 5))
+        for end in front.sureness.known_ends:
+            if end.values:
+                axis.plot([end.values[0]], [end.values[1]], "*", color=colour, ms=12, mec="black", mew=0.6,
+                          label=f"{'certified' if end.certified else 'known'} optimum of {end.output} alone "
+                                f"({front.diagonal_rule} rule)")
     axis.set_xlabel(f"{outputs[0]} ({units[0]})")
     axis.set_ylabel(f"{outputs[1]} ({units[1]})")
     axis.set_title("The trade-off: each point a design; lower is better on both axes", fontsize=9)

@@ -4,6 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..known_optima import known_ends
 from ..loop import SearchRun, run_search
 from ..options import flag_of, integer, option
 from ..search import SEARCHES, make_search
@@ -117,9 +118,12 @@ class Searches(Step):
     def run(self, context: StudyContext) -> SearchesResult:
         methods = self.methods(context)
         objectives = len(context.case.outputs)
-        options = {"nsga2": {"objectives": objectives}} if objectives > 1 else None
         runs = []
         for rule in context.rules:
+            # NSGA-II starts from the known optimum of each objective alone: the ends of the true front
+            options = {"nsga2": {"objectives": objectives, "seeds": tuple(
+                k.order for k in known_ends(context.case, rule or context.case.rule_default))}} \
+                if objectives > 1 else None
             runs += run_searches(context, context.objective(rule), methods, self.config.seed, self.config.repeats,
                                  self.config.budget, rule_label(rule), options=options)
         return SearchesResult(methods, self.config.budget, tuple(runs))

@@ -32,7 +32,7 @@ class TrajectoriesResult:
 def record(context: StudyContext, rule_label: str, order, horizon: float, step: float, outputs) -> RecordRun:
     rule = rule_label if rule_label in context.case.rules else None
     full, = context.objective(rule).with_cases(None).tasks(FULL)
-    return RecordRun(full.fmu_path, order, horizon, step, full.parameters, tuple(outputs))
+    return RecordRun(full.fmu_path, order, horizon, step, full.parameters, tuple(outputs), full.fmu_sha256)
 
 
 class Trajectories(Step):

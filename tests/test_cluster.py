@@ -1,0 +1,168 @@
+"""A cluster that needs no shared folder: the README's Dask recipe run as written, with a worker that cannot see
+the client's folder or the repository, gives the process pool's answer; a worker that cannot run the FMU says
+why; the console counts failed evaluations as failed.
+
+The recipe is run as the README writes it, with only what a test must add: the scheduler listens on
+127.0.0.1 at a free port (``--host 127.0.0.1 --port 0 --no-dashboard``), ``HOST:8786`` is the address it
+prints, and the client's study is a small one (a 5-column FMU, 120 designs): ``--confirm-cost`` is left out
+because such a sweep is within every bound (the command refuses a confirmation with nothing to confirm).
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from fmu_src.build import build_fmu
+from orchestrator.dask_plugin import ShipFMU
+from orchestrator.exhaustive import ChunkResult
+from orchestrator.loop import failures_of
+from orchestrator.objective import FMURun, close_instances
+from orchestrator.types import Evaluation, failed
+
+pytest.importorskip("distributed")
+ROOT = Path(__file__).resolve().parents[1]
+SMALL = ["--cols", "5", "--diagonal-rule", "receiver", "--budget", "20", "--repeats", "1", "--no-sensitivity",
+         "--no-progress"]
+
+
+def readme_recipe() -> list[str]:
+    """The README's Dask recipe: the scheduler, the worker and the client's command, as written."""
+    text = (ROOT / "README.md").read_text()
+    lines = [line.split("#")[0].strip() for line in text.splitlines()]
+    scheduler = next(line for line in lines if line.startswith("dask scheduler"))
+    worker = next(line for line in lines if line.startswith("dask worker"))
+    client = next(line for line in lines if line.startswith("python orchestrator/run.py") and "--executor dask" in line)
+    return [scheduler, worker, client]
+
+
+def can_hide_folders() -> bool:
+    """Whether this machine lets a process see other mounts than ours (a mount namespace, as root)."""
+    if not shutil.which("unshare") or os.geteuid() != 0:
+        return False
+    return subprocess.run(["unshare", "--mount", "--propagation", "private", "true"],
+                          capture_output=True).returncode == 0
+
+
+@pytest.fixture(scope="module")
+def fmu5(tmp_path_factory):
+    return build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu5") / "MassSpringLattice11x5.fmu", cols=5,
+                     werror=True)
+
+
+def start_scheduler(command: str, folder: Path, env: dict) -> tuple[subprocess.Popen, str]:
+    log = (folder / "scheduler.log").open("w")
+    process = subprocess.Popen(command.split() + ["--host", "127.0.0.1", "--port", "0", "--no-dashboard"],
+                               cwd=folder, env=env, stdout=log, stderr=subprocess.STDOUT)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        found = re.search(r"tcp://127\.0\.0\.1:\d+", (folder / "scheduler.log").read_text())
+        if found:
+            return process, found.group(0)
+        if process.poll() is not None:
+            break
+        time.sleep(0.2)
+    process.kill()
+    raise AssertionError("the scheduler did not start: " + (folder / "scheduler.log").read_text())
+
+
+def stop(process: subprocess.Popen) -> None:
+    if process.poll() is None:
+        process.terminate()
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+def test_the_readme_dask_recipe_needs_no_shared_folder(fmu5, tmp_path):
+    scheduler_command, worker_command, client_command = readme_recipe()
+    assert "HOST:8786" in worker_command and "HOST:8786" in client_command
+    client = tmp_path / "client"
+    client.mkdir()
+    shutil.copy(fmu5, client / "model.fmu")  # the client names it relatively: a path only its own folder knows
+    worker_home = tmp_path / "worker"
+    (worker_home / "tmp").mkdir(parents=True)
+    code = worker_home / "installed"  # the project as installed on another machine: its own copy of the code
+    for package in ("orchestrator", "fmu_src", "scenes"):
+        shutil.copytree(ROOT / package, code / package, ignore=shutil.ignore_patterns("__pycache__"))
+    env = {**os.environ, "TMPDIR": str(worker_home / "tmp")}
+    scheduler, address = start_scheduler(scheduler_command, tmp_path, env)
+    worker_env = {**env, "PYTHONPATH": str(code)}
+    worker_argv = worker_command.replace("tcp://HOST:8786", address).split()
+    if can_hide_folders():  # the client's folder and the repository are empty folders for the worker
+        worker_argv = ["unshare", "--mount", "--propagation", "private", "sh", "-c",
+                       'mount -t tmpfs tmpfs "$1" && mount -t tmpfs tmpfs "$2" && shift 2 && exec "$@"', "sh",
+                       str(client), str(ROOT)] + worker_argv
+    worker_log = (worker_home / "worker.log").open("w")
+    worker = subprocess.Popen(worker_argv, cwd=worker_home, env=worker_env, stdout=worker_log,
+                              stderr=subprocess.STDOUT)
+    try:
+        argv = client_command.replace("tcp://HOST:8786", address).split()
+        assert argv[:2] == ["python", "orchestrator/run.py"] and "--confirm-cost" in argv
+        argv = [sys.executable, str(ROOT / "orchestrator" / "run.py")] + [a for a in argv[2:] if a != "--confirm-cost"]
+        dask = subprocess.run(argv + ["--fmu", "model.fmu", "--out", "dask", *SMALL], cwd=client, env=env,
+                              capture_output=True, text=True, timeout=600)
+        assert dask.returncode == 0, dask.stderr + (worker_home / "worker.log").read_text()
+    finally:
+        stop(worker)
+        stop(scheduler)
+        worker_log.close()
+    pool = subprocess.run([sys.executable, str(ROOT / "orchestrator" / "run.py"), "--method", "exhaustive",
+                           "--executor", "process", "--workers", "2", "--fmu", "model.fmu", "--out", "pool", *SMALL],
+                          cwd=client, env=env, capture_output=True, text=True, timeout=600)
+    assert pool.returncode == 0, pool.stderr
+    by_dask = json.loads((client / "dask" / "results.json").read_text())["answers"][0]
+    by_pool = json.loads((client / "pool" / "results.json").read_text())["answers"][0]
+    assert by_dask["order"] == by_pool["order"] and by_dask["evidence"]["status"] == "certified"
+    assert by_dask["peak"] == pytest.approx(by_pool["peak"], rel=1e-12)
+    assert not list(client.glob("**/lattice-fmus"))
+
+
+class FakeWorker:
+    def __init__(self, folder: Path):
+        self.local_directory = str(folder)
+        self.address = "tcp://127.0.0.1:1"
+
+
+def test_a_worker_that_cannot_run_the_fmu_says_why_and_its_tasks_fail_with_the_reason(tmp_path):
+    bad = tmp_path / "client" / "broken.fmu"
+    bad.parent.mkdir()
+    bad.write_bytes(b"PK\x05\x06" + b"\x00" * 18)  # an empty zip: no model description, no binary
+    plugin = ShipFMU(bad)
+    bad.unlink()  # the worker never reads the client's file
+    with pytest.raises(RuntimeError, match=r"Dask worker tcp://127\.0\.0\.1:1 cannot run broken\.fmu: "):
+        plugin.setup(FakeWorker(tmp_path / "worker"))
+    evaluation = FMURun(str(bad), 1.0, fmu_sha256=plugin.sha256)((1, 2, 3))
+    assert not evaluation.ok and "cannot run broken.fmu" in evaluation.message
+
+
+def test_a_shipped_fmu_runs_from_the_workers_copy(fmu5, tmp_path):
+    client = tmp_path / "client.fmu"
+    shutil.copy(fmu5, client)
+    plugin = ShipFMU(client)
+    client.unlink()
+    try:
+        plugin.setup(FakeWorker(tmp_path / "worker"))
+        copy, = (tmp_path / "worker" / "lattice-fmus" / plugin.sha256).glob("*.fmu")
+        evaluation = FMURun(str(client), 8.0, fmu_sha256=plugin.sha256)((1, 2, 3, 4, 5))
+        assert evaluation.ok and evaluation.value > 0
+        plugin.setup(FakeWorker(tmp_path / "worker"))  # a second time: the copy is kept
+        assert copy.is_file()
+    finally:
+        close_instances()
+
+
+def test_failed_evaluations_are_counted_as_failed():
+    assert failures_of(failed((1, 2), "FMU not found", 0.1)) == ["FMU not found"]
+    assert failures_of(Evaluation((1, 2), 3.0, "ok")) == []
+    chunk = ChunkResult(0, 24, "failed", "worker lost", (), (), False, (), 0, 0, None, None, (), 0.0, 0.0, 0.0)
+    assert failures_of(chunk) == ["worker lost"] * 24
