@@ -73,6 +73,7 @@ def refusals(fmu_path, tmp_path):
         "case product too large": (["--case", "F_total=" + ",".join(str(600 + k) for k in range(40)),
                                     "--case", "t_active=" + ",".join(f"0.{k + 10}" for k in range(30))], "--case"),
         "sweep beyond the local limit": (["--method", "exhaustive"], "--executor dask"),
+        "columns beyond the study's table": (["--cols", "12", "--scene", "armour_11x11"], "the study's table has 11"),
         "resume and overwrite": (["--resume", "--overwrite"], "--resume and --overwrite"),
         "resume without a run": (["--resume", "--out", tmp_path / "empty"], "no run to resume"),
         "sensitivity budget without sensitivity": (["--sensitivity-budget", "5", "--no-sensitivity"],
