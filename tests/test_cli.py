@@ -116,7 +116,9 @@ def test_the_default_study_answers_under_both_rules_with_their_evidence(fmu_path
         assert answer["evidence"]["runs"] == 4
         other = "mean" if rule == "receiver" else "receiver"
         assert answer["peak_other_rule"] == answer["values_by_rule"][other]
-    assert answers["receiver"]["design_file"] == "best_design.ssp"
+    assert [a["diagonal_rule"] for a in results["answers"]] == ["mean", "receiver"]  # the design file's first
+    assert answers["mean"]["design_file"] == "best_design.ssp"
+    assert answers["receiver"]["design_file"] == "design_receiver.ssp"
     from orchestrator.simulation import LatticeFMU
 
     with LatticeFMU(fmu_path) as fmu:  # each answer reproduced by the FMU itself, its design file there

@@ -10,11 +10,11 @@ from ..search import SEARCHES, make_search
 from ..study import Step, StudyContext
 
 SINGLE_DEFAULT = ("cmaes", "pso", "sa", "sequential", "random")
-# How many designs a sweep screens (force limit at the incumbent, as its chunks run) in the core-time of one
-# evaluation of the default searches, rounded down: `python -m bench.sweep_crossover` measures it and writes
+# How many designs a sweep (alone, its chunks lowering their force limit as they go) screens in the core-time of
+# one evaluation of the default searches, rounded down: `python -m bench.sweep_crossover` measures it and writes
 # docs/measurements/sweep_crossover.md. The default study sweeps a space of at most this many designs per
 # evaluation its searches would make, instead of searching it.
-SWEEP_DESIGNS_PER_SEARCH_EVALUATION = 2
+SWEEP_DESIGNS_PER_SEARCH_EVALUATION = 3
 MULTI_DEFAULT = ("nsga2", "random")
 EXHAUSTIVE = "exhaustive"
 ALL = "all"
@@ -130,7 +130,8 @@ class Searches(Step):
     Config = SearchesConfig
 
     def applies(self, context: StudyContext) -> bool:
-        return not sweep_instead(context)
+        """Not when the run only sweeps (--method exhaustive alone, or the default study of a small space)."""
+        return bool(self.methods(context)) and not sweep_instead(context)
 
     def methods(self, context: StudyContext) -> tuple[str, ...]:
         return methods_for(self.config.methods, len(context.case.outputs))
