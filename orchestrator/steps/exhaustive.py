@@ -13,7 +13,8 @@ from ..objective import FULL, SEARCH, FMURun
 from ..options import integer, option
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order, RunOutputs
-from .searches import Searches, rule_label, sweeps
+from .searches import (SWEEP_DESIGNS_PER_SEARCH_EVALUATION, Searches, default_evaluations, rule_label,
+                       sweep_instead, sweeps)
 
 # The screening fidelity's relative error bound, at least ten times what python -m bench.work_precision and
 # python -m bench.horizon_study measure for the searches' fidelity; every design within it of the best is verified.
@@ -166,6 +167,7 @@ class FrontSweep:
 class ExhaustiveResult:
     sweeps: tuple[Sweep, ...]
     fronts: tuple[FrontSweep, ...] = ()
+    why: str = ""  # why this run swept: asked, or the default study of a space cheaper to sweep than to search
 
     def for_rule(self, label: str) -> Sweep | None:
         return next((s for s in self.sweeps if s.diagonal_rule == label), None)
@@ -207,9 +209,15 @@ class Exhaustive(Step):
                 "ADDRESS --confirm-cost")
 
     def run(self, context: StudyContext) -> ExhaustiveResult:
+        why = "asked (--method exhaustive)"
+        if sweep_instead(context):
+            evaluations = default_evaluations(context.config(Searches))
+            why = (f"the default study sweeps a space of at most {SWEEP_DESIGNS_PER_SEARCH_EVALUATION} designs per "
+                   f"evaluation its searches would make ({evaluations:,} per rule at this budget): "
+                   f"{context.case.space.size:,} designs cost less to sweep than to search, and the sweep certifies")
         if len(context.case.outputs) > 1:
-            return ExhaustiveResult((), tuple(self.sweep_front(context, rule) for rule in context.rules))
-        return ExhaustiveResult(tuple(self.sweep(context, rule) for rule in context.rules))
+            return ExhaustiveResult((), tuple(self.sweep_front(context, rule) for rule in context.rules), why)
+        return ExhaustiveResult(tuple(self.sweep(context, rule) for rule in context.rules), why=why)
 
     def chunks(self, context: StudyContext, label: str, tasks, count: int) -> list[ChunkResult]:
         with context.progress.bar(count, f"exhaustive sweep ({label})", unit="chunk") as bar:
