@@ -7,7 +7,7 @@ FMU it ships in and the build stays a build.
 from __future__ import annotations
 
 from fmu_src.fmi2_description import enumeration_alias
-from fmu_src.materials import study_materials
+from fmu_src.materials import STUDY_MATERIAL_COUNT, study_materials
 from fmu_src.published import PUBLISHED_CONDITIONS, PUBLISHED_HORIZON, PUBLISHED_PEAKS, REFERENCE_POINTS
 from fmu_src.rendering import model_summary, render
 from fmu_src.variables import INDICATOR, Interface, Variable
@@ -56,4 +56,4 @@ def documentation_html(fmi_version: int, interface: Interface, identifier: str, 
                   rtol=f"{starts['rtol']:g}",
                   reference_points=REFERENCE_POINTS, variables=[variable_row(v, fmi_version) for v in interface.exposed],
                   fixed=[v.name for v in interface.fixed],
-                  materials=(scene.material_table() or study_materials(interface.cols)).materials)
+                  materials=(scene.material_table() or study_materials(min(interface.cols, STUDY_MATERIAL_COUNT))).materials)

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 MAX_MATERIALS = 256
+STUDY_MATERIAL_COUNT = 11  # SPEC section 3: the study's table; a lattice wider than it has no study material to add
 
 
 @dataclass(frozen=True)
@@ -107,10 +108,12 @@ class MaterialTable:
         return cls(tuple(Material(str(r["name"]).strip(), *(float(r[f]) for f in FIELD_NAMES)) for r in rows))
 
 
-def study_materials(count: int = 11) -> MaterialTable:
-    """SPEC section 3: material m has scale s = (2/3)^(m-1): k = 100 s, k_diag = 50 s, c = 5 s, alpha = 10."""
-    if isinstance(count, bool) or int(count) != count or not 1 <= count <= MAX_MATERIALS:
-        raise ValueError(f"count must be an integer in [1, {MAX_MATERIALS}], got {count!r}")
+def study_materials(count: int = STUDY_MATERIAL_COUNT) -> MaterialTable:
+    """SPEC section 3: material m has scale s = (2/3)^(m-1): k = 100 s, k_diag = 50 s, c = 5 s, alpha = 10; the
+    first ``count`` of the study's eleven (never more: a twelfth would be invented, not the study's)."""
+    if isinstance(count, bool) or int(count) != count or not 1 <= count <= STUDY_MATERIAL_COUNT:
+        raise ValueError(f"count must be an integer in [1, {STUDY_MATERIAL_COUNT}] (the study's table has "
+                         f"{STUDY_MATERIAL_COUNT} materials), got {count!r}")
     materials = []
     for m in range(1, int(count) + 1):
         scale = (2.0 / 3.0) ** (m - 1)
@@ -224,4 +227,4 @@ def write_materials_csv(table: MaterialTable, path: str | Path) -> Path:
 
 
 __all__ = ["FIELDS", "FIELD_NAMES", "HEADER", "MAX_MATERIALS", "Material", "MaterialTable", "MaterialTableError",
-           "load_materials", "study_materials", "write_materials_csv"]
+           "STUDY_MATERIAL_COUNT", "load_materials", "study_materials", "write_materials_csv"]

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
-from fmu_src.materials import MaterialTable, study_materials
+from fmu_src.materials import STUDY_MATERIAL_COUNT, MaterialTable, study_materials
 
 REAL = "Real"
 INTEGER = "Integer"
@@ -104,8 +104,9 @@ def default_order(cols: int, materials: int) -> tuple[int, ...]:
 
 def all_variables(rows: int, cols: int, materials: MaterialTable | None = None) -> list[Variable]:
     """Every variable the model knows, in value-reference order, with SPEC's published defaults and the material
-    table's values (default: the study's, with as many materials as columns) as the table's start values."""
-    table = materials or study_materials(cols)
+    table's values (default: the study's, its first C materials, all eleven for a wider lattice, whose default
+    then repeats them) as the table's start values."""
+    table = materials or study_materials(min(cols, STUDY_MATERIAL_COUNT))
     count = len(table)
     values = table.parameters()
     variables = [
@@ -305,7 +306,7 @@ TABLE_PARAMETERS = ("k", "k_diag", "c", "alpha", "alpha_diag")  # the material t
 
 def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden: tuple[str, ...] = (),
                    materials: MaterialTable | None = None) -> Interface:
-    """Variables for a rows x cols lattice with the material table `materials` (default: the study's, one
+    """Variables for a rows x cols lattice with the material table `materials` (default: the study's, up to one
     material per column); `parameters` overrides starts, `hidden` compiles them in."""
     if rows < 1 or cols < 1 or cols > 64 or rows * cols > 100000:
         raise ValueError(f"rows and cols: allowed 1 <= rows, 1 <= cols <= 64 (got rows={rows}, cols={cols})")

@@ -33,11 +33,11 @@ from .types import Order, safe_call
 
 MAX_LOCAL_DESIGNS = math.factorial(10)
 """Beyond this many designs a sweep needs Dask and --confirm-cost; the refusal states the projected
-core-hours, measured on the spot."""
+core-hours, measured on the spot on a chunk run as the sweep runs its chunks (force limit at an incumbent)."""
 
 HISTOGRAM_RESOLUTION = 1e-3  # relative width of a histogram bin: bin k holds [(1+res)^k, (1+res)^(k+1))
 MAX_KEPT_PER_CHUNK = 10_000  # designs within the bound (or failed) a chunk may return; beyond, it says so
-CALIBRATION_DESIGNS = 12  # designs timed here to project the cost of a refused sweep
+CALIBRATION_DESIGNS = 200  # designs of the chunk timed to project what a sweep costs
 
 
 def histogram_bin(value: float, resolution: float = HISTOGRAM_RESOLUTION) -> int:
@@ -241,21 +241,25 @@ def coverage(chunks: list[ChunkResult], total: int) -> tuple[bool, str]:
     return True, f"ranks 0..{total - 1}, each once"
 
 
-def projected_cost(objective: Callable[[Order], Any], space: DesignSpace, evaluator) -> tuple[float, float]:
-    """(designs per core-second, projected core-hours for the whole space), timing a few designs through a
-    serial ``evaluator`` here (after one untimed design: an FMU objective opens its FMU on first use)."""
-    evaluator.evaluate([(objective, space.unrank(0))])
-    designs = [space.unrank(rank * 7919 % space.size) for rank in range(1, CALIBRATION_DESIGNS + 1)]
-    cpu = time.process_time()
-    evaluations = evaluator.evaluate([(objective, d) for d in designs])
-    seconds = time.process_time() - cpu
-    if not any(e.ok or e.censored for e in evaluations):
-        raise ValueError(f"exhaustive: the objective failed on every one of {CALIBRATION_DESIGNS} designs (first: "
-                         f"{evaluations[0].message})")
-    rate = CALIBRATION_DESIGNS / max(seconds, 1e-9)
+def calibration_range(space: DesignSpace, designs: int = CALIBRATION_DESIGNS) -> tuple[int, int]:
+    """The ranks of the chunk a projection times: ``designs`` from the middle of the space (neither end's
+    ordered designs, which are atypically good or bad)."""
+    stop = min(space.size, space.size // 2 + designs)
+    return max(0, stop - designs), stop
+
+
+def projected_cost(chunk: "ChunkResult", space: DesignSpace) -> tuple[float, float]:
+    """(designs per core-second, projected core-hours for the whole space) from a timed chunk: its designs over
+    its own CPU time, so the rate is the one the sweep meets when its chunks run with the same force limit."""
+    if not chunk.ok:
+        raise ValueError(f"exhaustive: the chunk timed to project the cost failed ({chunk.message})")
+    if chunk.failed == chunk.designs:
+        raise ValueError(f"exhaustive: the objective failed on every one of the {chunk.designs} designs timed "
+                         f"(first: {chunk.failures[0].message if chunk.failures else 'no message'})")
+    rate = chunk.designs / max(chunk.cpu_seconds, 1e-9)
     return rate, space.size / rate / 3600
 
 
 __all__ = ["ChunkResult", "Failure", "HISTOGRAM_RESOLUTION", "MAX_LOCAL_DESIGNS", "ScreenChunk", "Scored",
-           "chunk_ranges", "coverage", "evaluate_chunk", "histogram_bin", "not_strongly_dominated", "projected_cost",
+           "calibration_range", "chunk_ranges", "coverage", "evaluate_chunk", "histogram_bin", "not_strongly_dominated", "projected_cost",
            "screening_threshold"]

@@ -34,9 +34,14 @@ class KnownOptimum:
     runner_up_peak: float | None = None
 
 
-@lru_cache(maxsize=1)
-def known_optima() -> tuple[KnownOptimum, ...]:
-    table = json.loads(TABLE.read_text())
+def known_optima(table: Path | None = None) -> tuple[KnownOptimum, ...]:
+    """Every entry of ``table`` (default: known_optima.json), one per case and diagonal rule."""
+    return _read(Path(table or TABLE))
+
+
+@lru_cache(maxsize=4)
+def _read(path: Path) -> tuple[KnownOptimum, ...]:
+    table = json.loads(path.read_text())
     return tuple(KnownOptimum(e["rows"], e["columns"], e["objective"], e["diagonal_rule"], float(e["horizon"]),
                               tuple(e["order"]), float(e["peak"]), bool(e["certified"]), e["source"], e["command"],
                               tuple(e["runner_up"]["order"]) if "runner_up" in e else None,
@@ -45,7 +50,8 @@ def known_optima() -> tuple[KnownOptimum, ...]:
 
 
 def known_optimum(case, rule: str) -> KnownOptimum | None:
-    """The known optimum of ``case`` (an ``orchestrator.study.Case``) under ``rule``, if there is one."""
+    """The known optimum of ``case`` (an ``orchestrator.study.Case``) under ``rule``, if there is one: each rule
+    has its own entry (the receiver and the mean rule's optima are different designs)."""
     if case.outputs != ("peak_backplate_force",):
         return None
     return known_optimum_of(case, rule, "peak_backplate_force")

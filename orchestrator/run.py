@@ -117,9 +117,20 @@ def print_answer(outcome) -> None:
                         if r != answer.diagonal_rule and v is not None)
         evidence = answer.evidence
         local = {None: "local optimum not checked", True: "a local optimum", False: "not a local optimum"}
-        print(f"{answer.diagonal_rule} rule: build {list(answer.order)}: {answer.peak:.2f} {unit}{other}; "
-              f"{evidence.status.replace('_', ' ')}, {evidence.runs_reaching} of {evidence.runs} runs reached it, "
-              f"{local[evidence.local_optimum]}; {answer.design_file}")
+        role = f" ({'; '.join(answer.roles)})" if answer.roles else ""
+        status = evidence.status.replace("_", " ")
+        if evidence.status != "best_found" and evidence.covers:
+            status += f" for {evidence.covers}"
+        runs = ("every design swept" if evidence.swept and not evidence.runs else
+                f"{'only ' if evidence.few_runs else ''}{evidence.runs_reaching} of {evidence.runs} runs reached it")
+        print(f"{answer.diagonal_rule} rule{role}: build {list(answer.order)}: {answer.peak:.2f} {unit}{other}; "
+              f"{status}, {runs}, {local[evidence.local_optimum]}; {answer.design_file}")
+        if evidence.settlement is not None:
+            print(f"  {evidence.settlement.line()}")
+        same = answer.equivalence
+        if same is not None and same.equivalent:
+            print(f"  equivalent for practical purposes to the runner-up {list(answer.runner_up)} "
+                  f"({answer.runner_up_peak:.2f} {unit}): {same.reason(unit)}")
     pareto = study.steps.get("pareto")
     for front in (pareto.fronts if pareto else ()):
         print(f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front "

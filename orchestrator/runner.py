@@ -15,7 +15,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from fmu_src.materials import load_materials, study_materials
+from fmu_src.materials import STUDY_MATERIAL_COUNT, load_materials, study_materials
 
 from .executors import EXECUTORS, SerialExecutor, make_executor
 from .exhaustive import ChunkResult
@@ -79,15 +79,36 @@ class Outcome:
 
 
 def resolve_scene(case: CaseConfig, materials):
-    """The scene to run: the named one, with the lattice's columns and the material table given."""
+    """The scene to run: the named one, with the lattice's columns and the material table given; refused when
+    the table has fewer materials than columns and a material may fill only one (no material is invented)."""
     from scenes import Scene
 
     scene = Scene.load(case.scene)
+    check_table_size(case, scene, materials)
     if case.cols is not None or materials is not None:
         from fmu_src import build
 
         scene = build.resolve_scene(scene, cols=case.cols, materials=materials)
     return scene
+
+
+def check_table_size(case: CaseConfig, scene, materials) -> None:
+    """More columns than the table has materials, each used at most once, is refused in one line (before any
+    build): the FMU would otherwise need materials that are in no table."""
+    if case.repeat or scene.parameters.get("repeat_materials"):
+        return
+    columns = case.cols or scene.cols
+    if materials is not None:
+        count, table = len(materials), f"--materials {case.materials} has"
+    else:
+        own = scene.material_table()
+        count = len(own) if own is not None else STUDY_MATERIAL_COUNT
+        table = f"scene {scene.name}'s table has" if own is not None else "the study's table has"
+    if columns > count:
+        flag = f"--cols {columns}" if case.cols else f"scene {scene.name} ({columns} columns)"
+        raise ValueError(f"{flag}: {table} {count} materials and each fills at most one column; give --cols 2.."
+                         f"{count}, --repeat (a material may fill several columns) or --materials FILE with at "
+                         f"least {columns} materials")
 
 
 def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:

@@ -74,6 +74,7 @@ def refusals(fmu_path, tmp_path):
         "case product too large": (["--case", "F_total=" + ",".join(str(600 + k) for k in range(40)),
                                     "--case", "t_active=" + ",".join(f"0.{k + 10}" for k in range(30))], "--case"),
         "sweep beyond the local limit": (["--method", "exhaustive"], "--executor dask"),
+        "columns beyond the study's table": (["--cols", "12", "--scene", "armour_11x11"], "the study's table has 11"),
         "resume and overwrite": (["--resume", "--overwrite"], "--resume and --overwrite"),
         "resume without a run": (["--resume", "--out", tmp_path / "empty"], "no run to resume"),
         "sensitivity budget without sensitivity": (["--sensitivity-budget", "5", "--no-sensitivity"],
@@ -116,7 +117,9 @@ def test_the_default_study_answers_under_both_rules_with_their_evidence(fmu_path
         assert answer["evidence"]["runs"] == 4
         other = "mean" if rule == "receiver" else "receiver"
         assert answer["peak_other_rule"] == answer["values_by_rule"][other]
-    assert answers["receiver"]["design_file"] == "best_design.ssp"
+    assert [a["diagonal_rule"] for a in results["answers"]] == ["mean", "receiver"]  # the design file's first
+    assert answers["mean"]["design_file"] == "best_design.ssp"
+    assert answers["receiver"]["design_file"] == "design_receiver.ssp"
     from orchestrator.simulation import LatticeFMU
 
     with LatticeFMU(fmu_path) as fmu:  # each answer reproduced by the FMU itself, its design file there

@@ -60,7 +60,7 @@ def test_a_known_optimum_is_reproduced_and_locally_optimal(lattices, columns):
 
 
 def test_the_table_holds_the_test_data_and_the_certified_sweep():
-    table = {(k.rows, k.columns): k for k in known_optima()}
+    table = {(k.rows, k.columns): k for k in known_optima() if k.diagonal_rule == "receiver"}
     for columns in (8, 9):
         data = stored(columns)
         assert list(table[(11, columns)].order) == data["order"]
@@ -89,7 +89,7 @@ def test_the_readme_quotes_the_certified_optimum_as_the_table_holds_it():
     from fmu_src.published import PUBLISHED_PEAKS
 
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text().replace("\n", " ")
-    eleven = {(k.rows, k.columns): k for k in known_optima()}[(11, 11)]
+    eleven = {(k.rows, k.columns): k for k in known_optima() if k.diagonal_rule == "receiver"}[(11, 11)]
     assert f"is {list(eleven.order)} at {eleven.peak:.2f} N" in readme
     assert f"({eleven.runner_up_peak - eleven.peak:.4f} N higher)" in readme
     assert f"all {factorial(11):,} orders certified it" in readme

@@ -129,3 +129,25 @@ def test_a_scene_carries_its_table_as_rows_or_as_a_file(tmp_path):
         assert scene.parameter_values()["k_diag"] == CATALOGUE.column("k_diag")
     with pytest.raises(ValueError, match=r"parameters \['k'\] are the material table's"):
         Scene(name="old_style", parameters={"k": [1.0] * 11}).interface()
+
+
+def test_a_lattice_wider_than_the_study_table_invents_no_material(tmp_path):
+    """The armour scene over 12 columns keeps the study's eleven materials (the FMU may repeat them); the study's
+    formula is never extrapolated to a twelfth, and the orchestrator refuses 12 columns without --repeat."""
+    from fmu_src.build import resolve_scene
+    from fmu_src.materials import STUDY_MATERIAL_COUNT, study_materials
+    from orchestrator.runner import check_table_size
+    from orchestrator.study import CaseConfig
+
+    wide = resolve_scene("armour_11x11", cols=12)
+    interface = wide.interface()
+    assert interface.material_count == STUDY_MATERIAL_COUNT == 11
+    assert wide.parameter_values()["k"] == study_materials(11).column("k")
+    assert wide.parameter_values()["repeat_materials"] == 1
+    with pytest.raises(ValueError, match=r"the study's table has 11"):
+        study_materials(12)
+    with pytest.raises(ValueError, match=r"^--cols 12: the study's table has 11 materials"):
+        check_table_size(CaseConfig(cols=12), Scene.load("armour_11x11"), None)
+    check_table_size(CaseConfig(cols=12, repeat=True), Scene.load("armour_11x11"), None)
+    with pytest.raises(ValueError, match=r"^--cols 9: --materials t.csv has 8 materials"):
+        check_table_size(CaseConfig(cols=9, materials="t.csv"), Scene.load("armour_11x11"), CATALOGUE)

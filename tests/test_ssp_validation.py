@@ -12,7 +12,7 @@ from xml.sax.saxutils import quoteattr
 
 import pytest
 
-from fmu_src.materials import study_materials
+from fmu_src.materials import Material, MaterialTable, study_materials
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.ssp import SSD_NAME, SSV_NAME, design_refusal, read_design_parameters, write_best_design_ssp
 
@@ -144,7 +144,7 @@ def test_the_parameter_set_names_the_materials_of_the_fmus_table(design_ssp, fmu
     text = zipfile.ZipFile(design_ssp).read(SSV_NAME).decode()
     assert 'name="material[2]" description="column 2: material 7 (m7)"' in text
     assert 'name="diagonal_rule" description="diagonal_rule = receiver"' in text
-    other = study_materials(12)
+    other = MaterialTable(study_materials(11).materials + (Material("m12", 1.0, 0.5, 0.05, 10.0, 10.0),))
     with pytest.raises(ValueError, match="the table has 12 materials, the FMU's has 11"):
         write_best_design_ssp(fmu_path, {"material": list(PUBLISHED_BEST)}, tmp_path / "x.ssp", stop_time=1.0,
                               materials=other)

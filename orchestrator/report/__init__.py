@@ -47,6 +47,7 @@ def _env() -> jinja2.Environment:
                              autoescape=jinja2.select_autoescape(["html", "j2"]), undefined=jinja2.StrictUndefined,
                              trim_blocks=True, lstrip_blocks=True)
     env.filters["n"] = _number
+    env.filters["g2"] = lambda v: "n/a" if v is None else f"{v:,.2g}"
     env.filters["order"] = lambda order: "[" + ", ".join(str(m) for m in order) + "]" if order else "none"
     env.filters["sci"] = lambda v, digits=1: "n/a" if v is None or (isinstance(v, float) and math.isnan(v)) \
         else f"{v:.{digits}e}"

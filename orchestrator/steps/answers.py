@@ -1,21 +1,48 @@
 """The designer's answer: for each diagonal rule searched, the design to build, its value under every rule,
-and how sure we are (how many runs reached it, whether it is a local optimum, whether it is certified)."""
+and how sure we are (how many runs reached it, whether it is a local optimum, whether it is certified, for
+which objective, whether its runner-up is as good for practical purposes, and what would settle it)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+
+from fmu_src.published import PUBLISHED_CONDITIONS
 
 from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order, RunOutputs
 from .descent import Descent
-from .exhaustive import Exhaustive
+from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, sweep_cost
 from .finalists import Finalists, best_of, finalist_orders
 from .searches import Searches, rule_label
 
 CERTIFIED, KNOWN, BEST_FOUND = "certified", "known", "best_found"
 BASELINE_METHODS = ("sequential", "random")
+STUDY_RULE = PUBLISHED_CONDITIONS["diagonal_rule"]  # the rule the study computed and published with
+BUDGET_FACTOR = 10  # the budget an unsettled answer suggests: this many times the run's (an order of magnitude)
+DESIGN_FILE_ROLE = "your design file"
+STUDY_MODEL_ROLE = "the study's model: reproduces its published numbers"
+
+
+@dataclass(frozen=True)
+class Settlement:
+    """What would settle an answer fewer than half the runs reached: a larger budget, or the exhaustive sweep,
+    each with its projected cost (core-hours, from what this run measured)."""
+
+    budget: int
+    budget_factor: int  # the budget as a multiple of the run's
+    budget_core_hours: float  # this rule's searches' evaluation time, scaled to the budget
+    sweep: SweepCost | None  # None: the projection's chunk could not be timed
+    sweep_command: str  # the options that sweep it (on Dask beyond the local limit)
+
+    def line(self) -> str:
+        """The advice in one sentence (the console's and the report's)."""
+        sweep = (f"; or `{self.sweep_command}` (every design, certified: projected {self.sweep.core_hours:,.2g} "
+                 f"core-hours at {self.sweep.designs_per_core_second:,.0f} designs per core-second, measured here "
+                 "with the force limit at the searches' best)" if self.sweep else f"; or `{self.sweep_command}`")
+        return (f"to settle it: `--budget {self.budget}` (projected {self.budget_core_hours:,.2g} core-hours, "
+                f"{self.budget_factor} times this run's search time){sweep}")
 
 
 @dataclass(frozen=True)
@@ -25,6 +52,36 @@ class Evidence:
     local_optimum: bool | None  # None: not checked (--no-local-check)
     status: str  # certified, known or best_found
     status_source: str  # what the status rests on
+    covers: str = ""  # the objective the status holds for (a certificate says nothing of another objective)
+    swept: bool = False  # every design of the space was evaluated (this run's sweep)
+    settlement: Settlement | None = None  # what would settle it, when fewer than half the runs reached it
+
+    @property
+    def few_runs(self) -> bool:
+        """Fewer than half the runs reached the answer (and nothing else settles it)."""
+        return self.runs > 0 and 2 * self.runs_reaching < self.runs and self.status != CERTIFIED
+
+
+@dataclass(frozen=True)
+class Equivalence:
+    """The answer and its runner-up compared with what the objective itself is sure of: the gap between them
+    against the largest |sampled - continuous| peak of the two designs and the integration error."""
+
+    gap: float  # the runner-up's value minus the answer's
+    sampling: float | None  # the largest |sampled - continuous| peak of the two (None: not the sampled peak)
+    integration: float  # the full fidelity's error on the two (the second integrator's, or its stated bound)
+    runner_up_outputs: RunOutputs | None
+
+    @property
+    def equivalent(self) -> bool:
+        return self.gap < max(self.sampling or 0.0, self.integration)
+
+    def reason(self, unit: str) -> str:
+        """Why the two are equivalent, in one phrase (the console's and the report's)."""
+        if self.sampling is not None and self.sampling >= self.integration:
+            return (f"{self.gap:.4f} {unit} apart, less than the {self.sampling:.2f} {unit} between the sampled and "
+                    "the continuous peak")
+        return f"{self.gap:.2g} {unit} apart, less than the integration error ({self.integration:.2g} {unit})"
 
 
 @dataclass(frozen=True)
@@ -50,6 +107,8 @@ class Answer:
     runner_up: Order | None  # the next best design known under the rule: evaluated here, or the sweep's
     runner_up_peak: float | None
     search_relative_error: float | None  # the search fidelity's value of this design against its full one
+    roles: tuple[str, ...] = ()  # what this answer is to the reader: the design file, the study's model
+    equivalence: Equivalence | None = None  # against the runner-up (None: no runner-up with a value)
 
 
 @dataclass(frozen=True)
@@ -124,30 +183,43 @@ class Answers(Step):
             local = None if check is None else (check.locally_optimal and check.order == best.order)
             status, source = self.status(context, rule, label, best.order, swept)
             objective = context.objective(rule)
-            full_task, = objective.with_cases(None).tasks(FULL) if len(context.case.cases) == 1 else (None,)
-            others = [(e.value, e.order) for e in (context.evaluator.known(full_task) if full_task else [])
-                      if e.ok and e.order != best.order]
             sweep = swept.for_rule(label) if swept else None
-            if sweep and sweep.certificate.optimum and sweep.certificate.optimum.order == best.order \
-                    and sweep.certificate.runner_up and sweep.certificate.runner_up.full is not None:
-                others.append((sweep.certificate.runner_up.full, sweep.certificate.runner_up.order))
-            known = known_optimum(context.case, rule or context.case.rule_default)
-            if known is not None and known.order == best.order and known.runner_up is not None:
-                others.append((known.runner_up_peak, known.runner_up))
-            runner = min(others) if others else None
+            runner = self.runner_up(context, rule, best, sweep)
             search = objective.evaluate([best.order], context.evaluator, SEARCH)[0]
+            evidence = Evidence(reaching, len(runs), local, status, source, covers=covers(context, rule, label),
+                                swept=sweep is not None and sweep.certificate.covered_once)
+            if evidence.few_runs and status == BEST_FOUND and known_optimum(
+                    context.case, rule or context.case.rule_default) is None:
+                evidence = replace(evidence, settlement=settlement(context, rule, runs))
+            roles = tuple(role for role, holds in ((DESIGN_FILE_ROLE, index == 0),
+                                                   (STUDY_MODEL_ROLE, label == STUDY_RULE and len(rules) > 1))
+                          if holds)
             answers.append(Answer(
                 diagonal_rule=label, order=best.order,
                 materials=tuple(context.case.materials.name_of(m) for m in best.order),
                 objective=context.case.outputs[0], peak=best.value,
                 peak_other_rule=other_values[0] if len(other_values) == 1 else None, values_by_rule=values,
-                energy_by_rule=energy, outputs=best.outputs,
-                evidence=Evidence(reaching, len(runs), local, status, source),
-                design_file=design_file(index, label), runner_up=runner[1] if runner else None,
-                runner_up_peak=runner[0] if runner else None,
-                search_relative_error=abs(search.value / best.value - 1) if search.ok and best.value else None))
+                energy_by_rule=energy, outputs=best.outputs, evidence=evidence,
+                design_file=design_file(index, label), runner_up=runner.order if runner else None,
+                runner_up_peak=runner.value if runner else None,
+                search_relative_error=abs(search.value / best.value - 1) if search.ok and best.value else None,
+                roles=roles, equivalence=equivalence(context, best, runner, sweep)))
         known = {rule_label(r): known_optimum(context.case, r or context.case.rule_default) for r in rules}
         return AnswersResult(tuple(answers), known)
+
+    @staticmethod
+    def runner_up(context: StudyContext, rule, best: Evaluation, sweep) -> Evaluation | None:
+        """The next best design known under the rule at full fidelity: every design this run evaluated there
+        (the finalists include a sweep's runner-up and a known optimum's), else the sweep's or the table's
+        runner-up by its recorded value."""
+        objective = context.objective(rule)
+        full_task, = objective.with_cases(None).tasks(FULL) if len(context.case.cases) == 1 else (None,)
+        others = [e for e in (context.evaluator.known(full_task) if full_task else []) if e.ok and e.order != best.order]
+        if sweep and sweep.certificate.optimum and sweep.certificate.optimum.order == best.order \
+                and sweep.certificate.runner_up and sweep.certificate.runner_up.full is not None \
+                and not any(e.order == sweep.certificate.runner_up.order for e in others):
+            others.append(Evaluation(sweep.certificate.runner_up.order, sweep.certificate.runner_up.full, "ok"))
+        return min(others, key=lambda e: e.value) if others else None
 
     @staticmethod
     def status(context: StudyContext, rule, label: str, order: Order, swept) -> tuple[str, str]:
@@ -171,6 +243,57 @@ class Answers(Step):
     def design_files(self, study):
         result = study.steps.get(self.name)
         return [(a.design_file, a.order, a.diagonal_rule) for a in (result.answers if result else ())]
+
+
+def covers(context: StudyContext, rule, label: str) -> str:
+    """The objective an answer's status holds for, in words: a certificate of the sampled peak says nothing
+    of the continuous one."""
+    output = context.case.outputs[0]
+    if output == "peak_backplate_force":
+        interval = context.case.parameters.get("peak_sample_interval", context.fmu.start("peak_sample_interval"))
+        what = f"the sampled peak ({interval:g} s samples)" if interval is not None else "the sampled peak"
+    else:
+        what = {"peak_backplate_force_continuous": "the continuous peak"}.get(output, output)
+    return f"{what} over {context.case.horizon:g} s under the {label} rule"
+
+
+def equivalence(context: StudyContext, best: Evaluation, runner: Evaluation | None, sweep) -> Equivalence | None:
+    """The runner-up's gap against what separates the sampled from the continuous peak and the integration
+    error (the second integrator's where this run's sweep measured it, else the full fidelity's bound)."""
+    if runner is None or best.value is None:
+        return None
+    outputs = [o for o in (best.outputs, runner.outputs) if o is not None]
+    sampling = None
+    if context.case.outputs[0] == "peak_backplate_force" and len(outputs) == 2:
+        sampling = max(abs(o.peak_backplate_force - o.peak_backplate_force_continuous) for o in outputs)
+    integration = FULL_ERROR * abs(best.value)
+    certificate = sweep.certificate if sweep else None
+    if certificate and certificate.integration_error is not None and certificate.optimum \
+            and certificate.optimum.order == best.order:
+        integration = max(integration, certificate.integration_error)
+    return Equivalence(runner.value - best.value, sampling, integration, runner.outputs)
+
+
+def settlement(context: StudyContext, rule, runs) -> Settlement | None:
+    """The budget and the sweep that would settle an answer few runs reached, with their projected cost: the
+    searches' own evaluation time scaled to the budget; the sweep from a chunk timed with the force limit at
+    the searches' best value, as the sweep would run it."""
+    if not runs:
+        return None
+    budget = max(r.budget for r in runs) * BUDGET_FACTOR
+    searched = context.result(Searches)
+    every = searched.runs_for(rule_label(rule)) if searched else []
+    seconds = sum(e.seconds for r in every for e in r.evaluations)
+    values = [e.value for r in every for e in r.evaluations if e.ok]
+    try:
+        cost = sweep_cost(context, rule, min(values) if values else None)
+    except ValueError:
+        cost = None
+    from ..exhaustive import MAX_LOCAL_DESIGNS
+
+    command = "--method exhaustive" + (" --executor dask --scheduler ADDRESS --confirm-cost"
+                                       if context.case.space.size > MAX_LOCAL_DESIGNS else "")
+    return Settlement(budget, BUDGET_FACTOR, seconds * BUDGET_FACTOR / 3600, cost, command)
 
 
 def draw_lattice(study, path: Path) -> str | None:
@@ -208,5 +331,5 @@ def draw_lattice(study, path: Path) -> str | None:
     return save(figure, path, tight=False)
 
 
-__all__ = ["Answer", "Answers", "AnswersResult", "BEST_FOUND", "CERTIFIED", "EnergyFlows", "Evidence", "KNOWN",
-           "design_file", "rule_best"]
+__all__ = ["Answer", "Answers", "AnswersResult", "BEST_FOUND", "CERTIFIED", "EnergyFlows", "Equivalence",
+           "Evidence", "KNOWN", "STUDY_RULE", "Settlement", "design_file", "rule_best"]

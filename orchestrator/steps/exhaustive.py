@@ -5,13 +5,16 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, ChunkResult, Scored, ScreenChunk, chunk_ranges,
-                          coverage, not_strongly_dominated, projected_cost, screening_threshold)
+from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, ChunkResult, Scored, ScreenChunk,
+                          calibration_range, chunk_ranges, coverage, not_strongly_dominated, projected_cost,
+                          screening_threshold)
+from ..known_optima import known_optimum
 from ..objective import FULL, SEARCH, FMURun
 from ..options import integer, option
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order, RunOutputs
-from .searches import EXHAUSTIVE, Searches, rule_label
+from .searches import (SWEEP_DESIGNS_PER_SEARCH_EVALUATION, Searches, default_evaluations, rule_label,
+                       sweep_instead, sweeps)
 
 # The screening fidelity's relative error bound, at least ten times what python -m bench.work_precision and
 # python -m bench.horizon_study measure for the searches' fidelity; every design within it of the best is verified.
@@ -22,6 +25,7 @@ SECOND_INTEGRATOR = {"solver": "rkn5", "rtol": 1e-10, "atol": 1e-12}
 SECOND_INTEGRATOR_NAME = "Fine's Runge-Kutta-Nystrom 5(4) pair at rtol 1e-10"
 BEST_PER_CHUNK = 20
 VERIFY_TOP = 5
+INCUMBENT_BUDGET = 100  # designs of the short annealing run that gives a projection its incumbent
 
 
 @dataclass(frozen=True)
@@ -29,6 +33,53 @@ class ExhaustiveConfig:
     chunk_size: int | None = option(None, "designs per chunk of the exhaustive sweep (a chunk is one task: "
                                     "journalled, resumed, retried)", type=integer("--chunk-size", 1, 10**9),
                                     show_default="about 200 chunks")
+
+
+@dataclass(frozen=True)
+class SweepCost:
+    """What a sweep of the space would cost, projected from one chunk timed as the sweep runs its chunks: the
+    force limit at the screening threshold of the best value known before it (so most designs are censored)."""
+
+    designs: int  # of the space
+    designs_per_core_second: float
+    core_hours: float
+    incumbent: float | None  # the best value known (search fidelity) whose threshold is the chunk's limit
+    timed: int  # designs of the timed chunk
+    censored: int  # of them, stopped above the limit
+
+
+def sweep_cost(context: StudyContext, rule: str | None, incumbent: float | None) -> SweepCost:
+    """The projected cost of sweeping the space under ``rule``, with the force limit at ``incumbent``'s
+    threshold (a chunk from the middle of the ranks, through the one Evaluator: journalled, resumed)."""
+    objective = context.objective(rule)
+    space = context.case.space
+    screening, = objective.tasks(SEARCH)
+    limit = (screening_threshold(incumbent, SCREENING_ERROR)
+             if incumbent is not None and math.isfinite(incumbent) and objective.supports_limits else None)
+    start, stop = calibration_range(space)
+    chunk, = context.evaluator.run([ScreenChunk(screening, space, start, stop, BEST_PER_CHUNK, SCREENING_ERROR, limit)])
+    rate, hours = projected_cost(chunk, space)
+    return SweepCost(space.size, rate, hours, incumbent if limit is not None else None, chunk.designs,
+                     chunk.censored)
+
+
+def projection_incumbent(context: StudyContext, rule: str | None) -> float | None:
+    """The best value a sweep would start from, found before the run: the case's known optimum at the search
+    fidelity, else the best of a short annealing run (a sweep after the searches starts lower, so the
+    projection errs on the costly side)."""
+    from ..loop import run_search
+    from ..search import make_search
+
+    objective = context.objective(rule)
+    known = known_optimum(context.case, rule or context.case.rule_default)
+    if known is not None:
+        value = objective.evaluate([known.order], context.evaluator, SEARCH)[0]
+        if value.ok:
+            return value.value
+    search = make_search("sa", context.case.space, context.config(Searches).seed, budget=INCUMBENT_BUDGET)
+    run = run_search(search, objective, INCUMBENT_BUDGET, context.evaluator, method_name="sa",
+                     seed=context.config(Searches).seed, label=rule_label(rule))
+    return run.best_value
 
 
 @dataclass(frozen=True)
@@ -116,6 +167,7 @@ class FrontSweep:
 class ExhaustiveResult:
     sweeps: tuple[Sweep, ...]
     fronts: tuple[FrontSweep, ...] = ()
+    why: str = ""  # why this run swept: asked, or the default study of a space cheaper to sweep than to search
 
     def for_rule(self, label: str) -> Sweep | None:
         return next((s for s in self.sweeps if s.diagonal_rule == label), None)
@@ -132,7 +184,7 @@ class Exhaustive(Step):
     Config = ExhaustiveConfig
 
     def applies(self, context: StudyContext) -> bool:
-        return EXHAUSTIVE in context.config(Searches).methods
+        return sweeps(context)
 
     def check(self, context: StudyContext) -> None:
         if not self.applies(context):
@@ -145,17 +197,27 @@ class Exhaustive(Step):
         if space.size > MAX_LOCAL_DESIGNS:
             context.beyond_bounds.append("exhaustive")
         if space.size > MAX_LOCAL_DESIGNS and not (context.executor_kind == "dask" and context.confirm_cost):
-            screening, = context.objective(context.rules[0]).tasks(SEARCH)
-            rate, hours = projected_cost(screening, space, context.evaluator)
+            rule = context.rules[0]
+            cost = sweep_cost(context, rule, projection_incumbent(context, rule))
+            count = len(context.rules)
+            per_rule = f" ({cost.core_hours:,.1f} per rule, {count} rules)" if count > 1 else ""
             raise ValueError(
                 f"--method exhaustive: {space.size:,} designs is beyond the local limit of {MAX_LOCAL_DESIGNS:,}: "
-                f"projected {hours:,.1f} core-hours at {rate:,.0f} designs per core-second (measured here); run it "
-                "on a Dask cluster, confirmed: --executor dask --scheduler ADDRESS --confirm-cost")
+                f"projected {cost.core_hours * count:,.1f} core-hours{per_rule} at {cost.designs_per_core_second:,.0f} designs "
+                f"per core-second (measured here on {cost.timed} designs, {cost.censored} stopped at the force limit "
+                "as the sweep's chunks are); run it on a Dask cluster, confirmed: --executor dask --scheduler "
+                "ADDRESS --confirm-cost")
 
     def run(self, context: StudyContext) -> ExhaustiveResult:
+        why = "asked (--method exhaustive)"
+        if sweep_instead(context):
+            evaluations = default_evaluations(context.config(Searches))
+            why = (f"the default study sweeps a space of at most {SWEEP_DESIGNS_PER_SEARCH_EVALUATION} designs per "
+                   f"evaluation its searches would make ({evaluations:,} per rule at this budget): "
+                   f"{context.case.space.size:,} designs cost less to sweep than to search, and the sweep certifies")
         if len(context.case.outputs) > 1:
-            return ExhaustiveResult((), tuple(self.sweep_front(context, rule) for rule in context.rules))
-        return ExhaustiveResult(tuple(self.sweep(context, rule) for rule in context.rules))
+            return ExhaustiveResult((), tuple(self.sweep_front(context, rule) for rule in context.rules), why)
+        return ExhaustiveResult(tuple(self.sweep(context, rule) for rule in context.rules), why=why)
 
     def chunks(self, context: StudyContext, label: str, tasks, count: int) -> list[ChunkResult]:
         with context.progress.bar(count, f"exhaustive sweep ({label})", unit="chunk") as bar:
@@ -347,4 +409,4 @@ def draw_exhaustive(study, path: Path) -> str | None:
 
 
 __all__ = ["Certificate", "Exhaustive", "ExhaustiveConfig", "ExhaustiveResult", "FULL_ERROR", "FrontPoint",
-           "FrontSweep", "SCREENING_ERROR", "Sweep", "Verified"]
+           "FrontSweep", "SCREENING_ERROR", "Sweep", "SweepCost", "Verified", "projection_incumbent", "sweep_cost"]

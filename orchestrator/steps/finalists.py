@@ -1,4 +1,5 @@
-"""The finalists: each run's best designs, the baselines and the sweep's optimum, at full fidelity."""
+"""The finalists: each run's best designs, the baselines, the sweep's optimum and the case's known optimum (with
+its runner-up), at full fidelity."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -6,6 +7,7 @@ from dataclasses import dataclass
 from fmu_src.published import STUDY_BEST_ORDER
 from fmu_src.materials import study_materials
 
+from ..known_optima import known_optimum
 from ..loop import SearchRun
 from ..objective import FULL
 from ..study import Step, StudyContext
@@ -88,6 +90,9 @@ class Finalists(Step):
             sweep = swept.for_rule(label) if swept else None
             if sweep and sweep.certificate.optimum:
                 orders.append(sweep.certificate.optimum.order)
+            recorded = known_optimum(context.case, rule or context.case.rule_default)
+            if recorded is not None:  # a recorded optimum and its runner-up are designs like any other: evaluated
+                orders += [recorded.order] + ([recorded.runner_up] if recorded.runner_up else [])
             orders = list(dict.fromkeys(orders))
             evaluations = context.objective(rule).evaluate(orders, context.evaluator, FULL)
             full = dict(zip(orders, evaluations))

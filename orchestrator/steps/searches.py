@@ -11,6 +11,11 @@ from ..search import SEARCHES, make_search
 from ..study import Step, StudyContext
 
 SINGLE_DEFAULT = ("cmaes", "pso", "sa", "sequential", "random")
+# How many designs a sweep (alone, its chunks lowering their force limit as they go) screens in the core-time of
+# one evaluation of the default searches, rounded down: `python -m bench.sweep_crossover` measures it and writes
+# docs/measurements/sweep_crossover.md. The default study sweeps a space of at most this many designs per
+# evaluation its searches would make, instead of searching it.
+SWEEP_DESIGNS_PER_SEARCH_EVALUATION = 3
 MULTI_DEFAULT = ("nsga2", "random")
 EXHAUSTIVE = "exhaustive"
 ALL = "all"
@@ -71,6 +76,27 @@ class SearchesResult:
         return [run for run in self.runs if run.label == label]
 
 
+def default_evaluations(config: "SearchesConfig") -> int:
+    """The evaluations the default searches make under one rule at ``config``'s budget, seed and repeats."""
+    return sum(min(config.budget, SEARCHES[m].max_evaluations or config.budget)
+               for m, _ in plan(SINGLE_DEFAULT, config.seed, config.repeats))
+
+
+def sweep_instead(context: StudyContext) -> bool:
+    """Whether the default study sweeps the space instead of searching it: no --method given, one objective and
+    one load case, and a space small enough that the sweep costs less than the default searches would (then it
+    also certifies its answer)."""
+    config = context.config(Searches)
+    if config.methods or len(context.case.outputs) > 1 or len(context.case.cases) > 1:
+        return False
+    return context.case.space.size <= SWEEP_DESIGNS_PER_SEARCH_EVALUATION * default_evaluations(config)
+
+
+def sweeps(context: StudyContext) -> bool:
+    """Whether this run sweeps the space: asked (--method exhaustive), or the default study of a small space."""
+    return EXHAUSTIVE in context.config(Searches).methods or sweep_instead(context)
+
+
 def rule_label(rule: str | None) -> str:
     """How results name the diagonal rule they were found under (None: the load cases or the model set it)."""
     return rule or "as set"
@@ -103,6 +129,10 @@ class Searches(Step):
     template = "searches.html.j2"
     chart_file = "convergence.png"
     Config = SearchesConfig
+
+    def applies(self, context: StudyContext) -> bool:
+        """Not when the run only sweeps (--method exhaustive alone, or the default study of a small space)."""
+        return bool(self.methods(context)) and not sweep_instead(context)
 
     def methods(self, context: StudyContext) -> tuple[str, ...]:
         return methods_for(self.config.methods, len(context.case.outputs))
@@ -194,4 +224,5 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
     return save(figure, path)
 
 
-__all__ = ["Searches", "SearchesConfig", "SearchesResult", "methods_for", "plan", "rule_label", "run_searches"]
+__all__ = ["SWEEP_DESIGNS_PER_SEARCH_EVALUATION", "Searches", "SearchesConfig", "SearchesResult",
+           "default_evaluations", "methods_for", "plan", "rule_label", "run_searches", "sweep_instead", "sweeps"]

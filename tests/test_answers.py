@@ -1,0 +1,154 @@
+"""The answers a designer takes away: the mean rule's design first (the file to build), the receiver rule's beside
+it as the study's model; known optima looked up per rule; what a certificate covers; a runner-up equivalent
+within sampling; what would settle an answer few runs reached; a small space swept and certified by default."""
+from __future__ import annotations
+
+import json
+from itertools import permutations
+from types import SimpleNamespace
+
+import pytest
+
+from fmu_src.build import build_fmu
+from fmu_src.materials import study_materials
+from orchestrator import known_optima as known_optima_module
+from orchestrator import run as cli
+from orchestrator.design import DesignSpace
+from orchestrator.known_optima import known_optimum
+from orchestrator.simulation import LatticeFMU
+from orchestrator.steps.answers import Equivalence, Evidence
+from orchestrator.types import RunOutputs
+
+COMMON = ["--no-sensitivity", "--no-progress", "--executor", "serial"]
+
+
+@pytest.fixture(scope="module")
+def narrow(tmp_path_factory):
+    """The armour scene over C columns (C! orders), built once per width."""
+    built = {}
+
+    def fmu(columns):
+        if columns not in built:
+            built[columns] = build_fmu("armour_11x11", tmp_path_factory.mktemp(f"fmu{columns}") / "lattice.fmu",
+                                       cols=columns, werror=True)
+        return built[columns]
+    return fmu
+
+
+def brute_force(fmu, columns, rule):
+    """Every order's sampled peak at full fidelity under ``rule``, best first."""
+    with LatticeFMU(fmu) as lattice:
+        values = {o: lattice.simulate(o, 8.0, {"diagonal_rule": rule})["peak_backplate_force"]
+                  for o in permutations(range(1, columns + 1))}
+    return sorted(values.items(), key=lambda item: item[1])
+
+
+def entry(columns, rule, ranked, source):
+    (order, peak), (runner, runner_peak) = ranked[:2]
+    return {"rows": 11, "columns": columns, "objective": "peak_backplate_force", "diagonal_rule": rule,
+            "horizon": 8.0, "order": list(order), "peak": peak, "certified": True,
+            "runner_up": {"order": list(runner), "peak": runner_peak}, "source": source,
+            "command": f"python orchestrator/run.py --method exhaustive --cols {columns} --diagonal-rule {rule}"}
+
+
+def main(*argv):
+    try:
+        return cli.main([str(a) for a in argv])
+    except SystemExit as exc:
+        return exc.code
+
+
+def test_a_known_optimum_is_looked_up_per_rule(tmp_path, monkeypatch):
+    case = SimpleNamespace(outputs=("peak_backplate_force",), parameters={}, case_lists={}, rows=11, columns=4,
+                           horizon=8.0, space=DesignSpace.permutations(4), materials=study_materials(4))
+    mean = entry(4, "mean", [((1, 2, 3, 4), 2.0), ((2, 1, 3, 4), 3.0)], "mean sweep")
+    receiver = entry(4, "receiver", [((4, 3, 2, 1), 1.0), ((3, 4, 2, 1), 1.5)], "receiver sweep")
+    table = tmp_path / "known.json"
+    for entries in ([mean, receiver], [receiver, mean]):  # whatever the order of the entries
+        table.write_text(json.dumps({"optima": entries}))
+        monkeypatch.setattr(known_optima_module, "TABLE", table)
+        assert known_optimum(case, "mean").order == (1, 2, 3, 4)
+        assert known_optimum(case, "receiver").order == (4, 3, 2, 1)
+    assert known_optimum(SimpleNamespace(**{**case.__dict__, "horizon": 4.0}), "mean") is None
+
+
+def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(narrow, tmp_path, monkeypatch, capfd):
+    """A recorded mean-rule optimum (the brute force of a small case, as the 11 x 11 one will be recorded) makes
+    the mean answer certified although the searches are too short to reach it; the receiver rule, with no
+    entry, is the study's model beside it, best found, with what would settle it."""
+    fmu = narrow(4)
+    ranked = brute_force(fmu, 4, "mean")
+    table = tmp_path / "known.json"
+    table.write_text(json.dumps({"optima": [entry(4, "mean", ranked, "the test's brute force of 24 orders")]}))
+    monkeypatch.setattr(known_optima_module, "TABLE", table)
+    out = tmp_path / "out"
+    assert main("--fmu", fmu, "--cols", 4, "--out", out, "--method", "cmaes", "--budget", 1, "--repeats", 4,
+                *COMMON) == 0
+    printed = capfd.readouterr().out
+    results = json.loads((out / "results.json").read_text())
+    mean, receiver = results["answers"]
+    assert (mean["diagonal_rule"], receiver["diagonal_rule"]) == ("mean", "receiver")
+    assert mean["design_file"] == "best_design.ssp" and receiver["design_file"] == "design_receiver.ssp"
+    assert mean["roles"] == ["your design file"]
+    assert receiver["roles"] == ["the study's model: reproduces its published numbers"]
+    assert tuple(mean["order"]) == ranked[0][0] and mean["peak"] == pytest.approx(ranked[0][1], rel=1e-6)
+    assert mean["evidence"]["status"] == "certified" and "the test's brute force" in mean["evidence"]["status_source"]
+    assert mean["evidence"]["covers"] == "the sampled peak (0.01 s samples) over 8 s under the mean rule"
+    assert tuple(mean["runner_up"]) == ranked[1][0]
+    assert mean["equivalence"]["runner_up_outputs"] is not None  # the runner-up evaluated, not read from the table
+    assert receiver["evidence"]["status"] == "best_found"
+    lines = printed.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith("mean rule (your design file): build"))
+    assert "certified for the sampled peak (0.01 s samples)" in lines[first]
+    assert first < next(i for i, line in enumerate(lines) if line.startswith("receiver rule (the study's model"))
+    evidence = receiver["evidence"]
+    assert 2 * evidence["runs_reaching"] < evidence["runs"] == 4
+    settle = evidence["settlement"]
+    assert settle["budget"] == 10 and settle["sweep"]["designs"] == 24 and settle["sweep"]["designs_per_core_second"] > 0
+    assert "to settle it: `--budget 10`" in printed and "`--method exhaustive`" in printed
+    html = (out / "report.html").read_text()
+    first_screen = html[:html.index("</table>")]
+    assert first_screen.index("mean rule (your design file)") < first_screen.index("receiver rule (the study")
+    assert "--diagonal-rule receiver</code> makes its order the design file" in first_screen
+
+
+def test_a_small_space_is_swept_and_certified_by_default(narrow, tmp_path, capfd):
+    out = tmp_path / "out"
+    assert main("--fmu", narrow(3), "--cols", 3, "--out", out, *COMMON) == 0
+    printed = capfd.readouterr().out
+    results = json.loads((out / "results.json").read_text())
+    assert "searches" not in results["steps"] and len(results["steps"]["exhaustive"]["sweeps"]) == 2
+    for answer in results["answers"]:
+        assert answer["evidence"]["status"] == "certified" and answer["evidence"]["swept"]
+        assert answer["evidence"]["runs"] == 0
+    assert printed.count("certified for the sampled peak") == 2 and "every design swept" in printed
+    html = (out / "report.html").read_text()
+    assert "distinct designs per seed" not in html and "best found" not in html
+
+
+def test_an_explicit_sweep_alone_runs_no_search(narrow, tmp_path, capfd):
+    out = tmp_path / "out"
+    assert main("--fmu", narrow(3), "--cols", 3, "--out", out, "--method", "exhaustive", "--diagonal-rule",
+                "receiver", *COMMON) == 0, capfd.readouterr().err
+    results = json.loads((out / "results.json").read_text())
+    assert "searches" not in results["steps"] and results["answers"][0]["evidence"]["status"] == "certified"
+
+
+def outputs(sampled, continuous):
+    return RunOutputs(sampled, continuous, 0.3, 1.0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 8.0)
+
+
+def test_a_runner_up_closer_than_sampling_decides_is_equivalent():
+    close = Equivalence(gap=0.0066, sampling=9.6, integration=1e-3, runner_up_outputs=outputs(1405.91, 1415.44))
+    assert close.equivalent and "less than the 9.60 N between the sampled and the continuous peak" in close.reason("N")
+    far = Equivalence(gap=12.0, sampling=9.6, integration=1e-3, runner_up_outputs=None)
+    assert not far.equivalent
+    within_integration = Equivalence(gap=1e-4, sampling=None, integration=1e-3, runner_up_outputs=None)
+    assert within_integration.equivalent and "integration error" in within_integration.reason("m")
+
+
+def test_few_runs_is_under_half_and_never_for_a_certified_answer():
+    assert Evidence(4, 9, True, "best_found", "").few_runs
+    assert not Evidence(5, 9, True, "best_found", "").few_runs
+    assert not Evidence(1, 9, True, "certified", "").few_runs
+    assert not Evidence(0, 0, True, "best_found", "").few_runs
