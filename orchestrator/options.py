@@ -13,17 +13,23 @@ import math
 from typing import Any, Callable
 
 _GIVEN = "_options_given"
+KEPT, NO_NUMBER, NOT_KEPT = "kept", "no number", "not kept"  # how a study file keeps an option
 
 
 def option(default: Any, help: str, *, flag: str | None = None, type: Callable[[str], Any] | None = None,
            choices: Any = None, nargs: str | int | None = None, metavar: str | None = None,
-           action: str | None = None, show_default: str | None = None):
+           action: str | None = None, show_default: str | None = None, study: str = KEPT, path: bool = False):
     """A dataclass field that is also a command-line option (``--name-with-dashes`` unless ``flag``).
 
     ``show_default`` replaces the shown default (e.g. "the scene's, 1200 N"); ``action`` "store_true" or
-    "store_false" makes a flag (the field's default is then the value without the flag)."""
+    "store_false" makes a flag (the field's default is then the value without the flag). ``study``: how a
+    study file (``orchestrator.studyfile``) keeps it: ``KEPT``, ``NO_NUMBER`` (written as a comment: it changes
+    no number) or ``NOT_KEPT`` (it belongs to one invocation); ``path``: the value may be a file's path (a
+    study file writes it relative to itself)."""
+    if study not in (KEPT, NO_NUMBER, NOT_KEPT):
+        raise ValueError(f"study must be one of {KEPT}, {NO_NUMBER}, {NOT_KEPT}, got {study!r}")
     metadata = {"help": help, "flag": flag, "type": type, "choices": choices, "nargs": nargs, "metavar": metavar,
-                "action": action, "show_default": show_default}
+                "action": action, "show_default": show_default, "study": study, "path": path}
     if isinstance(default, (list, dict, set)):
         raise TypeError("option defaults must be immutable (use a tuple)")
     return dataclasses.field(default=default, metadata={"option": metadata})
@@ -137,4 +143,4 @@ def integer(flag: str, low: int, high: int | None = None) -> Callable[[str], int
     return parse
 
 
-__all__ = ["add_options", "check_number", "config_from", "flag_of", "given", "integer", "number", "option"]
+__all__ = ["KEPT", "NOT_KEPT", "NO_NUMBER", "add_options", "check_number", "config_from", "flag_of", "given", "integer", "number", "option"]

@@ -6,6 +6,7 @@
     python orchestrator/run.py --case F_total=600,1200,2400 --aggregate worst
     python orchestrator/run.py --executor dask --scheduler tcp://10.0.0.5:8786
     python orchestrator/run.py --resume                # continue an interrupted run
+    python orchestrator/run.py --study results/study.toml --out again   # a study file, run again
 
 Errors are one line on stderr with exit code 2 (a traceback only with --debug); a study without an answer
 exits 3; an interrupted run exits 130 (Ctrl-C) or 143 (SIGTERM) and keeps every finished evaluation in
@@ -42,6 +43,8 @@ def build_parser():
         if step.Config.__dataclass_fields__:
             add_options(parser, step.Config, step.title.lower())
     add_options(parser, RunConfig, "the run")
+    parser.add_argument("--study", metavar="FILE", help="run the study file FILE (every run writes one: "
+                        "OUT/study.toml); options given here override the file's")
     return parser
 
 
@@ -58,6 +61,15 @@ def main(argv=None) -> int:
     from orchestrator.study import CaseConfig
 
     debug = getattr(args, "RunConfig.debug", False)
+    study_file = None
+    if args.study is not None:
+        from orchestrator.studyfile import StudyFileError, read_study_file
+
+        try:
+            study_file = read_study_file(args.study)
+        except StudyFileError as exc:
+            parser.error(str(exc))
+        study_file.apply(args)
     try:
         run = config_from(RunConfig, args)
         case = config_from(CaseConfig, args)
@@ -66,7 +78,7 @@ def main(argv=None) -> int:
         parser.error(str(exc))
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        outcome = run_in_folder(run, case, configs, STEPS)
+        outcome = run_in_folder(run, case, configs, STEPS, study_file=study_file)
     except (KeyboardInterrupt, Interrupted) as exc:
         print(f"interrupted: the finished evaluations are kept in {run.out}.partial/journal.jsonl; continue with "
               "the same options and --resume", file=sys.stderr)
@@ -82,6 +94,9 @@ def main(argv=None) -> int:
     finally:
         signal.signal(signal.SIGTERM, previous)
     print_answer(outcome)
+    fmu_note = study_file.fmu_note(outcome.study.fmu_sha256) if study_file is not None else None
+    if fmu_note:
+        print(fmu_note, file=sys.stderr)
     return EXIT_OK
 
 

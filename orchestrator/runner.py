@@ -23,10 +23,11 @@ from .fmu import PreparedFMU, prepare_fmu
 from .journal import Journal
 from .loop import Evaluator
 from .objective import RUN_MAXIMA, Trajectory, close_instances, count_cases
-from .options import integer, number, option
+from .options import NO_NUMBER, NOT_KEPT, integer, number, option
 from .progress import Progress
 from .records import to_record
 from .runfolder import RunFolder, make_temp_root
+from .studyfile import write_study_file
 from .study import MAX_RUNS_PER_DESIGN, CaseConfig, StudyContext, StudyResult, resolve_case, run_study
 from .types import Evaluation
 
@@ -40,24 +41,25 @@ class RunConfig:
     """Where and how a study runs (none of it changes a result)."""
 
     out: str = option("results", "report folder; while the run works it writes OUT.partial, swapped in as a whole "
-                      "when the run finishes", metavar="DIR")
+                      "when the run finishes", metavar="DIR", study=NOT_KEPT, path=True)
     resume: bool = option(False, "continue the run of --out from its journal (same settings), simulating nothing "
-                          "it finished", action="store_true")
+                          "it finished", action="store_true", study=NOT_KEPT)
     overwrite: bool = option(False, "start anew although --out holds an unfinished run (its journal is kept as "
-                             "journal-RUNID.jsonl)", action="store_true")
-    executor: str = option("process", "where evaluations run", choices=EXECUTORS)
+                             "journal-RUNID.jsonl)", action="store_true", study=NOT_KEPT)
+    executor: str = option("process", "where evaluations run", choices=EXECUTORS, study=NO_NUMBER)
     workers: int | None = option(None, "worker processes", type=integer("--workers", 1, 10**6),
-                                 show_default=f"all cores ({os.cpu_count()})")
+                                 show_default=f"all cores ({os.cpu_count()})", study=NO_NUMBER)
     scheduler: str | None = option(None, "address of a Dask scheduler (only with --executor dask)",
-                                   show_default="a local Dask cluster of --workers processes", metavar="ADDRESS")
+                                   show_default="a local Dask cluster of --workers processes", metavar="ADDRESS",
+                                   study=NO_NUMBER)
     time_limit: float = option(120.0, "seconds one evaluation may run (its own run time, not its time in a queue) "
                                "before it is failed; it runs again on --resume", type=number("--time-limit", 0),
                                metavar="S")
     confirm_cost: bool = option(False, "run work beyond the stated bounds (an exhaustive sweep beyond 10! designs "
                                 "on Dask, more than 1000 FMU runs per design, more workers than 4 per core)",
                                 action="store_true")
-    progress: bool = option(True, "no progress bars", flag="--no-progress", action="store_false")
-    debug: bool = option(False, "tracebacks instead of one-line errors", action="store_true")
+    progress: bool = option(True, "no progress bars", flag="--no-progress", action="store_false", study=NOT_KEPT)
+    debug: bool = option(False, "tracebacks instead of one-line errors", action="store_true", study=NOT_KEPT)
 
     def __post_init__(self):
         if self.resume and self.overwrite:
@@ -147,7 +149,9 @@ def settings(case, fmu: PreparedFMU, steps) -> dict:
             "steps": {step.name: to_record(step.config) for step in steps}}
 
 
-def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, step_types) -> Outcome:
+def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, step_types,
+                  study_file=None) -> Outcome:
+    """``study_file``: the ``orchestrator.studyfile.StudyFile`` the options came from, if any."""
     folder = RunFolder.open(run.out, resume=run.resume, overwrite=run.overwrite)
     temp_root = make_temp_root()
     previous_tempdir = tempfile.tempdir
@@ -160,6 +164,8 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
             raise ValueError(f"--materials {case_config.materials}: {len(materials)} materials, but "
                              f"{fmu.path.name} has a table of {fmu.materials}")
         table = materials or scene.material_table() or study_materials(fmu.materials)
+        if study_file is not None:
+            study_file.check_materials(table)
         case = resolve_case(case_config, scene, fmu, table)
         steps = [step_type(step_configs.get(step_type)) for step_type in step_types]
         context = StudyContext(fmu=fmu, case=case, evaluator=Evaluator(SerialExecutor()), steps=steps,
@@ -169,6 +175,9 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
         for step in steps:
             step.check(context)
         check_confirmation(run, context.beyond_bounds)
+        write_study_file(folder.partial, {RunConfig: run, CaseConfig: case_config,
+                                          **{type(step).Config: step.config for step in steps}},
+                         table.sha256(), fmu.sha256)
         with Journal(folder.partial, settings(case, fmu, steps), RESULT_KINDS,
                      resume=folder.previous is not None) as journal, \
                 make_executor(run.executor, run.workers, run.scheduler, temp_root, (fmu.path,)) as executor:

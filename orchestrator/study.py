@@ -34,12 +34,12 @@ DESIGN_RULE = "mean"
 class CaseConfig:
     """The case the user asks about: scene, lattice and materials, objective, diagonal rules, load."""
 
-    scene: str = option("armour_11x11", "scene name from scenes/ or the path of a scene .json file")
+    scene: str = option("armour_11x11", "scene name from scenes/ or the path of a scene .json file", path=True)
     fmu: str | None = option(None, "the FMU to use (never rebuilt)", show_default="the scene's FMU in models/, "
-                             "built or rebuilt as needed")
+                             "built or rebuilt as needed", path=True)
     materials: str | None = option(None, "material table: a .csv with the header name,k,k_diag,c,alpha,alpha_diag "
                                    "(units as SPEC.md section 3), or .toml / .json with the same fields",
-                                   show_default="the study's eleven materials")
+                                   show_default="the study's eleven materials", path=True)
     cols: int | None = option(None, "columns of the lattice (materials per design)", show_default="the scene's",
                               type=integer("--cols", 2, 64))
     repeat: bool = option(False, "a material may fill several columns (M^C designs; default: each material at "
