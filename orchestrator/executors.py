@@ -11,6 +11,7 @@ order).
 from __future__ import annotations
 
 import contextlib
+import itertools
 import logging
 import multiprocessing
 import os
@@ -18,6 +19,8 @@ import shutil
 import signal
 import sys
 import tempfile
+import threading
+import time
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from typing import Any, Callable, Iterator
 
@@ -92,7 +95,10 @@ def pool_start_method() -> str | None:
     return method
 
 
-def _worker_start(temp_root: str | None) -> None:
+_STARTS = None  # in a pool worker: where it tells the main process when each task starts
+
+
+def _worker_start(temp_root: str | None, parent: int, starts) -> None:
     """Runs first in every pool worker.
 
     Ctrl-C reaches the whole process group: the main process ends the run, so a worker ignores SIGINT
@@ -100,21 +106,33 @@ def _worker_start(temp_root: str | None) -> None:
     one, so no worker outlives its run; elsewhere (no prctl) the pool's own shutdown and kill apply.
     Extracted FMUs go under the run's temp root, which the main process removes when the run ends.
     """
+    global _STARTS
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
-        _die_with_parent()
+        _die_with_parent(parent)
     if temp_root:
         tempfile.tempdir = temp_root
+    _STARTS = starts
 
 
-def _die_with_parent() -> None:
-    """Linux's parent-death signal (prctl PR_SET_PDEATHSIG), where the C library offers it; nothing elsewhere."""
+def _die_with_parent(parent: int) -> None:
+    """Linux's parent-death signal (prctl PR_SET_PDEATHSIG), where the C library offers it; nothing elsewhere.
+    A parent that died before the signal was set cannot send it: the worker then ends itself."""
     try:
         import ctypes
 
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG, from the loaded C library
     except (ImportError, OSError, AttributeError):  # pragma: no cover - no such C library or call
-        pass
+        return
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _run_reporting_start(token: int, fn: Callable[..., Any], args: tuple, kwargs: dict) -> Any:
+    """Runs one task in a pool worker, first telling the main process it started (and when)."""
+    if _STARTS is not None:
+        _STARTS.send((token, time.monotonic()))
+    return fn(*args, **kwargs)
 
 
 class ResilientProcessPool(Executor):
@@ -124,20 +142,81 @@ class ResilientProcessPool(Executor):
     ``BrokenProcessPool``); the evaluator records the evaluations in flight as failed and calls
     ``renew()`` so the run goes on. ``kill()`` ends the workers at once (a hung evaluation, an
     interrupted run): ``shutdown`` alone would wait for them.
+
+    ``started_at(future)`` says when a task started in its worker (``time.monotonic``, one clock for every
+    process of the machine), after the worker started and unpickled it: a time limit counts the task's own run
+    time, not a spawned worker's start-up (seconds of imports on Windows and macOS) or its time in the queue.
     """
 
     def __init__(self, workers: int, temp_root: str | None = None) -> None:
         self.slots = int(workers)
         self.temp_root = temp_root
+        self._tokens = itertools.count()
         self._pool = self._new_pool()
 
     def _new_pool(self) -> ProcessPoolExecutor:
         method = pool_start_method()
-        return ProcessPoolExecutor(max_workers=self.slots, initializer=_worker_start, initargs=(self.temp_root,),
-                                   mp_context=multiprocessing.get_context(method) if method else None)
+        context = multiprocessing.get_context(method)
+        # Each worker sends (token, start) down one pipe; a message this small is written at once, so
+        # workers need no lock (a worker killed holding one would block the others).
+        self._starts_in, starts_out = context.Pipe(duplex=False)
+        self._starts_out = starts_out
+        self._starts: dict[int, float] = {}
+        self._live: dict[Future, int] = {}
+        self._live_tokens: set[int] = set()
+        self._lock = threading.Lock()
+        self._starts_open = True
+        self._reader = threading.Thread(target=self._read_starts,
+                                        args=(self._starts_in, self._starts, self._live_tokens),
+                                        name="lattice-pool-starts", daemon=True)
+        self._reader.start()
+        return ProcessPoolExecutor(max_workers=self.slots, initializer=_worker_start,
+                                   initargs=(self.temp_root, os.getpid(), starts_out), mp_context=context)
+
+    def _read_starts(self, connection, starts: dict[int, float], live: set[int]) -> None:
+        while True:
+            try:
+                message = connection.recv()
+            except (EOFError, OSError):
+                return
+            if message is None:
+                return
+            token, started = message
+            with self._lock:
+                if token in live:
+                    starts[token] = started
+
+    def _close_starts(self) -> None:
+        if not self._starts_open:
+            return
+        self._starts_open = False
+        self._starts_out.send(None)  # the reader's end of the stream
+        self._reader.join(timeout=5)
+        self._starts_in.close()
+        self._starts_out.close()
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
-        return self._pool.submit(fn, *args, **kwargs)
+        token = next(self._tokens)
+        future = self._pool.submit(_run_reporting_start, token, fn, args, kwargs)
+        with self._lock:
+            self._live[future] = token
+            self._live_tokens.add(token)
+        starts, live, tokens, lock = self._starts, self._live, self._live_tokens, self._lock
+
+        def forget(done: Future) -> None:
+            with lock:
+                done_token = live.pop(done, None)
+                tokens.discard(done_token)
+                starts.pop(done_token, None)
+
+        future.add_done_callback(forget)
+        return future
+
+    def started_at(self, future: Future) -> float | None:
+        """When ``future``'s task started in its worker, or None while it waits (or is not this pool's)."""
+        with self._lock:
+            token = self._live.get(future)
+            return None if token is None else self._starts.get(token)
 
     def kill(self) -> None:
         processes = list((getattr(self._pool, "_processes", None) or {}).values())
@@ -147,6 +226,7 @@ class ResilientProcessPool(Executor):
                 process.kill()
         for process in processes:
             process.join(timeout=5)
+        self._close_starts()
 
     def renew(self) -> None:
         self.kill()
@@ -154,6 +234,8 @@ class ResilientProcessPool(Executor):
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+        if wait:
+            self._close_starts()
 
 
 @contextlib.contextmanager

@@ -69,6 +69,7 @@ class _Flight:
     task: Any
     sequence: int
     submitted: float
+    future: Future | None = None
 
 
 class Evaluator:
@@ -233,12 +234,17 @@ class Evaluator:
                 return None
             flight.sequence = self._submissions
             flight.submitted = time.monotonic()
+            flight.future = future
             self._submissions += 1
             return future
         return None
 
     def _started_at(self, flight: _Flight) -> float | None:
-        """When the task started in its worker (first in, first out), or None while it is still queued."""
+        """When the task started in its worker, or None while it is still queued: as the process pool's
+        worker said, else estimated (first in, first out; a worker's start-up counts as run time)."""
+        reported = getattr(self.executor, "started_at", None)
+        if reported is not None and flight.future is not None:
+            return reported(flight.future)
         before = flight.sequence - self._slots
         if before < 0:
             return flight.submitted
@@ -249,10 +255,14 @@ class Evaluator:
     def _wait_timeout(self, flights: dict[Future, _Flight]) -> float | None:
         if self.time_limit is None:
             return None
-        starts = [s for s in (self._started_at(f) for f in flights.values()) if s is not None]
+        starts = [self._started_at(f) for f in flights.values()]
+        now = time.monotonic()
+        if None in starts and hasattr(self.executor, "started_at"):
+            starts = [now if s is None else s for s in starts]  # a task that starts now expires the latest
+        starts = [s for s in starts if s is not None]
         if not starts:
             return None
-        return max(0.0, min(starts) + self.time_limit - time.monotonic())
+        return max(0.0, min(starts) + self.time_limit - now)
 
     def _timeout_message(self) -> str:
         return (f"exceeded the time limit of {self.time_limit:g} s of its own run time (--time-limit; it runs "
@@ -293,11 +303,15 @@ class Evaluator:
         if future is None:
             return flight.task.failure("executor: could not submit (the executor is shut down)", 0.0), False
         try:
-            finished, _ = wait([future], timeout=self.time_limit)
-            if not finished:
-                self.timeouts += 1
-                self._renew()
-                return flight.task.failure(self._timeout_message(), self.time_limit), False
+            while True:
+                finished, _ = wait([future], timeout=self._wait_timeout({future: flight}))
+                if finished:
+                    break
+                started = self._started_at(flight)
+                if started is not None and time.monotonic() - started >= self.time_limit:
+                    self.timeouts += 1
+                    self._renew()
+                    return flight.task.failure(self._timeout_message(), self.time_limit), False
             return future.result(), True
         except BrokenProcessPool as exc:
             self._renew()

@@ -84,10 +84,15 @@ def compatibility_row(request, importer: str, importer_version: str, *, fmi_vers
                platform)
 
 
+# The markers the default run leaves out (pyproject's addopts): a test carrying one runs only when -m names it.
+OPT_IN = ("importers", "platforms", "slow", "vdmcheck")
+
+
 def reproducing_command(request) -> str:
     """The command that runs this test again, from the checkout's root."""
-    marker = " -m importers" if request.node.get_closest_marker("importers") else ""
-    return f"python -m pytest{marker} {shlex.quote(request.node.nodeid)}"
+    markers = [name for name in OPT_IN if request.node.get_closest_marker(name)]
+    selection = f" -m {shlex.quote(' and '.join(markers))}" if markers else ""
+    return f"python -m pytest{selection} {shlex.quote(request.node.nodeid)}"
 
 
 def _write(request, importer, importer_version, fmi_version, interface, result, recorder, note, platform) -> None:

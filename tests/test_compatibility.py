@@ -127,3 +127,18 @@ def test_fmpy_reaches_the_published_peaks(request, fmi_version, interface):
             assert row.reached(order, peak) <= TOLERANCE, (
                 f"FMPy FMI {fmi_version} {interface}: {peak!r} N for {list(order)}, published "
                 f"{PUBLISHED_PEAKS[order]!r} N")
+
+
+def test_the_reproducing_command_selects_an_opt_in_test_by_its_markers(request):
+    class Node:  # an opt-in test of another file, as pytest describes it
+        nodeid = "tests/test_platforms.py::test_fmusim[x86_64-windows]"
+
+        @staticmethod
+        def get_closest_marker(name):
+            return name if name in ("platforms", "slow") else None
+
+    class Request:
+        node = Node()
+
+    assert reproducing_command(Request()) == (
+        "python -m pytest -m 'platforms and slow' 'tests/test_platforms.py::test_fmusim[x86_64-windows]'")

@@ -97,3 +97,21 @@ def test_a_study_runs_resumes_and_refuses_a_second_run_without_posix_modules(fmu
     results = json.loads((out / "results.json").read_text())
     assert results["answers"], results.keys()
     assert not (tmp_path / "out.partial").exists() and not list(tmp_path.glob(".out.previous-*"))
+
+
+def test_every_module_of_the_project_imports_without_posix_modules(tmp_path):
+    code = textwrap.dedent("""
+        import importlib
+        import pkgutil
+
+        names = ["build_fmu"]
+        for package in ("orchestrator", "fmu_src", "scenes", "reference"):
+            module = importlib.import_module(package)
+            names += [package] + [info.name for info in pkgutil.walk_packages(module.__path__, package + ".")]
+        for name in names:
+            importlib.import_module(name)
+        print(len(names), "modules")
+    """)
+    done = run_without_posix(tmp_path, code)
+    assert done.returncode == 0, done.stderr
+    assert int(done.stdout.split()[0]) > 30, done.stdout

@@ -103,3 +103,16 @@ def test_the_compiler_to_install_is_named_for_each_platform(monkeypatch, system,
 
     monkeypatch.setattr(prepared_fmu.platform, "system", lambda: system)
     assert hint in prepared_fmu.compiler_hint()
+
+
+def test_without_a_compiler_a_prebuilt_fmu_without_this_platforms_binary_is_refused(no_compiler, fmu_path):
+    """What a wheel whose FMU holds other platforms' binaries does here: refused, naming the compiler."""
+    with zipfile.ZipFile(fmu_path) as source, zipfile.ZipFile(no_compiler / "MassSpringLattice.fmu", "w") as out:
+        for item in source.infolist():
+            if not item.filename.startswith("binaries/"):
+                out.writestr(item, source.read(item))
+    with pytest.raises(FMUError) as caught:
+        prepare_fmu(Scene.load("armour_11x11"))
+    message = str(caught.value)
+    assert "\n" not in message and "cannot be instantiated on this machine" in message
+    assert "no C compiler was found" in message and "apt-get install gcc" in message
