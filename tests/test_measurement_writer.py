@@ -1,48 +1,55 @@
-"""The writer of the measurement pages: a benchmark writes its page and the index, and README.md only when asked."""
+"""The writer of the measurement pages: a benchmark writes its page and the index, and README.md only when asked.
+
+Run as a user runs it, on a copy of the repository's bench/, README.md and pages (tests import nothing from
+bench/): a benchmark's writer called with and without --write-readme, and the separate command."""
 from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
 
 import pytest
 
-from bench import measurements
+ROOT = Path(__file__).resolve().parents[1]
+BENCHMARK = textwrap.dedent("""
+    import sys
+    from bench.measurements import Page, Run, write_page
+    run = Run("speed", sys.argv[1:])
+    run.parser("Speed.", quick="less").parse_args(sys.argv[1:])
+    write_page(run, Page("speed", "A figure", "42 designs per second", "what was measured"))
+""")
 
 
 @pytest.fixture()
-def pages(tmp_path, monkeypatch):
-    """The writer pointed at a copy of README.md and an empty pages folder."""
-    readme = tmp_path / "README.md"
-    readme.write_text((measurements.README).read_text())
-    monkeypatch.setattr(measurements, "PAGES", tmp_path / "measurements")
-    monkeypatch.setattr(measurements, "README", readme)
-    monkeypatch.setattr(measurements, "ROOT", tmp_path)
+def copy(tmp_path):
+    shutil.copytree(ROOT / "bench", tmp_path / "bench", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(ROOT / "docs" / "measurements", tmp_path / "docs" / "measurements")
+    shutil.copy(ROOT / "README.md", tmp_path / "README.md")
     return tmp_path
 
 
-def page(name: str) -> measurements.Page:
-    return measurements.Page(name, "A figure", "42 designs per second", "what was measured")
+def run(copy: Path, *argv: str) -> str:
+    done = subprocess.run([sys.executable, *argv], cwd=copy, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    return done.stdout
 
 
-def test_a_benchmark_leaves_the_readme_alone_unless_asked(pages, capsys):
-    before = (pages / "README.md").read_text()
-    run = measurements.Run("speed", ["--quick"])
-    run.parser("Speed.", quick="less").parse_args(["--quick"])
-    measurements.write_page(run, page("speed"))
-    assert (pages / "README.md").read_text() == before
-    assert (pages / "measurements" / "speed.md").is_file() and (pages / "measurements" / "index.md").is_file()
-    assert "python -m bench.measurements --write-readme" in capsys.readouterr().out
+def test_a_benchmark_leaves_the_readme_alone_unless_asked(copy):
+    before = (copy / "README.md").read_text()
+    out = run(copy, "-c", BENCHMARK, "--quick")
+    assert (copy / "README.md").read_text() == before
+    assert (copy / "docs" / "measurements" / "speed.md").is_file()
+    assert "speed.md" in (copy / "docs" / "measurements" / "index.md").read_text()
+    assert "python -m bench.measurements --write-readme" in out
+    run(copy, "-c", BENCHMARK, "--quick", "--write-readme")
+    readme = (copy / "README.md").read_text()
+    assert "42 designs per second" in readme and "`python -m bench.speed --quick`" in readme
 
 
-def test_write_readme_rebuilds_the_table_from_the_pages(pages):
-    run = measurements.Run("speed", ["--quick", "--write-readme"])
-    args = run.parser("Speed.", quick="less").parse_args(["--quick", "--write-readme"])
-    assert args.quick and run.write_readme
-    measurements.write_page(run, page("speed"))
-    readme = (pages / "README.md").read_text()
-    block = readme[readme.index(measurements.README_START):readme.index(measurements.README_END)]
-    assert "42 designs per second" in block and "`python -m bench.speed --quick`" in block
-
-
-def test_the_separate_command_rebuilds_the_readme(pages):
-    measurements.write_page(measurements.Run("speed", []), page("speed"))
-    assert "42 designs per second" not in (pages / "README.md").read_text()
-    assert measurements.main(["--write-readme"]) == 0
-    assert "42 designs per second" in (pages / "README.md").read_text()
+def test_the_separate_command_rebuilds_the_readme_from_the_pages(copy):
+    run(copy, "-c", BENCHMARK)
+    assert "42 designs per second" not in (copy / "README.md").read_text()
+    run(copy, "-m", "bench.measurements", "--write-readme")
+    assert "42 designs per second" in (copy / "README.md").read_text()

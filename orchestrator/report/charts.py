@@ -18,12 +18,88 @@ COLOURS = {"cmaes": "tab:blue", "pso": "tab:orange", "sa": "tab:green", "ga": "t
 RULE_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple")
 
 
-def save(figure, path: Path, tight: bool = True) -> str:
+def save(figure, path: Path, tight: bool = True, labels=()) -> str:
+    """Writes the figure. ``labels``: annotations beside their points, moved apart where they would overlap
+    (once the layout is final, so that what is checked is what is drawn)."""
     if tight:
         figure.tight_layout()
+    spread_labels(figure, labels)
     figure.savefig(path, dpi=110)
     plt.close(figure)
     return path.name
+
+
+LABEL_RINGS = (3, 7, 12, 18, 26, 36, 48)  # points from its point at which a label is tried, nearest first
+
+
+def spread_labels(figure, labels, clearance: float = 2.0) -> None:
+    """Places each annotation (made with ``textcoords="offset points"``) at the nearest spot around its point,
+    right, left, above or below, that keeps ``clearance`` points from every label placed before it and from
+    every marker of its axes but its own point's; a label placed away from its point gets a thin leader line.
+    Why by hand: matplotlib puts a label where it is told and has no collision avoidance, and a crowded chart
+    (solver settings of similar cost and error, the ends of a front) would print labels on top of each other."""
+    if not labels:
+        return
+    from matplotlib.patches import FancyArrowPatch
+
+    renderer = figure.canvas.get_renderer()
+    pad = clearance * figure.dpi / 72.0
+    to_points = 72.0 / figure.dpi
+    placed = []
+    for label in labels:
+        obstacles = placed + marker_boxes(label.axes, exclude=label.xy)
+        extent = label.get_window_extent(renderer)
+        width, height = extent.width * to_points, extent.height * to_points
+        first = label.xyann
+        chosen = None
+        for ring in LABEL_RINGS:
+            for dx, dy in ((ring, 0.4 * ring), (ring, -ring - 0.6 * height), (-ring - width, 0.4 * ring),
+                           (-ring - width, -ring - 0.6 * height), (-width / 2, ring + 2), (-width / 2, -ring - height - 2)):
+                label.xyann = (dx, dy)
+                box = label.get_window_extent(renderer).padded(pad)
+                if not any(box.overlaps(other) for other in obstacles):
+                    chosen = (ring, dx, dy)
+                    break
+            if chosen:
+                break
+        if chosen is None:
+            label.xyann = first  # nowhere clear: where it was asked
+        elif chosen[0] > LABEL_RINGS[1]:
+            label.arrowprops = dict(arrowstyle="-", lw=0.4, color="0.45", shrinkA=0, shrinkB=2)
+            label.arrow_patch = FancyArrowPatch((0, 0), (1, 1), **label.arrowprops)
+        placed.append(label.get_window_extent(renderer))
+
+
+def marker_boxes(axis, exclude=None) -> list:
+    """The drawn extent of every marker of the axis's lines (the point ``exclude``, a label's own, left out)."""
+    from matplotlib.transforms import Bbox
+
+    boxes = []
+    for line in axis.lines:
+        if line.get_marker() in (None, "None", "", " "):
+            continue
+        radius = line.get_markersize() / 2 * axis.figure.dpi / 72.0
+        for point in line.get_xydata():
+            if exclude is not None and np.allclose(point, exclude):
+                continue
+            x, y = axis.transData.transform(point)
+            boxes.append(Bbox.from_extents(x - radius, y - radius, x + radius, y + radius))
+    return boxes
+
+
+def legend_below(axis, fontsize: float = 7, columns: int = 1):
+    """The axis's legend under its x label, where it hides no data (a legend inside the axes covers whatever
+    lies under it, and long labels cover most of the width)."""
+    return axis.legend(fontsize=fontsize, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=columns,
+                       frameon=False)
+
+
+def figure_title(figure, text: str, fontsize: float = 9) -> None:
+    """A title over the whole figure, wrapped to the figure's width (a line wider than the figure is cut off
+    at both ends)."""
+    width_points = figure.get_figwidth() * 72.0
+    characters = max(40, int(0.9 * width_points / (0.55 * fontsize)))  # 0.55 em: a generous average glyph width
+    figure.suptitle(wrapped(text, characters), fontsize=fontsize)
 
 
 def best_so_far_matrix(runs) -> np.ndarray:
@@ -45,4 +121,5 @@ def wrapped(text: str, width: int = 150) -> str:
     return "\n".join(textwrap.wrap(text, width))
 
 
-__all__ = ["COLOURS", "METHOD_NAMES", "RULE_COLOURS", "best_so_far_matrix", "plt", "save", "wrapped"]
+__all__ = ["COLOURS", "METHOD_NAMES", "RULE_COLOURS", "best_so_far_matrix", "figure_title", "legend_below", "plt",
+           "marker_boxes", "save", "spread_labels", "wrapped"]

@@ -224,7 +224,7 @@ class Pareto(Step):
 
 def draw_pareto(study, path: Path) -> str | None:
     import numpy as np
-    from ..report.charts import RULE_COLOURS, plt, save
+    from ..report.charts import RULE_COLOURS, legend_below, plt, save
 
     result = study.steps.get("pareto")
     if result is None:
@@ -233,6 +233,7 @@ def draw_pareto(study, path: Path) -> str | None:
     units = study.case.objective.units
     figure, axis = plt.subplots(figsize=(8, 5.5))
     searches = study.steps.get("searches")
+    labels = []
     for front, colour in zip(result.fronts, RULE_COLOURS):
         evaluated = [e.values for run in (searches.runs if searches else ()) if run.label == front.diagonal_rule
                      for e in run.evaluations if e.ok and len(e.values) >= 2]
@@ -244,9 +245,8 @@ def draw_pareto(study, path: Path) -> str | None:
             values = np.array(sorted(p.values for p in front.points))
             axis.plot(values[:, 0], values[:, 1], "o-", color=colour, ms=4,
                       label=f"non-dominated set, full fidelity ({front.diagonal_rule} rule)")
-            for chosen in front.chosen:
-                axis.annotate(chosen.label, chosen.values[:2], fontsize=7, textcoords="offset points",
-                              xytext=(5, 5))
+            labels += [axis.annotate(chosen.label, chosen.values[:2], fontsize=7, textcoords="offset points",
+                                     xytext=(5, 5)) for chosen in front.chosen]
         for end in front.sureness.known_ends:
             if end.values:
                 axis.plot([end.values[0]], [end.values[1]], "*", color=colour, ms=12, mec="black", mew=0.6,
@@ -257,8 +257,8 @@ def draw_pareto(study, path: Path) -> str | None:
     axis.set_title("The trade-off: each point a design; lower is better on both axes", fontsize=9)
     axis.grid(alpha=0.3)
     if axis.get_legend_handles_labels()[0]:
-        axis.legend(fontsize=7)
-    return save(figure, path)
+        legend_below(axis)
+    return save(figure, path, labels=labels)
 
 
 __all__ = ["ChosenPoint", "Front", "Pareto", "ParetoResult", "choose", "knee"]

@@ -171,7 +171,7 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
 
     from fmu_src.published import PUBLISHED_CONDITIONS, REFERENCE_POINTS
 
-    from ..report.charts import COLOURS, METHOD_NAMES, best_so_far_matrix, plt, save, wrapped
+    from ..report.charts import COLOURS, METHOD_NAMES, best_so_far_matrix, figure_title, plt, save
 
     searches = study.steps.get("searches")
     if searches is None or not searches.runs:
@@ -219,8 +219,7 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
         axis.grid(alpha=0.3)
         if axis.get_legend_handles_labels()[0]:
             axis.legend(fontsize=7)
-    figure.suptitle(wrapped(f"Convergence over seeds: median and quartiles. {context_line}", 100 * len(labels)),
-                    fontsize=9)
+    figure_title(figure, f"Convergence over seeds: median and quartiles. {context_line}")
     return save(figure, path)
 
 

@@ -69,7 +69,7 @@ class Trajectories(Step):
 
 def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
     import numpy as np
-    from ..report.charts import plt, save, wrapped
+    from ..report.charts import figure_title, legend_below, plt, save
 
     trajectories = study.steps.get("trajectories")
     if trajectories is None:
@@ -93,7 +93,7 @@ def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
                          f" rule), recorded every 1 ms", fontsize=9)
     force_axis.grid(alpha=0.3)
     if force_axis.get_legend_handles_labels()[0]:
-        force_axis.legend(fontsize=6.5, loc="upper right")
+        legend_below(force_axis, fontsize=6.5)
     names = {"kinetic_energy": "KE", "potential_energy": "PE", "external_work": "W_ext",
              "dissipated_energy": "D", "nonreciprocal_work": "W_nr", "energy_balance_error": "balance error"}
     if trajectories.energy and trajectories.energy[0].trajectory.ok:
@@ -103,11 +103,11 @@ def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
                              label=names.get(name, name))
         energy_axis.set_title(f"Energy of the {first.label} ({first.diagonal_rule} rule): "
                               "W_ext + W_nr = KE + PE + D", fontsize=9)
-        energy_axis.legend(fontsize=7)
+        legend_below(energy_axis, columns=3)
     energy_axis.set_xlabel("time (s)")
     energy_axis.set_ylabel("energy (J)")
     energy_axis.grid(alpha=0.3)
-    figure.suptitle(wrapped(context_line), fontsize=9)
+    figure_title(figure, context_line)
     return save(figure, path)
 
 

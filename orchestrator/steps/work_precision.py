@@ -74,21 +74,21 @@ class WorkPrecision(Step):
 
 
 def draw_work_precision(study, path: Path) -> str | None:
-    from ..report.charts import plt, save
+    from ..report.charts import legend_below, plt, save
 
     result = study.steps.get("work_precision")
     if result is None:
         return None
     figure, axis = plt.subplots(figsize=(8, 5))
     families = list(dict.fromkeys(p.solver for p in result.points))
+    labels = []
     for family, colour in zip(families, ("tab:blue", "tab:orange", "tab:green")):
         good = [p for p in result.points if p.solver == family and p.relative_error is not None]
         bad = [p for p in result.points if p.solver == family and p.relative_error is None]
         axis.plot([p.seconds for p in good], [max(p.relative_error, 1e-16) for p in good], "o-", color=colour,
                   label=family)
-        for p in good:
-            axis.annotate(p.setting, (p.seconds, max(p.relative_error, 1e-16)), fontsize=6,
-                          textcoords="offset points", xytext=(3, 3))
+        labels += [axis.annotate(p.setting, (p.seconds, max(p.relative_error, 1e-16)), fontsize=6,
+                                 textcoords="offset points", xytext=(3, 3)) for p in good]
         if bad:
             axis.plot([max(p.seconds, 1e-5) for p in bad], [1.0] * len(bad), "x", color=colour, ms=9,
                       label=f"{family}: failed with an FMI error ({', '.join(p.setting for p in bad)})")
@@ -105,8 +105,8 @@ def draw_work_precision(study, path: Path) -> str | None:
     axis.set_title(f"Each solver setting of the FMU for the chosen design ({result.diagonal_rule} rule)", fontsize=9)
     axis.grid(alpha=0.3, which="both")
     if axis.get_legend_handles_labels()[0]:
-        axis.legend(fontsize=7)
-    return save(figure, path)
+        legend_below(axis, columns=2)
+    return save(figure, path, labels=labels)
 
 
 __all__ = ["SETTINGS", "SolverPoint", "WorkPrecision", "WorkPrecisionResult"]
