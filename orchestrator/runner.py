@@ -163,6 +163,9 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
         if materials is not None and len(materials) != fmu.materials:
             raise ValueError(f"--materials {case_config.materials}: {len(materials)} materials, but "
                              f"{fmu.path.name} has a table of {fmu.materials}")
+        if materials is None and scene.material_table() is None and fmu.materials > STUDY_MATERIAL_COUNT:
+            raise ValueError(f"{fmu.path.name} has a table of {fmu.materials} materials, the study's has "
+                             f"{STUDY_MATERIAL_COUNT}: give the FMU's own table with --materials FILE")
         table = materials or scene.material_table() or study_materials(fmu.materials)
         if study_file is not None:
             study_file.check_materials(table)

@@ -152,3 +152,22 @@ def test_few_runs_is_under_half_and_never_for_a_certified_answer():
     assert not Evidence(5, 9, True, "best_found", "").few_runs
     assert not Evidence(1, 9, True, "certified", "").few_runs
     assert not Evidence(0, 0, True, "best_found", "").few_runs
+
+
+def test_a_refused_sweep_projects_its_cost_from_the_censored_rate_it_will_meet(fmu_path, tmp_path, capfd):
+    """The 11 x 11 sweep off Dask is refused with a projection timed on a chunk run as the sweep runs its chunks:
+    the force limit at an incumbent's threshold, so most of the timed designs are censored, as in the sweep."""
+    import re
+
+    code = main("--fmu", fmu_path, "--out", tmp_path / "out", "--method", "exhaustive", "--diagonal-rule",
+                "receiver", *COMMON)
+    err = [line for line in capfd.readouterr().err.splitlines() if line.strip()]
+    assert code == 2 and len(err) == 1, err
+    found = re.search(r"projected ([\d,.]+) core-hours at ([\d,]+) designs per core-second \(measured here on "
+                      r"(\d+) designs, (\d+) stopped at the force limit", err[0])
+    assert found and "--executor dask" in err[0], err[0]
+    timed, censored = int(found[3]), int(found[4])
+    assert timed == 200 and censored > timed // 2
+    assert float(found[1].replace(",", "")) * 3600 * float(found[2].replace(",", "")) == pytest.approx(
+        39916800, rel=0.01)
+    assert not (tmp_path / "out").exists()
