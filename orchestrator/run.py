@@ -126,6 +126,12 @@ def print_answer(outcome) -> None:
         print(f"{answer.diagonal_rule} rule: build {list(answer.order)}: {answer.peak:.2f} {unit}{other}; "
               f"{evidence.status.replace('_', ' ')}, {evidence.runs_reaching} of {evidence.runs} runs reached it, "
               f"{local[evidence.local_optimum]}; {answer.design_file}")
+    starts = study.steps.get("starts")
+    if starts is not None:
+        from orchestrator.steps.starts import comparison_line
+
+        for comparison in starts.comparisons:
+            print(comparison_line(comparison, unit))
     pareto = study.steps.get("pareto")
     for front in (pareto.fronts if pareto else ()):
         print(f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front; "

@@ -111,7 +111,8 @@ class NSGA2(PymooSearch):
         size = int(self.options["pop_size"])
         X = self.genome.sample(self.problem, size, self.rng)
         if first and self.options["x0"] == "sequential":
-            X[0] = self.genome.encode(self.space.baseline())
+            starts = self.start_designs()[:size]
+            X[:len(starts)] = [self.genome.encode(d) for d in starts]
         elif not first:
             front = [self.genome.encode(p.design) for p in self.pareto_front()][:size]
             if front:

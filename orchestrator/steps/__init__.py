@@ -9,6 +9,7 @@ from .finalists import Finalists
 from .pareto import Pareto
 from .searches import Searches
 from .sensitivity import Sensitivity
+from .starts import Starts
 from .trajectories import Trajectories
 from .work_precision import WorkPrecision
 
@@ -19,6 +20,7 @@ STEPS = (
     Descent,
     Pareto,
     Answers,
+    Starts,
     Sensitivity,
     Accuracy,
     Trajectories,

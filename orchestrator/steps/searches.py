@@ -117,7 +117,12 @@ class Searches(Step):
     def run(self, context: StudyContext) -> SearchesResult:
         methods = self.methods(context)
         objectives = len(context.case.outputs)
-        options = {"nsga2": {"objectives": objectives}} if objectives > 1 else None
+        options = {"nsga2": {"objectives": objectives}} if objectives > 1 else {}
+        from .starts import starting_designs
+
+        starts = starting_designs(context)
+        if starts:  # every search evaluates them first and starts from them
+            options = {method: {**options.get(method, {}), "starts": starts} for method in methods}
         runs = []
         for rule in context.rules:
             runs += run_searches(context, context.objective(rule), methods, self.config.seed, self.config.repeats,
