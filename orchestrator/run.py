@@ -136,6 +136,10 @@ def print_answer(outcome) -> None:
     for front in (pareto.fronts if pareto else ()):
         print(f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front; "
               + "; ".join(f"{c.label} {list(c.order)} ({c.design_file})" for c in front.chosen))
+    exported = study.steps.get("optuna_export")
+    if exported is not None and exported.error is None:
+        print(f"optuna: {sum(s.trials for s in exported.studies)} trials in {exported.storage} (studies "
+              + ", ".join(repr(s.name) for s in exported.studies) + f"): optuna-dashboard {exported.storage}")
     print(f"report: {outcome.report}")
 
 

@@ -6,6 +6,7 @@ from .answers import Answers
 from .descent import Descent
 from .exhaustive import Exhaustive
 from .finalists import Finalists
+from .optuna_export import OptunaExport
 from .pareto import Pareto
 from .searches import Searches
 from .sensitivity import Sensitivity
@@ -25,6 +26,7 @@ STEPS = (
     Accuracy,
     Trajectories,
     WorkPrecision,
+    OptunaExport,
 )
 
 __all__ = ["STEPS"] + [step.__name__ for step in STEPS]
