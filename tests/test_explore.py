@@ -117,9 +117,22 @@ def design_text(driver) -> str:
 @needs_browser
 @pytest.mark.parametrize("which", ["one_objective", "two_objectives"])
 def test_the_page_works_in_a_browser_offline(which, request, browser):
+    check_page(browser, request.getfixturevalue(which), front=which == "two_objectives")
+
+
+@pytest.mark.slow
+@needs_browser
+@pytest.mark.parametrize("options", [[], ["--objective", "sampled,max_compression"]], ids=["default", "two"])
+def test_the_default_studys_page_works_in_a_browser_offline(fmu_path, tmp_path, browser, options):
+    """The default study (and its two-objective variant) as the command line runs it, without --budget."""
+    out = tmp_path / "results"
+    assert main("--fmu", fmu_path, "--out", out, "--no-progress", *options) == 0
+    check_page(browser, out, front=bool(options))
+
+
+def check_page(browser, folder: Path, front: bool) -> None:
     from selenium.webdriver.common.action_chains import ActionChains
 
-    folder = request.getfixturevalue(which)
     open_page(browser, folder)
     assert browser.execute_script("return typeof Plotly") == "object"
     rows = csv_rows(folder)
@@ -142,7 +155,7 @@ def test_the_page_works_in_a_browser_offline(which, request, browser):
     order = row.find_elements("tag name", "td")[4].text
     row.click()
     assert "[" + order.replace(" ", ", ") + "]" in design_text(browser)
-    if which == "two_objectives":
+    if front:
         data = page_data(folder)
         point = browser.find_elements("css selector", "#front-0 .scatterlayer .trace:nth-of-type(2) .points path")[1]
         browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", point)
