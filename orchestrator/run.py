@@ -146,11 +146,21 @@ def print_answer(outcome) -> None:
         if same is not None and same.equivalent:
             print(f"  equivalent for practical purposes to the runner-up {list(answer.runner_up)} "
                   f"({answer.runner_up_peak:.2f} {unit}): {same.reason(unit)}")
+    starts = study.steps.get("starts")
+    if starts is not None:
+        from orchestrator.steps.starts import comparison_line
+
+        for comparison in starts.comparisons:
+            print(comparison_line(comparison, unit))
     pareto = study.steps.get("pareto")
     for front in (pareto.fronts if pareto else ()):
         print(f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front "
               f"({front_sureness_line(front.sureness)}); "
               + "; ".join(f"{c.label} {list(c.order)} ({c.design_file})" for c in front.chosen))
+    exported = study.steps.get("optuna_export")
+    if exported is not None and exported.error is None:
+        print(f"optuna: {sum(s.trials for s in exported.studies)} trials in {exported.storage} (studies "
+              + ", ".join(repr(s.name) for s in exported.studies) + f"): optuna-dashboard {exported.storage}")
     print(f"report: {outcome.report}")
 
 

@@ -40,18 +40,22 @@ def answers(path: Path) -> list[tuple]:
 
 def test_a_study_file_runs_again_to_the_same_evaluations_and_answers(fmu_path, tmp_path, capfd):
     first, again = tmp_path / "results", tmp_path / "again"
-    assert main("--fmu", fmu_path, "--out", first, "--executor", "serial", *QUICK) == 0
+    methods = ["cmaes", "pso", "sa", "random", "sequential"]
+    assert main("--fmu", fmu_path, "--out", first, "--executor", "serial", *QUICK, "--method", *methods,
+                "--seed", "4", "--start", "1,7,5,9,3,6,11,8,2,4,10") == 0
     study = first / "study.toml"
     data = tomllib.loads(study.read_text())
-    assert data["searches"]["budget"] == 12 and data["searches"]["method"] == ["cmaes", "sequential"]
+    assert data["searches"]["budget"] == 12 and data["searches"]["method"] == methods
+    assert data["searches"]["seed"] == 4 and data["starts"]["start"] == ["1,7,5,9,3,6,11,8,2,4,10"]
     assert data["case"]["diagonal-rule"] == ["mean"] and data["sensitivity"]["no-sensitivity"] is True
     assert "executor" not in data["run"] and "out" not in data["run"]  # changes no number / one invocation
     assert Path(first / data["case"]["fmu"]).resolve() == Path(fmu_path).resolve()  # relative to the file
     assert data["recorded"]["fmu-sha256"] and data["recorded"]["materials-sha256"]
     capfd.readouterr()
-    assert main("--study", study, "--out", again, "--no-progress") == 0
+    assert main("--study", study, "--out", again, "--no-progress", "--workers", "2") == 0
     assert capfd.readouterr().err.count("note:") == 0  # the same FMU: no note
-    assert rows(again / "evaluations.csv") == rows(first / "evaluations.csv")
+    assert {r["method"] for r in rows(first / "evaluations.csv")} == set(methods)
+    assert rows(again / "evaluations.csv") == rows(first / "evaluations.csv")  # another executor, the same rows
     assert answers(again) == answers(first) and answers(first)
     assert tomllib.loads((again / "study.toml").read_text()) == data  # the same study, the same file
 

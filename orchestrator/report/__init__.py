@@ -154,6 +154,9 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     record["design_files_refused"] = refused
     (out / "results.json").write_text(json.dumps(record, indent=1, allow_nan=False))
     write_evaluations_csv(study, out / "evaluations.csv")
+    from .explore import write_explore
+
+    write_explore(study, out, materials, refused)
     env = _env()
     sections = []
     for step in steps:

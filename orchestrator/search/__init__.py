@@ -26,6 +26,7 @@ from .nsga2 import NSGA2
 from .pareto import ParetoPoint, hypervolume, non_dominated, pareto_front, reference_point
 from .polish import Polished
 from .pso import PSO
+from .starts import Started, parse_design
 
 SEARCHES: dict[str, type[Search]] = {
     "cmaes": CMAES,
@@ -42,12 +43,19 @@ SEARCHES: dict[str, type[Search]] = {
 
 def make_search(name: str, space: DesignSpace | int, seed: int, **options: Any) -> Search:
     """Build a search by name over ``space`` (an int n: the permutations of n materials), composed with its
-    polishing phase (``polish.Polished``) when it has one.
+    polishing phase (``polish.Polished``) when it has one, and with its starting designs (``starts.Started``:
+    evaluated first) when ``starts`` are given.
 
     ``polish`` (default: the search's ``POLISH``) and ``polish_batch`` configure that phase; the search
     itself is given ``budget`` minus the polished share. Unknown name or option -> ValueError naming the
     allowed ones.
     """
+    search = _polished(name, space, seed, **options)
+    starts = options.get("starts")
+    return Started(search, starts) if starts else search
+
+
+def _polished(name: str, space: DesignSpace | int, seed: int, **options: Any) -> Search:
     try:
         cls = SEARCHES[name]
     except (KeyError, TypeError):
@@ -73,4 +81,4 @@ def make_search(name: str, space: DesignSpace | int, seed: int, **options: Any) 
 
 __all__ = ["SEARCHES", "make_search", "Search", "CMAES", "PSO", "Annealing", "RandomSearch", "Sequential",
            "LocalSearch", "Polished", "GeneticAlgorithm", "DifferentialEvolution", "NSGA2", "FAILURE",
-           "ParetoPoint", "hypervolume", "non_dominated", "pareto_front", "reference_point"]
+           "ParetoPoint", "hypervolume", "non_dominated", "pareto_front", "reference_point", "Started", "parse_design"]

@@ -110,7 +110,8 @@ class Annealing(Search):
       poor_low=0.02, poor_high=0.98   bounds of their mean acceptance at T0.
       max_free=500           proposals tried per chain and batch before a kick.
       kick=3                 random moves in a kick.
-      x0="sequential"        chain 0 starts at the space's baseline, the others one random move
+      x0="sequential"        chain c starts at starting design c (default: the space's baseline), the
+                             chains beyond the starting designs one random move
                              from it; "random": every chain at a random design.
       use_limits=True        give the loop each proposal's Metropolis threshold as its limit.
       polish=0.3             fraction of ``budget`` left to the final descent (0 = none).
@@ -259,10 +260,11 @@ class Annealing(Search):
         for c in range(self.chains):
             current = self.current[c]
             if current is None:
-                if self.options["x0"] == "sequential" and c == 0:
-                    start = self.space.baseline()
+                starts = self.start_designs()
+                if self.options["x0"] == "sequential" and c < len(starts):
+                    start = starts[c]
                 elif self.options["x0"] == "sequential":
-                    start = self._neighbour(self.space.baseline())
+                    start = self._neighbour(starts[c % len(starts)])
                 else:
                     start = self.space.random(self.rng)
                 self._proposals.append(Proposal(start, "init"))

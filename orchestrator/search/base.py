@@ -67,7 +67,7 @@ class Search:
 
     Subclasses set ``name`` and ``OPTIONS`` (option -> default) and implement ``_ask``, ``_tell`` and
     optionally ``_stop`` / ``_state``. Every search accepts ``budget`` (the loop's evaluation budget) so that
-    callers can pass it uniformly; the annealing scales its cooling by it and ``make_search`` splits it
+    callers can pass it uniformly, and ``starts`` (designs to start from, see ``start_designs``); the annealing scales its cooling by it and ``make_search`` splits it
     between an optimiser and its polishing phase (``polish.Polished``).
 
     ``memo`` holds the value of every distinct design told so far (failures as ``FAILURE``; a tuple per
@@ -86,6 +86,7 @@ class Search:
     def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:
         allowed = dict(self.OPTIONS)
         allowed.setdefault("budget", None)
+        allowed.setdefault("starts", None)
         unknown = sorted(set(options) - set(allowed))
         if unknown:
             raise ValueError(
@@ -105,6 +106,13 @@ class Search:
         self.best_order: Design | None = None
         self.memo: dict[Design, Any] = {}
         self.censored_above: dict[Design, float] = {}
+        self.starts = tuple(self.space.check(d, f"{self.name}: starting design")
+                            for d in (self.options["starts"] or ()))
+
+    def start_designs(self) -> tuple[Design, ...]:
+        """Where the search starts (its ``x0="sequential"``): the starting designs it was given (option
+        ``starts``: designs a person knows), else the space's baseline (the design a designer already has)."""
+        return self.starts or (self.space.baseline(),)
 
     # -- protocol ---------------------------------------------------------
     def ask(self) -> list[Design]:

@@ -40,8 +40,11 @@ class CMAES(Search):
     Options:
       popsize     population size (batch size); default pycma's 4 + floor(3 ln d), d the key dimension.
       sigma0      initial step size (default 0.3).
-      x0          first mean: "sequential" (default; evenly spaced keys in [0, 1]
-                  decoding to the space's baseline), "random" (uniform in [0, 1]).
+      x0          first mean: "sequential" (default; the keys of the first starting
+                  design, else evenly spaced keys in [0, 1] decoding to the space's
+                  baseline), "random" (uniform in [0, 1]).  Starting designs given
+                  (``starts``) are injected into the first populations (pycma's
+                  ``inject``), so CMA-ES is told their values.
       restarts    restart when pycma stops (default True); False: stop() then.
       restart_x0  mean of a restart: "random" (default), "best" (keys of the
                   best design so far) or "sequential".
@@ -111,7 +114,7 @@ class CMAES(Search):
         how = self.options["x0"] if first else self.options["restart_x0"]
         sigma0 = self.sigma0 if first else float(self.options["restart_sigma0"] or self.sigma0)
         if how == "sequential":
-            x0 = self.space.to_keys(self.space.baseline(), self.dim)
+            x0 = self.space.to_keys(self.start_designs()[0], self.dim)
         elif how == "best" and self.best_order is not None:
             x0 = self.space.to_keys(self.best_order, self.dim)
         else:  # "random", or "best" before anything was told
@@ -124,6 +127,8 @@ class CMAES(Search):
         opts.update(self.options["cma_options"] or {})
         with self._sandbox():
             self.es = cma.CMAEvolutionStrategy(x0, sigma0, opts)
+            if first and self.starts:  # pycma's own way to have given points in the next populations
+                self.es.inject([self.space.to_keys(d, self.dim) for d in self.starts], force=True)
 
     def _ask(self) -> list[Design]:
         with self._sandbox():

@@ -62,10 +62,11 @@ class DifferentialEvolution(PymooSearch):
         size = int(self.options["pop_size"])
         X = self.rng.uniform(0.0, 1.0, (size, self.space.key_dimension))
         if first and self.options["x0"] == "sequential":
-            centre = self.space.to_keys(self.space.baseline())
+            starts = self.start_designs()[:size]
+            centre = self.space.to_keys(starts[0])
             if self.options["spread"] is not None:
                 X = np.clip(centre + self.rng.normal(0.0, float(self.options["spread"]), X.shape), 0.0, 1.0)
-            X[0] = centre
+            X[:len(starts)] = [self.space.to_keys(d) for d in starts]
         return X
 
     def _algorithm(self, initial_X: np.ndarray) -> DE:

@@ -60,7 +60,8 @@ class GeneticAlgorithm(PymooSearch):
     def _initial_X(self, first: bool) -> np.ndarray:
         X = self.genome.sample(self.problem, int(self.options["pop_size"]), self.rng)
         if first and self.options["x0"] == "sequential":
-            X[0] = self.genome.encode(self.space.baseline())
+            starts = self.start_designs()[:len(X)]
+            X[:len(starts)] = [self.genome.encode(d) for d in starts]
         return X
 
     def _algorithm(self, initial_X: np.ndarray) -> GA:

@@ -163,7 +163,7 @@ class LocalSearch(Search):
     def __init__(self, space: DesignSpace | int, seed: int, **options) -> None:
         super().__init__(space, seed, **options)
         start = self.options["start"]
-        self.start = self.space.check(start, "local: start") if start is not None else self.space.baseline()
+        self.start = self.space.check(start, "local: start") if start is not None else self.start_designs()[0]
         kicks = self.options["kicks"]
         self.descent = Descent(self.rng, batch=int(self.options["batch"]),
                                max_kicks=None if kicks is None else int(kicks), space=self.space)

@@ -120,7 +120,7 @@ class NSGA2(PymooSearch):
         size = int(self.options["pop_size"])
         X = self.genome.sample(self.problem, size, self.rng)
         if first:
-            start = [self.space.baseline()] if self.options["x0"] == "sequential" else []
+            start = list(self.start_designs()) if self.options["x0"] == "sequential" else list(self.starts)
             start += [d for d in self.seeds if d not in start]
             for i, design in enumerate(start[:size]):
                 X[i] = self.genome.encode(design)

@@ -36,7 +36,8 @@ class PSO(Search):
     Options:
       swarm       number of particles (batch size); default 10.
       x0          "sequential" (default): the swarm starts around the keys of the
-                  space's baseline; "random": uniform in [0, 1].
+                  first starting design (else the space's baseline), a particle on
+                  each starting design; "random": uniform in [0, 1].
       spread      standard deviation of the keys around the start (default 0.3;
                   None: only particle 0 is placed, the rest stay uniform).
       rescatter_best  re-scatter around the best design so far, with ``spread``
@@ -84,7 +85,7 @@ class PSO(Search):
         self.v = self.rng.uniform(-self.vmax, self.vmax, (self.size, self.dim))
         centre = None
         if self.restarts == 0 and self.options["x0"] == "sequential":
-            centre = self.space.to_keys(self.space.baseline())
+            centre = self.space.to_keys(self.start_designs()[0])
         elif self.restarts > 0 and self.options["rescatter_best"] and self.best_order is not None:
             centre = self.space.to_keys(self.best_order)
         if centre is not None:
@@ -92,6 +93,9 @@ class PSO(Search):
             if spread is not None:
                 self.x = np.clip(centre + self.rng.normal(0.0, float(spread), self.x.shape), 0.0, 1.0)
             self.x[0] = centre
+            if self.restarts == 0:  # a particle on each further starting design
+                for i, design in enumerate(self.starts[1:self.size], start=1):
+                    self.x[i] = self.space.to_keys(design)
         self.pbest_x = self.x.copy()
         self.pbest_f = np.full(self.size, np.inf)
         self.gbest_x = self.x[0].copy()

@@ -6,9 +6,11 @@ from .answers import Answers
 from .descent import Descent
 from .exhaustive import Exhaustive
 from .finalists import Finalists
+from .optuna_export import OptunaExport
 from .pareto import Pareto
 from .searches import Searches
 from .sensitivity import Sensitivity
+from .starts import Starts
 from .trajectories import Trajectories
 from .work_precision import WorkPrecision
 
@@ -19,10 +21,12 @@ STEPS = (
     Descent,
     Pareto,
     Answers,
+    Starts,
     Sensitivity,
     Accuracy,
     Trajectories,
     WorkPrecision,
+    OptunaExport,
 )
 
 __all__ = ["STEPS"] + [step.__name__ for step in STEPS]

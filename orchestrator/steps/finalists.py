@@ -56,11 +56,15 @@ def finalist_orders(run: SearchRun, count: int) -> list[Order]:
 def baselines(context: StudyContext) -> dict[str, Order]:
     """The designs every answer is compared with: the baseline order, and the study's published best on the
     study's own lattice and materials."""
+    from .starts import starting_designs
+
     space = context.case.space
     found = {"sequential": space.baseline()}
     if (space.kind == "permutation" and space.columns == len(STUDY_BEST_ORDER)
             and context.case.materials == study_materials(space.materials)):
         found["study's best"] = STUDY_BEST_ORDER
+    for index, design in enumerate(starting_designs(context), start=1):  # the answer is never worse than one
+        found[f"starting design {index}"] = design
     return found
 
 

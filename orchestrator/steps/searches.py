@@ -148,14 +148,19 @@ class Searches(Step):
     def run(self, context: StudyContext) -> SearchesResult:
         methods = self.methods(context)
         objectives = len(context.case.outputs)
+        from .starts import starting_designs
+
+        starts = starting_designs(context)
         runs = []
         for rule in context.rules:
             # NSGA-II starts from the known optimum of each objective alone: the ends of the true front
             options = {"nsga2": {"objectives": objectives, "seeds": tuple(
                 k.order for k in known_ends(context.case, rule or context.case.rule_default))}} \
-                if objectives > 1 else None
+                if objectives > 1 else {}
+            if starts:  # every search evaluates them first and starts from them
+                options = {method: {**options.get(method, {}), "starts": starts} for method in methods}
             runs += run_searches(context, context.objective(rule), methods, self.config.seed, self.config.repeats,
-                                 self.config.budget, rule_label(rule), options=options)
+                                 self.config.budget, rule_label(rule), options=options or None)
         return SearchesResult(methods, self.config.budget, tuple(runs))
 
     def chart(self, study, path):

@@ -1,0 +1,136 @@
+"""The evaluations where optimisation users already look: an Optuna storage (``--export-optuna STORAGE``), and
+starting designs read back from one (``--start-file STORAGE``).
+
+Each diagonal rule's searches become one Optuna study ("<run id> <rule>": the values of two rules are two
+problems), each evaluation of ``evaluations.csv`` one trial in the same order: the material of each column as an
+integer parameter ``column_01``... (1..M), the objective value(s), the state COMPLETE for a value, FAIL for a
+failed evaluation, PRUNED for a censored one (stopped above a force limit: it has no value, its bound is the user
+attribute ``censored_above``), and the method, seed, run index, order, materials, fidelity and seconds as user
+attributes. ``optuna-dashboard STORAGE`` then shows the study. Optuna is an optional extra (``optuna``): the
+study itself never needs it.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .design import Design
+
+EXTRA = "pip install -e \".[optuna]\""
+
+
+def _optuna(flag: str):
+    try:
+        import optuna
+    except ImportError:
+        raise ValueError(f"{flag}: needs Optuna, an optional extra ({EXTRA})") from None
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    return optuna
+
+
+def check_storage(url: str, flag: str = "--export-optuna") -> None:
+    """Refuses, before any simulation, a storage that is not an Optuna RDB URL (or Optuna missing)."""
+    _optuna(flag)
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        make_url(url)
+    except ArgumentError:
+        raise ValueError(f"{flag} {url}: not a database URL; give an Optuna RDB storage such as "
+                         "sqlite:///study.db or postgresql://user@host/db") from None
+
+
+def column_parameter(column: int) -> str:
+    return f"column_{column:02d}"
+
+
+@dataclass(frozen=True)
+class ExportedStudy:
+    name: str
+    diagonal_rule: str
+    trials: int
+
+
+def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials: list[str], case_line: str,
+           run_id: str, fmu_sha256: str) -> tuple[ExportedStudy, ...]:
+    """Every evaluation of the search ``runs`` into ``storage``, one Optuna study per diagonal rule, named
+    "<run_id> <rule>" (ValueError, one line: a study of that name is there already)."""
+    optuna = _optuna("--export-optuna")
+    from optuna.distributions import IntDistribution
+    from optuna.exceptions import DuplicatedStudyError
+    from optuna.trial import TrialState, create_trial
+
+    distributions = {column_parameter(c): IntDistribution(1, len(materials)) for c in range(1, columns + 1)}
+    exported = []
+    for rule in dict.fromkeys(run.label for run in runs):
+        name = f"{run_id} {rule}"
+        try:
+            target = optuna.create_study(storage=storage, study_name=name, directions=["minimize"] * len(outputs))
+        except DuplicatedStudyError:
+            raise ValueError(f"--export-optuna {storage}: it holds a study named {name!r} already (this run was "
+                             "exported before); give another storage") from None
+        with warnings.catch_warnings():  # set_metric_names is "experimental" since Optuna 3.2, and kept since
+            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+            target.set_metric_names(list(outputs))
+        for key, value in (("case", case_line), ("diagonal_rule", rule), ("fmu_sha256", fmu_sha256),
+                           ("materials", list(materials))):
+            target.set_user_attr(key, value)
+        trials = []
+        for run in runs:
+            if run.label != rule:
+                continue
+            for index, evaluation in enumerate(run.evaluations, start=1):
+                attributes: dict[str, Any] = {
+                    "method": run.method, "seed": run.seed, "index": index, "order": list(evaluation.order),
+                    "materials": [materials[m - 1] for m in evaluation.order], "status": evaluation.status,
+                    "fidelity": "search", "seconds": evaluation.seconds}
+                if evaluation.ok:
+                    state = TrialState.COMPLETE
+                    values = list(evaluation.values) if len(outputs) > 1 else [evaluation.value]
+                elif evaluation.censored:
+                    state, values = TrialState.PRUNED, None
+                    attributes["censored_above"] = evaluation.limit
+                else:
+                    state, values = TrialState.FAIL, None
+                    attributes["message"] = evaluation.message
+                trials.append(create_trial(
+                    state=state, values=values, user_attrs=attributes, distributions=distributions,
+                    params={column_parameter(c): int(m) for c, m in enumerate(evaluation.order, start=1)}))
+        target.add_trials(trials)
+        exported.append(ExportedStudy(name, rule, len(trials)))
+    return tuple(exported)
+
+
+def designs_from_storage(url: str) -> list[Design]:
+    """Starting designs from an Optuna storage: the best trial of each of its studies (for several objectives,
+    each study's Pareto front), read from the ``column_NN`` parameters this module writes."""
+    optuna = _optuna("--start-file")
+    if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
+        raise ValueError(f"--start-file {url}: no such file {url[len('sqlite:///'):]} (an Optuna storage "
+                         "--export-optuna wrote)")
+    try:
+        names = optuna.get_all_study_names(storage=url)
+    except Exception as exc:  # noqa: BLE001 - any storage error is one line
+        raise ValueError(f"--start-file {url}: cannot read the Optuna storage ({str(exc).splitlines()[0]})") from None
+    designs: list[Design] = []
+    for name in names:
+        loaded = optuna.load_study(study_name=name, storage=url)
+        complete = [t for t in loaded.get_trials(deepcopy=False) if t.state == optuna.trial.TrialState.COMPLETE]
+        if not complete:
+            continue
+        best = loaded.best_trials if len(loaded.directions) > 1 else [loaded.best_trial]
+        for trial in best:
+            columns = sorted(k for k in trial.params if k.startswith("column_"))
+            if not columns:
+                raise ValueError(f"--start-file {url}: study {name!r} has no column_NN parameters (the material of "
+                                 "each column, as --export-optuna writes them)")
+            designs.append(tuple(int(trial.params[k]) for k in columns))
+    if not designs:
+        raise ValueError(f"--start-file {url}: no complete trial in the storage's studies ({', '.join(names) or 'none'})")
+    return list(dict.fromkeys(designs))
+
+
+__all__ = ["ExportedStudy", "check_storage", "designs_from_storage", "export"]

@@ -1,0 +1,148 @@
+"""explore.html: the study's results in one interactive page that opens from a file system with no network.
+
+The page holds plotly.js (inlined: plotly is the FMI Python world's charting library, FMPy's GUI and web app use
+it) and the study's results as JSON, and draws: the convergence of every run (methods and seeds toggled in the
+legend), every evaluation as a sortable, filterable table, the Pareto front (two objectives) with each point's
+order, objectives and design file, and the lattice of the design chosen in the table or on the front. The
+table, its sorting and filtering are a few lines of plain JavaScript over the embedded JSON: a table library
+would add more to the page than the code it replaces.
+
+Every front point gets a design file (``front/``), so a point clicked on the front can be opened in an SSP tool
+like the answers' design files.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import jinja2
+import markupsafe
+
+from ..study import StudyResult
+
+EXPLORE_FILE = "explore.html"
+FRONT_FOLDER = "front"
+SEARCH, FULL = "search", "full"
+
+
+def _number(value: Any) -> Any:
+    return value if value is None or not isinstance(value, float) or math.isfinite(value) else None
+
+
+def _row(rule: str, method: str, seed: int | None, index: int, evaluation, fidelity: str, materials) -> dict:
+    return {"rule": rule, "method": method, "seed": seed, "index": index, "order": list(evaluation.order),
+            "materials": [materials.name_of(m) for m in evaluation.order], "value": _number(evaluation.value),
+            "values": [_number(v) for v in evaluation.values], "status": evaluation.status,
+            "censored_above": _number(evaluation.limit) if evaluation.censored else None,
+            "seconds": _number(evaluation.seconds), "fidelity": fidelity,
+            "horizon": evaluation.outputs.horizon if evaluation.outputs is not None else None,
+            "message": evaluation.message}
+
+
+def front_design_file(rule: str, rank: int) -> str:
+    return f"{FRONT_FOLDER}/design_{rule.replace(' ', '_')}_{rank:03d}.ssp"
+
+
+def explore_data(study: StudyResult, materials, refused: dict[str, str]) -> dict:
+    """What the page shows, as JSON-ready data (every number from the typed results); ``refused``: the design
+    files not written."""
+    case = study.case
+    searches = study.steps.get("searches")
+    runs, rows = [], []
+    for run in (searches.runs if searches else ()):
+        runs.append({"rule": run.label, "method": run.method, "seed": run.seed,
+                     "best": [_number(v) for v in run.best_so_far()]})
+        rows += [_row(run.label, run.method, run.seed, index, e, SEARCH, materials)
+                 for index, e in enumerate(run.evaluations, start=1)]
+    finalists = study.steps.get("finalists")
+    for rule in (finalists.rules if finalists else ()):
+        rows += [_row(rule.diagonal_rule, "finalists", None, index, e, FULL, materials)
+                 for index, e in enumerate(rule.evaluations, start=1)]
+    fronts = []
+    pareto = study.steps.get("pareto")
+    for front in (pareto.fronts if pareto else ()):
+        chosen = {c.order: c for c in front.chosen}
+        points = []
+        for rank, point in enumerate(front.points, start=1):
+            name = chosen[point.order].design_file if point.order in chosen else front_design_file(
+                front.diagonal_rule, rank)
+            points.append({"order": list(point.order), "materials": [materials.name_of(m) for m in point.order],
+                           "values": [_number(v) for v in point.values],
+                           "label": chosen[point.order].label if point.order in chosen else "",
+                           "design_file": None if name in refused else name})
+        fronts.append({"rule": front.diagonal_rule, "exact": front.exact, "points": points})
+    answers = study.steps.get("answers")
+    return {
+        "case_line": case.line(), "outputs": list(case.objective.outputs), "units": list(case.objective.units),
+        "rows": case.rows, "columns": case.columns,
+        "materials": [{"name": m["name"], "k": m["k"]} for m in case.materials],
+        "runs": runs, "evaluations": rows, "fronts": fronts,
+        "answers": [{"rule": a.diagonal_rule, "order": list(a.order), "value": a.peak,
+                     "design_file": None if a.design_file in refused else a.design_file}
+                    for a in (answers.answers if answers else ())],
+    }
+
+
+def write_front_design_files(study: StudyResult, out: Path, materials) -> dict[str, str]:
+    """A design file for every point of each front that has none yet; {file: why not written} for refusals."""
+    from ..ssp import write_best_design_ssp
+
+    refused = {}
+    pareto = study.steps.get("pareto")
+    for front in (pareto.fronts if pareto else ()):
+        chosen = {c.order for c in front.chosen}
+        for rank, point in enumerate(front.points, start=1):
+            if point.order in chosen:
+                continue
+            name = front_design_file(front.diagonal_rule, rank)
+            parameters = {"material": list(point.order), **study.case.parameters}
+            if front.diagonal_rule in study.case.rules:
+                parameters["diagonal_rule"] = front.diagonal_rule
+            try:
+                write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon,
+                                      materials=materials)
+            except (ValueError, OSError) as exc:
+                refused[name] = str(exc).splitlines()[0]
+    return refused
+
+
+def _script_json(data: Any) -> markupsafe.Markup:
+    """JSON safe inside a <script> element (no "</" can end it early)."""
+    text = json.dumps(data, allow_nan=False, separators=(",", ":"))
+    return markupsafe.Markup(text.replace("</", "<\\/").replace("<!--", "<\\!--"))
+
+
+def plotly_js() -> str:
+    from plotly.offline import get_plotlyjs
+
+    return get_plotlyjs()
+
+
+def write_explore(study: StudyResult, out: Path, materials, refused: dict[str, str]) -> Path:
+    """``out/explore.html`` (and the front's design files); returns its path."""
+    out = Path(out)
+    refused = {**refused, **write_front_design_files(study, out, materials)}
+    data = explore_data(study, _Names(study.case.materials), refused)
+    env = jinja2.Environment(loader=jinja2.PackageLoader("orchestrator", "templates"),
+                             autoescape=jinja2.select_autoescape(["html", "j2"]), undefined=jinja2.StrictUndefined)
+    page = env.get_template("report/explore.html.j2").render(
+        case_line=study.case.line(), data=_script_json(data), plotly=markupsafe.Markup(
+            plotly_js().replace("</script", "<\\/script")))
+    path = out / EXPLORE_FILE
+    path.write_text(page, encoding="utf-8")
+    return path
+
+
+class _Names:
+    """Material names by number from the case's material rows."""
+
+    def __init__(self, rows) -> None:
+        self.rows = rows
+
+    def name_of(self, material: int) -> str:
+        return self.rows[material - 1]["name"]
+
+
+__all__ = ["EXPLORE_FILE", "explore_data", "write_explore"]

@@ -1,0 +1,142 @@
+"""Starting designs: designs a person knows (``--start``, ``--start-file``), which every search evaluates first
+and starts from (``orchestrator.search.starts``), and how much better the answer is than each of them.
+
+The designs are read and checked against the design space before any simulation. After the answers, each
+starting design is evaluated at full fidelity under each rule (the finalists' evaluation when it was one: the
+evaluator's cache) and compared with that rule's answer, in the objective's unit and in per cent.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..design import Design
+from ..objective import FULL
+from ..options import option
+from ..search.starts import parse_design
+from ..study import Step, StudyContext
+from ..types import Order
+
+COMMENT = "#"
+
+
+@dataclass(frozen=True)
+class StartsConfig:
+    start: tuple[str, ...] = option(
+        (), "a design every search evaluates first and starts from: the material of each column, column 1 "
+        "(at the load) first, e.g. 1,7,5,9,3,6,11,8,2,4,10 (repeatable)", action="append", metavar="ORDER")
+    start_file: str | None = option(
+        None, "starting designs, one per line as for --start (# starts a comment), or an Optuna storage "
+        "(e.g. sqlite:///study.db, needs the optuna extra): the designs of its complete trials, best first",
+        metavar="FILE", path=True, show_default="none")
+
+    def __post_init__(self):
+        for text in self.start:
+            parse_design(text)
+
+
+def read_start_file(path: str) -> list[tuple[Design, str]]:
+    """(design, where it was read) of each design of a start file or an Optuna storage."""
+    if "://" in path:
+        from ..optuna_export import designs_from_storage
+
+        return [(design, f"--start-file {path}") for design in designs_from_storage(path)]
+    try:
+        text = Path(path).read_text()
+    except OSError as exc:
+        raise ValueError(f"--start-file {path}: cannot read it ({exc.strerror or exc})") from None
+    found = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        line = line.split(COMMENT, 1)[0].strip()
+        if line:
+            found.append((parse_design(line, f"--start-file {path}:{number}:"), f"--start-file {path}:{number}"))
+    if not found:
+        raise ValueError(f"--start-file {path}: no design in it (one design per line, e.g. 1,7,5,9,3,6,11,8,2,4,10)")
+    return found
+
+
+def starting_designs(context: StudyContext) -> tuple[Order, ...]:
+    """The starting designs of the run, each checked against the design space (ValueError: one line)."""
+    config = context.config(Starts)
+    given = [(parse_design(text), "--start") for text in config.start]
+    if config.start_file:
+        given += read_start_file(config.start_file)
+    for design, where in given:
+        context.case.space.check(design, where)
+    return tuple(dict.fromkeys(design for design, _ in given))
+
+
+@dataclass(frozen=True)
+class StartComparison:
+    """One starting design against one rule's answer, both at full fidelity."""
+
+    diagonal_rule: str
+    order: Order
+    materials: tuple[str, ...]
+    value: float | None  # None: its evaluation failed (``message`` says why)
+    message: str
+    answer: Order
+    answer_value: float
+    improvement: float | None  # value - answer_value, in the objective's unit (positive: the answer is better)
+    improvement_percent: float | None  # of the starting design's value
+
+
+@dataclass(frozen=True)
+class StartsResult:
+    designs: tuple[Order, ...]
+    comparisons: tuple[StartComparison, ...]  # empty with several objectives (no single answer)
+
+
+class Starts(Step):
+    name = "starts"
+    title = "Starting designs"
+    Config = StartsConfig
+
+    def applies(self, context: StudyContext) -> bool:
+        return bool(self.config.start or self.config.start_file)
+
+    def check(self, context: StudyContext) -> None:
+        starting_designs(context)
+
+    def run(self, context: StudyContext) -> StartsResult:
+        from .answers import Answers
+
+        designs = starting_designs(context)
+        answers = context.result(Answers)
+        comparisons = []
+        for rule in context.rules:
+            from .searches import rule_label
+
+            answer = answers.for_rule(rule_label(rule)) if answers else None
+            if answer is None:
+                continue
+            for evaluation in context.objective(rule).evaluate(designs, context.evaluator, FULL):
+                value = evaluation.value if evaluation.ok else None
+                improvement = None if value is None else value - answer.peak
+                comparisons.append(StartComparison(
+                    diagonal_rule=answer.diagonal_rule, order=evaluation.order,
+                    materials=tuple(context.case.materials.name_of(m) for m in evaluation.order), value=value,
+                    message=evaluation.message, answer=answer.order, answer_value=answer.peak,
+                    improvement=improvement,
+                    improvement_percent=None if value in (None, 0) else 100.0 * improvement / value))
+        return StartsResult(designs, tuple(comparisons))
+
+
+def comparison_line(comparison: StartComparison, unit: str) -> str:
+    """The comparison in the words of the first screen."""
+    start = f"starting design {list(comparison.order)}"
+    if comparison.value is None:
+        return f"{start}: its evaluation failed ({comparison.message}) under the {comparison.diagonal_rule} rule"
+    if comparison.answer == comparison.order:
+        return (f"{start}: {comparison.value:.2f} {unit} under the {comparison.diagonal_rule} rule; the searches "
+                "found nothing better: it is the answer")
+    if comparison.improvement > 0:
+        how = (f"the answer is {comparison.improvement:.2f} {unit} ({comparison.improvement_percent:.1f} %) "
+               "lower")
+    else:
+        how = f"the answer is {-comparison.improvement:.2f} {unit} higher (see the answer's evidence)"
+    return f"{start}: {comparison.value:.2f} {unit} under the {comparison.diagonal_rule} rule; {how}"
+
+
+__all__ = ["StartComparison", "Starts", "StartsConfig", "StartsResult", "comparison_line", "read_start_file",
+           "starting_designs"]
