@@ -250,8 +250,10 @@ def test_fmusim_reproduces_the_published_peaks_on_each_platform(platform, fmi_ve
     options = " ".join(shlex.quote(o) for o in fmusim_options(interface, ()))
     row = dict(importer="fmusim", importer_version=_version(command), platform=platform,
                fmi_version=f"{fmi_version}.0", interface=INTERFACES[interface],
-               command=(f"{FMUSIM_VARIABLES[platform]}=path/to/fmusim{'.exe' if 'windows' in platform else ''} "
-                        f"python -m pytest -m platforms {shlex.quote(request.node.nodeid)}"),
+               command=" ".join([*dict.fromkeys(f"{FMUSIM_VARIABLES[name]}=path/to/{name}/fmusim"
+                                                 f"{'.exe' if 'windows' in name else ''}"
+                                                 for name in ("x86_64-linux", platform)),
+                                 "python -m pytest -m platforms", shlex.quote(request.node.nodeid)]),
                note=(f"the Reference FMUs' C fmusim, {_emulator_note(platform)}: fmusim {options} "
                      "--start-value material[j] m_j (each published order)"))
     peaks: dict = {}
