@@ -409,7 +409,10 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
     eventInfo->newDiscreteStatesNeeded = fmi2False;
     eventInfo->terminateSimulation = fmi2False;
     eventInfo->nominalsOfContinuousStatesChanged = fmi2False;
-    eventInfo->valuesOfContinuousStatesChanged = fmi2False; /* the states never jump: only forces switch */
+    /* The states never jump, but where a mode switched the forces do: saying so makes every importer restart
+     * its integrator here, as it must across a jump of the right-hand side (fmusim restarts CVODE only when an
+     * FMU says its states or nominals changed, and otherwise fails its error test at tight tolerances). */
+    eventInfo->valuesOfContinuousStatesChanged = changed ? fmi2True : fmi2False;
     eventInfo->nextEventTimeDefined = next_defined ? fmi2True : fmi2False;
     eventInfo->nextEventTime = next_time;
     return fmi2OK;

@@ -638,12 +638,13 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesN
     double next_time = 0.0;
     if (!allowed(instance, "fmi3UpdateDiscreteStates", IN(STATE_EVENT_MODE))) return fmi3Error;
     model_event_update(instance->common.model, &changed, &next_defined, &next_time);
-    /* one update reaches the new modes (they follow from the state, the load from the time): no iteration;
-     * the states never jump, only forces switch */
+    /* one update reaches the new modes (they follow from the state, the load from the time): no iteration.
+     * The states never jump, but where a mode switched the forces do: valuesOfContinuousStatesChanged makes
+     * every importer restart its integrator here (fmi2_glue.c says why). */
     if (discreteStatesNeedUpdate) *discreteStatesNeedUpdate = fmi3False;
     if (terminateSimulation) *terminateSimulation = fmi3False;
     if (nominalsOfContinuousStatesChanged) *nominalsOfContinuousStatesChanged = fmi3False;
-    if (valuesOfContinuousStatesChanged) *valuesOfContinuousStatesChanged = fmi3False;
+    if (valuesOfContinuousStatesChanged) *valuesOfContinuousStatesChanged = changed ? fmi3True : fmi3False;
     if (nextEventTimeDefined) *nextEventTimeDefined = next_defined ? fmi3True : fmi3False;
     if (nextEventTime) *nextEventTime = next_time;
     return fmi3OK;
