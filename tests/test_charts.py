@@ -71,7 +71,7 @@ def crowded_labels(figure, clearance: float = 1.5) -> list[tuple[str, str]]:
     own point's."""
     renderer = figure.canvas.get_renderer()
     pad = clearance / 2 * figure.dpi / 72.0  # half on each box: two labels keep ``clearance`` apart
-    labels = [a for axis in figure.axes for a in axis.texts]
+    labels = [a for axis in figure.axes for a in axis.texts if a.get_text()]  # not the leaders' empty ones
     boxes = [a.get_window_extent(renderer).padded(pad) for a in labels]
     crowded = [(labels[i].get_text(), labels[j].get_text()) for i in range(len(labels)) for j in range(i)
                if boxes[i].overlaps(boxes[j])]
@@ -149,3 +149,20 @@ def test_the_front_chart_prints_no_label_over_another(drawn, tmp_path):
     figure = drawn(draw_pareto, study, tmp_path / "pareto.png")
     assert crowded_labels(figure) == []
     assert data_points_under_legend(figure) == 0
+
+
+def test_labels_crowded_on_one_point_are_spread_with_leaders(drawn, tmp_path):
+    def crowd(study, path):
+        figure, axis = charts.plt.subplots(figsize=(4, 3))
+        axis.plot([1.0, 2.0, 3.0], [1.0, 1.0, 1.0], "o-")
+        labels = [axis.annotate(f"setting {k}", (2.0, 1.0), fontsize=6, textcoords="offset points", xytext=(3, 3))
+                  for k in range(8)]
+        return charts.save(figure, path, labels=labels)
+
+    figure = drawn(crowd, None, tmp_path / "crowd.png")
+    texts = [t for t in figure.axes[0].texts if t.get_text()]
+    assert len(texts) == 8
+    renderer = figure.canvas.get_renderer()
+    boxes = [t.get_window_extent(renderer) for t in texts]
+    assert not any(boxes[i].overlaps(boxes[j]) for i in range(len(boxes)) for j in range(i))
+    assert any(t.arrow_patch is not None for t in figure.axes[0].texts if not t.get_text())  # leaders drawn

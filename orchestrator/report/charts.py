@@ -40,8 +40,6 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
     (solver settings of similar cost and error, the ends of a front) would print labels on top of each other."""
     if not labels:
         return
-    from matplotlib.patches import FancyArrowPatch
-
     renderer = figure.canvas.get_renderer()
     pad = clearance * figure.dpi / 72.0
     to_points = 72.0 / figure.dpi
@@ -64,9 +62,9 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
                 break
         if chosen is None:
             label.xyann = first  # nowhere clear: where it was asked
-        elif chosen[0] > LABEL_RINGS[1]:
-            label.arrowprops = dict(arrowstyle="-", lw=0.4, color="0.45", shrinkA=0, shrinkB=2)
-            label.arrow_patch = FancyArrowPatch((0, 0), (1, 1), **label.arrowprops)
+        elif chosen[0] > LABEL_RINGS[1]:  # a leader from the label's corner to its point
+            label.axes.annotate("", xy=label.xy, xytext=label.xyann, textcoords="offset points",
+                                arrowprops=dict(arrowstyle="-", lw=0.4, color="0.45", shrinkA=0, shrinkB=2))
         placed.append(label.get_window_extent(renderer))
 
 

@@ -85,8 +85,8 @@ class NSGA2(PymooSearch):
             raise ValueError(f"nsga2: objectives must be one of {', '.join(map(str, OBJECTIVE_COUNTS))}, "
                              f"got {merged['objectives']!r}")
         self.n_objectives = int(merged["objectives"])
-        space_ = as_space(space)
-        self.seeds = tuple(dict.fromkeys(space_.check(d, f"{self.name} seeds") for d in (merged["seeds"] or ())))
+        self.seeds = tuple(dict.fromkeys(as_space(space).check(d, f"{self.name} seeds")
+                                         for d in (merged["seeds"] or ())))
         self.worst = np.zeros(self.n_objectives)  # per objective, the worst finite value told so far
         self._seen_finite = False
         super().__init__(space, seed, **options)
