@@ -165,7 +165,7 @@ def check_page(browser, folder: Path, front: bool) -> None:
             shown = design_text(browser)
             if "front" in shown:
                 break
-        assert "on the mean rule's front" in shown, shown
+        assert f"on the {data['fronts'][0]['rule']} rule's front" in shown, shown
         clicked = [p for p in data["fronts"][0]["points"] if "[" + ", ".join(map(str, p["order"])) + "]" in shown]
         assert len(clicked) == 1, shown
         link = browser.find_element("id", "design-file").get_attribute("href")

@@ -27,7 +27,8 @@ class StartsConfig:
         "(at the load) first, e.g. 1,7,5,9,3,6,11,8,2,4,10 (repeatable)", action="append", metavar="ORDER")
     start_file: str | None = option(
         None, "starting designs, one per line as for --start (# starts a comment), or an Optuna storage "
-        "(e.g. sqlite:///study.db, needs the optuna extra): the designs of its complete trials, best first",
+        "(e.g. sqlite:///study.db, needs the optuna extra): the best trial of each of its studies (with several "
+        "objectives, each study's Pareto front)",
         metavar="FILE", path=True, show_default="none")
 
     def __post_init__(self):
