@@ -157,24 +157,26 @@ def test_a_finished_run_leaves_no_lock_file_beside_its_folder(tmp_path):
 def test_a_lock_removed_as_it_was_taken_is_taken_again_at_the_path(tmp_path, monkeypatch):
     """The run that held the lock removes its file as another run locks it: that run must lock the file now at
     the path (a third run would create and lock it), not the removed one."""
-    import fcntl
+    import portalocker
+
+    from orchestrator import runfolder
 
     out = tmp_path / "results"
     lock_path = out.with_name(f".{out.name}.lock")
-    real_flock, locked = fcntl.flock, []
+    real_lock, locked = portalocker.lock, []
 
-    def flock_as_the_holder_leaves(handle, operation):
-        real_flock(handle, operation)
-        if operation & fcntl.LOCK_EX and not locked:
-            lock_path.unlink()  # the holder ended between our open and our flock
+    def lock_as_the_holder_leaves(handle, flags):
+        real_lock(handle, flags)
+        if not locked:
+            lock_path.unlink()  # the holder ended between our open and our lock
         locked.append(os.fstat(handle.fileno()).st_ino)
 
-    monkeypatch.setattr(fcntl, "flock", flock_as_the_holder_leaves)
+    monkeypatch.setattr(runfolder.portalocker, "lock", lock_as_the_holder_leaves)
     run = start(out)
-    monkeypatch.setattr(fcntl, "flock", real_flock)
+    monkeypatch.setattr(runfolder.portalocker, "lock", real_lock)
     assert len(locked) == 2  # it tried again
-    with open(lock_path) as other, pytest.raises(BlockingIOError):
-        fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)  # the file at the path is the one it holds
+    with open(lock_path) as other, pytest.raises(portalocker.exceptions.LockException):
+        portalocker.lock(other, portalocker.LOCK_EX | portalocker.LOCK_NB)  # the file at the path is the one held
     run.release()
 
 
