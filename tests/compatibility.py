@@ -66,7 +66,10 @@ class RowRecorder:
 
 @contextlib.contextmanager
 def compatibility_row(request, importer: str, importer_version: str, *, fmi_version: str, interface: str,
-                      checked: str, note: str | None = None, platform: str | None = None):
+                      checked: str, note: str | None = None, platform: str | None = None,
+                      environment: tuple[str, ...] = ()):
+    """``platform``: where the importer ran (default: this machine's); ``environment``: the ``NAME=value``
+    settings the reproducing command needs before it (an importer found through an environment variable)."""
     recorder = RowRecorder()
     record = request.config.getoption(RECORD_OPTION)
     try:
@@ -77,31 +80,32 @@ def compatibility_row(request, importer: str, importer_version: str, *, fmi_vers
         if record:
             message = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:300]
             _write(request, importer, importer_version, fmi_version, interface, Result("fail", message), recorder,
-                   note, platform)
+                   note, platform, environment)
         raise
     if record:
         _write(request, importer, importer_version, fmi_version, interface, Result("pass", checked), recorder, note,
-               platform)
+               platform, environment)
 
 
 # The markers the default run leaves out (pyproject's addopts): a test carrying one runs only when -m names it.
 OPT_IN = ("importers", "platforms", "slow", "vdmcheck")
 
 
-def reproducing_command(request) -> str:
+def reproducing_command(request, environment: tuple[str, ...] = ()) -> str:
     """The command that runs this test again, from the checkout's root."""
     markers = [name for name in OPT_IN if request.node.get_closest_marker(name)]
     selection = f" -m {shlex.quote(' and '.join(markers))}" if markers else ""
-    return f"python -m pytest{selection} {shlex.quote(request.node.nodeid)}"
+    return " ".join([*environment, f"python -m pytest{selection} {shlex.quote(request.node.nodeid)}"])
 
 
-def _write(request, importer, importer_version, fmi_version, interface, result, recorder, note, platform) -> None:
+def _write(request, importer, importer_version, fmi_version, interface, result, recorder, note, platform,
+           environment) -> None:
     row = CompatibilityRow(
         importer=importer, importer_version=importer_version, platform=platform or platform_folder()[0],
         fmi_version=fmi_version, interface=interface, result=result,
         worst_error=max(recorder.errors) if recorder.errors else None,
         date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d"),
-        commit=_git("rev-parse", "HEAD") or "unknown", command=reproducing_command(request), note=note)
+        commit=_git("rev-parse", "HEAD") or "unknown", command=reproducing_command(request, environment), note=note)
     write_row(row, RESULTS)
 
 

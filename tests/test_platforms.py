@@ -13,7 +13,7 @@ Wine (x86_64-windows) and under qemu-user (aarch64-linux), FMI 2 and 3, Co-Simul
 
 needs `wine` and `qemu-aarch64` on PATH (Debian: wine64, qemu-user) and the aarch64 C library for qemu
 (QEMU_LD_PREFIX, default /usr/aarch64-linux-gnu, from the cross compiler's packages). Each run writes its row of
-the compatibility page (tests/platform_rows.py).
+the compatibility page (tests/compatibility.py, under --record-compatibility).
 """
 from __future__ import annotations
 
@@ -27,10 +27,10 @@ import zipfile
 import pytest
 
 from fmu_src import build
-from fmu_src.platforms import (ALL_PLATFORMS, PLATFORMS, compiler_for, header_machine, library_machine,
+from fmu_src.platforms import (ALL_PLATFORMS, PLATFORMS, compiler_for, header_machine,
                                native_platform, parse_platforms)
 from fmu_src.published import PUBLISHED_PEAKS, SEQUENTIAL_ORDER, STUDY_BEST_ORDER
-from platform_rows import PlatformRow, worst_relative_error, write_row
+from compatibility import compatibility_row
 
 ORDERS = (SEQUENTIAL_ORDER, STUDY_BEST_ORDER)
 FMUSIM_VARIABLES = {"x86_64-linux": "FMUSIM_X86_64_LINUX", "x86_64-windows": "FMUSIM_X86_64_WINDOWS",
@@ -248,23 +248,16 @@ def test_fmusim_reproduces_the_published_peaks_on_each_platform(platform, fmi_ve
     checked = (f"published peaks to {PUBLISHED_ACCURACY:g}, peaks equal to the x86_64-linux library's in the same "
                f"fmusim to {SAME_AS_NATIVE:g}")
     options = " ".join(shlex.quote(o) for o in fmusim_options(interface, ()))
-    row = dict(importer="fmusim", importer_version=_version(command), platform=platform,
-               fmi_version=f"{fmi_version}.0", interface=INTERFACES[interface],
-               command=" ".join([*dict.fromkeys(f"{FMUSIM_VARIABLES[name]}=path/to/{name}/fmusim"
-                                                 f"{'.exe' if 'windows' in name else ''}"
-                                                 for name in ("x86_64-linux", platform)),
-                                 "python -m pytest -m platforms", shlex.quote(request.node.nodeid)]),
-               note=(f"the Reference FMUs' C fmusim, {_emulator_note(platform)}: fmusim {options} "
-                     "--start-value material[j] m_j (each published order)"))
-    peaks: dict = {}
-    try:
+    environment = tuple(dict.fromkeys(f"{FMUSIM_VARIABLES[name]}=path/to/{name}/fmusim"
+                                      f"{'.exe' if 'windows' in name else ''}" for name in ("x86_64-linux", platform)))
+    with compatibility_row(request, "fmusim", _version(command), fmi_version=f"{fmi_version}.0",
+                           interface=INTERFACES[interface], checked=checked, platform=platform,
+                           environment=environment,
+                           note=(f"the Reference FMUs' C fmusim, {_emulator_note(platform)}: fmusim {options} "
+                                 "--start-value material[j] m_j (each published order)")) as row:
         native = native_peaks(fmi_version, interface)
         for order in ORDERS:
-            peaks[order] = run_fmusim(command, fmu, interface, order, tmp_path)
-            assert peaks[order] == pytest.approx(PUBLISHED_PEAKS[order], rel=PUBLISHED_ACCURACY)
-            assert peaks[order] == pytest.approx(native[order], rel=SAME_AS_NATIVE, abs=0.0)
-    except AssertionError as exc:
-        write_row(PlatformRow(**row, passed=False, message=(str(exc).strip().splitlines() or ["failed"])[0][:300],
-                              worst_error=worst_relative_error(peaks) if peaks else None))
-        raise
-    write_row(PlatformRow(**row, passed=True, message=checked, worst_error=worst_relative_error(peaks)))
+            peak = run_fmusim(command, fmu, interface, order, tmp_path)
+            row.reached(order, peak)
+            assert peak == pytest.approx(PUBLISHED_PEAKS[order], rel=PUBLISHED_ACCURACY)
+            assert peak == pytest.approx(native[order], rel=SAME_AS_NATIVE, abs=0.0)
