@@ -1,7 +1,7 @@
-"""SPEC.md's right-hand side as the strongest pip-installable peers would write it: numba and JAX.
+"""docs/model.md's right-hand side as the strongest pip-installable peers would write it: numba and JAX.
 
 Used by bench.peers (scipy's odeint/LSODA and solve_ivp/DOP853 over the numba right-hand side, diffrax's
-Tsit5 over the JAX one). Both are written once here from SPEC.md sections 2-5, on the grid (every spring
+Tsit5 over the JAX one). Both are written once here from docs/model.md sections 2-5, on the grid (every spring
 visited once, no index arrays), and :func:`check_against_reference`, which bench.peers runs before it times
 anything, compares them with reference/lattice.py's right-hand side to 1e-12 on random states: a peer is timed
 only while it computes the same model.
@@ -11,7 +11,7 @@ kernel needs is packed by :func:`pack` into four small arrays, so one compiled k
 
 - ``columns`` (3, C): vertical spring k, alpha and damping c of each column's material;
 - ``diagonals`` (4, C-1): for the diagonals between columns j and j+1, (k, alpha) seen by the end in column
-  j, then (k, alpha) seen by the end in column j+1. The receiver rule (SPEC 2, as computed) gives each end
+  j, then (k, alpha) seen by the end in column j+1. The receiver rule (docs/model.md §2, as computed) gives each end
   its own column's k_diag, alpha_diag; the mean rule gives both ends the mean of the two;
 - ``scalars``: k0, alpha0, c0, k_wall, c_wall, gap, 1/mass, wall (1 or 0);
 - ``load`` (2, R): the load's x and y force on each row's column-1 mass while it acts.
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-R_EPS = 1e-12  # below this spring length the force is zero (SPEC 2)
+R_EPS = 1e-12  # below this spring length the force is zero (docs/model.md section 2)
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,7 @@ class Packed:
 
     @property
     def equal_diagonal_alphas(self) -> bool:
-        """Both ends of every diagonal see the same alpha: one exp serves both (true for SPEC 3's table)."""
+        """Both ends of every diagonal see the same alpha: one exp serves both (true for docs/model.md §3's table)."""
         return bool(np.array_equal(self.diagonals[1], self.diagonals[3]))
 
 
@@ -78,7 +78,7 @@ def pack(scene) -> Packed:
 
 
 def backplate_force(packed: Packed, states: np.ndarray) -> np.ndarray:
-    """SPEC 5's backplate force of states stacked as rows, shape (M, 4N) -> (M,)."""
+    """docs/model.md section 5's backplate force of states stacked as rows, shape (M, 4N) -> (M,)."""
     R, C = packed.rows, packed.cols
     N = R * C
     k_w, c_w, gap = packed.scalars[3], packed.scalars[4], packed.scalars[5]

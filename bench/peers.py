@@ -5,9 +5,9 @@
     python -m bench.peers --quick            # about 9 min: 3 orders, fewer rounds
 
 Why: "faster than scipy over numpy" says little; a user who cares would compile the right-hand side. Routes,
-each over SPEC.md's right-hand side written once in bench/peer_models.py (checked against reference/lattice.py
+each over docs/model.md's right-hand side written once in bench/peer_models.py (checked against reference/lattice.py
 to 1e-12 before anything is timed), each in two phases split at the load's switch-off, with the backplate
-force sampled every 0.01 s from its own dense output (SPEC 6):
+force sampled every 0.01 s from its own dense output (docs/model.md section 6):
 - the FMU through fmpy (orchestrator.simulation.LatticeFMU: reset, parameters, one doStep, outputs), as it
   ships (use_symmetry 1: for the armour scene it integrates ux and vx of the upper half, the whole lattice's
   solution with the whole lattice's steps), and with use_symmetry 0 (the whole lattice, as the peers
@@ -94,7 +94,7 @@ class RouteFailed(RuntimeError):
 
 # ------------------------------------------------------------------------------------------- routes
 def phases(horizon: float, t_active: float):
-    """[(t0, t1, load_on, sample indices in (t0, t1])] with the samples of SPEC 6 (t = 0 sampled apart)."""
+    """[(t0, t1, load_on, sample indices in (t0, t1])] with the samples of docs/model.md §6 (t = 0 sampled apart)."""
     ts = sample_times(horizon, SAMPLE_INTERVAL)
     out = []
     if t_active > 0:

@@ -1,6 +1,6 @@
 """Material tables: the study's, and the designer's own, as data.
 
-A table has one row per material: ``name, k, k_diag, c, alpha, alpha_diag`` (SPEC.md sections 3 and 9:
+A table has one row per material: ``name, k, k_diag, c, alpha, alpha_diag`` (docs/model.md sections 3 and 9:
 k and k_diag in N, c in N s/m, alpha and alpha_diag in 1/m). Column j of the lattice holds material
 ``material[j]`` (1-based row of the table). The FMU is built with the table's values as the start values of
 its parameter arrays ``k[1..M]``, ``k_diag[1..M]``, ``c[1..M]``, ``alpha[1..M]``, ``alpha_diag[1..M]``.
@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 MAX_MATERIALS = 256
-STUDY_MATERIAL_COUNT = 11  # SPEC section 3: the study's table; a lattice wider than it has no study material to add
+STUDY_MATERIAL_COUNT = 11  # docs/model.md §3: the study's table; a lattice wider than it has no study material to add
 
 
 @dataclass(frozen=True)
@@ -109,7 +109,7 @@ class MaterialTable:
 
 
 def study_materials(count: int = STUDY_MATERIAL_COUNT) -> MaterialTable:
-    """SPEC section 3: material m has scale s = (2/3)^(m-1): k = 100 s, k_diag = 50 s, c = 5 s, alpha = 10; the
+    """docs/model.md section 3: material m has scale s = (2/3)^(m-1): k = 100 s, k_diag = 50 s, c = 5 s, alpha = 10; the
     first ``count`` of the study's eleven (never more: a twelfth would be invented, not the study's)."""
     if isinstance(count, bool) or int(count) != count or not 1 <= count <= STUDY_MATERIAL_COUNT:
         raise ValueError(f"count must be an integer in [1, {STUDY_MATERIAL_COUNT}] (the study's table has "

@@ -1,6 +1,6 @@
 """What the study the project starts from published: its orders and peaks, and its searches' reference points.
 
-The one table code, tests, the FMU's documentation and the examples import (shared/SPEC.md section 6). The
+The one table code, tests, the FMU's documentation and the examples import (docs/model.md section 6). The
 peaks are the study's own numbers for the 11 x 11 armour scene at the conditions of `PUBLISHED_CONDITIONS`;
 the FMU's defaults reproduce them. They are reference points to draw and compare with, never results.
 """

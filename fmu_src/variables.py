@@ -103,9 +103,9 @@ def default_order(cols: int, materials: int) -> tuple[int, ...]:
 
 
 def all_variables(rows: int, cols: int, materials: MaterialTable | None = None) -> list[Variable]:
-    """Every variable the model knows, in value-reference order, with SPEC's published defaults and the material
-    table's values (default: the study's, its first C materials, all eleven for a wider lattice, whose default
-    then repeats them) as the table's start values."""
+    """Every variable the model knows, in value-reference order, with docs/model.md's published defaults and
+    the material table's values (default: the study's, its first C materials, all eleven for a wider lattice,
+    whose default then repeats them) as the table's start values."""
     table = materials or study_materials(min(cols, STUDY_MATERIAL_COUNT))
     count = len(table)
     values = table.parameters()

@@ -38,7 +38,7 @@ class CaseConfig:
     fmu: str | None = option(None, "the FMU to use (never rebuilt)", show_default="the scene's FMU in models/, "
                              "built or rebuilt as needed", path=True)
     materials: str | None = option(None, "material table: a .csv with the header name,k,k_diag,c,alpha,alpha_diag "
-                                   "(units as SPEC.md section 3), or .toml / .json with the same fields",
+                                   "(units as docs/model.md section 3), or .toml / .json with the same fields",
                                    show_default="the study's eleven materials", path=True)
     cols: int | None = option(None, "columns of the lattice (materials per design)", show_default="the scene's",
                               type=integer("--cols", 2, 64))

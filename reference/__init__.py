@@ -1,4 +1,4 @@
-"""Independent numpy/scipy reference implementation of the lattice model (SPEC.md).
+"""Independent numpy/scipy reference implementation of the lattice model (docs/model.md).
 
 Public API::
 

@@ -1,6 +1,6 @@
-"""Vectorised numpy reference implementation of the mass-spring lattice (SPEC.md).
+"""Vectorised numpy reference implementation of the mass-spring lattice (docs/model.md).
 
-Written from ``shared/SPEC.md`` only; it is the oracle the C model is tested
+Written from ``docs/model.md`` only; it is the oracle the C model is tested
 against.  Everything here is plain numpy; the integrator lives in
 :mod:`reference.simulate`.
 
@@ -11,7 +11,7 @@ State layout (shared with the C model)
 state vector is ``y = [ux(0..N-1), uy(0..N-1), vx(0..N-1), vy(0..N-1)]`` (length
 4N); ``u`` is the displacement of each mass from its grid point.
 
-Springs (SPEC 2)
+Springs (docs/model.md section 2)
 ----------------
 Every spring joins two masses ``a`` and ``b`` (stored once per pair).  With
 ``r = u_b - u_a`` the force on ``a`` is ``f(r; k_a, alpha_a)`` and the force on
@@ -47,14 +47,14 @@ from fmu_src.materials import study_materials
 DIAGONAL_RULES = ("receiver", "mean")
 SPRING_LAWS = ("exponential", "linear")
 
-#: Below this spring length the exponential law's force is exactly zero (SPEC 2).
+#: Below this spring length the exponential law's force is exactly zero (docs/model.md section 2).
 R_EPS = 1e-12
 
 MATERIAL_FIELDS = ("k", "k_diag", "c", "alpha", "alpha_diag")
 
 
 def default_material_table(n: int = 11) -> dict:
-    """SPEC section 3: material ``m = 1..n`` has scale ``s = (2/3)^(m-1)`` and
+    """docs/model.md section 3: material ``m = 1..n`` has scale ``s = (2/3)^(m-1)`` and
     ``k = 100 s``, ``k_diag = 50 s``, ``c = 5 s``, ``alpha = alpha_diag = 10``.
 
     Returns a dict of float arrays keyed by ``k, k_diag, c, alpha, alpha_diag``: the values of
@@ -75,7 +75,7 @@ def _frozen_array(x) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """One lattice scene.  Defaults are the published scene of SPEC.md.
+    """One lattice scene.  Defaults are the published scene of docs/model.md.
 
     The scene is immutable (use :func:`dataclasses.replace` to vary it), so the
     index arrays built from it can be cached on it.
@@ -85,7 +85,7 @@ class Scene:
     cols: int = 11
     #: material number (1-based) of each column; default ``1..cols``.
     order: Optional[Tuple[int, ...]] = None
-    #: material table, one entry per material (default: SPEC 3 with ``cols`` materials).
+    #: material table, one entry per material (default: docs/model.md section 3 with ``cols`` materials).
     k: Optional[np.ndarray] = None
     k_diag: Optional[np.ndarray] = None
     c: Optional[np.ndarray] = None
@@ -130,7 +130,7 @@ class Scene:
             raise ValueError(f"Scene.wall must be True or False, got {self.wall!r}")
         set_("wall", bool(self.wall))
 
-        # material table (M materials; default: SPEC 3 with ``cols`` materials)
+        # material table (M materials; default: docs/model.md section 3 with ``cols`` materials)
         given = [getattr(self, f) is not None for f in MATERIAL_FIELDS]
         if any(given) and not all(given):
             missing = [f for f, g in zip(MATERIAL_FIELDS, given) if not g]
@@ -381,7 +381,7 @@ class _Model:
         # [spring a-ends (2E), spring b-ends (2E), damper a-ends, damper b-ends]
         self.scatter2 = cat([self.g_ua, self.g_ub, self.g_va - 2 * N, self.g_vb - 2 * N])
 
-        # load on column 1 (SPEC 4)
+        # load on column 1 (docs/model.md section 4)
         w = np.ones(R)
         w[0] = 0.5
         w[-1] = 0.5
@@ -391,7 +391,7 @@ class _Model:
         self.load_fx = sc.F_total * math.cos(th) * w
         self.load_fy = sc.F_total * math.sin(th) * w
 
-        # wall on the last column (SPEC 5)
+        # wall on the last column (docs/model.md section 5)
         self.wall_idx = n[:, -1].copy()
 
     # ----------------------------------------------------------------- core
@@ -429,7 +429,7 @@ class _Model:
         return p, p > 0, y[2 * N + self.wall_idx]
 
     def evaluate(self, y, load_on: bool, with_powers: bool = False):
-        """Derivative of the state (and optionally the three powers of SPEC 7)."""
+        """Derivative of the state (and optionally the three powers of docs/model.md section 7)."""
         sc = self.scene
         N = self.N
         y = np.asarray(y, dtype=float)
@@ -498,7 +498,7 @@ def rhs(scene: Scene, t: float, y, load_on: Optional[bool] = None) -> np.ndarray
 
 
 def powers(scene: Scene, t: float, y, load_on: Optional[bool] = None) -> Tuple[float, float, float]:
-    """SPEC 7 integrands ``(P_ext, P_diss, P_nonreciprocal)``:
+    """docs/model.md section 7 integrands ``(P_ext, P_diss, P_nonreciprocal)``:
     ``dW_ext/dt = F_ext . v``, ``dD/dt = sum c|v_a - v_b|^2 + sum_contact c_w max(vx,0) vx``,
     ``dW_nr/dt = sum g . (v_a + v_b)`` with ``g = (f(r; k_a, alpha_a) - f(r; k_b, alpha_b))/2``.
     """

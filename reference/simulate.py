@@ -1,7 +1,7 @@
-"""Time integration of a :class:`reference.lattice.Scene` (SPEC sections 4-7).
+"""Time integration of a :class:`reference.lattice.Scene` (docs/model.md sections 4-7).
 
 The state is augmented with the three work integrals ``(W_ext, D, W_nr)`` of
-SPEC 7 and integrated with ``scipy.integrate.solve_ivp`` in two calls,
+docs/model.md section 7 and integrated with ``scipy.integrate.solve_ivp`` in two calls,
 ``[0, t_active]`` with the load on and ``[t_active, horizon]`` with it off, so the
 load discontinuity is a step boundary.  The continuous peak is searched on each
 step's dense output (a fine grid per step, then a bounded scalar refinement of
@@ -41,16 +41,16 @@ class SimulationResult:
     times: np.ndarray
     #: backplate force at the sample times
     backplate_force: np.ndarray
-    #: the objective of SPEC 6: max of the sampled backplate force
+    #: the objective of docs/model.md section 6: max of the sampled backplate force
     peak_backplate_force: float
     peak_sample_time: float
-    #: SPEC 9: mean ux of column 1 minus mean ux of column C, at the sample times, and its maximum
+    #: docs/model.md section 9: mean ux of column 1 minus mean ux of column C, at the sample times, and its maximum
     compression: np.ndarray
     max_compression: float
     #: true maximum of the continuous solution and its time (nan if not computed)
     peak_backplate_force_continuous: float
     peak_time: float
-    #: energy terms at the horizon (SPEC 7)
+    #: energy terms at the horizon (docs/model.md section 7)
     kinetic: float
     potential: float
     external_work: float
@@ -115,7 +115,7 @@ def simulate(
 ) -> SimulationResult:
     """Integrate ``scene`` from rest (or ``y0``) to ``horizon``.
 
-    ``peak_backplate_force`` is the maximum over the samples (SPEC 6, the
+    ``peak_backplate_force`` is the maximum over the samples (docs/model.md section 6, the
     published objective).  With ``continuous_peak`` every step's dense output is
     evaluated on ``fine_points`` sub-intervals and the best few candidates are
     refined by a bounded scalar search, giving ``peak_backplate_force_continuous``

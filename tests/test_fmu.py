@@ -67,7 +67,7 @@ def test_energy_balance_closes(lattice, rule):
     assert abs(result["energy_balance_error"]) <= 1e-6 * result["external_work"]
     if rule == "mean":
         assert result["nonreciprocal_work"] == 0.0  # a reciprocal pair does no non-reciprocal work
-    else:  # SPEC section 2: about 303 J in, about -114 J taken out by the unequal diagonal forces
+    else:  # docs/model.md section 2: about 303 J in, about -114 J taken out by the unequal diagonal forces
         assert result["external_work"] == pytest.approx(303, rel=0.01)
         assert result["nonreciprocal_work"] == pytest.approx(-114, rel=0.01)
 
@@ -81,7 +81,8 @@ BALANCE_OUTPUTS = ("kinetic_energy", "potential_energy", "external_work", "dissi
 @pytest.mark.parametrize("order", [PUBLISHED_SEQUENTIAL, PUBLISHED_BEST, ADVERSARIAL_ORDER],
                          ids=["sequential", "published_best", "adversarial"])
 def test_the_balance_of_the_outputs_closes_at_every_communication_point(lattice, order, rule):
-    """SPEC section 7 from the outputs alone, every 0.01 s over 2 s (through contact and release), at the defaults."""
+    """docs/model.md §7 from the outputs alone, every 0.01 s over 2 s (through contact and release), at the
+    defaults."""
     result = lattice.simulate(order, horizon=2.0, communication_step=0.01, record=BALANCE_OUTPUTS,
                               outputs=BALANCE_OUTPUTS, parameters={"diagonal_rule": rule})
     v = result["trajectory"].values
@@ -94,7 +95,7 @@ def test_a_plate_pressed_from_the_start_counts_its_energy_in_the_balance(lattice
     """A negative backplate_gap stores wall energy at t = 0: the balance counts it as energy put in."""
     result = lattice.simulate(PUBLISHED_BEST, horizon=1.0, parameters={"backplate_gap": -1e-3},
                               outputs=("energy_balance_error", "external_work", "potential_energy"))
-    stored = 0.5 * 1e4 * 1e-3 ** 2 * 11  # every column-C mass 1 mm into the plate (SPEC section 5)
+    stored = 0.5 * 1e4 * 1e-3 ** 2 * 11  # every column-C mass 1 mm into the plate (docs/model.md section 5)
     assert stored > 1e3 * abs(result["energy_balance_error"])
     assert abs(result["energy_balance_error"]) <= 1e-6 * (result["external_work"] + stored)
 
@@ -281,7 +282,7 @@ def test_the_upper_half_gives_the_whole_lattice(lattice, order):
     for name in set(ALL_OUTPUTS) - set(COUNTER_OUTPUTS):
         scale = max(abs(whole[name]), 1e-6 if name.startswith(("ux", "uy")) else 1e-3)
         assert abs(half[name] - whole[name]) <= 1e-9 * scale, (name, half[name], whole[name])
-    # a load along x moves every mass along x only: r = u_b - u_a (SPEC 2) keeps no y part
+    # a load along x moves every mass along x only: r = u_b - u_a (docs/model.md section 2) keeps no y part
     assert all(half[name] == 0.0 for name in ALL_OUTPUTS if name.startswith("uy"))
 
 

@@ -149,7 +149,7 @@ def test_bad_calling_sequences_and_sizes_are_refused_with_a_reason(fmu_path):
         me.fmu.setContinuousStates(as_pointer(x), nx)
         me.fmu.getDerivatives(as_pointer(dx), nx)
         acceleration_x = dx[2 * MASSES:3 * MASSES].reshape(ROWS, COLS)
-        assert list(acceleration_x[:, 0]) == [60.0] + [120.0] * (ROWS - 2) + [60.0]  # SPEC section 4, m = 1 kg
+        assert list(acceleration_x[:, 0]) == [60.0] + [120.0] * (ROWS - 2) + [60.0]  # docs/model.md section 4, m = 1 kg
         assert not acceleration_x[:, 1:].any() and not dx[:2 * MASSES].any()
         me.fmu.getEventIndicators(as_pointer(z), nz)
         assert list(z[:nz]) == [-1e-3] * nz  # every mass 1 mm off the plate (the gap)

@@ -1,9 +1,9 @@
-"""Tests of the numpy reference model (reference/) against SPEC.md.
+"""Tests of the numpy reference model (reference/) against docs/model.md.
 
 Each test can fail if the physics is wrong: a loop-per-mass implementation
-written straight from SPEC 2/4/5, Newton's third law, forces = -grad(PE), the
+written straight from docs/model.md sections 2/4/5, Newton's third law, forces = -grad(PE), the
 power identity, energy balance, an exact two-mass solution and the published
-numbers of SPEC 6.
+numbers of docs/model.md section 6.
 """
 
 import math
@@ -62,7 +62,7 @@ def random_state(scene, rng, u_scale=0.04, v_scale=0.5):
 
 
 def naive_accel(scene, y, load_on):
-    """Loop over masses and their 8 neighbours, literally as SPEC 2, 4, 5 say."""
+    """Loop over masses and their 8 neighbours, literally as docs/model.md sections 2, 4 and 5 say."""
     R, C, N = scene.rows, scene.cols, scene.n_masses
     u = np.column_stack([y[:N], y[N:2 * N]])
     v = np.column_stack([y[2 * N:3 * N], y[3 * N:]])
@@ -270,7 +270,7 @@ def test_forces_are_minus_gradient_of_potential(kw):
 @pytest.mark.parametrize("rule", ["receiver", "mean"])
 @pytest.mark.parametrize("load_on", [True, False])
 def test_power_identity(rule, load_on):
-    """sum m a.v = P_ext - P_diss + P_nr - dPE/dt at any state (SPEC 7)."""
+    """sum m a.v = P_ext - P_diss + P_nr - dPE/dt at any state (docs/model.md section 7)."""
     rng = np.random.default_rng(6)
     sc = Scene(rows=4, cols=5, order=(3, 1, 5, 2, 4), diagonal_rule=rule, load_angle=20.0,
                **random_table(rng, 5))
@@ -340,7 +340,7 @@ def test_two_masses_linear_exact():
 
 
 def test_free_5x5_lattice_momentum():
-    """SPEC 8: free 5 x 5 lattice, no wall, one material, k_diag = 0.5 k: the
+    """docs/model.md section 8: free 5 x 5 lattice, no wall, one material, k_diag = 0.5 k: the
     springs are reciprocal, so the momentum is exactly the impulse."""
     one = dict(k=np.full(5, 100.0), k_diag=np.full(5, 50.0), c=np.full(5, 5.0),
                alpha=np.full(5, 10.0), alpha_diag=np.full(5, 10.0))
@@ -388,7 +388,7 @@ def test_sample_grid_and_continuous_peak():
     assert np.allclose(fine.backplate_force[::100], res.backplate_force, rtol=1e-9, atol=1e-9)
 
 
-# ---------------------------------------------------------------- published numbers (SPEC 6)
+# ---------------------------------------------------------------- published numbers (docs/model.md section 6)
 _RESULTS = {}
 
 
@@ -415,7 +415,7 @@ def test_published_peaks(order, expect):
 
 
 def test_published_order_energy_split():
-    """SPEC 2: receiver rule, published order: about 303 J of external work and
+    """docs/model.md section 2: receiver rule, published order: about 303 J of external work and
     -114 J of non-reciprocal work."""
     res = _published(PUBLISHED_ORDER)
     assert res.external_work == pytest.approx(303, rel=0.02)
@@ -423,7 +423,7 @@ def test_published_order_energy_split():
 
 
 def test_mean_rule_peaks():
-    """SPEC 2: with the mean rule the published order gives about 3096 N and
+    """docs/model.md section 2: with the mean rule the published order gives about 3096 N and
     the sequential order about 2911 N (the ranking flips)."""
     pub = _published(PUBLISHED_ORDER, "mean", 1e-8, 1e-10)
     seq = _published(SEQUENTIAL_ORDER, "mean", 1e-8, 1e-10)

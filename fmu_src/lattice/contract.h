@@ -61,7 +61,7 @@ void model_derivatives(const Model *m, int load_on, const double *y, double *dyd
  * (2 N_MASSES: the contract's whole layout; the driver's reduced one has its own). */
 void model_indicator_definition(const Model *m, int k, int vx_base, int *component, double *threshold);
 
-/* The backplate modes SPEC section 5 gives the column-C masses of state y, of its first `rows` rows (the whole
+/* The backplate modes docs/model.md section 5 gives the column-C masses of state y, of its first `rows` rows (the whole
  * lattice's, or the upper half's, whose mirror-image rows take the same modes): what an event switches to. */
 void model_wall_modes(const Model *m, const double *y, int rows, int vx_base, signed char *modes);
 

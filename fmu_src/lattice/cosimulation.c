@@ -322,7 +322,7 @@ static int wall_free(const Model *m) {
     return 1;
 }
 
-/* The modes SPEC gives the column-C masses in the state at the end of the last step. */
+/* The modes docs/model.md gives the column-C masses in the state at the end of the last step. */
 static void wall_modes_of_state(const Model *m, signed char *modes) {
     model_wall_modes(m, solver_state(m->cs.work), m->cs.solver_rows, solver_vx_base(m), modes);
 }

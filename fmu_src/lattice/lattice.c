@@ -1,4 +1,4 @@
-/* The physics of SPEC.md: springs, damping, load, backplate. See lattice.h for the state layout. */
+/* The physics of docs/model.md: springs, damping, load, backplate. See lattice.h for the state layout. */
 #include "lattice.h"
 
 #include <math.h>
@@ -11,7 +11,7 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-/* Below this separation a spring exerts no force (SPEC section 2: the direction is undefined). */
+/* Below this separation a spring exerts no force (docs/model.md section 2: the direction is undefined). */
 #define SPRING_MIN_DISTANCE 1e-12
 
 /* exp(x) to about 2 ulp, written out so that a loop of them vectorises: libm's exp is a call per spring, and
@@ -43,9 +43,9 @@ static inline double lattice_exp(double x) {
     return x < -708.0 ? 0.0 : result;
 }
 
-/* The force law, f(r; k, alpha) = k * stretch * r/|r| (SPEC section 2): exponential k (exp(alpha |r|) - 1)
- * as SPEC writes it (exp rather than expm1: the one the study's numbers came from), or linear k |r| for the
- * two-mass scene. Branch-free, so that the loop over a row's springs vectorises. */
+/* The force law, f(r; k, alpha) = k * stretch * r/|r| (docs/model.md section 2): exponential
+ * k (exp(alpha |r|) - 1) as that section writes it (exp rather than expm1: the one the study's numbers came from),
+ * or linear k |r| for the two-mass scene. Branch-free, so that the loop over a row's springs vectorises. */
 static inline double spring_stretch(int linear, double alpha, double distance) {
     const double exponential = lattice_exp(alpha * distance) - 1.0;
     return linear ? distance : exponential;
@@ -163,7 +163,7 @@ typedef struct {
 #define FALLING_TOP_FORCE(c, j) w.falling_top[c][(j) + 2]
 
 /* Stage 2 over count packed springs: the stretch (spring_stretch: the force law) and 1/|r|, which is 0 below
- * SPRING_MIN_DISTANCE: there a spring exerts no force (SPEC section 2). No branches (selects only), so GCC
+ * SPRING_MIN_DISTANCE: there a spring exerts no force (docs/model.md section 2). No branches (selects only), so GCC
  * vectorises it; it is most of the cost of the right-hand side. */
 static NOINLINE VECTOR_CLONES void packed_stretches(int linear, const double *RESTRICT squared,
                                                    const double *RESTRICT alpha, int count,
@@ -194,7 +194,7 @@ static NOINLINE VECTOR_CLONES void packed_stretches_x(int linear, const double *
 }
 
 /* Stage 2 for the springs of a row: the horizontal ones, and with below the ones down to the next row (and
- * the diagonals' right ends when their alphas differ from the left ends': SPEC section 2, each end of a
+ * the diagonals' right ends when their alphas differ from the left ends': docs/model.md section 2, each end of a
  * diagonal uses its own alpha). w->squared holds |r|^2, or dx along x. */
 static NOINLINE VECTOR_CLONES void row_stretches(int linear, int along_x, int below, int alphas_differ, int links,
                                                  int cols, RowBuffers *w) {

@@ -1,4 +1,4 @@
-/* The physics of the mass-spring lattice (shared/SPEC.md): the one place where the force law lives.
+/* The physics of the mass-spring lattice (docs/model.md): the one place where the force law lives.
  *
  * Knows nothing of FMI and nothing of solvers: a parameter struct, a right-hand side over the augmented
  * state, the backplate force and the energies. General in rows x columns at run time (up to
@@ -21,7 +21,7 @@
 typedef enum { DIAGONAL_RECEIVER = 0, DIAGONAL_MEAN = 1 } DiagonalRule;
 typedef enum { SPRING_EXPONENTIAL = 0, SPRING_LINEAR = 1 } SpringLaw;
 
-/* Spring constants of one column, resolved from its material (SPEC section 2). */
+/* Spring constants of one column, resolved from its material (docs/model.md section 2). */
 typedef struct {
     double k_vertical, alpha_vertical, c_vertical; /* up/down neighbours */
     double k_diagonal, alpha_diagonal;             /* diagonal neighbours (no damping) */
@@ -40,11 +40,11 @@ typedef struct {
     double k_wall, c_wall, backplate_gap;
 } LatticeParams;
 
-/* How a column-C mass meets the backplate: SPEC section 5 switches the wall force on with penetration
+/* How a column-C mass meets the backplate: docs/model.md section 5 switches the wall force on with penetration
  * p > 0 and its damping with vx > 0. */
 typedef enum { WALL_FREE = 0, WALL_RECEDING = 1, WALL_APPROACHING = 2 } WallMode;
 
-/* The mode SPEC gives a column-C mass with displacement ux and velocity vx. */
+/* The mode docs/model.md gives a column-C mass with displacement ux and velocity vx. */
 int lattice_wall_mode(const LatticeParams *p, double ux, double vx);
 
 /* dydt = f(y) over the augmented state. load_on says whether the column-1 load acts (decided by the
@@ -62,7 +62,7 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
 int lattice_mirror_rows(const LatticeParams *p);
 
 /* A lattice loaded along x (load_angle 0, or no load) moves along x alone for all time: r = u_b - u_a
- * (SPEC section 2) of two masses that have not moved in y has no y part, so no spring, damper or load pushes
+ * (docs/model.md section 2) of two masses that have not moved in y has no y part, so no spring, damper or load pushes
  * in y. Its state without uy and vy, [ux (N), vx (N), W_ext, D, W_nr], carries the whole solution. 1 if so. */
 int lattice_along_x(const LatticeParams *p);
 
@@ -72,7 +72,7 @@ int lattice_along_x(const LatticeParams *p);
 void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, const signed char *wall_mode,
                          const double *y, double *dydt);
 
-/* Sum over column-C masses in contact of k_w p + c_w max(vx, 0) (SPEC section 5). */
+/* Sum over column-C masses in contact of k_w p + c_w max(vx, 0) (docs/model.md section 5). */
 double lattice_backplate_force(const LatticeParams *p, const double *y);
 
 /* Backplate force from column C's ux and vx alone, element i at [i * stride] (the interpolated peak
@@ -84,7 +84,7 @@ double lattice_backplate_force_from_column(const LatticeParams *p, const double 
 double lattice_backplate_force_mirrored(const LatticeParams *p, const double *ux_last_column,
                                         const double *vx_last_column, int stride);
 
-/* Kinetic and potential energy (SPEC section 7; a non-reciprocal pair counts the mean of its ends). */
+/* Kinetic and potential energy (docs/model.md section 7; a non-reciprocal pair counts the mean of its ends). */
 void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, double *potential);
 
 /* The potential of the force law for one end with constants (k, alpha). */

@@ -62,10 +62,10 @@ INTEGER_OUTPUTS = ("rhs_evaluations", "steps_accepted", "steps_rejected")
 
 
 class MassSpringLatticeReference(Fmi2Slave):
-    """11 x 11 lattice of SPEC.md, integrated by reference/ (numpy + scipy DOP853)."""
+    """11 x 11 lattice of docs/model.md, integrated by reference/ (numpy + scipy DOP853)."""
 
     author = "mass-spring-lattice project"
-    description = ("Reference FMU: the numpy/scipy model of reference/ (SPEC.md), scipy DOP853; "
+    description = ("Reference FMU: the numpy/scipy model of reference/ (docs/model.md), scipy DOP853; "
                    "needs a Python interpreter with numpy and scipy")
 
     def __init__(self, **kwargs):

@@ -12,7 +12,7 @@ What it computes, as the C FMU does (``fmu_src/variables.py`` names):
 * ``peak_backplate_force_continuous`` and ``peak_time``: the max over the continuous solution, found
   per step on the dense output (a grid, then a bounded scalar refinement);
 * ``last_contact_time``: the latest time a column-C mass touched the plate (located on the dense output);
-* the work integrals of SPEC 7, integrated with the state, and the energies at the communication point.
+* the work integrals of docs/model.md section 7, integrated with the state, and the energies at the communication point.
 
 The load is switched off exactly at ``t_active`` (the solver of the loaded phase ends there).  There is
 no event location at the backplate's switches: the adaptive error control takes care of them, which makes
@@ -116,7 +116,7 @@ class Stepper:
         return f.sum(axis=0)
 
     def compression(self, z: np.ndarray) -> float:
-        """Mean ux of column 1 minus mean ux of column C (SPEC 9)."""
+        """Mean ux of column 1 minus mean ux of column C (docs/model.md section 9)."""
         first = np.arange(self.scene.rows) * self.scene.cols
         return float(z[first].mean() - z[first + self.scene.cols - 1].mean())
 
