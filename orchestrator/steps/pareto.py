@@ -115,7 +115,9 @@ def settle_advice(context: StudyContext, runs, agreeing: int) -> str:
     size = context.case.space.size
     sweep = (f"--method exhaustive sweeps all {size:,} designs and gives the exact front"
              + (f" (about {size * rate / 3600:.2g} core-hours at this run's rate)" if rate else ""))
-    if runs and agreeing == len(runs):
+    if not runs:
+        return f"no multi-objective search ran (only baselines): add --method nsga2, or {sweep}"
+    if agreeing == len(runs):
         return f"every run reached the same front; {sweep}"
     more = (f"--budget {2 * budget} (about {len(runs) * budget * rate:.0f} more core-seconds over the "
             f"{len(runs)} runs)" if rate else f"--budget {2 * budget}")
