@@ -137,8 +137,8 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None) 
         Variable("c_horizontal", REAL, "parameter", "Horizontal damping c0", start=5.0, unit="N.s/m", minimum=0.0),
         Variable("mass", REAL, "parameter", "Mass of every node", start=1.0, unit="kg", minimum=0.0,
                  minimum_exclusive=True),
-        # a magnitude (load_angle gives the direction); the bound keeps an absurd value out of a design file
-        # while leaving room to drive the lattice far beyond the study's load (its stability tests use 1000x)
+        # a magnitude (load_angle gives the direction); the maximum is far beyond any armour load, where the
+        # exponential springs stiffen until the adaptive solver's step collapses (tests/test_stability.py)
         Variable("F_total", REAL, "parameter", "Total load on column 1 (its direction is load_angle)", start=1200.0,
                  unit="N", minimum=0.0, maximum=1e7),
         Variable("load_angle", REAL, "parameter", "Direction of the load (0 = +x)", start=0.0, unit="deg",

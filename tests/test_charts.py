@@ -148,6 +148,9 @@ def test_the_front_chart_prints_no_label_over_another(drawn, tmp_path):
                                 units=("N", "m"), outputs=("peak_backplate_force", "max_compression"))))
     figure = drawn(draw_pareto, study, tmp_path / "pareto.png")
     assert crowded_labels(figure) == []
+    renderer = figure.canvas.get_renderer()
+    frame = figure.axes[0].get_window_extent(renderer)
+    assert all(charts.inside(t.get_window_extent(renderer), frame) for t in figure.axes[0].texts if t.get_text())
     assert data_points_under_legend(figure) == 0
 
 

@@ -80,4 +80,7 @@ def test_the_studys_two_objective_front_is_not_dominated_by_the_certified_optimu
     assert not sure["exact"] and sure["runs"] == 3 and len(sure["coverage"]) == 3
     assert np.all(np.array(sure["coverage"]) <= 1 + 1e-12)
     assert sure["known_ends"][0]["on_front"] and sure["settle"]
+    descended = {d["output"]: d for d in front["descended"]}
+    assert set(descended) == {"peak_backplate_force", "max_compression"}
+    assert all(d["evaluations"] > 0 for d in descended.values())
     assert "the known optimum of peak_backplate_force alone is on it" in console

@@ -34,8 +34,8 @@ LABEL_RINGS = (3, 7, 12, 18, 26, 36, 48)  # points from its point at which a lab
 
 def spread_labels(figure, labels, clearance: float = 2.0) -> None:
     """Places each annotation (made with ``textcoords="offset points"``) at the nearest spot around its point,
-    right, left, above or below, that keeps ``clearance`` points from every label placed before it and from
-    every marker of its axes but its own point's; a label placed away from its point gets a thin leader line.
+    right, left, above or below, inside its axes, that keeps ``clearance`` points from every label placed before
+    it and from every marker of its axes but its own point's (a faint background cloud excepted); a label placed away from its point gets a thin leader line.
     Why by hand: matplotlib puts a label where it is told and has no collision avoidance, and a crowded chart
     (solver settings of similar cost and error, the ends of a front) would print labels on top of each other."""
     if not labels:
@@ -46,6 +46,7 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
     placed = []
     for label in labels:
         obstacles = placed + marker_boxes(label.axes, exclude=label.xy)
+        frame = label.axes.get_window_extent(renderer)
         extent = label.get_window_extent(renderer)
         width, height = extent.width * to_points, extent.height * to_points
         first = label.xyann
@@ -55,7 +56,7 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
                            (-ring - width, -ring - 0.6 * height), (-width / 2, ring + 2), (-width / 2, -ring - height - 2)):
                 label.xyann = (dx, dy)
                 box = label.get_window_extent(renderer).padded(pad)
-                if not any(box.overlaps(other) for other in obstacles):
+                if inside(box, frame) and not any(box.overlaps(other) for other in obstacles):
                     chosen = (ring, dx, dy)
                     break
             if chosen:
@@ -68,14 +69,18 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
         placed.append(label.get_window_extent(renderer))
 
 
+def inside(box, frame) -> bool:
+    return box.x0 >= frame.x0 and box.x1 <= frame.x1 and box.y0 >= frame.y0 and box.y1 <= frame.y1
+
+
 def marker_boxes(axis, exclude=None) -> list:
     """The drawn extent of every marker of the axis's lines (the point ``exclude``, a label's own, left out)."""
     from matplotlib.transforms import Bbox
 
     boxes = []
     for line in axis.lines:
-        if line.get_marker() in (None, "None", "", " "):
-            continue
+        if line.get_marker() in (None, "None", "", " ") or (line.get_alpha() or 1.0) < 0.5:
+            continue  # no markers, or a faint background cloud a label may be printed over
         radius = line.get_markersize() / 2 * axis.figure.dpi / 72.0
         for point in line.get_xydata():
             if exclude is not None and np.allclose(point, exclude):

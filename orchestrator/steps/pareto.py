@@ -52,6 +52,17 @@ class FrontSureness:
 
 
 @dataclass(frozen=True)
+class DescendedEnd:
+    """A descent on one objective alone from the front's end on it, by single moves until none improves: the
+    single-objective answer next to that end, which the multi-objective search may have stopped short of."""
+
+    output: str
+    start: Order
+    order: Order  # where it stopped: a local optimum of that objective alone at the search fidelity
+    evaluations: int
+
+
+@dataclass(frozen=True)
 class Front:
     diagonal_rule: str
     points: tuple[FrontPoint, ...]  # the non-dominated designs at full fidelity, by the first objective
@@ -61,6 +72,7 @@ class Front:
     reference_point: tuple[float, ...]
     chosen: tuple[ChosenPoint, ...]
     sureness: FrontSureness
+    descended: tuple[DescendedEnd, ...] = ()  # each objective's end, descended on that objective alone
 
 
 @dataclass(frozen=True)
@@ -115,7 +127,9 @@ def settle_advice(context: StudyContext, runs, agreeing: int) -> str:
     size = context.case.space.size
     sweep = (f"--method exhaustive sweeps all {size:,} designs and gives the exact front"
              + (f" (about {size * rate / 3600:.2g} core-hours at this run's rate)" if rate else ""))
-    if runs and agreeing == len(runs):
+    if not runs:
+        return f"no multi-objective search ran (only baselines): add --method nsga2, or {sweep}"
+    if agreeing == len(runs):
         return f"every run reached the same front; {sweep}"
     more = (f"--budget {2 * budget} (about {len(runs) * budget * rate:.0f} more core-seconds over the "
             f"{len(runs)} runs)" if rate else f"--budget {2 * budget}")
@@ -166,6 +180,7 @@ class Pareto(Step):
             end_values = {e.order: e for e in objective.evaluate([k.order for k in ends], context.evaluator, FULL)
                           if e.ok}
             exact = swept.front_for_rule(label) if swept else None
+            descended = ()
             if exact is not None:
                 points, source, is_exact = exact.front, "exhaustive sweep of the whole space", exact.exact
             else:
@@ -176,10 +191,14 @@ class Pareto(Step):
                 candidates = [e.order for e, k in zip(found, mask) if k]
                 full = [e for e in objective.evaluate(candidates, context.evaluator, FULL) if e.ok]
                 pool = {e.order: e for e in full + list(end_values.values()) + self.evaluated(context, objective)}
+                descended = self.descend_ends(context, rule, undominated(pool.values()))
+                pool.update({e.order: e for e in objective.evaluate([d.order for d in descended], context.evaluator,
+                                                                    FULL) if e.ok})
                 points = undominated(pool.values())
                 source = (f"the searches' {len(evaluated)} designs"
-                          + (f" and the known optimum of {len(ends)} objective{'s' if len(ends) > 1 else ''} alone"
-                             if ends else "") + ", verified at full fidelity")
+                          + (f", the known optimum of {len(ends)} objective{'s' if len(ends) > 1 else ''} alone"
+                             if ends else "") + " and a descent from each end on its own objective, verified at "
+                          "full fidelity")
                 is_exact = False
             if points:
                 reference = tuple(float(v) for v in reference_point([p.values for p in points]))
@@ -188,8 +207,30 @@ class Pareto(Step):
                 reference, volume = (), 0.0
             fronts.append(Front(label, points, is_exact, source, volume, reference,
                                 choose(points, context.case.outputs, label),
-                                self.sureness(context, runs, points, is_exact, ends, end_values)))
+                                self.sureness(context, runs, points, is_exact, ends, end_values),
+                                tuple(descended)))
         return ParetoResult(context.case.outputs, tuple(fronts))
+
+    @staticmethod
+    def descend_ends(context: StudyContext, rule, points) -> list[DescendedEnd]:
+        """From the front's end on each objective, a descent on that objective alone (the study's final descent,
+        at the search fidelity): an end a search of several objectives left one move short of its objective's
+        local optimum moves there."""
+        from ..loop import run_search
+        from ..search import make_search
+        from .descent import MAX_DESCENT
+
+        if not points:
+            return []
+        seed = context.config(Searches).seed
+        descended = []
+        for k, output in enumerate(context.case.outputs):
+            start = min(points, key=lambda p: (p.values[k], p.values)).order
+            alone = context.objective(rule).with_outputs((output,))
+            run = run_search(make_search("local", context.case.space, seed, start=start, kicks=0), alone,
+                             MAX_DESCENT, context.evaluator, method_name="local", seed=seed, label=rule_label(rule))
+            descended.append(DescendedEnd(output, start, run.best_order or start, run.n_evaluations))
+        return descended
 
     @staticmethod
     def evaluated(context: StudyContext, objective) -> list:
@@ -261,4 +302,4 @@ def draw_pareto(study, path: Path) -> str | None:
     return save(figure, path, labels=labels)
 
 
-__all__ = ["ChosenPoint", "Front", "Pareto", "ParetoResult", "choose", "knee"]
+__all__ = ["ChosenPoint", "DescendedEnd", "Front", "Pareto", "ParetoResult", "choose", "knee"]
