@@ -22,7 +22,6 @@ import json
 import math
 import os
 import re
-import sys
 import textwrap
 import tomllib
 from dataclasses import dataclass
@@ -324,10 +323,6 @@ def read_study_file(path: str | os.PathLike) -> StudyFile:
                 continue  # the default: the run gets it anyway, and the option does not count as given
             values[f"{config_type.__name__}.{field.name}"] = parsed
     return StudyFile(path, values, recorded["materials-sha256"], recorded["fmu-sha256"])
-
-
-def note(message: str) -> None:
-    print(message, file=sys.stderr)
 
 
 __all__ = ["STUDY_FILE", "StudyFile", "StudyFileError", "read_study_file", "render_study_file", "sections",
