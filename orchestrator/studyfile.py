@@ -8,7 +8,9 @@ comments; options of one invocation (``--out``, ``--resume``) are not written. `
 file was written against (the material table's and the FMU's content hashes): a material table whose content
 changed is refused, another FMU build is named in a note.
 
-Relative paths in the file are relative to the file's folder, so a results folder can be moved or sent whole.
+Relative paths in the file are relative to the file's folder: a file inside the folder the run was started from
+(the project) is written so, and the project can be moved or sent whole; a file elsewhere is written by its
+absolute path.
 
 Why a template and not a TOML writer: the file carries comments (each option's meaning and default, the
 options left at the scene's or the model's value), which the TOML writers drop. tomllib reads it back, and the
@@ -79,11 +81,15 @@ def _toml(value: Any) -> str:
 
 
 def _file_value(value: Any, meta: dict, folder: Path) -> Any:
-    """What the file holds for an option's value: a flag as "given", a path relative to the file's folder."""
+    """What the file holds for an option's value: a flag as "given"; a path relative to the file's folder when
+    both are in the folder the run was started from (a project folder moved or sent whole), else absolute."""
     if meta["action"] == "store_false":
         return not value
     if meta["path"] and isinstance(value, str) and Path(value).exists():
-        return os.path.relpath(Path(value).resolve(), folder.resolve())
+        path, here = Path(value).resolve(), Path.cwd().resolve()
+        if path.is_relative_to(here) and folder.resolve().is_relative_to(here):
+            return os.path.relpath(path, folder.resolve())
+        return str(path)
     return value
 
 
