@@ -38,11 +38,21 @@ def answers(path: Path) -> list[tuple]:
     return [(a["diagonal_rule"], tuple(a["order"]), a["peak"]) for a in record["answers"]]
 
 
-def test_a_study_file_runs_again_to_the_same_evaluations_and_answers(fmu_path, tmp_path, capfd):
-    first, again = tmp_path / "results", tmp_path / "again"
-    methods = ["cmaes", "pso", "sa", "random", "sequential"]
-    assert main("--fmu", fmu_path, "--out", first, "--executor", "serial", *QUICK, "--method", *methods,
+METHODS = ["cmaes", "pso", "sa", "random", "sequential"]
+
+
+@pytest.fixture(scope="module")
+def first(fmu_path, tmp_path_factory):
+    """A run of five methods, a seed and a starting design: the study file to run again."""
+    out = tmp_path_factory.mktemp("study") / "results"
+    assert main("--fmu", fmu_path, "--out", out, "--executor", "serial", *QUICK, "--method", *METHODS,
                 "--seed", "4", "--start", "1,7,5,9,3,6,11,8,2,4,10") == 0
+    return out
+
+
+def test_a_study_file_runs_again_to_the_same_evaluations_and_answers(fmu_path, first, tmp_path, capfd):
+    again = tmp_path / "again"
+    methods = METHODS
     study = first / "study.toml"
     data = tomllib.loads(study.read_text())
     assert data["searches"]["budget"] == 12 and data["searches"]["method"] == methods
@@ -60,14 +70,12 @@ def test_a_study_file_runs_again_to_the_same_evaluations_and_answers(fmu_path, t
     assert tomllib.loads((again / "study.toml").read_text()) == data  # the same study, the same file
 
 
-def test_the_command_line_overrides_the_study_file(fmu_path, tmp_path):
-    first = tmp_path / "results"
-    assert main("--fmu", fmu_path, "--out", first, "--executor", "serial", *QUICK) == 0
+def test_the_command_line_overrides_the_study_file(first, tmp_path):
     assert main("--study", first / "study.toml", "--out", tmp_path / "b", "--budget", "5", "--no-progress",
                 "--executor", "serial") == 0
     assert tomllib.loads((tmp_path / "b" / "study.toml").read_text())["searches"]["budget"] == 5
     runs = {(r["method"], r["seed"]) for r in rows(tmp_path / "b" / "evaluations.csv")}
-    assert ("cmaes", "0") in runs
+    assert ("cmaes", "4") in runs and {m for m, _ in runs} == set(METHODS)  # the rest is the file's
     assert max(int(r["index"]) for r in rows(tmp_path / "b" / "evaluations.csv") if r["method"] == "cmaes") <= 5
 
 
