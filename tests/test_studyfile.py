@@ -151,3 +151,21 @@ def test_values_round_trip_through_the_file_paths_relative_to_it(tmp_path, monke
     with pytest.raises(StudyFileError, match=r"study.toml:\d+: \[recorded\] materials-sha256"):
         study.check_materials(other)
     assert study.fmu_note("f" * 64) is None and "another build" in study.fmu_note("e" * 64)
+
+
+def test_a_start_file_changed_since_the_study_ran_is_refused(tmp_path, monkeypatch):
+    from orchestrator.steps.starts import StartsConfig
+
+    monkeypatch.chdir(tmp_path)
+    starts = tmp_path / "starts.txt"
+    starts.write_text("1,7,5,9,3,6,11,8,2,4,10\n")
+    folder = tmp_path / "results"
+    folder.mkdir()
+    path = write_study_file(folder, {StartsConfig: StartsConfig(start_file=str(starts))}, "0" * 64, "1" * 64)
+    data = tomllib.loads(path.read_text())
+    assert data["starts"]["start-file"] == "../starts.txt" and len(data["recorded"]["start-file-sha256"]) == 64
+    assert read_study_file(path).values == {"StartsConfig.start_file": str(folder / "../starts.txt")}
+    starts.write_text("1,2,3,4,5,6,7,8,9,10,11\n")
+    with pytest.raises(StudyFileError, match=r"study.toml:\d+: \[recorded\] start-file-sha256: .*starts.txt has "
+                                             r"changed since the study was run"):
+        read_study_file(path)
