@@ -5,10 +5,12 @@ overriding the file's. The keys are the command-line options without their dashe
 (``[case]``, one per step with options, ``[run]``), derived from the configs' ``option`` fields: there is no
 second list of names. Options that change no number (the executor, the workers, the scheduler) are written as
 comments; options of one invocation (``--out``, ``--resume``) are not written. ``[recorded]`` holds what the
-file was written against (the material table's and the FMU's content hashes): a material table whose content
-changed is refused, another FMU build is named in a note.
+file was written against (the content hashes of the material table, the FMU and the other files it names): a
+file whose content changed is refused, another FMU build is named in a note.
 
-Relative paths in the file are relative to the file's folder, so a results folder can be moved or sent whole.
+Relative paths in the file are relative to the file's folder: a file inside the folder the run was started from
+(the project) is written so, and the project can be moved or sent whole; a file elsewhere is written by its
+absolute path.
 
 Why a template and not a TOML writer: the file carries comments (each option's meaning and default, the
 options left at the scene's or the model's value), which the TOML writers drop. tomllib reads it back, and the
@@ -18,11 +20,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import hashlib
 import json
 import math
 import os
 import re
-import sys
 import textwrap
 import tomllib
 from dataclasses import dataclass
@@ -80,11 +82,15 @@ def _toml(value: Any) -> str:
 
 
 def _file_value(value: Any, meta: dict, folder: Path) -> Any:
-    """What the file holds for an option's value: a flag as "given", a path relative to the file's folder."""
+    """What the file holds for an option's value: a flag as "given"; a path relative to the file's folder when
+    both are in the folder the run was started from (a project folder moved or sent whole), else absolute."""
     if meta["action"] == "store_false":
         return not value
     if meta["path"] and isinstance(value, str) and Path(value).exists():
-        return os.path.relpath(Path(value).resolve(), folder.resolve())
+        path, here = Path(value).resolve(), Path.cwd().resolve()
+        if path.is_relative_to(here) and folder.resolve().is_relative_to(here):
+            return os.path.relpath(path, folder.resolve())
+        return str(path)
     return value
 
 
@@ -150,11 +156,36 @@ TEMPLATE = """\
 {% endfor %}
 
 [{{ recorded }}]
-# What this file was written against: a material table whose content changed is refused; another build of
-# the FMU (another platform or compiler) is named in a note, its numbers may differ in the last digits.
+# What this file was written against: a material table, scene file or start file whose content changed is
+# refused; another build of the FMU (another platform or compiler) is named in a note, its numbers may differ
+# in the last digits.
 materials-sha256 = {{ materials_sha256 }}
 fmu-sha256 = {{ fmu_sha256 }}
+{% for key, value in file_hashes %}
+{{ key }} = {{ value }}
+{% endfor %}
 """
+
+
+FILE_CHECKED = ("materials", "fmu")  # path options whose content [recorded] checks by its own hash (above)
+
+
+def _file_sha256(path: str | Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def file_hashes(configs: dict[type, Any]) -> list[tuple[str, str]]:
+    """("<key>-sha256", TOML value) of each other file a path option names (a scene file, a start file): a
+    study file run on another file's content is refused."""
+    found = []
+    for _, config_type in sections():
+        config = configs.get(config_type) or config_type()
+        for key, field, meta in _options(config_type):
+            value = getattr(config, field.name)
+            if meta["path"] and meta["study"] != NOT_KEPT and key not in FILE_CHECKED and isinstance(value, str) \
+                    and Path(value).is_file():
+                found.append((f"{key}-sha256", _toml(_file_sha256(value))))
+    return found
 
 
 def render_study_file(configs: dict[type, Any], folder: Path, materials_sha256: str, fmu_sha256: str) -> str:
@@ -162,7 +193,7 @@ def render_study_file(configs: dict[type, Any], folder: Path, materials_sha256: 
                              undefined=jinja2.StrictUndefined)
     return env.from_string(TEMPLATE).render(
         format=FORMAT, name=STUDY_FILE, sections=study_lines(configs, folder), recorded=RECORDED,
-        materials_sha256=_toml(materials_sha256), fmu_sha256=_toml(fmu_sha256))
+        materials_sha256=_toml(materials_sha256), fmu_sha256=_toml(fmu_sha256), file_hashes=file_hashes(configs))
 
 
 def write_study_file(folder: Path, configs: dict[type, Any], materials_sha256: str, fmu_sha256: str) -> Path:
@@ -291,6 +322,12 @@ def read_study_file(path: str | os.PathLike) -> StudyFile:
     allowed_sections = ", ".join([f"[{s}]" for s in known] + [f"[{RECORDED}]"])
     values: dict[str, Any] = {}
     recorded: dict[str, str | None] = {"materials-sha256": None, "fmu-sha256": None}
+    files: dict[str, tuple[str, str]] = {}  # "<key>-sha256" -> (section, key) of the path options checked by it
+    for section, config_type in known.items():
+        for key, _, meta in _options(config_type):
+            if meta["path"] and meta["study"] != NOT_KEPT and key not in FILE_CHECKED:
+                files[f"{key}-sha256"] = (section, key)
+                recorded[f"{key}-sha256"] = None
     for section, table in data.items():
         where = f"{path}:{_line_of(text, section)}"
         if not isinstance(table, dict):
@@ -323,11 +360,18 @@ def read_study_file(path: str | os.PathLike) -> StudyFile:
             if parsed == default or (isinstance(parsed, list) and tuple(parsed) == default):
                 continue  # the default: the run gets it anyway, and the option does not count as given
             values[f"{config_type.__name__}.{field.name}"] = parsed
+    for hash_key, (section, key) in files.items():
+        expected = recorded[hash_key]
+        if expected is None or section not in data or key not in data[section]:
+            continue
+        named = _resolve_path(data[section][key], path.parent)
+        actual = _file_sha256(named) if isinstance(named, str) and Path(named).is_file() else None
+        if actual is not None and actual != expected:
+            raise StudyFileError(f"{path}:{_line_of(text, RECORDED, hash_key)}: [{RECORDED}] {hash_key}: {named} has "
+                                 f"changed since the study was run (sha256 {actual[:16]}..., the study's "
+                                 f"{expected[:16]}...): give the same file (or delete this line to run the study on "
+                                 "the new one)")
     return StudyFile(path, values, recorded["materials-sha256"], recorded["fmu-sha256"])
-
-
-def note(message: str) -> None:
-    print(message, file=sys.stderr)
 
 
 __all__ = ["STUDY_FILE", "StudyFile", "StudyFileError", "read_study_file", "render_study_file", "sections",

@@ -38,18 +38,28 @@ def answers(path: Path) -> list[tuple]:
     return [(a["diagonal_rule"], tuple(a["order"]), a["peak"]) for a in record["answers"]]
 
 
-def test_a_study_file_runs_again_to_the_same_evaluations_and_answers(fmu_path, tmp_path, capfd):
-    first, again = tmp_path / "results", tmp_path / "again"
-    methods = ["cmaes", "pso", "sa", "random", "sequential"]
-    assert main("--fmu", fmu_path, "--out", first, "--executor", "serial", *QUICK, "--method", *methods,
+METHODS = ["cmaes", "pso", "sa", "random", "sequential"]
+
+
+@pytest.fixture(scope="module")
+def first(fmu_path, tmp_path_factory):
+    """A run of five methods, a seed and a starting design: the study file to run again."""
+    out = tmp_path_factory.mktemp("study") / "results"
+    assert main("--fmu", fmu_path, "--out", out, "--executor", "serial", *QUICK, "--method", *METHODS,
                 "--seed", "4", "--start", "1,7,5,9,3,6,11,8,2,4,10") == 0
+    return out
+
+
+def test_a_study_file_runs_again_to_the_same_evaluations_and_answers(fmu_path, first, tmp_path, capfd):
+    again = tmp_path / "again"
+    methods = METHODS
     study = first / "study.toml"
     data = tomllib.loads(study.read_text())
     assert data["searches"]["budget"] == 12 and data["searches"]["method"] == methods
     assert data["searches"]["seed"] == 4 and data["starts"]["start"] == ["1,7,5,9,3,6,11,8,2,4,10"]
     assert data["case"]["diagonal-rule"] == ["mean"] and data["sensitivity"]["no-sensitivity"] is True
     assert "executor" not in data["run"] and "out" not in data["run"]  # changes no number / one invocation
-    assert Path(first / data["case"]["fmu"]).resolve() == Path(fmu_path).resolve()  # relative to the file
+    assert Path(data["case"]["fmu"]) == Path(fmu_path).resolve()  # outside the project folder: absolute
     assert data["recorded"]["fmu-sha256"] and data["recorded"]["materials-sha256"]
     capfd.readouterr()
     assert main("--study", study, "--out", again, "--no-progress", "--workers", "2") == 0
@@ -60,14 +70,12 @@ def test_a_study_file_runs_again_to_the_same_evaluations_and_answers(fmu_path, t
     assert tomllib.loads((again / "study.toml").read_text()) == data  # the same study, the same file
 
 
-def test_the_command_line_overrides_the_study_file(fmu_path, tmp_path):
-    first = tmp_path / "results"
-    assert main("--fmu", fmu_path, "--out", first, "--executor", "serial", *QUICK) == 0
+def test_the_command_line_overrides_the_study_file(first, tmp_path):
     assert main("--study", first / "study.toml", "--out", tmp_path / "b", "--budget", "5", "--no-progress",
                 "--executor", "serial") == 0
     assert tomllib.loads((tmp_path / "b" / "study.toml").read_text())["searches"]["budget"] == 5
     runs = {(r["method"], r["seed"]) for r in rows(tmp_path / "b" / "evaluations.csv")}
-    assert ("cmaes", "0") in runs
+    assert ("cmaes", "4") in runs and {m for m, _ in runs} == set(METHODS)  # the rest is the file's
     assert max(int(r["index"]) for r in rows(tmp_path / "b" / "evaluations.csv") if r["method"] == "cmaes") <= 5
 
 
@@ -118,7 +126,8 @@ def test_every_option_of_every_config_is_a_key_of_the_file(tmp_path):
             assert f"# {flag_of(config_type, name)[2:]}: " in text, (section, name)
 
 
-def test_values_round_trip_through_the_file_paths_relative_to_it(tmp_path):
+def test_values_round_trip_through_the_file_paths_relative_to_it(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the project folder: its files are written relative to the study file
     table = MaterialTable((Material("soft", 10.0, 5.0, 1.0, 10.0, 10.0), *study_materials(11).materials[1:]))
     materials = write_materials_csv(table, tmp_path / "mine.csv")
     case = CaseConfig(materials=str(materials), load=600.0, load_angle=12.5, case=("t_active=0.1,0.2",),
@@ -142,3 +151,21 @@ def test_values_round_trip_through_the_file_paths_relative_to_it(tmp_path):
     with pytest.raises(StudyFileError, match=r"study.toml:\d+: \[recorded\] materials-sha256"):
         study.check_materials(other)
     assert study.fmu_note("f" * 64) is None and "another build" in study.fmu_note("e" * 64)
+
+
+def test_a_start_file_changed_since_the_study_ran_is_refused(tmp_path, monkeypatch):
+    from orchestrator.steps.starts import StartsConfig
+
+    monkeypatch.chdir(tmp_path)
+    starts = tmp_path / "starts.txt"
+    starts.write_text("1,7,5,9,3,6,11,8,2,4,10\n")
+    folder = tmp_path / "results"
+    folder.mkdir()
+    path = write_study_file(folder, {StartsConfig: StartsConfig(start_file=str(starts))}, "0" * 64, "1" * 64)
+    data = tomllib.loads(path.read_text())
+    assert data["starts"]["start-file"] == "../starts.txt" and len(data["recorded"]["start-file-sha256"]) == 64
+    assert read_study_file(path).values == {"StartsConfig.start_file": str(folder / "../starts.txt")}
+    starts.write_text("1,2,3,4,5,6,7,8,9,10,11\n")
+    with pytest.raises(StudyFileError, match=r"study.toml:\d+: \[recorded\] start-file-sha256: .*starts.txt has "
+                                             r"changed since the study was run"):
+        read_study_file(path)
