@@ -1,5 +1,10 @@
 """Shared fixtures: the FMU and the C core are built once per test session, into a temporary folder.
 
+Each session keeps its temporary folders in a folder of its own (pytest's --basetemp, unless given), removed
+when the session ends. pytest's default, with this project's retention policy "none", is one numbered folder per
+session under a folder every session of the same user shares, and a session that ends removes every numbered
+folder it finds there, a running session's included: two test runs side by side would delete each other's FMUs.
+
 The session compiles each distinct set of C sources once (fmu_src.build's LATTICE_BUILD_CACHE, a temporary
 folder removed when the session ends, inherited by the command lines the tests start): the many FMUs the tests
 build alike differ only in their paths, and every build still generates, zips and checks its own FMU.
@@ -21,8 +26,13 @@ def pytest_addoption(parser):
     add_option(parser)  # --record-compatibility: the importer tests write their compatibility rows
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest's own tmpdir plugin reads --basetemp
 def pytest_configure(config):
     check_recording(config)
+    if config.option.basetemp is None:
+        basetemp = tempfile.mkdtemp(prefix="lattice-pytest-")
+        config.option.basetemp = basetemp
+        config.add_cleanup(lambda: shutil.rmtree(basetemp, ignore_errors=True))
     if build_fmu.BUILD_CACHE_VARIABLE not in os.environ:
         folder = tempfile.mkdtemp(prefix="lattice_build_cache_")
         os.environ[build_fmu.BUILD_CACHE_VARIABLE] = folder
