@@ -122,6 +122,9 @@ def test_a_small_space_is_swept_and_certified_by_default(narrow, tmp_path, capfd
         assert answer["evidence"]["status"] == "certified" and answer["evidence"]["swept"]
         assert answer["evidence"]["runs"] == 0
     assert printed.count("certified for the sampled peak") == 2 and "every design swept" in printed
+    certificate = json.loads((out / "exhaustive" / "certificate.json").read_text())
+    assert certificate["certified"] and certificate["objective"] == ("the sampled peak (0.01 s samples) over 8 s "
+                                                                     "under the mean rule")
     html = (out / "report.html").read_text()
     assert "distinct designs per seed" not in html and "best found" not in html
 
