@@ -13,7 +13,7 @@ from ..objective import FULL, SEARCH
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order, RunOutputs
 from .descent import Descent
-from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, sweep_cost
+from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, objective_covered, sweep_cost
 from .finalists import Finalists, best_of, finalist_orders
 from .searches import Searches, rule_label
 
@@ -186,7 +186,7 @@ class Answers(Step):
             sweep = swept.for_rule(label) if swept else None
             runner = self.runner_up(context, rule, best, sweep)
             search = objective.evaluate([best.order], context.evaluator, SEARCH)[0]
-            evidence = Evidence(reaching, len(runs), local, status, source, covers=covers(context, rule, label),
+            evidence = Evidence(reaching, len(runs), local, status, source, covers=objective_covered(context, label),
                                 swept=sweep is not None and sweep.certificate.covered_once)
             if evidence.few_runs and status == BEST_FOUND and known_optimum(
                     context.case, rule or context.case.rule_default) is None:
@@ -210,8 +210,8 @@ class Answers(Step):
     @staticmethod
     def runner_up(context: StudyContext, rule, best: Evaluation, sweep) -> Evaluation | None:
         """The next best design known under the rule at full fidelity: every design this run evaluated there
-        (the finalists include a sweep's runner-up and a known optimum's), else the sweep's or the table's
-        runner-up by its recorded value."""
+        (a sweep verifies its candidates there, the finalists evaluate a known optimum's runner-up), else the
+        sweep's runner-up by its recorded value."""
         objective = context.objective(rule)
         full_task, = objective.with_cases(None).tasks(FULL) if len(context.case.cases) == 1 else (None,)
         others = [e for e in (context.evaluator.known(full_task) if full_task else []) if e.ok and e.order != best.order]
@@ -243,18 +243,6 @@ class Answers(Step):
     def design_files(self, study):
         result = study.steps.get(self.name)
         return [(a.design_file, a.order, a.diagonal_rule) for a in (result.answers if result else ())]
-
-
-def covers(context: StudyContext, rule, label: str) -> str:
-    """The objective an answer's status holds for, in words: a certificate of the sampled peak says nothing
-    of the continuous one."""
-    output = context.case.outputs[0]
-    if output == "peak_backplate_force":
-        interval = context.case.parameters.get("peak_sample_interval", context.fmu.start("peak_sample_interval"))
-        what = f"the sampled peak ({interval:g} s samples)" if interval is not None else "the sampled peak"
-    else:
-        what = {"peak_backplate_force_continuous": "the continuous peak"}.get(output, output)
-    return f"{what} over {context.case.horizon:g} s under the {label} rule"
 
 
 def equivalence(context: StudyContext, best: Evaluation, runner: Evaluation | None, sweep) -> Equivalence | None:

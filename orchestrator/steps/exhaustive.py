@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, ChunkResult, Scored, ScreenChunk,
@@ -46,6 +46,18 @@ class SweepCost:
     incumbent: float | None  # the best value known (search fidelity) whose threshold is the chunk's limit
     timed: int  # designs of the timed chunk
     censored: int  # of them, stopped above the limit
+
+
+def objective_covered(context: StudyContext, label: str) -> str:
+    """The objective a certificate holds for, in words: one of the sampled peak says nothing of the continuous
+    one, nor of another horizon or rule."""
+    output = context.case.outputs[0]
+    if output == "peak_backplate_force":
+        interval = context.case.parameters.get("peak_sample_interval", context.fmu.start("peak_sample_interval"))
+        what = f"the sampled peak ({interval:g} s samples)" if interval is not None else "the sampled peak"
+    else:
+        what = {"peak_backplate_force_continuous": "the continuous peak"}.get(output, output)
+    return f"{what} over {context.case.horizon:g} s under the {label} rule"
 
 
 def sweep_cost(context: StudyContext, rule: str | None, incumbent: float | None) -> SweepCost:
@@ -118,6 +130,7 @@ class Certificate:
     integration_error: float | None
     certified: bool
     reasons: tuple[str, ...]  # why not certified (empty when certified)
+    objective: str = ""  # what the certificate covers: the objective, its horizon and the diagonal rule
 
 
 @dataclass(frozen=True)
@@ -307,6 +320,7 @@ class Exhaustive(Step):
         second = self.second_integrator(context, objective, [e.order for e in ok[:2]])
         certificate = self.certify(label, space, chunks, ranges, screened, ok, errors, second, len(orders),
                                    [c for c in chunks if not c.ok], failures, full)
+        certificate = replace(certificate, objective=objective_covered(context, label))
         histogram: dict[int, int] = {}
         for chunk in good:
             for index, count in chunk.histogram:
@@ -409,4 +423,5 @@ def draw_exhaustive(study, path: Path) -> str | None:
 
 
 __all__ = ["Certificate", "Exhaustive", "ExhaustiveConfig", "ExhaustiveResult", "FULL_ERROR", "FrontPoint",
-           "FrontSweep", "SCREENING_ERROR", "Sweep", "SweepCost", "Verified", "projection_incumbent", "sweep_cost"]
+           "FrontSweep", "SCREENING_ERROR", "Sweep", "SweepCost", "Verified", "objective_covered", "projection_incumbent",
+           "sweep_cost"]
