@@ -1,9 +1,11 @@
 """Shared fixtures: the FMU and the C core are built once per test session, into a temporary folder.
 
-Each session keeps its temporary folders in a folder of its own (pytest's --basetemp, unless given), removed
-when the session ends. pytest's default, with this project's retention policy "none", is one numbered folder per
-session under a folder every session of the same user shares, and a session that ends removes every numbered
-folder it finds there, a running session's included: two test runs side by side would delete each other's FMUs.
+Each session keeps its temporary files in a folder of its own, removed when the session ends: pytest's
+--basetemp (unless given) and the TMPDIR of the session and of every program it starts (Dask's scratch space,
+Chromium's profiles), so nothing is left in the TMPDIR the suite was started with. pytest's default, with this
+project's retention policy "none", is one numbered folder per session under a folder every session of the same
+user shares, and a session that ends removes every numbered folder it finds there, a running session's included:
+two test runs side by side would delete each other's FMUs.
 
 The session compiles each distinct set of C sources once (fmu_src.build's LATTICE_BUILD_CACHE, a temporary
 folder removed when the session ends, inherited by the command lines the tests start): the many FMUs the tests
@@ -29,15 +31,28 @@ def pytest_addoption(parser):
 @pytest.hookimpl(tryfirst=True)  # before pytest's own tmpdir plugin reads --basetemp
 def pytest_configure(config):
     check_recording(config)
+    session = tempfile.mkdtemp(prefix="lattice-pytest-")
+    config.add_cleanup(lambda: shutil.rmtree(session, ignore_errors=True))
     if config.option.basetemp is None:
-        basetemp = tempfile.mkdtemp(prefix="lattice-pytest-")
-        config.option.basetemp = basetemp
-        config.add_cleanup(lambda: shutil.rmtree(basetemp, ignore_errors=True))
+        config.option.basetemp = os.path.join(session, "pytest")
+    own_tmp = os.path.join(session, "tmp")
+    os.mkdir(own_tmp)
+    previous = os.environ.get("TMPDIR"), tempfile.tempdir
+    os.environ["TMPDIR"], tempfile.tempdir = own_tmp, own_tmp
+    config.add_cleanup(lambda: _restore_tmpdir(*previous))
     if build_fmu.BUILD_CACHE_VARIABLE not in os.environ:
         folder = tempfile.mkdtemp(prefix="lattice_build_cache_")
         os.environ[build_fmu.BUILD_CACHE_VARIABLE] = folder
         config.add_cleanup(lambda: (shutil.rmtree(folder, ignore_errors=True),
                                     os.environ.pop(build_fmu.BUILD_CACHE_VARIABLE, None)))
+
+
+def _restore_tmpdir(variable, module) -> None:
+    if variable is None:
+        os.environ.pop("TMPDIR", None)
+    else:
+        os.environ["TMPDIR"] = variable
+    tempfile.tempdir = module
 
 
 def pytest_collection_modifyitems(config, items):
@@ -74,3 +89,16 @@ def lattice(fmu_path):
 
     with LatticeFMU(fmu_path) as fmu:
         yield fmu
+
+
+@pytest.fixture(scope="session")
+def armour_fmu_of_width(tmp_path_factory):
+    """The armour scene over C columns (C! orders of the study's first C materials), built once per width."""
+    built = {}
+
+    def fmu(columns):
+        if columns not in built:
+            built[columns] = build_fmu.build_fmu("armour_11x11", tmp_path_factory.mktemp(f"fmu{columns}")
+                                                 / "lattice.fmu", cols=columns, werror=True)
+        return built[columns]
+    return fmu

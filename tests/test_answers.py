@@ -9,7 +9,6 @@ from types import SimpleNamespace
 
 import pytest
 
-from fmu_src.build import build_fmu
 from fmu_src.materials import study_materials
 from orchestrator import known_optima as known_optima_module
 from orchestrator import run as cli
@@ -20,19 +19,6 @@ from orchestrator.steps.answers import Equivalence, Evidence
 from orchestrator.types import RunOutputs
 
 COMMON = ["--no-sensitivity", "--no-progress", "--executor", "serial"]
-
-
-@pytest.fixture(scope="module")
-def narrow(tmp_path_factory):
-    """The armour scene over C columns (C! orders), built once per width."""
-    built = {}
-
-    def fmu(columns):
-        if columns not in built:
-            built[columns] = build_fmu("armour_11x11", tmp_path_factory.mktemp(f"fmu{columns}") / "lattice.fmu",
-                                       cols=columns, werror=True)
-        return built[columns]
-    return fmu
 
 
 def brute_force(fmu, columns, rule):
@@ -72,11 +58,11 @@ def test_a_known_optimum_is_looked_up_per_rule(tmp_path, monkeypatch):
     assert known_optimum(SimpleNamespace(**{**case.__dict__, "horizon": 4.0}), "mean") is None
 
 
-def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(narrow, tmp_path, monkeypatch, capfd):
+def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(armour_fmu_of_width, tmp_path, monkeypatch, capfd):
     """A recorded mean-rule optimum (the brute force of a small case, as the 11 x 11 one will be recorded) makes
     the mean answer certified although the searches are too short to reach it; the receiver rule, with no
     entry, is the study's model beside it, best found, with what would settle it."""
-    fmu = narrow(4)
+    fmu = armour_fmu_of_width(4)
     ranked = brute_force(fmu, 4, "mean")
     table = tmp_path / "known.json"
     table.write_text(json.dumps({"optima": [entry(4, "mean", ranked, "the test's brute force of 24 orders")]}))
@@ -112,9 +98,9 @@ def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(nar
     assert "--diagonal-rule receiver</code> makes its order the design file" in first_screen
 
 
-def test_a_small_space_is_swept_and_certified_by_default(narrow, tmp_path, capfd):
+def test_a_small_space_is_swept_and_certified_by_default(armour_fmu_of_width, tmp_path, capfd):
     out = tmp_path / "out"
-    assert main("--fmu", narrow(3), "--cols", 3, "--out", out, *COMMON) == 0
+    assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, *COMMON) == 0
     printed = capfd.readouterr().out
     results = json.loads((out / "results.json").read_text())
     assert "searches" not in results["steps"] and len(results["steps"]["exhaustive"]["sweeps"]) == 2
@@ -129,9 +115,9 @@ def test_a_small_space_is_swept_and_certified_by_default(narrow, tmp_path, capfd
     assert "distinct designs per seed" not in html and "best found" not in html
 
 
-def test_an_explicit_sweep_alone_runs_no_search(narrow, tmp_path, capfd):
+def test_an_explicit_sweep_alone_runs_no_search(armour_fmu_of_width, tmp_path, capfd):
     out = tmp_path / "out"
-    assert main("--fmu", narrow(3), "--cols", 3, "--out", out, "--method", "exhaustive", "--diagonal-rule",
+    assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, "--method", "exhaustive", "--diagonal-rule",
                 "receiver", *COMMON) == 0, capfd.readouterr().err
     results = json.loads((out / "results.json").read_text())
     assert "searches" not in results["steps"] and results["answers"][0]["evidence"]["status"] == "certified"

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import pytest
 
-from fmu_src.build import build_fmu
 from orchestrator import run as cli
 from orchestrator.design import DesignSpace
 from orchestrator.executors import make_executor
@@ -27,27 +26,15 @@ def stored(columns):
     return json.loads((DATA / f"known_optimum_11x{columns}.json").read_text())
 
 
-@pytest.fixture(scope="module")
-def lattices(tmp_path_factory):
-    built = {}
-
-    def fmu(columns):
-        if columns not in built:
-            built[columns] = build_fmu("armour_11x11", tmp_path_factory.mktemp(f"fmu{columns}") / "lattice.fmu",
-                                       cols=columns, werror=True)
-        return built[columns]
-    return fmu
-
-
 def objective(fmu, columns):
     return LatticeObjective(fmu, DesignSpace.permutations(columns), 8.0)
 
 
 @pytest.mark.parametrize("columns", COLUMNS)
-def test_a_known_optimum_is_reproduced_and_locally_optimal(lattices, columns):
+def test_a_known_optimum_is_reproduced_and_locally_optimal(armour_fmu_of_width, columns):
     data = stored(columns)
     order = tuple(data["order"])
-    lattice = objective(lattices(columns), columns)
+    lattice = objective(armour_fmu_of_width(columns), columns)
     space = lattice.space
     with make_executor("process", workers=2) as executor:
         evaluator = Evaluator(executor)
@@ -71,9 +58,9 @@ def test_the_table_holds_the_test_data_and_the_certified_sweep():
 
 
 @pytest.mark.slow
-def test_the_whole_8_column_sweep_certifies_the_known_optimum(lattices, tmp_path, capfd):
+def test_the_whole_8_column_sweep_certifies_the_known_optimum(armour_fmu_of_width, tmp_path, capfd):
     out = tmp_path / "sweep8"
-    code = cli.main(["--fmu", str(lattices(8)), "--cols", "8", "--out", str(out), "--method", "exhaustive", "cmaes",
+    code = cli.main(["--fmu", str(armour_fmu_of_width(8)), "--cols", "8", "--out", str(out), "--method", "exhaustive", "cmaes",
                      "--budget", "300", "--repeats", "1", "--diagonal-rule", "receiver", "--no-sensitivity",
                      "--no-progress", "--workers", "2"])
     assert code == 0, capfd.readouterr().err

@@ -104,22 +104,29 @@ def write_evaluations_csv(study: StudyResult, path: Path) -> None:
 def write_design_files(study: StudyResult, out: Path, steps, materials) -> dict[str, str]:
     """Each step's design files; {file: why it was not written} for those the writer refused (a design a named
     tool would run differently)."""
-    from ..ssp import write_best_design_ssp
-
     refused = {}
     for step in steps:
         if study.steps.get(step.name) is None:
             continue
         for name, order, rule in step.design_files(study):
-            parameters = {"material": list(order), **study.case.parameters}
-            if rule in study.case.rules:
-                parameters["diagonal_rule"] = rule
-            try:
-                write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon,
-                                      materials=materials)
-            except (ValueError, OSError) as exc:
-                refused[name] = str(exc).splitlines()[0]
+            write_design_file(study, out, name, order, rule, materials, refused)
     return refused
+
+
+def write_design_file(study: StudyResult, out: Path, name: str, order, rule: str, materials,
+                      refused: dict[str, str]) -> None:
+    """One design file: the FMU with the order, the run's parameters and the rule where the study chose it; a
+    design the writer refuses (one a named tool would run differently) goes into ``refused`` with why."""
+    from ..ssp import write_best_design_ssp
+
+    parameters = {"material": list(order), **study.case.parameters}
+    if rule in study.case.rules:
+        parameters["diagonal_rule"] = rule
+    try:
+        write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon,
+                              materials=materials)
+    except (ValueError, OSError) as exc:
+        refused[name] = str(exc).splitlines()[0]
 
 
 def write_certificates(study: StudyResult, out: Path) -> list[str]:

@@ -87,24 +87,16 @@ def explore_data(study: StudyResult, materials, refused: dict[str, str]) -> dict
 
 def write_front_design_files(study: StudyResult, out: Path, materials) -> dict[str, str]:
     """A design file for every point of each front that has none yet; {file: why not written} for refusals."""
-    from ..ssp import write_best_design_ssp
+    from . import write_design_file
 
-    refused = {}
+    refused: dict[str, str] = {}
     pareto = study.steps.get("pareto")
     for front in (pareto.fronts if pareto else ()):
         chosen = {c.order for c in front.chosen}
         for rank, point in enumerate(front.points, start=1):
-            if point.order in chosen:
-                continue
-            name = front_design_file(front.diagonal_rule, rank)
-            parameters = {"material": list(point.order), **study.case.parameters}
-            if front.diagonal_rule in study.case.rules:
-                parameters["diagonal_rule"] = front.diagonal_rule
-            try:
-                write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon,
-                                      materials=materials)
-            except (ValueError, OSError) as exc:
-                refused[name] = str(exc).splitlines()[0]
+            if point.order not in chosen:
+                write_design_file(study, out, front_design_file(front.diagonal_rule, rank), point.order,
+                                  front.diagonal_rule, materials, refused)
     return refused
 
 
