@@ -83,7 +83,7 @@ def own_materials(folder: Path, workers: int, budget: int) -> tuple:
     rows = []
     fmu = outcome.study.fmu_path
     with LatticeFMU(fmu) as lattice:
-        for answer in outcome.study.steps["answers"].answers:
+        for answer in outcome.study.result(Answers).answers:
             again = lattice.simulate(answer.order, 8.0, {"diagonal_rule": answer.diagonal_rule})
             error = abs(again["peak_backplate_force"] / answer.peak - 1)
             rows.append((answer.diagonal_rule, order_text(answer.order), ", ".join(answer.materials),
@@ -98,7 +98,7 @@ def catalogue(folder: Path, label: str, table: MaterialTable, columns: int, repe
     path = write_materials_csv(table, folder / f"{label}.csv")
     case = CaseConfig(materials=str(path), cols=columns, repeat=repeat, diagonal_rules=("receiver",))
     swept = study(folder / f"{label}_sweep", case, ("exhaustive", "random"), 100, 1, workers)
-    sweep = swept.study.steps["exhaustive"].sweeps[0]
+    sweep = swept.study.result(Exhaustive).sweeps[0]
     certificate = sweep.certificate
     from orchestrator.design import DesignSpace
 
@@ -109,7 +109,7 @@ def catalogue(folder: Path, label: str, table: MaterialTable, columns: int, repe
     for seed in range(seeds):
         outcome = study(folder / f"{label}_cmaes_{seed}", case, ("cmaes",), 300, 1, workers,
                         steps=(Searches,), seed=seed)
-        run = outcome.study.steps["searches"].runs[0]
+        run = outcome.study.result(Searches).runs[0]
         reached += run.best_order == best.order
     return (label, space.describe(), order_text(certificate.optimum.order) if certificate.optimum else "none",
             order_text(best.order), "yes" if certificate.optimum and certificate.optimum.order == best.order else "NO",
@@ -121,14 +121,14 @@ def catalogue(folder: Path, label: str, table: MaterialTable, columns: int, repe
 def two_objectives(folder: Path, workers: int, seeds: int, budget: int) -> tuple:
     case = CaseConfig(cols=7, objective="sampled,max_compression", diagonal_rules=("receiver",))
     exact = study(folder / "front_sweep", case, ("exhaustive",), 10, 1, workers)
-    front = exact.study.steps["exhaustive"].fronts[0]
+    front = exact.study.result(Exhaustive).fronts[0]
     points = [p.values for p in front.front]
     reference = reference_point(points)
     exact_volume = hypervolume(points, reference)
     ratios = []
     for seed in range(seeds):
         outcome = study(folder / f"nsga2_{seed}", case, ("nsga2",), budget, 1, workers, seed=seed)
-        found = outcome.study.steps["pareto"].fronts[0]
+        found = outcome.study.result(Pareto).fronts[0]
         ratios.append(hypervolume([p.values for p in found.points], reference) / exact_volume)
     return front, ratios, exact_volume
 

@@ -74,7 +74,7 @@ def sweep(scene: Path, fmu: Path, folder: Path, methods: tuple[str, ...], budget
                             {Searches: SearchesConfig(methods=methods, budget=budget, repeats=1)},
                             (Searches, Exhaustive, Finalists, Answers))
     wall = time.perf_counter() - started
-    return outcome.study.steps["exhaustive"].sweeps[0], wall
+    return outcome.study.result(Exhaustive).sweeps[0], wall
 
 
 def main(argv=None) -> int:

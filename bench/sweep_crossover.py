@@ -28,7 +28,7 @@ from pathlib import Path
 from fmu_src.materials import load_materials, study_materials, write_materials_csv
 from orchestrator.fmu import prepare_fmu
 from orchestrator.runner import RunConfig, resolve_scene, run_in_folder
-from orchestrator.steps import STEPS, Searches, Sensitivity
+from orchestrator.steps import STEPS, Answers, Exhaustive, Searches, Sensitivity
 from orchestrator.steps.searches import (SINGLE_DEFAULT, SWEEP_DESIGNS_PER_SEARCH_EVALUATION, SearchesConfig,
                                          default_evaluations)
 from orchestrator.steps.sensitivity import SensitivityConfig
@@ -65,7 +65,7 @@ def fastest(folder: Path, table: Path, methods, workers: int, repeats: int, name
 
 def answer_text(outcome) -> str:
     return "; ".join(f"{a.diagonal_rule}: {order_text(a.order)} {a.peak:.4f} N, "
-                     f"{a.evidence.status.replace('_', ' ')}" for a in outcome.study.steps["answers"].answers)
+                     f"{a.evidence.status.replace('_', ' ')}" for a in outcome.study.result(Answers).answers)
 
 
 def main(argv=None) -> int:
@@ -84,9 +84,9 @@ def main(argv=None) -> int:
         swept, swept_wall, swept_cpu = fastest(folder, table, ("exhaustive",), args.workers, repeats, "swept", False)
         before, before_wall, _ = fastest(folder, table, SINGLE_DEFAULT, args.workers, repeats, "before", True)
         now, now_wall, _ = fastest(folder, table, (), args.workers, repeats, "now", True)
-    evaluations = sum(r.n_evaluations for r in searched.study.steps["searches"].runs)
+    evaluations = sum(r.n_evaluations for r in searched.study.result(Searches).runs)
     search_rate = evaluations / searched_cpu
-    sweep_designs = sum(s.certificate.designs for s in swept.study.steps["exhaustive"].sweeps)
+    sweep_designs = sum(s.certificate.designs for s in swept.study.result(Exhaustive).sweeps)
     sweep_rate = sweep_designs / swept_cpu
     ratio = sweep_rate / search_rate
     config = SearchesConfig()

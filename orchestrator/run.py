@@ -122,10 +122,11 @@ def front_sureness_line(sureness) -> str:
 def print_answer(outcome) -> None:
     """The answer in a few lines, as the report's first screen gives it."""
     from orchestrator.report import case_line
+    from orchestrator.steps import Answers, OptunaExport, Pareto, Starts
 
     study = outcome.study
     print(case_line(study))
-    answers = study.steps.get("answers")
+    answers = study.result(Answers)
     unit = study.case.objective.units[0]
     for answer in (answers.answers if answers else ()):
         other = "".join(f", {v:.2f} {unit} under the {r} rule" for r, v in answer.values_by_rule.items()
@@ -146,18 +147,18 @@ def print_answer(outcome) -> None:
         if same is not None and same.equivalent:
             print(f"  equivalent for practical purposes to the runner-up {list(answer.runner_up)} "
                   f"({answer.runner_up_peak:.2f} {unit}): {same.reason(unit)}")
-    starts = study.steps.get("starts")
+    starts = study.result(Starts)
     if starts is not None:
         from orchestrator.steps.starts import comparison_line
 
         for comparison in starts.comparisons:
             print(comparison_line(comparison, unit))
-    pareto = study.steps.get("pareto")
+    pareto = study.result(Pareto)
     for front in (pareto.fronts if pareto else ()):
         print(f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front "
               f"({front_sureness_line(front.sureness)}); "
               + "; ".join(f"{c.label} {list(c.order)} ({c.design_file})" for c in front.chosen))
-    exported = study.steps.get("optuna_export")
+    exported = study.result(OptunaExport)
     if exported is not None and exported.error is None:
         print(f"optuna: {sum(s.trials for s in exported.studies)} trials in {exported.storage} (studies "
               + ", ".join(repr(s.name) for s in exported.studies) + f"): optuna-dashboard {exported.storage}")

@@ -222,9 +222,11 @@ def failure_summary(study: StudyResult) -> str:
 def check_answer(study: StudyResult, case, names: set[str]) -> None:
     """A finished study without a usable answer exits non-zero, saying why, after its report was written
     (``names``: the study's steps; one without the answer's steps is not asked for an answer)."""
-    answers = study.steps.get("answers")
-    pareto = study.steps.get("pareto")
-    exhaustive = study.steps.get("exhaustive")
+    from .steps import Answers, Exhaustive, Pareto
+
+    answers = study.result(Answers)
+    pareto = study.result(Pareto)
+    exhaustive = study.result(Exhaustive)
     for sweep in (exhaustive.sweeps if exhaustive else ()):
         certificate = sweep.certificate
         if certificate.max_screening_error_seen is not None and not certificate.screening_bound_held:

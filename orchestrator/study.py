@@ -319,28 +319,36 @@ class StudyContext:
 
 @dataclass(frozen=True)
 class StudyResult:
-    """What a study found: the case, each step's result by its name, and how it was computed."""
+    """What a study found: the case, each step's result by its step's type, and how it was computed."""
 
     case: CaseDescription
     fmu_path: str
     fmu_sha256: str
-    steps: dict[str, Any]
+    results: dict[type, Any]  # step class -> its result, in the order the steps ran
     evaluator: EvaluatorState
     wall_seconds: float
     run_id: str
+
+    def result(self, step_type: type) -> Any:
+        """The result of the step of that type, or None when it did not run."""
+        return self.results.get(step_type)
+
+    def results_by_name(self) -> dict[str, Any]:
+        """Each result under its step's name: the keys of results.json's ``steps``, and nothing else."""
+        return {step_type.name: result for step_type, result in self.results.items()}
 
 
 def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
     """Every step that applies, in order."""
     start = time.perf_counter()
-    names = {}
+    results = {}
     for step in context.steps:
         if not step.applies(context):
             continue
         result = step.run(context)
         context.results[type(step)] = result
-        names[step.name] = result
-    return StudyResult(context.case.describe(context.fmu), str(context.fmu.path), context.fmu.sha256, names,
+        results[type(step)] = result
+    return StudyResult(context.case.describe(context.fmu), str(context.fmu.path), context.fmu.sha256, results,
                        context.evaluator.state(), time.perf_counter() - start, run_id)
 
 

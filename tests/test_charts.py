@@ -12,15 +12,20 @@ import pytest
 
 from orchestrator.objective import Trajectory
 from orchestrator.report import charts
-from orchestrator.steps.pareto import draw_pareto
-from orchestrator.steps.searches import draw_convergence
-from orchestrator.steps.trajectories import LabelledTrajectory, draw_force_and_energy
-from orchestrator.steps.work_precision import SolverPoint, WorkPrecisionResult, draw_work_precision
+from orchestrator.steps.pareto import Pareto, draw_pareto
+from orchestrator.steps.searches import Searches, draw_convergence
+from orchestrator.steps.trajectories import LabelledTrajectory, Trajectories, draw_force_and_energy
+from orchestrator.steps.work_precision import SolverPoint, WorkPrecision, WorkPrecisionResult, draw_work_precision
 
 DATA = Path(__file__).resolve().parent / "data"
 TWO_OBJECTIVE_LINE = ("11 x 11 lattice, 11 materials (permutation: 39,916,800 designs), load 1200 N at 0 deg for "
                       "0.15 s, minimising peak_backplate_force, max_compression over 8 s, diagonal rules receiver "
                       "and mean")
+
+
+def study_of(results: dict, **fields) -> SimpleNamespace:
+    """A study as the chart functions read it: each step's result by the step's type."""
+    return SimpleNamespace(result=results.get, **fields)
 
 
 @pytest.fixture()
@@ -99,7 +104,7 @@ def force_study():
                           "nonreciprocal_work", "energy_balance_error")}, 0.0)
     trajectories = SimpleNamespace(force=tuple(curves), energy=(LabelledTrajectory("receiver rule's answer",
                                                                                    "receiver", energy),))
-    return SimpleNamespace(steps={"trajectories": trajectories})
+    return study_of({Trajectories: trajectories})
 
 
 def test_the_force_legend_hides_no_curve(drawn, tmp_path):
@@ -115,9 +120,9 @@ def test_a_two_objective_convergence_title_is_not_cut_off(drawn, tmp_path):
 
     runs = [run(label, method, seed) for label in ("receiver", "mean") for method in ("nsga2", "random")
             for seed in range(3)]
-    study = SimpleNamespace(steps={"searches": SimpleNamespace(runs=runs)},
-                            case=SimpleNamespace(objective=SimpleNamespace(
-                                units=("N", "m"), outputs=("peak_backplate_force", "max_compression"))))
+    study = study_of({Searches: SimpleNamespace(runs=runs)},
+                     case=SimpleNamespace(objective=SimpleNamespace(
+                         units=("N", "m"), outputs=("peak_backplate_force", "max_compression"))))
     figure = drawn(draw_convergence, study, tmp_path / "convergence.png",
                    f"Convergence over seeds: median and quartiles. {TWO_OBJECTIVE_LINE}", {})
     assert title_fits(figure)
@@ -127,7 +132,7 @@ def test_the_solver_chart_prints_no_label_over_another_and_no_legend_over_the_da
     recorded = json.loads((DATA / "work_precision_points.json").read_text())
     result = WorkPrecisionResult(recorded["diagonal_rule"], recorded["target"], SolverPoint(**recorded["default"]),
                                  tuple(SolverPoint(**p) for p in recorded["points"]))
-    figure = drawn(draw_work_precision, SimpleNamespace(steps={"work_precision": result}), tmp_path / "wp.png")
+    figure = drawn(draw_work_precision, study_of({WorkPrecision: result}), tmp_path / "wp.png")
     assert crowded_labels(figure) == []
     assert data_points_under_legend(figure) == 0
 
@@ -143,9 +148,9 @@ def test_the_front_chart_prints_no_label_over_another(drawn, tmp_path):
                 SimpleNamespace(label="knee", values=(1480.0, 0.2595)),
                 SimpleNamespace(label="lowest max_compression", values=(1931.0, 0.2560))],
         sureness=SimpleNamespace(known_ends=ends))
-    study = SimpleNamespace(steps={"pareto": SimpleNamespace(fronts=(front,)), "searches": None},
-                            case=SimpleNamespace(objective=SimpleNamespace(
-                                units=("N", "m"), outputs=("peak_backplate_force", "max_compression"))))
+    study = study_of({Pareto: SimpleNamespace(fronts=(front,))},
+                     case=SimpleNamespace(objective=SimpleNamespace(
+                         units=("N", "m"), outputs=("peak_backplate_force", "max_compression"))))
     figure = drawn(draw_pareto, study, tmp_path / "pareto.png")
     assert crowded_labels(figure) == []
     renderer = figure.canvas.get_renderer()

@@ -16,6 +16,11 @@ import jinja2
 import markupsafe
 
 from ..records import to_record
+from ..steps.answers import Answers
+from ..steps.exhaustive import Exhaustive
+from ..steps.pareto import Pareto
+from ..steps.searches import Searches
+from ..steps.starts import Starts
 from ..study import StudyResult
 
 RESULTS_FORMAT = "lattice-results/1"
@@ -66,7 +71,7 @@ def case_line(study: StudyResult) -> str:
 
 def results_record(study: StudyResult) -> dict:
     """results.json: the answers first, then the case and every step's result, as the typed results hold them."""
-    steps = {name: to_record(result) for name, result in study.steps.items()}
+    steps = {name: to_record(result) for name, result in study.results_by_name().items()}
     answers = steps.get("answers", {}).get("answers", [])
     return {"format": RESULTS_FORMAT, "answers": answers, "pareto": _pareto_points(study),
             "case": to_record(study.case), "case_line": case_line(study),
@@ -76,7 +81,7 @@ def results_record(study: StudyResult) -> dict:
 
 
 def _pareto_points(study: StudyResult) -> list:
-    pareto = study.steps.get("pareto")
+    pareto = study.result(Pareto)
     if pareto is None:
         return []
     outputs = study.case.objective.outputs
@@ -89,7 +94,7 @@ def write_evaluations_csv(study: StudyResult, path: Path) -> None:
     """Every evaluation of the searches (journal.jsonl has every task of the run)."""
     fields = ["diagonal_rule", "method", "seed", "index", "order", "value", "status", "censored_above", "seconds",
               "horizon", "message"]
-    searches = study.steps.get("searches")
+    searches = study.result(Searches)
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(fields)
@@ -106,7 +111,7 @@ def write_design_files(study: StudyResult, out: Path, steps, materials) -> dict[
     tool would run differently)."""
     refused = {}
     for step in steps:
-        if study.steps.get(step.name) is None:
+        if study.result(type(step)) is None:
             continue
         for name, order, rule in step.design_files(study):
             write_design_file(study, out, name, order, rule, materials, refused)
@@ -130,7 +135,7 @@ def write_design_file(study: StudyResult, out: Path, name: str, order, rule: str
 
 
 def write_certificates(study: StudyResult, out: Path) -> list[str]:
-    exhaustive = study.steps.get("exhaustive")
+    exhaustive = study.result(Exhaustive)
     if exhaustive is None:
         return []
     folder = out / "exhaustive"
@@ -147,11 +152,11 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     """Everything a study gives, into ``out``; returns the path of report.html."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    answers = study.steps.get("answers")
+    answers = study.result(Answers)
     known = answers.known_optima if answers else {}
     figures = {}
     for step in steps:
-        if study.steps.get(step.name) is not None and step.chart_file:
+        if study.result(type(step)) is not None and step.chart_file:
             made = step.chart(study, out / step.chart_file)
             if made:
                 figures[step.name] = made
@@ -167,14 +172,15 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     env = _env()
     sections = []
     for step in steps:
-        result = study.steps.get(step.name)
-        if result is None or not step.template or step.name == "answers":
+        result = study.result(type(step))
+        if result is None or not step.template or isinstance(step, Answers):
             continue
         sections.append(markupsafe.Markup(env.get_template(f"report/{step.template}").render(
             result=result, study=study, charts=figures, title=step.title, terms=TERMS, refused=refused)))
     page = env.get_template("report/report.html.j2").render(
         study=study, case_line=study.case.line(), answers=answers, charts=figures, sections=sections, terms=TERMS,
-        refused=refused, certificates=certificates, known=known)
+        refused=refused, certificates=certificates, known=known, pareto=study.result(Pareto),
+        starts=study.result(Starts))
     (out / "report.html").write_text(page)
     return out / "report.html"
 

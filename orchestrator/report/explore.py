@@ -20,6 +20,10 @@ from typing import Any
 import jinja2
 import markupsafe
 
+from ..steps.answers import Answers
+from ..steps.finalists import Finalists
+from ..steps.pareto import Pareto
+from ..steps.searches import Searches
 from ..study import StudyResult
 
 EXPLORE_FILE = "explore.html"
@@ -49,19 +53,19 @@ def explore_data(study: StudyResult, materials, refused: dict[str, str]) -> dict
     """What the page shows, as JSON-ready data (every number from the typed results); ``refused``: the design
     files not written."""
     case = study.case
-    searches = study.steps.get("searches")
+    searches = study.result(Searches)
     runs, rows = [], []
     for run in (searches.runs if searches else ()):
         runs.append({"rule": run.label, "method": run.method, "seed": run.seed,
                      "best": [_number(v) for v in run.best_so_far()]})
         rows += [_row(run.label, run.method, run.seed, index, e, SEARCH, materials)
                  for index, e in enumerate(run.evaluations, start=1)]
-    finalists = study.steps.get("finalists")
+    finalists = study.result(Finalists)
     for rule in (finalists.rules if finalists else ()):
         rows += [_row(rule.diagonal_rule, "finalists", None, index, e, FULL, materials)
                  for index, e in enumerate(rule.evaluations, start=1)]
     fronts = []
-    pareto = study.steps.get("pareto")
+    pareto = study.result(Pareto)
     for front in (pareto.fronts if pareto else ()):
         chosen = {c.order: c for c in front.chosen}
         points = []
@@ -73,7 +77,7 @@ def explore_data(study: StudyResult, materials, refused: dict[str, str]) -> dict
                            "label": chosen[point.order].label if point.order in chosen else "",
                            "design_file": None if name in refused else name})
         fronts.append({"rule": front.diagonal_rule, "exact": front.exact, "points": points})
-    answers = study.steps.get("answers")
+    answers = study.result(Answers)
     return {
         "case_line": case.line(), "outputs": list(case.objective.outputs), "units": list(case.objective.units),
         "rows": case.rows, "columns": case.columns,
@@ -90,7 +94,7 @@ def write_front_design_files(study: StudyResult, out: Path, materials) -> dict[s
     from . import write_design_file
 
     refused: dict[str, str] = {}
-    pareto = study.steps.get("pareto")
+    pareto = study.result(Pareto)
     for front in (pareto.fronts if pareto else ()):
         chosen = {c.order for c in front.chosen}
         for rank, point in enumerate(front.points, start=1):

@@ -241,7 +241,7 @@ class Answers(Step):
         return draw_lattice(study, path)
 
     def design_files(self, study):
-        result = study.steps.get(self.name)
+        result = study.result(type(self))
         return [(a.design_file, a.order, a.diagonal_rule) for a in (result.answers if result else ())]
 
 
@@ -289,7 +289,7 @@ def draw_lattice(study, path: Path) -> str | None:
     import matplotlib
     from ..report.charts import plt, save
 
-    answers = study.steps.get("answers")
+    answers = study.result(Answers)
     if answers is None or not answers.answers:
         return None
     case = study.case

@@ -394,7 +394,7 @@ def draw_exhaustive(study, path: Path) -> str | None:
     import numpy as np
     from ..report.charts import plt, save
 
-    result = study.steps.get("exhaustive")
+    result = study.result(Exhaustive)
     if result is None or not result.sweeps:  # a sweep with several objectives draws its front (the Pareto step)
         return None
     figure, axes = plt.subplots(1, len(result.sweeps), figsize=(7 * len(result.sweeps), 4.5), squeeze=False)

@@ -259,7 +259,7 @@ class Pareto(Step):
         return draw_pareto(study, path)
 
     def design_files(self, study):
-        result = study.steps.get(self.name)
+        result = study.result(type(self))
         return [(c.design_file, c.order, f.diagonal_rule) for f in (result.fronts if result else ()) for c in f.chosen]
 
 
@@ -267,13 +267,13 @@ def draw_pareto(study, path: Path) -> str | None:
     import numpy as np
     from ..report.charts import RULE_COLOURS, legend_below, plt, save
 
-    result = study.steps.get("pareto")
+    result = study.result(Pareto)
     if result is None:
         return None
     outputs = study.case.objective.outputs
     units = study.case.objective.units
     figure, axis = plt.subplots(figsize=(8, 5.5))
-    searches = study.steps.get("searches")
+    searches = study.result(Searches)
     labels = []
     for front, colour in zip(result.fronts, RULE_COLOURS):
         evaluated = [e.values for run in (searches.runs if searches else ()) if run.label == front.diagonal_rule

@@ -164,7 +164,9 @@ class Searches(Step):
         return SearchesResult(methods, self.config.budget, tuple(runs))
 
     def chart(self, study, path):
-        answers = study.steps.get("answers")
+        from .answers import Answers  # answers.py reads the searches' results
+
+        answers = study.result(Answers)
         return draw_convergence(study, path, study.case.line(), answers.known_optima if answers else {})
 
 
@@ -178,7 +180,7 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
 
     from ..report.charts import COLOURS, METHOD_NAMES, best_so_far_matrix, figure_title, plt, save
 
-    searches = study.steps.get("searches")
+    searches = study.result(Searches)
     if searches is None or not searches.runs:
         return None
     labels = list(dict.fromkeys(run.label for run in searches.runs))

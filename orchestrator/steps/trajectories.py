@@ -71,7 +71,7 @@ def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
     import numpy as np
     from ..report.charts import figure_title, legend_below, plt, save
 
-    trajectories = study.steps.get("trajectories")
+    trajectories = study.result(Trajectories)
     if trajectories is None:
         return None
     figure, (force_axis, energy_axis) = plt.subplots(1, 2, figsize=(13, 4.8))

@@ -76,7 +76,7 @@ class WorkPrecision(Step):
 def draw_work_precision(study, path: Path) -> str | None:
     from ..report.charts import legend_below, plt, save
 
-    result = study.steps.get("work_precision")
+    result = study.result(WorkPrecision)
     if result is None:
         return None
     figure, axis = plt.subplots(figsize=(8, 5))
