@@ -11,6 +11,10 @@
 #define RESTRICT
 #endif
 
+/* The largest even count not above count: a loop over it runs a whole number of 2-wide vectors (GCC at -O2
+ * vectorises a loop only when its trip count is a multiple of the vector length), then one element more. */
+#define EVEN(count) ((count) & ~1)
+
 /* Keeps a function out of line where inlining it costs GCC (-O2) the vectorisation of the loops around it
  * (it forgets the RESTRICT of an inlined kernel). Other compilers ignore it. */
 #if defined(__GNUC__)

@@ -111,7 +111,6 @@ static SpringEnds reversed(SpringEnds ends) {
  * write the derivative), so the compiler knows nothing overlaps. Vectorised or not, the results are the
  * same: nothing is reassociated (the powers are summed by column over the rows, then over the columns),
  * so a build at -O3 gives the same numbers as one at -O2. */
-#define EVEN(count) ((count) & ~1)
 
 /* j over [0, count): BODY(j) in a loop the compiler can vectorise, then the odd one out. even = EVEN(count)
  * is computed once, outside the loop over rows, and the loop ends on j != even: either way GCC (-O2) can

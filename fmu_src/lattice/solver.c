@@ -242,7 +242,6 @@ static double initial_step(Solver *s, double *work, OdeFunction f, void *context
  * loop runs over an even count, then one element more: at -O2 GCC vectorises a loop only when its trip
  * count is a multiple of the vector length, and RESTRICT tells it the rows do not overlap. Vectorised or
  * not, the arithmetic is the same. */
-#define EVEN(count) ((count) & ~1)
 #define OVER_COMPONENTS(statement)            \
     {                                         \
         const int even = EVEN(n);             \
