@@ -103,7 +103,7 @@ class Run:
         seconds = time.perf_counter() - self.started
         load = os.getloadavg()
         return RunInfo(
-            command=self.command, commit=_git("rev-parse", "HEAD") or "unknown", dirty=_dirty(),
+            command=self.command, commit=git_output("rev-parse", "HEAD") or "unknown", dirty=_dirty(),
             date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), cpu=cpu_model(),
             cores=os.cpu_count() or 1, memory=memory(), system=f"{platform.system()} {platform.release()}",
             load=(f"load average {self.load_at_start[0]:.1f} at the start, {load[0]:.1f} at the end (1 min; "
@@ -197,7 +197,7 @@ def _environment() -> jinja2.Environment:
     return environment
 
 
-def _git(*arguments: str) -> str | None:
+def git_output(*arguments: str) -> str | None:
     try:
         done = subprocess.run(["git", "-C", str(ROOT), *arguments], capture_output=True, text=True, timeout=30)
     except (OSError, subprocess.TimeoutExpired):
@@ -210,7 +210,7 @@ MEASURED_CODE = ("bench", "fmu_src", "orchestrator", "reference", "scenes", "bui
 
 def _dirty() -> bool:
     """Whether the code that is measured (not the documentation around it) differs from the commit."""
-    return bool(_git("status", "--porcelain", "--", *MEASURED_CODE))
+    return bool(git_output("status", "--porcelain", "--", *MEASURED_CODE))
 
 
 def cpu_model() -> str:

@@ -17,17 +17,15 @@ from __future__ import annotations
 import contextlib
 import datetime
 import shlex
-import subprocess
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import pytest
 
 from bench.compatibility import RESULTS, CompatibilityRow, Result, write_row
+from bench.measurements import git_output
 from fmu_src.fmi3_description import platform_folder
 from fmu_src.published import PUBLISHED_PEAKS
 
-ROOT = Path(__file__).resolve().parents[1]
 RECORD_OPTION = "--record-compatibility"
 # What a row depends on: a change anywhere but in the rows, the docs and the notes makes the commit a lie.
 NOT_CODE = (":(exclude)tests/compatibility_results", ":(exclude)docs", ":(exclude)*.md")
@@ -43,7 +41,7 @@ def check_recording(config) -> None:
     """Refuses --record-compatibility where the rows could not name the commit they ran at."""
     if not config.getoption(RECORD_OPTION):
         return
-    status = _git("status", "--porcelain", "--", ".", *NOT_CODE)
+    status = git_output("status", "--porcelain", "--", ".", *NOT_CODE)
     if status is None:
         raise pytest.UsageError(f"{RECORD_OPTION}: this is not a git checkout; a row names the commit it ran at")
     if status:
@@ -105,13 +103,6 @@ def _write(request, importer, importer_version, fmi_version, interface, result, 
         fmi_version=fmi_version, interface=interface, result=result,
         worst_error=max(recorder.errors) if recorder.errors else None,
         date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d"),
-        commit=_git("rev-parse", "HEAD") or "unknown", command=reproducing_command(request, environment), note=note)
+        commit=git_output("rev-parse", "HEAD") or "unknown", command=reproducing_command(request, environment), note=note)
     write_row(row, RESULTS)
 
-
-def _git(*arguments: str) -> str | None:
-    try:
-        done = subprocess.run(["git", "-C", str(ROOT), *arguments], capture_output=True, text=True, timeout=30)
-    except (OSError, subprocess.TimeoutExpired):
-        return None
-    return done.stdout.strip() if done.returncode == 0 else None
