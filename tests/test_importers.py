@@ -13,7 +13,7 @@ binary installed there by `cargo install fmi-sim` (or $FMI_SIM, or an fmi-sim on
 
 OMSimulator 3 lives in an environment of its own (`pip install omsimulator` downloads binaries at install
 time; the README says how to build it from source): $OMSIMULATOR_PYTHON names that environment's Python
-(for example /work/oms-venv/bin/python), which runs tests/omsimulator/oms_run.py. Without it the OMSimulator
+(for example oms-venv/bin/python), which runs tests/omsimulator/oms_run.py. Without it the OMSimulator
 tests are skipped. They cover FMI 2 Co-Simulation, FMI 2 Model Exchange at OMSimulator's defaults and at a
 tight tolerance, FMI 3 Co-Simulation with the order set, and the design file through the C entry
 oms_importFile and the Python SSP class.
