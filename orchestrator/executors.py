@@ -197,10 +197,17 @@ class ResilientProcessPool(Executor):
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
         token = next(self._tokens)
-        future = self._pool.submit(_run_reporting_start, token, fn, args, kwargs)
+        with self._lock:  # before the task can start: its worker may report the start before submit returns
+            self._live_tokens.add(token)
+        try:
+            future = self._pool.submit(_run_reporting_start, token, fn, args, kwargs)
+        except BaseException:
+            with self._lock:
+                self._live_tokens.discard(token)
+                self._starts.pop(token, None)
+            raise
         with self._lock:
             self._live[future] = token
-            self._live_tokens.add(token)
         starts, live, tokens, lock = self._starts, self._live, self._live_tokens, self._lock
 
         def forget(done: Future) -> None:

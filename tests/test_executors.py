@@ -114,3 +114,37 @@ def test_a_hung_evaluation_is_failed_at_the_time_limit_and_the_run_goes_on():
     failed = next(e for e in run.evaluations if not e.ok)
     assert failed.order == (1, 2, 3, 4) and "time limit of 1 s of its own run time" in failed.message
     assert evaluator.timeouts == 1
+
+
+def touch_then_sleep(path):
+    """Says it started (a file), then runs long enough to be asked when it started."""
+    import pathlib
+    import time
+
+    pathlib.Path(path).touch()
+    time.sleep(3)
+    return 1
+
+
+def test_a_task_that_starts_before_submit_returns_still_has_its_start(tmp_path, monkeypatch):
+    """The time limit counts from the start the worker reports; a worker quick enough to report it while
+    ``submit`` has not yet returned must not lose it (the task would then never time out)."""
+    import time
+
+    started = tmp_path / "started"
+    with make_executor("process", workers=1) as ex:
+        real_submit = ex._pool.submit
+
+        def submit_returning_after_the_start(*args, **kwargs):
+            future = real_submit(*args, **kwargs)
+            deadline = time.monotonic() + 60
+            while not started.exists() and time.monotonic() < deadline:
+                time.sleep(0.01)
+            time.sleep(0.3)  # the start message read by the pool's reader thread meanwhile
+            return future
+
+        monkeypatch.setattr(ex._pool, "submit", submit_returning_after_the_start)
+        future = ex.submit(touch_then_sleep, str(started))
+        assert started.exists()
+        assert ex.started_at(future) is not None
+        assert future.result() == 1
