@@ -51,6 +51,16 @@ def can_hide_folders() -> bool:
                           capture_output=True).returncode == 0
 
 
+def repository_folders_but_the_interpreters() -> list[Path]:
+    """The repository, or, where this Python's environment lives inside it (a virtual environment in the
+    checkout), every folder of it but the one holding that environment: the worker keeps its interpreter."""
+    prefix = Path(sys.prefix).resolve()
+    if not prefix.is_relative_to(ROOT.resolve()):
+        return [ROOT]
+    return sorted(folder for folder in ROOT.iterdir()
+                  if folder.is_dir() and not prefix.is_relative_to(folder.resolve()))
+
+
 @pytest.fixture(scope="module")
 def fmu5(tmp_path_factory):
     return build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu5") / "MassSpringLattice11x5.fmu", cols=5,
@@ -98,10 +108,11 @@ def test_the_readme_dask_recipe_needs_no_shared_folder(fmu5, tmp_path):
     scheduler, address = start_scheduler(scheduler_command, tmp_path, env)
     worker_env = {**env, "PYTHONPATH": str(code)}
     worker_argv = worker_command.replace("tcp://HOST:8786", address).split()
-    if can_hide_folders():  # the client's folder and the repository are empty folders for the worker
+    if can_hide_folders():  # the client's folder and the repository's code are empty folders for the worker
+        hidden = [client, *repository_folders_but_the_interpreters()]
         worker_argv = ["unshare", "--mount", "--propagation", "private", "sh", "-c",
-                       'mount -t tmpfs tmpfs "$1" && mount -t tmpfs tmpfs "$2" && shift 2 && exec "$@"', "sh",
-                       str(client), str(ROOT)] + worker_argv
+                       'n=$1; shift; while [ "$n" -gt 0 ]; do mount -t tmpfs tmpfs "$1" || exit 1; shift; '
+                       'n=$((n - 1)); done; exec "$@"', "sh", str(len(hidden)), *map(str, hidden)] + worker_argv
     worker_log = (worker_home / "worker.log").open("w")
     worker = subprocess.Popen(worker_argv, cwd=worker_home, env=worker_env, stdout=worker_log,
                               stderr=subprocess.STDOUT)
@@ -109,9 +120,18 @@ def test_the_readme_dask_recipe_needs_no_shared_folder(fmu5, tmp_path):
         argv = client_command.replace("tcp://HOST:8786", address).split()
         assert argv[:2] == ["python", "orchestrator/run.py"] and "--confirm-cost" in argv
         argv = [sys.executable, str(ROOT / "orchestrator" / "run.py")] + [a for a in argv[2:] if a != "--confirm-cost"]
-        dask = subprocess.run(argv + ["--fmu", "model.fmu", "--out", "dask", *SMALL], cwd=client, env=env,
-                              capture_output=True, text=True, timeout=600)
-        assert dask.returncode == 0, dask.stderr + (worker_home / "worker.log").read_text()
+        dask = subprocess.Popen(argv + ["--fmu", "model.fmu", "--out", "dask", *SMALL], cwd=client, env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 600
+        while dask.poll() is None and worker.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.5)
+        if dask.poll() is None:  # a dead worker leaves the client waiting for one: say why, at once
+            dask.kill()
+            _, stderr = dask.communicate()
+            raise AssertionError(f"the worker {'ended' if worker.poll() is not None else 'hung'}: "
+                                 + (worker_home / "worker.log").read_text())
+        _, stderr = dask.communicate()
+        assert dask.returncode == 0, stderr + (worker_home / "worker.log").read_text()
     finally:
         stop(worker)
         stop(scheduler)
