@@ -275,11 +275,15 @@ class PlateModel:
         self.damping = damping
         self.damped = np.flatnonzero(damping > 0)
 
-        # scatter indices into the flat force array [Fx, Fy, Fz] (3N)
+        # flat gathers from the state and one scatter into the force array [Fx, Fy, Fz] (3N): spring
+        # quantities are laid out (3, E) -> [x of every spring, y ..., z ...]
         comp = np.arange(3)[:, None] * N
-        self.scatter_springs = np.concatenate([(comp + a).ravel(), (comp + b).ravel()])
+        self.u_a, self.u_b = (comp + a).ravel(), (comp + b).ravel()
+        self.v_a, self.v_b = self.u_a + 3 * N, self.u_b + 3 * N
         da, db = a[self.damped], b[self.damped]
-        self.scatter_dampers = np.concatenate([(comp + da).ravel(), (comp + db).ravel()])
+        self.dv_a, self.dv_b = (comp + da).ravel() + 3 * N, (comp + db).ravel() + 3 * N
+        self.damping3 = np.tile(damping[self.damped], 3)
+        self.scatter = np.concatenate([self.u_a, self.u_b, self.dv_a - 3 * N, self.dv_b - 3 * N])
 
         # load on column 1 (sections 4 and 10), backplate behind column C (section 5)
         weights = load_weights(R, D, sc.load_patch)
@@ -309,10 +313,8 @@ class PlateModel:
 
     def spring_state(self, y):
         """``r = u_b - u_a`` (3, E), its length, and the scale of the force on end a and on end b."""
-        N = self.N
-        u = y[:3 * N].reshape(3, N)
-        r = u[:, self.b] - u[:, self.a]
-        d = np.sqrt(np.einsum("ce,ce->e", r, r))
+        r = (y[self.u_b] - y[self.u_a]).reshape(3, -1)
+        d = np.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
         return r, d, self._law(d, self.ka, self.aa), self._law(d, self.kb, self.ab)
 
     def derivative(self, z, load_on: bool, contact: np.ndarray, damper_on: np.ndarray) -> np.ndarray:
@@ -321,12 +323,10 @@ class PlateModel:
         sc, N = self.scene, self.N
         y = z[:6 * N]
         r, d, sa, sb = self.spring_state(y)
-        v = y[3 * N:].reshape(3, N)
-        dv = v[:, self.b[self.damped]] - v[:, self.a[self.damped]]
-        cdv = self.damping[self.damped] * dv
-        force = np.bincount(self.scatter_springs, np.concatenate([(sa * r).ravel(), (-sb * r).ravel()]),
-                            minlength=3 * N)
-        force += np.bincount(self.scatter_dampers, np.concatenate([cdv.ravel(), -cdv.ravel()]), minlength=3 * N)
+        dv = y[self.dv_b] - y[self.dv_a]
+        cdv = self.damping3 * dv
+        on_a, on_b = (r * sa).ravel(), (r * sb).ravel()
+        force = np.bincount(self.scatter, np.concatenate([on_a, -on_b, cdv, -cdv]), minlength=3 * N)
 
         wall_power = 0.0
         if sc.has_backplate:
@@ -343,16 +343,13 @@ class PlateModel:
             force[N + li] += self.load_fy
             external_power = float(self.load_fx @ y[3 * N + li] + self.load_fy @ y[4 * N + li])
 
-        # section 7: g = (f(r; k_a) - f(r; k_b)) / 2 on each non-reciprocal pair, its power g . (v_a + v_b)
-        vsum = v[:, self.a] + v[:, self.b]
-        nonreciprocal_power = float(0.5 * (sa - sb) @ np.einsum("ce,ce->e", r, vsum))
-
         out = np.empty(6 * N + 3)
         out[:3 * N] = y[3 * N:]
         out[3 * N:6 * N] = force / sc.mass
         out[6 * N] = external_power
-        out[6 * N + 1] = float(np.einsum("ce,ce->", cdv, dv)) + wall_power
-        out[6 * N + 2] = nonreciprocal_power
+        out[6 * N + 1] = float(cdv @ dv) + wall_power
+        # section 7: g = (f(r; k_a) - f(r; k_b)) / 2 on each pair, its power g . (v_a + v_b)
+        out[6 * N + 2] = 0.5 * float((on_a - on_b) @ (y[self.v_a] + y[self.v_b]))
         return out
 
     def energies(self, y, contact) -> tuple[float, float]:
@@ -408,7 +405,7 @@ class PlateResult:
     nonreciprocal_work: float
     energy_balance_error: float
     final_state: np.ndarray
-    #: right-hand sides evaluated, accepted steps, backplate switches located
+    #: right-hand sides evaluated, steps taken (one cut back at a switch counts), backplate switches located
     n_rhs: int
     n_steps: int
     n_switches: int
@@ -456,6 +453,26 @@ class _PeakSearch:
             if -found.fun > value:
                 value, at = float(-found.fun), float(found.x)
         return value, at
+
+
+def _switches(y_old, y_new, interpolant, t_old, t_new, ux_wall, vx_wall, gap, contact, damper_on):
+    """The backplate switches inside the step [t_old, t_new], as ``(time, wall mass, "contact" or "damper")``:
+    every indicator (``p`` for the contact, ``vx`` for the damper of a mass in contact) whose sign at the step's
+    end disagrees with its mode, located on the step's dense output. One already on the far side at the
+    step's start (a mirror-image twin of a switch just made, within rounding) switches at ``t_old``."""
+    indicators = ((y_new[ux_wall] - gap > 0) != contact, ux_wall, gap, "contact"), \
+        (contact & ((y_new[vx_wall] > 0) != damper_on), vx_wall, 0.0, "damper")
+    roots = []
+    for wrong, rows, shift, kind in indicators:
+        for w in np.flatnonzero(wrong):
+            q = rows[w]
+            start, end = y_old[q] - shift, y_new[q] - shift
+            if start == 0.0 or np.sign(start) == np.sign(end):
+                roots.append((t_old, w, kind))
+            else:
+                roots.append((brentq(lambda s: interpolant(s)[q] - shift, t_old, t_new, xtol=1e-16,
+                                     rtol=4 * np.finfo(float).eps), w, kind))
+    return roots
 
 
 def simulate_plate(scene: PlateScene, horizon: float = 8.0, sample_interval: float = 0.01, rtol: float = 1e-12,
@@ -513,35 +530,21 @@ def simulate_plate(scene: PlateScene, horizon: float = 8.0, sample_interval: flo
                     raise RuntimeError(f"simulate_plate: DOP853 failed at t = {solver.t!r}: {message}")
                 n_steps += 1
                 t_old, t_new = solver.t_old, solver.t
-                y_old, y_new = solver.dense_output()(t_old), solver.y
-                wrong_contact = ((y_new[ux_wall] - gap > 0) != contact) if scene.has_backplate else contact
-                wrong_damper = contact & ((y_new[vx_wall] > 0) != damper_on)
-                if not (wrong_contact.any() or wrong_damper.any()):
-                    record(t_old, t_new, solver.dense_output())
+                interpolant = solver.dense_output()
+                roots = _switches(solver.y_old, solver.y, interpolant, t_old, t_new, ux_wall, vx_wall, gap,
+                                  contact, damper_on) if scene.has_backplate else []
+                if not roots:
+                    record(t_old, t_new, interpolant)
                     first_step = solver.h_abs
                     continue
-                interpolant = solver.dense_output()
-                roots = []
-                for rows, offset in ((np.flatnonzero(wrong_contact), ux_wall), (np.flatnonzero(wrong_damper), vx_wall)):
-                    for w in rows:
-                        q = offset[w]
-                        shift = gap if offset is ux_wall else 0.0
-                        start, end = y_old[q] - shift, y_new[q] - shift
-                        if start == 0.0 or np.sign(start) == np.sign(end):
-                            roots.append((t_old, w, offset is ux_wall))  # already on the far side at the start
-                        else:
-                            root = brentq(lambda s: interpolant(s)[q] - shift, t_old, t_new, xtol=1e-16,
-                                          rtol=4 * np.finfo(float).eps)
-                            roots.append((root, w, offset is ux_wall))
-                earliest = min(r[0] for r in roots)
-                t_switch = earliest
+                t_switch = min(r[0] for r in roots)
                 if t_switch > t_old:
                     record(t_old, t_switch, interpolant)
                 z = interpolant(t_switch)
-                together = [r for r in roots if r[0] <= earliest + SIMULTANEOUS_FRACTION * (t_new - t_old)]
+                together = [r for r in roots if r[0] <= t_switch + SIMULTANEOUS_FRACTION * (t_new - t_old)]
                 vx_now = z[vx_wall]
-                for _, w, is_contact in together:
-                    if is_contact:
+                for _, w, kind in together:
+                    if kind == "contact":
                         contact[w] = not contact[w]
                         damper_on[w] = contact[w] and vx_now[w] > 0
                     else:
@@ -577,3 +580,89 @@ def simulate_plate(scene: PlateScene, horizon: float = 8.0, sample_interval: flo
         dissipated_energy=dissipated, nonreciprocal_work=nonreciprocal,
         energy_balance_error=external + nonreciprocal - kinetic - potential - dissipated, final_state=y_end,
         n_rhs=n_rhs, n_steps=n_steps, n_switches=n_switches, wall_time=time.perf_counter() - started)
+
+
+# ---------------------------------------------------------------------------------------------- reference data
+#: what the C model's three-dimensional lattice is checked against (docs/model.md section 10): a 5 x 5 x 5 plate
+#: of the study's first five materials, two orders, both diagonal rules, the whole face and the centred 3 x 3 patch
+REFERENCE_ORDERS = ((1, 2, 3, 4, 5), (3, 1, 5, 2, 4))
+REFERENCE_PATCHES = (0, 3)
+REFERENCE_HORIZON, REFERENCE_SAMPLE_INTERVAL = 8.0, 0.01
+REFERENCE_RTOL, REFERENCE_ATOL = 1e-12, 1e-14
+REFERENCE_FILE = Path(__file__).resolve().parent / "plate_5x5x5_reference.json"
+COMMAND = "python -m reference.lattice3d --write reference/plate_5x5x5_reference.json"
+#: the figures of a case, by PlateResult field
+CASE_FIGURES = ("peak_backplate_force", "peak_sample_time", "peak_backplate_force_continuous", "peak_time",
+                "max_compression", "kinetic_energy", "potential_energy", "external_work", "dissipated_energy",
+                "nonreciprocal_work", "energy_balance_error")
+
+
+def reference_cases() -> tuple[tuple[str, PlateScene], ...]:
+    """The eight scenes of the reference file, named ``<rule>-<whole|patchP>-<order>``."""
+    cases = []
+    for order in REFERENCE_ORDERS:
+        for rule in DIAGONAL_RULES:
+            for patch in REFERENCE_PATCHES:
+                name = f"{rule}-{'whole' if patch == 0 else f'patch{patch}'}-{''.join(map(str, order))}"
+                cases.append((name, PlateScene(order=order, diagonal_rule=rule, load_patch=patch)))
+    return tuple(cases)
+
+
+def case_record(name: str, result: PlateResult) -> dict:
+    """One case of the reference file: its scene, every field by name, and its figures."""
+    return {"name": name, "scene": result.scene.describe(),
+            **{figure: getattr(result, figure) for figure in CASE_FIGURES}}
+
+
+def reference_document(records: list[dict]) -> dict:
+    return {
+        "description": "Reference results of the three-dimensional lattice, computed by the independent numpy/scipy "
+                       "reference (reference/lattice3d.py), for the C model to be checked against",
+        "specification": "docs/model.md section 10 (with sections 2 to 7 and 9 it extends)",
+        "command": COMMAND,
+        "integration": {"method": "scipy DOP853, every backplate switch (contact, damper) located as an event, "
+                                  "the load's end a phase boundary",
+                        "rtol": REFERENCE_RTOL, "atol": REFERENCE_ATOL},
+        "horizon": REFERENCE_HORIZON,
+        "sample_interval": REFERENCE_SAMPLE_INTERVAL,
+        "libraries": {"numpy": np.__version__, "scipy": scipy.__version__},
+        "cases": records,
+    }
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m reference.lattice3d",
+        description="Compute the three-dimensional reference results (docs/model.md section 10): a 5 x 5 x 5 plate, "
+                    "two orders, both diagonal rules, the whole face and a centred 3 x 3 patch.")
+    parser.add_argument("--write", metavar="PATH", type=Path,
+                        help=f"write the results as JSON to PATH (the repository's file: {COMMAND.split()[-1]})")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks")
+    args = parser.parse_args(argv)
+    if args.write is not None and not args.write.parent.is_dir():
+        print(f"error: --write: the folder {args.write.parent} does not exist", file=sys.stderr)
+        return 2
+    try:
+        records = []
+        for name, scene in reference_cases():
+            result = simulate_plate(scene, REFERENCE_HORIZON, REFERENCE_SAMPLE_INTERVAL, REFERENCE_RTOL, REFERENCE_ATOL)
+            records.append(case_record(name, result))
+            print(f"{name:24s} peak {result.peak_backplate_force:.12g} N  continuous "
+                  f"{result.peak_backplate_force_continuous:.12g} N  external work {result.external_work:.12g} J  "
+                  f"balance {result.energy_balance_error / result.external_work:.1e}  ({result.wall_time:.1f} s)",
+                  flush=True)
+        if args.write is not None:
+            partial = args.write.with_name(args.write.name + ".partial")
+            partial.write_text(json.dumps(reference_document(records), indent=1) + "\n")
+            partial.replace(args.write)  # never a half-written reference file
+            print(f"wrote {args.write}")
+    except Exception as error:  # noqa: BLE001 - one line unless --debug
+        if args.debug:
+            raise
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
