@@ -256,7 +256,6 @@ class PlateModel:
         ma, mb = material[a % C], material[b % C]  # the material of each end's column
         along_x, inside = kind == "x", (kind == "y") | (kind == "z")
         diagonal = ~(along_x | inside)
-        self.is_diagonal = diagonal
 
         ka, kb, aa, ab, damping = (np.zeros(a.size) for _ in range(5))
         ka[along_x] = kb[along_x] = sc.k0
