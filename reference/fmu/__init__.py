@@ -32,9 +32,10 @@ def build_reference_fmu(output: str | Path | None = None) -> Path:
     output = Path(output) if output else DEFAULT_OUTPUT
     output.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="reference_fmu_") as staging:
-        # a clean copy of the package: no caches, no build leftovers
+        # a clean copy of the package: no caches, no build leftovers, nothing of the 3-D reference (another model)
         package = Path(staging) / "reference"
-        shutil.copytree(REFERENCE_DIR, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        shutil.copytree(REFERENCE_DIR, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "lattice3d.py",
+                                                                              "*.json", "README.md"))
         # the study's material table comes from fmu_src.materials, the one place it is computed: the FMU
         # carries that module as a package of its own (it needs nothing but the standard library)
         materials = Path(staging) / "fmu_src"
