@@ -45,6 +45,15 @@ def params_from_scene(scene, depth: int = 1, load_patch: int = WHOLE_FACE) -> La
     """The C parameters of a `reference.Scene` (the numpy oracle's description of a scene), as a plate of
     `depth` layers pushed over the whole face or a centred `load_patch` x `load_patch` patch (docs/model.md
     section 10; the two-dimensional oracle's scene has neither)."""
+    return _params(scene, scene.wall, depth, load_patch)
+
+
+def params_from_plate(plate) -> LatticeParams:
+    """The C parameters of a `reference.lattice3d.PlateScene` (the three-dimensional oracle's scene)."""
+    return _params(plate, plate.has_backplate, plate.depth, plate.load_patch)
+
+
+def _params(scene, has_backplate: bool, depth: int, load_patch: int) -> LatticeParams:
     if scene.cols > MAX_COLS:
         raise ValueError(f"cols: at most {MAX_COLS} columns, got {scene.cols}")
     p = LatticeParams()
@@ -56,7 +65,7 @@ def params_from_scene(scene, depth: int = 1, load_patch: int = WHOLE_FACE) -> La
     p.diagonal_rule = DIAGONAL_RULES[scene.diagonal_rule]
     p.spring_law = SPRING_LAWS[scene.spring_law]
     p.load_total, p.load_angle_deg, p.load_duration = scene.F_total, scene.load_angle, scene.t_active
-    p.has_backplate = int(scene.wall)
+    p.has_backplate = int(has_backplate)
     p.k_wall, p.c_wall, p.backplate_gap = scene.k_wall, scene.c_wall, scene.backplate_gap
     p.depth, p.load_patch = depth, load_patch
     return p
