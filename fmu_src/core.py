@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 MAX_COLS = 64  # LATTICE_MAX_COLS
+WHOLE_FACE = 0  # LATTICE_WHOLE_FACE: load_patch of a load over the whole face
 DIAGONAL_RULES = {"receiver": 0, "mean": 1}
 SPRING_LAWS = {"exponential": 0, "linear": 1}
 
@@ -27,11 +28,32 @@ class LatticeParams(ctypes.Structure):
                 ("diagonal_rule", ctypes.c_int), ("spring_law", ctypes.c_int),
                 ("load_total", ctypes.c_double), ("load_angle_deg", ctypes.c_double),
                 ("load_duration", ctypes.c_double), ("has_backplate", ctypes.c_int),
-                ("k_wall", ctypes.c_double), ("c_wall", ctypes.c_double), ("backplate_gap", ctypes.c_double)]
+                ("k_wall", ctypes.c_double), ("c_wall", ctypes.c_double), ("backplate_gap", ctypes.c_double),
+                ("depth", ctypes.c_int), ("load_patch", ctypes.c_int)]
 
 
-def params_from_scene(scene) -> LatticeParams:
-    """The C parameters of a `reference.Scene` (the numpy oracle's description of a scene)."""
+def components(params: LatticeParams) -> int:
+    """Components of a displacement in the state (lattice.h: LATTICE_COMPONENTS): x, y, and z in a plate."""
+    return 3 if params.depth > 1 else 2
+
+
+def masses(params: LatticeParams) -> int:
+    return params.rows * params.cols * params.depth
+
+
+def params_from_scene(scene, depth: int = 1, load_patch: int = WHOLE_FACE) -> LatticeParams:
+    """The C parameters of a `reference.Scene` (the numpy oracle's description of a scene), as a plate of
+    `depth` layers pushed over the whole face or a centred `load_patch` x `load_patch` patch (docs/model.md
+    section 10; the two-dimensional oracle's scene has neither)."""
+    return _params(scene, scene.wall, depth, load_patch)
+
+
+def params_from_plate(plate) -> LatticeParams:
+    """The C parameters of a `reference.lattice3d.PlateScene` (the three-dimensional oracle's scene)."""
+    return _params(plate, plate.has_backplate, plate.depth, plate.load_patch)
+
+
+def _params(scene, has_backplate: bool, depth: int, load_patch: int) -> LatticeParams:
     if scene.cols > MAX_COLS:
         raise ValueError(f"cols: at most {MAX_COLS} columns, got {scene.cols}")
     p = LatticeParams()
@@ -43,8 +65,9 @@ def params_from_scene(scene) -> LatticeParams:
     p.diagonal_rule = DIAGONAL_RULES[scene.diagonal_rule]
     p.spring_law = SPRING_LAWS[scene.spring_law]
     p.load_total, p.load_angle_deg, p.load_duration = scene.F_total, scene.load_angle, scene.t_active
-    p.has_backplate = int(scene.wall)
+    p.has_backplate = int(has_backplate)
     p.k_wall, p.c_wall, p.backplate_gap = scene.k_wall, scene.c_wall, scene.backplate_gap
+    p.depth, p.load_patch = depth, load_patch
     return p
 
 
@@ -65,13 +88,23 @@ class Core:
         self.library.lattice_along_x.restype = ctypes.c_int
         self.library.lattice_mirror_rows.argtypes = [ctypes.POINTER(LatticeParams)]
         self.library.lattice_mirror_rows.restype = ctypes.c_int
+        self.library.lattice_mirror_layers.argtypes = [ctypes.POINTER(LatticeParams)]
+        self.library.lattice_mirror_layers.restype = ctypes.c_int
+        self.library.lattice_params_error.argtypes = [ctypes.POINTER(LatticeParams), ctypes.c_char_p, ctypes.c_int]
+        self.library.lattice_params_error.restype = ctypes.c_char_p
         self.library.lattice_backplate_force_mirrored.argtypes = [ctypes.POINTER(LatticeParams), double_p, double_p,
                                                                   ctypes.c_int]
         self.library.lattice_backplate_force_mirrored.restype = ctypes.c_double
 
+    def params_error(self, params: LatticeParams) -> str | None:
+        """None when the core computes this lattice, else its one-line reason."""
+        message = ctypes.create_string_buffer(256)
+        error = self.library.lattice_params_error(ctypes.byref(params), message, len(message))
+        return None if error is None else error.decode()
+
     @staticmethod
     def _augmented(params: LatticeParams, y) -> np.ndarray:
-        n = 4 * params.rows * params.cols
+        n = 2 * components(params) * masses(params)
         y = np.ascontiguousarray(y, dtype=float)
         if y.shape == (n,):
             y = np.concatenate([y, np.zeros(3)])
@@ -79,18 +112,33 @@ class Core:
             raise ValueError(f"state: expected {n} or {n + 3} values, got {y.shape}")
         return y
 
-    def rhs(self, params: LatticeParams, y, load_on: bool) -> tuple[np.ndarray, np.ndarray]:
-        """(dydt over the 4N mechanical states, (P_ext, P_diss, P_nr)) with the wall switches from the state."""
+    @staticmethod
+    def _modes(wall_mode):
+        return None if wall_mode is None else bytes(np.asarray(wall_mode, dtype=np.int8).tobytes())
+
+    def rhs(self, params: LatticeParams, y, load_on: bool, wall_mode=None) -> tuple[np.ndarray, np.ndarray]:
+        """(dydt over the mechanical states, (P_ext, P_diss, P_nr)), with the wall switches from the state or
+        from wall_mode (one per column-C mass, f = k*R + i)."""
         y = self._augmented(params, y)
         dydt = np.empty_like(y)
-        self.library.lattice_rhs(ctypes.byref(params), int(load_on), None,
+        self.library.lattice_rhs(ctypes.byref(params), int(load_on), self._modes(wall_mode),
                                  y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
                                  dydt.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
         return dydt[:-3], dydt[-3:]
 
     def mirror_rows(self, params: LatticeParams) -> int:
-        """Rows of the upper half that carries a mirror-symmetric lattice's solution, 0 if it is not symmetric."""
+        """Rows of the part that carries a mirror-symmetric lattice's solution, 0 if it is not symmetric about
+        its middle row."""
         return self.library.lattice_mirror_rows(ctypes.byref(params))
+
+    def mirror_layers(self, params: LatticeParams) -> int:
+        """Layers of that part, 0 if the lattice is not symmetric about its middle layer."""
+        return self.library.lattice_mirror_layers(ctypes.byref(params))
+
+    def mirrored_extent(self, params: LatticeParams) -> tuple[int, int]:
+        """(rows, layers) the mirrored along-x state holds (lattice.h: lattice_rhs_along_x)."""
+        rows, layers = self.mirror_rows(params), self.mirror_layers(params)
+        return rows or params.rows, layers or params.depth
 
     def along_x(self, params: LatticeParams) -> bool:
         """Whether the lattice moves along x alone (lattice.h: its state without uy and vy carries it)."""
@@ -98,27 +146,29 @@ class Core:
 
     def rhs_along_x(self, params: LatticeParams, y_x, load_on: bool, mirrored: bool = False,
                     wall_mode=None) -> tuple[np.ndarray, np.ndarray]:
-        """As rhs over the layout [ux, vx, W_ext, D, W_nr] of all rows or (mirrored) of the upper half."""
-        rows = self.mirror_rows(params) if mirrored else params.rows
-        if not self.along_x(params) or not rows:
+        """As rhs over the layout [ux, vx, W_ext, D, W_nr] of all masses or (mirrored) of the part that carries
+        a mirror-symmetric lattice's solution (mirrored_extent)."""
+        symmetric = self.mirror_rows(params) or self.mirror_layers(params)
+        if not self.along_x(params) or (mirrored and not symmetric):
             raise ValueError("params: the lattice does not move along x alone (load_angle 0), or is not "
-                             "mirror-symmetric (odd rows >= 3)")
-        n = 2 * rows * params.cols
+                             "mirror-symmetric (odd rows >= 3 or odd depth >= 3, a centred load)")
+        rows, layers = self.mirrored_extent(params) if mirrored else (params.rows, params.depth)
+        n = 2 * rows * params.cols * layers
         y = np.ascontiguousarray(y_x, dtype=float)
         if y.shape != (n + 3,):
             raise ValueError(f"state: expected {n + 3} values, got {y.shape}")
-        modes = None if wall_mode is None else bytes(np.asarray(wall_mode, dtype=np.int8).tobytes())
         dydt = np.empty_like(y)
-        self.library.lattice_rhs_along_x(ctypes.byref(params), int(mirrored), int(load_on), modes,
+        self.library.lattice_rhs_along_x(ctypes.byref(params), int(mirrored), int(load_on), self._modes(wall_mode),
                                          y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
                                          dydt.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
         return dydt[:-3], dydt[-3:]
 
     def backplate_force_mirrored(self, params: LatticeParams, y_half) -> float:
-        """The backplate force from the upper half's along-x layout [ux, vx, ...] (lattice.h)."""
-        rows, cols = self.mirror_rows(params), params.cols
+        """The backplate force from the mirrored part's along-x layout [ux, vx, ...] (lattice.h)."""
+        rows, layers = self.mirrored_extent(params)
+        cols = params.cols
         y = np.ascontiguousarray(y_half, dtype=float)
-        n = rows * cols
+        n = rows * cols * layers
         return self.library.lattice_backplate_force_mirrored(
             ctypes.byref(params), y[cols - 1:].ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
             y[n + cols - 1:].ctypes.data_as(ctypes.POINTER(ctypes.c_double)), cols)

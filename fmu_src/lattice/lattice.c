@@ -2,6 +2,7 @@
 #include "lattice.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdint.h>
 #include <string.h>
 
@@ -76,7 +77,8 @@ static SpringEnds spring_ends(int diagonal_rule, double k_a, double alpha_a, dou
     return ends;
 }
 
-/* Weight of row i (0-based) in the load: 1/2 for the first and last rows, 1 for the others, normalised. */
+/* Weight of row i (0-based) in the load over the whole face: 1/2 for the first and last rows, 1 for the others,
+ * normalised (docs/model.md section 4); a layer k of D has the same weight in z (section 10). */
 static double row_load_fraction(int rows, int i) {
     if (rows == 1) return 1.0;
     return ((i == 0 || i == rows - 1) ? 0.5 : 1.0) / (double)(rows - 1); /* the weights sum to rows - 1 */
@@ -94,6 +96,15 @@ static SpringEnds reversed(SpringEnds ends) {
     return swapped;
 }
 
+
+/* always_inline where the compiler has it: rhs_of_layers is written once and compiled for the lattice and
+ * for the plate, with_z folded in each (the plate's z parts cost the lattice nothing). */
+#if defined(__GNUC__)
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE inline
+#endif
+
 /* The right-hand side is written for speed: it is most of the cost of a simulation (about 420 springs,
  * 6000 evaluations per 8 s run). It works one row of masses at a time, on the springs that start in that
  * row: horizontal (i, j) -> (i, j+1), and down to the next row rising (i, j) -> (i+1, j+1), falling
@@ -110,7 +121,11 @@ static SpringEnds reversed(SpringEnds ends) {
  * vector length. They read the state and local arrays and write local arrays (or read local arrays and
  * write the derivative), so the compiler knows nothing overlaps. Vectorised or not, the results are the
  * same: nothing is reassociated (the powers are summed by column over the rows, then over the columns),
- * so a build at -O3 gives the same numbers as one at -O2. */
+ * so a build at -O3 gives the same numbers as one at -O2.
+ *
+ * A plate (depth > 1) is swept layer by layer, each layer's springs in its plane as above (with their z
+ * parts), and then layer to layer (between_layers): the springs from layer k to k+1 in the same four stages,
+ * row by row, which add what they do to both layers' forces. */
 
 /* j over [0, count): BODY(j) in a loop the compiler can vectorise, then the odd one out. even = EVEN(count)
  * is computed once, outside the loop over rows, and the loop ends on j != even: either way GCC (-O2) can
@@ -137,29 +152,32 @@ enum { HORIZONTAL = 0, RISING = 1, FALLING = 2, VERTICAL = 3, FAMILIES = 4 };
 #define PACKED_SPRINGS (6 * LATTICE_MAX_COLS)
 
 /* A row's springs by family and column, the constants by column, and the forces by the springs of a row
- * (x, y): one object, so the compiler addresses them all from one register. The forces are all stored at
- * [j] (stores at [j + 1] would keep GCC from vectorising); the gather reads some at [j - 1], where a zero
- * guard stands for the spring that does not exist left of column 0 (those arrays start two elements into
- * their storage, keeping the alignment), and others at [cols - 1], where a zero guard stands for the one
- * right of the last column. */
+ * (x, y, and z in a plate): one object, so the compiler addresses them all from one register. The forces are
+ * all stored at [j] (stores at [j + 1] would keep GCC from vectorising); the gather reads some at [j - 1],
+ * where a zero guard stands for the spring that does not exist left of column 0 (those arrays start two
+ * elements into their storage, keeping the alignment), and others at [cols - 1], where a zero guard stands
+ * for the one right of the last column. */
 typedef struct {
-    double rx[FAMILIES][LATTICE_MAX_COLS], ry[FAMILIES][LATTICE_MAX_COLS];
+    double rx[FAMILIES][LATTICE_MAX_COLS], ry[FAMILIES][LATTICE_MAX_COLS], rz[FAMILIES][LATTICE_MAX_COLS];
     /* packed by SLOT; a diagonal's left end is the one in column j, its right end the one in j+1 */
     double squared[PACKED_SPRINGS], alpha[PACKED_SPRINGS], stretch[PACKED_SPRINGS], inverse[PACKED_SPRINGS];
     double k_vertical[LATTICE_MAX_COLS], c_vertical[LATTICE_MAX_COLS], k_left[LATTICE_MAX_COLS],
         k_right[LATTICE_MAX_COLS];
     double dissipated[LATTICE_MAX_COLS], nonreciprocal[LATTICE_MAX_COLS]; /* powers, summed by column */
-    double horizontal[2][LATTICE_MAX_COLS + 2], rising_bottom[2][LATTICE_MAX_COLS + 2],
-        falling_top[2][LATTICE_MAX_COLS + 2];
-    double vertical[2][LATTICE_MAX_COLS], rising_top[2][LATTICE_MAX_COLS], falling_bottom[2][LATTICE_MAX_COLS];
+    double horizontal[3][LATTICE_MAX_COLS + 2], rising_bottom[3][LATTICE_MAX_COLS + 2],
+        falling_top[3][LATTICE_MAX_COLS + 2];
+    double vertical[3][LATTICE_MAX_COLS], rising_top[3][LATTICE_MAX_COLS], falling_bottom[3][LATTICE_MAX_COLS];
     /* what the springs from the row above do to a row, and what this row's do to the next */
-    double carried[2][LATTICE_MAX_COLS], next[2][LATTICE_MAX_COLS];
+    double carried[3][LATTICE_MAX_COLS], next[3][LATTICE_MAX_COLS];
 } RowBuffers;
 
-/* the arrays with a guard at [-1] */
+/* the force arrays by component c and spring j; those with a guard at [-1] start two elements in */
 #define HORIZONTAL_FORCE(c, j) w.horizontal[c][(j) + 2]
 #define RISING_BOTTOM_FORCE(c, j) w.rising_bottom[c][(j) + 2]
 #define FALLING_TOP_FORCE(c, j) w.falling_top[c][(j) + 2]
+#define VERTICAL_FORCE(c, j) w.vertical[c][j]
+#define RISING_TOP_FORCE(c, j) w.rising_top[c][j]
+#define FALLING_BOTTOM_FORCE(c, j) w.falling_bottom[c][j]
 
 /* Stage 2 over count packed springs: the stretch (spring_stretch: the force law) and 1/|r|, which is 0 below
  * SPRING_MIN_DISTANCE: there a spring exerts no force (docs/model.md section 2). No branches (selects only), so GCC
@@ -192,6 +210,16 @@ static NOINLINE VECTOR_CLONES void packed_stretches_x(int linear, const double *
     }
 }
 
+/* Stage 2 over count packed springs from first on: |r|^2 in squared, or dx along x. */
+static void stretches_of(int linear, int along_x, int count, const double *squared, const double *alpha,
+                         double *stretch, double *inverse) {
+    if (along_x) {
+        packed_stretches_x(linear, squared, alpha, count, stretch, inverse);
+    } else {
+        packed_stretches(linear, squared, alpha, count, stretch, inverse);
+    }
+}
+
 /* Stage 2 for the springs of a row: the horizontal ones, and with below the ones down to the next row (and
  * the diagonals' right ends when their alphas differ from the left ends': docs/model.md section 2, each end of a
  * diagonal uses its own alpha). w->squared holds |r|^2, or dx along x. */
@@ -208,14 +236,10 @@ static NOINLINE VECTOR_CLONES void row_stretches(int linear, int along_x, int be
             count += 2 * links;
         }
     }
-    if (along_x) {
-        packed_stretches_x(linear, w->squared, w->alpha, count, w->stretch, w->inverse);
-    } else {
-        packed_stretches(linear, w->squared, w->alpha, count, w->stretch, w->inverse);
-    }
+    stretches_of(linear, along_x, count, w->squared, w->alpha, w->stretch, w->inverse);
 }
 
-/* The buffers' per-lattice part (column constants, alphas, the zero guards and accumulators) for rhs_rows and
+/* The buffers' per-lattice part (column constants, alphas and the zero guards) for rhs_of_layers and
  * rhs_rows_along_x; returns whether some diagonal's right end needs an exponential of its own. */
 static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
     const int cols = p->cols, links = cols - 1;
@@ -225,8 +249,6 @@ static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
         w->k_vertical[j] = column->k_vertical;
         w->c_vertical[j] = column->c_vertical;
         w->alpha[SLOT(VERTICAL, j)] = column->alpha_vertical;
-        w->carried[0][j] = w->carried[1][j] = 0.0;
-        w->dissipated[j] = w->nonreciprocal[j] = 0.0;
     }
     for (j = 0; j < links; j++) {
         const SpringEnds ends = diagonal_ends(p, j);
@@ -237,7 +259,7 @@ static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
         w->k_right[j] = ends.k_b;
         alphas_differ = alphas_differ || ends.alpha_a != ends.alpha_b;
     }
-    for (c = 0; c < 2; c++) { /* the guards: the springs left of column 0 and right of the last */
+    for (c = 0; c < 3; c++) { /* the guards: the springs left of column 0 and right of the last */
         w->horizontal[c][1] = w->horizontal[c][links + 2] = 0.0;
         w->rising_top[c][links] = w->rising_bottom[c][1] = 0.0;
         w->falling_top[c][1] = w->falling_bottom[c][links] = 0.0;
@@ -245,67 +267,113 @@ static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
     return alphas_differ;
 }
 
-/* Before the middle row of a mirrored half: every spring so far has a mirror image below the middle row, so
- * the powers summed so far count twice. */
-static void count_mirror_images(RowBuffers *w, int cols) {
-    int j;
+/* Before the first row of a layer: nothing carried from above, no power summed yet. */
+static void start_layer(RowBuffers *w, int cols) {
+    int j, c;
     for (j = 0; j < cols; j++) {
-        w->dissipated[j] *= 2.0;
-        w->nonreciprocal[j] *= 2.0;
+        for (c = 0; c < 3; c++) w->carried[c][j] = 0.0;
+        w->dissipated[j] = w->nonreciprocal[j] = 0.0;
     }
 }
 
-/* What acts beyond the springs, after the rows: the springs' powers summed by column, the load on column 1,
- * the backplate on column C, the mass; the powers into powers[0..3) (W_ext, D, W_nr). Rows counted twice
- * but the middle one when mirrored; vy and fy NULL along x. */
-static void external_forces(const LatticeParams *p, int mirrored, int rows, int load_on, const signed char *wall_mode,
-                            const double *ux, const double *vx, const double *vy, double *fx, double *fy,
-                            const RowBuffers *w, double *powers) {
-    const int cols = p->cols, n = rows * cols;
-    double power_external = 0.0, power_dissipated = 0.0, power_nonreciprocal = 0.0;
-    int i, j;
+/* Before the middle row of a mirrored half: every spring so far has a mirror image below the middle row, so
+ * the powers summed so far count twice. */
+static void count_mirror_images(double *dissipated, double *nonreciprocal, int cols) {
+    int j;
     for (j = 0; j < cols; j++) {
-        power_dissipated += w->dissipated[j];
-        power_nonreciprocal += w->nonreciprocal[j];
+        dissipated[j] *= 2.0;
+        nonreciprocal[j] *= 2.0;
     }
+}
+
+/* The springs' powers: what every layer and every pair of layers dissipate and do by unequal forces. */
+typedef struct {
+    double dissipated, nonreciprocal;
+} SpringPowers;
+
+/* Adds the powers summed by column, counted times (2: they have a mirror image in z), to the total. */
+static void add_spring_powers(const double *dissipated, const double *nonreciprocal, int cols, double counted,
+                              SpringPowers *total) {
+    double power_dissipated = 0.0, power_nonreciprocal = 0.0;
+    int j;
+    for (j = 0; j < cols; j++) {
+        power_dissipated += dissipated[j];
+        power_nonreciprocal += nonreciprocal[j];
+    }
+    total->dissipated += counted * power_dissipated;
+    total->nonreciprocal += counted * power_nonreciprocal;
+}
+
+/* The load's share of face mass (i, k) of the whole lattice (docs/model.md sections 4 and 10): over the whole
+ * face the product of the row weights in y and z, over a centred P x P patch 1/P^2 inside it, 0 outside. */
+static double load_fraction(const LatticeParams *p, int i, int k) {
+    const int patch = p->load_patch;
+    if (patch == LATTICE_WHOLE_FACE) return row_load_fraction(p->rows, i) * row_load_fraction(p->depth, k);
+    {
+        const int first_row = (p->rows - patch) / 2, first_layer = (p->depth - patch) / 2;
+        const int inside = i >= first_row && i < first_row + patch && k >= first_layer && k < first_layer + patch;
+        return inside ? 1.0 / (double)(patch * patch) : 0.0;
+    }
+}
+
+/* How often face mass (i, k) of a part that holds rows x layers stands in the whole lattice: twice for a
+ * mirror image in y (all but the middle row, the part's last), twice more for one in z. */
+static double mirror_count(int mirror_y, int mirror_z, int rows, int layers, int i, int k) {
+    return (mirror_y && i + 1 < rows ? 2.0 : 1.0) * (mirror_z && k + 1 < layers ? 2.0 : 1.0);
+}
+
+/* What acts beyond the springs, after the rows: the springs' powers, the load on column 1, the backplate on
+ * column C, the mass; the powers into powers[0..3) (W_ext, D, W_nr). Over the rows x layers the state holds
+ * (a mirrored part's counted as often as they stand in the whole); forces holds force_blocks blocks of
+ * rows * cols * layers (x, then y and z: the load pushes in the xy plane), vy NULL along x. */
+static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, int rows, int layers, int load_on,
+                            const signed char *wall_mode, const double *ux, const double *vx, const double *vy,
+                            double *forces, int force_blocks, const SpringPowers *springs, double *powers) {
+    const int cols = p->cols, n = rows * cols * layers;
+    double *fx = forces, *fy = force_blocks > 1 ? forces + n : NULL;
+    double power_external = 0.0, power_dissipated = springs->dissipated, power_nonreciprocal = springs->nonreciprocal;
+    int i, k;
 
     if (load_on) {
         const double angle = p->load_angle_deg * (M_PI / 180.0);
         const double cos_angle = cos(angle), sin_angle = sin(angle);
-        for (i = 0; i < rows; i++) {
-            const int a = i * cols;
-            const double share = p->load_total * row_load_fraction(p->rows, i);
-            const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0; /* a row and its mirror image */
-            fx[a] += share * cos_angle;
-            if (fy) {
-                fy[a] += share * sin_angle;
-                power_external += counted * (share * (cos_angle * vx[a] + sin_angle * vy[a]));
-            } else {
-                power_external += counted * (share * (cos_angle * vx[a]));
+        for (k = 0; k < layers; k++) {
+            for (i = 0; i < rows; i++) {
+                const int a = (k * rows + i) * cols;
+                const double fraction = load_fraction(p, i, k);
+                const double share = p->load_total * fraction;
+                const double counted = mirror_count(mirror_y, mirror_z, rows, layers, i, k); /* and its images */
+                if (fraction == 0.0) continue; /* outside the patch */
+                fx[a] += share * cos_angle;
+                if (fy) {
+                    fy[a] += share * sin_angle;
+                    power_external += counted * (share * (cos_angle * vx[a] + sin_angle * vy[a]));
+                } else {
+                    power_external += counted * (share * (cos_angle * vx[a]));
+                }
             }
         }
     }
 
     if (p->has_backplate) {
-        for (i = 0; i < rows; i++) {
-            const int a = i * cols + cols - 1;
-            const double penetration = ux[a] - p->backplate_gap;
-            const int mode = wall_mode ? wall_mode[i] : lattice_wall_mode(p, ux[a], vx[a]);
-            if (mode != WALL_FREE) {
-                const double damped_velocity = mode == WALL_APPROACHING ? vx[a] : 0.0;
-                const double counted = mirrored && i + 1 < rows ? 2.0 : 1.0;
-                fx[a] -= p->k_wall * penetration + p->c_wall * damped_velocity;
-                power_dissipated += counted * (p->c_wall * damped_velocity * vx[a]);
+        for (k = 0; k < layers; k++) {
+            for (i = 0; i < rows; i++) {
+                const int a = (k * rows + i) * cols + cols - 1;
+                const double penetration = ux[a] - p->backplate_gap;
+                const int mode = wall_mode ? wall_mode[k * p->rows + i] : lattice_wall_mode(p, ux[a], vx[a]);
+                if (mode != WALL_FREE) {
+                    const double damped_velocity = mode == WALL_APPROACHING ? vx[a] : 0.0;
+                    const double counted = mirror_count(mirror_y, mirror_z, rows, layers, i, k);
+                    fx[a] -= p->k_wall * penetration + p->c_wall * damped_velocity;
+                    power_dissipated += counted * (p->c_wall * damped_velocity * vx[a]);
+                }
             }
         }
     }
 
     if (p->mass != 1.0) { /* (multiplying by 1 changes nothing) */
         const double inverse_mass = 1.0 / p->mass;
-        for (i = 0; i < n; i++) fx[i] *= inverse_mass;
-        if (fy) {
-            for (i = 0; i < n; i++) fy[i] *= inverse_mass;
-        }
+        for (i = 0; i < force_blocks * n; i++) forces[i] *= inverse_mass;
     }
     powers[0] = power_external;
     powers[1] = power_dissipated;
@@ -317,113 +385,176 @@ int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
     return vx > 0.0 ? WALL_APPROACHING : WALL_RECEDING;
 }
 
-int lattice_mirror_rows(const LatticeParams *p) {
-    const int symmetric_load = p->load_angle_deg == 0.0 || p->load_total == 0.0;
-    return (p->rows >= 3 && p->rows % 2 == 1 && symmetric_load) ? (p->rows + 1) / 2 : 0;
+int lattice_along_x(const LatticeParams *p) { return p->load_angle_deg == 0.0 || p->load_total == 0.0; }
+
+/* A load along x (or none) that is centred on the face: a patch is centred when its side leaves as many
+ * rows (layers) on either side. */
+static int centred_along_x(const LatticeParams *p, int extent) {
+    return lattice_along_x(p) && (p->load_patch == LATTICE_WHOLE_FACE || (extent - p->load_patch) % 2 == 0);
 }
 
-/* The right-hand side of the whole lattice. */
-static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y,
-                                   double *dydt) {
-    const int rows = p->rows, cols = p->cols, n = rows * cols;
+int lattice_mirror_rows(const LatticeParams *p) {
+    return (p->rows >= 3 && p->rows % 2 == 1 && centred_along_x(p, p->rows)) ? (p->rows + 1) / 2 : 0;
+}
+
+int lattice_mirror_layers(const LatticeParams *p) {
+    return (p->depth >= 3 && p->depth % 2 == 1 && centred_along_x(p, p->depth)) ? (p->depth + 1) / 2 : 0;
+}
+
+const char *lattice_params_error(const LatticeParams *p, char *message, int size) {
+    const int patch = p->load_patch;
+    if (p->rows < 1) {
+        snprintf(message, (size_t)size, "rows = %d: the lattice needs at least 1 row", p->rows);
+    } else if (p->cols < 1 || p->cols > LATTICE_MAX_COLS) {
+        snprintf(message, (size_t)size, "cols = %d: allowed 1 to %d columns", p->cols, LATTICE_MAX_COLS);
+    } else if (p->depth < 1) {
+        snprintf(message, (size_t)size, "depth = %d: the lattice needs at least 1 layer", p->depth);
+    } else if (patch != LATTICE_WHOLE_FACE &&
+               (patch < 1 || patch % 2 == 0 || patch > p->rows || patch > p->depth)) {
+        snprintf(message, (size_t)size,
+                 "load_patch = %d: allowed %d (the whole face) or an odd side P of a centred P x P patch, "
+                 "1 <= P <= min(rows, depth) = %d",
+                 patch, LATTICE_WHOLE_FACE, p->rows < p->depth ? p->rows : p->depth);
+    } else if (patch != LATTICE_WHOLE_FACE && (p->rows % 2 == 0 || p->depth % 2 == 0)) {
+        snprintf(message, (size_t)size,
+                 "load_patch = %d: a centred patch needs an odd number of rows and of layers (rows = %d, depth = %d)",
+                 patch, p->rows, p->depth);
+    } else {
+        return NULL;
+    }
+    return message;
+}
+
+static void between_layers_general(const LatticeParams *p, const double *u, const double *v, double *f,
+                                   SpringPowers *powers);
+static void between_layers_along_x(const LatticeParams *p, int mirror_y, int mirror_z, int rows, int layers,
+                                   const double *ux, const double *vx, double *fx, SpringPowers *powers);
+
+/* The right-hand side of the whole lattice (with_z 0, depth 1) or plate (with_z 1): every layer's springs in
+ * its plane, then the springs between layers. Written once, compiled for each (rhs_rows, rhs_plate). */
+static ALWAYS_INLINE void rhs_of_layers(const LatticeParams *p, const int with_z, int load_on,
+                                        const signed char *wall_mode, const double *y, double *dydt) {
+    const int rows = p->rows, cols = p->cols, layers = p->depth, layer_size = rows * cols, n = layer_size * layers;
+    const int components = with_z ? 3 : 2;
     const int linear = p->spring_law == SPRING_LINEAR;
     const int links = cols - 1; /* horizontal springs in a row, and rising (falling) diagonals below it */
     const int even_links = EVEN(links), even_cols = EVEN(cols);
-    const double *ux = y, *uy = y + n, *vx = y + 2 * n, *vy = y + 3 * n;
-    double *fx = dydt + 2 * n, *fy = dydt + 3 * n;
+    const double *ux = y, *uy = y + n, *uz = with_z ? y + 2 * n : uy;
+    const double *vx = y + components * n, *vy = vx + n, *vz = with_z ? vx + 2 * n : vy;
+    double *fx = dydt + components * n, *fy = fx + n, *fz = with_z ? fx + 2 * n : fy; /* fz unused in a lattice */
     const double k_horizontal = p->k_horizontal, c_horizontal = p->c_horizontal;
     int alphas_differ; /* some diagonal's right end needs an exponential of its own */
+    SpringPowers springs = {0.0, 0.0};
     RowBuffers w;
-    int i, j;
+    int i, j, k;
 
     alphas_differ = prepare_row_buffers(p, &w);
 
-    memcpy(dydt, vx, (size_t)n * sizeof(double));
-    memcpy(dydt + n, vy, (size_t)n * sizeof(double));
+    memcpy(dydt, vx, (size_t)components * (size_t)n * sizeof(double));
 
-    for (i = 0; i < rows; i++) {
-        const size_t top = (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
-        const double *ux0 = ux + top, *uy0 = uy + top, *vx0 = vx + top, *vy0 = vy + top;
-        const double *ux1 = ux + bottom, *uy1 = uy + bottom, *vx1 = vx + bottom, *vy1 = vy + bottom;
-        double *row_fx = fx + top, *row_fy = fy + top;
+    for (k = 0; k < layers; k++) {
+        start_layer(&w, cols);
+        for (i = 0; i < rows; i++) {
+            const size_t top = (size_t)k * (size_t)layer_size + (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
+            const double *ux0 = ux + top, *uy0 = uy + top, *uz0 = uz + top, *vx0 = vx + top, *vy0 = vy + top,
+                         *vz0 = vz + top;
+            const double *ux1 = ux + bottom, *uy1 = uy + bottom, *uz1 = uz + bottom, *vx1 = vx + bottom,
+                         *vy1 = vy + bottom, *vz1 = vz + bottom;
+            double *row_fx = fx + top, *row_fy = fy + top, *row_fz = fz + top;
 
-        /* 1. geometry */
-#define GEOMETRY(family, j, ax, ay, bx, by)              \
-    {                                                    \
-        const double dx = (bx) - (ax), dy = (by) - (ay); \
-        w.rx[family][j] = dx;                            \
-        w.ry[family][j] = dy;                            \
-        w.squared[SLOT(family, j)] = dx * dx + dy * dy;  \
+            /* 1. geometry; a spring's ends are given by row (0 this row, 1 the next) and column */
+#define GEOMETRY(family, j, ar, aj, br, bj)                                                 \
+    {                                                                                       \
+        const double dx = ux##br[bj] - ux##ar[aj], dy = uy##br[bj] - uy##ar[aj];            \
+        w.rx[family][j] = dx;                                                               \
+        w.ry[family][j] = dy;                                                               \
+        if (with_z) {                                                                       \
+            const double dz = uz##br[bj] - uz##ar[aj];                                      \
+            w.rz[family][j] = dz;                                                           \
+            w.squared[SLOT(family, j)] = dx * dx + dy * dy + dz * dz;                       \
+        } else {                                                                            \
+            w.squared[SLOT(family, j)] = dx * dx + dy * dy;                                 \
+        }                                                                                   \
     }
-#define GEOMETRY_H(j) GEOMETRY(HORIZONTAL, j, ux0[j], uy0[j], ux0[j + 1], uy0[j + 1])
-#define GEOMETRY_HRF(j)                                             \
-    GEOMETRY(HORIZONTAL, j, ux0[j], uy0[j], ux0[j + 1], uy0[j + 1]) \
-    GEOMETRY(RISING, j, ux0[j], uy0[j], ux1[j + 1], uy1[j + 1])     \
-    GEOMETRY(FALLING, j, ux0[j + 1], uy0[j + 1], ux1[j], uy1[j])
-#define GEOMETRY_V(j) GEOMETRY(VERTICAL, j, ux0[j], uy0[j], ux1[j], uy1[j])
-        if (i + 1 < rows) {
-            OVER(links, even_links, GEOMETRY_HRF)
-            OVER(cols, even_cols, GEOMETRY_V)
-        } else {
-            OVER(links, even_links, GEOMETRY_H)
-        }
+#define GEOMETRY_H(j) GEOMETRY(HORIZONTAL, j, 0, j, 0, j + 1)
+#define GEOMETRY_HRF(j)                        \
+    GEOMETRY(HORIZONTAL, j, 0, j, 0, j + 1)    \
+    GEOMETRY(RISING, j, 0, j, 1, j + 1)        \
+    GEOMETRY(FALLING, j, 0, j + 1, 1, j)
+#define GEOMETRY_V(j) GEOMETRY(VERTICAL, j, 0, j, 1, j)
+            if (i + 1 < rows) {
+                OVER(links, even_links, GEOMETRY_HRF)
+                OVER(cols, even_cols, GEOMETRY_V)
+            } else {
+                OVER(links, even_links, GEOMETRY_H)
+            }
 
-        /* 2. stretches */
-        row_stretches(linear, 0, i + 1 < rows, alphas_differ, links, cols, &w);
+            /* 2. stretches */
+            row_stretches(linear, 0, i + 1 < rows, alphas_differ, links, cols, &w);
 
-        /* 3. forces. Horizontal and vertical: k stretch r/|r| + c (v_b - v_a) on the a end (the b end gets
-         * the opposite), dissipating c |v_a - v_b|^2. Diagonals: the a end is pushed by per_length_a r,
-         * the b end by -per_length_b r, and the non-reciprocal power is g.(v_a + v_b), g = (f_a - f_b)/2. */
-#define DAMPED(family, j, k, c, avx, avy, bvx, bvy, out_x, out_y)                                \
-    {                                                                                            \
-        const double per_length = (k) * w.stretch[SLOT(family, j)] * w.inverse[SLOT(family, j)]; \
-        const double dvx = (bvx) - (avx), dvy = (bvy) - (avy);                                   \
-        out_x = per_length * w.rx[family][j] + (c) * dvx;                                        \
-        out_y = per_length * w.ry[family][j] + (c) * dvy;                                        \
-        w.dissipated[j] += (c) * (dvx * dvx + dvy * dvy);                                        \
+            /* 3. forces. Horizontal and vertical: k stretch r/|r| + c (v_b - v_a) on the a end (the b end gets
+             * the opposite), dissipating c |v_a - v_b|^2. Diagonals: the a end is pushed by per_length_a r,
+             * the b end by -per_length_b r, and the non-reciprocal power is g.(v_a + v_b), g = (f_a - f_b)/2. */
+#define DAMPED(family, j, k, c, ar, aj, br, bj, FORCE)                                                   \
+    {                                                                                                    \
+        const double per_length = (k) * w.stretch[SLOT(family, j)] * w.inverse[SLOT(family, j)];         \
+        const double dvx = vx##br[bj] - vx##ar[aj], dvy = vy##br[bj] - vy##ar[aj];                       \
+        FORCE(0, j) = per_length * w.rx[family][j] + (c) * dvx;                                          \
+        FORCE(1, j) = per_length * w.ry[family][j] + (c) * dvy;                                          \
+        if (with_z) {                                                                                    \
+            const double dvz = vz##br[bj] - vz##ar[aj];                                                  \
+            FORCE(2, j) = per_length * w.rz[family][j] + (c) * dvz;                                      \
+            w.dissipated[j] += (c) * (dvx * dvx + dvy * dvy + dvz * dvz);                                \
+        } else {                                                                                         \
+            w.dissipated[j] += (c) * (dvx * dvx + dvy * dvy);                                            \
+        }                                                                                                \
     }
-#define DIAGONAL(family, j, k_a, stretch_a, k_b, stretch_b, avx, avy, bvx, bvy, a_x, a_y, b_x, b_y)  \
-    {                                                                                                \
-        const double per_length_a = (k_a) * (stretch_a) * w.inverse[SLOT(family, j)];                \
-        const double per_length_b = (k_b) * (stretch_b) * w.inverse[SLOT(family, j)];                \
-        a_x = per_length_a * w.rx[family][j];                                                        \
-        a_y = per_length_a * w.ry[family][j];                                                        \
-        b_x = per_length_b * w.rx[family][j];                                                        \
-        b_y = per_length_b * w.ry[family][j];                                                        \
-        w.nonreciprocal[j] += 0.5 * (per_length_a - per_length_b) *                                  \
-                            (w.rx[family][j] * ((avx) + (bvx)) + w.ry[family][j] * ((avy) + (bvy))); \
+#define DIAGONAL(family, j, k_a, stretch_a, k_b, stretch_b, ar, aj, br, bj, A_FORCE, B_FORCE)                   \
+    {                                                                                                           \
+        const double per_length_a = (k_a) * (stretch_a) * w.inverse[SLOT(family, j)];                           \
+        const double per_length_b = (k_b) * (stretch_b) * w.inverse[SLOT(family, j)];                          \
+        A_FORCE(0, j) = per_length_a * w.rx[family][j];                                                         \
+        A_FORCE(1, j) = per_length_a * w.ry[family][j];                                                         \
+        B_FORCE(0, j) = per_length_b * w.rx[family][j];                                                         \
+        B_FORCE(1, j) = per_length_b * w.ry[family][j];                                                         \
+        if (with_z) {                                                                                           \
+            A_FORCE(2, j) = per_length_a * w.rz[family][j];                                                     \
+            B_FORCE(2, j) = per_length_b * w.rz[family][j];                                                     \
+            w.nonreciprocal[j] += 0.5 * (per_length_a - per_length_b) *                                         \
+                                  (w.rx[family][j] * (vx##ar[aj] + vx##br[bj]) +                                \
+                                   w.ry[family][j] * (vy##ar[aj] + vy##br[bj]) +                                \
+                                   w.rz[family][j] * (vz##ar[aj] + vz##br[bj]));                                \
+        } else {                                                                                                \
+            w.nonreciprocal[j] += 0.5 * (per_length_a - per_length_b) *                                         \
+                                  (w.rx[family][j] * (vx##ar[aj] + vx##br[bj]) +                                \
+                                   w.ry[family][j] * (vy##ar[aj] + vy##br[bj]));                                \
+        }                                                                                                       \
     }
-#define FORCES_H(j)                                                                           \
-    DAMPED(HORIZONTAL, j, k_horizontal, c_horizontal, vx0[j], vy0[j], vx0[j + 1], vy0[j + 1], \
-           HORIZONTAL_FORCE(0, j), HORIZONTAL_FORCE(1, j))
-        /* rising: a = (i, j) is the left end, b = (i+1, j+1) the right; falling: a = (i, j+1) is the
-         * right end, b = (i+1, j) the left (a right end's stretch is the left one's unless the alphas
-         * differ) */
-#define FORCES_HRF(j, rising_right, falling_right)                                                           \
-    FORCES_H(j)                                                                                              \
-    DIAGONAL(RISING, j, w.k_left[j], w.stretch[SLOT(RISING, j)], w.k_right[j], rising_right, vx0[j], vy0[j], \
-             vx1[j + 1], vy1[j + 1], w.rising_top[0][j], w.rising_top[1][j], RISING_BOTTOM_FORCE(0, j),      \
-             RISING_BOTTOM_FORCE(1, j))                                                                      \
-    DIAGONAL(FALLING, j, w.k_right[j], falling_right, w.k_left[j], w.stretch[SLOT(FALLING, j)], vx0[j + 1],  \
-             vy0[j + 1], vx1[j], vy1[j], FALLING_TOP_FORCE(0, j), FALLING_TOP_FORCE(1, j),                   \
-             w.falling_bottom[0][j], w.falling_bottom[1][j])
+#define FORCES_H(j) DAMPED(HORIZONTAL, j, k_horizontal, c_horizontal, 0, j, 0, j + 1, HORIZONTAL_FORCE)
+            /* rising: a = (i, j) is the left end, b = (i+1, j+1) the right; falling: a = (i, j+1) is the
+             * right end, b = (i+1, j) the left (a right end's stretch is the left one's unless the alphas
+             * differ) */
+#define FORCES_HRF(j, rising_right, falling_right)                                                            \
+    FORCES_H(j)                                                                                               \
+    DIAGONAL(RISING, j, w.k_left[j], w.stretch[SLOT(RISING, j)], w.k_right[j], rising_right, 0, j, 1, j + 1,  \
+             RISING_TOP_FORCE, RISING_BOTTOM_FORCE)                                                           \
+    DIAGONAL(FALLING, j, w.k_right[j], falling_right, w.k_left[j], w.stretch[SLOT(FALLING, j)], 0, j + 1, 1, \
+             j, FALLING_TOP_FORCE, FALLING_BOTTOM_FORCE)
 #define FORCES_HRF_SAME(j) FORCES_HRF(j, w.stretch[SLOT(RISING, j)], w.stretch[SLOT(FALLING, j)])
 #define FORCES_HRF_DIFFERENT(j) FORCES_HRF(j, w.stretch[RIGHT_END_SLOT(0, j)], w.stretch[RIGHT_END_SLOT(1, j)])
-#define FORCES_V(j)                                                                                         \
-    DAMPED(VERTICAL, j, w.k_vertical[j], w.c_vertical[j], vx0[j], vy0[j], vx1[j], vy1[j], w.vertical[0][j], \
-           w.vertical[1][j])
-        if (i + 1 < rows) {
-            if (alphas_differ) {
-                OVER(links, even_links, FORCES_HRF_DIFFERENT)
+#define FORCES_V(j) DAMPED(VERTICAL, j, w.k_vertical[j], w.c_vertical[j], 0, j, 1, j, VERTICAL_FORCE)
+            if (i + 1 < rows) {
+                if (alphas_differ) {
+                    OVER(links, even_links, FORCES_HRF_DIFFERENT)
+                } else {
+                    OVER(links, even_links, FORCES_HRF_SAME)
+                }
+                OVER(cols, even_cols, FORCES_V)
             } else {
-                OVER(links, even_links, FORCES_HRF_SAME)
+                OVER(links, even_links, FORCES_H)
             }
-            OVER(cols, even_cols, FORCES_V)
-        } else {
-            OVER(links, even_links, FORCES_H)
-        }
 
-        /* 4. gather */
+            /* 4. gather */
 #define GATHER(j, c, row_force)                                                                      \
     {                                                                                                \
         row_force[j] = w.carried[c][j] + (HORIZONTAL_FORCE(c, j) - HORIZONTAL_FORCE(c, j - 1)) +     \
@@ -432,36 +563,67 @@ static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int load_on, const si
     }
 #define GATHER_X(j) GATHER(j, 0, row_fx)
 #define GATHER_Y(j) GATHER(j, 1, row_fy)
-#define GATHER_LAST_X(j) row_fx[j] = w.carried[0][j] + (HORIZONTAL_FORCE(0, j) - HORIZONTAL_FORCE(0, j - 1));
-#define GATHER_LAST_Y(j) row_fy[j] = w.carried[1][j] + (HORIZONTAL_FORCE(1, j) - HORIZONTAL_FORCE(1, j - 1));
-        if (i + 1 < rows) {
-            OVER(cols, even_cols, GATHER_X) /* x and y apart: the compiler cannot tell fx and fy apart */
-            OVER(cols, even_cols, GATHER_Y)
+#define GATHER_Z(j) GATHER(j, 2, row_fz)
+#define GATHER_LAST(j, c, row_force) \
+    row_force[j] = w.carried[c][j] + (HORIZONTAL_FORCE(c, j) - HORIZONTAL_FORCE(c, j - 1));
+#define GATHER_LAST_X(j) GATHER_LAST(j, 0, row_fx)
+#define GATHER_LAST_Y(j) GATHER_LAST(j, 1, row_fy)
+#define GATHER_LAST_Z(j) GATHER_LAST(j, 2, row_fz)
+            if (i + 1 < rows) {
+                OVER(cols, even_cols, GATHER_X) /* x, y and z apart: the compiler cannot tell fx and fy apart */
+                OVER(cols, even_cols, GATHER_Y)
+                if (with_z) OVER(cols, even_cols, GATHER_Z)
 #define CARRY(j)                        \
     {                                   \
         w.carried[0][j] = w.next[0][j]; \
         w.carried[1][j] = w.next[1][j]; \
+        if (with_z) w.carried[2][j] = w.next[2][j]; \
     }
-            OVER(cols, even_cols, CARRY)
-        } else {
-            OVER(cols, even_cols, GATHER_LAST_X)
-            OVER(cols, even_cols, GATHER_LAST_Y)
+                OVER(cols, even_cols, CARRY)
+            } else {
+                OVER(cols, even_cols, GATHER_LAST_X)
+                OVER(cols, even_cols, GATHER_LAST_Y)
+                if (with_z) OVER(cols, even_cols, GATHER_LAST_Z)
+            }
         }
+        add_spring_powers(w.dissipated, w.nonreciprocal, cols, 1.0, &springs);
     }
-    external_forces(p, 0, rows, load_on, wall_mode, ux, vx, vy, fx, fy, &w, dydt + 4 * n);
+    if (with_z) between_layers_general(p, y, vx, fx, &springs);
+    external_forces(p, 0, 0, rows, layers, load_on, wall_mode, ux, vx, vy, fx, components, &springs,
+                    dydt + 2 * components * n);
 }
 
-int lattice_along_x(const LatticeParams *p) { return p->load_angle_deg == 0.0 || p->load_total == 0.0; }
+static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int load_on, const signed char *wall_mode,
+                                   const double *y, double *dydt) {
+    rhs_of_layers(p, 0, load_on, wall_mode, y, dydt);
+}
 
-/* The right-hand side over the layout without y (lattice_along_x): rhs_rows with every y part left out, the
- * same arithmetic on what is left (|r| = |dx|, which is what sqrt(dx^2) gives), and the same four stages (see
- * above rhs_rows). With mirrored, of the upper half of a mirror-symmetric lattice (rows 0 .. (R-1)/2, the
- * last of them the middle row; see lattice.h): the rows above the middle are computed as the whole does,
- * what the springs below the middle row do to it is the mirror image of what those above it do, and every
- * power but the middle row's own springs' counts twice. */
+static VECTOR_CLONES void rhs_plate(const LatticeParams *p, int load_on, const signed char *wall_mode,
+                                    const double *y, double *dydt) {
+    rhs_of_layers(p, 1, load_on, wall_mode, y, dydt);
+}
+
+void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y, double *dydt) {
+    if (p->depth > 1) {
+        rhs_plate(p, load_on, wall_mode, y, dydt);
+    } else {
+        rhs_rows(p, load_on, wall_mode, y, dydt);
+    }
+}
+
+/* The right-hand side over the layout without y and z (lattice_along_x): rhs_of_layers with every y and z part
+ * left out, the same arithmetic on what is left (|r| = |dx|, which is what sqrt(dx^2) gives), and the same
+ * four stages (see above rhs_of_layers). With mirrored, of the part of a mirror-symmetric lattice that carries
+ * its solution (rows 0 .. (R-1)/2, the last of them the middle row, and layers 0 .. (D-1)/2 likewise; see
+ * lattice.h): the rows above the middle are computed as the whole does, what the springs below the middle row
+ * do to it is the mirror image of what those above it do, and every power but the middle row's own springs'
+ * counts twice (the same for the layers in between_layers_along_x, and a layer's powers count twice but the
+ * middle layer's). */
 static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored, int load_on,
                                            const signed char *wall_mode, const double *y, double *dydt) {
-    const int rows = mirrored ? (p->rows + 1) / 2 : p->rows, cols = p->cols, n = rows * cols;
+    const int mirror_y = mirrored && lattice_mirror_rows(p), mirror_z = mirrored && lattice_mirror_layers(p);
+    const int rows = mirror_y ? (p->rows + 1) / 2 : p->rows, layers = mirror_z ? (p->depth + 1) / 2 : p->depth;
+    const int cols = p->cols, layer_size = rows * cols, n = layer_size * layers;
     const int linear = p->spring_law == SPRING_LINEAR;
     const int links = cols - 1;
     const int even_links = EVEN(links), even_cols = EVEN(cols);
@@ -469,43 +631,46 @@ static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored,
     double *fx = dydt + n;
     const double k_horizontal = p->k_horizontal, c_horizontal = p->c_horizontal;
     int alphas_differ;
+    SpringPowers springs = {0.0, 0.0};
     RowBuffers w;
-    int i, j;
+    int i, j, k;
 
     alphas_differ = prepare_row_buffers(p, &w);
 
     memcpy(dydt, vx, (size_t)n * sizeof(double));
 
-    for (i = 0; i < rows; i++) {
-        const size_t top = (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
-        const double *ux0 = ux + top, *vx0 = vx + top, *ux1 = ux + bottom, *vx1 = vx + bottom;
-        double *row_fx = fx + top;
-        if (mirrored && i + 1 == rows) count_mirror_images(&w, cols);
+    for (k = 0; k < layers; k++) {
+        start_layer(&w, cols);
+        for (i = 0; i < rows; i++) {
+            const size_t top = (size_t)k * (size_t)layer_size + (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
+            const double *ux0 = ux + top, *vx0 = vx + top, *ux1 = ux + bottom, *vx1 = vx + bottom;
+            double *row_fx = fx + top;
+            if (mirror_y && i + 1 == rows) count_mirror_images(w.dissipated, w.nonreciprocal, cols);
 
-        /* 1. geometry: r = (dx, 0) */
-#define GEOMETRY_X(family, j, ax, bx)                 \
-    {                                                 \
-        const double dx = (bx) - (ax);                \
-        w.rx[family][j] = dx;                         \
+            /* 1. geometry: r = (dx, 0, 0) */
+#define GEOMETRY_X(family, j, ax, bx)                                        \
+    {                                                                        \
+        const double dx = (bx) - (ax);                                       \
+        w.rx[family][j] = dx;                                                \
         w.squared[SLOT(family, j)] = dx; /* dx itself: packed_stretches_x */ \
     }
 #define GEOMETRY_X_H(j) GEOMETRY_X(HORIZONTAL, j, ux0[j], ux0[j + 1])
-#define GEOMETRY_X_HRF(j)                               \
-    GEOMETRY_X(HORIZONTAL, j, ux0[j], ux0[j + 1])       \
-    GEOMETRY_X(RISING, j, ux0[j], ux1[j + 1])           \
+#define GEOMETRY_X_HRF(j)                         \
+    GEOMETRY_X(HORIZONTAL, j, ux0[j], ux0[j + 1]) \
+    GEOMETRY_X(RISING, j, ux0[j], ux1[j + 1])     \
     GEOMETRY_X(FALLING, j, ux0[j + 1], ux1[j])
 #define GEOMETRY_X_V(j) GEOMETRY_X(VERTICAL, j, ux0[j], ux1[j])
-        if (i + 1 < rows) {
-            OVER(links, even_links, GEOMETRY_X_HRF)
-            OVER(cols, even_cols, GEOMETRY_X_V)
-        } else {
-            OVER(links, even_links, GEOMETRY_X_H)
-        }
+            if (i + 1 < rows) {
+                OVER(links, even_links, GEOMETRY_X_HRF)
+                OVER(cols, even_cols, GEOMETRY_X_V)
+            } else {
+                OVER(links, even_links, GEOMETRY_X_H)
+            }
 
-        /* 2. stretches */
-        row_stretches(linear, 1, i + 1 < rows, alphas_differ, links, cols, &w);
+            /* 2. stretches */
+            row_stretches(linear, 1, i + 1 < rows, alphas_differ, links, cols, &w);
 
-        /* 3. forces, x only */
+            /* 3. forces, x only */
 #define DAMPED_X(family, j, k, c, avx, bvx, out_x)                                               \
     {                                                                                            \
         const double per_length = (k) * w.stretch[SLOT(family, j)] * w.inverse[SLOT(family, j)]; \
@@ -513,50 +678,54 @@ static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored,
         out_x = per_length * w.rx[family][j] + (c) * dvx;                                        \
         w.dissipated[j] += (c) * (dvx * dvx);                                                    \
     }
-#define DIAGONAL_X(family, j, k_a, stretch_a, k_b, stretch_b, avx, bvx, a_x, b_x)                   \
-    {                                                                                               \
-        const double per_length_a = (k_a) * (stretch_a) * w.inverse[SLOT(family, j)];               \
-        const double per_length_b = (k_b) * (stretch_b) * w.inverse[SLOT(family, j)];               \
-        a_x = per_length_a * w.rx[family][j];                                                       \
-        b_x = per_length_b * w.rx[family][j];                                                       \
+#define DIAGONAL_X(family, j, k_a, stretch_a, k_b, stretch_b, avx, bvx, a_x, b_x)                        \
+    {                                                                                                    \
+        const double per_length_a = (k_a) * (stretch_a) * w.inverse[SLOT(family, j)];                    \
+        const double per_length_b = (k_b) * (stretch_b) * w.inverse[SLOT(family, j)];                    \
+        a_x = per_length_a * w.rx[family][j];                                                            \
+        b_x = per_length_b * w.rx[family][j];                                                            \
         w.nonreciprocal[j] += 0.5 * (per_length_a - per_length_b) * (w.rx[family][j] * ((avx) + (bvx))); \
     }
 #define FORCES_X_H(j) DAMPED_X(HORIZONTAL, j, k_horizontal, c_horizontal, vx0[j], vx0[j + 1], HORIZONTAL_FORCE(0, j))
-#define FORCES_X_HRF(j, rising_right, falling_right)                                                        \
-    FORCES_X_H(j)                                                                                           \
-    DIAGONAL_X(RISING, j, w.k_left[j], w.stretch[SLOT(RISING, j)], w.k_right[j], rising_right, vx0[j],      \
-               vx1[j + 1], w.rising_top[0][j], RISING_BOTTOM_FORCE(0, j))                                   \
+#define FORCES_X_HRF(j, rising_right, falling_right)                                                          \
+    FORCES_X_H(j)                                                                                             \
+    DIAGONAL_X(RISING, j, w.k_left[j], w.stretch[SLOT(RISING, j)], w.k_right[j], rising_right, vx0[j],        \
+               vx1[j + 1], w.rising_top[0][j], RISING_BOTTOM_FORCE(0, j))                                     \
     DIAGONAL_X(FALLING, j, w.k_right[j], falling_right, w.k_left[j], w.stretch[SLOT(FALLING, j)], vx0[j + 1], \
                vx1[j], FALLING_TOP_FORCE(0, j), w.falling_bottom[0][j])
 #define FORCES_X_HRF_SAME(j) FORCES_X_HRF(j, w.stretch[SLOT(RISING, j)], w.stretch[SLOT(FALLING, j)])
 #define FORCES_X_HRF_DIFFERENT(j) \
     FORCES_X_HRF(j, w.stretch[RIGHT_END_SLOT(0, j)], w.stretch[RIGHT_END_SLOT(1, j)])
 #define FORCES_X_V(j) DAMPED_X(VERTICAL, j, w.k_vertical[j], w.c_vertical[j], vx0[j], vx1[j], w.vertical[0][j])
-        if (i + 1 < rows) {
-            if (alphas_differ) {
-                OVER(links, even_links, FORCES_X_HRF_DIFFERENT)
+            if (i + 1 < rows) {
+                if (alphas_differ) {
+                    OVER(links, even_links, FORCES_X_HRF_DIFFERENT)
+                } else {
+                    OVER(links, even_links, FORCES_X_HRF_SAME)
+                }
+                OVER(cols, even_cols, FORCES_X_V)
             } else {
-                OVER(links, even_links, FORCES_X_HRF_SAME)
+                OVER(links, even_links, FORCES_X_H)
             }
-            OVER(cols, even_cols, FORCES_X_V)
-        } else {
-            OVER(links, even_links, FORCES_X_H)
-        }
 
-        /* 4. gather */
-        if (i + 1 < rows) {
-            OVER(cols, even_cols, GATHER_X)
+            /* 4. gather */
+            if (i + 1 < rows) {
+                OVER(cols, even_cols, GATHER_X)
 #define CARRY_X(j) w.carried[0][j] = w.next[0][j];
-            OVER(cols, even_cols, CARRY_X)
-        } else if (mirrored) {
+                OVER(cols, even_cols, CARRY_X)
+            } else if (mirror_y) {
 #define GATHER_MIDDLE_ALONG_X(j) \
     row_fx[j] = w.carried[0][j] + (HORIZONTAL_FORCE(0, j) - HORIZONTAL_FORCE(0, j - 1)) + w.carried[0][j];
-            OVER(cols, even_cols, GATHER_MIDDLE_ALONG_X)
-        } else {
-            OVER(cols, even_cols, GATHER_LAST_X)
+                OVER(cols, even_cols, GATHER_MIDDLE_ALONG_X)
+            } else {
+                OVER(cols, even_cols, GATHER_LAST_X)
+            }
         }
+        add_spring_powers(w.dissipated, w.nonreciprocal, cols, mirror_z && k + 1 < layers ? 2.0 : 1.0, &springs);
     }
-    external_forces(p, mirrored, rows, load_on, wall_mode, ux, vx, NULL, fx, NULL, &w, dydt + 2 * n);
+    if (layers > 1) between_layers_along_x(p, mirror_y, mirror_z, rows, layers, ux, vx, fx, &springs);
+    external_forces(p, mirror_y, mirror_z, rows, layers, load_on, wall_mode, ux, vx, NULL, fx, 1, &springs,
+                    dydt + 2 * n);
 }
 
 void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, const signed char *wall_mode,
@@ -564,21 +733,307 @@ void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, cons
     rhs_rows_along_x(p, mirrored, load_on, wall_mode, y, dydt);
 }
 
-void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y, double *dydt) {
-    rhs_rows(p, load_on, wall_mode, y, dydt);
+/* Between layers k (the front) and k+1 (the back) of a plate, by row i of the front, the springs of
+ * docs/model.md section 10 that leave the plane: depth (i, j, k) -> (i, j, k+1), of column j's material and
+ * damped; depth rising (i, j, k) -> (i, j+1, k+1) and depth falling (i, j+1, k) -> (i, j, k+1), the xz
+ * diagonals between columns j and j+1 (as the xy ones: their ends by the diagonal rule); side rising
+ * (i, j, k) -> (i+1, j, k+1) and side falling (i+1, j, k) -> (i, j, k+1), the yz diagonals, inside column j
+ * (its k_diag, alpha_diag at both ends: reciprocal). Each spring's a end is on the front and its b end on
+ * the back. The same four stages as the rows (see above rhs_of_layers), in LayerBuffers. */
+enum { DEPTH = 0, DEPTH_RISING = 1, DEPTH_FALLING = 2, SIDE_RISING = 3, SIDE_FALLING = 4, LAYER_FAMILIES = 5 };
+
+/* Packed: depth (cols), depth rising, depth falling (links each), side rising, side falling (cols each), then
+ * the right ends of the depth diagonals (links each; when their alphas differ from the left ends'). */
+#define LAYER_SLOT(family, j)                                                                           \
+    (((family) == DEPTH            ? 0                                                                  \
+      : (family) == DEPTH_RISING  ? cols                                                                \
+      : (family) == DEPTH_FALLING ? cols + links                                                        \
+      : (family) == SIDE_RISING   ? cols + 2 * links                                                    \
+                                  : 2 * cols + 2 * links) +                                             \
+     (j))
+#define LAYER_RIGHT_END_SLOT(diagonal, j) (3 * cols + 2 * links + (diagonal) * links + (j))
+#define LAYER_PACKED_SPRINGS (7 * LATTICE_MAX_COLS)
+
+typedef struct {
+    double rx[LAYER_FAMILIES][LATTICE_MAX_COLS], ry[LAYER_FAMILIES][LATTICE_MAX_COLS],
+        rz[LAYER_FAMILIES][LATTICE_MAX_COLS];
+    double squared[LAYER_PACKED_SPRINGS], alpha[LAYER_PACKED_SPRINGS], stretch[LAYER_PACKED_SPRINGS],
+        inverse[LAYER_PACKED_SPRINGS];
+    double k_vertical[LATTICE_MAX_COLS], c_vertical[LATTICE_MAX_COLS], k_side[LATTICE_MAX_COLS],
+        k_left[LATTICE_MAX_COLS], k_right[LATTICE_MAX_COLS];
+    double dissipated[LATTICE_MAX_COLS], nonreciprocal[LATTICE_MAX_COLS];
+    /* the forces by component: on the front end (the back end gets the opposite) of the reciprocal springs,
+     * on each end of the depth diagonals; guards as in RowBuffers */
+    double depth[3][LATTICE_MAX_COLS], side_rising[3][LATTICE_MAX_COLS], side_falling[3][LATTICE_MAX_COLS];
+    double rising_front[3][LATTICE_MAX_COLS], rising_back[3][LATTICE_MAX_COLS + 2],
+        falling_front[3][LATTICE_MAX_COLS + 2], falling_back[3][LATTICE_MAX_COLS];
+    /* what the side diagonals of the row above do to a row of the front and of the back */
+    double carried_front[3][LATTICE_MAX_COLS], carried_back[3][LATTICE_MAX_COLS], next_front[3][LATTICE_MAX_COLS],
+        next_back[3][LATTICE_MAX_COLS];
+} LayerBuffers;
+
+#define DEPTH_FORCE(c, j) l.depth[c][j]
+#define SIDE_RISING_FORCE(c, j) l.side_rising[c][j]
+#define SIDE_FALLING_FORCE(c, j) l.side_falling[c][j]
+#define RISING_FRONT_FORCE(c, j) l.rising_front[c][j]
+#define RISING_BACK_FORCE(c, j) l.rising_back[c][(j) + 2]
+#define FALLING_FRONT_FORCE(c, j) l.falling_front[c][(j) + 2]
+#define FALLING_BACK_FORCE(c, j) l.falling_back[c][j]
+
+/* OVER with j < even: GCC (12) cannot tell that j != even ends in these loops (and warns). */
+#define LAYER_OVER(count, even, BODY)  \
+    {                                  \
+        for (j = 0; j < (even); j++) { \
+            BODY(j)                    \
+        }                              \
+        if (j < (count)) {             \
+            BODY(j)                    \
+        }                              \
+    }
+
+/* All pairs of layers of the part of a plate that holds rows x layers (u, v and f: the x blocks, followed by
+ * the y and z ones unless along_x), adding to f; a mirrored part's middle row and layer take the mirror
+ * images of what they get from the rows above and the layers in front. */
+static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along_x, int mirror_y, int mirror_z,
+                                         int rows, int layers, const double *u, const double *v, double *f,
+                                         SpringPowers *powers) {
+    const int cols = p->cols, links = cols > 1 ? cols - 1 : 0, layer_size = rows * cols, n = layer_size * layers;
+    const int linear = p->spring_law == SPRING_LINEAR;
+    const int even_links = EVEN(links), even_cols = EVEN(cols);
+    const double *ux = u, *uy = along_x ? u : u + n, *uz = along_x ? u : u + 2 * n;
+    const double *vx = v, *vy = along_x ? v : v + n, *vz = along_x ? v : v + 2 * n;
+    double *fx = f, *fy = along_x ? f : f + n, *fz = along_x ? f : f + 2 * n;
+    const int components = along_x ? 1 : 3;
+    const double carried_count = mirror_y ? 2.0 : 1.0; /* on the middle row, the side diagonals' images */
+    int alphas_differ = 0, i, j, k, c;
+    LayerBuffers l;
+
+    for (j = 0; j < cols; j++) {
+        const ColumnConstants *column = &p->column[j];
+        l.k_vertical[j] = column->k_vertical;
+        l.c_vertical[j] = column->c_vertical;
+        l.k_side[j] = column->k_diagonal;
+        l.alpha[LAYER_SLOT(DEPTH, j)] = column->alpha_vertical;
+        l.alpha[LAYER_SLOT(SIDE_RISING, j)] = l.alpha[LAYER_SLOT(SIDE_FALLING, j)] = column->alpha_diagonal;
+    }
+    for (j = 0; j < links; j++) {
+        const SpringEnds ends = diagonal_ends(p, j);
+        l.alpha[LAYER_SLOT(DEPTH_RISING, j)] = l.alpha[LAYER_SLOT(DEPTH_FALLING, j)] = ends.alpha_a;
+        l.alpha[LAYER_RIGHT_END_SLOT(0, j)] = l.alpha[LAYER_RIGHT_END_SLOT(1, j)] = ends.alpha_b;
+        l.k_left[j] = ends.k_a;
+        l.k_right[j] = ends.k_b;
+        alphas_differ = alphas_differ || ends.alpha_a != ends.alpha_b;
+    }
+    for (c = 0; c < 3; c++) {
+        l.rising_front[c][links] = l.rising_back[c][1] = 0.0;
+        l.falling_front[c][1] = l.falling_back[c][links] = 0.0;
+    }
+
+    for (k = 0; k + 1 < layers; k++) {
+        /* the back is the middle layer of a mirrored part: it gets as much again from the layer behind it */
+        const double back_count = mirror_z && k + 2 == layers ? 2.0 : 1.0;
+        for (j = 0; j < cols; j++) {
+            for (c = 0; c < 3; c++) l.carried_front[c][j] = l.carried_back[c][j] = 0.0;
+            l.dissipated[j] = l.nonreciprocal[j] = 0.0;
+        }
+        for (i = 0; i < rows; i++) {
+            const size_t front = ((size_t)k * (size_t)rows + (size_t)i) * (size_t)cols;
+            const size_t back = front + (size_t)layer_size;
+            const int below = i + 1 < rows;
+            /* f0, f1: rows i and i+1 of the front; b0, b1: of the back (the side diagonals, undamped, need no
+             * velocities of row i+1) */
+            const double *uxf0 = ux + front, *uyf0 = uy + front, *uzf0 = uz + front;
+            const double *uxf1 = uxf0 + cols, *uyf1 = uyf0 + cols, *uzf1 = uzf0 + cols;
+            const double *uxb0 = ux + back, *uyb0 = uy + back, *uzb0 = uz + back;
+            const double *uxb1 = uxb0 + cols, *uyb1 = uyb0 + cols, *uzb1 = uzb0 + cols;
+            const double *vxf0 = vx + front, *vyf0 = vy + front, *vzf0 = vz + front;
+            const double *vxb0 = vx + back, *vyb0 = vy + back, *vzb0 = vz + back;
+            double *fxf0 = fx + front, *fyf0 = fy + front, *fzf0 = fz + front;
+            double *fxb0 = fx + back, *fyb0 = fy + back, *fzb0 = fz + back;
+            if (mirror_y && i + 1 == rows) count_mirror_images(l.dissipated, l.nonreciprocal, cols);
+
+            /* 1. geometry (dx itself along x: packed_stretches_x) */
+#define LAYER_GEOMETRY(family, j, ae, aj, be, bj)                                 \
+    {                                                                             \
+        const double dx = ux##be[bj] - ux##ae[aj];                                \
+        l.rx[family][j] = dx;                                                     \
+        if (along_x) {                                                            \
+            l.squared[LAYER_SLOT(family, j)] = dx;                                \
+        } else {                                                                  \
+            const double dy = uy##be[bj] - uy##ae[aj], dz = uz##be[bj] - uz##ae[aj]; \
+            l.ry[family][j] = dy;                                                 \
+            l.rz[family][j] = dz;                                                 \
+            l.squared[LAYER_SLOT(family, j)] = dx * dx + dy * dy + dz * dz;       \
+        }                                                                         \
+    }
+#define LAYER_GEOMETRY_D(j) LAYER_GEOMETRY(DEPTH, j, f0, j, b0, j)
+#define LAYER_GEOMETRY_RF(j)                                \
+    LAYER_GEOMETRY(DEPTH_RISING, j, f0, j, b0, j + 1)       \
+    LAYER_GEOMETRY(DEPTH_FALLING, j, f0, j + 1, b0, j)
+#define LAYER_GEOMETRY_S(j)                                 \
+    LAYER_GEOMETRY(SIDE_RISING, j, f0, j, b1, j)            \
+    LAYER_GEOMETRY(SIDE_FALLING, j, f1, j, b0, j)
+            LAYER_OVER(cols, even_cols, LAYER_GEOMETRY_D)
+            LAYER_OVER(links, even_links, LAYER_GEOMETRY_RF)
+            if (below) LAYER_OVER(cols, even_cols, LAYER_GEOMETRY_S)
+
+            /* 2. stretches */
+            stretches_of(linear, along_x, below ? 3 * cols + 2 * links : cols + 2 * links, l.squared, l.alpha,
+                         l.stretch, l.inverse);
+            if (alphas_differ) {
+                for (j = 0; j < links; j++) {
+                    l.squared[LAYER_RIGHT_END_SLOT(0, j)] = l.squared[LAYER_SLOT(DEPTH_RISING, j)];
+                    l.squared[LAYER_RIGHT_END_SLOT(1, j)] = l.squared[LAYER_SLOT(DEPTH_FALLING, j)];
+                }
+                stretches_of(linear, along_x, 2 * links, l.squared + LAYER_RIGHT_END_SLOT(0, 0),
+                             l.alpha + LAYER_RIGHT_END_SLOT(0, 0), l.stretch + LAYER_RIGHT_END_SLOT(0, 0),
+                             l.inverse + LAYER_RIGHT_END_SLOT(0, 0));
+            }
+
+            /* 3. forces, as in the rows */
+#define LAYER_PER_LENGTH(family, j, k) ((k) * l.stretch[LAYER_SLOT(family, j)] * l.inverse[LAYER_SLOT(family, j)])
+#define LAYER_DAMPED(family, j, k, c, ae, aj, be, bj, FORCE)                                  \
+    {                                                                                         \
+        const double per_length = LAYER_PER_LENGTH(family, j, k);                             \
+        const double dvx = vx##be[bj] - vx##ae[aj];                                           \
+        FORCE(0, j) = per_length * l.rx[family][j] + (c) * dvx;                               \
+        if (along_x) {                                                                        \
+            l.dissipated[j] += (c) * (dvx * dvx);                                             \
+        } else {                                                                              \
+            const double dvy = vy##be[bj] - vy##ae[aj], dvz = vz##be[bj] - vz##ae[aj];        \
+            FORCE(1, j) = per_length * l.ry[family][j] + (c) * dvy;                           \
+            FORCE(2, j) = per_length * l.rz[family][j] + (c) * dvz;                           \
+            l.dissipated[j] += (c) * (dvx * dvx + dvy * dvy + dvz * dvz);                     \
+        }                                                                                     \
+    }
+#define LAYER_DIAGONAL(family, j, k_a, stretch_a, k_b, stretch_b, ae, aj, be, bj, A_FORCE, B_FORCE)          \
+    {                                                                                                       \
+        const double per_length_a = (k_a) * (stretch_a) * l.inverse[LAYER_SLOT(family, j)];                 \
+        const double per_length_b = (k_b) * (stretch_b) * l.inverse[LAYER_SLOT(family, j)];                 \
+        A_FORCE(0, j) = per_length_a * l.rx[family][j];                                                     \
+        B_FORCE(0, j) = per_length_b * l.rx[family][j];                                                     \
+        if (along_x) {                                                                                      \
+            l.nonreciprocal[j] +=                                                                           \
+                0.5 * (per_length_a - per_length_b) * (l.rx[family][j] * (vx##ae[aj] + vx##be[bj]));        \
+        } else {                                                                                            \
+            A_FORCE(1, j) = per_length_a * l.ry[family][j];                                                 \
+            A_FORCE(2, j) = per_length_a * l.rz[family][j];                                                 \
+            B_FORCE(1, j) = per_length_b * l.ry[family][j];                                                 \
+            B_FORCE(2, j) = per_length_b * l.rz[family][j];                                                 \
+            l.nonreciprocal[j] += 0.5 * (per_length_a - per_length_b) *                                     \
+                                  (l.rx[family][j] * (vx##ae[aj] + vx##be[bj]) +                            \
+                                   l.ry[family][j] * (vy##ae[aj] + vy##be[bj]) +                            \
+                                   l.rz[family][j] * (vz##ae[aj] + vz##be[bj]));                            \
+        }                                                                                                   \
+    }
+#define LAYER_SIDE(family, j, FORCE)                                       \
+    {                                                                      \
+        const double per_length = LAYER_PER_LENGTH(family, j, l.k_side[j]); \
+        FORCE(0, j) = per_length * l.rx[family][j];                        \
+        if (!along_x) {                                                    \
+            FORCE(1, j) = per_length * l.ry[family][j];                    \
+            FORCE(2, j) = per_length * l.rz[family][j];                    \
+        }                                                                  \
+    }
+#define LAYER_FORCES_D(j) LAYER_DAMPED(DEPTH, j, l.k_vertical[j], l.c_vertical[j], f0, j, b0, j, DEPTH_FORCE)
+            /* depth rising: a = (i, j, k) is the left end; depth falling: a = (i, j+1, k) the right end */
+#define LAYER_FORCES_RF(j, rising_right, falling_right)                                                         \
+    LAYER_DIAGONAL(DEPTH_RISING, j, l.k_left[j], l.stretch[LAYER_SLOT(DEPTH_RISING, j)], l.k_right[j],          \
+                   rising_right, f0, j, b0, j + 1, RISING_FRONT_FORCE, RISING_BACK_FORCE)                       \
+    LAYER_DIAGONAL(DEPTH_FALLING, j, l.k_right[j], falling_right, l.k_left[j],                                  \
+                   l.stretch[LAYER_SLOT(DEPTH_FALLING, j)], f0, j + 1, b0, j, FALLING_FRONT_FORCE,              \
+                   FALLING_BACK_FORCE)
+#define LAYER_FORCES_RF_SAME(j) \
+    LAYER_FORCES_RF(j, l.stretch[LAYER_SLOT(DEPTH_RISING, j)], l.stretch[LAYER_SLOT(DEPTH_FALLING, j)])
+#define LAYER_FORCES_RF_DIFFERENT(j) \
+    LAYER_FORCES_RF(j, l.stretch[LAYER_RIGHT_END_SLOT(0, j)], l.stretch[LAYER_RIGHT_END_SLOT(1, j)])
+#define LAYER_FORCES_S(j)                           \
+    LAYER_SIDE(SIDE_RISING, j, SIDE_RISING_FORCE)   \
+    LAYER_SIDE(SIDE_FALLING, j, SIDE_FALLING_FORCE)
+            LAYER_OVER(cols, even_cols, LAYER_FORCES_D)
+            if (alphas_differ) {
+                LAYER_OVER(links, even_links, LAYER_FORCES_RF_DIFFERENT)
+            } else {
+                LAYER_OVER(links, even_links, LAYER_FORCES_RF_SAME)
+            }
+            if (below) LAYER_OVER(cols, even_cols, LAYER_FORCES_S)
+
+            /* 4. gather: the front (a ends) and the back (b ends), each component apart */
+#define LAYER_GATHER(j, c, front_force, back_force)                                                            \
+    {                                                                                                          \
+        front_force[j] += l.carried_front[c][j] + (l.depth[c][j] + l.rising_front[c][j] +                      \
+                                                   FALLING_FRONT_FORCE(c, j - 1) + l.side_rising[c][j]);       \
+        back_force[j] += back_count * (l.carried_back[c][j] - (l.depth[c][j] + RISING_BACK_FORCE(c, j - 1) +   \
+                                                               l.falling_back[c][j] + l.side_falling[c][j]));  \
+        l.next_front[c][j] = l.side_falling[c][j];                                                             \
+        l.next_back[c][j] = -l.side_rising[c][j];                                                              \
+    }
+#define LAYER_GATHER_LAST(j, c, front_force, back_force)                                                      \
+    {                                                                                                         \
+        front_force[j] += carried_count * l.carried_front[c][j] +                                             \
+                          (l.depth[c][j] + l.rising_front[c][j] + FALLING_FRONT_FORCE(c, j - 1));             \
+        back_force[j] += back_count * (carried_count * l.carried_back[c][j] -                                 \
+                                       (l.depth[c][j] + RISING_BACK_FORCE(c, j - 1) + l.falling_back[c][j])); \
+    }
+#define LAYER_GATHER_X(j) LAYER_GATHER(j, 0, fxf0, fxb0)
+#define LAYER_GATHER_Y(j) LAYER_GATHER(j, 1, fyf0, fyb0)
+#define LAYER_GATHER_Z(j) LAYER_GATHER(j, 2, fzf0, fzb0)
+#define LAYER_GATHER_LAST_X(j) LAYER_GATHER_LAST(j, 0, fxf0, fxb0)
+#define LAYER_GATHER_LAST_Y(j) LAYER_GATHER_LAST(j, 1, fyf0, fyb0)
+#define LAYER_GATHER_LAST_Z(j) LAYER_GATHER_LAST(j, 2, fzf0, fzb0)
+#define LAYER_CARRY(j)                                    \
+    {                                                     \
+        for (c = 0; c < components; c++) {                \
+            l.carried_front[c][j] = l.next_front[c][j];   \
+            l.carried_back[c][j] = l.next_back[c][j];     \
+        }                                                 \
+    }
+            if (below) {
+                LAYER_OVER(cols, even_cols, LAYER_GATHER_X)
+                if (!along_x) {
+                    LAYER_OVER(cols, even_cols, LAYER_GATHER_Y)
+                    LAYER_OVER(cols, even_cols, LAYER_GATHER_Z)
+                }
+                LAYER_OVER(cols, even_cols, LAYER_CARRY)
+            } else {
+                LAYER_OVER(cols, even_cols, LAYER_GATHER_LAST_X)
+                if (!along_x) {
+                    LAYER_OVER(cols, even_cols, LAYER_GATHER_LAST_Y)
+                    LAYER_OVER(cols, even_cols, LAYER_GATHER_LAST_Z)
+                }
+            }
+        }
+        add_spring_powers(l.dissipated, l.nonreciprocal, cols, mirror_z ? 2.0 : 1.0, powers);
+    }
 }
 
-static double backplate_force_of_rows(const LatticeParams *p, int rows, int mirrored, const double *ux_last_column,
-                                      const double *vx_last_column, int stride) {
+static NOINLINE VECTOR_CLONES void between_layers_general(const LatticeParams *p, const double *u, const double *v,
+                                                          double *f, SpringPowers *powers) {
+    between_layers(p, 0, 0, 0, p->rows, p->depth, u, v, f, powers);
+}
+
+static NOINLINE VECTOR_CLONES void between_layers_along_x(const LatticeParams *p, int mirror_y, int mirror_z,
+                                                          int rows, int layers, const double *ux,
+                                                          const double *vx, double *fx, SpringPowers *powers) {
+    between_layers(p, 1, mirror_y, mirror_z, rows, layers, ux, vx, fx, powers);
+}
+
+/* The backplate force over the column-C masses of rows x layers, f = k*rows + i at [f * stride], each counted
+ * as often as it stands in the whole lattice (mirror_count). */
+static double backplate_force_of_face(const LatticeParams *p, int rows, int layers, int mirror_y, int mirror_z,
+                                      const double *ux_last_column, const double *vx_last_column, int stride) {
     double force = 0.0;
-    int i;
+    int i, k;
     if (!p->has_backplate) return 0.0;
-    for (i = 0; i < rows; i++) {
-        const double penetration = ux_last_column[i * stride] - p->backplate_gap;
-        if (penetration > 0.0) {
-            const double vx = vx_last_column[i * stride];
-            const double row_force = p->k_wall * penetration + p->c_wall * (vx > 0.0 ? vx : 0.0);
-            force += mirrored && i + 1 < rows ? 2.0 * row_force : row_force;
+    for (k = 0; k < layers; k++) {
+        for (i = 0; i < rows; i++) {
+            const int at = (k * rows + i) * stride;
+            const double penetration = ux_last_column[at] - p->backplate_gap;
+            if (penetration > 0.0) {
+                const double vx = vx_last_column[at];
+                const double mass_force = p->k_wall * penetration + p->c_wall * (vx > 0.0 ? vx : 0.0);
+                force += mirror_count(mirror_y, mirror_z, rows, layers, i, k) * mass_force;
+            }
         }
     }
     return force;
@@ -586,55 +1041,104 @@ static double backplate_force_of_rows(const LatticeParams *p, int rows, int mirr
 
 double lattice_backplate_force_from_column(const LatticeParams *p, const double *ux_last_column,
                                            const double *vx_last_column, int stride) {
-    return backplate_force_of_rows(p, p->rows, 0, ux_last_column, vx_last_column, stride);
+    return backplate_force_of_face(p, p->rows, p->depth, 0, 0, ux_last_column, vx_last_column, stride);
 }
 
 double lattice_backplate_force_mirrored(const LatticeParams *p, const double *ux_last_column,
                                         const double *vx_last_column, int stride) {
-    return backplate_force_of_rows(p, (p->rows + 1) / 2, 1, ux_last_column, vx_last_column, stride);
+    const int rows = lattice_mirror_rows(p), layers = lattice_mirror_layers(p);
+    return backplate_force_of_face(p, rows ? rows : p->rows, layers ? layers : p->depth, rows != 0, layers != 0,
+                                   ux_last_column, vx_last_column, stride);
 }
 
 double lattice_backplate_force(const LatticeParams *p, const double *y) {
-    const int n = p->rows * p->cols;
-    return lattice_backplate_force_from_column(p, y + p->cols - 1, y + 2 * n + p->cols - 1, p->cols);
+    const int n = p->rows * p->cols * p->depth;
+    return lattice_backplate_force_from_column(p, y + p->cols - 1, y + LATTICE_COMPONENTS(p->depth) * n + p->cols - 1,
+                                               p->cols);
 }
 
-/* Potential of one spring: for a non-reciprocal pair, the mean of its two ends' potentials. */
-static double spring_energy(const double *ux, const double *uy, int a, int b, int spring_law, SpringEnds ends) {
+/* Potential of one spring: for a non-reciprocal pair, the mean of its two ends' potentials. uz NULL in a
+ * lattice of one layer. */
+static double spring_energy(const double *ux, const double *uy, const double *uz, int a, int b, int spring_law,
+                            SpringEnds ends) {
     const double rx = ux[b] - ux[a], ry = uy[b] - uy[a];
-    const double distance = sqrt(rx * rx + ry * ry);
+    const double squared = uz ? rx * rx + ry * ry + (uz[b] - uz[a]) * (uz[b] - uz[a]) : rx * rx + ry * ry;
+    const double distance = sqrt(squared);
     return 0.5 * (lattice_spring_potential(spring_law, ends.k_a, ends.alpha_a, distance) +
                   lattice_spring_potential(spring_law, ends.k_b, ends.alpha_b, distance));
 }
 
 void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, double *potential) {
-    const int rows = p->rows, cols = p->cols, n = rows * cols, law = p->spring_law;
-    const double *ux = y, *uy = y + n, *vx = y + 2 * n, *vy = y + 3 * n;
+    const int rows = p->rows, cols = p->cols, layers = p->depth, layer_size = rows * cols, n = layer_size * layers;
+    const int components = LATTICE_COMPONENTS(layers), law = p->spring_law;
+    const double *ux = y, *uy = y + n, *uz = components == 3 ? y + 2 * n : NULL;
+    const double *vx = y + components * n, *vy = vx + n, *vz = components == 3 ? vx + 2 * n : NULL;
     const SpringEnds horizontal = {p->k_horizontal, p->alpha_horizontal, p->k_horizontal, p->alpha_horizontal};
     double speed_squared = 0.0, energy = 0.0;
-    int i, j;
-    for (i = 0; i < n; i++) speed_squared += vx[i] * vx[i] + vy[i] * vy[i];
-    for (i = 0; i < rows; i++) {
-        for (j = 0; j + 1 < cols; j++) energy += spring_energy(ux, uy, i * cols + j, i * cols + j + 1, law, horizontal);
+    int i, j, k;
+    for (i = 0; i < n; i++) {
+        speed_squared += vz ? vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i] : vx[i] * vx[i] + vy[i] * vy[i];
     }
-    for (j = 0; j < cols; j++) {
-        const ColumnConstants *column = &p->column[j];
-        const SpringEnds vertical = {column->k_vertical, column->alpha_vertical, column->k_vertical,
-                                     column->alpha_vertical};
-        for (i = 0; i + 1 < rows; i++) energy += spring_energy(ux, uy, i * cols + j, (i + 1) * cols + j, law, vertical);
+    for (k = 0; k < layers; k++) {
+        for (i = 0; i < rows; i++) {
+            for (j = 0; j + 1 < cols; j++) {
+                const int a = k * layer_size + i * cols + j;
+                energy += spring_energy(ux, uy, uz, a, a + 1, law, horizontal);
+            }
+        }
     }
-    for (j = 0; j + 1 < cols; j++) {
-        const SpringEnds rising = diagonal_ends(p, j), falling = reversed(rising);
-        for (i = 0; i + 1 < rows; i++) {
-            const int a = i * cols + j;
-            energy += spring_energy(ux, uy, a, a + cols + 1, law, rising);
-            energy += spring_energy(ux, uy, a + 1, a + cols, law, falling);
+    for (k = 0; k < layers; k++) {
+        for (j = 0; j < cols; j++) {
+            const ColumnConstants *column = &p->column[j];
+            const SpringEnds vertical = {column->k_vertical, column->alpha_vertical, column->k_vertical,
+                                         column->alpha_vertical};
+            for (i = 0; i + 1 < rows; i++) {
+                const int a = k * layer_size + i * cols + j;
+                energy += spring_energy(ux, uy, uz, a, a + cols, law, vertical);
+            }
+        }
+    }
+    for (k = 0; k < layers; k++) {
+        for (j = 0; j + 1 < cols; j++) {
+            const SpringEnds rising = diagonal_ends(p, j), falling = reversed(rising);
+            for (i = 0; i + 1 < rows; i++) {
+                const int a = k * layer_size + i * cols + j;
+                energy += spring_energy(ux, uy, uz, a, a + cols + 1, law, rising);
+                energy += spring_energy(ux, uy, uz, a + 1, a + cols, law, falling);
+            }
+        }
+    }
+    for (k = 0; k + 1 < layers; k++) { /* between layers k and k+1 (between_layers) */
+        for (j = 0; j < cols; j++) {
+            const ColumnConstants *column = &p->column[j];
+            const SpringEnds depth = {column->k_vertical, column->alpha_vertical, column->k_vertical,
+                                      column->alpha_vertical};
+            const SpringEnds side = {column->k_diagonal, column->alpha_diagonal, column->k_diagonal,
+                                     column->alpha_diagonal};
+            for (i = 0; i < rows; i++) {
+                const int a = k * layer_size + i * cols + j;
+                energy += spring_energy(ux, uy, uz, a, a + layer_size, law, depth);
+                if (i + 1 < rows) {
+                    energy += spring_energy(ux, uy, uz, a, a + layer_size + cols, law, side);
+                    energy += spring_energy(ux, uy, uz, a + cols, a + layer_size, law, side);
+                }
+            }
+        }
+        for (j = 0; j + 1 < cols; j++) {
+            const SpringEnds rising = diagonal_ends(p, j), falling = reversed(rising);
+            for (i = 0; i < rows; i++) {
+                const int a = k * layer_size + i * cols + j;
+                energy += spring_energy(ux, uy, uz, a, a + layer_size + 1, law, rising);
+                energy += spring_energy(ux, uy, uz, a + 1, a + layer_size, law, falling);
+            }
         }
     }
     if (p->has_backplate) {
-        for (i = 0; i < rows; i++) {
-            const double penetration = ux[i * cols + cols - 1] - p->backplate_gap;
-            if (penetration > 0.0) energy += 0.5 * p->k_wall * penetration * penetration;
+        for (k = 0; k < layers; k++) {
+            for (i = 0; i < rows; i++) {
+                const double penetration = ux[k * layer_size + i * cols + cols - 1] - p->backplate_gap;
+                if (penetration > 0.0) energy += 0.5 * p->k_wall * penetration * penetration;
+            }
         }
     }
     *kinetic = 0.5 * p->mass * speed_squared;

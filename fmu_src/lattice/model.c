@@ -228,6 +228,8 @@ static void build_params(const Model *m, LatticeParams *p) {
     memset(p, 0, sizeof(*p));
     p->rows = LATTICE_ROWS;
     p->cols = LATTICE_COLS;
+    p->depth = 1; /* the FMU builds the lattice of one layer, loaded over its whole face */
+    p->load_patch = LATTICE_WHOLE_FACE;
     p->mass = PARAM_MASS(m);
     p->k_horizontal = PARAM_K_HORIZONTAL(m);
     p->alpha_horizontal = PARAM_ALPHA_HORIZONTAL(m);
