@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fmu_src import build as build_fmu
+from builder import build as build_fmu
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 
 SUPPORT_SOURCE = Path(__file__).resolve().parent / "support_fmu" / "support.c"

@@ -1,4 +1,4 @@
-"""The build library (fmu_src.build): it renders, compiles and zips, never simulates; same sources, same GUID."""
+"""The build library (builder.build): it renders, compiles and zips, never simulates; same sources, same GUID."""
 from __future__ import annotations
 
 import zipfile
@@ -9,10 +9,10 @@ import pytest
 from fmpy import read_model_description
 
 import build_fmu
-from fmu_src import build
-from fmu_src import fmi2_description as fmi2
-from fmu_src import fmi3_description as fmi3
-from fmu_src.documentation import documentation_html
+from builder import build
+from builder import fmi2_description as fmi2
+from builder import fmi3_description as fmi3
+from builder.documentation import documentation_html
 from fmu_src.published import PUBLISHED_PEAKS, REFERENCE_POINTS
 from scenes import Scene
 

@@ -26,8 +26,8 @@ import zipfile
 
 import pytest
 
-from fmu_src import build
-from fmu_src.platforms import (ALL_PLATFORMS, PLATFORMS, compiler_for, header_machine,
+from builder import build
+from builder.platforms import (ALL_PLATFORMS, PLATFORMS, compiler_for, header_machine,
                                native_platform, parse_platforms)
 from fmu_src.published import PUBLISHED_PEAKS, SEQUENTIAL_ORDER, STUDY_BEST_ORDER
 from compatibility import compatibility_row

@@ -5,7 +5,7 @@
 
 #include <stddef.h>
 
-#include "../lattice/model.h"
+#include "model.h" /* the model folder's, on the include path */
 
 /* STATE_STEP is FMI 2's step-complete state and FMI 3's step mode; STATE_STEP_STOPPED is FMI 2's step-failed
  * state after the model stopped at peak_force_limit (outputs valid, only terminate, reset or free next)

@@ -1,8 +1,9 @@
 /* FMI 2.0 glue, Co-Simulation and Model Exchange: the FMI state machine, logging and FMU states over the
  * model API.
  *
- * It knows nothing of springs: every model question goes through lattice/model.h, as the Reference FMUs
- * keep one shared FMI layer beside each model's own folder. Model Exchange hands the importer the model's
+ * It knows nothing of springs: every model question goes through the model folder's model.h, found on the
+ * include path (builder/sources.py), as the Reference FMUs keep one shared FMI layer beside each model's own
+ * folder. Model Exchange hands the importer the model's
  * continuous-time contract (states, derivatives, event indicators, event update); Co-Simulation lets the
  * model integrate that same contract itself.
  */
@@ -11,9 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../include/fmi2Functions.h"
-#include "../common/instance.h"
-#include "../lattice/model.h"
+#include "fmi2Functions.h"
+#include "instance.h" /* and through it the model folder's model.h */
 
 #define MESSAGE_SIZE 1024
 #define STATE_MAGIC 0x4d534c32u /* "MSL2": marks a serialised state of this FMU */
@@ -382,7 +382,7 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
     return error((Instance *)c, "fmi2GetStringStatus", "not provided by this FMU");
 }
 
-/* Model Exchange: the importer integrates the model's contract (lattice/model.h). */
+/* Model Exchange: the importer integrates the model's contract (model.h). */
 #define ME_STATES (IN(STATE_EVENT_MODE) | IN(STATE_CONTINUOUS_TIME))
 #define ME_STATES_AND_AFTER (ME_STATES | IN(STATE_TERMINATED))
 

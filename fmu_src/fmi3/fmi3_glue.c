@@ -1,10 +1,10 @@
 /* FMI 3.0 glue, Co-Simulation and Model Exchange: the FMI 3 state machine, logging and FMU states over the model
  * API.
  *
- * Like fmi2/fmi2_glue.c it knows nothing of springs: every model question goes through lattice/model.h
- * (Model Exchange hands the importer the model's continuous-time contract). What FMI 3 adds here:
+ * Like fmi2/fmi2_glue.c it knows nothing of springs: every model question goes through the model folder's
+ * model.h (Model Exchange hands the importer the model's continuous-time contract). What FMI 3 adds here:
  * - every variable is a scalar, and its value reference is the model's plus VR_OFFSET: its 1-based position in
- *   modelDescription.xml (fmu_src/fmi3_description.py), where importers that read `derivative` as an index
+ *   modelDescription.xml (builder/fmi3_description.py), where importers that read `derivative` as an index
  *   look for a state.
  * - the independent variable `time` (FMI 3 requires one): the value reference after the model's variables.
  * - Real is Float64, Integer Int32 and an enumeration Int64; every other FMI 3 type is refused (the FMU has
@@ -15,9 +15,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../include/fmi3Functions.h"
-#include "../common/instance.h"
-#include "../lattice/model.h"
+#include "fmi3Functions.h"
+#include "instance.h" /* and through it the model folder's model.h */
 
 #define MESSAGE_SIZE 1024
 #define STATE_MAGIC 0x4d534c33u /* "MSL3": marks a serialised state of this FMU */
@@ -650,7 +649,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesN
     return fmi3OK;
 }
 
-/* Model Exchange: the importer integrates the model's contract (lattice/model.h). */
+/* Model Exchange: the importer integrates the model's contract (model.h). */
 static fmi3Status model_outcome(Instance *instance, const char *function, int failed, const char *message) {
     return failed ? error(instance, function, message) : fmi3OK;
 }
