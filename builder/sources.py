@@ -50,7 +50,3 @@ class SourceTree:
     def source_names(self) -> list[str]:
         """The sources as the FMU lists them (<SourceFiles>, buildDescription.xml): names in sources/."""
         return [path.name for path in self.sources()]
-
-    def include_dirs(self) -> list[Path]:
-        """What compiling in place needs on the include path (the FMU's flat sources/ needs only itself)."""
-        return [FMU_SOURCE_DIR / "include", FMU_SOURCE_DIR / "common", Path(self.model_dir)]

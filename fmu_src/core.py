@@ -9,8 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from fmu_src.variables import enumeration_values
+
 MAX_COLS = 64  # LATTICE_MAX_COLS
-DIAGONAL_RULES = {"receiver": 0, "mean": 1}
+DIAGONAL_RULES = enumeration_values("diagonal_rule")
 SPRING_LAWS = {"exponential": 0, "linear": 1}
 
 

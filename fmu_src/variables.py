@@ -85,6 +85,20 @@ class Variable:
         return f"a finite number in {left}{low}, {high}{right}" if self.type == REAL else f"an integer in [{low}, {high}]"
 
 
+def enumeration_values(name: str) -> dict[str, int]:
+    """The items of the enumeration parameter `name` by label, with their values ({"receiver": 0, "mean": 1} for
+    diagonal_rule): the one label-to-value inverse of the table's items."""
+    variable = next((v for v in all_variables(1, 1) if v.name == name and v.enumeration), None)
+    if variable is None:
+        raise KeyError(f"{name} is no enumeration parameter of the variable table")
+    return {label: value for value, (label, _) in enumerate(variable.items)}
+
+
+def enumerations() -> list[Variable]:
+    """The enumeration parameters of the table (their items do not depend on the lattice's size)."""
+    return [v for v in all_variables(1, 1) if v.enumeration]
+
+
 def plotted_masses(rows: int, cols: int) -> dict[str, tuple[int, int]]:
     """The masses whose displacements the study plots, as (row, column), 1-based."""
     middle_row, middle_col = (rows + 1) // 2, (cols + 1) // 2

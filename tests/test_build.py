@@ -1,6 +1,7 @@
 """The build library (builder.build): it renders, compiles and zips, never simulates; same sources, same GUID."""
 from __future__ import annotations
 
+import re
 import zipfile
 from dataclasses import replace
 from xml.etree import ElementTree
@@ -126,3 +127,21 @@ def test_a_build_that_warns_is_not_cached_so_its_warning_is_printed_every_time(t
         build.compile_shared_library([tmp_path / "lib.c"], tmp_path / name, [], werror=False)
         assert "unused" in capfd.readouterr().err
     assert not (tmp_path / "cache").exists()
+
+
+def test_the_c_enumerations_are_the_tables_items(fmu_path):
+    """The C constants of each enumeration parameter come from its items in the variable table (generated into the
+    FMU's sources at build time); no C source of the model spells them itself."""
+    from fmu_src.core import DIAGONAL_RULES
+    from fmu_src.variables import enumeration_values, enumerations
+
+    header = _read(fmu_path, f"sources/{build.ENUMERATIONS_HEADER}")
+    assert header == build.generate_enumerations_header()
+    for variable in enumerations():
+        declared = re.search(rf"enum {variable.enumeration} {{(.*?)}};", header, re.S).group(1)
+        constants = dict(re.findall(r"(\w+) = (\d+),", declared))
+        assert constants == {f"{variable.c_name}_{label.upper()}": str(value)
+                             for label, value in enumeration_values(variable.name).items()}
+        for path in build.DEFAULT_MODEL_DIR.glob("*.[ch]"):
+            assert not re.search(rf"\b({'|'.join(constants)})\s*=", path.read_text()), path.name
+    assert DIAGONAL_RULES == {"receiver": 0, "mean": 1} == enumeration_values("diagonal_rule")

@@ -64,7 +64,7 @@ typedef struct {
 
 static SpringEnds spring_ends(int diagonal_rule, double k_a, double alpha_a, double k_b, double alpha_b) {
     SpringEnds ends;
-    if (diagonal_rule == DIAGONAL_MEAN) {
+    if (diagonal_rule == DIAGONAL_RULE_MEAN) {
         ends.k_a = ends.k_b = 0.5 * (k_a + k_b);
         ends.alpha_a = ends.alpha_b = 0.5 * (alpha_a + alpha_b);
     } else {

@@ -14,11 +14,12 @@
 #ifndef LATTICE_H
 #define LATTICE_H
 
+#include "model_enumerations.h" /* enum DiagonalRule, DIAGONAL_RULE_RECEIVER ...: generated from the variable table */
+
 #define LATTICE_MAX_COLS 64
 #define LATTICE_N_QUADRATURES 3
 #define LATTICE_STATE_SIZE(rows, cols) (4 * (rows) * (cols) + LATTICE_N_QUADRATURES)
 
-typedef enum { DIAGONAL_RECEIVER = 0, DIAGONAL_MEAN = 1 } DiagonalRule;
 typedef enum { SPRING_EXPONENTIAL = 0, SPRING_LINEAR = 1 } SpringLaw;
 
 /* Spring constants of one column, resolved from its material (docs/model.md section 2). */
@@ -33,7 +34,7 @@ typedef struct {
     double mass;
     double k_horizontal, alpha_horizontal, c_horizontal; /* left/right neighbours: k0, alpha0, c0 */
     ColumnConstants column[LATTICE_MAX_COLS];
-    int diagonal_rule; /* DiagonalRule */
+    int diagonal_rule; /* enum DiagonalRule */
     int spring_law;    /* SpringLaw */
     double load_total, load_angle_deg, load_duration; /* F_total, theta, t_active */
     int has_backplate;
