@@ -50,7 +50,8 @@ WARNING_FLAGS = ["-Wall", "-Wextra", "-pedantic"]
 # changes a result. Any C99 compiler builds the sources without them (fmpy compile does), only slower.
 OPTIMISATION_FLAGS = ["-O3", "-fno-math-errno", "-fno-trapping-math"]
 __all__ = ["DEFAULT_MODEL_DIR", "MODELS_DIR", "SOURCE_DIR", "build_core_library", "build_fmu", "compile_shared_library",
-           "generate_enumerations_header", "generate_header", "model_guid", "platform_folder", "resolve_scene"]
+           "generate_enumerations_header", "generate_header", "model_guid", "package_fmu", "platform_folder",
+           "resolve_scene", "source_guid"]
 
 
 def platform_folder() -> tuple[str, str]:
@@ -65,16 +66,23 @@ def platform_folder() -> tuple[str, str]:
     raise RuntimeError(f"unsupported platform {system}: build from the FMU's sources with `fmpy compile`")
 
 
-def model_guid(interface: Interface, identifier: str, model_dir: str | os.PathLike = DEFAULT_MODEL_DIR) -> str:
-    """A GUID that changes whenever the variables or the C sources (FMI 2 glue and model folder) change, and
-    only then."""
+def source_guid(tree: SourceTree, identifier: str, *generated: str) -> str:
+    """A GUID of the identifier, the generated texts and the files of `tree` (glue and model folder): it changes
+    whenever any of them does, and only then."""
     digest = hashlib.sha256()
     digest.update(identifier.encode())
-    digest.update(generate_header(interface, "").encode())
-    digest.update(generate_enumerations_header().encode())
-    for path in SourceTree(Path(model_dir), 2).files():
+    for text in generated:
+        digest.update(text.encode())
+    for path in tree.files():
         digest.update(path.read_bytes())
     return "{" + str(uuid.UUID(bytes=digest.digest()[:16], version=5)) + "}"
+
+
+def model_guid(interface: Interface, identifier: str, model_dir: str | os.PathLike = DEFAULT_MODEL_DIR) -> str:
+    """The lattice FMU's GUID: changes whenever the variables or the C sources (FMI 2 glue and model folder)
+    change, and only then."""
+    return source_guid(SourceTree(Path(model_dir), 2), identifier, generate_header(interface, ""),
+                       generate_enumerations_header())
 
 
 def generate_header(interface: Interface, guid: str) -> str:
@@ -300,7 +308,8 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
               platforms: str | None = None, reference_results: bool = True,
               model_dir: str | os.PathLike = DEFAULT_MODEL_DIR) -> Path:
     """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0),
-    from the C model in `model_dir` (its model.h is the glue's model API) and the shared FMI glue;
+    from the C model in `model_dir` (its model.h: the model API of fmu_src/common/model_api.h) and the shared FMI
+    glue;
     `materials` (a MaterialTable or a table file) replaces the scene's material table: the FMU's
     k[1..M], k_diag[1..M], c[1..M], alpha[1..M], alpha_diag[1..M] start with its values. `platforms` ('all'
     or a comma list of builder.platforms.PLATFORMS) says whose binaries the FMU carries; None, this machine's.
@@ -314,37 +323,48 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
     tree = SourceTree(Path(model_dir), fmi_version)
     suffix_fmi = fmi3.OUTPUT_SUFFIX if fmi_version == 3 else ""
     output = Path(output) if output else MODELS_DIR / f"{identifier}{suffix_fmi}.fmu"
-    folder, suffix = platform_folder()
     if fmi_version == 3:
         guid = fmi3.instantiation_token(guid, tree.files())
-        folder, suffix = fmi3.platform_folder()
+        description = fmi3.generate_model_description(interface, identifier, guid, scene)
+    else:
+        description = fmi2.generate_model_description(interface, identifier, guid, scene, tree.source_names())
+    extra = extra_files(identifier) if reference_results and carries_reference_results(scene) else {}
+    extra["documentation/index.html"] = documentation_html(fmi_version, interface, identifier, scene).encode()
+    generated = {"model_variables.h": generate_header(interface, guid),
+                 ENUMERATIONS_HEADER: generate_enumerations_header()}
+    return package_fmu(tree, identifier, description, output, generated=generated, extra_files=extra,
+                       targets=targets, werror=werror)
 
+
+def package_fmu(tree: SourceTree, identifier: str, description: str, output: str | os.PathLike, *,
+                generated: dict[str, str] | None = None, extra_files: dict[str, bytes] | None = None,
+                targets: list[TargetPlatform] | None = None, werror: bool = False) -> Path:
+    """Zips an FMU of the model folder and glue of `tree`: its modelDescription.xml (`description`), its sources
+    flat in sources/ with the `generated` headers beside them (FMI 3: and buildDescription.xml), the
+    `extra_files` (path in the FMU: bytes), and the binary compiled for each of `targets` (None: this
+    machine). Any model folder builds here; build_fmu is the lattice's."""
+    output = Path(output)
+    fmi_version = tree.fmi_version
     with tempfile.TemporaryDirectory(prefix="build_fmu_") as staging_name:
         staging = Path(staging_name)
         sources = staging / "sources"
         sources.mkdir()
         for path in tree.files():
             shutil.copy2(path, sources / path.name)
-        (sources / "model_variables.h").write_text(generate_header(interface, guid))
-        (sources / ENUMERATIONS_HEADER).write_text(generate_enumerations_header())
-        c_sources = [sources / name for name in tree.source_names()]
+        for name, text in (generated or {}).items():
+            (sources / name).write_text(text)
         if fmi_version == 3:
-            description = fmi3.generate_model_description(interface, identifier, guid, scene)
             (sources / "buildDescription.xml").write_text(
                 fmi3.generate_build_description(identifier, tree.source_names()))
-        else:
-            description = fmi2.generate_model_description(interface, identifier, guid, scene, tree.source_names())
         (staging / "modelDescription.xml").write_text(description)
-        if reference_results and carries_reference_results(scene):
-            for name, content in extra_files(identifier).items():
-                (staging / name).parent.mkdir(parents=True, exist_ok=True)
-                (staging / name).write_bytes(content)
-        (staging / "documentation").mkdir()
-        (staging / "documentation" / "index.html").write_text(
-            documentation_html(fmi_version, interface, identifier, scene))
+        for name, content in (extra_files or {}).items():
+            (staging / name).parent.mkdir(parents=True, exist_ok=True)
+            (staging / name).write_bytes(content)
+        c_sources = [sources / name for name in tree.source_names()]
         if targets is None:
-            binary = staging / "binaries" / folder / f"{identifier}{suffix}"
-            compile_shared_library(c_sources, binary, [sources], werror)
+            folder, suffix = fmi3.platform_folder() if fmi_version == 3 else platform_folder()
+            compile_shared_library(c_sources, staging / "binaries" / folder / f"{identifier}{suffix}", [sources],
+                                   werror)
         for target in targets or ():
             binary = staging / "binaries" / target.folder(fmi_version) / f"{identifier}{target.suffix}"
             compile_shared_library(c_sources, binary, [sources], werror, target)

@@ -1,7 +1,8 @@
 """Which C files an FMU is built from: the shared FMI glue of fmu_src/ and one model folder.
 
-A model is a folder (fmu_src/lattice/ by default) whose C sources and headers implement the functions the glue
-calls (its model.h); the glue finds model.h through the include path, as the Reference FMUs' CMake passes it.
+A model is a folder (fmu_src/lattice/ by default, examples/support_fmu/ another) whose C sources implement the
+functions the glue calls (fmu_src/common/model_api.h, included by the folder's model.h); the glue finds model.h
+through the include path, as the Reference FMUs' CMake passes it.
 An FMU carries every file flat in sources/, as the Reference FMUs' do: FMI 2 has no way to name an include
 directory, and fmpy compile passes sources/ alone, so the one folder is the include path everywhere.
 """
@@ -16,7 +17,7 @@ FMU_SOURCE_DIR = Path(fmu_src.__file__).resolve().parent  # the glue and the mod
 DEFAULT_MODEL_DIR = FMU_SOURCE_DIR / "lattice"
 # The glue shared by every model: the instance bookkeeping, then each FMI version's API and its headers.
 COMMON_SOURCES = ("common/instance.c",)
-COMMON_HEADERS = ("common/instance.h", "common/state_masks.h")
+COMMON_HEADERS = ("common/instance.h", "common/model_api.h", "common/state_masks.h")
 GLUE_SOURCES = {2: ("fmi2/fmi2_glue.c",), 3: ("fmi3/fmi3_glue.c",)}
 GLUE_HEADERS = {2: ("include/fmi2Functions.h", "include/fmi2FunctionTypes.h", "include/fmi2TypesPlatform.h"),
                 3: ("include/fmi3Functions.h", "include/fmi3FunctionTypes.h", "include/fmi3PlatformTypes.h")}

@@ -373,7 +373,7 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
     Instance *instance = (Instance *)c;
     if (!instance) return fmi2Error;
     if (s == fmi2Terminated) {
-        *value = model_terminated(instance->common.model) ? fmi2True : fmi2False; /* stopped at peak_force_limit */
+        *value = model_terminated(instance->common.model) ? fmi2True : fmi2False; /* the model stopped the run early */
         return fmi2OK;
     }
     return error(instance, "fmi2GetBooleanStatus", "only fmi2Terminated is provided");
@@ -432,7 +432,7 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStat
     int event;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!CHECK_STATE(fmi2CompletedIntegratorStep)) return fmi2Error;
-    /* a backplate mode that contradicts the state is a switch the importer did not handle: ask for an event */
+    /* a discrete state contradicting the continuous ones: a switch the importer did not handle, ask for an event */
     event = model_completed_point(instance->common.model);
     if (enterEventMode) *enterEventMode = event ? fmi2True : fmi2False;
     if (terminateSimulation) *terminateSimulation = fmi2False;
@@ -457,7 +457,7 @@ fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n
 }
 
 /* An importer that goes on in continuous-time mode after fmi2CompletedIntegratorStep asked for event mode: the
- * model switches the contradicting backplate modes itself and says so (fmi2Warning). 1 when it did. */
+ * model switches the contradicting discrete states itself and says so (fmi2Warning). 1 when it did. */
 static int lost_events_switched(Instance *instance) {
     char message[MESSAGE_SIZE];
     if (!instance_switch_lost_events(&instance->common, message, sizeof(message))) return 0;

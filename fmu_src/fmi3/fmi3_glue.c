@@ -27,7 +27,7 @@ typedef struct {
     fmi3LogMessageCallback logger;
     fmi3InstanceEnvironment environment;
     int logging_on;
-    int early_return_allowed; /* fmi3DoStep may stop before the step's end (at peak_force_limit) */
+    int early_return_allowed; /* fmi3DoStep may stop before the step's end (the model's limit) */
 } Instance;
 
 static void log_message(const Instance *instance, fmi3Status status, const char *category, const char *format,
@@ -669,7 +669,7 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance c, fmi3Boolean noSetFMUState
     int event;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!CHECK_STATE(fmi3CompletedIntegratorStep)) return fmi3Error;
-    /* a backplate mode that contradicts the state is a switch the importer did not handle: ask for an event */
+    /* a discrete state contradicting the continuous ones: a switch the importer did not handle, ask for an event */
     event = model_completed_point(instance->common.model);
     if (enterEventMode) *enterEventMode = event ? fmi3True : fmi3False;
     if (terminateSimulation) *terminateSimulation = fmi3False;
@@ -696,7 +696,7 @@ fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 continuousS
 }
 
 /* An importer that goes on in continuous-time mode after fmi3CompletedIntegratorStep asked for event mode: the
- * model switches the contradicting backplate modes itself and says so (fmi3Warning). 1 when it did. */
+ * model switches the contradicting discrete states itself and says so (fmi3Warning). 1 when it did. */
 static int lost_events_switched(Instance *instance) {
     char message[MESSAGE_SIZE];
     if (!instance_switch_lost_events(&instance->common, message, sizeof(message))) return 0;
@@ -802,7 +802,7 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentCommunicationPoint, fmi
                               sizeof(message));
     if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->common.model);
     if (status == MODEL_LIMIT_REACHED) {
-        /* the model asks to stop at peak_force_limit: an early return when the importer allows one, else the
+        /* the model asks to stop the run early: an early return when the importer allows one, else the
          * step counts as discarded after lastSuccessfulTime; either way terminateSimulation */
         if (terminateSimulation) *terminateSimulation = fmi3True;
         if (instance->early_return_allowed) {

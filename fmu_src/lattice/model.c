@@ -557,7 +557,7 @@ int model_completed_point(Model *m) {
     return m->switch_pending;
 }
 
-int model_switch_lost_events(Model *m) {
+int model_switch_lost_events(Model *m, char *message, size_t message_size) {
     signed char before[LATTICE_ROWS];
     int i, switched = 0;
     if (!m->switch_pending) return 0;
@@ -565,5 +565,12 @@ int model_switch_lost_events(Model *m) {
     switch_wall_modes(m);
     for (i = 0; i < LATTICE_ROWS; i++) switched += before[i] != m->wall_mode[i];
     m->switch_pending = 0;
+    if (switched) {
+        snprintf(message, message_size,
+                 "at t = %.17g s the backplate mode of %d row(s) contradicted the state and the importer went on "
+                 "without the event the completed step asked for: the model switched them itself (located only "
+                 "to the importer's step)",
+                 model_time(m), switched);
+    }
     return switched;
 }
