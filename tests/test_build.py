@@ -129,14 +129,16 @@ def test_a_build_that_warns_is_not_cached_so_its_warning_is_printed_every_time(t
     assert not (tmp_path / "cache").exists()
 
 
-def test_the_c_enumerations_are_the_tables_items(fmu_path):
-    """The C constants of each enumeration parameter come from its items in the variable table (generated into the
-    FMU's sources at build time); no C source of the model spells them itself."""
-    from fmu_src.core import DIAGONAL_RULES
-    from fmu_src.variables import enumeration_values, enumerations
+def test_the_c_enumerations_and_material_fields_are_the_tables(fmu_path):
+    """The C constants of each enumeration parameter come from its items in the variable table, and the C struct
+    of a column's material from the material table's fields (generated into the FMU's sources at build time); no
+    C source of the model spells them itself."""
+    from fmu_src.core import DIAGONAL_RULES, ColumnConstants
+    from fmu_src.materials import FIELD_NAMES
+    from fmu_src.variables import TABLE_PARAMETERS, enumeration_values, enumerations
 
-    header = _read(fmu_path, f"sources/{build.ENUMERATIONS_HEADER}")
-    assert header == build.generate_enumerations_header()
+    header = _read(fmu_path, f"sources/{build.TABLE_HEADER}")
+    assert header == build.generate_table_header()
     for variable in enumerations():
         declared = re.search(rf"enum {variable.enumeration} {{(.*?)}};", header, re.S).group(1)
         constants = dict(re.findall(r"(\w+) = (\d+),", declared))
@@ -145,3 +147,7 @@ def test_the_c_enumerations_are_the_tables_items(fmu_path):
         for path in build.DEFAULT_MODEL_DIR.glob("*.[ch]"):
             assert not re.search(rf"\b({'|'.join(constants)})\s*=", path.read_text()), path.name
     assert DIAGONAL_RULES == {"receiver": 0, "mean": 1} == enumeration_values("diagonal_rule")
+    struct = re.search(r"typedef struct {(.*?)} ColumnConstants;", header, re.S).group(1)
+    assert tuple(re.findall(r"double (\w+);", struct)) == FIELD_NAMES == TABLE_PARAMETERS == tuple(
+        name for name, _ in ColumnConstants._fields_)
+    assert not any("ColumnConstants;" in path.read_text() for path in build.DEFAULT_MODEL_DIR.glob("*.h"))

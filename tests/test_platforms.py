@@ -148,7 +148,7 @@ def test_the_object_cache_keys_on_the_compiler_and_its_target(tmp_path):
         pytest.skip(missing)
     native = native_platform() or "x86_64-linux"
     source = build.DEFAULT_MODEL_DIR / "solver.c"
-    (tmp_path / build.ENUMERATIONS_HEADER).write_text(build.generate_enumerations_header())
+    (tmp_path / build.TABLE_HEADER).write_text(build.generate_table_header())
     flags = ["-std=c99", "-O3", f"-I{build.DEFAULT_MODEL_DIR}", f"-I{tmp_path}"]
     keys = {build.object_key(flags, source, compiler_for(PLATFORMS[name])) for name in (native, "aarch64-linux")}
     assert len(keys) == 2

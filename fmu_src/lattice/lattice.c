@@ -85,8 +85,7 @@ static double row_load_fraction(int rows, int i) {
 /* The two diagonals between columns j and j+1 use these ends: the one in column j, the one in j+1. */
 static SpringEnds diagonal_ends(const LatticeParams *p, int j) {
     const ColumnConstants *left = &p->column[j], *right = &p->column[j + 1];
-    return spring_ends(p->diagonal_rule, left->k_diagonal, left->alpha_diagonal, right->k_diagonal,
-                       right->alpha_diagonal);
+    return spring_ends(p->diagonal_rule, left->k_diag, left->alpha_diag, right->k_diag, right->alpha_diag);
 }
 
 static SpringEnds reversed(SpringEnds ends) {
@@ -222,9 +221,9 @@ static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
     int alphas_differ = 0, j, c;
     for (j = 0; j < cols; j++) {
         const ColumnConstants *column = &p->column[j];
-        w->k_vertical[j] = column->k_vertical;
-        w->c_vertical[j] = column->c_vertical;
-        w->alpha[SLOT(VERTICAL, j)] = column->alpha_vertical;
+        w->k_vertical[j] = column->k;
+        w->c_vertical[j] = column->c;
+        w->alpha[SLOT(VERTICAL, j)] = column->alpha;
         w->carried[0][j] = w->carried[1][j] = 0.0;
         w->dissipated[j] = w->nonreciprocal[j] = 0.0;
     }
@@ -619,8 +618,8 @@ void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, 
     }
     for (j = 0; j < cols; j++) {
         const ColumnConstants *column = &p->column[j];
-        const SpringEnds vertical = {column->k_vertical, column->alpha_vertical, column->k_vertical,
-                                     column->alpha_vertical};
+        const SpringEnds vertical = {column->k, column->alpha, column->k,
+                                     column->alpha};
         for (i = 0; i + 1 < rows; i++) energy += spring_energy(ux, uy, i * cols + j, (i + 1) * cols + j, law, vertical);
     }
     for (j = 0; j + 1 < cols; j++) {

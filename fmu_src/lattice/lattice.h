@@ -14,19 +14,13 @@
 #ifndef LATTICE_H
 #define LATTICE_H
 
-#include "model_enumerations.h" /* enum DiagonalRule, DIAGONAL_RULE_RECEIVER ...: generated from the variable table */
+#include "model_table.h" /* enum DiagonalRule, ColumnConstants ...: generated from the variable and material tables */
 
 #define LATTICE_MAX_COLS 64
 #define LATTICE_N_QUADRATURES 3
 #define LATTICE_STATE_SIZE(rows, cols) (4 * (rows) * (cols) + LATTICE_N_QUADRATURES)
 
 typedef enum { SPRING_EXPONENTIAL = 0, SPRING_LINEAR = 1 } SpringLaw;
-
-/* Spring constants of one column, resolved from its material (docs/model.md section 2). */
-typedef struct {
-    double k_vertical, alpha_vertical, c_vertical; /* up/down neighbours */
-    double k_diagonal, alpha_diagonal;             /* diagonal neighbours (no damping) */
-} ColumnConstants;
 
 /* Flat (no pointers), so a model holding it can be copied with memcpy for FMU states. */
 typedef struct {

@@ -234,11 +234,11 @@ static void build_params(const Model *m, LatticeParams *p) {
     p->c_horizontal = PARAM_C_HORIZONTAL(m);
     for (j = 0; j < LATTICE_COLS; j++) {
         const int material = PARAM_MATERIAL(m, j) - 1;
-        p->column[j].k_vertical = PARAM_K(m, material);
-        p->column[j].alpha_vertical = PARAM_ALPHA(m, material);
-        p->column[j].c_vertical = PARAM_C(m, material);
-        p->column[j].k_diagonal = PARAM_K_DIAG(m, material);
-        p->column[j].alpha_diagonal = PARAM_ALPHA_DIAG(m, material);
+        p->column[j].k = PARAM_K(m, material);
+        p->column[j].alpha = PARAM_ALPHA(m, material);
+        p->column[j].c = PARAM_C(m, material);
+        p->column[j].k_diag = PARAM_K_DIAG(m, material);
+        p->column[j].alpha_diag = PARAM_ALPHA_DIAG(m, material);
     }
     p->diagonal_rule = PARAM_DIAGONAL_RULE(m);
     p->spring_law = PARAM_SPRING_LAW(m);

@@ -19,7 +19,7 @@
 
 #include <stddef.h>
 
-#include "model_enumerations.h" /* enum Solver, SOLVER_DOP853 ...: generated from the variable table */
+#include "model_table.h" /* enum Solver, SOLVER_DOP853 ...: generated from the variable table */
 
 /* 1 for the methods with error control (their steps adapt, an event may cut one back to any length). */
 int solver_is_adaptive(int method);
