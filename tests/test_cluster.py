@@ -99,9 +99,11 @@ def test_the_readme_dask_recipe_needs_no_shared_folder(fmu5, tmp_path):
     worker_env = {**env, "PYTHONPATH": str(code)}
     worker_argv = worker_command.replace("tcp://HOST:8786", address).split()
     if can_hide_folders():  # the client's folder and the repository are empty folders for the worker
+        # ... unless the Python environment lives in the repository (a .venv there): the worker needs it
+        hidden = [client] + ([] if Path(sys.prefix).resolve().is_relative_to(ROOT) else [ROOT])
         worker_argv = ["unshare", "--mount", "--propagation", "private", "sh", "-c",
-                       'mount -t tmpfs tmpfs "$1" && mount -t tmpfs tmpfs "$2" && shift 2 && exec "$@"', "sh",
-                       str(client), str(ROOT)] + worker_argv
+                       'n=$1; shift; while [ "$n" -gt 0 ]; do mount -t tmpfs tmpfs "$1" || exit 1; shift; '
+                       'n=$((n - 1)); done; exec "$@"', "sh", str(len(hidden)), *map(str, hidden)] + worker_argv
     worker_log = (worker_home / "worker.log").open("w")
     worker = subprocess.Popen(worker_argv, cwd=worker_home, env=worker_env, stdout=worker_log,
                               stderr=subprocess.STDOUT)
