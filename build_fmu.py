@@ -1,4 +1,5 @@
-"""Build the mass-spring lattice FMU from fmu_src/: generate, compile, zip (the command line of fmu_src.build).
+"""Build the mass-spring lattice FMU from fmu_src/ with builder/: generate, compile, zip (the command line of
+builder.build).
 
     python build_fmu.py                      # models/MassSpringLattice.fmu, the 11 x 11 armour scene
     python build_fmu.py --scene free_5x5     # a scene from scenes/ (or a path to a scene file)
@@ -10,14 +11,14 @@
 
 The scenes are the library module `scenes` (scenes/__init__.py and the JSON files beside it); FMUs are
 written to models/ under the current folder unless -o says otherwise. Code that builds FMUs imports
-`fmu_src.build` (build_fmu, build_core_library, ...); this script only parses and calls it.
+`builder.build` (build_fmu, build_core_library, ...); this script only parses and calls it.
 """
 from __future__ import annotations
 
 import argparse
 import sys
 
-from fmu_src.build import (MODELS_DIR, SOURCE_DIR, build_core_library, build_fmu, compile_shared_library,
+from builder.build import (MODELS_DIR, SOURCE_DIR, build_core_library, build_fmu, compile_shared_library,
                            model_guid, platform_folder)
 from scenes import DEFAULT_SCENE, SCENE_DIR, Scene
 
@@ -51,14 +52,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--reference", action="store_true",
                         help="build the reference FMU instead (pythonfmu over the numpy/scipy model of reference/): "
                              "models/MassSpringLatticeReference.fmu, or -o")
-    parser.add_argument("--cross-check", metavar="DIR", help="write the FMI Cross-Check folder into DIR (fmu_src/"
+    parser.add_argument("--cross-check", metavar="DIR", help="write the FMI Cross-Check folder into DIR (builder/"
                         "cross_check.py: three scenes, FMI 2.0 and 3.0, cs and me, references, FMPy's results)")
     args = parser.parse_args(argv)
     if args.cross_check:
         if (args.output or args.rows or args.cols or args.materials or args.reference or args.scene != DEFAULT_SCENE
                 or args.fmi_version != 2 or args.platforms):
             parser.error("--cross-check builds its own scenes and versions: give it with --werror only")
-        from fmu_src.cross_check import main as cross_check
+        from builder.cross_check import main as cross_check
         return cross_check(args.cross_check, werror=args.werror)
     if args.reference:
         from reference.fmu import build_reference_fmu

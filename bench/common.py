@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
-from fmu_src.build import build_fmu
+from builder.build import build_fmu
 from fmu_src.published import SEQUENTIAL_ORDER, STUDY_BEST_ORDER
 from orchestrator.design import DesignSpace
 from orchestrator.known_optima import known_optima

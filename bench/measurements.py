@@ -205,7 +205,7 @@ def git_output(*arguments: str) -> str | None:
     return done.stdout.strip() if done.returncode == 0 else None
 
 
-MEASURED_CODE = ("bench", "fmu_src", "orchestrator", "reference", "scenes", "build_fmu.py", "pyproject.toml")
+MEASURED_CODE = ("bench", "builder", "fmu_src", "orchestrator", "reference", "scenes", "build_fmu.py", "pyproject.toml")
 
 
 def _dirty() -> bool:

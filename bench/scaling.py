@@ -4,7 +4,7 @@
     python -m bench.scaling --quick    # about 2.5 min: 5 lattices; 1 and 2 workers
 
 Why: a user's lattice is not the study's, and a user's machine has more cores. Lattice size: for square
-lattices R x R and for 11 rows by C columns the FMU is built (``fmu_src.build.build_fmu``, the study's material
+lattices R x R and for 11 rows by C columns the FMU is built (``builder.build.build_fmu``, the study's material
 law with C materials) and timed through fmpy (``orchestrator.simulation.LatticeFMU``) on the search evaluation
 (the searches' solver, tolerance and horizon) and on the 8 s scene at the FMU's default, for the sequential
 order and random ones: CPU time per evaluation (the fastest of the interleaved rounds), right-hand sides (the
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fmu_src.build import build_fmu
+from builder.build import build_fmu
 from orchestrator.design import DesignSpace
 from orchestrator.executors import make_executor
 from orchestrator.loop import Evaluator

@@ -5,9 +5,10 @@
 
 Two FMUs, one master:
 - models/MassSpringLattice.fmu (built here if missing): its output `backplate_force`;
-- BackplateSupport.fmu, a tiny C FMU built here from examples/support_fmu/support.c: a mass m on a spring k
-  and a damper c to the ground, pushed by its input F; outputs x, v and F_support = k x + c v, the force
-  passed on to what is behind the plate.
+- BackplateSupport.fmu, a tiny C FMU built here from the model folder examples/support_fmu/ (model.h, model.c)
+  and the FMI glue the lattice shares (builder.build.package_fmu): a mass m on a spring k and a damper c to
+  the ground, pushed by its input F; outputs x, v and F_support = k x + c v, the force passed on to what is
+  behind the plate.
 libcosim (the Python package libcosimpy, an FMI 2.0 co-simulation master we did not write) connects
 backplate_force -> F and steps both every 0.01 s; each step the support sees the force of the previous
 communication point held constant, as any fixed-step master gives it. The coupling is one way: the lattice's
@@ -18,22 +19,21 @@ Writes a PNG (force on the plate, force passed on, displacement of the support) 
 from __future__ import annotations
 
 import argparse
-import shutil
 import sys
 import tempfile
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from fmu_src import build as build_fmu
+from builder import build as build_fmu
+from builder.sources import SourceTree
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 
-SUPPORT_SOURCE = Path(__file__).resolve().parent / "support_fmu" / "support.c"
-SUPPORT_GUID = "{b0d1e5a4-5c1b-4d7e-9f00-5a11e5ba0001}"  # the same literal as in support.c
+SUPPORT_MODEL_DIR = Path(__file__).resolve().parent / "support_fmu"  # a model folder of the shared FMI glue
+SUPPORT_IDENTIFIER = "BackplateSupport"
 NANOSECONDS = 1_000_000_000
-# name: (value reference, causality, start); the value references are support.c's enum
+# name: (value reference, causality, start); the value references are model.h's enum
 SUPPORT_VARIABLES = {
     "m": (0, "parameter", 20.0, "kg", "Mass of the support"),
     "k": (1, "parameter", 2.0e4, "N/m", "Stiffness of the mounting"),
@@ -46,7 +46,7 @@ SUPPORT_VARIABLES = {
 }
 
 
-def support_model_description() -> str:
+def support_model_description(guid: str, sources: list[str]) -> str:
     rows, outputs = [], []
     for index, (name, (vr, causality, start, unit, description)) in enumerate(SUPPORT_VARIABLES.items(), 1):
         if causality == "parameter":
@@ -61,12 +61,12 @@ def support_model_description() -> str:
     units = "\n".join(f'    <Unit name="{u}"/>' for u in sorted({v[3] for v in SUPPORT_VARIABLES.values()}))
     unknowns = "\n".join(f'      <Unknown index="{i}"/>' for i in outputs)
     return f"""<?xml version="1.0" encoding="UTF-8"?>
-<fmiModelDescription fmiVersion="2.0" modelName="BackplateSupport" guid="{SUPPORT_GUID}"
+<fmiModelDescription fmiVersion="2.0" modelName="{SUPPORT_IDENTIFIER}" guid="{guid}"
   description="A mass on a spring and a damper, pushed by the lattice's backplate force"
   generationTool="examples/backplate_support.py" numberOfEventIndicators="0">
-  <CoSimulation modelIdentifier="BackplateSupport" canHandleVariableCommunicationStepSize="true">
+  <CoSimulation modelIdentifier="{SUPPORT_IDENTIFIER}" canHandleVariableCommunicationStepSize="true">
     <SourceFiles>
-      <File name="support.c"/>
+{chr(10).join(f'      <File name="{name}"/>' for name in sources)}
     </SourceFiles>
   </CoSimulation>
   <UnitDefinitions>
@@ -89,25 +89,13 @@ def support_model_description() -> str:
 
 
 def build_support_fmu(output: str | Path) -> Path:
-    """Compiles support.c and zips BackplateSupport.fmu (binary and source)."""
-    output = Path(output)
-    folder, suffix = build_fmu.platform_folder()
-    with tempfile.TemporaryDirectory(prefix="support_fmu_") as staging_name:
-        staging = Path(staging_name)
-        sources = staging / "sources"
-        sources.mkdir()
-        shutil.copy2(SUPPORT_SOURCE, sources / "support.c")
-        for header in ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"):
-            shutil.copy2(build_fmu.SOURCE_DIR / "include" / header, sources / header)
-        (staging / "modelDescription.xml").write_text(support_model_description())
-        build_fmu.compile_shared_library([sources / "support.c"], staging / "binaries" / folder /
-                                         f"BackplateSupport{suffix}", [sources], werror=True)
-        output.parent.mkdir(parents=True, exist_ok=True)
-        with zipfile.ZipFile(output, "w", zipfile.ZIP_DEFLATED) as archive:
-            for path in sorted(staging.rglob("*")):
-                if path.is_file():
-                    archive.write(path, path.relative_to(staging).as_posix())
-    return output
+    """Builds BackplateSupport.fmu (binary and sources) from its model folder and the shared FMI 2 glue."""
+    tree = SourceTree(SUPPORT_MODEL_DIR, fmi_version=2)
+    guid = build_fmu.source_guid(tree, SUPPORT_IDENTIFIER, support_model_description("", tree.source_names()))
+    generated = {"model_guid.h": f'/* Generated by examples/backplate_support.py: do not edit. */\n'
+                                 f'#define MODEL_GUID "{guid}"\n'}
+    return build_fmu.package_fmu(tree, SUPPORT_IDENTIFIER, support_model_description(guid, tree.source_names()),
+                                 output, generated=generated, werror=True)
 
 
 @dataclass

@@ -1,7 +1,3 @@
-"""The FMU's C sources shared by every FMI version's glue: the model (lattice/) and the instance (common/)."""
-
-MODEL_SOURCES = ["common/instance.c", "lattice/lattice.c", "lattice/solver.c", "lattice/model.c",
-                 "lattice/cosimulation.c"]
-MODEL_HEADERS = ["common/instance.h", "lattice/lattice.h", "lattice/solver.h", "lattice/model.h",
-                 "lattice/contract.h", "lattice/cosimulation.h",
-                 "lattice/compiler.h", "lattice/dop853_coefficients.h"]
+"""The model: its C sources (lattice/), the FMI glue every model folder shares (common/, fmi2/, fmi3/, include/),
+and what describes it in Python (variables.py, materials.py, published.py, the core's ctypes binding core.py).
+builder/ compiles them into an FMU."""

@@ -9,16 +9,18 @@ from pathlib import Path
 
 import numpy as np
 
+from fmu_src.materials import FIELD_NAMES
+from fmu_src.variables import enumeration_values
+
 MAX_COLS = 64  # LATTICE_MAX_COLS
 WHOLE_FACE = 0  # LATTICE_WHOLE_FACE: load_patch of a load over the whole face
-DIAGONAL_RULES = {"receiver": 0, "mean": 1}
+DIAGONAL_RULES = enumeration_values("diagonal_rule")
 SPRING_LAWS = {"exponential": 0, "linear": 1}
 
 
 class ColumnConstants(ctypes.Structure):
-    _fields_ = [("k_vertical", ctypes.c_double), ("alpha_vertical", ctypes.c_double),
-                ("c_vertical", ctypes.c_double), ("k_diagonal", ctypes.c_double),
-                ("alpha_diagonal", ctypes.c_double)]
+    """One material's fields, as the generated C struct lays them out (builder/build.py, model_table.h)."""
+    _fields_ = [(name, ctypes.c_double) for name in FIELD_NAMES]
 
 
 class LatticeParams(ctypes.Structure):
@@ -61,7 +63,7 @@ def _params(scene, has_backplate: bool, depth: int, load_patch: int) -> LatticeP
     p.k_horizontal, p.alpha_horizontal, p.c_horizontal = scene.k0, scene.alpha0, scene.c0
     for j, material in enumerate(scene.order):
         m = material - 1
-        p.column[j] = ColumnConstants(scene.k[m], scene.alpha[m], scene.c[m], scene.k_diag[m], scene.alpha_diag[m])
+        p.column[j] = ColumnConstants(**{name: getattr(scene, name)[m] for name in FIELD_NAMES})
     p.diagonal_rule = DIAGONAL_RULES[scene.diagonal_rule]
     p.spring_law = SPRING_LAWS[scene.spring_law]
     p.load_total, p.load_angle_deg, p.load_duration = scene.F_total, scene.load_angle, scene.t_active

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from fmu_src.materials import FIELDS as MATERIAL_FIELDS
 from fmu_src.materials import STUDY_MATERIAL_COUNT, MaterialTable, study_materials
 
 REAL = "Real"
@@ -85,6 +86,20 @@ class Variable:
         return f"a finite number in {left}{low}, {high}{right}" if self.type == REAL else f"an integer in [{low}, {high}]"
 
 
+def enumeration_values(name: str) -> dict[str, int]:
+    """The items of the enumeration parameter `name` by label, with their values ({"receiver": 0, "mean": 1} for
+    diagonal_rule): the one label-to-value inverse of the table's items."""
+    variable = next((v for v in all_variables(1, 1) if v.name == name and v.enumeration), None)
+    if variable is None:
+        raise KeyError(f"{name} is no enumeration parameter of the variable table")
+    return {label: value for value, (label, _) in enumerate(variable.items)}
+
+
+def enumerations() -> list[Variable]:
+    """The enumeration parameters of the table (their items do not depend on the lattice's size)."""
+    return [v for v in all_variables(1, 1) if v.enumeration]
+
+
 def plotted_masses(rows: int, cols: int) -> dict[str, tuple[int, int]]:
     """The masses whose displacements the study plots, as (row, column), 1-based."""
     middle_row, middle_col = (rows + 1) // 2, (cols + 1) // 2
@@ -120,16 +135,10 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None) 
                  "design space), 1 = any material in any number of columns",
                  start=0 if count >= cols else 1, minimum=0, maximum=1,
                  allowed="0 (each material at most once) or 1 (any)"),
-        Variable("k", REAL, "parameter", "Vertical spring constant of each material", start=values["k"], unit="N",
-                 minimum=0.0, size=count),
-        Variable("k_diag", REAL, "parameter", "Diagonal spring constant of each material", start=values["k_diag"],
-                 unit="N", minimum=0.0, size=count),
-        Variable("c", REAL, "parameter", "Vertical damping of each material", start=values["c"], unit="N.s/m",
-                 minimum=0.0, size=count),
-        Variable("alpha", REAL, "parameter", "Vertical spring exponent of each material", start=values["alpha"],
-                 unit="1/m", minimum=0.0, minimum_exclusive=True, size=count),
-        Variable("alpha_diag", REAL, "parameter", "Diagonal spring exponent of each material",
-                 start=values["alpha_diag"], unit="1/m", minimum=0.0, minimum_exclusive=True, size=count),
+        # the material table's columns, one array each (fmu_src/materials.py spells them)
+        *(Variable(column.name, REAL, "parameter", f"{column.description.capitalize()} of each material",
+                   start=values[column.name], unit=column.unit, minimum=0.0, minimum_exclusive=column.positive,
+                   size=count) for column in MATERIAL_FIELDS),
         Variable("k_horizontal", REAL, "parameter", "Horizontal spring constant k0", start=100.0, unit="N",
                  minimum=0.0),
         Variable("alpha_horizontal", REAL, "parameter", "Horizontal spring exponent alpha0", start=10.0,
@@ -301,7 +310,7 @@ class Interface:
         return sum(v.count for v in self.exposed if v.role == INDICATOR)
 
 
-TABLE_PARAMETERS = ("k", "k_diag", "c", "alpha", "alpha_diag")  # the material table's columns
+TABLE_PARAMETERS = tuple(column.name for column in MATERIAL_FIELDS)  # the material table's columns
 
 
 def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden: tuple[str, ...] = (),

@@ -175,7 +175,7 @@ def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
         except FMUError as exc:
             raise FMUError(f"--fmu {fmu}: {exc}") from None
         return prepared
-    from fmu_src import build
+    from builder import build
 
     path = build.MODELS_DIR / f"{scene.model_identifier}.fmu"
     expected = build.model_guid(scene.interface(), scene.model_identifier)
@@ -203,13 +203,13 @@ PREBUILT_DIR = Path(__file__).resolve().parent / "prebuilt"  # filled by setup.p
 
 def compiler_found() -> bool:
     """Whether the C compiler the build would call (``$CC``, else ``cc``) is there to call."""
-    from fmu_src import build
+    from builder import build
 
     return shutil.which(build.compiler_command()[0]) is not None
 
 
 def compiler_hint() -> str:
-    """What to install on this platform so that ``fmu_src.build`` finds a C compiler (gcc-style flags)."""
+    """What to install on this platform so that ``builder.build`` finds a C compiler (gcc-style flags)."""
     system = platform.system()
     if system == "Windows":
         return "install MinGW-w64 gcc (for example MSYS2's mingw-w64-ucrt-x86_64-gcc) and set CC=gcc"
@@ -221,7 +221,7 @@ def compiler_hint() -> str:
 def _build_or_copy_prebuilt(scene, path: Path, expected: str, reason: str, foreign: str | None = None) -> None:
     """Builds the scene's FMU at ``path``; without a compiler, copies the wheel's prebuilt FMU of this scene
     there, or refuses in one line. ``foreign``: why the FMU at ``path`` could not be instantiated."""
-    from fmu_src import build
+    from builder import build
 
     if compiler_found():
         print(reason, file=sys.stderr)

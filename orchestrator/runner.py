@@ -88,7 +88,7 @@ def resolve_scene(case: CaseConfig, materials):
     scene = Scene.load(case.scene)
     check_table_size(case, scene, materials)
     if case.cols is not None or materials is not None:
-        from fmu_src import build
+        from builder import build
 
         scene = build.resolve_scene(scene, cols=case.cols, materials=materials)
     return scene

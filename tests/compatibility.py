@@ -23,7 +23,7 @@ import pytest
 
 from bench.compatibility import RESULTS, CompatibilityRow, Result, write_row
 from bench.measurements import git_output
-from fmu_src.fmi3_description import platform_folder
+from builder.fmi3_description import platform_folder
 from fmu_src.published import PUBLISHED_PEAKS
 
 RECORD_OPTION = "--record-compatibility"

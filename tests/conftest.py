@@ -7,7 +7,7 @@ project's retention policy "none", is one numbered folder per session under a fo
 user shares, and a session that ends removes every numbered folder it finds there, a running session's included:
 two test runs side by side would delete each other's FMUs.
 
-The session compiles each distinct set of C sources once (fmu_src.build's LATTICE_BUILD_CACHE, a temporary
+The session compiles each distinct set of C sources once (builder.build's LATTICE_BUILD_CACHE, a temporary
 folder removed when the session ends, inherited by the command lines the tests start): the many FMUs the tests
 build alike differ only in their paths, and every build still generates, zips and checks its own FMU.
 """
@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from compatibility import add_option, check_recording
-from fmu_src import build as build_fmu
+from builder import build as build_fmu
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -172,7 +172,7 @@ def record(fmu_path) -> dict:
 def main() -> int:
     import tempfile
 
-    from fmu_src.build import build_fmu
+    from builder.build import build_fmu
 
     with tempfile.TemporaryDirectory(prefix="record_outputs_") as folder:
         data = record(build_fmu(output=Path(folder) / "MassSpringLattice.fmu"))

@@ -1,6 +1,7 @@
-"""The build library (fmu_src.build): it renders, compiles and zips, never simulates; same sources, same GUID."""
+"""The build library (builder.build): it renders, compiles and zips, never simulates; same sources, same GUID."""
 from __future__ import annotations
 
+import re
 import zipfile
 from dataclasses import replace
 from xml.etree import ElementTree
@@ -9,10 +10,10 @@ import pytest
 from fmpy import read_model_description
 
 import build_fmu
-from fmu_src import build
-from fmu_src import fmi2_description as fmi2
-from fmu_src import fmi3_description as fmi3
-from fmu_src.documentation import documentation_html
+from builder import build
+from builder import fmi2_description as fmi2
+from builder import fmi3_description as fmi3
+from builder.documentation import documentation_html
 from fmu_src.published import PUBLISHED_PEAKS, REFERENCE_POINTS
 from scenes import Scene
 
@@ -126,3 +127,27 @@ def test_a_build_that_warns_is_not_cached_so_its_warning_is_printed_every_time(t
         build.compile_shared_library([tmp_path / "lib.c"], tmp_path / name, [], werror=False)
         assert "unused" in capfd.readouterr().err
     assert not (tmp_path / "cache").exists()
+
+
+def test_the_c_enumerations_and_material_fields_are_the_tables(fmu_path):
+    """The C constants of each enumeration parameter come from its items in the variable table, and the C struct
+    of a column's material from the material table's fields (generated into the FMU's sources at build time); no
+    C source of the model spells them itself."""
+    from fmu_src.core import DIAGONAL_RULES, ColumnConstants
+    from fmu_src.materials import FIELD_NAMES
+    from fmu_src.variables import TABLE_PARAMETERS, enumeration_values, enumerations
+
+    header = _read(fmu_path, f"sources/{build.TABLE_HEADER}")
+    assert header == build.generate_table_header()
+    for variable in enumerations():
+        declared = re.search(rf"enum {variable.enumeration} {{(.*?)}};", header, re.S).group(1)
+        constants = dict(re.findall(r"(\w+) = (\d+),", declared))
+        assert constants == {f"{variable.c_name}_{label.upper()}": str(value)
+                             for label, value in enumeration_values(variable.name).items()}
+        for path in build.DEFAULT_MODEL_DIR.glob("*.[ch]"):
+            assert not re.search(rf"\b({'|'.join(constants)})\s*=", path.read_text()), path.name
+    assert DIAGONAL_RULES == {"receiver": 0, "mean": 1} == enumeration_values("diagonal_rule")
+    struct = re.search(r"typedef struct {(.*?)} ColumnConstants;", header, re.S).group(1)
+    assert tuple(re.findall(r"double (\w+);", struct)) == FIELD_NAMES == TABLE_PARAMETERS == tuple(
+        name for name, _ in ColumnConstants._fields_)
+    assert not any("ColumnConstants;" in path.read_text() for path in build.DEFAULT_MODEL_DIR.glob("*.h"))

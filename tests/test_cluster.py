@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from fmu_src.build import build_fmu
+from builder.build import build_fmu
 from orchestrator.dask_plugin import ShipFMU
 from orchestrator.exhaustive import ChunkResult
 from orchestrator.loop import failures_of
@@ -102,7 +102,7 @@ def test_the_readme_dask_recipe_needs_no_shared_folder(fmu5, tmp_path):
     worker_home = tmp_path / "worker"
     (worker_home / "tmp").mkdir(parents=True)
     code = worker_home / "installed"  # the project as installed on another machine: its own copy of the code
-    for package in ("orchestrator", "fmu_src", "scenes"):
+    for package in ("orchestrator", "fmu_src", "builder", "scenes"):
         shutil.copytree(ROOT / package, code / package, ignore=shutil.ignore_patterns("__pycache__"))
     env = {**os.environ, "TMPDIR": str(worker_home / "tmp")}
     scheduler, address = start_scheduler(scheduler_command, tmp_path, env)

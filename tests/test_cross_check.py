@@ -1,4 +1,4 @@
-"""The FMI Cross-Check folder (fmu_src/cross_check.py) passes FMPy's validator of vendor repositories.
+"""The FMI Cross-Check folder (builder/cross_check.py) passes FMPy's validator of vendor repositories.
 
 The fast tests write the armour's folders from the session's FMUs (FMI 2.0 and 3.0, cs and me); the slow one
 runs `python build_fmu.py --cross-check DIR` as a user does: every scene built, imported and validated.
@@ -18,9 +18,9 @@ from fmpy.cross_check.validate_vendor_repo import validate_cross_check_result, v
 
 import build_fmu
 from conftest import ROOT
-from fmu_src import cross_check
-from fmu_src.build import platform_folder
-from fmu_src.cross_check import CROSS_CHECK_SCENES, EXTRA, MAX_SIGNALS, write_cross_check
+from builder import cross_check
+from builder.build import platform_folder
+from builder.cross_check import CROSS_CHECK_SCENES, EXTRA, MAX_SIGNALS, write_cross_check
 
 ARMOUR = CROSS_CHECK_SCENES[0]
 # fmpy.cross_check imports scipy.ndimage.filters, which SciPy deprecates

@@ -56,3 +56,41 @@ def test_example_writes_the_picture(fmu_path, tmp_path, capsys):
                                    "-o", str(picture)]) == 0
     assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and picture.stat().st_size > 20_000
     assert "peak force on the backplate" in capsys.readouterr().out
+
+
+def test_the_support_is_a_model_folder_of_the_shared_glue(support_fmu):
+    """examples/support_fmu/ holds the model alone (the model API of fmu_src/common/model_api.h); the FMI glue in
+    the FMU is the lattice's own, file for file."""
+    import zipfile
+
+    from builder.sources import SourceTree
+
+    assert sorted(p.name for p in backplate_support.SUPPORT_MODEL_DIR.iterdir()) == ["model.c", "model.h"]
+    with zipfile.ZipFile(support_fmu) as archive:
+        for path in SourceTree(fmi_version=2).files():
+            if path.parent.name != "lattice":
+                assert archive.read(f"sources/{path.name}") == path.read_bytes(), path.name
+
+
+def test_the_support_refuses_a_parameter_after_initialisation(support_fmu, tmp_path):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import FMU2Slave
+
+    description = read_model_description(str(support_fmu))
+    references = {v.name: v.valueReference for v in description.modelVariables}
+    messages = []
+    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(support_fmu), str(tmp_path / "unzipped")),
+                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName="support",
+                      fmiCallLogger=None)
+    slave.instantiate(loggingOn=True, callbacks=None)
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    slave.setReal([references["F"]], [100.0])  # the input: any time
+    slave.doStep(0.0, 0.01)
+    assert slave.getReal([references["x"]])[0] > 0.0
+    with pytest.raises(FMICallException):
+        slave.setReal([references["k"]], [1.0])
+    slave.terminate()
+    slave.freeInstance()

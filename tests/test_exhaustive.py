@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from fmu_src.build import build_fmu
+from builder.build import build_fmu
 from orchestrator import run as cli
 from orchestrator.design import DesignSpace
 from orchestrator.exhaustive import ScreenChunk, chunk_ranges, coverage, evaluate_chunk, screening_threshold

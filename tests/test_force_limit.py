@@ -10,7 +10,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2Discard, fmi2LastSuccessfulTime, fmi2Terminated
 from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback
 
-from fmu_src import build as build_library
+from builder import build as build_library
 from scenes import Scene
 from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL, STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import LatticeFMU, SimulationError

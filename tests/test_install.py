@@ -59,8 +59,8 @@ def test_console_scripts_answer_help_from_anywhere(installed, tmp_path):
 
 
 def test_the_installed_modules_are_the_installed_copies(installed, tmp_path):
-    result = run([installed / "python", "-c", "import build_fmu, orchestrator, scenes, fmu_src, reference; "
-                  "print('\\n'.join(m.__file__ for m in (build_fmu, orchestrator, scenes, fmu_src, reference)))"],
+    modules = "build_fmu, orchestrator, scenes, fmu_src, builder, reference"
+    result = run([installed / "python", "-c", f"import {modules}; print('\\n'.join(m.__file__ for m in ({modules})))"],
                  tmp_path)
     assert result.returncode == 0, result.stderr
     for path in result.stdout.split():
@@ -75,7 +75,7 @@ def test_installed_lattice_build_writes_the_fmu_to_models_under_the_current_fold
     fmu = tmp_path / "models" / "TwoMassesLinear.fmu"
     assert result.stdout.strip() == str(Path("models") / "TwoMassesLinear.fmu") and fmu.is_file()
     with zipfile.ZipFile(fmu) as archive:
-        assert "sources/lattice/model.c" in archive.namelist()
+        assert "sources/model.c" in archive.namelist()
     result = run([installed / "lattice-search", "--method", "sequential", "--budget", "1", "--repeats", "1",
                   "--executor", "serial", "--no-progress", "--no-local-check", "--out", "report"], tmp_path)
     assert result.returncode == 0, result.stderr

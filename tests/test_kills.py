@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from fmu_src.build import build_fmu
+from builder.build import build_fmu
 
 ROOT = Path(__file__).resolve().parents[1]
 KILLS = 10

@@ -9,7 +9,7 @@ from fmpy import read_model_description, simulate_fmu
 
 import build_fmu
 import reference
-from fmu_src import build
+from builder import build
 from fmu_src.materials import Material, MaterialTable, write_materials_csv
 from fmu_src.published import PUBLISHED_PEAKS, STUDY_BEST_ORDER
 from orchestrator.simulation import LatticeFMU, SimulationError
@@ -134,7 +134,7 @@ def test_a_scene_carries_its_table_as_rows_or_as_a_file(tmp_path):
 def test_a_lattice_wider_than_the_study_table_invents_no_material(tmp_path):
     """The armour scene over 12 columns keeps the study's eleven materials (the FMU may repeat them); the study's
     formula is never extrapolated to a twelfth, and the orchestrator refuses 12 columns without --repeat."""
-    from fmu_src.build import resolve_scene
+    from builder.build import resolve_scene
     from fmu_src.materials import STUDY_MATERIAL_COUNT, study_materials
     from orchestrator.runner import check_table_size
     from orchestrator.study import CaseConfig

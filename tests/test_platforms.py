@@ -26,8 +26,8 @@ import zipfile
 
 import pytest
 
-from fmu_src import build
-from fmu_src.platforms import (ALL_PLATFORMS, PLATFORMS, compiler_for, header_machine,
+from builder import build
+from builder.platforms import (ALL_PLATFORMS, PLATFORMS, compiler_for, header_machine,
                                native_platform, parse_platforms)
 from fmu_src.published import PUBLISHED_PEAKS, SEQUENTIAL_ORDER, STUDY_BEST_ORDER
 from compatibility import compatibility_row
@@ -141,14 +141,15 @@ def test_a_missing_cross_compiler_is_refused_naming_its_package(monkeypatch, tmp
     assert "use --fmi-version 3" in capsys.readouterr().err
 
 
-def test_the_object_cache_keys_on_the_compiler_and_its_target():
+def test_the_object_cache_keys_on_the_compiler_and_its_target(tmp_path):
     """An object compiled by the cross compiler is never taken for the native one's (same flags, same source)."""
     missing = _missing_compilers(["aarch64-linux"])
     if missing:
         pytest.skip(missing)
     native = native_platform() or "x86_64-linux"
-    source = build.SOURCE_DIR / "lattice" / "solver.c"
-    flags = ["-std=c99", "-O3", f"-I{build.SOURCE_DIR / 'lattice'}"]
+    source = build.DEFAULT_MODEL_DIR / "solver.c"
+    (tmp_path / build.TABLE_HEADER).write_text(build.generate_table_header())
+    flags = ["-std=c99", "-O3", f"-I{build.DEFAULT_MODEL_DIR}", f"-I{tmp_path}"]
     keys = {build.object_key(flags, source, compiler_for(PLATFORMS[name])) for name in (native, "aarch64-linux")}
     assert len(keys) == 2
     assert "aarch64" in build.compiler_version(tuple(compiler_for(PLATFORMS["aarch64-linux"])))

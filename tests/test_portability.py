@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 POSIX_ONLY = ("fcntl", "termios", "pwd", "grp", "resource", "pty", "tty", "syslog")
 
-OURS = ("orchestrator", "fmu_src", "scenes", "reference", "build_fmu", "__main__")
+OURS = ("orchestrator", "fmu_src", "builder", "scenes", "reference", "build_fmu", "__main__")
 
 SHIM = textwrap.dedent(f"""
     import builtins
@@ -105,7 +105,7 @@ def test_every_module_of_the_project_imports_without_posix_modules(tmp_path):
         import pkgutil
 
         names = ["build_fmu"]
-        for package in ("orchestrator", "fmu_src", "scenes", "reference"):
+        for package in ("orchestrator", "fmu_src", "builder", "scenes", "reference"):
             module = importlib.import_module(package)
             names += [package] + [info.name for info in pkgutil.walk_packages(module.__path__, package + ".")]
         for name in names:

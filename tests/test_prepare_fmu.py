@@ -7,7 +7,7 @@ import zipfile
 
 import pytest
 
-from fmu_src import build
+from builder import build
 from orchestrator.fmu import FMUError, prepare_fmu
 from scenes import Scene
 

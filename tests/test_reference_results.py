@@ -1,4 +1,4 @@
-"""The FMU's FMI-LS-REF layer (fmu_src/reference_results.py): the manifest is what the layered standard and FMI 3's
+"""The FMU's FMI-LS-REF layer (builder/reference_results.py): the manifest is what the layered standard and FMI 3's
 manifest schema ask for, its results are there and are the published orders', and today's FMU still gives them.
 
 No checker of FMI-LS-REF manifests is published with a schema of its own (the layered standard is an alpha), so
@@ -18,9 +18,9 @@ import pytest
 from fmpy import read_model_description
 from lxml import etree
 
-from fmu_src import build
+from builder import build
 from fmu_src.published import PUBLISHED_PEAKS
-from fmu_src.reference_results import EXTRA, MANIFEST, REFERENCE_RESULTS, RESULTS_DIR, SIGNALS, simulate
+from builder.reference_results import EXTRA, MANIFEST, REFERENCE_RESULTS, RESULTS_DIR, SIGNALS, simulate
 
 LS = "http://fmi-standard.org/fmi-ls-manifest"
 # Off the recording's C library (libm's pow, expm1) the step sequence may differ by a step: the outputs then

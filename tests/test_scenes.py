@@ -7,7 +7,7 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 from scipy.linalg import expm
 
-from fmu_src import build as build_library
+from builder import build as build_library
 import reference
 from orchestrator.simulation import LatticeFMU
 from orchestrator import run as cli

@@ -244,17 +244,8 @@ static int check_time(const InstanceCommon *common, double communication_point, 
 }
 
 int instance_switch_lost_events(InstanceCommon *common, char *message, size_t message_size) {
-    int switched;
     if (common->state != STATE_CONTINUOUS_TIME) return 0;
-    switched = model_switch_lost_events(common->model);
-    if (switched) {
-        snprintf(message, message_size,
-                 "at t = %.17g s the backplate mode of %d row(s) contradicted the state and the importer went on "
-                 "without the event the completed step asked for: the model switched them itself (located only "
-                 "to the importer's step)",
-                 model_time(common->model), switched);
-    }
-    return switched;
+    return model_switch_lost_events(common->model, message, message_size);
 }
 
 int instance_set_time(InstanceCommon *common, double time, char *message, size_t message_size) {
@@ -270,7 +261,7 @@ int instance_do_step(InstanceCommon *common, double communication_point, double 
                      size_t message_size) {
     if (common->state == STATE_STEP_STOPPED) {
         snprintf(message, message_size,
-                 "the run stopped at t = %.17g s at peak_force_limit: only terminate, reset or free the instance now",
+                 "the run stopped at t = %.17g s (the model's limit): only terminate, reset or free the instance now",
                  model_time(common->model));
         return -1;
     }

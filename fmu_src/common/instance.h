@@ -5,11 +5,11 @@
 
 #include <stddef.h>
 
-#include "../lattice/model.h"
+#include "model.h" /* the model folder's, on the include path */
 
 /* STATE_STEP is FMI 2's step-complete state and FMI 3's step mode; STATE_STEP_STOPPED is FMI 2's step-failed
- * state after the model stopped at peak_force_limit (outputs valid, only terminate, reset or free next)
- * (Co-Simulation); STATE_EVENT_MODE and STATE_CONTINUOUS_TIME are Model Exchange's. */
+ * state after the model stopped the run early (the lattice: at peak_force_limit; outputs valid, only
+ * terminate, reset or free next) (Co-Simulation); STATE_EVENT_MODE and STATE_CONTINUOUS_TIME are Model Exchange's. */
 typedef enum {
     STATE_INSTANTIATED,
     STATE_INITIALIZATION_MODE,
@@ -75,14 +75,14 @@ int instance_initialize(InstanceCommon *common, char *message, size_t message_si
 
 /* fmi2DoStep, fmi3DoStep: checks the step against the FMU's time and advances the model; on failure -1 and
  * why. A step the model fails puts the instance in the error state (a refused argument does not). Returns
- * MODEL_LIMIT_REACHED (why in message) when the model stopped early at peak_force_limit: the instance is then
- * in STATE_STEP_STOPPED at model_time. */
+ * MODEL_LIMIT_REACHED (why in message) when the model stopped the run early: the instance is then in
+ * STATE_STEP_STOPPED at model_time. */
 int instance_do_step(InstanceCommon *common, double communication_point, double step_size, char *message,
                      size_t message_size);
 
-/* Model Exchange in continuous-time mode, when the importer asks for derivatives: the backplate switches the
- * model had to make itself because the importer went on without the event a completed step asked for
- * (model_switch_lost_events). Returns how many rows it switched, with the warning's text in message. */
+/* Model Exchange in continuous-time mode, when the importer asks for derivatives: the discrete-state switches
+ * the model had to make itself because the importer went on without the event a completed step asked for
+ * (model_switch_lost_events). Returns how many it switched, with the warning's text in message. */
 int instance_switch_lost_events(InstanceCommon *common, char *message, size_t message_size);
 
 /* Model Exchange's fmi2SetTime / fmi3SetTime: -1 and why for a time before the start time. */

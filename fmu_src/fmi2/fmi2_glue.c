@@ -1,8 +1,9 @@
 /* FMI 2.0 glue, Co-Simulation and Model Exchange: the FMI state machine, logging and FMU states over the
  * model API.
  *
- * It knows nothing of springs: every model question goes through lattice/model.h, as the Reference FMUs
- * keep one shared FMI layer beside each model's own folder. Model Exchange hands the importer the model's
+ * It knows nothing of springs: every model question goes through the model folder's model.h, found on the
+ * include path (builder/sources.py), as the Reference FMUs keep one shared FMI layer beside each model's own
+ * folder. Model Exchange hands the importer the model's
  * continuous-time contract (states, derivatives, event indicators, event update); Co-Simulation lets the
  * model integrate that same contract itself.
  */
@@ -11,9 +12,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../include/fmi2Functions.h"
-#include "../common/instance.h"
-#include "../lattice/model.h"
+#include "fmi2Functions.h"
+#include "instance.h" /* and through it the model folder's model.h */
+#include "state_masks.h"
 
 #define MESSAGE_SIZE 1024
 #define STATE_MAGIC 0x4d534c32u /* "MSL2": marks a serialised state of this FMU */
@@ -59,6 +60,9 @@ static int allowed(Instance *instance, const char *function, unsigned int states
     error(instance, function, message);
     return 0;
 }
+
+/* 1 when `function` may be called in the instance's state (its MASK_ in state_masks.h), else 0, logged. */
+#define CHECK_STATE(function) allowed(instance, #function, MASK_##function)
 
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -118,7 +122,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
     Instance *instance = (Instance *)c;
     (void)toleranceDefined; /* the solver's tolerances are the parameters rtol and atol */
     (void)tolerance;
-    if (!allowed(instance, "fmi2SetupExperiment", IN(STATE_INSTANTIATED))) return fmi2Error;
+    if (!CHECK_STATE(fmi2SetupExperiment)) return fmi2Error;
     instance->common.start_time = startTime;
     instance->common.stop_time_defined = stopTimeDefined;
     instance->common.stop_time = stopTime;
@@ -127,7 +131,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi2EnterInitializationMode", IN(STATE_INSTANTIATED))) return fmi2Error;
+    if (!CHECK_STATE(fmi2EnterInitializationMode)) return fmi2Error;
     instance->common.state = STATE_INITIALIZATION_MODE;
     return fmi2OK;
 }
@@ -135,7 +139,7 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi2ExitInitializationMode", IN(STATE_INITIALIZATION_MODE))) return fmi2Error;
+    if (!CHECK_STATE(fmi2ExitInitializationMode)) return fmi2Error;
     if (instance_initialize(&instance->common, message, sizeof(message))) {
         return error(instance, "fmi2ExitInitializationMode", message);
     }
@@ -144,8 +148,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
 
 fmi2Status fmi2Terminate(fmi2Component c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi2Terminate",
-                 IN(STATE_STEP) | IN(STATE_STEP_STOPPED) | IN(STATE_EVENT_MODE) | IN(STATE_CONTINUOUS_TIME))) {
+    if (!CHECK_STATE(fmi2Terminate)) {
         return fmi2Error;
     }
     instance->common.state = STATE_TERMINATED;
@@ -163,7 +166,7 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     size_t i;
-    if (!allowed(instance, "fmi2GetReal", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2GetReal)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
         if (model_get_real(instance->common.model, vr[i], &value[i], message, sizeof(message))) {
             return error(instance, "fmi2GetReal", message);
@@ -176,7 +179,7 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     size_t i;
-    if (!allowed(instance, "fmi2GetInteger", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2GetInteger)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
         if (model_get_integer(instance->common.model, vr[i], &value[i], message, sizeof(message))) {
             return error(instance, "fmi2GetInteger", message);
@@ -189,7 +192,7 @@ fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
     Instance *instance = (Instance *)c;
     (void)vr;
     (void)value;
-    if (!allowed(instance, "fmi2GetBoolean", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2GetBoolean)) return fmi2Error;
     return nvr == 0 ? fmi2OK : error(instance, "fmi2GetBoolean", "this FMU has no Boolean variables");
 }
 
@@ -197,7 +200,7 @@ fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     Instance *instance = (Instance *)c;
     (void)vr;
     (void)value;
-    if (!allowed(instance, "fmi2GetString", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2GetString)) return fmi2Error;
     return nvr == 0 ? fmi2OK : error(instance, "fmi2GetString", "this FMU has no String variables");
 }
 
@@ -206,7 +209,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     size_t i;
-    if (!allowed(instance, "fmi2SetReal", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2SetReal)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
         if (model_set_real(instance->common.model, vr[i], value[i], message, sizeof(message))) {
             return error(instance, "fmi2SetReal", message);
@@ -219,7 +222,7 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     size_t i;
-    if (!allowed(instance, "fmi2SetInteger", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2SetInteger)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
         if (model_set_integer(instance->common.model, vr[i], value[i], message, sizeof(message))) {
             return error(instance, "fmi2SetInteger", message);
@@ -232,7 +235,7 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
     Instance *instance = (Instance *)c;
     (void)vr;
     (void)value;
-    if (!allowed(instance, "fmi2SetBoolean", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2SetBoolean)) return fmi2Error;
     return nvr == 0 ? fmi2OK : error(instance, "fmi2SetBoolean", "this FMU has no Boolean variables");
 }
 
@@ -240,7 +243,7 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     Instance *instance = (Instance *)c;
     (void)vr;
     (void)value;
-    if (!allowed(instance, "fmi2SetString", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2SetString)) return fmi2Error;
     return nvr == 0 ? fmi2OK : error(instance, "fmi2SetString", "this FMU has no String variables");
 }
 
@@ -252,13 +255,13 @@ static fmi2Status outcome(Instance *instance, const char *function, const char *
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi2GetFMUstate", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2GetFMUstate)) return fmi2Error;
     return outcome(instance, "fmi2GetFMUstate", instance_get_state(&instance->common, STATE_MAGIC, FMUstate));
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi2SetFMUstate", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2SetFMUstate)) return fmi2Error;
     return outcome(instance, "fmi2SetFMUstate", instance_set_state(&instance->common, STATE_MAGIC, FMUstate));
 }
 
@@ -328,7 +331,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     char message[MESSAGE_SIZE];
     int status;
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (!allowed(instance, "fmi2DoStep", IN(STATE_STEP) | IN(STATE_STEP_STOPPED))) return fmi2Error;
+    if (!CHECK_STATE(fmi2DoStep)) return fmi2Error;
     status = instance_do_step(&instance->common, currentCommunicationPoint, communicationStepSize, message,
                               sizeof(message));
     if (status == MODEL_LIMIT_REACHED) {
@@ -370,7 +373,7 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
     Instance *instance = (Instance *)c;
     if (!instance) return fmi2Error;
     if (s == fmi2Terminated) {
-        *value = model_terminated(instance->common.model) ? fmi2True : fmi2False; /* stopped at peak_force_limit */
+        *value = model_terminated(instance->common.model) ? fmi2True : fmi2False; /* the model stopped the run early */
         return fmi2OK;
     }
     return error(instance, "fmi2GetBooleanStatus", "only fmi2Terminated is provided");
@@ -382,9 +385,7 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
     return error((Instance *)c, "fmi2GetStringStatus", "not provided by this FMU");
 }
 
-/* Model Exchange: the importer integrates the model's contract (lattice/model.h). */
-#define ME_STATES (IN(STATE_EVENT_MODE) | IN(STATE_CONTINUOUS_TIME))
-#define ME_STATES_AND_AFTER (ME_STATES | IN(STATE_TERMINATED))
+/* Model Exchange: the importer integrates the model's contract (model.h). */
 
 /* A model call that may refuse: its reason is logged and the call returns fmi2Error. */
 static fmi2Status model_outcome(Instance *instance, const char *function, int failed, const char *message) {
@@ -393,7 +394,7 @@ static fmi2Status model_outcome(Instance *instance, const char *function, int fa
 
 fmi2Status fmi2EnterEventMode(fmi2Component c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi2EnterEventMode", ME_STATES)) return fmi2Error;
+    if (!CHECK_STATE(fmi2EnterEventMode)) return fmi2Error;
     instance->common.state = STATE_EVENT_MODE;
     return fmi2OK;
 }
@@ -402,7 +403,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
     Instance *instance = (Instance *)c;
     int changed, next_defined = 0;
     double next_time = 0.0;
-    if (!allowed(instance, "fmi2NewDiscreteStates", IN(STATE_EVENT_MODE))) return fmi2Error;
+    if (!CHECK_STATE(fmi2NewDiscreteStates)) return fmi2Error;
     if (!eventInfo) return error(instance, "fmi2NewDiscreteStates", "eventInfo is NULL");
     model_event_update(instance->common.model, &changed, &next_defined, &next_time);
     /* one update reaches the new modes (they follow from the state, the load from the time): no iteration */
@@ -420,7 +421,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
 
 fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi2EnterContinuousTimeMode", IN(STATE_EVENT_MODE))) return fmi2Error;
+    if (!CHECK_STATE(fmi2EnterContinuousTimeMode)) return fmi2Error;
     instance->common.state = STATE_CONTINUOUS_TIME;
     return fmi2OK;
 }
@@ -430,8 +431,8 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStat
     Instance *instance = (Instance *)c;
     int event;
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (!allowed(instance, "fmi2CompletedIntegratorStep", IN(STATE_CONTINUOUS_TIME))) return fmi2Error;
-    /* a backplate mode that contradicts the state is a switch the importer did not handle: ask for an event */
+    if (!CHECK_STATE(fmi2CompletedIntegratorStep)) return fmi2Error;
+    /* a discrete state contradicting the continuous ones: a switch the importer did not handle, ask for an event */
     event = model_completed_point(instance->common.model);
     if (enterEventMode) *enterEventMode = event ? fmi2True : fmi2False;
     if (terminateSimulation) *terminateSimulation = fmi2False;
@@ -441,7 +442,7 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStat
 fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi2SetTime", ME_STATES)) return fmi2Error;
+    if (!CHECK_STATE(fmi2SetTime)) return fmi2Error;
     return model_outcome(instance, "fmi2SetTime",
                          instance_set_time(&instance->common, time, message, sizeof(message)), message);
 }
@@ -449,14 +450,14 @@ fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
 fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi2SetContinuousStates", IN(STATE_CONTINUOUS_TIME))) return fmi2Error;
+    if (!CHECK_STATE(fmi2SetContinuousStates)) return fmi2Error;
     if (!x) return error(instance, "fmi2SetContinuousStates", "x is NULL");
     return model_outcome(instance, "fmi2SetContinuousStates",
                          model_set_states(instance->common.model, x, nx, message, sizeof(message)), message);
 }
 
 /* An importer that goes on in continuous-time mode after fmi2CompletedIntegratorStep asked for event mode: the
- * model switches the contradicting backplate modes itself and says so (fmi2Warning). 1 when it did. */
+ * model switches the contradicting discrete states itself and says so (fmi2Warning). 1 when it did. */
 static int lost_events_switched(Instance *instance) {
     char message[MESSAGE_SIZE];
     if (!instance_switch_lost_events(&instance->common, message, sizeof(message))) return 0;
@@ -467,7 +468,7 @@ static int lost_events_switched(Instance *instance) {
 fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi2GetDerivatives", ME_STATES_AND_AFTER)) return fmi2Error;
+    if (!CHECK_STATE(fmi2GetDerivatives)) return fmi2Error;
     if (!derivatives) return error(instance, "fmi2GetDerivatives", "derivatives is NULL");
     if (model_get_derivatives(instance->common.model, derivatives, nx, message, sizeof(message))) {
         return error(instance, "fmi2GetDerivatives", message);
@@ -478,7 +479,7 @@ fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx
 fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi2GetEventIndicators", ME_STATES_AND_AFTER)) return fmi2Error;
+    if (!CHECK_STATE(fmi2GetEventIndicators)) return fmi2Error;
     if (!eventIndicators && ni > 0) return error(instance, "fmi2GetEventIndicators", "eventIndicators is NULL");
     return model_outcome(instance, "fmi2GetEventIndicators",
                          model_get_event_indicators(instance->common.model, eventIndicators, ni, message,
@@ -489,7 +490,7 @@ fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], s
 fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi2GetContinuousStates", ME_STATES_AND_AFTER)) return fmi2Error;
+    if (!CHECK_STATE(fmi2GetContinuousStates)) return fmi2Error;
     if (!x) return error(instance, "fmi2GetContinuousStates", "x is NULL");
     return model_outcome(instance, "fmi2GetContinuousStates",
                          model_get_states(instance->common.model, x, nx, message, sizeof(message)), message);
@@ -499,7 +500,7 @@ fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     size_t i;
-    if (!allowed(instance, "fmi2GetNominalsOfContinuousStates", ANY_STATE)) return fmi2Error;
+    if (!CHECK_STATE(fmi2GetNominalsOfContinuousStates)) return fmi2Error;
     if (!x_nominal) return error(instance, "fmi2GetNominalsOfContinuousStates", "x_nominal is NULL");
     if (nx != (size_t)model_state_count()) {
         snprintf(message, sizeof(message), "%lu nominals asked for, but this FMU has %d continuous states",

@@ -1,10 +1,10 @@
 /* FMI 3.0 glue, Co-Simulation and Model Exchange: the FMI 3 state machine, logging and FMU states over the model
  * API.
  *
- * Like fmi2/fmi2_glue.c it knows nothing of springs: every model question goes through lattice/model.h
- * (Model Exchange hands the importer the model's continuous-time contract). What FMI 3 adds here:
+ * Like fmi2/fmi2_glue.c it knows nothing of springs: every model question goes through the model folder's
+ * model.h (Model Exchange hands the importer the model's continuous-time contract). What FMI 3 adds here:
  * - every variable is a scalar, and its value reference is the model's plus VR_OFFSET: its 1-based position in
- *   modelDescription.xml (fmu_src/fmi3_description.py), where importers that read `derivative` as an index
+ *   modelDescription.xml (builder/fmi3_description.py), where importers that read `derivative` as an index
  *   look for a state.
  * - the independent variable `time` (FMI 3 requires one): the value reference after the model's variables.
  * - Real is Float64, Integer Int32 and an enumeration Int64; every other FMI 3 type is refused (the FMU has
@@ -15,9 +15,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../include/fmi3Functions.h"
-#include "../common/instance.h"
-#include "../lattice/model.h"
+#include "fmi3Functions.h"
+#include "instance.h" /* and through it the model folder's model.h */
+#include "state_masks.h"
 
 #define MESSAGE_SIZE 1024
 #define STATE_MAGIC 0x4d534c33u /* "MSL3": marks a serialised state of this FMU */
@@ -27,7 +27,7 @@ typedef struct {
     fmi3LogMessageCallback logger;
     fmi3InstanceEnvironment environment;
     int logging_on;
-    int early_return_allowed; /* fmi3DoStep may stop before the step's end (at peak_force_limit) */
+    int early_return_allowed; /* fmi3DoStep may stop before the step's end (the model's limit) */
 } Instance;
 
 static void log_message(const Instance *instance, fmi3Status status, const char *category, const char *format,
@@ -64,6 +64,9 @@ static int allowed(Instance *instance, const char *function, unsigned int states
     error(instance, function, message);
     return 0;
 }
+
+/* 1 when `function` may be called in the instance's state (its MASK_ in state_masks.h), else 0, logged. */
+#define CHECK_STATE(function) allowed(instance, #function, MASK_##function)
 
 #define VR_OFFSET 1u /* FMI 3 value reference = the model's + VR_OFFSET */
 
@@ -225,7 +228,7 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean toleranceDefi
     Instance *instance = (Instance *)c;
     (void)toleranceDefined; /* the solver's tolerances are the parameters rtol and atol */
     (void)tolerance;
-    if (!allowed(instance, "fmi3EnterInitializationMode", IN(STATE_INSTANTIATED))) return fmi3Error;
+    if (!CHECK_STATE(fmi3EnterInitializationMode)) return fmi3Error;
     instance->common.start_time = startTime;
     instance->common.stop_time_defined = stopTimeDefined;
     instance->common.stop_time = stopTime;
@@ -236,7 +239,7 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean toleranceDefi
 fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi3ExitInitializationMode", IN(STATE_INITIALIZATION_MODE))) return fmi3Error;
+    if (!CHECK_STATE(fmi3ExitInitializationMode)) return fmi3Error;
     if (instance_initialize(&instance->common, message, sizeof(message))) {
         return error(instance, "fmi3ExitInitializationMode", message);
     }
@@ -244,19 +247,17 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
 }
 
 /* Event mode is Model Exchange's only (the co-simulation interface has hasEventMode="false"). */
-#define ME_STATES (IN(STATE_EVENT_MODE) | IN(STATE_CONTINUOUS_TIME))
-#define ME_STATES_AND_AFTER (ME_STATES | IN(STATE_TERMINATED))
 
 fmi3Status fmi3EnterEventMode(fmi3Instance c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi3EnterEventMode", ME_STATES)) return fmi3Error;
+    if (!CHECK_STATE(fmi3EnterEventMode)) return fmi3Error;
     instance->common.state = STATE_EVENT_MODE;
     return fmi3OK;
 }
 
 fmi3Status fmi3Terminate(fmi3Instance c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi3Terminate", IN(STATE_STEP) | IN(STATE_STEP_STOPPED) | ME_STATES)) return fmi3Error;
+    if (!CHECK_STATE(fmi3Terminate)) return fmi3Error;
     instance->common.state = STATE_TERMINATED;
     return fmi3OK;
 }
@@ -275,7 +276,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     char message[MESSAGE_SIZE];
     const fmi3ValueReference time_vr = time_reference();
     size_t i;
-    if (!allowed(instance, "fmi3GetFloat64", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3GetFloat64)) return fmi3Error;
     if (check_values(instance, "fmi3GetFloat64", vr, nvr, nValues, MODEL_TYPE_REAL, 1)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] == time_vr) {
@@ -311,7 +312,7 @@ fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
     Instance *instance = (Instance *)c;
     size_t i;
     int value;
-    if (!allowed(instance, "fmi3GetInt32", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3GetInt32)) return fmi3Error;
     if (check_values(instance, "fmi3GetInt32", vr, nvr, nValues, MODEL_TYPE_INTEGER, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (get_integer(instance, "fmi3GetInt32", vr[i], &value)) return fmi3Error;
@@ -327,7 +328,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     char message[MESSAGE_SIZE];
     const fmi3ValueReference time_vr = time_reference();
     size_t i;
-    if (!allowed(instance, "fmi3SetFloat64", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3SetFloat64)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] == time_vr) {
             return error(instance, "fmi3SetFloat64", "time is the independent variable: it cannot be set");
@@ -346,7 +347,7 @@ fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
                         size_t nValues) {
     Instance *instance = (Instance *)c;
     size_t i;
-    if (!allowed(instance, "fmi3SetInt32", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3SetInt32)) return fmi3Error;
     if (check_values(instance, "fmi3SetInt32", vr, nvr, nValues, MODEL_TYPE_INTEGER, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (set_integer(instance, "fmi3SetInt32", vr[i], (int)values[i])) return fmi3Error;
@@ -360,7 +361,7 @@ fmi3Status fmi3GetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
     Instance *instance = (Instance *)c;
     size_t i;
     int value;
-    if (!allowed(instance, "fmi3GetInt64", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3GetInt64)) return fmi3Error;
     if (check_values(instance, "fmi3GetInt64", vr, nvr, nValues, KIND_ENUMERATION, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (get_integer(instance, "fmi3GetInt64", vr[i], &value)) return fmi3Error;
@@ -373,7 +374,7 @@ fmi3Status fmi3SetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
                         size_t nValues) {
     Instance *instance = (Instance *)c;
     size_t i;
-    if (!allowed(instance, "fmi3SetInt64", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3SetInt64)) return fmi3Error;
     if (check_values(instance, "fmi3SetInt64", vr, nvr, nValues, KIND_ENUMERATION, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         /* a value beyond Int32 is beyond every enumeration's items: the model refuses it with their names */
@@ -391,7 +392,7 @@ fmi3Status fmi3SetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
         (void)vr;                                                                                             \
         (void)values;                                                                                         \
         (void)nValues;                                                                                        \
-        if (!allowed(instance, #function, ANY_STATE)) return fmi3Error;                                       \
+        if (!CHECK_STATE(function)) return fmi3Error;                                                        \
         return nvr == 0 ? fmi3OK : error(instance, #function, "this FMU has no " type_name " variables");    \
     }
 
@@ -423,7 +424,7 @@ fmi3Status fmi3GetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t n
     (void)valueSizes;
     (void)values;
     (void)nValues;
-    if (!allowed(instance, "fmi3GetBinary", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3GetBinary)) return fmi3Error;
     return nvr == 0 ? fmi3OK : error(instance, "fmi3GetBinary", "this FMU has no Binary variables");
 }
 
@@ -434,7 +435,7 @@ fmi3Status fmi3SetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t n
     (void)valueSizes;
     (void)values;
     (void)nValues;
-    if (!allowed(instance, "fmi3SetBinary", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3SetBinary)) return fmi3Error;
     return nvr == 0 ? fmi3OK : error(instance, "fmi3SetBinary", "this FMU has no Binary variables");
 }
 
@@ -478,13 +479,13 @@ static fmi3Status outcome(Instance *instance, const char *function, const char *
 
 fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *FMUState) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi3GetFMUState", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3GetFMUState)) return fmi3Error;
     return outcome(instance, "fmi3GetFMUState", instance_get_state(&instance->common, STATE_MAGIC, FMUState));
 }
 
 fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState FMUState) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi3SetFMUState", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3SetFMUState)) return fmi3Error;
     return outcome(instance, "fmi3SetFMUState", instance_set_state(&instance->common, STATE_MAGIC, FMUState));
 }
 
@@ -636,7 +637,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesN
     Instance *instance = (Instance *)c;
     int changed, next_defined = 0;
     double next_time = 0.0;
-    if (!allowed(instance, "fmi3UpdateDiscreteStates", IN(STATE_EVENT_MODE))) return fmi3Error;
+    if (!CHECK_STATE(fmi3UpdateDiscreteStates)) return fmi3Error;
     model_event_update(instance->common.model, &changed, &next_defined, &next_time);
     /* one update reaches the new modes (they follow from the state, the load from the time): no iteration.
      * The states never jump, but where a mode switched the forces do: valuesOfContinuousStatesChanged makes
@@ -650,14 +651,14 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesN
     return fmi3OK;
 }
 
-/* Model Exchange: the importer integrates the model's contract (lattice/model.h). */
+/* Model Exchange: the importer integrates the model's contract (model.h). */
 static fmi3Status model_outcome(Instance *instance, const char *function, int failed, const char *message) {
     return failed ? error(instance, function, message) : fmi3OK;
 }
 
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c) {
     Instance *instance = (Instance *)c;
-    if (!allowed(instance, "fmi3EnterContinuousTimeMode", IN(STATE_EVENT_MODE))) return fmi3Error;
+    if (!CHECK_STATE(fmi3EnterContinuousTimeMode)) return fmi3Error;
     instance->common.state = STATE_CONTINUOUS_TIME;
     return fmi3OK;
 }
@@ -667,8 +668,8 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance c, fmi3Boolean noSetFMUState
     Instance *instance = (Instance *)c;
     int event;
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (!allowed(instance, "fmi3CompletedIntegratorStep", IN(STATE_CONTINUOUS_TIME))) return fmi3Error;
-    /* a backplate mode that contradicts the state is a switch the importer did not handle: ask for an event */
+    if (!CHECK_STATE(fmi3CompletedIntegratorStep)) return fmi3Error;
+    /* a discrete state contradicting the continuous ones: a switch the importer did not handle, ask for an event */
     event = model_completed_point(instance->common.model);
     if (enterEventMode) *enterEventMode = event ? fmi3True : fmi3False;
     if (terminateSimulation) *terminateSimulation = fmi3False;
@@ -678,7 +679,7 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance c, fmi3Boolean noSetFMUState
 fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 time) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi3SetTime", ME_STATES)) return fmi3Error;
+    if (!CHECK_STATE(fmi3SetTime)) return fmi3Error;
     return model_outcome(instance, "fmi3SetTime",
                          instance_set_time(&instance->common, time, message, sizeof(message)), message);
 }
@@ -686,7 +687,7 @@ fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 time) {
 fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 continuousStates[], size_t nContinuousStates) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi3SetContinuousStates", IN(STATE_CONTINUOUS_TIME))) return fmi3Error;
+    if (!CHECK_STATE(fmi3SetContinuousStates)) return fmi3Error;
     if (!continuousStates) return error(instance, "fmi3SetContinuousStates", "continuousStates is NULL");
     return model_outcome(instance, "fmi3SetContinuousStates",
                          model_set_states(instance->common.model, continuousStates, nContinuousStates, message,
@@ -695,7 +696,7 @@ fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 continuousS
 }
 
 /* An importer that goes on in continuous-time mode after fmi3CompletedIntegratorStep asked for event mode: the
- * model switches the contradicting backplate modes itself and says so (fmi3Warning). 1 when it did. */
+ * model switches the contradicting discrete states itself and says so (fmi3Warning). 1 when it did. */
 static int lost_events_switched(Instance *instance) {
     char message[MESSAGE_SIZE];
     if (!instance_switch_lost_events(&instance->common, message, sizeof(message))) return 0;
@@ -706,7 +707,7 @@ static int lost_events_switched(Instance *instance) {
 fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 derivatives[], size_t nContinuousStates) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi3GetContinuousStateDerivatives", ME_STATES_AND_AFTER)) return fmi3Error;
+    if (!CHECK_STATE(fmi3GetContinuousStateDerivatives)) return fmi3Error;
     if (!derivatives) return error(instance, "fmi3GetContinuousStateDerivatives", "derivatives is NULL");
     if (model_get_derivatives(instance->common.model, derivatives, nContinuousStates, message, sizeof(message))) {
         return error(instance, "fmi3GetContinuousStateDerivatives", message);
@@ -717,7 +718,7 @@ fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 derivat
 fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 eventIndicators[], size_t nEventIndicators) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi3GetEventIndicators", ME_STATES_AND_AFTER)) return fmi3Error;
+    if (!CHECK_STATE(fmi3GetEventIndicators)) return fmi3Error;
     if (!eventIndicators && nEventIndicators > 0) {
         return error(instance, "fmi3GetEventIndicators", "eventIndicators is NULL");
     }
@@ -730,7 +731,7 @@ fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 eventIndicators[],
 fmi3Status fmi3GetContinuousStates(fmi3Instance c, fmi3Float64 continuousStates[], size_t nContinuousStates) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
-    if (!allowed(instance, "fmi3GetContinuousStates", ME_STATES_AND_AFTER)) return fmi3Error;
+    if (!CHECK_STATE(fmi3GetContinuousStates)) return fmi3Error;
     if (!continuousStates) return error(instance, "fmi3GetContinuousStates", "continuousStates is NULL");
     return model_outcome(instance, "fmi3GetContinuousStates",
                          model_get_states(instance->common.model, continuousStates, nContinuousStates, message,
@@ -742,7 +743,7 @@ fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Float64 nominal
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     size_t i;
-    if (!allowed(instance, "fmi3GetNominalsOfContinuousStates", ANY_STATE)) return fmi3Error;
+    if (!CHECK_STATE(fmi3GetNominalsOfContinuousStates)) return fmi3Error;
     if (!nominals) return error(instance, "fmi3GetNominalsOfContinuousStates", "nominals is NULL");
     if (nContinuousStates != (size_t)model_state_count()) {
         snprintf(message, sizeof(message), "%lu nominals asked for, but this FMU has %d continuous states",
@@ -771,7 +772,7 @@ fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *nContinuousSt
 fmi3Status fmi3EnterStepMode(fmi3Instance c) {
     Instance *instance = (Instance *)c;
     /* only reached from event mode, which this FMU does not have; step mode is already on after init */
-    if (!allowed(instance, "fmi3EnterStepMode", IN(STATE_STEP))) return fmi3Error;
+    if (!CHECK_STATE(fmi3EnterStepMode)) return fmi3Error;
     return fmi3OK;
 }
 
@@ -795,13 +796,13 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentCommunicationPoint, fmi
     if (eventHandlingNeeded) *eventHandlingNeeded = fmi3False;
     if (terminateSimulation) *terminateSimulation = fmi3False;
     if (earlyReturn) *earlyReturn = fmi3False;
-    if (!allowed(instance, "fmi3DoStep", IN(STATE_STEP) | IN(STATE_STEP_STOPPED))) return fmi3Error;
+    if (!CHECK_STATE(fmi3DoStep)) return fmi3Error;
     if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->common.model);
     status = instance_do_step(&instance->common, currentCommunicationPoint, communicationStepSize, message,
                               sizeof(message));
     if (lastSuccessfulTime) *lastSuccessfulTime = model_time(instance->common.model);
     if (status == MODEL_LIMIT_REACHED) {
-        /* the model asks to stop at peak_force_limit: an early return when the importer allows one, else the
+        /* the model asks to stop the run early: an early return when the importer allows one, else the
          * step counts as discarded after lastSuccessfulTime; either way terminateSimulation */
         if (terminateSimulation) *terminateSimulation = fmi3True;
         if (instance->early_return_allowed) {

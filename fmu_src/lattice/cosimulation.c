@@ -615,7 +615,7 @@ int model_driver_check(const Model *m, char *message, size_t message_size) {
     }
     if (s->method != PARAM_SOLVER(m) ||
         (s->dense_power == DENSE_FROM_STAGES ? !(s->method == SOLVER_TSIT5 || s->method == SOLVER_DOPRI5)
-         : s->dense_power == DENSE_NYSTROM   ? s->method != SOLVER_FINE_RKN5
+         : s->dense_power == DENSE_NYSTROM   ? s->method != SOLVER_RKN5
                                              : s->dense_power < 0 || s->dense_power > SOLVER_DENSE_ROWS) ||
         (s->phase != 0 && s->phase != 1)) {
         snprintf(message, message_size, "the state is corrupt: its solver fields are out of range (solver %d of %d, "

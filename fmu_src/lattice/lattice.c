@@ -65,7 +65,7 @@ typedef struct {
 
 static SpringEnds spring_ends(int diagonal_rule, double k_a, double alpha_a, double k_b, double alpha_b) {
     SpringEnds ends;
-    if (diagonal_rule == DIAGONAL_MEAN) {
+    if (diagonal_rule == DIAGONAL_RULE_MEAN) {
         ends.k_a = ends.k_b = 0.5 * (k_a + k_b);
         ends.alpha_a = ends.alpha_b = 0.5 * (alpha_a + alpha_b);
     } else {
@@ -87,8 +87,8 @@ static double row_load_fraction(int rows, int i) {
 /* The two diagonals between columns j and j+1 use these ends: the one in column j, the one in j+1. */
 static SpringEnds diagonal_ends(const LatticeParams *p, int j) {
     const ColumnConstants *left = &p->column[j], *right = &p->column[j + 1];
-    return spring_ends(p->diagonal_rule, left->k_diagonal, left->alpha_diagonal, right->k_diagonal,
-                       right->alpha_diagonal);
+    return spring_ends(p->diagonal_rule, left->k_diag, left->alpha_diag, right->k_diag,
+                       right->alpha_diag);
 }
 
 static SpringEnds reversed(SpringEnds ends) {
@@ -246,9 +246,9 @@ static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
     int alphas_differ = 0, j, c;
     for (j = 0; j < cols; j++) {
         const ColumnConstants *column = &p->column[j];
-        w->k_vertical[j] = column->k_vertical;
-        w->c_vertical[j] = column->c_vertical;
-        w->alpha[SLOT(VERTICAL, j)] = column->alpha_vertical;
+        w->k_vertical[j] = column->k;
+        w->c_vertical[j] = column->c;
+        w->alpha[SLOT(VERTICAL, j)] = column->alpha;
     }
     for (j = 0; j < links; j++) {
         const SpringEnds ends = diagonal_ends(p, j);
@@ -810,11 +810,11 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
 
     for (j = 0; j < cols; j++) {
         const ColumnConstants *column = &p->column[j];
-        l.k_vertical[j] = column->k_vertical;
-        l.c_vertical[j] = column->c_vertical;
-        l.k_side[j] = column->k_diagonal;
-        l.alpha[LAYER_SLOT(DEPTH, j)] = column->alpha_vertical;
-        l.alpha[LAYER_SLOT(SIDE_RISING, j)] = l.alpha[LAYER_SLOT(SIDE_FALLING, j)] = column->alpha_diagonal;
+        l.k_vertical[j] = column->k;
+        l.c_vertical[j] = column->c;
+        l.k_side[j] = column->k_diag;
+        l.alpha[LAYER_SLOT(DEPTH, j)] = column->alpha;
+        l.alpha[LAYER_SLOT(SIDE_RISING, j)] = l.alpha[LAYER_SLOT(SIDE_FALLING, j)] = column->alpha_diag;
     }
     for (j = 0; j < links; j++) {
         const SpringEnds ends = diagonal_ends(p, j);
@@ -1090,8 +1090,8 @@ void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, 
     for (k = 0; k < layers; k++) {
         for (j = 0; j < cols; j++) {
             const ColumnConstants *column = &p->column[j];
-            const SpringEnds vertical = {column->k_vertical, column->alpha_vertical, column->k_vertical,
-                                         column->alpha_vertical};
+            const SpringEnds vertical = {column->k, column->alpha, column->k,
+                                         column->alpha};
             for (i = 0; i + 1 < rows; i++) {
                 const int a = k * layer_size + i * cols + j;
                 energy += spring_energy(ux, uy, uz, a, a + cols, law, vertical);
@@ -1111,10 +1111,10 @@ void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, 
     for (k = 0; k + 1 < layers; k++) { /* between layers k and k+1 (between_layers) */
         for (j = 0; j < cols; j++) {
             const ColumnConstants *column = &p->column[j];
-            const SpringEnds depth = {column->k_vertical, column->alpha_vertical, column->k_vertical,
-                                      column->alpha_vertical};
-            const SpringEnds side = {column->k_diagonal, column->alpha_diagonal, column->k_diagonal,
-                                     column->alpha_diagonal};
+            const SpringEnds depth = {column->k, column->alpha, column->k,
+                                      column->alpha};
+            const SpringEnds side = {column->k_diag, column->alpha_diag, column->k_diag,
+                                     column->alpha_diag};
             for (i = 0; i < rows; i++) {
                 const int a = k * layer_size + i * cols + j;
                 energy += spring_energy(ux, uy, uz, a, a + layer_size, law, depth);

@@ -23,6 +23,8 @@
 #ifndef LATTICE_H
 #define LATTICE_H
 
+#include "model_table.h" /* enum DiagonalRule, ColumnConstants ...: generated from the variable and material tables */
+
 #define LATTICE_MAX_COLS 64
 #define LATTICE_N_QUADRATURES 3
 /* Components of a displacement (and of a velocity): x and y in one layer, x, y and z in more. */
@@ -35,14 +37,7 @@
 /* load_patch of a load spread over the whole face (docs/model.md sections 4 and 10). */
 #define LATTICE_WHOLE_FACE 0
 
-typedef enum { DIAGONAL_RECEIVER = 0, DIAGONAL_MEAN = 1 } DiagonalRule;
 typedef enum { SPRING_EXPONENTIAL = 0, SPRING_LINEAR = 1 } SpringLaw;
-
-/* Spring constants of one column, resolved from its material (docs/model.md section 2). */
-typedef struct {
-    double k_vertical, alpha_vertical, c_vertical; /* neighbours in the column: up/down, and front/back */
-    double k_diagonal, alpha_diagonal;             /* diagonal neighbours (no damping) */
-} ColumnConstants;
 
 /* Flat (no pointers), so a model holding it can be copied with memcpy for FMU states. */
 typedef struct {
@@ -50,7 +45,7 @@ typedef struct {
     double mass;
     double k_horizontal, alpha_horizontal, c_horizontal; /* left/right neighbours: k0, alpha0, c0 */
     ColumnConstants column[LATTICE_MAX_COLS];
-    int diagonal_rule; /* DiagonalRule */
+    int diagonal_rule; /* enum DiagonalRule */
     int spring_law;    /* SpringLaw */
     double load_total, load_angle_deg, load_duration; /* F_total, theta, t_active */
     int has_backplate;

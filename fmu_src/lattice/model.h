@@ -1,111 +1,22 @@
-/* The lattice as a simulation model: variables by value reference, initialisation, advancing in time.
+/* The lattice as a model of the FMI glue: it implements the model API (common/model_api.h) in model.c (variables,
+ * initialisation, the continuous-time contract) and cosimulation.c (the Co-Simulation driver).
  *
- * This is the seam the FMI glue calls (fmi2/, fmi3/): a handful of functions, no FMI types. Every function
- * that can fail returns 0 on success and -1 with a human-readable reason in `message`.
+ * Its continuous-time contract:
+ * Continuous states (model_state_count): the lattice's displacements and velocities and its three energy
+ *   integrals (external work, dissipation, non-reciprocal work), in lattice.h's layout.
+ * Discrete states, changed only by model_event_update: whether the load acts (a time event at t_active)
+ *   and each column-C mass's backplate mode (free, receding, approaching). The event update switches the
+ *   backplate modes to those of the state (an indicator that is exactly zero by the direction the row moves
+ *   in, so that a switch does not wait for an indicator to leave zero: an importer that restarts on an exact
+ *   zero may never report it leaving).
+ * Event indicators (model_event_indicator_count; none without a backplate): each row's contact,
+ *   ux - backplate_gap (> 0 in contact), then each row's damping, vx while in contact (> 0 the damper acts);
+ *   off the plate the damper cannot switch, so the damping indicator repeats the contact one.
+ * model_advance stops the run early (MODEL_LIMIT_REACHED) when peak_backplate_force exceeds peak_force_limit.
  */
 #ifndef LATTICE_MODEL_H
 #define LATTICE_MODEL_H
 
-#include <stddef.h>
-
-typedef struct Model Model;
-
-typedef enum { MODEL_TYPE_REAL = 0, MODEL_TYPE_INTEGER = 1 } ModelVariableType;
-
-const char *model_guid(void);
-size_t model_size(void); /* bytes: a Model is flat, so memcpy copies and serialises it */
-
-Model *model_new(void);
-void model_free(Model *m);
-
-/* Back to the start values, uninitialised (fmi2Instantiate, fmi2Reset). */
-void model_reset(Model *m);
-
-/* Setters refuse outputs, unknown references, out-of-range values, and parameters after initialisation. */
-int model_set_real(Model *m, unsigned int vr, double value, char *message, size_t message_size);
-int model_set_integer(Model *m, unsigned int vr, int value, char *message, size_t message_size);
-/* Getters: Model Exchange's outputs and every variable's derivatives are computed here when first asked for. */
-int model_get_real(Model *m, unsigned int vr, double *value, char *message, size_t message_size);
-int model_get_integer(Model *m, unsigned int vr, int *value, char *message, size_t message_size);
-
-/* How many value references the model's variables take (0 .. count - 1); the type of the one at vr, or -1. */
-unsigned int model_value_reference_count(void);
-int model_variable_type(unsigned int vr);
-/* 1 when the Integer variable at vr is declared as an FMI enumeration (FMI 3 moves it as Int64). */
-int model_variable_is_enumeration(unsigned int vr);
-
-/* Checks the parameters as a whole (material is a permutation, ...) and sets up the state at start_time.
- * With stop_time_defined, the solver never steps past stop_time. */
-int model_initialize(Model *m, double start_time, int stop_time_defined, double stop_time, char *message,
-                     size_t message_size);
-
-/* Advances to t_target and updates the outputs. After a failure the model refuses to go on until reset.
- * Returns MODEL_LIMIT_REACHED (with why in message) when peak_backplate_force exceeded peak_force_limit: the
- * run then stopped at that sample's time (model_time), its outputs are valid there, and it goes no further. */
-#define MODEL_LIMIT_REACHED 1
-int model_advance(Model *m, double t_target, char *message, size_t message_size);
-
-/* The Co-Simulation driver's (cosimulation.c), called by the glue beside the model's own: sets up the solver
- * at the model's time in its start state, with the outputs of that state (after model_initialize); and 0 when
- * the driver's part of a model read from an FMU state could have been made by this build (its layout, solver
- * fields, times and flags), else -1 and why (after model_check; an uninitialised model has none). */
-void model_driver_initialize(Model *m);
-int model_driver_check(const Model *m, char *message, size_t message_size);
-
-double model_time(const Model *m);
-
-/* Whether a step failed (the model refuses to go on until reset); a refused argument is not a failure. */
-int model_has_failed(const Model *m);
-
-/* 0 when a model read from an FMU state could have been made by this build: every parameter in range, and
- * every field of the model's that sizes or indexes memory (material order, lattice size, modes) this build's;
- * else -1 and why (the driver's fields: model_driver_check). The model must be a properly aligned copy
- * (model_size() bytes). */
-int model_check(const Model *m, char *message, size_t message_size);
-/* The continuous-time contract, as the Reference FMUs' model.h has it (getContinuousStates,
- * getDerivatives, getEventIndicators, eventUpdate). Model Exchange hands it to the importer's solver; the
- * Co-Simulation driver (cosimulation.c) integrates the same derivatives with its own solver and locates the
- * same event indicators on its dense output, so the two interfaces cannot drift.
- *
- * Continuous states (model_state_count): the lattice's displacements and velocities and its three energy
- *   integrals (external work, dissipation, non-reciprocal work), in lattice.h's layout.
- * Discrete states, changed only by model_event_update: whether the load acts (a time event at t_active)
- *   and each column-C mass's backplate mode (free, receding, approaching).
- * Event indicators (model_event_indicator_count; none without a backplate): each row's contact,
- *   ux - backplate_gap (> 0 in contact), then each row's damping, vx while in contact (> 0 the damper acts);
- *   off the plate the damper cannot switch, so the damping indicator repeats the contact one.
- *
- * Model Exchange runs between model_initialize and a reset; every call checks its sizes and says why it
- * refuses. */
-int model_state_count(void);
-int model_event_indicator_count(void);
-
-/* From here on the importer integrates: the model holds the state it is given instead of advancing. */
-int model_exchange_begin(Model *m, char *message, size_t message_size);
-void model_set_time(Model *m, double time);
-int model_get_states(const Model *m, double *x, size_t n, char *message, size_t message_size);
-int model_set_states(Model *m, const double *x, size_t n, char *message, size_t message_size);
-int model_get_derivatives(Model *m, double *dx, size_t n, char *message, size_t message_size);
-int model_get_event_indicators(const Model *m, double *z, size_t n, char *message, size_t message_size);
-
-/* Event mode at the current time and state: switches the load off at t_active and the backplate modes to
- * those of the state (an indicator that is exactly zero by the direction the row moves in, so that a switch
- * does not wait for an indicator to leave zero: an importer that restarts on an exact zero may never report
- * it leaving); says whether the discrete states changed and when the next time event is. */
-void model_event_update(Model *m, int *changed, int *next_event_time_defined, double *next_event_time);
-
-/* The importer completed a step or reached an event: the peaks and the last contact over the points it
- * shows the model (the only ones the model sees). Returns 1 when a row's backplate mode contradicts its state
- * there (a switch the importer did not handle as an event): the importer should enter event mode. */
-int model_completed_point(Model *m);
-
-/* Model Exchange's answer to an importer that goes on integrating after model_completed_point asked for an
- * event: the rows whose mode still contradicts the state are switched here, so the physics stays right (to
- * the accuracy lost at the switch); returns how many rows were switched (0 when none was pending). Called in
- * continuous-time mode only. */
-int model_switch_lost_events(Model *m);
-
-/* 1 once the run stopped at peak_force_limit (FMI's "terminated" status), else 0. */
-int model_terminated(const Model *m);
+#include "model_api.h"
 
 #endif

@@ -35,7 +35,7 @@ const double *solver_state(const double *work) { return work + ROW_Y; }
 
 int solver_is_adaptive(int method) {
     return method == SOLVER_DOP853 || method == SOLVER_TSIT5 || method == SOLVER_DOPRI5 ||
-           method == SOLVER_FINE_RKN5;
+           method == SOLVER_RKN5;
 }
 
 /* Explicit Runge-Kutta pairs of seven stages whose last is f(y_new) (reused as the next step's first), with a
@@ -655,7 +655,7 @@ int solver_step(Solver *s, double *work, OdeFunction f, void *context, double t_
     {
         const int status =
             s->method == SOLVER_DOP853        ? dop853_step(s, work, f, context, t_limit, message, message_size)
-            : s->method == SOLVER_FINE_RKN5   ? nystrom_step(s, work, f, context, t_limit, message, message_size)
+            : s->method == SOLVER_RKN5   ? nystrom_step(s, work, f, context, t_limit, message, message_size)
             : solver_is_adaptive(s->method)   ? fsal_pair_step(s, work, f, context, t_limit, message, message_size)
                                             : fixed_step(s, work, f, context, t_limit, message, message_size);
         s->end_derivative_valid = status == 0;
@@ -697,7 +697,7 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
         return;
     }
     for (r = 0; r < SOLVER_DENSE_ROWS; r++) dense[r] = row(work, n, ROW_DENSE + r);
-    if (s->method == SOLVER_FINE_RKN5) {
+    if (s->method == SOLVER_RKN5) {
         /* x: the quintic Hermite's top coefficients (c3, c4, c5 of x0 + h v0 s + h^2 A0 s^2 / 2 + ...) in the
          * first m entries of the first three rows; q: the cubic Hermite in the entries past 2m */
         const int m = s->n_second_order;

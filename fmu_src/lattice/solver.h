@@ -19,14 +19,7 @@
 
 #include <stddef.h>
 
-typedef enum {
-    SOLVER_DOP853 = 0,
-    SOLVER_RK4 = 1,
-    SOLVER_SEMI_IMPLICIT_EULER = 2,
-    SOLVER_TSIT5 = 3,
-    SOLVER_DOPRI5 = 4,
-    SOLVER_FINE_RKN5 = 5
-} SolverMethod;
+#include "model_table.h" /* enum Solver, SOLVER_DOP853 ...: generated from the variable table */
 
 /* 1 for the methods with error control (their steps adapt, an event may cut one back to any length). */
 int solver_is_adaptive(int method);
@@ -42,7 +35,7 @@ typedef void (*OdeFunction)(void *context, int phase, const double *y, double *d
 #define SOLVER_WORKSPACE_SIZE(n) (SOLVER_WORKSPACE_ROWS * (size_t)(n))
 
 typedef struct {
-    int method;         /* SolverMethod */
+    int method;         /* enum Solver */
     int n;              /* state size */
     int n_second_order; /* y[0..m) are positions whose rates are y[m..2m) (semi-implicit Euler needs it) */
     double rtol, atol, fixed_step;

@@ -1,7 +1,7 @@
 """FMI 3.0 (Model Exchange and Co-Simulation): modelDescription.xml and sources/buildDescription.xml from the one
-variable table, through the templates fmu_src/templates/fmi3_*.xml.
+variable table, through the templates builder/templates/fmi3_*.xml.
 
-`fmu_src.build.build_fmu(..., fmi_version=3)` calls in here; everything else (the C header model_variables.h,
+`builder.build.build_fmu(..., fmi_version=3)` calls in here; everything else (the C header model_variables.h,
 the model's C code, compiling, zipping) is shared with FMI 2. The differences from FMI 2:
 
 - every variable is a scalar with FMI 2's name (`material[1]` ... `material[C]`, `ux[1,1]`, `der(ux[1,1])`):
@@ -22,13 +22,11 @@ import platform
 import uuid
 from pathlib import Path
 
-from fmu_src import MODEL_HEADERS, MODEL_SOURCES
-from fmu_src.fmi2_description import enumeration_types, range_attributes
-from fmu_src.rendering import default_experiment, model_summary, render
+from builder.fmi2_description import enumeration_types, range_attributes
+from builder.rendering import default_experiment, model_summary, render
+from builder.sources import SourceTree
 from fmu_src.variables import DERIVATIVE, INDICATOR, INTEGER, LOG_CATEGORIES, REAL, STATE, UNITS, Interface, c_literal
 
-C_SOURCES = ["fmi3/fmi3_glue.c"] + MODEL_SOURCES
-C_HEADERS = ["include/fmi3Functions.h", "include/fmi3FunctionTypes.h", "include/fmi3PlatformTypes.h"] + MODEL_HEADERS
 TYPE_NAMES = {REAL: "Float64", INTEGER: "Int32"}  # an Integer with an enumeration type is an Enumeration (Int64)
 # A Float64 variable gets its unit through a declared type named after the unit (<Float64Type name="N.s/m"
 # unit="N.s/m"/>), not through a unit attribute: both are FMI 3.0, but fmi-sim 0.7 (Rust) refuses a unit
@@ -50,11 +48,12 @@ def platform_folder() -> tuple[str, str]:
     return f"{architecture}-{system[0]}", system[1]
 
 
-def instantiation_token(fmi2_guid: str, source_dir: Path) -> str:
-    """The FMI 2 GUID (variables, model sources) folded with the FMI 3 glue: changes when any of them does."""
+def instantiation_token(fmi2_guid: str, files: list[Path]) -> str:
+    """The FMI 2 GUID (variables, model sources) folded with the FMI 3 build's files (glue and model): changes
+    when any of them does."""
     digest = hashlib.sha256(fmi2_guid.encode())
-    for name in C_SOURCES + C_HEADERS:
-        digest.update((source_dir / name).read_bytes())
+    for path in files:
+        digest.update(path.read_bytes())
     return "{" + str(uuid.UUID(bytes=digest.digest()[:16], version=5)) + "}"
 
 
@@ -115,6 +114,8 @@ def generate_model_description(interface: Interface, identifier: str, token: str
                   experiment=default_experiment(scene), variables=variables, structure=structure)
 
 
-def generate_build_description(identifier: str) -> str:
-    """sources/buildDescription.xml: what `fmpy compile` (or any FMI 3 tool) compiles for another platform."""
-    return render("fmi3_build_description.xml", identifier=identifier, sources=C_SOURCES)
+def generate_build_description(identifier: str, sources: list[str] | None = None) -> str:
+    """sources/buildDescription.xml: what `fmpy compile` (or any FMI 3 tool) compiles for another platform;
+    `sources` are the C files in the FMU's sources/ (default: the lattice's)."""
+    sources = sources if sources is not None else SourceTree(fmi_version=3).source_names()
+    return render("fmi3_build_description.xml", identifier=identifier, sources=sources)

@@ -1,15 +1,15 @@
 """documentation/index.html inside the FMU: the model in a page, every variable, the study's published numbers.
 
-Rendered from fmu_src/templates/documentation.html without simulating anything: the variables come from the
+Rendered from builder/templates/documentation.html without simulating anything: the variables come from the
 one table (fmu_src/variables.py), the published numbers from fmu_src/published.py, so the page describes the
 FMU it ships in and the build stays a build.
 """
 from __future__ import annotations
 
-from fmu_src.fmi2_description import enumeration_alias
+from builder.fmi2_description import enumeration_alias
 from fmu_src.materials import STUDY_MATERIAL_COUNT, study_materials
 from fmu_src.published import PUBLISHED_CONDITIONS, PUBLISHED_HORIZON, PUBLISHED_PEAKS, REFERENCE_POINTS
-from fmu_src.rendering import model_summary, render
+from builder.rendering import model_summary, render
 from fmu_src.variables import INDICATOR, Interface, Variable
 
 def _format(value) -> str:

@@ -45,7 +45,7 @@ SIGNALS = ("backplate_force", "peak_backplate_force", "kinetic_energy", "potenti
 # A Model Exchange importer's relative tolerance (its solver's, not the FMU's own).
 RELATIVE_TOLERANCE = 1e-6
 INTERFACES = {"cs": ("CoSimulation", "Co-Simulation"), "me": ("ModelExchange", "Model Exchange")}
-_TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("fmu_src", "templates"),
+_TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("builder", "templates"),
                                 autoescape=jinja2.select_autoescape(["xml"]), undefined=jinja2.StrictUndefined,
                                 keep_trailing_newline=True)
 _TEMPLATES.filters["cell"] = lambda value: "" if value is None else str(value).replace("|", "\\|").replace("\n", " ")
@@ -128,7 +128,7 @@ def reference_result(fmu: Path, stop_time: float, step_size: float) -> tuple[np.
 
 def with_reference(fmu: Path, target: Path, reference_csv: Path, stop_time: float, step_size: float) -> None:
     """A copy of ``fmu`` at ``target`` with the reference result and its FMI-LS-REF manifest in extra/."""
-    from fmu_src.reference_results import LS_DESCRIPTION, LS_NAME, LS_VERSION
+    from builder.reference_results import LS_DESCRIPTION, LS_NAME, LS_VERSION
 
     description = f"Outputs from 0 to {stop_time!r} s every {step_size!r} s, by the FMU's Co-Simulation at its default parameters"
     manifest = _TEMPLATES.get_template("fmi_ls_ref_manifest.xml").render(

@@ -1,4 +1,4 @@
-"""The jinja2 environment the FMU's generated files are rendered with (the templates in fmu_src/templates/).
+"""The jinja2 environment the FMU's generated files are rendered with (the templates in builder/templates/).
 
 Autoescaped for HTML and XML. An XML attribute is written `name={{ value | quoted }}`: the value quoted and
 escaped as xml.sax.saxutils.quoteattr does (double quotes unless the value holds one).

@@ -1,18 +1,15 @@
 """FMI 2.0 (Model Exchange and Co-Simulation): modelDescription.xml from the one variable table.
 
-The template is fmu_src/templates/fmi2_model_description.xml; this module hands it the table's variables
+The template is builder/templates/fmi2_model_description.xml; this module hands it the table's variables
 flattened into FMI 2 scalars (an array `k` of size C becomes `k[1]` ... `k[C]`, consecutive value references)
 with their 1-based ScalarVariable indices, which <ModelStructure> refers to. An enumeration parameter
 (diagonal_rule, solver) is an Integer with an Enumeration alias that names its items (`_elements`).
 """
 from __future__ import annotations
 
-from fmu_src import MODEL_HEADERS, MODEL_SOURCES
-from fmu_src.rendering import default_experiment, model_summary, render
+from builder.rendering import default_experiment, model_summary, render
+from builder.sources import SourceTree
 from fmu_src.variables import DERIVATIVE, INTEGER, LOG_CATEGORIES, REAL, STATE, UNITS, Interface, c_literal
-
-C_SOURCES = ["fmi2/fmi2_glue.c"] + MODEL_SOURCES
-C_HEADERS = ["include/fmi2Functions.h", "include/fmi2FunctionTypes.h", "include/fmi2TypesPlatform.h"] + MODEL_HEADERS
 
 
 def _number(variable, value) -> str:
@@ -99,11 +96,14 @@ def enumeration_types(interface: Interface) -> list[dict]:
             for v in interface.exposed if v.enumeration]
 
 
-def generate_model_description(interface: Interface, identifier: str, guid: str, scene) -> str:
-    """modelDescription.xml (FMI 2.0, Model Exchange and Co-Simulation) from the same table as the C header."""
+def generate_model_description(interface: Interface, identifier: str, guid: str, scene,
+                               sources: list[str] | None = None) -> str:
+    """modelDescription.xml (FMI 2.0, Model Exchange and Co-Simulation) from the same table as the C header;
+    `sources` are the C files in the FMU's sources/ (<SourceFiles>; default: the lattice's)."""
     scalars, outputs, derivatives, initial_unknowns = scalar_variables(interface)
+    sources = sources if sources is not None else SourceTree(fmi_version=2).source_names()
     return render("fmi2_model_description.xml", identifier=identifier, guid=guid,
                   description=model_summary(interface, scene), event_indicators=interface.event_indicator_count(),
-                  sources=C_SOURCES, units=UNITS, enumerations=enumeration_types(interface),
+                  sources=sources, units=UNITS, enumerations=enumeration_types(interface),
                   log_categories=LOG_CATEGORIES, experiment=default_experiment(scene), variables=scalars,
                   outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns)

@@ -13,7 +13,7 @@ an FMU of another scene, size or material table carries none (it has no publishe
 Building never simulates: the CSVs are recorded once from the sources and kept beside them (as the Reference
 FMUs keep their <Model>_out.csv in their source tree); the build copies them.
 
-    python -m fmu_src.reference_results     # records them again from today's sources (this machine's FMU)
+    python -m builder.reference_results     # records them again from today's sources (this machine's FMU)
 
 tests/test_reference_results.py checks that today's FMU still gives them and that the manifest is what
 FMI-LS-REF and FMI 3's layered-standard manifest schema ask for.
@@ -38,7 +38,7 @@ LS_DESCRIPTION = "Layered standard providing information on related files includ
 # The outputs recorded, in this order (time first); all change over the default experiment.
 SIGNALS = ("backplate_force", "peak_backplate_force", "peak_backplate_force_continuous", "kinetic_energy",
            "potential_energy", "external_work", "dissipated_energy", "ux_left_edge", "ux_centre", "ux_right_edge")
-_TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("fmu_src", "templates"),
+_TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("builder", "templates"),
                                 autoescape=jinja2.select_autoescape(["xml"]), undefined=jinja2.StrictUndefined,
                                 keep_trailing_newline=True)
 
@@ -84,7 +84,7 @@ def extra_files(identifier: str) -> dict[str, bytes]:
     for result in REFERENCE_RESULTS:
         recorded = RESULTS_DIR / result.file_name(identifier)
         if not recorded.is_file():
-            raise FileNotFoundError(f"reference result {recorded} is missing: python -m fmu_src.reference_results "
+            raise FileNotFoundError(f"reference result {recorded} is missing: python -m builder.reference_results "
                                     f"records it")
         files[f"{EXTRA}/{recorded.name}"] = recorded.read_bytes()
     return files
@@ -107,7 +107,7 @@ def write_csv(path: Path, result) -> None:
 
 def record(out_dir: Path = RESULTS_DIR) -> list[Path]:
     """Builds the armour FMU here and records its reference results into ``out_dir``."""
-    from fmu_src.build import build_fmu
+    from builder.build import build_fmu
 
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []

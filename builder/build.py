@@ -1,10 +1,12 @@
-"""Build the mass-spring lattice FMU from fmu_src/: generate, compile, zip. Nothing happens at import.
+"""Build an FMU from a model folder (default fmu_src/lattice/) and the shared FMI glue of fmu_src/: generate,
+compile, zip. Nothing happens at import.
 
 One table (fmu_src/variables.py) gives the C header model_variables.h and both model descriptions
-(fmu_src/fmi2_description.py, fmu_src/fmi3_description.py, rendered from fmu_src/templates/), so they cannot
-drift. The FMU carries its C sources (listed in <SourceFiles>, FMI 3: sources/buildDescription.xml) so `fmpy
-compile` can rebuild it for another platform, and documentation/index.html (fmu_src/documentation.py: the
-model, every variable and the study's published numbers, rendered without simulating anything).
+(builder/fmi2_description.py, builder/fmi3_description.py, rendered from builder/templates/), so they cannot
+drift. The FMU carries its C sources (builder/sources.py: which files; listed in <SourceFiles>, FMI 3:
+sources/buildDescription.xml) so `fmpy compile` can rebuild it for another platform, and
+documentation/index.html (builder/documentation.py: the model, every variable and the study's published
+numbers, rendered without simulating anything).
 
 `build_fmu()` builds an FMU, `build_core_library()` the physics core alone; `build_fmu.py` is the command line.
 """
@@ -25,29 +27,32 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
-from fmu_src import fmi2_description as fmi2
-from fmu_src import fmi3_description as fmi3
-from fmu_src.documentation import documentation_html
+from builder import fmi2_description as fmi2
+from builder import fmi3_description as fmi3
+from builder.documentation import documentation_html
+from builder.platforms import PORTABLE_FLAGS, TargetPlatform, compiler_for, parse_platforms
+from builder.reference_results import carries_reference_results, extra_files
+from builder.sources import DEFAULT_MODEL_DIR, FMU_SOURCE_DIR, SourceTree
+from fmu_src.materials import FIELDS as MATERIAL_FIELDS
 from fmu_src.materials import MaterialTable, load_materials
-from fmu_src.platforms import PORTABLE_FLAGS, TargetPlatform, compiler_for, parse_platforms
-from fmu_src.reference_results import carries_reference_results, extra_files
-from fmu_src.variables import DERIVATIVE, INDICATOR, REAL, STATE, Interface, c_literal, plotted_masses
+from fmu_src.variables import (DERIVATIVE, INDICATOR, REAL, STATE, Interface, c_literal, enumerations,
+                               plotted_masses)
 from scenes import DEFAULT_SCENE, Scene, check_identifier
 
-SOURCE_DIR = Path(__file__).resolve().parent  # the C sources ship as package data of fmu_src
+SOURCE_DIR = FMU_SOURCE_DIR  # the C sources ship as package data of fmu_src
 # Built FMUs go to models/ under the current folder: the repository's models/ when run from its root (as the
 # README does), ./models wherever an installed `lattice-build` or `lattice-search` runs.
 MODELS_DIR = Path("models")
 
-C_SOURCES, C_HEADERS = fmi2.C_SOURCES, fmi2.C_HEADERS
-CORE_SOURCES = ["lattice/lattice.c", "lattice/solver.c"]
+CORE_SOURCES = ["lattice.c", "solver.c"]  # in the default model folder
 WARNING_FLAGS = ["-Wall", "-Wextra", "-pedantic"]
 # -O3 vectorises the right-hand side's loops (with their epilogues); neither -fno-math-errno (sqrt is an
 # instruction, not a call that may set errno) nor -fno-trapping-math (selects may be computed as blends)
 # changes a result. Any C99 compiler builds the sources without them (fmpy compile does), only slower.
 OPTIMISATION_FLAGS = ["-O3", "-fno-math-errno", "-fno-trapping-math"]
-__all__ = ["MODELS_DIR", "SOURCE_DIR", "build_core_library", "build_fmu", "compile_shared_library",
-           "generate_header", "model_guid", "platform_folder", "resolve_scene"]
+__all__ = ["DEFAULT_MODEL_DIR", "MODELS_DIR", "SOURCE_DIR", "build_core_library", "build_fmu", "compile_shared_library",
+           "generate_header", "generate_table_header", "model_guid", "package_fmu", "platform_folder",
+           "resolve_scene", "source_guid"]
 
 
 def platform_folder() -> tuple[str, str]:
@@ -62,20 +67,29 @@ def platform_folder() -> tuple[str, str]:
     raise RuntimeError(f"unsupported platform {system}: build from the FMU's sources with `fmpy compile`")
 
 
-def model_guid(interface: Interface, identifier: str) -> str:
-    """A GUID that changes whenever the variables or the C sources change, and only then."""
+def source_guid(tree: SourceTree, identifier: str, *generated: str) -> str:
+    """A GUID of the identifier, the generated texts and the files of `tree` (glue and model folder): it changes
+    whenever any of them does, and only then."""
     digest = hashlib.sha256()
     digest.update(identifier.encode())
-    digest.update(generate_header(interface, "").encode())
-    for name in C_SOURCES + C_HEADERS:
-        digest.update((SOURCE_DIR / name).read_bytes())
+    for text in generated:
+        digest.update(text.encode())
+    for path in tree.files():
+        digest.update(path.read_bytes())
     return "{" + str(uuid.UUID(bytes=digest.digest()[:16], version=5)) + "}"
+
+
+def model_guid(interface: Interface, identifier: str, model_dir: str | os.PathLike = DEFAULT_MODEL_DIR) -> str:
+    """The lattice FMU's GUID: changes whenever the variables or the C sources (FMI 2 glue and model folder)
+    change, and only then."""
+    return source_guid(SourceTree(Path(model_dir), 2), identifier, generate_header(interface, ""),
+                       generate_table_header())
 
 
 def generate_header(interface: Interface, guid: str) -> str:
     """model_variables.h: value references, the variable table, and an accessor for every parameter."""
     lines = [
-        "/* Generated by fmu_src/build.py from fmu_src/variables.py: do not edit. */",
+        "/* Generated by builder/build.py from fmu_src/variables.py: do not edit. */",
         "#ifndef MODEL_VARIABLES_H",
         "#define MODEL_VARIABLES_H",
         "#include <math.h>",
@@ -159,6 +173,27 @@ def generate_header(interface: Interface, guid: str) -> str:
     return "\n".join(lines)
 
 
+TABLE_HEADER = "model_table.h"
+
+
+def generate_table_header() -> str:
+    """model_table.h: what the physics core and the solvers read of the variable table and the material table:
+    a C enum per enumeration parameter, tagged with its FMI enumeration type's name, one constant per item
+    (DIAGONAL_RULE_RECEIVER = 0, ...), and ColumnConstants, one material's fields (fmu_src/materials.py). It
+    depends on no scene, so the core and the solvers compile alike for every FMU."""
+    lines = ["/* Generated by builder/build.py from fmu_src/variables.py and fmu_src/materials.py: do not edit. */",
+             "#ifndef MODEL_TABLE_H", "#define MODEL_TABLE_H", ""]
+    for variable in enumerations():
+        lines += [f"/* the values of {variable.name} */", f"enum {variable.enumeration} {{"]
+        lines += [f"    {variable.c_name}_{label.upper()} = {value}," for value, (label, _) in enumerate(variable.items)]
+        lines += ["};", ""]
+    lines += ["/* The constants of one column: its material's row of the material table (docs/model.md section 2). */",
+              "typedef struct {"]
+    lines += [f"    double {column.name}; /* {column.unit}: {column.description} */" for column in MATERIAL_FIELDS]
+    lines += ["} ColumnConstants;", "", "#endif", ""]
+    return "\n".join(lines)
+
+
 def compiler_command() -> list[str]:
     return (os.environ.get("CC") or "cc").split()
 
@@ -172,7 +207,7 @@ BUILD_CACHE_VARIABLE = "LATTICE_BUILD_CACHE"
 def compile_shared_library(sources: list[Path], output: Path, include_dirs: list[Path], werror: bool,
                            target: TargetPlatform | None = None) -> None:
     """Compiles C99 sources into a shared library, each source into its own object (side by side on the
-    machine's cores), then links them; with werror any warning fails the build. `target` (fmu_src.platforms)
+    machine's cores), then links them; with werror any warning fails the build. `target` (builder.platforms)
     builds for that platform with its compiler; None, for this machine with $CC or cc."""
     output.parent.mkdir(parents=True, exist_ok=True)
     compiler = compiler_for(target) if target is not None else compiler_command()
@@ -275,52 +310,69 @@ def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, col
 def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None = None,
               rows: int | None = None, cols: int | None = None, werror: bool = False, fmi_version: int = 2,
               materials: MaterialTable | str | os.PathLike | None = None,
-              platforms: str | None = None, reference_results: bool = True) -> Path:
-    """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0);
+              platforms: str | None = None, reference_results: bool = True,
+              model_dir: str | os.PathLike = DEFAULT_MODEL_DIR) -> Path:
+    """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0),
+    from the C model in `model_dir` (its model.h: the model API of fmu_src/common/model_api.h) and the shared FMI
+    glue;
     `materials` (a MaterialTable or a table file) replaces the scene's material table: the FMU's
     k[1..M], k_diag[1..M], c[1..M], alpha[1..M], alpha_diag[1..M] start with its values. `platforms` ('all'
-    or a comma list of fmu_src.platforms.PLATFORMS) says whose binaries the FMU carries; None, this machine's.
-    The armour scene's FMU carries its reference results (fmu_src/reference_results.py) unless
+    or a comma list of builder.platforms.PLATFORMS) says whose binaries the FMU carries; None, this machine's.
+    The armour scene's FMU carries its reference results (builder/reference_results.py) unless
     reference_results is False."""
     targets = parse_platforms(platforms, fmi_version) if platforms is not None else None
     scene = resolve_scene(scene, rows, cols, output, materials)
     interface = scene.interface()
     identifier = check_identifier("model_identifier", scene.model_identifier)
-    guid = model_guid(interface, identifier)
+    guid = model_guid(interface, identifier, model_dir)
+    tree = SourceTree(Path(model_dir), fmi_version)
     suffix_fmi = fmi3.OUTPUT_SUFFIX if fmi_version == 3 else ""
     output = Path(output) if output else MODELS_DIR / f"{identifier}{suffix_fmi}.fmu"
-    folder, suffix = platform_folder()
-    c_sources, c_headers = C_SOURCES, C_HEADERS
     if fmi_version == 3:
-        guid = fmi3.instantiation_token(guid, SOURCE_DIR)
-        (folder, suffix), c_sources, c_headers = fmi3.platform_folder(), fmi3.C_SOURCES, fmi3.C_HEADERS
+        guid = fmi3.instantiation_token(guid, tree.files())
+        description = fmi3.generate_model_description(interface, identifier, guid, scene)
+    else:
+        description = fmi2.generate_model_description(interface, identifier, guid, scene, tree.source_names())
+    extra = extra_files(identifier) if reference_results and carries_reference_results(scene) else {}
+    extra["documentation/index.html"] = documentation_html(fmi_version, interface, identifier, scene).encode()
+    generated = {"model_variables.h": generate_header(interface, guid),
+                 TABLE_HEADER: generate_table_header()}
+    return package_fmu(tree, identifier, description, output, generated=generated, extra_files=extra,
+                       targets=targets, werror=werror)
 
+
+def package_fmu(tree: SourceTree, identifier: str, description: str, output: str | os.PathLike, *,
+                generated: dict[str, str] | None = None, extra_files: dict[str, bytes] | None = None,
+                targets: list[TargetPlatform] | None = None, werror: bool = False) -> Path:
+    """Zips an FMU of the model folder and glue of `tree`: its modelDescription.xml (`description`), its sources
+    flat in sources/ with the `generated` headers beside them (FMI 3: and buildDescription.xml), the
+    `extra_files` (path in the FMU: bytes), and the binary compiled for each of `targets` (None: this
+    machine). Any model folder builds here; build_fmu is the lattice's."""
+    output = Path(output)
+    fmi_version = tree.fmi_version
     with tempfile.TemporaryDirectory(prefix="build_fmu_") as staging_name:
         staging = Path(staging_name)
         sources = staging / "sources"
-        for name in c_sources + c_headers:
-            (sources / name).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(SOURCE_DIR / name, sources / name)
-        (sources / "lattice" / "model_variables.h").write_text(generate_header(interface, guid))
+        sources.mkdir()
+        for path in tree.files():
+            shutil.copy2(path, sources / path.name)
+        for name, text in (generated or {}).items():
+            (sources / name).write_text(text)
         if fmi_version == 3:
-            description = fmi3.generate_model_description(interface, identifier, guid, scene)
-            (sources / "buildDescription.xml").write_text(fmi3.generate_build_description(identifier))
-        else:
-            description = fmi2.generate_model_description(interface, identifier, guid, scene)
+            (sources / "buildDescription.xml").write_text(
+                fmi3.generate_build_description(identifier, tree.source_names()))
         (staging / "modelDescription.xml").write_text(description)
-        if reference_results and carries_reference_results(scene):
-            for name, content in extra_files(identifier).items():
-                (staging / name).parent.mkdir(parents=True, exist_ok=True)
-                (staging / name).write_bytes(content)
-        (staging / "documentation").mkdir()
-        (staging / "documentation" / "index.html").write_text(
-            documentation_html(fmi_version, interface, identifier, scene))
+        for name, content in (extra_files or {}).items():
+            (staging / name).parent.mkdir(parents=True, exist_ok=True)
+            (staging / name).write_bytes(content)
+        c_sources = [sources / name for name in tree.source_names()]
         if targets is None:
-            binary = staging / "binaries" / folder / f"{identifier}{suffix}"
-            compile_shared_library([sources / name for name in c_sources], binary, [sources], werror)
+            folder, suffix = fmi3.platform_folder() if fmi_version == 3 else platform_folder()
+            compile_shared_library(c_sources, staging / "binaries" / folder / f"{identifier}{suffix}", [sources],
+                                   werror)
         for target in targets or ():
             binary = staging / "binaries" / target.folder(fmi_version) / f"{identifier}{target.suffix}"
-            compile_shared_library([sources / name for name in c_sources], binary, [sources], werror, target)
+            compile_shared_library(c_sources, binary, [sources], werror, target)
         output.parent.mkdir(parents=True, exist_ok=True)
         partial = output.with_suffix(".fmu.partial")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as archive:
@@ -334,5 +386,8 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
 def build_core_library(output_dir: str | os.PathLike, werror: bool = False) -> Path:
     """The physics core and solvers alone, as a shared library for tests and benchmarks (no FMI)."""
     output = Path(output_dir) / f"lattice_core{platform_folder()[1]}"
-    compile_shared_library([SOURCE_DIR / name for name in CORE_SOURCES], output, [SOURCE_DIR / "lattice"], werror)
+    with tempfile.TemporaryDirectory(prefix="core_headers_") as generated:
+        (Path(generated) / TABLE_HEADER).write_text(generate_table_header())
+        compile_shared_library([DEFAULT_MODEL_DIR / name for name in CORE_SOURCES], output,
+                               [DEFAULT_MODEL_DIR, Path(generated)], werror)
     return output

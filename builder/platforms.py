@@ -26,7 +26,7 @@ import shutil
 import struct
 from dataclasses import dataclass
 
-# Flags every platform's build adds to fmu_src.build's: the numbers must not depend on the compiler's default.
+# Flags every platform's build adds to builder.build's: the numbers must not depend on the compiler's default.
 PORTABLE_FLAGS = ("-ffp-contract=off",)
 
 
