@@ -20,7 +20,7 @@ import atexit
 import itertools
 import math
 import time
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any, Callable, ClassVar, Sequence
 
 from .design import DesignSpace, as_design
@@ -146,6 +146,10 @@ class FMURun:
 
     def with_limit(self, limit: float | None) -> "FMURun":
         return replace(self, force_limit=None if limit is None else float(limit))
+
+    def with_parameters(self, **changes) -> "FMURun":
+        """The same run with some FMU parameters set otherwise (a tighter tolerance, another solver)."""
+        return replace(self, parameters=tuple(sorted({**dict(self.parameters), **changes}.items())))
 
     def _simulate(self, order: Order, horizon: float) -> dict:
         parameters = dict(self.parameters)
@@ -327,51 +331,50 @@ class ObjectiveDescription:
     search_solver: str
 
 
+@dataclass(frozen=True)
 class LatticeObjective(Objective):
     """FMU outputs of the lattice over one or more load cases.
 
     ``parameters``: FMU parameters of every run (diagonal_rule, F_total, ...). ``cases``: parameter dicts,
     each one FMU run per design on top of ``parameters``; a design's value is their ``aggregate`` (``worst``:
     the largest; ``mean``), output by output. ``horizon``: the full scene's; the search fidelity runs
-    ``search_horizon`` at ``search_rtol`` (None: the full horizon at the FMU's tolerance).
+    ``search_horizon`` at ``search_rtol`` (None: the full horizon at the FMU's tolerance). A record: the
+    variants a study needs are made with ``dataclasses.replace`` (``with_parameters`` and its siblings).
     """
 
-    def __init__(self, fmu_path, space: DesignSpace, horizon: float, outputs: Sequence[str] = ("peak_backplate_force",),
-                 parameters: dict | None = None, cases: Sequence[dict] | None = None, aggregate: str = "worst",
-                 search_horizon: float | None = SEARCH_HORIZON, search_rtol: float | None = SEARCH_RTOL,
-                 use_limits: bool = True, has_force_limit: bool = True, has_compression: bool = False,
-                 default_rule: str = "", fmu_sha256: str = ""):
-        if aggregate not in AGGREGATES:
-            raise ValueError(f"aggregate {aggregate!r}: allowed values are {', '.join(AGGREGATES)}")
-        if not (math.isfinite(horizon) and horizon > 0):
-            raise ValueError(f"horizon must be a finite number of seconds > 0, got {horizon}")
-        self.fmu_path = str(fmu_path)
-        self.fmu_sha256 = fmu_sha256
-        self.space = space
-        self.horizon = float(horizon)
-        self.outputs = output_names(outputs)
-        if "max_compression" in self.outputs and not has_compression:
-            raise ValueError("objective max_compression: this FMU has no max_compression output (rebuild it)")
-        self.n_objectives = len(self.outputs)
-        self.parameters = {k: v for k, v in (parameters or {}).items() if v is not None}
-        self.cases = [dict(case) for case in (cases or [{}])] or [{}]
-        self.aggregate = aggregate
-        self.search_horizon = min(search_horizon or self.horizon, self.horizon)
-        self.search_rtol = search_rtol
-        self.use_limits = use_limits
-        self.has_force_limit = has_force_limit
-        self.has_compression = has_compression
-        self.default_rule = default_rule
+    fmu_path: str
+    space: DesignSpace
+    horizon: float
+    outputs: tuple[str, ...] = ("peak_backplate_force",)
+    parameters: dict[str, Any] = field(default_factory=dict)
+    cases: tuple[dict[str, Any], ...] = ({},)
+    aggregate: str = "worst"
+    search_horizon: float | None = SEARCH_HORIZON
+    search_rtol: float | None = SEARCH_RTOL
+    use_limits: bool = True
+    has_force_limit: bool = True
+    has_compression: bool = False
+    default_rule: str = ""
+    fmu_sha256: str = ""
 
-    def _copy(self, **changes) -> "LatticeObjective":
-        arguments = dict(fmu_path=self.fmu_path, space=self.space, horizon=self.horizon, outputs=self.outputs,
-                         parameters=self.parameters, cases=self.cases, aggregate=self.aggregate,
-                         search_horizon=self.search_horizon, search_rtol=self.search_rtol,
-                         use_limits=self.use_limits, has_force_limit=self.has_force_limit,
-                         has_compression=self.has_compression, default_rule=self.default_rule,
-                         fmu_sha256=self.fmu_sha256)
-        arguments.update(changes)
-        return LatticeObjective(**arguments)
+    def __post_init__(self):
+        if self.aggregate not in AGGREGATES:
+            raise ValueError(f"aggregate {self.aggregate!r}: allowed values are {', '.join(AGGREGATES)}")
+        if not (math.isfinite(self.horizon) and self.horizon > 0):
+            raise ValueError(f"horizon must be a finite number of seconds > 0, got {self.horizon}")
+        normal = object.__setattr__  # a frozen record normalises what it was given, once, here
+        normal(self, "fmu_path", str(self.fmu_path))
+        normal(self, "horizon", float(self.horizon))
+        normal(self, "outputs", output_names(self.outputs))
+        if "max_compression" in self.outputs and not self.has_compression:
+            raise ValueError("objective max_compression: this FMU has no max_compression output (rebuild it)")
+        normal(self, "parameters", {k: v for k, v in (self.parameters or {}).items() if v is not None})
+        normal(self, "cases", tuple(dict(case) for case in (self.cases or ({},))) or ({},))
+        normal(self, "search_horizon", min(self.search_horizon or self.horizon, self.horizon))
+
+    @property
+    def n_objectives(self) -> int:
+        return len(self.outputs)
 
     @property
     def supports_limits(self) -> bool:
@@ -391,13 +394,13 @@ class LatticeObjective(Objective):
 
     def with_parameters(self, **parameters) -> "LatticeObjective":
         """The same objective with some FMU parameters changed (the other diagonal rule, another load)."""
-        return self._copy(parameters={**self.parameters, **parameters})
+        return replace(self, parameters={**self.parameters, **parameters})
 
     def with_cases(self, cases: Sequence[dict] | None, aggregate: str = "worst") -> "LatticeObjective":
-        return self._copy(cases=cases, aggregate=aggregate)
+        return replace(self, cases=tuple(cases or ({},)), aggregate=aggregate)
 
     def with_outputs(self, outputs: Sequence[str]) -> "LatticeObjective":
-        return self._copy(outputs=outputs)
+        return replace(self, outputs=tuple(outputs))
 
     def run_parameters(self, case: dict, fidelity: str) -> dict:
         """The FMU parameters of one case's run at ``fidelity``."""
@@ -448,8 +451,8 @@ class LatticeObjective(Objective):
             outputs=self.outputs, labels=tuple(RUN_MAXIMA[o].label for o in self.outputs),
             short_labels=tuple(RUN_MAXIMA[o].short for o in self.outputs),
             units=tuple(RUN_MAXIMA[o].unit for o in self.outputs), diagonal_rule=self.diagonal_rule,
-            parameters=dict(self.parameters), cases=tuple(self.cases) if self.cases != [{}] else (),
-            aggregate=self.aggregate if self.cases != [{}] else None, horizon=self.horizon,
+            parameters=dict(self.parameters), cases=self.cases if self.cases != ({},) else (),
+            aggregate=self.aggregate if self.cases != ({},) else None, horizon=self.horizon,
             search_horizon=self.search_horizon, search_rtol=self.search_rtol, search_solver=SEARCH_SOLVER)
 
 

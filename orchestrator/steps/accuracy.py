@@ -55,7 +55,7 @@ class Accuracy(Step):
         rule = answer.diagonal_rule if answer.diagonal_rule in context.case.rules else None
         objective = context.objective(rule)
         full, = objective.tasks(FULL)
-        tight = replace(full, parameters=tuple(sorted({**dict(full.parameters), **TIGHT}.items())))
+        tight = full.with_parameters(**TIGHT)
         shorter = [replace(full, horizon=h) for h in HORIZONS if h < objective.horizon]
         runs = [tight] + shorter
         results = context.evaluator.evaluate([(run, answer.order) for run in runs])
