@@ -95,10 +95,6 @@ class PreparedFMU:
         return "peak_force_limit" in self.parameters
 
     @property
-    def has_compression(self) -> bool:
-        return "max_compression" in self.outputs
-
-    @property
     def has_repeat(self) -> bool:
         return "repeat_materials" in self.parameters
 

@@ -23,6 +23,8 @@ from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2Ca
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Discard, fmi2LastSuccessfulTime,
                        fmi2Terminated, fmi2Warning, free)
 
+from .types import NamedOutputs
+
 PEAK_OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "peak_time")
 ENERGY_OUTPUTS = ("kinetic_energy", "potential_energy", "external_work", "dissipated_energy",
                   "nonreciprocal_work", "energy_balance_error")
@@ -83,6 +85,11 @@ def enumeration_items(description, name: str) -> dict[str, int]:
     return {item.name: int(item.value) for item in (getattr(declared, "items", None) or [])}
 
 
+def declared_outputs(description) -> tuple[str, ...]:
+    """The names of the outputs the model description declares, in its order."""
+    return tuple(v.name for v in description.modelVariables if v.causality == "output")
+
+
 def material_columns(description) -> int:
     """How many columns (material[j] parameters) the FMU's lattice has."""
     return sum(1 for v in description.modelVariables if v.name.startswith("material["))
@@ -92,12 +99,27 @@ class SimulationError(RuntimeError):
     """An FMI call failed; the message holds what the FMU logged."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class Trajectory:
     """Outputs at every communication point of one run."""
 
     time: np.ndarray
     values: dict[str, np.ndarray]
+
+
+@dataclass(frozen=True)
+class SimulationResult(NamedOutputs):
+    """One run: its outputs at the end by the names the FMU's model description declares (``result[name]``,
+    as FMPy's simulation result is indexed), the time it ended, and the trajectory when one was recorded.
+
+    ``stopped_early``: a peak_force_limit stopped the run at ``stop_time`` (fmi2Discard, fmi2Terminated), so
+    its outputs are the FMU's at that time and peak_backplate_force only the peak so far (above the limit).
+    """
+
+    values: dict[str, float | int]
+    stop_time: float
+    stopped_early: bool = False
+    trajectory: Trajectory | None = None
 
 
 class LatticeFMU:
@@ -118,6 +140,7 @@ class LatticeFMU:
             raise ValueError(f"{self.fmu_path} has no co-simulation interface")
         self.variables = {v.name: v for v in self.model_description.modelVariables}
         self.columns = material_columns(self.model_description)
+        self.outputs = declared_outputs(self.model_description)
         self._material_references = [self.value_reference(f"material[{j}]") for j in range(1, self.columns + 1)]
         self._unzip_dir = extract(str(self.fmu_path), tempfile.mkdtemp(prefix="lattice_fmu_"))
         self._messages: list[str] = []
@@ -184,18 +207,16 @@ class LatticeFMU:
         return self._reader(tuple(names)).read(self._api)
 
     def simulate(self, order=None, horizon: float = 8.0, parameters: dict | None = None,
-                 communication_step: float | None = None, outputs=PEAK_OUTPUTS + ENERGY_OUTPUTS,
-                 record=None, peak_force_limit: float | None = None) -> dict:
-        """One run from t = 0 to the horizon; returns the outputs at the end (and a Trajectory if asked).
+                 communication_step: float | None = None, outputs=None, record=None,
+                 peak_force_limit: float | None = None) -> SimulationResult:
+        """One run from t = 0 to the horizon: the outputs at its end (``outputs``: these names; None: every
+        output the model description declares), and the trajectory of the ``record`` outputs if asked.
 
         With communication_step None the FMU is advanced by a single doStep: it samples the peak itself.
 
         With peak_force_limit (N, > 0; as the argument or among the parameters) the FMU stops the run as soon
-        as its sampled peak exceeds the limit (fmi2Discard, fmi2Terminated): the result then has "censored":
-        True and "censored_at" (the time the run reached), and its outputs are the FMU's at that time, so
-        peak_backplate_force is only the peak so far (above the limit), never the run's peak. A run that stays
-        below the limit gives the same numbers bit for bit as one without it, with "censored": False and
-        "censored_at": None. Without a peak_force_limit neither key is there.
+        as its sampled peak exceeds the limit: the result is then ``stopped_early`` at its ``stop_time``. A run
+        that stays below the limit gives the same result bit for bit as one without it.
         """
         self._messages.clear()
         api = self._api
@@ -211,7 +232,7 @@ class LatticeFMU:
             if isinstance(value, str):
                 parameters[name] = _choice(name, value, self._enumerations.get(name, {}))
         setter = self._setter(order is not None, tuple(parameters))
-        reader = self._reader(tuple(outputs))
+        reader = self._reader(self.outputs if outputs is None else tuple(outputs))
         stopped_at = None
         try:
             api.call("fmi2Reset")
@@ -242,16 +263,12 @@ class LatticeFMU:
                         break
                 if record:
                     trajectory = Trajectory(np.array(reached), {k: np.array(v) for k, v in series.items()})
-            result = reader.read(api)
+            values = reader.read(api)
         except FMICallException as exc:
             detail = "; ".join(self._messages) or "the FMU logged no reason"
             raise SimulationError(f"{exc.function} failed: {detail}") from None
-        if limited:
-            result["censored"] = stopped_at is not None
-            result["censored_at"] = stopped_at
-        if trajectory is not None:
-            result["trajectory"] = trajectory
-        return result
+        return SimulationResult(values, float(horizon) if stopped_at is None else stopped_at, stopped_at is not None,
+                                trajectory)
 
     def close(self) -> None:
         if self._slave is not None:

@@ -85,7 +85,7 @@ def test_the_balance_of_the_outputs_closes_at_every_communication_point(lattice,
     defaults."""
     result = lattice.simulate(order, horizon=2.0, communication_step=0.01, record=BALANCE_OUTPUTS,
                               outputs=BALANCE_OUTPUTS, parameters={"diagonal_rule": rule})
-    v = result["trajectory"].values
+    v = result.trajectory.values
     balance = (v["external_work"] + v["nonreciprocal_work"] - v["kinetic_energy"] - v["potential_energy"]
                - v["dissipated_energy"])
     assert max(abs(balance)) <= 1e-6 * v["external_work"][-1]
