@@ -14,19 +14,15 @@ executor (cache, keys, the task protocol). The fastest batch counts.
 from __future__ import annotations
 
 import time
-from dataclasses import fields
-
 from orchestrator.executors import make_executor
 from orchestrator.loop import Evaluator
 from orchestrator.objective import FMURun, close_instances
 from orchestrator.simulation import LatticeFMU
-from orchestrator.types import RunOutputs
 
 from .common import add_fmu_option, lattice_fmu, random_orders, search_parameters
 from .measurements import Page, Run, Table, write_page
 
 HORIZON = 1e-3  # s simulated per run: a step or two
-OUTPUTS = tuple(f.name for f in fields(RunOutputs) if f.name not in ("horizon", "max_compression"))
 
 
 def fastest(batches, run_batch) -> float:
@@ -53,12 +49,12 @@ def main(argv=None) -> int:
         task = FMURun(str(path), HORIZON, tuple(sorted(parameters.items())))
         layers = {}
         with LatticeFMU(path) as fmu:
-            rhs = fmu.simulate(random_orders(1, 0)[0], horizon=HORIZON, parameters=parameters,
-                               outputs=OUTPUTS)["rhs_evaluations"]
+            first = fmu.simulate(random_orders(1, 0)[0], horizon=HORIZON, parameters=parameters)
+            rhs, outputs = first["rhs_evaluations"], len(first.names)
 
             def direct(orders):
                 for order in orders:
-                    fmu.simulate(order, horizon=HORIZON, parameters=parameters, outputs=OUTPUTS)
+                    fmu.simulate(order, horizon=HORIZON, parameters=parameters)
             layers["LatticeFMU.simulate"] = fastest(
                 [random_orders(args.runs, seed) for seed in range(args.batches)], direct)
         task(random_orders(1, 0)[0])  # opens this process's instance once
@@ -82,7 +78,7 @@ def main(argv=None) -> int:
         summary=(
             f"Runs of {HORIZON * 1e3:g} ms of simulated time ({rhs} right-hand sides) with the searches' parameters "
             f"({', '.join(f'{k} {v:g}' if isinstance(v, float) else f'{k} {v}' for k, v in parameters.items())}), "
-            f"reading the {len(OUTPUTS)} outputs an evaluation reads; the fastest of {args.batches} batches of "
+            f"reading the {outputs} outputs an evaluation reads; the fastest of {args.batches} batches of "
             f"{args.runs} distinct random orders, CPU time per run."),
         tables=(Table(("layer", "CPU ms per run"), rows),),
     )

@@ -53,17 +53,17 @@ def per_run(path, orders, passes: int):
             free_times.append(seconds)
             seconds, limited = one_pass(fmu, orders, parameters, limit)
             limited_times.append(seconds)
-    censored = [r for r in limited if r["censored"]]
-    below = [(f, r) for f, r in zip(free, limited) if not r["censored"]]
+    censored = [r for r in limited if r.stopped_early]
+    below = [(f, r) for f, r in zip(free, limited) if not r.stopped_early]
     if any(f["peak_backplate_force"] != r["peak_backplate_force"] for f, r in below):
         raise SystemExit("a run below the limit did not give the same peak bit for bit as without the limit")
-    if any(f["peak_backplate_force"] <= limit for f, r in zip(free, limited) if r["censored"]):
+    if any(f["peak_backplate_force"] <= limit for f, r in zip(free, limited) if r.stopped_early):
         raise SystemExit("a run was stopped although its peak stays below the limit")
     return {"parameters": parameters, "limit": limit, "free_ms": min(free_times) * 1e3 / len(orders),
             "limited_ms": min(limited_times) * 1e3 / len(orders),
             "free_rhs": sum(r["rhs_evaluations"] for r in free) / len(orders),
             "limited_rhs": sum(r["rhs_evaluations"] for r in limited) / len(orders), "censored": len(censored),
-            "below": len(below), "stopped": [r["censored_at"] for r in censored]}
+            "below": len(below), "stopped": [r.stop_time for r in censored]}
 
 
 def per_search(path, methods, seeds: int, budget: int):

@@ -12,68 +12,21 @@ model description says (columns, materials, parameters with their types, ranges 
 """
 from __future__ import annotations
 
-import math
 import os
 import platform
 import shutil
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from .journal import file_sha256
-from .simulation import LatticeFMU, SimulationError, enumeration_items, material_columns, model_description
+from .simulation import (LatticeFMU, Parameter, SimulationError, declared_parameters, material_columns,
+                         model_description)
 
 
 class FMUError(ValueError):
     """An FMU that cannot be used, with the reason in one line."""
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """One scalar parameter of the FMU as its model description declares it."""
-
-    name: str
-    type: str  # Real, Integer, Enumeration or Boolean
-    start: Any
-    minimum: float | None
-    maximum: float | None
-    unit: str | None
-    description: str
-    items: dict[str, int] = field(default_factory=dict)  # an enumeration's names and codes
-
-    def allowed(self) -> str:
-        if self.items:
-            return ", ".join(self.items)
-        low = "-inf" if self.minimum is None else f"{self.minimum:g}"
-        high = "inf" if self.maximum is None else f"{self.maximum:g}"
-        kind = "an integer" if self.type in ("Integer", "Boolean") else "a finite number"
-        return f"{kind} in [{low}, {high}]"
-
-    def convert(self, text: Any, option: str) -> Any:
-        """``text`` as this parameter's value (an enumeration by its name or code), or a one-line ValueError
-        naming ``option`` and the allowed values."""
-        if self.items:
-            names = {str(code): name for name, code in self.items.items()}
-            value = str(text).strip()
-            if value in self.items:
-                return value
-            if value in names:
-                return names[value]
-            raise ValueError(f"{option} {self.name}={text}: allowed values are {self.allowed()}")
-        try:
-            number = float(text)
-        except (TypeError, ValueError):
-            raise ValueError(f"{option} {self.name}={text}: not a number; allowed: {self.allowed()}") from None
-        if self.type in ("Integer", "Boolean"):
-            if not math.isfinite(number) or number != int(number):
-                raise ValueError(f"{option} {self.name}={text}: not an integer; allowed: {self.allowed()}")
-            number = int(number)
-        low = -math.inf if self.minimum is None else self.minimum
-        high = math.inf if self.maximum is None else self.maximum
-        if not math.isfinite(number) or not low <= number <= high:
-            raise ValueError(f"{option} {self.name}={text}: allowed values are {self.allowed()}")
-        return number
 
 
 @dataclass(frozen=True)
@@ -93,10 +46,6 @@ class PreparedFMU:
     @property
     def has_force_limit(self) -> bool:
         return "peak_force_limit" in self.parameters
-
-    @property
-    def has_compression(self) -> bool:
-        return "max_compression" in self.outputs
 
     @property
     def has_repeat(self) -> bool:
@@ -124,23 +73,8 @@ def describe(path: Path, rows: int) -> PreparedFMU:
         raise FMUError(f"--fmu {path}: not a readable FMU ({type(exc).__name__}: {exc})") from None
     if description.coSimulation is None:
         raise FMUError(f"--fmu {path}: it has no Co-Simulation interface; the study runs Co-Simulation FMUs")
-    parameters = {}
-    for variable in description.modelVariables:
-        if variable.causality != "parameter" or "[" in variable.name:
-            continue
-        items = enumeration_items(description, variable.name)
-        start = variable.start
-        if items:
-            start = next((n for n, c in items.items() if str(c) == str(start)), start)
-        elif variable.type == "Real" and start is not None:
-            start = float(start)
-        elif variable.type in ("Integer", "Boolean") and start is not None:
-            start = int(start) if variable.type == "Integer" else int(str(start).lower() in ("1", "true"))
-        parameters[variable.name] = Parameter(
-            variable.name, variable.type, start,
-            None if getattr(variable, "min", None) in (None, "") else float(variable.min),
-            None if getattr(variable, "max", None) in (None, "") else float(variable.max),
-            getattr(variable, "unit", None), variable.description or "", items)
+    parameters = {name: parameter for name, parameter in declared_parameters(description).items()
+                  if "[" not in name}
     outputs = tuple(v.name for v in description.modelVariables if v.causality == "output")
     materials = sum(1 for v in description.modelVariables if v.name.startswith("k["))
     columns = material_columns(description)

@@ -20,13 +20,14 @@ import atexit
 import itertools
 import math
 import time
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any, Callable, ClassVar, Sequence
 
 from .design import DesignSpace, as_design
 from .tasks import EvaluateDesign, function_key
-from .simulation import LatticeFMU, SimulationError
-from .types import OK, CaseValue, Evaluation, Order, RunOutputs, censored, failed
+from .simulation import LatticeFMU, SimulationError, SimulationResult, declared_outputs, model_description
+from .types import OK, CaseValue, Evaluation, Order, RunOutputs, UnknownOutput, censored, failed
 
 SEARCH = "search"
 FULL = "full"
@@ -60,7 +61,6 @@ RUN_MAXIMA = {q.output: q for q in (
 )}
 ALIASES = {"sampled": "peak_backplate_force", "continuous": "peak_backplate_force_continuous"}
 
-_RUN_OUTPUTS = tuple(f.name for f in fields(RunOutputs) if f.name not in ("horizon", "max_compression"))
 _INSTANCES: dict[str, LatticeFMU] = {}  # one open FMU per file and process
 _SHIPPED: dict[str, str] = {}  # on a Dask worker: the FMU's SHA-256 -> this worker's copy of it
 _SHIP_ERRORS: dict[str, str] = {}  # on a Dask worker: the FMU's SHA-256 -> why this worker cannot run it
@@ -98,6 +98,17 @@ def close_instances() -> None:
 atexit.register(close_instances)  # a process that used FMU runs directly leaves no extracted FMU behind
 
 
+def missing_output(fmu_path: str | Path, names: Sequence[str]) -> str | None:
+    """``"NAME: FMU has no such output (...)"`` for the first of ``names`` the FMU's model description does not
+    declare, or None."""
+    declared = declared_outputs(model_description(fmu_path))
+    missing = next((name for name in names if name not in declared), None)
+    if missing is None:
+        return None
+    return (f"{missing}: {Path(fmu_path).name} has no such output (its outputs: {', '.join(declared)}; rebuild it "
+            "from these sources)")
+
+
 def output_names(text: str | Sequence[str]) -> tuple[str, ...]:
     """``"sampled"``, ``"peak_backplate_force,max_compression"`` ... as FMU output names; refuses the rest."""
     names = [t.strip() for t in (text.split(",") if isinstance(text, str) else text)]
@@ -131,8 +142,8 @@ class FMURun:
     outputs: tuple[str, ...] = ("peak_backplate_force",)
     fallback_horizon: float | None = None
     force_limit: float | None = None  # stop once the sampled peak passes it (a censored evaluation)
-    compression: bool = False  # whether the FMU has max_compression
     fmu_sha256: str = ""  # the FMU's content: a Dask worker runs its own copy of it, wherever the client keeps it
+    NEEDS: ClassVar[tuple[str, ...]] = ("last_contact_time", "rhs_evaluations")  # read besides ``outputs``
 
     def __post_init__(self):
         if not (math.isfinite(self.horizon) and self.horizon > 0):
@@ -147,32 +158,33 @@ class FMURun:
     def with_limit(self, limit: float | None) -> "FMURun":
         return replace(self, force_limit=None if limit is None else float(limit))
 
-    def _simulate(self, order: Order, horizon: float) -> dict:
+    def with_parameters(self, **changes) -> "FMURun":
+        """The same run with some FMU parameters set otherwise (a tighter tolerance, another solver)."""
+        return replace(self, parameters=tuple(sorted({**dict(self.parameters), **changes}.items())))
+
+    def _simulate(self, order: Order, horizon: float) -> SimulationResult:
         parameters = dict(self.parameters)
         if self.force_limit is not None:
             parameters["peak_force_limit"] = self.force_limit
-        names = _RUN_OUTPUTS + (("max_compression",) if self.compression else ())
-        return fmu_instance(self.fmu_path, self.fmu_sha256).simulate(order, horizon=horizon, parameters=parameters,
-                                                                      outputs=names)
+        return fmu_instance(self.fmu_path, self.fmu_sha256).simulate(order, horizon=horizon, parameters=parameters)
 
     def __call__(self, order: Order) -> Evaluation:
         start = time.perf_counter()
         horizon = self.horizon
         try:
             result = self._simulate(order, horizon)
-            if result.get("censored"):
-                return censored(order, self.force_limit, result.get("censored_at"), time.perf_counter() - start,
+            if result.stopped_early:
+                return censored(order, self.force_limit, result.stop_time, time.perf_counter() - start,
                                 work=int(result["rhs_evaluations"]))
             work = 0
             if self.fallback_horizon and result["last_contact_time"] >= (1.0 - CONTACT_GUARD) * horizon:
                 horizon = max(self.fallback_horizon, horizon)
                 work = int(result["rhs_evaluations"])
                 result = self._simulate(order, horizon)
-        except (SimulationError, ValueError) as exc:
+            values = tuple(float(result[name]) for name in self.outputs)
+        except (SimulationError, ValueError, UnknownOutput) as exc:
             return failed(order, str(exc), time.perf_counter() - start)
-        outputs = RunOutputs(**{name: result[name] for name in _RUN_OUTPUTS}, horizon=horizon,
-                             max_compression=result.get("max_compression"))
-        values = tuple(float(result[name]) for name in self.outputs)
+        outputs = RunOutputs(result.values, horizon)
         return Evaluation(as_design(order), values[0], OK, "", time.perf_counter() - start, outputs,
                           values if len(values) > 1 else (), work=work + int(result["rhs_evaluations"]))
 
@@ -219,7 +231,7 @@ class RecordRun:
                                                           communication_step=self.step, record=self.outputs)
         except (SimulationError, ValueError) as exc:
             return self.failure(str(exc), time.perf_counter() - start)
-        trajectory = result["trajectory"]
+        trajectory = result.trajectory
         return Trajectory(self.order, OK, "", tuple(float(t) for t in trajectory.time),
                           {name: tuple(float(v) for v in trajectory.values[name]) for name in self.outputs},
                           time.perf_counter() - start)
@@ -327,51 +339,50 @@ class ObjectiveDescription:
     search_solver: str
 
 
+@dataclass(frozen=True)
 class LatticeObjective(Objective):
     """FMU outputs of the lattice over one or more load cases.
 
     ``parameters``: FMU parameters of every run (diagonal_rule, F_total, ...). ``cases``: parameter dicts,
     each one FMU run per design on top of ``parameters``; a design's value is their ``aggregate`` (``worst``:
     the largest; ``mean``), output by output. ``horizon``: the full scene's; the search fidelity runs
-    ``search_horizon`` at ``search_rtol`` (None: the full horizon at the FMU's tolerance).
+    ``search_horizon`` at ``search_rtol`` (None: the full horizon at the FMU's tolerance). A record: the
+    variants a study needs are made with ``dataclasses.replace`` (``with_parameters`` and its siblings).
     """
 
-    def __init__(self, fmu_path, space: DesignSpace, horizon: float, outputs: Sequence[str] = ("peak_backplate_force",),
-                 parameters: dict | None = None, cases: Sequence[dict] | None = None, aggregate: str = "worst",
-                 search_horizon: float | None = SEARCH_HORIZON, search_rtol: float | None = SEARCH_RTOL,
-                 use_limits: bool = True, has_force_limit: bool = True, has_compression: bool = False,
-                 default_rule: str = "", fmu_sha256: str = ""):
-        if aggregate not in AGGREGATES:
-            raise ValueError(f"aggregate {aggregate!r}: allowed values are {', '.join(AGGREGATES)}")
-        if not (math.isfinite(horizon) and horizon > 0):
-            raise ValueError(f"horizon must be a finite number of seconds > 0, got {horizon}")
-        self.fmu_path = str(fmu_path)
-        self.fmu_sha256 = fmu_sha256
-        self.space = space
-        self.horizon = float(horizon)
-        self.outputs = output_names(outputs)
-        if "max_compression" in self.outputs and not has_compression:
-            raise ValueError("objective max_compression: this FMU has no max_compression output (rebuild it)")
-        self.n_objectives = len(self.outputs)
-        self.parameters = {k: v for k, v in (parameters or {}).items() if v is not None}
-        self.cases = [dict(case) for case in (cases or [{}])] or [{}]
-        self.aggregate = aggregate
-        self.search_horizon = min(search_horizon or self.horizon, self.horizon)
-        self.search_rtol = search_rtol
-        self.use_limits = use_limits
-        self.has_force_limit = has_force_limit
-        self.has_compression = has_compression
-        self.default_rule = default_rule
+    fmu_path: str
+    space: DesignSpace
+    horizon: float
+    outputs: tuple[str, ...] = ("peak_backplate_force",)
+    parameters: dict[str, Any] = field(default_factory=dict)
+    cases: tuple[dict[str, Any], ...] = ({},)
+    aggregate: str = "worst"
+    search_horizon: float | None = SEARCH_HORIZON
+    search_rtol: float | None = SEARCH_RTOL
+    use_limits: bool = True
+    has_force_limit: bool = True
+    default_rule: str = ""
+    fmu_sha256: str = ""
 
-    def _copy(self, **changes) -> "LatticeObjective":
-        arguments = dict(fmu_path=self.fmu_path, space=self.space, horizon=self.horizon, outputs=self.outputs,
-                         parameters=self.parameters, cases=self.cases, aggregate=self.aggregate,
-                         search_horizon=self.search_horizon, search_rtol=self.search_rtol,
-                         use_limits=self.use_limits, has_force_limit=self.has_force_limit,
-                         has_compression=self.has_compression, default_rule=self.default_rule,
-                         fmu_sha256=self.fmu_sha256)
-        arguments.update(changes)
-        return LatticeObjective(**arguments)
+    def __post_init__(self):
+        if self.aggregate not in AGGREGATES:
+            raise ValueError(f"aggregate {self.aggregate!r}: allowed values are {', '.join(AGGREGATES)}")
+        if not (math.isfinite(self.horizon) and self.horizon > 0):
+            raise ValueError(f"horizon must be a finite number of seconds > 0, got {self.horizon}")
+        normal = object.__setattr__  # a frozen record normalises what it was given, once, here
+        normal(self, "fmu_path", str(self.fmu_path))
+        normal(self, "horizon", float(self.horizon))
+        normal(self, "outputs", output_names(self.outputs))
+        refusal = missing_output(self.fmu_path, self.outputs + FMURun.NEEDS)
+        if refusal:
+            raise ValueError(f"objective {refusal}")
+        normal(self, "parameters", {k: v for k, v in (self.parameters or {}).items() if v is not None})
+        normal(self, "cases", tuple(dict(case) for case in (self.cases or ({},))) or ({},))
+        normal(self, "search_horizon", min(self.search_horizon or self.horizon, self.horizon))
+
+    @property
+    def n_objectives(self) -> int:
+        return len(self.outputs)
 
     @property
     def supports_limits(self) -> bool:
@@ -391,13 +402,13 @@ class LatticeObjective(Objective):
 
     def with_parameters(self, **parameters) -> "LatticeObjective":
         """The same objective with some FMU parameters changed (the other diagonal rule, another load)."""
-        return self._copy(parameters={**self.parameters, **parameters})
+        return replace(self, parameters={**self.parameters, **parameters})
 
     def with_cases(self, cases: Sequence[dict] | None, aggregate: str = "worst") -> "LatticeObjective":
-        return self._copy(cases=cases, aggregate=aggregate)
+        return replace(self, cases=tuple(cases or ({},)), aggregate=aggregate)
 
     def with_outputs(self, outputs: Sequence[str]) -> "LatticeObjective":
-        return self._copy(outputs=outputs)
+        return replace(self, outputs=tuple(outputs))
 
     def run_parameters(self, case: dict, fidelity: str) -> dict:
         """The FMU parameters of one case's run at ``fidelity``."""
@@ -413,11 +424,10 @@ class LatticeObjective(Objective):
             parameters = tuple(sorted(self.run_parameters(case, fidelity).items()))
             if fidelity == SEARCH:
                 runs.append(FMURun(self.fmu_path, self.search_horizon, parameters, self.outputs,
-                                   fallback_horizon=self.horizon, compression=self.has_compression,
-                                   fmu_sha256=self.fmu_sha256))
+                                   fallback_horizon=self.horizon, fmu_sha256=self.fmu_sha256))
             else:
                 runs.append(FMURun(self.fmu_path, self.horizon, parameters, self.outputs,
-                                   compression=self.has_compression, fmu_sha256=self.fmu_sha256))
+                                   fmu_sha256=self.fmu_sha256))
         return runs
 
     def combine(self, order: Order, evaluations: Sequence[Evaluation]) -> Evaluation:
@@ -448,8 +458,8 @@ class LatticeObjective(Objective):
             outputs=self.outputs, labels=tuple(RUN_MAXIMA[o].label for o in self.outputs),
             short_labels=tuple(RUN_MAXIMA[o].short for o in self.outputs),
             units=tuple(RUN_MAXIMA[o].unit for o in self.outputs), diagonal_rule=self.diagonal_rule,
-            parameters=dict(self.parameters), cases=tuple(self.cases) if self.cases != [{}] else (),
-            aggregate=self.aggregate if self.cases != [{}] else None, horizon=self.horizon,
+            parameters=dict(self.parameters), cases=self.cases if self.cases != ({},) else (),
+            aggregate=self.aggregate if self.cases != ({},) else None, horizon=self.horizon,
             search_horizon=self.search_horizon, search_rtol=self.search_rtol, search_solver=SEARCH_SOLVER)
 
 
@@ -468,4 +478,4 @@ def count_cases(case_lists: dict[str, Sequence[Any]]) -> int:
 __all__ = ["AGGREGATES", "ALIASES", "CONTACT_GUARD", "CallableObjective", "FIDELITIES", "FMURun", "FULL",
            "LatticeObjective", "Objective", "ObjectiveDescription", "Quantity", "RUN_MAXIMA", "RecordRun", "SEARCH",
            "SEARCH_HORIZON", "SEARCH_RTOL", "SEARCH_SOLVER", "as_objective", "close_instances", "count_cases",
-           "expand_cases", "fmu_instance", "output_names", "register_shipped_fmu", "Trajectory"]
+           "expand_cases", "fmu_instance", "missing_output", "output_names", "register_shipped_fmu", "Trajectory"]

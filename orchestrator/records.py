@@ -2,7 +2,9 @@
 
 ``to_record`` turns a dataclass (nested dataclasses, tuples, dicts) into JSON-ready data; ``from_record``
 rebuilds it from the class's own type hints, so a journal line read back is the same typed value that was
-written (floats round-trip exactly through ``repr``). Non-finite floats become None: JSON has no NaN.
+written (floats round-trip exactly through ``repr``). Non-finite floats become None: JSON has no NaN. A class
+whose fields are not its record's keys (outputs by the FMU's names) gives its own record: an ``as_record``
+method and a ``read_record`` class method.
 """
 from __future__ import annotations
 
@@ -15,6 +17,8 @@ from typing import Any, Union
 
 
 def to_record(value: Any) -> Any:
+    if hasattr(value, "as_record") and not isinstance(value, type):
+        return to_record(value.as_record())
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return {f.name: to_record(getattr(value, f.name)) for f in dataclasses.fields(value)}
     if isinstance(value, dict):
@@ -56,6 +60,8 @@ def from_record(cls: Any, data: Any) -> Any:
             except (TypeError, ValueError, KeyError):
                 continue
         raise ValueError(f"{data!r} is none of {cls}")
+    if isinstance(cls, type) and hasattr(cls, "read_record"):
+        return cls.read_record(data)
     if dataclasses.is_dataclass(cls):
         if not isinstance(data, dict):
             raise ValueError(f"expected an object for {cls.__name__}, got {type(data).__name__}")

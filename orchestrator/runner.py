@@ -247,7 +247,7 @@ def check_answer(study: StudyResult, case, names: set[str]) -> None:
     if answers is None or not answers.answers:
         raise NoResult(f"no design was evaluated successfully: {failure_summary(study)}")
     if RUN_MAXIMA[case.outputs[0]].unit == "N" and all(
-            a.outputs is not None and a.outputs.last_contact_time == 0 and a.peak == 0 for a in answers.answers):
+            a.outputs is not None and a.outputs["last_contact_time"] == 0 and a.peak == 0 for a in answers.answers):
         raise NoResult("no design touches the backplate in this case (every peak is 0 N): there is nothing to "
                        "minimise; check --load, --load-angle and the scene")
 

@@ -8,12 +8,16 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
+import numbers
 import os
 import shutil
 import tempfile
 from ctypes import POINTER, byref, c_double, c_int, c_size_t, c_uint, c_void_p
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Mapping
 
 import numpy as np
 from fmpy import extract, read_model_description
@@ -22,6 +26,8 @@ from fmpy.fmi1 import printLogMessage
 from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Discard, fmi2LastSuccessfulTime,
                        fmi2Terminated, fmi2Warning, free)
+
+from .types import NamedOutputs
 
 PEAK_OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "peak_time")
 ENERGY_OUTPUTS = ("kinetic_energy", "potential_energy", "external_work", "dissipated_energy",
@@ -83,21 +89,168 @@ def enumeration_items(description, name: str) -> dict[str, int]:
     return {item.name: int(item.value) for item in (getattr(declared, "items", None) or [])}
 
 
+def declared_outputs(description) -> tuple[str, ...]:
+    """The names of the outputs the model description declares, in its order."""
+    return tuple(v.name for v in description.modelVariables if v.causality == "output")
+
+
 def material_columns(description) -> int:
     """How many columns (material[j] parameters) the FMU's lattice has."""
     return sum(1 for v in description.modelVariables if v.name.startswith("material["))
+
+
+REAL_TYPES = ("Real", "Float64", "Float32")
+WHOLE_NUMBER_TYPES = ("Integer", "Enumeration", "Boolean", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32",
+                      "Int64", "UInt64")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One scalar parameter (or array element) as the model description declares it: its type, range and an
+    enumeration's items. ``value`` is the one check of a value for it, wherever the value comes from (the
+    command line, a scene or study file, a design file, Python)."""
+
+    name: str
+    type: str  # the model description's: Real, Integer, Enumeration, Boolean (FMI 3: Float64, Int32 ...)
+    start: Any
+    minimum: float | None
+    maximum: float | None
+    unit: str | None
+    description: str
+    items: dict[str, int] = field(default_factory=dict)  # an enumeration's names and codes
+
+    @property
+    def whole(self) -> bool:
+        return self.type in WHOLE_NUMBER_TYPES
+
+    def allowed(self) -> str:
+        if self.items:
+            return ", ".join(self.items)
+        low = "-inf" if self.minimum is None else f"{self.minimum:g}"
+        high = "inf" if self.maximum is None else f"{self.maximum:g}"
+        kind = "an integer" if self.whole else "a finite number"
+        return f"{kind} in [{low}, {high}]"
+
+    def value(self, given: Any, where: str = "") -> float | int:
+        """``given`` as the FMU takes it (a number; an enumeration's code, given by its item name or code), or a
+        one-line ValueError naming the parameter (after ``where``: the option, the file) and what it allows."""
+        name = f"{where}{self.name}"
+        if self.whole:
+            if isinstance(given, str) and given.strip() in self.items:
+                return self.items[given.strip()]
+            number = _whole_number(given)
+            if number is None:
+                if self.items:
+                    raise ValueError(f"{name} = {given!r} is not allowed: allowed values are {sorted(self.items)}")
+                raise ValueError(f"{name} = {given!r} is not an integer: allowed values are {self.allowed()}")
+            if self.items and number not in self.items.values():
+                codes = ", ".join(f"{code} ({item})" for item, code in sorted(self.items.items(), key=lambda e: e[1]))
+                raise ValueError(f"{name} = {number} is not allowed: allowed values are {codes}")
+            low = None if self.minimum is None else int(self.minimum)
+            high = None if self.maximum is None else int(self.maximum)
+            if (low is not None and number < low) or (high is not None and number > high):
+                raise ValueError(f"{name} = {number} is outside its range [{'-inf' if low is None else low}, "
+                                 f"{'inf' if high is None else high}]")
+            return number
+        number = _real_number(given)
+        if number is None:
+            raise ValueError(f"{name} = {given!r} is not a number: allowed values are {self.allowed()}")
+        if not math.isfinite(number):
+            raise ValueError(f"{name} = {given!r} is not allowed: give {self.allowed()}")
+        low, high = self.minimum, self.maximum
+        if (low is not None and number < low) or (high is not None and number > high):
+            raise ValueError(f"{name} = {number!r} is outside its range [{'-inf' if low is None else repr(low)}, "
+                             f"{'inf' if high is None else repr(high)}]")
+        return number
+
+    def convert(self, text: Any, option: str) -> Any:
+        """``text`` of ``option`` (the command line, a scene or study file) as this parameter's value: an
+        enumeration by its item name, a number otherwise."""
+        value = self.value(text, f"{option} ")
+        if self.items:
+            return next(item for item, code in self.items.items() if code == value)
+        return value
+
+
+def _whole_number(given: Any) -> int | None:
+    if isinstance(given, bool):
+        return None
+    if isinstance(given, numbers.Integral):
+        return int(given)
+    if isinstance(given, str):
+        text = given.strip()
+        try:
+            return int(text, 10)
+        except ValueError:
+            given = _real_number(text)
+    if isinstance(given, numbers.Real) and math.isfinite(given) and float(given).is_integer():
+        return int(given)
+    return None
+
+
+def _real_number(given: Any) -> float | None:
+    if isinstance(given, bool) or not isinstance(given, (str, numbers.Real)):
+        return None
+    try:
+        return float(given)
+    except ValueError:
+        return None
+
+
+def _bound(variable, attribute: str) -> float | None:
+    text = getattr(variable, attribute, None)
+    if text in (None, "") and getattr(variable, "declaredType", None) is not None:
+        text = getattr(variable.declaredType, attribute, None)
+    return None if text in (None, "") else float(text)
+
+
+@functools.lru_cache(maxsize=16)
+def declared_parameters(description) -> Mapping[str, Parameter]:
+    """Every parameter the model description declares (array elements too), as the one typed Parameter; read
+    once per model description."""
+    parameters = {}
+    for variable in description.modelVariables:
+        if variable.causality != "parameter":
+            continue
+        items = enumeration_items(description, variable.name)
+        start = variable.start
+        if items:
+            start = next((n for n, c in items.items() if str(c) == str(start)), start)
+        elif variable.type == "Real" and start is not None:
+            start = float(start)
+        elif variable.type in ("Integer", "Boolean") and start is not None:
+            start = int(start) if variable.type == "Integer" else int(str(start).lower() in ("1", "true"))
+        parameters[variable.name] = Parameter(variable.name, variable.type, start, _bound(variable, "min"),
+                                              _bound(variable, "max"), getattr(variable, "unit", None),
+                                              variable.description or "", items)
+    return MappingProxyType(parameters)
 
 
 class SimulationError(RuntimeError):
     """An FMI call failed; the message holds what the FMU logged."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class Trajectory:
     """Outputs at every communication point of one run."""
 
     time: np.ndarray
     values: dict[str, np.ndarray]
+
+
+@dataclass(frozen=True)
+class SimulationResult(NamedOutputs):
+    """One run: its outputs at the end by the names the FMU's model description declares (``result[name]``,
+    as FMPy's simulation result is indexed), the time it ended, and the trajectory when one was recorded.
+
+    ``stopped_early``: a peak_force_limit stopped the run at ``stop_time`` (fmi2Discard, fmi2Terminated), so
+    its outputs are the FMU's at that time and peak_backplate_force only the peak so far (above the limit).
+    """
+
+    values: dict[str, float | int]
+    stop_time: float
+    stopped_early: bool = False
+    trajectory: Trajectory | None = None
 
 
 class LatticeFMU:
@@ -118,6 +271,7 @@ class LatticeFMU:
             raise ValueError(f"{self.fmu_path} has no co-simulation interface")
         self.variables = {v.name: v for v in self.model_description.modelVariables}
         self.columns = material_columns(self.model_description)
+        self.outputs = declared_outputs(self.model_description)
         self._material_references = [self.value_reference(f"material[{j}]") for j in range(1, self.columns + 1)]
         self._unzip_dir = extract(str(self.fmu_path), tempfile.mkdtemp(prefix="lattice_fmu_"))
         self._messages: list[str] = []
@@ -134,8 +288,7 @@ class LatticeFMU:
             _MESSAGES.pop(self._name, None)
             shutil.rmtree(self._unzip_dir, ignore_errors=True)
             raise SimulationError(f"{self.fmu_path.name} cannot be instantiated: {reason}") from None
-        self._enumerations = {name: items for name in self.variables
-                              if (items := enumeration_items(self.model_description, name))}
+        self._declared = declared_parameters(self.model_description)
         self._api = _DirectCalls(self._slave)
         self._setters: dict[tuple, _Setter] = {}
         self._readers: dict[tuple, _Reader] = {}
@@ -184,18 +337,16 @@ class LatticeFMU:
         return self._reader(tuple(names)).read(self._api)
 
     def simulate(self, order=None, horizon: float = 8.0, parameters: dict | None = None,
-                 communication_step: float | None = None, outputs=PEAK_OUTPUTS + ENERGY_OUTPUTS,
-                 record=None, peak_force_limit: float | None = None) -> dict:
-        """One run from t = 0 to the horizon; returns the outputs at the end (and a Trajectory if asked).
+                 communication_step: float | None = None, outputs=None, record=None,
+                 peak_force_limit: float | None = None) -> SimulationResult:
+        """One run from t = 0 to the horizon: the outputs at its end (``outputs``: these names; None: every
+        output the model description declares), and the trajectory of the ``record`` outputs if asked.
 
         With communication_step None the FMU is advanced by a single doStep: it samples the peak itself.
 
         With peak_force_limit (N, > 0; as the argument or among the parameters) the FMU stops the run as soon
-        as its sampled peak exceeds the limit (fmi2Discard, fmi2Terminated): the result then has "censored":
-        True and "censored_at" (the time the run reached), and its outputs are the FMU's at that time, so
-        peak_backplate_force is only the peak so far (above the limit), never the run's peak. A run that stays
-        below the limit gives the same numbers bit for bit as one without it, with "censored": False and
-        "censored_at": None. Without a peak_force_limit neither key is there.
+        as its sampled peak exceeds the limit: the result is then ``stopped_early`` at its ``stop_time``. A run
+        that stays below the limit gives the same result bit for bit as one without it.
         """
         self._messages.clear()
         api = self._api
@@ -208,10 +359,11 @@ class LatticeFMU:
             if len(order) != self.columns:
                 raise ValueError(f"order: expected one material per column ({self.columns}), got {len(order)}")
         for name, value in parameters.items():
-            if isinstance(value, str):
-                parameters[name] = _choice(name, value, self._enumerations.get(name, {}))
+            if isinstance(value, str):  # an enumeration's item by name (or a number as text): its type reads it
+                self._parameter(name)
+                parameters[name] = self._declared[name].value(value)
         setter = self._setter(order is not None, tuple(parameters))
-        reader = self._reader(tuple(outputs))
+        reader = self._reader(self.outputs if outputs is None else tuple(outputs))
         stopped_at = None
         try:
             api.call("fmi2Reset")
@@ -242,16 +394,12 @@ class LatticeFMU:
                         break
                 if record:
                     trajectory = Trajectory(np.array(reached), {k: np.array(v) for k, v in series.items()})
-            result = reader.read(api)
+            values = reader.read(api)
         except FMICallException as exc:
             detail = "; ".join(self._messages) or "the FMU logged no reason"
             raise SimulationError(f"{exc.function} failed: {detail}") from None
-        if limited:
-            result["censored"] = stopped_at is not None
-            result["censored_at"] = stopped_at
-        if trajectory is not None:
-            result["trajectory"] = trajectory
-        return result
+        return SimulationResult(values, float(horizon) if stopped_at is None else stopped_at, stopped_at is not None,
+                                trajectory)
 
     def close(self) -> None:
         if self._slave is not None:
@@ -371,17 +519,9 @@ class _Reader:
         return {name: values[name] for name in self.names}
 
 
-def _choice(name: str, value: str, allowed: dict) -> int:
-    try:
-        return allowed[value]
-    except KeyError:
-        if not allowed:
-            raise ValueError(f"{name}={value!r}: {name} takes a number, not a name") from None
-        raise ValueError(f"{name}={value!r}: allowed values are {', '.join(allowed)}") from None
-
-
 def _int32(name: str, value) -> int:
-    """An FMI Integer: a whole number that fits in 32 bits (ctypes would wrap a wider one silently)."""
+    """What fmi2SetInteger carries: a whole number that fits in 32 bits (ctypes would wrap a wider one silently).
+    Whether the FMU allows it is the FMU's to say (its own message, as a SimulationError)."""
     number = int(value)
     if number != value or not -2 ** 31 <= number < 2 ** 31:
         raise ValueError(f"{name} = {value!r} is not allowed: FMI integers are whole numbers in [-2**31, 2**31 - 1]")

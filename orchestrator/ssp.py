@@ -36,7 +36,7 @@ from lxml import etree
 from fmu_src.materials import MaterialTable
 
 from .design import DesignSpace
-from .simulation import enumeration_items, material_columns
+from .simulation import REAL_TYPES, declared_parameters, enumeration_items, material_columns
 
 SSD_NAME = "SystemStructure.ssd"  # what SSP readers open inside the archive
 SSV_NAME = "resources/best_design.ssv"
@@ -55,7 +55,6 @@ OSP = {"type": "com.opensimulationplatform", "namespace": "https://opensimulatio
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues"}
 SSV_TYPES = ("Real", "Integer", "Boolean", "String", "Enumeration", "Binary")
-REAL_TYPES = ("Real", "Float64", "Float32")
 INTEGER_TYPES = ("Integer", "Enumeration", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64",
                  "UInt64")
 _TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("orchestrator", "templates"), autoescape=True,
@@ -93,70 +92,37 @@ def _unknown(name: str, description, source: str) -> ValueError:
                       f"{listed}")
 
 
-def _bound(variable, attribute: str, cast):
-    text = getattr(variable, attribute, None)
-    if text is None and getattr(variable, "declaredType", None) is not None:
-        text = getattr(variable.declaredType, attribute, None)
-    return None if text is None else cast(text)
-
-
 def _checked_value(variable, description, kind: str, value, source: str) -> float | int:
     """``value`` as the FMU takes it, or a one-line ValueError naming the parameter and what it allows. ``kind``
-    is the SSV type it comes as (an .ssv's text), or "item" for an enumeration item name given to the writer."""
+    is the SSV type it comes as (an .ssv's text, parsed here as that type), or "item" for an enumeration item name
+    given to the writer; the value itself is checked by the parameter's own type (``Parameter.value``)."""
     name = variable.name
+    parameter = declared_parameters(description)[name]
+    where = f"{source}: "
     if variable.type in REAL_TYPES:
         if kind != "Real":
             raise ValueError(f"{source}: {name} is a Real parameter of the FMU, but is given as {kind}")
-        if isinstance(value, bool) or not isinstance(value, (str, numbers.Real)):
-            raise ValueError(f"{source}: {name} = {value!r} is not a number")
-        try:
-            number = float(value)
-        except ValueError:
-            raise ValueError(f"{source}: {name} = {value!r} is not a number") from None
-        if not math.isfinite(number):
-            raise ValueError(f"{source}: {name} = {value!r} is not allowed: give a finite number")
-        low, high = _bound(variable, "min", float), _bound(variable, "max", float)
-        if (low is not None and number < low) or (high is not None and number > high):
-            raise ValueError(f"{source}: {name} = {number!r} is outside its range "
-                             f"[{'-inf' if low is None else repr(low)}, {'inf' if high is None else repr(high)}]")
-        return number
+        return parameter.value(value, where)
     if variable.type not in INTEGER_TYPES:
         raise ValueError(f"{source}: {name} is a {variable.type} parameter, which design files do not set")
-    items = enumeration_items(description, name)
-    if kind == "item" and items:
-        if value not in items:
-            raise ValueError(f"{source}: {name} = {value!r} is not allowed: allowed values are {sorted(items)}")
-        return items[value]
     if kind == "Enumeration":  # libcosim aborts the process on an ssv:Enumeration
         raise ValueError(f"{source}: {name} is given as an ssv:Enumeration, which libcosim cannot read: give its "
                          "code as ssv:Integer")
     if kind not in ("Integer", "item"):
         raise ValueError(f"{source}: {name} is an integer parameter of the FMU, but is given as {kind}")
-    if isinstance(value, str):
+    if kind == "Integer" and isinstance(value, str):  # an ssv:Integer's text: decimal digits only
         try:
-            number = int(value.strip(), 10)
+            value = int(value.strip(), 10)
         except ValueError:
             raise ValueError(f"{source}: {name} = {value!r} is not an integer") from None
-    elif isinstance(value, numbers.Integral) and not isinstance(value, bool):
-        number = int(value)
-    elif isinstance(value, numbers.Real) and not isinstance(value, bool) and float(value).is_integer():
-        number = int(value)
-    else:
-        raise ValueError(f"{source}: {name} = {value!r} is not an integer")
-    if items and number not in items.values():
-        allowed = ", ".join(f"{code} ({item})" for item, code in sorted(items.items(), key=lambda e: e[1]))
-        raise ValueError(f"{source}: {name} = {number} is not allowed: allowed values are {allowed}")
-    low, high = _bound(variable, "min", int), _bound(variable, "max", int)
-    if (low is not None and number < low) or (high is not None and number > high):
-        raise ValueError(f"{source}: {name} = {number} is outside its range [{low}, {high}]")
-    return number
+    return parameter.value(value, where)
 
 
 def _material_count(description) -> int:
     """M, the size of the FMU's material table: the largest material number material[1] allows."""
-    first = _parameters_of(description).get("material[1]")
-    high = None if first is None else _bound(first, "max", int)
-    return high if high is not None else material_columns(description)
+    first = declared_parameters(description).get("material[1]")
+    high = None if first is None else first.maximum
+    return int(high) if high is not None else material_columns(description)
 
 
 def _check_design(description, values: Mapping[str, float | int], source: str) -> None:

@@ -118,8 +118,8 @@ class Case:
             parameters["diagonal_rule"] = rule
         return LatticeObjective(fmu.path, self.space, self.horizon, self.outputs, parameters, self.cases,
                                 self.aggregate, self.search_horizon, self.search_rtol,
-                                has_force_limit=fmu.has_force_limit, has_compression=fmu.has_compression,
-                                default_rule=rule or self.rule_default, fmu_sha256=fmu.sha256)
+                                has_force_limit=fmu.has_force_limit, default_rule=rule or self.rule_default,
+                                fmu_sha256=fmu.sha256)
 
     def describe(self, fmu: PreparedFMU) -> "CaseDescription":
         objective = self.objective(fmu, self.rules[0] if self.rules else None).describe()
@@ -229,11 +229,12 @@ def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: Materia
     if config.repeat and not fmu.has_repeat:
         raise ValueError(f"--repeat: {fmu.path.name} has no repeat_materials parameter (rebuild it)")
     space = DesignSpace(fmu.columns, len(materials), config.repeat)
-    from .objective import output_names
+    from .objective import FMURun, missing_output, output_names
 
     outputs = output_names(config.objective)
-    if "max_compression" in outputs and not fmu.has_compression:
-        raise ValueError(f"--objective max_compression: {fmu.path.name} has no such output (rebuild it)")
+    refusal = missing_output(fmu.path, outputs + FMURun.NEEDS)
+    if refusal:
+        raise ValueError(f"--objective {refusal}")
     parameters = {k: v for k, v in parameters.items() if not fmu.is_default(k, v)}
     if config.repeat:
         parameters["repeat_materials"] = 1

@@ -23,25 +23,72 @@ CENSORED = "censored"  # the run stopped once the value passed a limit: known on
 STATUSES = (OK, FAILED, CENSORED)
 
 
-@dataclass(frozen=True)
-class RunOutputs:
-    """The FMU's outputs at the end of one run (for several load cases: the run that gave the value)."""
+class UnknownOutput(KeyError):
+    """An output name the FMU does not declare, with the names it does, in one line."""
 
-    peak_backplate_force: float  # N, the largest of the samples every peak_sample_interval (the study's)
-    peak_backplate_force_continuous: float  # N, over the continuous solution
-    peak_time: float  # s, time of the continuous peak
-    last_contact_time: float  # s, when a column-C mass last touched the backplate
-    kinetic_energy: float
-    potential_energy: float
-    external_work: float
-    dissipated_energy: float
-    nonreciprocal_work: float
-    energy_balance_error: float
-    rhs_evaluations: int
-    steps_accepted: int
-    steps_rejected: int
-    horizon: float  # s simulated (a short horizon is extended while the lattice still touches the plate)
-    max_compression: float | None = None  # m; None for an FMU without that output
+    def __init__(self, name: str, known: tuple[str, ...]):
+        super().__init__(name)
+        self.name, self.known = name, known
+
+    def __str__(self) -> str:
+        return f"no output {self.name!r}: the FMU's outputs are {', '.join(self.known) or 'none'}"
+
+
+class NamedOutputs:
+    """Outputs read by the names the FMU's model description declares: ``outputs[name]``, ``name in outputs``."""
+
+    values: dict[str, float | int]
+
+    def __getitem__(self, name: str) -> float | int:
+        try:
+            return self.values[name]
+        except KeyError:
+            raise UnknownOutput(name, tuple(self.values)) from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.values
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.values)
+
+
+@dataclass(frozen=True)
+class RunOutputs(NamedOutputs):
+    """The FMU's outputs at the end of one run (for several load cases: the run that gave the value), by the
+    names its model description declares, and the horizon simulated (a short horizon is extended while the
+    lattice still touches the plate).
+
+    Its record (the journal, results.json) is flat: each output by its name, and ``horizon``; JSON's null
+    (a value that was not a finite number) is read back as NaN.
+    """
+
+    values: dict[str, float | int]
+    horizon: float  # s
+
+    def __post_init__(self):
+        if "horizon" in self.values:
+            raise ValueError("an FMU output named 'horizon' would be taken for the horizon simulated: rename it")
+
+    def as_record(self) -> dict[str, Any]:
+        return {**self.values, "horizon": self.horizon}
+
+    @classmethod
+    def read_record(cls, data: Any) -> "RunOutputs":
+        if not isinstance(data, dict):
+            raise ValueError(f"expected an object for RunOutputs, got {type(data).__name__}")
+        if "horizon" not in data:
+            raise KeyError("RunOutputs: horizon is missing")
+        values = {}
+        for name, value in data.items():
+            if value is None:
+                values[name] = math.nan
+            elif isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"RunOutputs: {name} = {value!r} is not a number")
+            else:
+                values[name] = value
+        horizon = values.pop("horizon")
+        return cls(values, float(horizon))
 
 
 @dataclass(frozen=True)
@@ -169,5 +216,5 @@ def safe_call(objective: Callable[[Order], Any], order: Any) -> Evaluation:
     return evaluation
 
 
-__all__ = ["Above", "CENSORED", "CaseValue", "Evaluation", "FAILED", "OK", "Order", "RunOutputs", "STATUSES",
-           "censored", "check_evaluation", "failed", "safe_call"]
+__all__ = ["Above", "CENSORED", "CaseValue", "Evaluation", "FAILED", "NamedOutputs", "OK", "Order", "RunOutputs",
+           "STATUSES", "UnknownOutput", "censored", "check_evaluation", "failed", "safe_call"]

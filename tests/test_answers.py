@@ -124,7 +124,8 @@ def test_an_explicit_sweep_alone_runs_no_search(armour_fmu_of_width, tmp_path, c
 
 
 def outputs(sampled, continuous):
-    return RunOutputs(sampled, continuous, 0.3, 1.0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 8.0)
+    return RunOutputs({"peak_backplate_force": sampled, "peak_backplate_force_continuous": continuous,
+                       "peak_time": 0.3, "last_contact_time": 1.0}, 8.0)
 
 
 def test_a_runner_up_closer_than_sampling_decides_is_equivalent():

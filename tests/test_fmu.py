@@ -45,20 +45,24 @@ def test_published_peaks_at_default_settings(lattice, order):
     assert 0.15 < result["peak_time"] < 0.6
 
 
+def _without_evaluations(result) -> dict:
+    return {name: value for name, value in result.values.items() if name != "rhs_evaluations"}
+
+
 def test_one_do_step_equals_800_of_them(lattice):
     whole = lattice.simulate(PUBLISHED_BEST, horizon=8.0, outputs=ALL_OUTPUTS)
     stepped = lattice.simulate(PUBLISHED_BEST, horizon=8.0, communication_step=0.01, outputs=ALL_OUTPUTS)
     # bit for bit the same numbers; only the evaluations spent on dense output at communication points differ
-    assert stepped.pop("rhs_evaluations") >= whole.pop("rhs_evaluations")
-    assert stepped == whole
+    assert stepped["rhs_evaluations"] >= whole["rhs_evaluations"]
+    assert _without_evaluations(stepped) == _without_evaluations(whole)
 
 
 def test_stepping_with_an_awkward_communication_step_changes_nothing(lattice):
     whole = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, outputs=ALL_OUTPUTS)
     stepped = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, communication_step=0.0173, outputs=ALL_OUTPUTS)
     # the same steps and numbers; only the dense-output evaluations spent on extra communication points differ
-    assert stepped.pop("rhs_evaluations") >= whole.pop("rhs_evaluations")
-    assert stepped == whole
+    assert stepped["rhs_evaluations"] >= whole["rhs_evaluations"]
+    assert _without_evaluations(stepped) == _without_evaluations(whole)
 
 
 @pytest.mark.parametrize("rule", ["receiver", "mean"])
@@ -85,7 +89,7 @@ def test_the_balance_of_the_outputs_closes_at_every_communication_point(lattice,
     defaults."""
     result = lattice.simulate(order, horizon=2.0, communication_step=0.01, record=BALANCE_OUTPUTS,
                               outputs=BALANCE_OUTPUTS, parameters={"diagonal_rule": rule})
-    v = result["trajectory"].values
+    v = result.trajectory.values
     balance = (v["external_work"] + v["nonreciprocal_work"] - v["kinetic_energy"] - v["potential_energy"]
                - v["dissipated_energy"])
     assert max(abs(balance)) <= 1e-6 * v["external_work"][-1]

@@ -27,7 +27,7 @@ def test_a_run_below_the_limit_is_bit_identical_to_one_without(lattice, order):
     free = lattice.simulate(order, horizon=1.0, parameters=SEARCH, outputs=OUTPUTS)
     limited = lattice.simulate(order, horizon=1.0, parameters=SEARCH, outputs=OUTPUTS,
                                peak_force_limit=free["peak_backplate_force"])  # exceeded means strictly above
-    assert limited.pop("censored") is False and limited.pop("censored_at") is None
+    assert limited.stopped_early is False and limited.stop_time == 1.0
     assert limited == free
 
 
@@ -35,21 +35,21 @@ def test_a_run_above_the_limit_stops_at_the_first_sample_above_it(lattice):
     limit = 1500.0
     stopped = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=SEARCH, outputs=OUTPUTS,
                                peak_force_limit=limit)
-    assert stopped["censored"] is True
-    reached = stopped["censored_at"]
+    assert stopped.stopped_early is True
+    reached = stopped.stop_time
     assert 0.15 < reached < 0.45
     assert stopped["peak_backplate_force"] > limit
     # the same run without the limit, read at every 0.01 s sample: the outputs where the limited run stopped
     # are those of the full run at that time, bit for bit, and no earlier sample exceeded the limit
     full = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=SEARCH, outputs=("rhs_evaluations",),
                             communication_step=0.01, record=OUTPUTS)
-    times = list(full["trajectory"].time)
+    times = list(full.trajectory.time)
     index = times.index(reached)
     for name in OUTPUTS:
         if name in ("rhs_evaluations", "steps_accepted", "steps_rejected"):
             continue  # counters: the full run's step ending at a communication point may have gone further
-        assert stopped[name] == full["trajectory"].values[name][index], name
-    assert full["trajectory"].values["peak_backplate_force"][index - 1] <= limit
+        assert stopped[name] == full.trajectory.values[name][index], name
+    assert full.trajectory.values["peak_backplate_force"][index - 1] <= limit
     assert stopped["rhs_evaluations"] < 0.6 * full["rhs_evaluations"]
 
 
@@ -58,7 +58,7 @@ def test_the_limit_among_the_parameters_is_the_same_as_the_argument(lattice):
                                 peak_force_limit=1500.0)
     parameter = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters={**SEARCH, "peak_force_limit": 1500.0},
                                  outputs=OUTPUTS)
-    assert parameter == argument and parameter["censored"] is True
+    assert parameter == argument and parameter.stopped_early is True
 
 
 def test_communication_steps_end_at_the_time_reached(lattice):
@@ -67,9 +67,9 @@ def test_communication_steps_end_at_the_time_reached(lattice):
                                peak_force_limit=1500.0)
     whole = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=SEARCH,
                              outputs=("peak_backplate_force",), peak_force_limit=1500.0)
-    trajectory = stopped["trajectory"]
-    assert stopped["censored"] and stopped["censored_at"] == whole["censored_at"] == trajectory.time[-1]
-    assert trajectory.time[-2] < stopped["censored_at"]
+    trajectory = stopped.trajectory
+    assert stopped.stopped_early and stopped.stop_time == whole.stop_time == trajectory.time[-1]
+    assert trajectory.time[-2] < stopped.stop_time
     assert stopped["peak_backplate_force"] == whole["peak_backplate_force"] == trajectory.values[
         "peak_backplate_force"][-1]
 
@@ -134,13 +134,13 @@ def test_fmi3_terminates_with_an_early_return_when_allowed(fmu3_path, lattice, e
                                 peak_force_limit=1500.0)
     if early_return_allowed:
         _, terminate, early_return, last_time = slave.doStep(0.0, 1.0)
-        assert terminate and early_return and last_time == expected["censored_at"]
+        assert terminate and early_return and last_time == expected.stop_time
     else:
         with pytest.raises(FMICallException) as discarded:
             slave.doStep(0.0, 1.0)
         assert discarded.value.status == 2  # fmi3Discard: only part of the step was computed
     assert slave.getFloat64([vr["peak_backplate_force"]]) == [expected["peak_backplate_force"]]
-    assert slave.getFloat64([vr["time"]]) == [expected["censored_at"]]
+    assert slave.getFloat64([vr["time"]]) == [expected.stop_time]
     slave.terminate()
     slave.freeInstance()
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 import multiprocessing
 import os
 
@@ -15,8 +16,14 @@ KINDS = {"evaluation": Evaluation}
 SETTINGS = {"case": {"F_total": 1200.0, "rules": ["receiver", "mean"]}, "fmu_sha256": "abc"}
 
 
+OUTPUT_NAMES = ("peak_backplate_force", "peak_backplate_force_continuous", "peak_time", "last_contact_time",
+                "kinetic_energy", "potential_energy", "external_work", "dissipated_energy", "nonreciprocal_work",
+                "energy_balance_error", "rhs_evaluations", "steps_accepted", "steps_rejected")
+
+
 def evaluation(order=(1, 2, 3), value=1405.9057831694442):
-    outputs = RunOutputs(value, value + 1.5, 0.31, 0.72, 1.0, 2.0, 3.0, 4.0, -5.0, 1e-7, 100, 10, 2, 8.0, None)
+    outputs = RunOutputs(dict(zip(OUTPUT_NAMES, (value, value + 1.5, 0.31, 0.72, 1.0, 2.0, 3.0, 4.0, -5.0, 1e-7, 100,
+                                                 10, 2))), 8.0)
     return Evaluation(order, value, "ok", "", 0.001, outputs)
 
 
@@ -35,6 +42,39 @@ def test_a_resumed_journal_gives_back_the_typed_results_bit_for_bit(tmp_path):
         loaded = journal.load()
     assert loaded == dict(entries)
     assert loaded["b#1,2,3"].value == 0.1 + 0.2  # repr round trip: exact
+
+
+class WrittenBefore:
+    """An evaluation's record as journals already on disk hold it: the outputs flat, max_compression null for
+    an FMU without that output."""
+
+    kind = "evaluation"
+
+    def as_record(self):
+        return {"order": [1, 2, 3], "value": 1405.9057831694442, "status": "ok", "message": "", "seconds": 0.001,
+                "outputs": {"peak_backplate_force": 1405.9057831694442, "peak_backplate_force_continuous": 1407.4057831694442,
+                            "peak_time": 0.31, "last_contact_time": 0.72, "kinetic_energy": 1.0,
+                            "potential_energy": 2.0, "external_work": 3.0, "dissipated_energy": 4.0,
+                            "nonreciprocal_work": -5.0, "energy_balance_error": 1e-07, "rhs_evaluations": 100,
+                            "steps_accepted": 10, "steps_rejected": 2, "horizon": 8.0, "max_compression": None},
+                "values": [], "limit": None, "stopped_at": None, "cases": [], "work": None}
+
+
+def test_a_journal_written_with_the_outputs_flat_resumes_with_its_outputs_by_name(tmp_path):
+    write(tmp_path, [("a#1,2,3", WrittenBefore())])
+    with Journal(tmp_path, SETTINGS, KINDS, resume=True) as journal:
+        loaded = journal.load()["a#1,2,3"]
+    expected = evaluation().outputs
+    assert loaded.outputs.horizon == 8.0 and isinstance(loaded.outputs["rhs_evaluations"], int)
+    assert {name: loaded.outputs[name] for name in OUTPUT_NAMES} == expected.values
+    assert math.isnan(loaded.outputs["max_compression"])  # null: no number
+    assert loaded.value == loaded.outputs["peak_backplate_force"]
+
+
+def test_an_unknown_output_is_refused_naming_the_outputs_there_are():
+    with pytest.raises(KeyError) as refused:
+        evaluation().outputs["impulse"]
+    assert str(refused.value).startswith("no output 'impulse': the FMU's outputs are peak_backplate_force, ")
 
 
 def test_settings_are_compared_by_value_and_a_difference_is_named(tmp_path):

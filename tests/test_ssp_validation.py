@@ -258,3 +258,27 @@ def test_the_order_is_checked_against_the_fmus_design_space(design_ssp, tmp_path
     with pytest.raises(ValueError, match="9 materials cannot fill 11 columns"):
         read(9, 0, order_entries((1, 2, 3, 4, 5, 6, 7, 8, 9, 1, 2)))
     assert read(9, 0, order_entries((1, 2, 3, 4, 5, 6, 7, 8, 9, 1, 2), ALLOW_REPEATS))["material[11]"] == 2
+
+
+@pytest.mark.parametrize("name, given, refusal", [
+    ("rtol", 0.5, "rtol = 0.5 is outside its range [1e-14, 0.1]"),
+    ("solver", "euler", "solver = 'euler' is not allowed: allowed values are ['dop853', 'dopri5', 'rk4', 'rkn5', "
+                        "'semi_implicit_euler', 'tsit5']"),
+])
+def test_a_value_is_checked_once_by_its_parameter_wherever_it_comes_from(fmu_path, tmp_path, name, given, refusal):
+    """The command line, a design file and Python refuse the same value with the same words: the parameter's own
+    type, read from the model description, checks it."""
+    from orchestrator.fmu import describe
+    from orchestrator.simulation import LatticeFMU
+
+    with pytest.raises(ValueError) as command_line:
+        describe(fmu_path, 11).parameters[name].convert(given, "--case")
+    with pytest.raises(ValueError) as design_file:
+        write_best_design_ssp(fmu_path, {"material": list(PUBLISHED_BEST), name: given}, tmp_path / "x.ssp",
+                              stop_time=1.0)
+    assert str(command_line.value) == f"--case {refusal}"
+    assert str(design_file.value) == f"parameters: {refusal}"
+    if isinstance(given, str):
+        with LatticeFMU(fmu_path) as lattice, pytest.raises(ValueError) as python:
+            lattice.simulate(PUBLISHED_BEST, horizon=0.01, parameters={name: given})
+        assert str(python.value) == refusal

@@ -55,23 +55,23 @@ class Accuracy(Step):
         rule = answer.diagonal_rule if answer.diagonal_rule in context.case.rules else None
         objective = context.objective(rule)
         full, = objective.tasks(FULL)
-        tight = replace(full, parameters=tuple(sorted({**dict(full.parameters), **TIGHT}.items())))
+        tight = full.with_parameters(**TIGHT)
         shorter = [replace(full, horizon=h) for h in HORIZONS if h < objective.horizon]
         runs = [tight] + shorter
         results = context.evaluator.evaluate([(run, answer.order) for run in runs])
         reference, by_horizon = results[0], results[1:]
         search = objective.evaluate([answer.order], context.evaluator, SEARCH)[0]
         outputs = answer.outputs
-        continuous = outputs.peak_backplate_force_continuous if outputs else None
+        continuous = outputs["peak_backplate_force_continuous"] if outputs else None
         return AccuracyResult(
             diagonal_rule=answer.diagonal_rule, order=answer.order, reference_rtol=TIGHT["rtol"],
             reference_value=reference.value, reference_message=reference.message,
             value_relative_error=relative_difference(answer.peak, reference.value),
             continuous_relative_error=relative_difference(
-                continuous, reference.outputs.peak_backplate_force_continuous if reference.outputs else None),
+                continuous, reference.outputs["peak_backplate_force_continuous"] if reference.outputs else None),
             search_relative_difference=relative_difference(search.value, answer.peak) if search.ok else None,
-            sampling_shortfall=(1 - outputs.peak_backplate_force / continuous) if outputs and continuous else None,
-            last_contact_time=outputs.last_contact_time if outputs else None,
+            sampling_shortfall=(1 - outputs["peak_backplate_force"] / continuous) if outputs and continuous else None,
+            last_contact_time=outputs["last_contact_time"] if outputs else None,
             by_horizon=tuple(HorizonValue(run.horizon, e.value) for run, e in zip(shorter, by_horizon)))
 
 

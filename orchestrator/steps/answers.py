@@ -175,7 +175,7 @@ class Answers(Step):
                 values[rule_label(judge)] = evaluation.value
                 outputs = evaluation.outputs
                 energy[rule_label(judge)] = None if outputs is None else EnergyFlows(
-                    outputs.external_work, outputs.nonreciprocal_work, outputs.dissipated_energy)
+                    outputs["external_work"], outputs["nonreciprocal_work"], outputs["dissipated_energy"])
             other_values = [v for k, v in values.items() if k != label]
             runs = [r for r in (searched.runs_for(label) if searched else []) if r.method not in BASELINE_METHODS]
             reaching = sum(1 for r in runs if run_answer(r, context, label) == best.order)
@@ -253,7 +253,7 @@ def equivalence(context: StudyContext, best: Evaluation, runner: Evaluation | No
     outputs = [o for o in (best.outputs, runner.outputs) if o is not None]
     sampling = None
     if context.case.outputs[0] == "peak_backplate_force" and len(outputs) == 2:
-        sampling = max(abs(o.peak_backplate_force - o.peak_backplate_force_continuous) for o in outputs)
+        sampling = max(abs(o["peak_backplate_force"] - o["peak_backplate_force_continuous"]) for o in outputs)
     integration = FULL_ERROR * abs(best.value)
     certificate = sweep.certificate if sweep else None
     if certificate and certificate.integration_error is not None and certificate.optimum \

@@ -9,7 +9,7 @@ from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, ChunkResult, 
                           calibration_range, chunk_ranges, coverage, not_strongly_dominated, projected_cost,
                           screening_threshold)
 from ..known_optima import known_optimum
-from ..objective import FULL, SEARCH, FMURun
+from ..objective import FULL, SEARCH
 from ..options import integer, option
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order, RunOutputs
@@ -333,9 +333,7 @@ class Exhaustive(Step):
     @staticmethod
     def second_integrator(context: StudyContext, objective, orders: list[Order]) -> dict[Order, Evaluation]:
         full, = objective.tasks(FULL)
-        parameters = tuple(sorted({**dict(full.parameters), **SECOND_INTEGRATOR}.items()))
-        second = FMURun(full.fmu_path, full.horizon, parameters, full.outputs, compression=full.compression,
-                        fmu_sha256=full.fmu_sha256)
+        second = full.with_parameters(**SECOND_INTEGRATOR)
         return dict(zip(orders, context.evaluator.evaluate([(second, o) for o in orders])))
 
     @staticmethod

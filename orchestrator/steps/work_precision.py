@@ -2,7 +2,7 @@
 scene, against the accuracy step's tight reference (python -m bench.work_precision does it over many designs)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..objective import FULL
@@ -52,8 +52,7 @@ class WorkPrecision(Step):
         reference = context.result(Accuracy).reference_value
         rule = answer.diagonal_rule if answer.diagonal_rule in context.case.rules else None
         full, = context.objective(rule).tasks(FULL)
-        runs = [replace(full, parameters=tuple(sorted({**dict(full.parameters), **settings}.items())))
-                for _, settings, _ in SETTINGS]
+        runs = [full.with_parameters(**settings) for _, settings, _ in SETTINGS]
         fmu = context.fmu
         default_label = (f"default: {fmu.start('solver', 'dop853')} at rtol {fmu.start('rtol', 0):g}, "
                          f"atol {fmu.start('atol', 0):g}")
