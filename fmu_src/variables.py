@@ -16,7 +16,7 @@ REAL = "Real"
 INTEGER = "Integer"
 
 # Every unit a variable may carry, declared in both model descriptions' <UnitDefinitions>.
-UNITS = ("N", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg", "m/s", "m/s2", "W")
+UNITS = ("N", "N.s", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg", "m/s", "m/s2", "W")
 # The categories the FMI glue logs under (fmi2/, fmi3/), declared in both model descriptions.
 LOG_CATEGORIES = (("logStatusError", "Why a call failed"),
                   ("logStatusWarning", "Model Exchange: a backplate switch the importer did not handle as an event"),
@@ -225,6 +225,9 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None) 
         Variable("max_compression", REAL, "output",
                  "Largest shortening of the lattice along the load so far: the mean x displacement of column 1 "
                  "minus that of column C, over the same samples as peak_backplate_force", unit="m"),
+        Variable("transmitted_impulse", REAL, "output",
+                 "Impulse transmitted to the backplate so far: the time integral of the backplate force, by the "
+                 "trapezoidal rule over the same samples as peak_backplate_force", unit="N.s"),
         Variable("kinetic_energy", REAL, "output", "Kinetic energy", unit="J"),
         Variable("potential_energy", REAL, "output", "Potential energy of the springs and the backplate",
                  unit="J"),

@@ -41,6 +41,9 @@ struct Model {
     signed char wall_mode[LATTICE_ROWS]; /* frozen between events (WallMode) */
     /* the peaks and the last contact over the points each interface shows (the one sampler) */
     double peak_sampled, max_compression;
+    double transmitted_impulse;            /* the trapezoidal integral of the sampled force so far */
+    double last_sample_time, last_sample_force;
+    int samples_taken;
     double peak_continuous, peak_continuous_time;
     double last_contact_time; /* latest time a column-C mass was in contact with the backplate */
     double initial_energy;    /* potential energy of the start state (a negative gap presses from t = 0) */

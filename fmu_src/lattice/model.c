@@ -287,6 +287,10 @@ void model_take_force(Model *m, double time, double force) {
 void model_take_sample(Model *m, double time, double force, double compression) {
     if (force > m->peak_sampled) m->peak_sampled = force;
     if (compression > m->max_compression) m->max_compression = compression;
+    if (m->samples_taken++ > 0)
+        m->transmitted_impulse += 0.5 * (force + m->last_sample_force) * (time - m->last_sample_time);
+    m->last_sample_time = time;
+    m->last_sample_force = force;
     model_take_force(m, time, force);
 }
 
@@ -300,6 +304,7 @@ void model_update_outputs(Model *m, double peak_continuous, double peak_time, do
     int i;
     m->real[VR_PEAK_BACKPLATE_FORCE] = m->peak_sampled;
     m->real[VR_MAX_COMPRESSION] = m->max_compression;
+    m->real[VR_TRANSMITTED_IMPULSE] = m->transmitted_impulse;
     m->real[VR_PEAK_BACKPLATE_FORCE_CONTINUOUS] = peak_continuous;
     m->real[VR_PEAK_TIME] = peak_time;
     m->real[VR_LAST_CONTACT_TIME] = last_contact_time;
@@ -448,6 +453,8 @@ int model_exchange_begin(Model *m, char *message, size_t message_size) {
     m->exchange = 1;
     m->peak_sampled = 0.0;
     m->max_compression = 0.0;
+    m->transmitted_impulse = 0.0;
+    m->samples_taken = 0;
     m->peak_continuous = 0.0;
     m->peak_continuous_time = m->time;
     m->last_contact_time = 0.0;
