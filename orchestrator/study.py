@@ -249,9 +249,30 @@ class NoOptions:
     """A step without options of its own."""
 
 
+@dataclass(frozen=True)
+class Verdict:
+    """A step's word on the study's answer (``Step.verdict``): it holds the answer (the steps after it are not
+    asked), it refuses one (``refusal``: why the study has no usable answer), or it has nothing to say."""
+
+    answered: bool = False
+    refusal: str | None = None
+
+    @classmethod
+    def answer(cls) -> "Verdict":
+        return cls(answered=True)
+
+    @classmethod
+    def no_answer(cls, why: str) -> "Verdict":
+        return cls(refusal=why)
+
+
+SILENT = Verdict()
+
+
 class Step:
-    """One feature of a study. Subclasses set ``name`` (its key in results.json), ``title`` (its report
-    section), ``template`` (its report template, None: not shown), ``Config`` and implement ``run``."""
+    """One feature of a study. Subclasses set ``name`` (its key in results.json and the study file), ``title``
+    (its report section), ``template`` (its report template, None: not shown), ``Config`` and implement
+    ``run``."""
 
     name: ClassVar[str]
     title: ClassVar[str]
@@ -278,6 +299,10 @@ class Step:
     def design_files(self, study: "StudyResult") -> list[tuple[str, tuple[int, ...], str]]:
         """(file name, design, diagonal rule) of each design file the report writes for this step."""
         return []
+
+    def verdict(self, result: Any, study: "StudyResult") -> Verdict:
+        """What this step's ``result`` (None: the step did not run) says of the study's answer."""
+        return SILENT
 
 
 @dataclass
@@ -333,6 +358,16 @@ class StudyResult:
         """The result of the step of that type, or None when it did not run."""
         return self.results.get(step_type)
 
+    def failure_summary(self) -> str:
+        """How many evaluations failed and the most common cause, in one line (the console's; the report and
+        evaluations.csv give every one)."""
+        state = self.evaluator
+        if not state.failed:
+            return "no evaluation ran"
+        cause, count = state.failure_causes[0]
+        return (f"{state.failed:,} evaluation{'s' if state.failed > 1 else ''} failed; "
+                f"{'every one' if count == state.failed else f'{count:,} of them'}: {cause}")
+
     def results_by_name(self) -> dict[str, Any]:
         """Each result under its step's name: the keys of results.json's ``steps``, and nothing else."""
         return {step_type.name: result for step_type, result in self.results.items()}
@@ -353,4 +388,4 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
 
 
 __all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "MAX_HORIZON", "MAX_RUNS_PER_DESIGN", "NoOptions", "Step",
-           "StudyContext", "StudyResult", "resolve_case", "run_study"]
+           "SILENT", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]

@@ -11,7 +11,7 @@ from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, ChunkResult, 
 from ..known_optima import known_optimum
 from ..objective import FULL, SEARCH, FMURun
 from ..options import integer, option
-from ..study import Step, StudyContext
+from ..study import SILENT, Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
 from .searches import (SWEEP_DESIGNS_PER_SEARCH_EVALUATION, Searches, default_evaluations, rule_label,
                        sweep_instead, sweeps)
@@ -385,6 +385,22 @@ class Exhaustive(Step):
             screening_error=SCREENING_ERROR, max_screening_error_seen=largest, screening_bound_held=held,
             second_integrator=SECOND_INTEGRATOR_NAME, optimum=optimum, runner_up=runner_up, gap=gap,
             integration_error=integration, certified=not reasons, reasons=tuple(reasons))
+
+    def verdict(self, result: ExhaustiveResult | None, study) -> Verdict:
+        """No answer when the screening error passed its bound: designs the sweep pruned may be better."""
+        for sweep in (result.sweeps if result else ()):
+            certificate = sweep.certificate
+            if certificate.max_screening_error_seen is not None and not certificate.screening_bound_held:
+                return Verdict.no_answer(
+                    f"the exhaustive sweep's screening error ({certificate.max_screening_error_seen:.2g}) passed its "
+                    f"bound ({certificate.screening_error:g}) under the {sweep.diagonal_rule} rule: designs it pruned "
+                    "may be better than its optimum, which is not certain")
+        for front in (result.fronts if result else ()):
+            if front.max_screening_error_seen is not None and front.max_screening_error_seen > front.screening_error:
+                return Verdict.no_answer(
+                    f"the exhaustive sweep's screening error ({front.max_screening_error_seen:.2g}) passed its bound "
+                    f"({front.screening_error:g}) under the {front.diagonal_rule} rule: its front may miss designs")
+        return SILENT
 
     def chart(self, study, path):
         return draw_exhaustive(study, path)

@@ -10,7 +10,7 @@ import numpy as np
 from ..exhaustive import not_strongly_dominated
 from ..known_optima import known_ends
 from ..objective import FULL
-from ..study import Step, StudyContext
+from ..study import SILENT, Step, StudyContext, Verdict
 from ..types import Order
 from .exhaustive import SCREENING_ERROR, Exhaustive, FrontPoint
 from .searches import Searches, multi_objective, rule_label
@@ -165,6 +165,14 @@ class Pareto(Step):
 
     def applies(self, context: StudyContext) -> bool:
         return len(context.case.outputs) > 1
+
+    def verdict(self, result: ParetoResult | None, study) -> Verdict:
+        """The fronts are the answer of a study of several objectives; none without a point is no answer."""
+        if result is None:
+            return SILENT
+        if not any(front.points for front in result.fronts):
+            return Verdict.no_answer(f"no design was evaluated successfully: {study.failure_summary()}")
+        return Verdict.answer()
 
     def run(self, context: StudyContext) -> ParetoResult:
         from ..search.pareto import hypervolume, reference_point

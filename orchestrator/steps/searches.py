@@ -52,11 +52,9 @@ class SearchesConfig:
     seed: int = option(0, "first seed", type=integer("--seed", 0, 2**32 - 1001))
     repeats: int = option(3, "runs per method: seeds S..S+R-1 (a deterministic method runs once)",
                           type=integer("--repeats", 1, 10**6))
-    finalists: int = option(3, "best designs of each run re-evaluated at full fidelity",
-                            type=integer("--finalists", 1, 1000))
 
     def __post_init__(self):
-        for name, low in (("budget", 1), ("repeats", 1), ("finalists", 1), ("seed", 0)):
+        for name, low in (("budget", 1), ("repeats", 1), ("seed", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or int(value) != value or value < low:
                 raise ValueError(f"{flag_of(SearchesConfig, name)} must be an integer of at least {low}, got {value!r}")
