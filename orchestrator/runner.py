@@ -28,6 +28,7 @@ from .progress import Progress
 from .records import to_record
 from .runfolder import RunFolder, make_temp_root
 from .studyfile import write_study_file
+from .steps.searches import SearchesConfig
 from .study import MAX_RUNS_PER_DESIGN, CaseConfig, StudyContext, StudyResult, resolve_case, run_study
 from .types import Evaluation
 
@@ -128,8 +129,9 @@ def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
     if runs > MAX_RUNS_PER_DESIGN:
         beyond.append("case")
         if not run.confirm_cost:
+            budget = SearchesConfig.budget  # the default searches' designs per run
             raise ValueError(f"--case: {runs:,} FMU runs per design (the product of the lists) is beyond "
-                             f"{MAX_RUNS_PER_DESIGN:,}; a search of 200 designs would run {200 * runs:,}; give "
+                             f"{MAX_RUNS_PER_DESIGN:,}; a search of {budget} designs would run {budget * runs:,}; give "
                              "shorter lists, or confirm with --confirm-cost")
 
 

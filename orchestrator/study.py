@@ -13,12 +13,13 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from fmu_src.materials import MaterialTable
+from fmu_src.materials import STUDY_MATERIAL_COUNT, MaterialTable
+from scenes import DEFAULT_SCENE, Scene
 
 from .design import DesignSpace
 from .fmu import PreparedFMU
 from .loop import Evaluator, EvaluatorState
-from .objective import AGGREGATES, LatticeObjective, ObjectiveDescription, expand_cases
+from .objective import AGGREGATES, SEARCH_HORIZON, SEARCH_RTOL, LatticeObjective, ObjectiveDescription, expand_cases
 from .options import check_number, flag_of, given, integer, number, option
 from .progress import Progress
 
@@ -30,16 +31,26 @@ SCENE_OPTIONS = {"F_total": "--load", "load_angle": "--load-angle"}
 DESIGN_RULE = "mean"
 
 
+def _default_scene_values() -> tuple[float, float, float]:
+    """The default scene's load, load angle and horizon, as ``--help`` shows them beside "the scene's"."""
+    scene = Scene.load(DEFAULT_SCENE)
+    values = scene.parameter_values()
+    return values["F_total"], values["load_angle"], scene.horizon
+
+
+_LOAD, _LOAD_ANGLE, _HORIZON = _default_scene_values()
+
+
 @dataclass(frozen=True)
 class CaseConfig:
     """The case the user asks about: scene, lattice and materials, objective, diagonal rules, load."""
 
-    scene: str = option("armour_11x11", "scene name from scenes/ or the path of a scene .json file", path=True)
+    scene: str = option(DEFAULT_SCENE, "scene name from scenes/ or the path of a scene .json file", path=True)
     fmu: str | None = option(None, "the FMU to use (never rebuilt)", show_default="the scene's FMU in models/, "
                              "built or rebuilt as needed", path=True)
     materials: str | None = option(None, "material table: a .csv with the header name,k,k_diag,c,alpha,alpha_diag "
                                    "(units as docs/model.md section 3), or .toml / .json with the same fields",
-                                   show_default="the study's eleven materials", path=True)
+                                   show_default=f"the study's {STUDY_MATERIAL_COUNT} materials", path=True)
     cols: int | None = option(None, "columns of the lattice (materials per design)", show_default="the scene's",
                               type=integer("--cols", 2, 64))
     repeat: bool = option(False, "a material may fill several columns (M^C designs; default: each material at "
@@ -51,17 +62,19 @@ class CaseConfig:
         (), "diagonal rules to search under, each with equal weight; the first is the design you build "
         "(best_design.ssp)", flag="--diagonal-rule", nargs="+", metavar="RULE",
         show_default=f"every rule of the FMU, the reciprocal {DESIGN_RULE} rule first: mean receiver")
-    load: float | None = option(None, "total load F_total in N", show_default="the scene's, 1200 N", metavar="N",
-                                type=number("--load"))
-    load_angle: float | None = option(None, "load angle in degrees (0: along +x)", show_default="the scene's, 0",
-                                      metavar="DEG", type=number("--load-angle"))
+    load: float | None = option(None, "total load F_total in N", show_default=f"the scene's, {_LOAD:g} N",
+                                metavar="N", type=number("--load"))
+    load_angle: float | None = option(None, "load angle in degrees (0: along +x)",
+                                      show_default=f"the scene's, {_LOAD_ANGLE:g}", metavar="DEG",
+                                      type=number("--load-angle"))
     horizon: float | None = option(None, f"simulated time of the full scene in s, at most {MAX_HORIZON:g}",
-                                   show_default="the scene's, 8 s", metavar="S",
+                                   show_default=f"the scene's, {_HORIZON:g} s", metavar="S",
                                    type=number("--horizon", 0, MAX_HORIZON))
-    search_horizon: float = option(1.0, "horizon of the searches' cheaper objective in s (every reported number is "
-                                   "re-evaluated over the full horizon); 0: the full horizon", metavar="S",
+    search_horizon: float = option(SEARCH_HORIZON, "horizon of the searches' cheaper objective in s (every "
+                                   "reported number is re-evaluated over the full horizon); 0: the full horizon", metavar="S",
                                    type=number("--search-horizon", 0, MAX_HORIZON, allow_zero=True))
-    search_rtol: float = option(8e-6, "solver tolerance of the searches' cheaper objective; 0: the FMU's default",
+    search_rtol: float = option(SEARCH_RTOL, "solver tolerance of the searches' cheaper objective; 0: the FMU's "
+                                "default",
                                 metavar="RTOL", type=number("--search-rtol", 1e-13, 1e-2, allow_zero=True))
     case: tuple[str, ...] = option((), "load cases: NAME=V1,V2,... (repeatable; the cases are the product of the "
                                    "lists), NAME a scalar parameter of the FMU", action="append",

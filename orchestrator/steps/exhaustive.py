@@ -25,6 +25,7 @@ SECOND_INTEGRATOR = {"solver": "rkn5", "rtol": 1e-10, "atol": 1e-12}
 SECOND_INTEGRATOR_NAME = "Fine's Runge-Kutta-Nystrom 5(4) pair at rtol 1e-10"
 BEST_PER_CHUNK = 20
 VERIFY_TOP = 5
+SWEEP_CHUNKS = 200  # chunks of a sweep without --chunk-size
 INCUMBENT_BUDGET = 100  # designs of the short annealing run that gives a projection its incumbent
 
 
@@ -32,7 +33,7 @@ INCUMBENT_BUDGET = 100  # designs of the short annealing run that gives a projec
 class ExhaustiveConfig:
     chunk_size: int | None = option(None, "designs per chunk of the exhaustive sweep (a chunk is one task: "
                                     "journalled, resumed, retried)", type=integer("--chunk-size", 1, 10**9),
-                                    show_default="about 200 chunks")
+                                    show_default=f"about {SWEEP_CHUNKS} chunks")
 
 
 @dataclass(frozen=True)
@@ -245,7 +246,7 @@ class Exhaustive(Step):
         objective = context.objective(rule)
         space = context.case.space
         screening, = objective.tasks(SEARCH)
-        chunk_size = self.config.chunk_size or max(1, -(-space.size // 200))
+        chunk_size = self.config.chunk_size or max(1, -(-space.size // SWEEP_CHUNKS))
         ranges = chunk_ranges(space.size, chunk_size)
         tasks = (ScreenChunk(screening, space, a, b, BEST_PER_CHUNK, SCREENING_ERROR, None, objectives=len(
             context.case.outputs)) for a, b in ranges)
@@ -287,7 +288,7 @@ class Exhaustive(Step):
         searched = context.result(Searches)
         known = [e.value for run in (searched.runs_for(label) if searched else []) for e in run.evaluations if e.ok]
         best = [min(known) if known else math.inf]
-        chunk_size = self.config.chunk_size or max(1, -(-space.size // 200))
+        chunk_size = self.config.chunk_size or max(1, -(-space.size // SWEEP_CHUNKS))
         ranges = chunk_ranges(space.size, chunk_size)
         limits = objective.supports_limits
         initial_limit = screening_threshold(best[0], SCREENING_ERROR) if limits and math.isfinite(best[0]) else None

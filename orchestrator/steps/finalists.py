@@ -20,6 +20,7 @@ from .searches import Searches, rule_label
 @dataclass(frozen=True)
 class FinalistsConfig:
     per_run: int = option(3, "best designs of each run re-evaluated at full fidelity", flag="--finalists",
+                          metavar="FINALISTS",
                           type=integer("--finalists", 1, 1000))
 
     def __post_init__(self):
