@@ -23,7 +23,7 @@ from .fmu import PreparedFMU, prepare_fmu
 from .journal import Journal
 from .loop import Evaluator
 from .objective import Trajectory, close_instances, count_cases
-from .options import NO_NUMBER, NOT_KEPT, integer, number, option
+from .options import NO_NUMBER, NOT_KEPT, check_options, integer, number, option
 from .progress import Progress
 from .records import to_record
 from .runfolder import RunFolder, make_temp_root
@@ -63,6 +63,7 @@ class RunConfig:
     debug: bool = option(False, "tracebacks instead of one-line errors", action="store_true", study=NOT_KEPT)
 
     def __post_init__(self):
+        check_options(self)
         if self.resume and self.overwrite:
             raise ValueError("--resume and --overwrite: give one of them (continue the run, or start anew)")
         if self.scheduler is not None and self.executor != "dask":

@@ -13,6 +13,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+from fmu_src.core import MAX_COLS
 from fmu_src.materials import STUDY_MATERIAL_COUNT, MaterialTable
 from scenes import DEFAULT_SCENE, Scene
 
@@ -20,7 +21,7 @@ from .design import DesignSpace
 from .fmu import PreparedFMU
 from .loop import Evaluator, EvaluatorState
 from .objective import AGGREGATES, SEARCH_HORIZON, SEARCH_RTOL, LatticeObjective, ObjectiveDescription, expand_cases
-from .options import check_number, flag_of, given, integer, number, option
+from .options import check_options, given, integer, number, option
 from .progress import Progress
 
 MAX_HORIZON = 3600.0  # s: a longer horizon is refused (one evaluation must end)
@@ -52,7 +53,7 @@ class CaseConfig:
                                    "(units as docs/model.md section 3), or .toml / .json with the same fields",
                                    show_default=f"the study's {STUDY_MATERIAL_COUNT} materials", path=True)
     cols: int | None = option(None, "columns of the lattice (materials per design)", show_default="the scene's",
-                              type=integer("--cols", 2, 64))
+                              type=integer("--cols", 2, MAX_COLS))
     repeat: bool = option(False, "a material may fill several columns (M^C designs; default: each material at "
                           "most once)", action="store_true")
     objective: str = option("sampled", "FMU output(s) to minimise, one or two or three separated by commas: sampled "
@@ -83,15 +84,7 @@ class CaseConfig:
                                    choices=AGGREGATES, show_default="worst")
 
     def __post_init__(self):
-        if self.horizon is not None:
-            check_number("--horizon", self.horizon, 0, MAX_HORIZON)
-        check_number("--search-horizon", self.search_horizon, 0, MAX_HORIZON, allow_zero=True)
-        check_number("--search-rtol", self.search_rtol, 1e-13, 1e-2, allow_zero=True)
-        for name in ("load", "load_angle"):
-            if getattr(self, name) is not None:
-                check_number(flag_of(CaseConfig, name), getattr(self, name))
-        if self.cols is not None and (isinstance(self.cols, bool) or int(self.cols) != self.cols or self.cols < 2):
-            raise ValueError(f"--cols must be an integer of at least 2, got {self.cols!r}")
+        check_options(self)
         if self.aggregate is not None and not self.case:
             raise ValueError("--aggregate: only with --case (there is one case to aggregate)")
 

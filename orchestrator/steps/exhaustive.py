@@ -10,7 +10,7 @@ from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, ChunkResult, 
                           screening_threshold)
 from ..known_optima import known_optimum
 from ..objective import FULL, SEARCH, FMURun
-from ..options import integer, option
+from ..options import check_options, integer, option
 from ..study import SILENT, Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
 from .searches import (SWEEP_DESIGNS_PER_SEARCH_EVALUATION, Searches, default_evaluations, rule_label,
@@ -34,6 +34,9 @@ class ExhaustiveConfig:
     chunk_size: int | None = option(None, "designs per chunk of the exhaustive sweep (a chunk is one task: "
                                     "journalled, resumed, retried)", type=integer("--chunk-size", 1, 10**9),
                                     show_default=f"about {SWEEP_CHUNKS} chunks")
+
+    def __post_init__(self):
+        check_options(self)
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from fmu_src.materials import study_materials
 from ..known_optima import known_optimum
 from ..loop import SearchRun
 from ..objective import FULL
-from ..options import integer, option
+from ..options import check_options, integer, option
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order
 from .exhaustive import Exhaustive
@@ -24,8 +24,7 @@ class FinalistsConfig:
                           type=integer("--finalists", 1, 1000))
 
     def __post_init__(self):
-        if isinstance(self.per_run, bool) or int(self.per_run) != self.per_run or self.per_run < 1:
-            raise ValueError(f"--finalists must be an integer of at least 1, got {self.per_run!r}")
+        check_options(self)
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from ..known_optima import known_ends
 from ..loop import SearchRun, run_search
-from ..options import flag_of, integer, option
+from ..options import check_options, integer, option
 from ..search import SEARCHES, make_search
 from ..study import Step, StudyContext
 
@@ -54,14 +54,7 @@ class SearchesConfig:
                           type=integer("--repeats", 1, 10**6))
 
     def __post_init__(self):
-        for name, low in (("budget", 1), ("repeats", 1), ("seed", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or int(value) != value or value < low:
-                raise ValueError(f"{flag_of(SearchesConfig, name)} must be an integer of at least {low}, got {value!r}")
-        unknown = [m for m in self.methods if m not in SEARCHES and m not in (EXHAUSTIVE, ALL)]
-        if unknown:
-            allowed = ", ".join(list(SEARCHES) + [EXHAUSTIVE, ALL])
-            raise ValueError(f"--method {unknown[0]}: allowed values are {allowed}")
+        check_options(self)
 
 
 @dataclass(frozen=True)

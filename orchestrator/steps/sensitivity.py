@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..objective import FULL
-from ..options import integer, option
+from ..options import check_options, integer, option
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order
 from .answers import Answers
@@ -22,6 +22,9 @@ class SensitivityConfig:
                                flag="--no-sensitivity", action="store_false")
     budget: int = option(100, "designs each short search evaluates for a variation", flag="--sensitivity-budget",
                          type=integer("--sensitivity-budget", 1, 10**9))
+
+    def __post_init__(self):
+        check_options(self)
 
 
 @dataclass(frozen=True)
