@@ -5,7 +5,7 @@ study with each.
     python -m bench.sweep_crossover --quick   # about 2 min: each study once
 
 Why: the default study sweeps a space instead of searching it when the sweep costs less
-(``orchestrator.steps.searches.sweep_instead``): then its answer is certified, not "best found". The crossover is
+(``orchestrator.steps.exhaustive.sweep_instead``): then its answer is certified, not "best found". The crossover is
 a ratio of two rates measured on the same case, each over the core-seconds of a whole study (the client's and its
 worker processes' CPU time: the search algorithms, the evaluations, the finalists, the report) with the
 sensitivity step off: designs per core-second of the study that sweeps (its chunks start without an incumbent
@@ -29,8 +29,8 @@ from fmu_src.materials import load_materials, study_materials, write_materials_c
 from orchestrator.fmu import prepare_fmu
 from orchestrator.runner import RunConfig, resolve_scene, run_in_folder
 from orchestrator.steps import STEPS, Answers, Exhaustive, Searches, Sensitivity
-from orchestrator.steps.searches import (SINGLE_DEFAULT, SWEEP_DESIGNS_PER_SEARCH_EVALUATION, SearchesConfig,
-                                         default_evaluations)
+from orchestrator.steps.exhaustive import SWEEP_DESIGNS_PER_SEARCH_EVALUATION
+from orchestrator.steps.searches import SINGLE_DEFAULT, SearchesConfig, default_evaluations
 from orchestrator.steps.sensitivity import SensitivityConfig
 from orchestrator.study import CaseConfig
 
@@ -126,7 +126,7 @@ def main(argv=None) -> int:
                       caption="**The catalogue's default study:**")),
         notes=(("The constant holds: a space at the threshold costs a sweep no more core-time than the default "
                 "searches." if holds else "The constant is above the measured ratio: lower "
-                "SWEEP_DESIGNS_PER_SEARCH_EVALUATION in orchestrator/steps/searches.py."),),
+                "SWEEP_DESIGNS_PER_SEARCH_EVALUATION in orchestrator/steps/exhaustive.py."),),
     )
     write_page(run, page)
     return 0

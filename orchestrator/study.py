@@ -292,6 +292,10 @@ class Step:
     def applies(self, context: "StudyContext") -> bool:
         return True
 
+    def replaces(self, context: "StudyContext") -> tuple[type, ...]:
+        """The steps this one does the work of in this run (they do not run)."""
+        return ()
+
     def check(self, context: "StudyContext") -> None:
         """Refuses, before any simulation, options of this step that mean nothing in this run."""
 
@@ -383,8 +387,9 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
     """Every step that applies, in order."""
     start = time.perf_counter()
     results = {}
+    replaced = {replaced for step in context.steps for replaced in step.replaces(context)}
     for step in context.steps:
-        if not step.applies(context):
+        if type(step) in replaced or not step.applies(context):
             continue
         result = step.run(context)
         context.results[type(step)] = result

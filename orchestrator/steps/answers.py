@@ -288,10 +288,10 @@ def settlement(context: StudyContext, rule, runs) -> Settlement | None:
         cost = sweep_cost(context, rule, min(values) if values else None)
     except ValueError:
         cost = None
-    from ..exhaustive import MAX_LOCAL_DESIGNS
+    from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
 
-    command = "--method exhaustive" + (" --executor dask --scheduler ADDRESS --confirm-cost"
-                                       if context.case.space.size > MAX_LOCAL_DESIGNS else "")
+    command = f"--method {SWEEP_METHOD}" + (" --executor dask --scheduler ADDRESS --confirm-cost"
+                                            if context.case.space.size > MAX_LOCAL_DESIGNS else "")
     return Settlement(budget, BUDGET_FACTOR, seconds * BUDGET_FACTOR / 3600, cost, command)
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exhaustive import not_strongly_dominated
+from ..exhaustive import SWEEP_METHOD, not_strongly_dominated
 from ..known_optima import known_ends
 from ..objective import FULL
 from ..study import SILENT, Step, StudyContext, Verdict
@@ -125,7 +125,7 @@ def settle_advice(context: StudyContext, runs, agreeing: int) -> str:
     seconds = [e.seconds for run in runs for e in run.evaluations]
     rate = sum(seconds) / len(seconds) if seconds else None
     size = context.case.space.size
-    sweep = (f"--method exhaustive sweeps all {size:,} designs and gives the exact front"
+    sweep = (f"--method {SWEEP_METHOD} sweeps all {size:,} designs and gives the exact front"
              + (f" (about {size * rate / 3600:.2g} core-hours at this run's rate)" if rate else ""))
     if not runs:
         return f"no multi-objective search ran (only baselines): add --method nsga2, or {sweep}"
