@@ -3,8 +3,9 @@
 The study owns no loop of its own: each step (``orchestrator/steps/``) is one feature with a frozen config
 (its command-line options), a ``run(context)`` that simulates only through ``context.evaluator`` (the one
 Evaluator: cache, journal, bounded in-flight work, time limits, dead-worker recovery, resume) and a frozen
-result. The study runs the steps that apply in order; a later step reads earlier results by their step
-(``context.result(Searches)``). Searches rank by the objective's search fidelity; every number reported as a
+result. The study runs the steps that apply in order (a step may do the work of another in a run, ``replaces``);
+a later step reads earlier results by their step (``context.result(Searches)``); a finished study has an
+answer when, asked in order, a step's ``verdict`` holds one before any refuses it. Searches rank by the objective's search fidelity; every number reported as a
 result is at full fidelity (the whole scene at the FMU's default accuracy).
 """
 from __future__ import annotations
