@@ -261,6 +261,6 @@ def projected_cost(chunk: "ChunkResult", space: DesignSpace) -> tuple[float, flo
     return rate, space.size / rate / 3600
 
 
-__all__ = ["ChunkResult", "Failure", "HISTOGRAM_RESOLUTION", "MAX_LOCAL_DESIGNS", "SWEEP_METHOD", "ScreenChunk", "Scored",
-           "calibration_range", "chunk_ranges", "coverage", "evaluate_chunk", "histogram_bin", "not_strongly_dominated", "projected_cost",
-           "screening_threshold"]
+__all__ = ["ChunkResult", "Failure", "HISTOGRAM_RESOLUTION", "MAX_LOCAL_DESIGNS", "SWEEP_METHOD", "ScreenChunk",
+           "Scored", "calibration_range", "chunk_ranges", "coverage", "evaluate_chunk", "histogram_bin",
+           "not_strongly_dominated", "projected_cost", "screening_threshold"]

@@ -170,4 +170,5 @@ def integer(flag: str, low: int, high: int | None = None) -> Callable[[str], int
     return parse
 
 
-__all__ = ["KEPT", "NOT_KEPT", "NO_NUMBER", "add_options", "check_options", "config_from", "flag_of", "given", "integer", "number", "option"]
+__all__ = ["KEPT", "NOT_KEPT", "NO_NUMBER", "add_options", "check_options", "config_from", "flag_of", "given",
+           "integer", "number", "option"]

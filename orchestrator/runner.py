@@ -132,8 +132,8 @@ def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
         if not run.confirm_cost:
             budget = SearchesConfig.budget  # the default searches' designs per run
             raise ValueError(f"--case: {runs:,} FMU runs per design (the product of the lists) is beyond "
-                             f"{MAX_RUNS_PER_DESIGN:,}; a search of {budget} designs would run {budget * runs:,}; give "
-                             "shorter lists, or confirm with --confirm-cost")
+                             f"{MAX_RUNS_PER_DESIGN:,}; a search of {budget} designs would run {budget * runs:,}; "
+                             "give shorter lists, or confirm with --confirm-cost")
 
 
 def check_confirmation(run: RunConfig, beyond: list[str]) -> None:

@@ -3,10 +3,11 @@
 The study owns no loop of its own: each step (``orchestrator/steps/``) is one feature with a frozen config
 (its command-line options), a ``run(context)`` that simulates only through ``context.evaluator`` (the one
 Evaluator: cache, journal, bounded in-flight work, time limits, dead-worker recovery, resume) and a frozen
-result. The study runs the steps that apply in order (a step may do the work of another in a run, ``replaces``);
-a later step reads earlier results by their step (``context.result(Searches)``); a finished study has an
-answer when, asked in order, a step's ``verdict`` holds one before any refuses it. Searches rank by the objective's search fidelity; every number reported as a
-result is at full fidelity (the whole scene at the FMU's default accuracy).
+result. The study runs the steps that apply in order (a step may do the work of another in a run:
+``replaces``); a later step reads earlier results by their step (``context.result(Searches)``); a finished
+study has an answer when, asked in order, a step's ``verdict`` holds one before any refuses it. Searches rank
+by the objective's search fidelity; every number reported as a result is at full fidelity (the whole scene at
+the FMU's default accuracy).
 """
 from __future__ import annotations
 
@@ -21,7 +22,8 @@ from scenes import DEFAULT_SCENE, Scene
 from .design import DesignSpace
 from .fmu import PreparedFMU
 from .loop import Evaluator, EvaluatorState
-from .objective import AGGREGATES, SEARCH_HORIZON, SEARCH_RTOL, LatticeObjective, ObjectiveDescription, expand_cases
+from .objective import (AGGREGATES, SEARCH_HORIZON, SEARCH_RTOL, LatticeObjective, ObjectiveDescription,
+                        expand_cases)
 from .options import check_options, given, integer, number, option
 from .progress import Progress
 
@@ -73,11 +75,10 @@ class CaseConfig:
                                    show_default=f"the scene's, {_HORIZON:g} s", metavar="S",
                                    type=number("--horizon", 0, MAX_HORIZON))
     search_horizon: float = option(SEARCH_HORIZON, "horizon of the searches' cheaper objective in s (every "
-                                   "reported number is re-evaluated over the full horizon); 0: the full horizon", metavar="S",
-                                   type=number("--search-horizon", 0, MAX_HORIZON, allow_zero=True))
+                                   "reported number is re-evaluated over the full horizon); 0: the full horizon",
+                                   metavar="S", type=number("--search-horizon", 0, MAX_HORIZON, allow_zero=True))
     search_rtol: float = option(SEARCH_RTOL, "solver tolerance of the searches' cheaper objective; 0: the FMU's "
-                                "default",
-                                metavar="RTOL", type=number("--search-rtol", 1e-13, 1e-2, allow_zero=True))
+                                "default", metavar="RTOL", type=number("--search-rtol", 1e-13, 1e-2, allow_zero=True))
     case: tuple[str, ...] = option((), "load cases: NAME=V1,V2,... (repeatable; the cases are the product of the "
                                    "lists), NAME a scalar parameter of the FMU", action="append",
                                    metavar="NAME=V1,V2")
@@ -388,7 +389,7 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
     """Every step that applies, in order."""
     start = time.perf_counter()
     results = {}
-    replaced = {replaced for step in context.steps for replaced in step.replaces(context)}
+    replaced = {other for step in context.steps for other in step.replaces(context)}
     for step in context.steps:
         if type(step) in replaced or not step.applies(context):
             continue
@@ -399,5 +400,5 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
                        context.evaluator.state(), time.perf_counter() - start, run_id)
 
 
-__all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "MAX_HORIZON", "MAX_RUNS_PER_DESIGN", "NoOptions", "Step",
-           "SILENT", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]
+__all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "MAX_HORIZON", "MAX_RUNS_PER_DESIGN", "NoOptions",
+           "SILENT", "Step", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]

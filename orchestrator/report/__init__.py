@@ -181,8 +181,8 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
             refused=refused)))
     page = env.get_template("report/report.html.j2").render(
         study=study, case_line=study.case.line(), answers=answers, answers_chart=figures.get(Answers),
-        sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known, pareto=study.result(Pareto),
-        starts=study.result(Starts))
+        sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known,
+        pareto=study.result(Pareto), starts=study.result(Starts))
     (out / "report.html").write_text(page)
     return out / "report.html"
 
