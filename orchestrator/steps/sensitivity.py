@@ -10,7 +10,7 @@ from ..options import check_options, integer, option
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order
 from .answers import Answers
-from .finalists import baselines, best_of, finalist_orders
+from .finalists import Finalists, baselines, best_of, finalist_orders
 from .searches import Searches, run_searches
 
 METHODS = ("sa", "local")  # annealing from the baseline, an iterated local search from the chosen design
@@ -100,7 +100,7 @@ class Sensitivity(Step):
             runs = run_searches(context, varied, METHODS, seed, 1, self.config.budget,
                                 name, options={"local": {"start": chosen.order}},
                                 progress_label=f"sensitivity: {name}")
-            finalists = [o for run in runs for o in finalist_orders(run, 3)]
+            finalists = [o for run in runs for o in finalist_orders(run, context.config(Finalists).per_run)]
             orders = list(dict.fromkeys(list(compared.values()) + finalists))
             full = dict(zip(orders, varied.evaluate(orders, context.evaluator, FULL)))
             full_task, = varied.tasks(FULL)
