@@ -5,7 +5,7 @@ study with each.
     python -m bench.sweep_crossover --quick   # about 2 min: each study once
 
 Why: the default study sweeps a space instead of searching it when the sweep costs less
-(``orchestrator.steps.searches.sweep_instead``): then its answer is certified, not "best found". The crossover is
+(``orchestrator.steps.exhaustive.sweep_instead``): then its answer is certified, not "best found". The crossover is
 a ratio of two rates measured on the same case, each over the core-seconds of a whole study (the client's and its
 worker processes' CPU time: the search algorithms, the evaluations, the finalists, the report) with the
 sensitivity step off: designs per core-second of the study that sweeps (its chunks start without an incumbent
@@ -26,11 +26,12 @@ import time
 from pathlib import Path
 
 from fmu_src.materials import load_materials, study_materials, write_materials_csv
+from orchestrator.exhaustive import SWEEP_METHOD
 from orchestrator.fmu import prepare_fmu
 from orchestrator.runner import RunConfig, resolve_scene, run_in_folder
 from orchestrator.steps import STEPS, Answers, Exhaustive, Searches, Sensitivity
-from orchestrator.steps.searches import (SINGLE_DEFAULT, SWEEP_DESIGNS_PER_SEARCH_EVALUATION, SearchesConfig,
-                                         default_evaluations)
+from orchestrator.steps.exhaustive import SWEEP_DESIGNS_PER_SEARCH_EVALUATION
+from orchestrator.steps.searches import SINGLE_DEFAULT, SearchesConfig, default_evaluations
 from orchestrator.steps.sensitivity import SensitivityConfig
 from orchestrator.study import CaseConfig
 
@@ -81,7 +82,7 @@ def main(argv=None) -> int:
         prepare_fmu(resolve_scene(CaseConfig(materials=str(table), cols=COLUMNS), load_materials(table)))  # built first
         searched, searched_wall, searched_cpu = fastest(folder, table, SINGLE_DEFAULT, args.workers, repeats,
                                                         "searched", False)
-        swept, swept_wall, swept_cpu = fastest(folder, table, ("exhaustive",), args.workers, repeats, "swept", False)
+        swept, swept_wall, swept_cpu = fastest(folder, table, (SWEEP_METHOD,), args.workers, repeats, "swept", False)
         before, before_wall, _ = fastest(folder, table, SINGLE_DEFAULT, args.workers, repeats, "before", True)
         now, now_wall, _ = fastest(folder, table, (), args.workers, repeats, "now", True)
     evaluations = sum(r.n_evaluations for r in searched.study.result(Searches).runs)
@@ -97,7 +98,7 @@ def main(argv=None) -> int:
     headline = (f"a sweep screens {ratio:.1f} designs in the core-time of one search evaluation (constant "
                 f"{SWEEP_DESIGNS_PER_SEARCH_EVALUATION}: spaces up to {threshold:,} designs are swept by default); "
                 f"the {space:,}-design catalogue's default study: {now_wall:.0f} s "
-                f"({'certified' if all(a.evidence.status == 'certified' for a in now.study.steps['answers'].answers) else 'not certified'}), "
+                f"({'certified' if all(a.evidence.status == 'certified' for a in now.study.result(Answers).answers) else 'not certified'}), "
                 f"{before_wall:.0f} s with the searches")
     crossover_rows = (
         ("the default searches (" + " ".join(SINGLE_DEFAULT) + ")", f"{evaluations:,} evaluations",
@@ -126,7 +127,7 @@ def main(argv=None) -> int:
                       caption="**The catalogue's default study:**")),
         notes=(("The constant holds: a space at the threshold costs a sweep no more core-time than the default "
                 "searches." if holds else "The constant is above the measured ratio: lower "
-                "SWEEP_DESIGNS_PER_SEARCH_EVALUATION in orchestrator/steps/searches.py."),),
+                "SWEEP_DESIGNS_PER_SEARCH_EVALUATION in orchestrator/steps/exhaustive.py."),),
     )
     write_page(run, page)
     return 0

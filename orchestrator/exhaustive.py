@@ -31,6 +31,7 @@ from .design import DesignSpace
 from .tasks import function_key
 from .types import Order, safe_call
 
+SWEEP_METHOD = "exhaustive"  # the --method name that asks for the sweep (the study's Exhaustive step)
 MAX_LOCAL_DESIGNS = math.factorial(10)
 """Beyond this many designs a sweep needs Dask and --confirm-cost; the refusal states the projected
 core-hours, measured on the spot on a chunk run as the sweep runs its chunks (force limit at an incumbent)."""
@@ -260,6 +261,6 @@ def projected_cost(chunk: "ChunkResult", space: DesignSpace) -> tuple[float, flo
     return rate, space.size / rate / 3600
 
 
-__all__ = ["ChunkResult", "Failure", "HISTOGRAM_RESOLUTION", "MAX_LOCAL_DESIGNS", "ScreenChunk", "Scored",
-           "calibration_range", "chunk_ranges", "coverage", "evaluate_chunk", "histogram_bin", "not_strongly_dominated", "projected_cost",
-           "screening_threshold"]
+__all__ = ["ChunkResult", "Failure", "HISTOGRAM_RESOLUTION", "MAX_LOCAL_DESIGNS", "SWEEP_METHOD", "ScreenChunk",
+           "Scored", "calibration_range", "chunk_ranges", "coverage", "evaluate_chunk", "histogram_bin",
+           "not_strongly_dominated", "projected_cost", "screening_threshold"]

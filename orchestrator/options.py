@@ -95,6 +95,39 @@ def given(config: Any) -> frozenset[str]:
     return getattr(config, _GIVEN, frozenset())
 
 
+def check_options(config: Any) -> None:
+    """Each option's value checked by the option's own type and choices, wherever it came from (the command
+    line, a study file, Python): one rule and one message per option. A ValueError names the first wrong one."""
+    for f in dataclasses.fields(config):
+        meta = f.metadata.get("option")
+        if meta is None:
+            continue
+        value = getattr(config, f.name)
+        flag = meta["flag"] or "--" + f.name.replace("_", "-")
+        if meta["action"] in ("store_true", "store_false"):
+            if not isinstance(value, bool):
+                raise ValueError(f"{flag}: must be true or false, got {value!r}")
+            continue
+        if value is None:
+            continue
+        several = meta["action"] == "append" or meta["nargs"] in ("+", "*") or isinstance(meta["nargs"], int)
+        for item in (value if several and isinstance(value, (tuple, list)) else (value,)):
+            _check_value(flag, meta, item)
+
+
+def _check_value(flag: str, meta: dict, value: Any) -> None:
+    kind = meta["type"]
+    if kind is not None:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"{flag} must be {getattr(kind, 'expects', 'a number')}, got {value!r}")
+        try:
+            kind(str(value))
+        except argparse.ArgumentTypeError as exc:
+            raise ValueError(str(exc)) from None
+    if meta["choices"] is not None and value not in meta["choices"]:
+        raise ValueError(f"{flag} {value}: allowed values are {', '.join(map(str, meta['choices']))}")
+
+
 # ---------------------------------------------------------------------------------------------- value types
 def number(flag: str, low: float | None = None, high: float | None = None, *, low_inclusive: bool = False,
            allow_zero: bool = False) -> Callable[[str], float]:
@@ -119,15 +152,8 @@ def number(flag: str, low: float | None = None, high: float | None = None, *, lo
             raise argparse.ArgumentTypeError(f"{flag} must be a finite number{' ' + bounds if bounds else ''}"
                                              f"{' (or 0: none)' if allow_zero else ''}, got {text!r}")
         return value
+    parse.expects = "a number"
     return parse
-
-
-def check_number(flag: str, value: Any, low: float | None = None, high: float | None = None, **kwargs) -> float:
-    """A config's own check of a number (the same rule as the option's type), as a ValueError."""
-    try:
-        return number(flag, low, high, **kwargs)(str(value))
-    except argparse.ArgumentTypeError as exc:
-        raise ValueError(str(exc)) from None
 
 
 def integer(flag: str, low: int, high: int | None = None) -> Callable[[str], int]:
@@ -140,7 +166,9 @@ def integer(flag: str, low: int, high: int | None = None) -> Callable[[str], int
             upper = f" and at most {high}" if high is not None else ""
             raise argparse.ArgumentTypeError(f"{flag} must be at least {low}{upper}, got {value}")
         return value
+    parse.expects = "an integer"
     return parse
 
 
-__all__ = ["KEPT", "NOT_KEPT", "NO_NUMBER", "add_options", "check_number", "config_from", "flag_of", "given", "integer", "number", "option"]
+__all__ = ["KEPT", "NOT_KEPT", "NO_NUMBER", "add_options", "check_options", "config_from", "flag_of", "given",
+           "integer", "number", "option"]

@@ -22,12 +22,13 @@ from .exhaustive import ChunkResult
 from .fmu import PreparedFMU, prepare_fmu
 from .journal import Journal
 from .loop import Evaluator
-from .objective import RUN_MAXIMA, Trajectory, close_instances, count_cases
-from .options import NO_NUMBER, NOT_KEPT, integer, number, option
+from .objective import Trajectory, close_instances, count_cases
+from .options import NO_NUMBER, NOT_KEPT, check_options, integer, number, option
 from .progress import Progress
 from .records import to_record
 from .runfolder import RunFolder, make_temp_root
 from .studyfile import write_study_file
+from .steps.searches import SearchesConfig
 from .study import MAX_RUNS_PER_DESIGN, CaseConfig, StudyContext, StudyResult, resolve_case, run_study
 from .types import Evaluation
 
@@ -62,6 +63,7 @@ class RunConfig:
     debug: bool = option(False, "tracebacks instead of one-line errors", action="store_true", study=NOT_KEPT)
 
     def __post_init__(self):
+        check_options(self)
         if self.resume and self.overwrite:
             raise ValueError("--resume and --overwrite: give one of them (continue the run, or start anew)")
         if self.scheduler is not None and self.executor != "dask":
@@ -128,9 +130,10 @@ def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
     if runs > MAX_RUNS_PER_DESIGN:
         beyond.append("case")
         if not run.confirm_cost:
+            budget = SearchesConfig.budget  # the default searches' designs per run
             raise ValueError(f"--case: {runs:,} FMU runs per design (the product of the lists) is beyond "
-                             f"{MAX_RUNS_PER_DESIGN:,}; a search of 200 designs would run {200 * runs:,}; give "
-                             "shorter lists, or confirm with --confirm-cost")
+                             f"{MAX_RUNS_PER_DESIGN:,}; a search of {budget} designs would run {budget * runs:,}; "
+                             "give shorter lists, or confirm with --confirm-cost")
 
 
 def check_confirmation(run: RunConfig, beyond: list[str]) -> None:
@@ -192,7 +195,7 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
             report = write(study, folder.partial, steps, table)
             journal.finish()
         published = folder.publish()
-        check_answer(study, case, {step.name for step in steps})
+        check_answer(study, steps)
         return Outcome(study, published / report.name, published, folder.previous is not None)
     finally:
         tempfile.tempdir = previous_tempdir
@@ -208,48 +211,15 @@ def write(study: StudyResult, out: Path, steps, table) -> Path:
     return write_report(study, out, steps, table)
 
 
-def failure_summary(study: StudyResult) -> str:
-    """How many evaluations failed and the most common cause, in one line (the console's; the report and
-    evaluations.csv give every one)."""
-    state = study.evaluator
-    if not state.failed:
-        return "no evaluation ran"
-    cause, count = state.failure_causes[0]
-    return (f"{state.failed:,} evaluation{'s' if state.failed > 1 else ''} failed; "
-            f"{'every one' if count == state.failed else f'{count:,} of them'}: {cause}")
-
-
-def check_answer(study: StudyResult, case, names: set[str]) -> None:
-    """A finished study without a usable answer exits non-zero, saying why, after its report was written
-    (``names``: the study's steps; one without the answer's steps is not asked for an answer)."""
-    from .steps import Answers, Exhaustive, Pareto
-
-    answers = study.result(Answers)
-    pareto = study.result(Pareto)
-    exhaustive = study.result(Exhaustive)
-    for sweep in (exhaustive.sweeps if exhaustive else ()):
-        certificate = sweep.certificate
-        if certificate.max_screening_error_seen is not None and not certificate.screening_bound_held:
-            raise NoResult(f"the exhaustive sweep's screening error ({certificate.max_screening_error_seen:.2g}) "
-                           f"passed its bound ({certificate.screening_error:g}) under the {sweep.diagonal_rule} rule: "
-                           "designs it pruned may be better than its optimum, which is not certain")
-    for front in (exhaustive.fronts if exhaustive else ()):
-        if front.max_screening_error_seen is not None and front.max_screening_error_seen > front.screening_error:
-            raise NoResult(f"the exhaustive sweep's screening error ({front.max_screening_error_seen:.2g}) passed "
-                           f"its bound ({front.screening_error:g}) under the {front.diagonal_rule} rule: its front "
-                           "may miss designs")
-    if pareto is not None:
-        if not any(front.points for front in pareto.fronts):
-            raise NoResult(f"no design was evaluated successfully: {failure_summary(study)}")
-        return
-    if "answers" not in names:
-        return
-    if answers is None or not answers.answers:
-        raise NoResult(f"no design was evaluated successfully: {failure_summary(study)}")
-    if RUN_MAXIMA[case.outputs[0]].unit == "N" and all(
-            a.outputs is not None and a.outputs["last_contact_time"] == 0 and a.peak == 0 for a in answers.answers):
-        raise NoResult("no design touches the backplate in this case (every peak is 0 N): there is nothing to "
-                       "minimise; check --load, --load-angle and the scene")
+def check_answer(study: StudyResult, steps) -> None:
+    """A finished study without a usable answer exits non-zero, saying why, after its report was written: each
+    step in order gives its verdict, until one holds the answer or one refuses it."""
+    for step in steps:
+        verdict = step.verdict(study.result(type(step)), study)
+        if verdict.refusal is not None:
+            raise NoResult(verdict.refusal)
+        if verdict.answered:
+            return
 
 
 __all__ = ["NoResult", "Outcome", "RESULT_KINDS", "RunConfig", "run_in_folder", "settings"]

@@ -3,9 +3,11 @@
 The study owns no loop of its own: each step (``orchestrator/steps/``) is one feature with a frozen config
 (its command-line options), a ``run(context)`` that simulates only through ``context.evaluator`` (the one
 Evaluator: cache, journal, bounded in-flight work, time limits, dead-worker recovery, resume) and a frozen
-result. The study runs the steps that apply in order; a later step reads earlier results by their step
-(``context.result(Searches)``). Searches rank by the objective's search fidelity; every number reported as a
-result is at full fidelity (the whole scene at the FMU's default accuracy).
+result. The study runs the steps that apply in order (a step may do the work of another in a run:
+``replaces``); a later step reads earlier results by their step (``context.result(Searches)``); a finished
+study has an answer when, asked in order, a step's ``verdict`` holds one before any refuses it. Searches rank
+by the objective's search fidelity; every number reported as a result is at full fidelity (the whole scene at
+the FMU's default accuracy).
 """
 from __future__ import annotations
 
@@ -13,13 +15,16 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from fmu_src.materials import MaterialTable
+from fmu_src.core import MAX_COLS
+from fmu_src.materials import STUDY_MATERIAL_COUNT, MaterialTable
+from scenes import DEFAULT_SCENE, Scene
 
 from .design import DesignSpace
 from .fmu import PreparedFMU
 from .loop import Evaluator, EvaluatorState
-from .objective import AGGREGATES, LatticeObjective, ObjectiveDescription, expand_cases
-from .options import check_number, flag_of, given, integer, number, option
+from .objective import (AGGREGATES, SEARCH_HORIZON, SEARCH_RTOL, LatticeObjective, ObjectiveDescription,
+                        expand_cases)
+from .options import check_options, given, integer, number, option
 from .progress import Progress
 
 MAX_HORIZON = 3600.0  # s: a longer horizon is refused (one evaluation must end)
@@ -30,18 +35,28 @@ SCENE_OPTIONS = {"F_total": "--load", "load_angle": "--load-angle"}
 DESIGN_RULE = "mean"
 
 
+def _default_scene_values() -> tuple[float, float, float]:
+    """The default scene's load, load angle and horizon, as ``--help`` shows them beside "the scene's"."""
+    scene = Scene.load(DEFAULT_SCENE)
+    values = scene.parameter_values()
+    return values["F_total"], values["load_angle"], scene.horizon
+
+
+_LOAD, _LOAD_ANGLE, _HORIZON = _default_scene_values()
+
+
 @dataclass(frozen=True)
 class CaseConfig:
     """The case the user asks about: scene, lattice and materials, objective, diagonal rules, load."""
 
-    scene: str = option("armour_11x11", "scene name from scenes/ or the path of a scene .json file", path=True)
+    scene: str = option(DEFAULT_SCENE, "scene name from scenes/ or the path of a scene .json file", path=True)
     fmu: str | None = option(None, "the FMU to use (never rebuilt)", show_default="the scene's FMU in models/, "
                              "built or rebuilt as needed", path=True)
     materials: str | None = option(None, "material table: a .csv with the header name,k,k_diag,c,alpha,alpha_diag "
                                    "(units as docs/model.md section 3), or .toml / .json with the same fields",
-                                   show_default="the study's eleven materials", path=True)
+                                   show_default=f"the study's {STUDY_MATERIAL_COUNT} materials", path=True)
     cols: int | None = option(None, "columns of the lattice (materials per design)", show_default="the scene's",
-                              type=integer("--cols", 2, 64))
+                              type=integer("--cols", 2, MAX_COLS))
     repeat: bool = option(False, "a material may fill several columns (M^C designs; default: each material at "
                           "most once)", action="store_true")
     objective: str = option("sampled", "FMU output(s) to minimise, one or two or three separated by commas: sampled "
@@ -51,18 +66,19 @@ class CaseConfig:
         (), "diagonal rules to search under, each with equal weight; the first is the design you build "
         "(best_design.ssp)", flag="--diagonal-rule", nargs="+", metavar="RULE",
         show_default=f"every rule of the FMU, the reciprocal {DESIGN_RULE} rule first: mean receiver")
-    load: float | None = option(None, "total load F_total in N", show_default="the scene's, 1200 N", metavar="N",
-                                type=number("--load"))
-    load_angle: float | None = option(None, "load angle in degrees (0: along +x)", show_default="the scene's, 0",
-                                      metavar="DEG", type=number("--load-angle"))
+    load: float | None = option(None, "total load F_total in N", show_default=f"the scene's, {_LOAD:g} N",
+                                metavar="N", type=number("--load"))
+    load_angle: float | None = option(None, "load angle in degrees (0: along +x)",
+                                      show_default=f"the scene's, {_LOAD_ANGLE:g}", metavar="DEG",
+                                      type=number("--load-angle"))
     horizon: float | None = option(None, f"simulated time of the full scene in s, at most {MAX_HORIZON:g}",
-                                   show_default="the scene's, 8 s", metavar="S",
+                                   show_default=f"the scene's, {_HORIZON:g} s", metavar="S",
                                    type=number("--horizon", 0, MAX_HORIZON))
-    search_horizon: float = option(1.0, "horizon of the searches' cheaper objective in s (every reported number is "
-                                   "re-evaluated over the full horizon); 0: the full horizon", metavar="S",
-                                   type=number("--search-horizon", 0, MAX_HORIZON, allow_zero=True))
-    search_rtol: float = option(8e-6, "solver tolerance of the searches' cheaper objective; 0: the FMU's default",
-                                metavar="RTOL", type=number("--search-rtol", 1e-13, 1e-2, allow_zero=True))
+    search_horizon: float = option(SEARCH_HORIZON, "horizon of the searches' cheaper objective in s (every "
+                                   "reported number is re-evaluated over the full horizon); 0: the full horizon",
+                                   metavar="S", type=number("--search-horizon", 0, MAX_HORIZON, allow_zero=True))
+    search_rtol: float = option(SEARCH_RTOL, "solver tolerance of the searches' cheaper objective; 0: the FMU's "
+                                "default", metavar="RTOL", type=number("--search-rtol", 1e-13, 1e-2, allow_zero=True))
     case: tuple[str, ...] = option((), "load cases: NAME=V1,V2,... (repeatable; the cases are the product of the "
                                    "lists), NAME a scalar parameter of the FMU", action="append",
                                    metavar="NAME=V1,V2")
@@ -70,15 +86,7 @@ class CaseConfig:
                                    choices=AGGREGATES, show_default="worst")
 
     def __post_init__(self):
-        if self.horizon is not None:
-            check_number("--horizon", self.horizon, 0, MAX_HORIZON)
-        check_number("--search-horizon", self.search_horizon, 0, MAX_HORIZON, allow_zero=True)
-        check_number("--search-rtol", self.search_rtol, 1e-13, 1e-2, allow_zero=True)
-        for name in ("load", "load_angle"):
-            if getattr(self, name) is not None:
-                check_number(flag_of(CaseConfig, name), getattr(self, name))
-        if self.cols is not None and (isinstance(self.cols, bool) or int(self.cols) != self.cols or self.cols < 2):
-            raise ValueError(f"--cols must be an integer of at least 2, got {self.cols!r}")
+        check_options(self)
         if self.aggregate is not None and not self.case:
             raise ValueError("--aggregate: only with --case (there is one case to aggregate)")
 
@@ -250,9 +258,30 @@ class NoOptions:
     """A step without options of its own."""
 
 
+@dataclass(frozen=True)
+class Verdict:
+    """A step's word on the study's answer (``Step.verdict``): it holds the answer (the steps after it are not
+    asked), it refuses one (``refusal``: why the study has no usable answer), or it has nothing to say."""
+
+    answered: bool = False
+    refusal: str | None = None
+
+    @classmethod
+    def answer(cls) -> "Verdict":
+        return cls(answered=True)
+
+    @classmethod
+    def no_answer(cls, why: str) -> "Verdict":
+        return cls(refusal=why)
+
+
+SILENT = Verdict()
+
+
 class Step:
-    """One feature of a study. Subclasses set ``name`` (its key in results.json), ``title`` (its report
-    section), ``template`` (its report template, None: not shown), ``Config`` and implement ``run``."""
+    """One feature of a study. Subclasses set ``name`` (its key in results.json and the study file), ``title``
+    (its report section), ``template`` (its report template, None: not shown), ``Config`` and implement
+    ``run``."""
 
     name: ClassVar[str]
     title: ClassVar[str]
@@ -265,6 +294,10 @@ class Step:
 
     def applies(self, context: "StudyContext") -> bool:
         return True
+
+    def replaces(self, context: "StudyContext") -> tuple[type, ...]:
+        """The steps this one does the work of in this run (they do not run)."""
+        return ()
 
     def check(self, context: "StudyContext") -> None:
         """Refuses, before any simulation, options of this step that mean nothing in this run."""
@@ -279,6 +312,10 @@ class Step:
     def design_files(self, study: "StudyResult") -> list[tuple[str, tuple[int, ...], str]]:
         """(file name, design, diagonal rule) of each design file the report writes for this step."""
         return []
+
+    def verdict(self, result: Any, study: "StudyResult") -> Verdict:
+        """What this step's ``result`` (None: the step did not run) says of the study's answer."""
+        return SILENT
 
 
 @dataclass
@@ -334,6 +371,16 @@ class StudyResult:
         """The result of the step of that type, or None when it did not run."""
         return self.results.get(step_type)
 
+    def failure_summary(self) -> str:
+        """How many evaluations failed and the most common cause, in one line (the console's; the report and
+        evaluations.csv give every one)."""
+        state = self.evaluator
+        if not state.failed:
+            return "no evaluation ran"
+        cause, count = state.failure_causes[0]
+        return (f"{state.failed:,} evaluation{'s' if state.failed > 1 else ''} failed; "
+                f"{'every one' if count == state.failed else f'{count:,} of them'}: {cause}")
+
     def results_by_name(self) -> dict[str, Any]:
         """Each result under its step's name: the keys of results.json's ``steps``, and nothing else."""
         return {step_type.name: result for step_type, result in self.results.items()}
@@ -343,8 +390,9 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
     """Every step that applies, in order."""
     start = time.perf_counter()
     results = {}
+    replaced = {other for step in context.steps for other in step.replaces(context)}
     for step in context.steps:
-        if not step.applies(context):
+        if type(step) in replaced or not step.applies(context):
             continue
         result = step.run(context)
         context.results[type(step)] = result
@@ -353,5 +401,5 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
                        context.evaluator.state(), time.perf_counter() - start, run_id)
 
 
-__all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "MAX_HORIZON", "MAX_RUNS_PER_DESIGN", "NoOptions", "Step",
-           "StudyContext", "StudyResult", "resolve_case", "run_study"]
+__all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "MAX_HORIZON", "MAX_RUNS_PER_DESIGN", "NoOptions",
+           "SILENT", "Step", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]

@@ -347,7 +347,10 @@ def read_study_file(path: str | os.PathLike) -> StudyFile:
         for key, value in table.items():
             where = f"{path}:{_line_of(text, section, key)}"
             if key not in options:
-                raise StudyFileError(f"{where}: [{section}] {key}: not an option of [{section}]; allowed: "
+                owner = next((other for other, other_type in known.items()
+                              if any(k == key for k, _, _ in _options(other_type))), None)
+                moved = f" (an option of [{owner}])" if owner else ""
+                raise StudyFileError(f"{where}: [{section}] {key}: not an option of [{section}]{moved}; allowed: "
                                      f"{', '.join(options)}")
             field, meta = options[key]
             try:

@@ -17,6 +17,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from fmu_src.core import MAX_COLS
 from fmu_src.materials import MaterialTable, load_materials
 from fmu_src.variables import Interface, all_variables, make_interface
 
@@ -58,6 +59,11 @@ class Scene:
     def __post_init__(self):
         check_identifier("name", self.name)
         check_identifier("model_identifier", self.model_identifier)
+        for key, high in (("rows", None), ("cols", MAX_COLS)):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1 or (high and value > high):
+                allowed = f"an integer from 1 to {high}" if high else "an integer of at least 1"
+                raise ValueError(f"scene {self.name}: {key} must be {allowed}, got {value!r}")
 
     def material_table(self) -> MaterialTable | None:
         """The scene's material table (checked row by row), or None for the study's."""

@@ -131,8 +131,14 @@ class TwoObjectives:
     def values(self, designs: np.ndarray) -> np.ndarray:
         return np.stack([self.first.values(designs), self.second.values(designs)], axis=1)
 
+    n_objectives = 2
+
     def value(self, design: Sequence[int]) -> tuple[float, float]:
         return self.first.value(design), self.second.value(design)
+
+    def __call__(self, design: Sequence[int]) -> Evaluation:
+        pair = self.value(design)
+        return Evaluation(as_design(design), pair[0], "ok", values=pair)
 
 
 def brute_force(objective: Any, space: DesignSpace | int) -> tuple[list[Design], float]:
@@ -215,14 +221,34 @@ class LimitedObjective:
     """Factory of an ``Objective`` over a cheap problem whose evaluations can be censored."""
 
     @staticmethod
-    def of(base: Callable[[Design], Any], n: int):
+    def of(base: Callable[[Design], Any], space: DesignSpace | int):
         from orchestrator.objective import CallableObjective
 
         class _Limited(CallableObjective):
             name = "limited"
             supports_limits = True
 
-        return _Limited(Limited(base), n)
+        return _Limited(Limited(base), space=as_space(space))
+
+
+def search_run(search, problem: Callable[[Design], Any], budget: int, *, honour_limits: bool = False):
+    """``search`` on ``problem`` for ``budget`` designs through the study's own loop (``run_search``, one
+    Evaluator on the serial executor): the same dedupe, budget, censoring and stop rules as a study's searches.
+    ``honour_limits``: the evaluations stop above the limit each design is asked with (like the FMU's
+    ``peak_force_limit``), so a value above it comes back censored."""
+    from orchestrator.executors import SerialExecutor
+    from orchestrator.loop import Evaluator, run_search
+    from orchestrator.objective import CallableObjective
+
+    objective = (LimitedObjective.of(problem, search.space) if honour_limits
+                 else CallableObjective(problem, space=search.space))
+    return run_search(search, objective, budget, Evaluator(SerialExecutor()), method_name=search.name,
+                      seed=search.seed)
+
+
+def designs_of(run) -> list[Design]:
+    """The distinct designs a search run evaluated, in the order first evaluated."""
+    return list(dict.fromkeys(e.order for e in run.evaluations))
 
 
 class Delayed:

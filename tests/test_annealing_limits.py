@@ -11,8 +11,7 @@ from orchestrator.search import make_search
 from orchestrator.search.annealing import Annealing, metropolis_threshold
 from orchestrator.search.base import FAILURE
 from orchestrator.types import Above
-from problems import QuadraticAssignment
-from search_loop import run
+from problems import QuadraticAssignment, designs_of, search_run
 
 QAP8 = QuadraticAssignment.random(8, 1)
 
@@ -38,7 +37,7 @@ HONOURING, IGNORING = True, False  # evaluations stop above the limit asked (lik
 
 
 def anneal(honour_limits: bool, seed: int, budget: int = 300, **options):
-    return run(make_search("sa", 8, seed, budget=budget, **options), QAP8.value, budget, honour_limits=honour_limits)
+    return search_run(make_search("sa", 8, seed, budget=budget, **options), QAP8, budget, honour_limits=honour_limits)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
@@ -52,10 +51,10 @@ def test_the_same_decisions_whether_or_not_the_evaluator_honours_the_limits(monk
     limited_steps = list(steps)
     steps.clear()
     full = anneal(IGNORING, seed, polish=0.0)
-    assert limited.n_censored > 100 and full.n_censored == 0
+    assert limited.censored > 100 and full.censored == 0
     assert limited_steps == steps and len(steps) > 200
-    assert limited.designs() == [e.design for e in full.evaluations]
-    assert (limited.best_design, limited.best_value) == (full.best_design, full.best_value)
+    assert designs_of(limited) == [e.order for e in full.evaluations]
+    assert (limited.best_order, limited.best_value) == (full.best_order, full.best_value)
 
 
 def check_metropolis_decisions(steps: list[tuple], result) -> None:
@@ -74,7 +73,7 @@ def check_metropolis_decisions(steps: list[tuple], result) -> None:
 def test_every_decision_is_the_metropolis_decision_on_the_true_value(monkeypatch):
     steps = record_steps(monkeypatch)
     result = anneal(HONOURING, 5, polish=0.0)
-    assert result.n_censored > 100 and result.n_reevaluated > 0
+    assert result.censored > 100 and result.reevaluated > 0
     check_metropolis_decisions(steps, result)
 
 
@@ -168,23 +167,23 @@ def test_the_temperature_check_bounds_censored_moves_and_still_flags(t0, verdict
 
 
 def honouring_censors_some(result) -> bool:
-    return result.n_censored > 0 and all(e.value is None for e in result.evaluations if e.censored_above is not None)
+    return result.censored > 0 and all(e.value is None for e in result.evaluations if e.censored)
 
 
 def test_a_censored_order_met_again_below_a_higher_threshold_is_evaluated_again():
     """Censored at L1, proposed again from a chain whose threshold is above L1: not decided on what is known, so
     evaluated again with the higher limit; the loop logs it but does not charge the budget."""
     result = anneal(HONOURING, 2, budget=300, polish=0.0)
-    assert result.n_reevaluated > 0
-    assert len(result.designs()) == 300 == result.n_evaluations - result.n_reevaluated
+    assert result.reevaluated > 0
+    assert len(designs_of(result)) == 300 == result.n_evaluations - result.reevaluated
     first: dict = {}
     for evaluation in result.evaluations:
-        if evaluation.design in first:
-            earlier = first[evaluation.design]
-            assert earlier.censored_above is not None  # only a censored design is evaluated again ...
-            assert evaluation.censored_above is None or evaluation.censored_above > earlier.censored_above  # ... higher
-        first[evaluation.design] = evaluation
-    assert result.diagnostics["reevaluations"] >= result.n_reevaluated
+        if evaluation.order in first:
+            earlier = first[evaluation.order]
+            assert earlier.censored  # only a censored design is evaluated again ...
+            assert not evaluation.censored or evaluation.limit > earlier.limit  # ... with a higher limit
+        first[evaluation.order] = evaluation
+    assert result.diagnostics["reevaluations"] >= result.reevaluated
 
 
 def test_a_kick_onto_a_censored_order_gets_its_value():
@@ -210,7 +209,7 @@ def test_use_limits_false_asks_for_exact_values():
         orders = search.ask()
         assert all(limit is None for limit in search.limits())
         search.tell(orders, [value(o) for o in orders])
-    assert anneal(HONOURING, 0, budget=200, use_limits=False, polish=0.0).n_censored == 0
+    assert anneal(HONOURING, 0, budget=200, use_limits=False, polish=0.0).censored == 0
     with pytest.raises(ValueError, match="use_limits must be True or False"):
         make_search("sa", 8, 0, use_limits="no")
 

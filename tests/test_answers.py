@@ -161,3 +161,26 @@ def test_a_refused_sweep_projects_its_cost_from_the_censored_rate_it_will_meet(f
     hours, rate = float(found[1].replace(",", "")), float(found[2].replace(",", ""))
     assert hours == pytest.approx(39916800 / rate / 3600, abs=0.051)  # as printed: hours to 0.1, a whole rate
     assert not (tmp_path / "out").exists()
+
+
+# ---------------------------------------------------------------- each step's verdict on the study's answer
+def verdict_steps(*verdicts):
+    """Steps of their own types, each giving one verdict, and a study holding a result for each."""
+    from orchestrator.study import Step
+
+    steps = [type(f"Step{k}", (Step,), {"name": f"step{k}", "title": "", "verdict":
+                                          lambda self, result, study, v=v: v})() for k, v in enumerate(verdicts)]
+    return steps, SimpleNamespace(result=lambda step_type: object())
+
+
+def test_the_runner_asks_each_step_in_order_until_one_answers_or_refuses():
+    from orchestrator.runner import NoResult, check_answer
+    from orchestrator.study import SILENT, Verdict
+
+    steps, study = verdict_steps(SILENT, Verdict.no_answer("the first refusal"), Verdict.no_answer("not asked"))
+    with pytest.raises(NoResult, match="^the first refusal$"):
+        check_answer(study, steps)
+    steps, study = verdict_steps(SILENT, Verdict.answer(), Verdict.no_answer("not asked"))
+    check_answer(study, steps)
+    steps, study = verdict_steps(SILENT, SILENT)
+    check_answer(study, steps)

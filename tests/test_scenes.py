@@ -103,6 +103,18 @@ def test_scene_names_and_identifiers_must_be_identifiers(tmp_path, key, value):
     assert "\n" not in str(refused.value)
 
 
+@pytest.mark.parametrize("key, value, allowed", [("cols", 65, "an integer from 1 to 64"), ("cols", 0, "from 1 to 64"),
+                                                 ("cols", 2.5, "an integer"), ("rows", 0, "at least 1")])
+def test_a_scene_file_with_a_lattice_size_out_of_range_is_refused_in_one_line(tmp_path, key, value, allowed):
+    data = json.loads((SCENE_DIR / "two_masses_linear.json").read_text())
+    data[key] = value
+    path = tmp_path / "crafted.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match=rf"^scene two_masses_linear: {key} must be .*{allowed}") as refused:
+        Scene.load(path)
+    assert "\n" not in str(refused.value)
+
+
 def test_build_fmu_refuses_an_identifier_changed_after_loading():
     scene = Scene.load("two_masses_linear")
     scene.model_identifier = "../../outside"

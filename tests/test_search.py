@@ -1,5 +1,5 @@
 """Search strategies over the three kinds of design space, on cheap problems with known optima (no FMU, no
-executor): driven by the small loop of ``search_loop.py``, which keeps the study loop's contract."""
+executor): each run goes through the study's own loop (``run_search`` on the serial executor)."""
 from __future__ import annotations
 
 import json
@@ -20,9 +20,8 @@ from orchestrator.search.base import to_internal
 from orchestrator.search.local import Descent, neighbours
 from orchestrator.search.pareto import hypervolume, non_dominated, pareto_front, reference_point
 from orchestrator.search.pymoo_search import Genome
-from problems import (Flaky, QuadraticAssignment, TwoObjectives, WeightedDistance, brute_force, enumerate_space,
-                      exact_front, importable_env)
-from search_loop import run
+from problems import (Flaky, QuadraticAssignment, TwoObjectives, WeightedDistance, brute_force, designs_of,
+                      enumerate_space, exact_front, importable_env, search_run)
 
 METHODS = sorted(SEARCHES)
 SINGLE = sorted(m for m in SEARCHES if SEARCHES[m].n_objectives == 1)
@@ -54,7 +53,7 @@ def drive(search, value, batches):
 
 
 def solve(method, objective, space, budget, seed, **options):
-    return run(make_search(method, space, seed, budget=budget, **options), objective.value, budget)
+    return search_run(make_search(method, space, seed, budget=budget, **options), objective.value, budget)
 
 
 @pytest.fixture(scope="module")
@@ -92,7 +91,7 @@ def test_permutations_give_the_recorded_asks(method):
 def test_every_optimiser_finds_the_known_optimum_of_each_kind_of_space(method, budget, kind, optima):
     optimum, value = optima[kind]
     found = [solve(method, PROBLEMS[kind], SPACES[kind], budget, seed) for seed in (0, 1, 2)]
-    assert sum(r.best_design == optimum for r in found) >= 2, [(r.best_design, r.best_value, value) for r in found]
+    assert sum(r.best_order == optimum for r in found) >= 2, [(r.best_order, r.best_value, value) for r in found]
     for r in found:
         assert r.n_evaluations <= budget and r.best_value >= value - 1e-9
 
@@ -105,7 +104,7 @@ def test_the_optimisers_alone_find_the_known_optimum(method, budget, kind, optim
     optimum, value = optima[kind]
     found = [solve(method, PROBLEMS[kind], SPACES[kind], budget, seed, polish=0.0) for seed in (0, 1, 2)]
     assert all(r.diagnostics["phase"] == "search" for r in found)
-    assert sum(r.best_design == optimum for r in found) >= 2, [(r.best_value, value) for r in found]
+    assert sum(r.best_order == optimum for r in found) >= 2, [(r.best_value, value) for r in found]
 
 
 @pytest.mark.parametrize("space", [DesignSpace(3, 5), DesignSpace(4, 3, repeat=True), DesignSpace(4, 4)],
@@ -117,20 +116,20 @@ def test_the_baselines_find_the_optimum_of_a_tiny_space(method, space):
     problem = QuadraticAssignment.random(space, 4)
     (optimum,), value = brute_force(problem, space)
     result = solve(method, problem, space, space.size, 0)
-    assert all(space.contains(d) for d in result.designs())
-    assert result.best_design == optimum and abs(result.best_value - value) < 1e-9
+    assert all(space.contains(d) for d in designs_of(result))
+    assert result.best_order == optimum and abs(result.best_value - value) < 1e-9
 
 
 @pytest.mark.parametrize("method,budget,needed", [("cmaes", 1000, 2), ("pso", 1000, 2), ("sa", 700, 3)])
 def test_finds_qap8_optimum(method, budget, needed):
     (optimum,), value = brute_force(QAP8, 8)
     found = [solve(method, QAP8, 8, budget, seed) for seed in (0, 1, 2)]
-    assert sum(r.best_design == optimum for r in found) >= needed, [(r.best_value, value) for r in found]
+    assert sum(r.best_order == optimum for r in found) >= needed, [(r.best_value, value) for r in found]
 
 
 def test_sa_finds_the_weighted_distance_optimum():
     found = [solve("sa", WD8, 8, 700, seed) for seed in (0, 1, 2)]
-    assert sum(r.best_design == WD8.optimum for r in found) >= 2, [r.best_value for r in found]
+    assert sum(r.best_order == WD8.optimum for r in found) >= 2, [r.best_value for r in found]
 
 
 @pytest.mark.parametrize("space,needed", [(GRADED, 4), (CATALOGUE, 3)], ids=lambda s: getattr(s, "key", s))
@@ -143,23 +142,23 @@ def test_cmaes_at_300_evaluations_on_the_catalogue_and_the_graded_stack(space, n
     problem = QuadraticAssignment.random(space, 0)
     (optimum,), value = brute_force(problem, space)
     found = [solve("cmaes", problem, space, 300, seed) for seed in range(5)]
-    assert sum(r.best_design == optimum for r in found) >= needed, [(r.best_value, value) for r in found]
+    assert sum(r.best_order == optimum for r in found) >= needed, [(r.best_value, value) for r in found]
     if space is CATALOGUE:
         local = [solve("local", problem, space, 300, seed) for seed in range(5)]
-        assert sum(r.best_design == optimum for r in local) >= 4, [(r.best_value, value) for r in local]
+        assert sum(r.best_order == optimum for r in local) >= 4, [(r.best_value, value) for r in local]
 
 
 def test_random_search_covers_a_small_space_with_its_budget():
     objective = WeightedDistance.random(5, 3)
     result = solve("random", objective, 5, 120, seed=0)
-    assert result.best_design == objective.optimum and result.best_value == 0.0
-    assert len(result.designs()) == 120
+    assert result.best_order == objective.optimum and result.best_value == 0.0
+    assert len(designs_of(result)) == 120
 
 
 @pytest.mark.parametrize("space", SPACES.values(), ids=lambda s: s.key)
 def test_sequential_asks_the_baseline_once(space):
     result = solve("sequential", PROBLEMS[space.kind], space, 50, seed=0)
-    assert result.designs() == [space.baseline()] and result.stop_reason == "the search stopped itself"
+    assert designs_of(result) == [space.baseline()] and result.stop_reason == "the search stopped itself"
 
 
 # ---------------------------------------------------------------- reproducibility
@@ -258,7 +257,7 @@ def test_sa_cooling_reaches_final_temperature_at_budget():
 def test_sa_stops_when_every_design_is_known():
     space = DesignSpace(2, 4, repeat=True)
     result = solve("sa", QuadraticAssignment.random(space, 0), space, 100, seed=0, polish=0.0)
-    assert len(result.designs()) == space.size == 16 and not result.stalled
+    assert len(designs_of(result)) == space.size == 16 and not result.stalled
 
 
 # ---------------------------------------------------------------- baseline start and polishing
@@ -313,7 +312,7 @@ def test_descent_ends_in_a_local_optimum_then_kicks(space, problem):
     d = result.diagnostics
     assert d["polish_started_at"] <= 4 and d["polish_state"]["local_optima"] >= 2
     assert d["polish_state"]["kicks"] >= 1 and result.n_evaluations == 1500 and not result.stalled
-    assert all(problem.value(o) >= result.best_value for o in space.neighbour_list(result.best_design))
+    assert all(problem.value(o) >= result.best_value for o in space.neighbour_list(result.best_order))
 
 
 def test_descent_judges_known_neighbours_for_free():
@@ -417,10 +416,10 @@ def test_pymoo_searches_never_exceed_the_budget_and_keep_failures_out(method, ki
     """A third of the designs failing: the budget holds, every failure is recorded as failed, and the best is
     a real value."""
     problem = Flaky(PROBLEMS[kind], period=3, mode="raise")
-    result = run(make_search(method, SPACES[kind], 4, budget=137), lambda d: problem(d).value, 137)
-    assert result.n_evaluations == 137 and result.n_failed > 20
-    assert not problem.fails(result.best_design)
-    assert result.best_value == PROBLEMS[kind].value(result.best_design)
+    result = search_run(make_search(method, SPACES[kind], 4, budget=137), problem, 137)
+    assert result.n_evaluations == 137 and result.failed > 20
+    assert not problem.fails(result.best_order)
+    assert result.best_value == PROBLEMS[kind].value(result.best_order)
 
 
 def test_ga_restarts_when_its_population_only_repeats_known_designs():
@@ -480,7 +479,7 @@ def test_nsga2_reaches_the_exact_front_hypervolume_at_2000_evaluations(two7_fron
     ratios = []
     for seed in range(5):
         search = make_search("nsga2", 7, seed, budget=2000)
-        result = run(search, TWO7.value, 2000)
+        result = search_run(search, TWO7, 2000)
         assert result.n_evaluations == 2000
         ratios.append(hypervolume([p.objectives for p in search.pareto_front()], reference) / exact)
     assert statistics.median(ratios) >= 0.99, ratios
@@ -494,7 +493,7 @@ def test_nsga2_on_the_other_spaces_comes_close_to_the_exact_front(space):
     reference = reference_point([p.objectives for p in front])
     exact = hypervolume([p.objectives for p in front], reference)
     search = make_search("nsga2", space, 0, budget=1000)
-    run(search, problem.value, 1000)
+    search_run(search, problem, 1000)
     assert hypervolume([p.objectives for p in search.pareto_front()], reference) >= 0.99 * exact
 
 

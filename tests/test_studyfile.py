@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import tomllib
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from orchestrator import run as cli
 from orchestrator.options import NOT_KEPT, flag_of
 from orchestrator.studyfile import StudyFileError, read_study_file, render_study_file, sections, write_study_file
 from orchestrator.study import CaseConfig
+from orchestrator.steps.finalists import FinalistsConfig
 from orchestrator.steps.searches import SearchesConfig
 
 QUICK = ["--budget", "12", "--repeats", "1", "--method", "cmaes", "sequential", "--no-sensitivity", "--no-progress",
@@ -97,6 +99,8 @@ def bad_study(tmp_path: Path, text: str) -> Path:
     ("[case]\n[solver]\nrtol = 1\n", 2, ["[solver]", "allowed: [case], [searches]"]),
     ("scene = \"armour_11x11\"\n", 1, ["scene", "belongs to a section"]),
     ("[recorded]\nfmu = \"x\"\n", 2, ["[recorded] fmu", "materials-sha256, fmu-sha256"]),
+    ("[searches]\nfinalists = 2\n", 2, ["[searches] finalists", "an option of [finalists]"]),
+    ("[case]\ncols = 65\n", 2, ["[case] cols", "--cols must be at least 2 and at most 64, got 65"]),
 ])
 def test_a_wrong_key_or_value_is_refused_in_one_line_naming_its_line(tmp_path, capfd, text, line, named):
     path = bad_study(tmp_path, text)
@@ -107,6 +111,28 @@ def test_a_wrong_key_or_value_is_refused_in_one_line_naming_its_line(tmp_path, c
     for word in named:
         assert word in err, err
     assert not (tmp_path / "r").exists() and not (tmp_path / "r.partial").exists()
+
+
+@pytest.mark.parametrize("flag, text, config_type, field, value", [
+    ("--cols", "65", CaseConfig, "cols", 65),
+    ("--cols", "1", CaseConfig, "cols", 1),
+    ("--seed", "-1", SearchesConfig, "seed", -1),
+    ("--seed", str(2**32), SearchesConfig, "seed", 2**32),
+    ("--finalists", "0", FinalistsConfig, "per_run", 0),
+    ("--search-rtol", "0.5", CaseConfig, "search_rtol", 0.5),
+])
+def test_a_value_is_refused_alike_from_the_command_line_a_study_file_and_python(tmp_path, capfd, flag, text,
+                                                                                 config_type, field, value):
+    """One rule and one message per option, whatever the value came from."""
+    with pytest.raises(ValueError) as python:
+        config_type(**{field: value})
+    message = str(python.value)
+    assert message.startswith(flag) and len(message.splitlines()) == 1, message
+    assert main(flag, text, "--out", tmp_path / "r") == 2
+    assert message in capfd.readouterr().err
+    section = next(name for name, kind in sections() if kind is config_type)
+    with pytest.raises(StudyFileError, match=re.escape(message)):
+        read_study_file(bad_study(tmp_path, f"[{section}]\n{flag[2:]} = {text}\n"))
 
 
 def test_a_study_file_that_is_not_toml_is_refused(tmp_path, capfd):

@@ -72,8 +72,9 @@ def case_line(study: StudyResult) -> str:
 def results_record(study: StudyResult) -> dict:
     """results.json: the answers first, then the case and every step's result, as the typed results hold them."""
     steps = {name: to_record(result) for name, result in study.results_by_name().items()}
-    answers = steps.get("answers", {}).get("answers", [])
-    return {"format": RESULTS_FORMAT, "answers": answers, "pareto": _pareto_points(study),
+    answers = study.result(Answers)
+    return {"format": RESULTS_FORMAT, "answers": to_record(answers.answers) if answers else [],
+            "pareto": _pareto_points(study),
             "case": to_record(study.case), "case_line": case_line(study),
             "fmu": {"path": study.fmu_path, "sha256": study.fmu_sha256},
             "steps": steps, "evaluator": to_record(study.evaluator), "wall_seconds": study.wall_seconds,
@@ -159,7 +160,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
         if study.result(type(step)) is not None and step.chart_file:
             made = step.chart(study, out / step.chart_file)
             if made:
-                figures[step.name] = made
+                figures[type(step)] = made
     refused = write_design_files(study, out, steps, materials)
     certificates = write_certificates(study, out)
     record = results_record(study)
@@ -176,11 +177,12 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
         if result is None or not step.template or isinstance(step, Answers):
             continue
         sections.append(markupsafe.Markup(env.get_template(f"report/{step.template}").render(
-            result=result, study=study, charts=figures, title=step.title, terms=TERMS, refused=refused)))
+            result=result, study=study, chart=figures.get(type(step)), title=step.title, terms=TERMS,
+            refused=refused)))
     page = env.get_template("report/report.html.j2").render(
-        study=study, case_line=study.case.line(), answers=answers, charts=figures, sections=sections, terms=TERMS,
-        refused=refused, certificates=certificates, known=known, pareto=study.result(Pareto),
-        starts=study.result(Starts))
+        study=study, case_line=study.case.line(), answers=answers, answers_chart=figures.get(Answers),
+        sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known,
+        pareto=study.result(Pareto), starts=study.result(Starts))
     (out / "report.html").write_text(page)
     return out / "report.html"
 

@@ -80,6 +80,7 @@ class Search:
     OPTIONS: dict[str, Any] = {}
     POLISH: float | None = None  # default share of the budget for the final descent; None: never polished
     deterministic = False  # the same asks whatever the seed (one run is enough)
+    baseline = False  # a reference every study can run, whatever the number of objectives
     max_evaluations: int | None = None  # evaluations it can ever ask for (None: unbounded)
     n_objectives = 1  # values told per design
 

@@ -13,6 +13,7 @@ class Sequential(Search):
     name = "sequential"
     OPTIONS = {"budget": None}
     deterministic = True
+    baseline = True
     max_evaluations = 1
 
     def _ask(self) -> list[Design]:
@@ -33,6 +34,7 @@ class RandomSearch(Search):
     """
 
     name = "random"
+    baseline = True
     OPTIONS = {"batch": 16, "budget": None}
 
     def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:

@@ -10,7 +10,7 @@ from fmu_src.published import PUBLISHED_CONDITIONS
 
 from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
-from ..study import Step, StudyContext
+from ..study import Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
 from .descent import Descent
 from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, objective_covered, sweep_cost
@@ -143,7 +143,7 @@ def rule_best(context: StudyContext, label: str) -> Evaluation | None:
 def run_answer(run, context: StudyContext, label: str) -> Order | None:
     """A search run's own answer: its best finalist at full fidelity."""
     finalists = context.result(Finalists).for_rule(label)
-    full = [finalists.value_of(o) for o in finalist_orders(run, context.config(Searches).finalists)]
+    full = [finalists.value_of(o) for o in finalist_orders(run, context.config(Finalists).per_run)]
     best = best_of([e for e in full if e is not None])
     return best.order if best else None
 
@@ -156,6 +156,17 @@ class Answers(Step):
 
     def applies(self, context: StudyContext) -> bool:
         return context.result(Finalists) is not None
+
+    def verdict(self, result: AnswersResult | None, study) -> Verdict:
+        """No answer when no design has a value, or when no design touches the backplate (a peak force of 0 N
+        everywhere leaves nothing to minimise)."""
+        if result is None or not result.answers:
+            return Verdict.no_answer(f"no design was evaluated successfully: {study.failure_summary()}")
+        if study.case.objective.units[0] == "N" and all(
+                a.outputs is not None and a.outputs["last_contact_time"] == 0 and a.peak == 0 for a in result.answers):
+            return Verdict.no_answer("no design touches the backplate in this case (every peak is 0 N): there is "
+                                     "nothing to minimise; check --load, --load-angle and the scene")
+        return Verdict.answer()
 
     def run(self, context: StudyContext) -> AnswersResult:
         searched = context.result(Searches)
@@ -277,10 +288,10 @@ def settlement(context: StudyContext, rule, runs) -> Settlement | None:
         cost = sweep_cost(context, rule, min(values) if values else None)
     except ValueError:
         cost = None
-    from ..exhaustive import MAX_LOCAL_DESIGNS
+    from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
 
-    command = "--method exhaustive" + (" --executor dask --scheduler ADDRESS --confirm-cost"
-                                       if context.case.space.size > MAX_LOCAL_DESIGNS else "")
+    command = f"--method {SWEEP_METHOD}" + (" --executor dask --scheduler ADDRESS --confirm-cost"
+                                            if context.case.space.size > MAX_LOCAL_DESIGNS else "")
     return Settlement(budget, BUDGET_FACTOR, seconds * BUDGET_FACTOR / 3600, cost, command)
 
 

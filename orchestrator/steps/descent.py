@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from ..design import MOVES
 from ..loop import run_search
 from ..objective import FULL, SEARCH
-from ..options import option
+from ..options import check_options, option
 from ..search import make_search
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order
@@ -21,6 +21,9 @@ MAX_DESCENT = 5000  # designs a descent may evaluate (it stops at the first loca
 class DescentConfig:
     enabled: bool = option(True, "skip the final descent and local-optimality check of each rule's best design",
                                flag="--no-local-check", action="store_false")
+
+    def __post_init__(self):
+        check_options(self)
 
 
 @dataclass(frozen=True)

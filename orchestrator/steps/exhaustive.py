@@ -5,26 +5,31 @@ import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, ChunkResult, Scored, ScreenChunk,
+from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, SWEEP_METHOD, ChunkResult, Scored, ScreenChunk,
                           calibration_range, chunk_ranges, coverage, not_strongly_dominated, projected_cost,
                           screening_threshold)
 from ..known_optima import known_optimum
 from ..objective import FULL, SEARCH
-from ..options import integer, option
-from ..study import Step, StudyContext
+from ..options import check_options, integer, option
+from ..study import SILENT, Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
-from .searches import (SWEEP_DESIGNS_PER_SEARCH_EVALUATION, Searches, default_evaluations, rule_label,
-                       sweep_instead, sweeps)
+from .searches import Searches, default_evaluations, rule_label
 
 # The screening fidelity's relative error bound, at least ten times what python -m bench.work_precision and
 # python -m bench.horizon_study measure for the searches' fidelity; every design within it of the best is verified.
 SCREENING_ERROR = 1e-4
 # The full fidelity's own error bound (python -m bench.work_precision measures the FMU's default accuracy).
 FULL_ERROR = 1e-6
+# How many designs a sweep (alone, its chunks lowering their force limit as they go) screens in the core-time of
+# one evaluation of the default searches, rounded down: `python -m bench.sweep_crossover` measures it and writes
+# docs/measurements/sweep_crossover.md. The default study sweeps a space of at most this many designs per
+# evaluation its searches would make, instead of searching it.
+SWEEP_DESIGNS_PER_SEARCH_EVALUATION = 3
 SECOND_INTEGRATOR = {"solver": "rkn5", "rtol": 1e-10, "atol": 1e-12}
 SECOND_INTEGRATOR_NAME = "Fine's Runge-Kutta-Nystrom 5(4) pair at rtol 1e-10"
 BEST_PER_CHUNK = 20
 VERIFY_TOP = 5
+SWEEP_CHUNKS = 200  # chunks of a sweep without --chunk-size
 INCUMBENT_BUDGET = 100  # designs of the short annealing run that gives a projection its incumbent
 
 
@@ -32,7 +37,10 @@ INCUMBENT_BUDGET = 100  # designs of the short annealing run that gives a projec
 class ExhaustiveConfig:
     chunk_size: int | None = option(None, "designs per chunk of the exhaustive sweep (a chunk is one task: "
                                     "journalled, resumed, retried)", type=integer("--chunk-size", 1, 10**9),
-                                    show_default="about 200 chunks")
+                                    show_default=f"about {SWEEP_CHUNKS} chunks")
+
+    def __post_init__(self):
+        check_options(self)
 
 
 @dataclass(frozen=True)
@@ -46,6 +54,21 @@ class SweepCost:
     incumbent: float | None  # the best value known (search fidelity) whose threshold is the chunk's limit
     timed: int  # designs of the timed chunk
     censored: int  # of them, stopped above the limit
+
+
+def asked(context: StudyContext) -> bool:
+    """Whether the user asked for the sweep: its method name among --method's."""
+    return SWEEP_METHOD in context.config(Searches).methods
+
+
+def sweep_instead(context: StudyContext) -> bool:
+    """Whether the default study sweeps the space instead of searching it: no --method given, one objective and
+    one load case, and a space small enough that the sweep costs less than the default searches would (then it
+    also certifies its answer)."""
+    config = context.config(Searches)
+    if config.methods or len(context.case.outputs) > 1 or len(context.case.cases) > 1:
+        return False
+    return context.case.space.size <= SWEEP_DESIGNS_PER_SEARCH_EVALUATION * default_evaluations(config)
 
 
 def objective_covered(context: StudyContext, label: str) -> str:
@@ -197,15 +220,20 @@ class Exhaustive(Step):
     Config = ExhaustiveConfig
 
     def applies(self, context: StudyContext) -> bool:
-        return sweeps(context)
+        """Asked (--method exhaustive), or the default study of a space cheaper to sweep than to search."""
+        return asked(context) or sweep_instead(context)
+
+    def replaces(self, context: StudyContext) -> tuple[type, ...]:
+        """The default study of a small space sweeps it instead of searching it."""
+        return (Searches,) if sweep_instead(context) else ()
 
     def check(self, context: StudyContext) -> None:
         if not self.applies(context):
             if "chunk_size" in context.given(Exhaustive):
-                raise ValueError("--chunk-size: only with --method exhaustive")
+                raise ValueError(f"--chunk-size: only with --method {SWEEP_METHOD}")
             return
         if len(context.case.cases) > 1:
-            raise ValueError("--method exhaustive: one load case only (without --case)")
+            raise ValueError(f"--method {SWEEP_METHOD}: one load case only (without --case)")
         space = context.case.space
         if space.size > MAX_LOCAL_DESIGNS:
             context.beyond_bounds.append("exhaustive")
@@ -215,14 +243,14 @@ class Exhaustive(Step):
             count = len(context.rules)
             per_rule = f" ({cost.core_hours:,.1f} per rule, {count} rules)" if count > 1 else ""
             raise ValueError(
-                f"--method exhaustive: {space.size:,} designs is beyond the local limit of {MAX_LOCAL_DESIGNS:,}: "
+                f"--method {SWEEP_METHOD}: {space.size:,} designs is beyond the local limit of {MAX_LOCAL_DESIGNS:,}: "
                 f"projected {cost.core_hours * count:,.1f} core-hours{per_rule} at {cost.designs_per_core_second:,.0f} designs "
                 f"per core-second (measured here on {cost.timed} designs, {cost.censored} stopped at the force limit "
                 "as the sweep's chunks are); run it on a Dask cluster, confirmed: --executor dask --scheduler "
                 "ADDRESS --confirm-cost")
 
     def run(self, context: StudyContext) -> ExhaustiveResult:
-        why = "asked (--method exhaustive)"
+        why = f"asked (--method {SWEEP_METHOD})"
         if sweep_instead(context):
             evaluations = default_evaluations(context.config(Searches))
             why = (f"the default study sweeps a space of at most {SWEEP_DESIGNS_PER_SEARCH_EVALUATION} designs per "
@@ -245,7 +273,7 @@ class Exhaustive(Step):
         objective = context.objective(rule)
         space = context.case.space
         screening, = objective.tasks(SEARCH)
-        chunk_size = self.config.chunk_size or max(1, -(-space.size // 200))
+        chunk_size = self.config.chunk_size or max(1, -(-space.size // SWEEP_CHUNKS))
         ranges = chunk_ranges(space.size, chunk_size)
         tasks = (ScreenChunk(screening, space, a, b, BEST_PER_CHUNK, SCREENING_ERROR, None, objectives=len(
             context.case.outputs)) for a, b in ranges)
@@ -287,7 +315,7 @@ class Exhaustive(Step):
         searched = context.result(Searches)
         known = [e.value for run in (searched.runs_for(label) if searched else []) for e in run.evaluations if e.ok]
         best = [min(known) if known else math.inf]
-        chunk_size = self.config.chunk_size or max(1, -(-space.size // 200))
+        chunk_size = self.config.chunk_size or max(1, -(-space.size // SWEEP_CHUNKS))
         ranges = chunk_ranges(space.size, chunk_size)
         limits = objective.supports_limits
         initial_limit = screening_threshold(best[0], SCREENING_ERROR) if limits and math.isfinite(best[0]) else None
@@ -384,6 +412,22 @@ class Exhaustive(Step):
             second_integrator=SECOND_INTEGRATOR_NAME, optimum=optimum, runner_up=runner_up, gap=gap,
             integration_error=integration, certified=not reasons, reasons=tuple(reasons))
 
+    def verdict(self, result: ExhaustiveResult | None, study) -> Verdict:
+        """No answer when the screening error passed its bound: designs the sweep pruned may be better."""
+        for sweep in (result.sweeps if result else ()):
+            certificate = sweep.certificate
+            if certificate.max_screening_error_seen is not None and not certificate.screening_bound_held:
+                return Verdict.no_answer(
+                    f"the exhaustive sweep's screening error ({certificate.max_screening_error_seen:.2g}) passed its "
+                    f"bound ({certificate.screening_error:g}) under the {sweep.diagonal_rule} rule: designs it pruned "
+                    "may be better than its optimum, which is not certain")
+        for front in (result.fronts if result else ()):
+            if front.max_screening_error_seen is not None and front.max_screening_error_seen > front.screening_error:
+                return Verdict.no_answer(
+                    f"the exhaustive sweep's screening error ({front.max_screening_error_seen:.2g}) passed its bound "
+                    f"({front.screening_error:g}) under the {front.diagonal_rule} rule: its front may miss designs")
+        return SILENT
+
     def chart(self, study, path):
         return draw_exhaustive(study, path)
 
@@ -421,5 +465,5 @@ def draw_exhaustive(study, path: Path) -> str | None:
 
 
 __all__ = ["Certificate", "Exhaustive", "ExhaustiveConfig", "ExhaustiveResult", "FULL_ERROR", "FrontPoint",
-           "FrontSweep", "SCREENING_ERROR", "Sweep", "SweepCost", "Verified", "objective_covered", "projection_incumbent",
-           "sweep_cost"]
+           "FrontSweep", "SCREENING_ERROR", "SWEEP_DESIGNS_PER_SEARCH_EVALUATION", "Sweep", "SweepCost", "Verified",
+           "asked", "objective_covered", "projection_incumbent", "sweep_cost", "sweep_instead"]

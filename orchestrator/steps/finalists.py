@@ -10,10 +10,21 @@ from fmu_src.materials import study_materials
 from ..known_optima import known_optimum
 from ..loop import SearchRun
 from ..objective import FULL
+from ..options import check_options, integer, option
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order
 from .exhaustive import Exhaustive
 from .searches import Searches, rule_label
+
+
+@dataclass(frozen=True)
+class FinalistsConfig:
+    per_run: int = option(3, "best designs of each run re-evaluated at full fidelity", flag="--finalists",
+                          metavar="FINALISTS",
+                          type=integer("--finalists", 1, 1000))
+
+    def __post_init__(self):
+        check_options(self)
 
 
 @dataclass(frozen=True)
@@ -77,12 +88,13 @@ class Finalists(Step):
     name = "finalists"
     title = "Finalists at full fidelity"
     template = "finalists.html.j2"
+    Config = FinalistsConfig
 
     def applies(self, context: StudyContext) -> bool:
         return len(context.case.outputs) == 1
 
     def run(self, context: StudyContext) -> FinalistsResult:
-        count = context.config(Searches).finalists
+        count = self.config.per_run
         searched = context.result(Searches)
         swept = context.result(Exhaustive)
         known = baselines(context)
@@ -121,5 +133,5 @@ def disagreements(runs: list[SearchRun], full: dict[Order, Evaluation], count: i
     return found
 
 
-__all__ = ["Disagreement", "Finalists", "FinalistsResult", "RuleFinalists", "baselines", "best_of",
+__all__ = ["Disagreement", "Finalists", "FinalistsConfig", "FinalistsResult", "RuleFinalists", "baselines", "best_of",
            "finalist_orders"]

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exhaustive import not_strongly_dominated
+from ..exhaustive import SWEEP_METHOD, not_strongly_dominated
 from ..known_optima import known_ends
 from ..objective import FULL
-from ..study import Step, StudyContext
+from ..study import SILENT, Step, StudyContext, Verdict
 from ..types import Order
 from .exhaustive import SCREENING_ERROR, Exhaustive, FrontPoint
 from .searches import Searches, multi_objective, rule_label
@@ -125,7 +125,7 @@ def settle_advice(context: StudyContext, runs, agreeing: int) -> str:
     seconds = [e.seconds for run in runs for e in run.evaluations]
     rate = sum(seconds) / len(seconds) if seconds else None
     size = context.case.space.size
-    sweep = (f"--method exhaustive sweeps all {size:,} designs and gives the exact front"
+    sweep = (f"--method {SWEEP_METHOD} sweeps all {size:,} designs and gives the exact front"
              + (f" (about {size * rate / 3600:.2g} core-hours at this run's rate)" if rate else ""))
     if not runs:
         return f"no multi-objective search ran (only baselines): add --method nsga2, or {sweep}"
@@ -165,6 +165,14 @@ class Pareto(Step):
 
     def applies(self, context: StudyContext) -> bool:
         return len(context.case.outputs) > 1
+
+    def verdict(self, result: ParetoResult | None, study) -> Verdict:
+        """The fronts are the answer of a study of several objectives; none without a point is no answer."""
+        if result is None:
+            return SILENT
+        if not any(front.points for front in result.fronts):
+            return Verdict.no_answer(f"no design was evaluated successfully: {study.failure_summary()}")
+        return Verdict.answer()
 
     def run(self, context: StudyContext) -> ParetoResult:
         from ..search.pareto import hypervolume, reference_point

@@ -4,37 +4,37 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..exhaustive import SWEEP_METHOD
 from ..known_optima import known_ends
 from ..loop import SearchRun, run_search
-from ..options import flag_of, integer, option
+from ..options import check_options, integer, option
 from ..search import SEARCHES, make_search
 from ..study import Step, StudyContext
 
 SINGLE_DEFAULT = ("cmaes", "pso", "sa", "sequential", "random")
-# How many designs a sweep (alone, its chunks lowering their force limit as they go) screens in the core-time of
-# one evaluation of the default searches, rounded down: `python -m bench.sweep_crossover` measures it and writes
-# docs/measurements/sweep_crossover.md. The default study sweeps a space of at most this many designs per
-# evaluation its searches would make, instead of searching it.
-SWEEP_DESIGNS_PER_SEARCH_EVALUATION = 3
 MULTI_DEFAULT = ("nsga2", "random")
-EXHAUSTIVE = "exhaustive"
 ALL = "all"
 
 
 def multi_objective(name: str) -> bool:
-    return int(getattr(SEARCHES.get(name), "n_objectives", 1) or 1) > 1 or name == "nsga2"
+    return name in SEARCHES and SEARCHES[name].n_objectives > 1
+
+
+def fits(name: str, objectives: int) -> bool:
+    """Whether the search ``name`` runs on an objective of ``objectives`` outputs (a baseline runs on any)."""
+    return SEARCHES[name].baseline or multi_objective(name) == (objectives > 1)
 
 
 def methods_for(requested: tuple[str, ...], objectives: int) -> tuple[str, ...]:
     """The search methods a run uses: the requested ones ("all": every search for this many objectives), or
-    the defaults; the exhaustive sweep is its own step."""
+    the defaults; the exhaustive sweep is its own step (``SWEEP_METHOD``)."""
     if not requested:
         return MULTI_DEFAULT if objectives > 1 else SINGLE_DEFAULT
     methods: list[str] = []
     for method in requested:
         if method == ALL:
-            methods += [m for m in SEARCHES if multi_objective(m) == (objectives > 1) or m in ("random", "sequential")]
-        elif method != EXHAUSTIVE:
+            methods += [m for m in SEARCHES if fits(m, objectives)]
+        elif method in SEARCHES:
             methods.append(method)
     return tuple(dict.fromkeys(methods))
 
@@ -42,9 +42,9 @@ def methods_for(requested: tuple[str, ...], objectives: int) -> tuple[str, ...]:
 @dataclass(frozen=True)
 class SearchesConfig:
     methods: tuple[str, ...] = option(
-        (), "searches and baselines to run; all: every search (not the exhaustive sweep); exhaustive: every "
+        (), f"searches and baselines to run; {ALL}: every search (not the exhaustive sweep); {SWEEP_METHOD}: every "
         "design of the space (its own step, beside the searches)", flag="--method", nargs="+",
-        choices=tuple(SEARCHES) + (EXHAUSTIVE, ALL), metavar="METHOD",
+        choices=tuple(SEARCHES) + (SWEEP_METHOD, ALL), metavar="METHOD",
         show_default=f"{' '.join(SINGLE_DEFAULT)}; with several objectives {' '.join(MULTI_DEFAULT)}")
     budget: int = option(200, "distinct designs each run evaluates: a hard cap on distinct designs (a design "
                          "evaluated again because its earlier run stopped at a lower force limit is counted as a "
@@ -52,18 +52,9 @@ class SearchesConfig:
     seed: int = option(0, "first seed", type=integer("--seed", 0, 2**32 - 1001))
     repeats: int = option(3, "runs per method: seeds S..S+R-1 (a deterministic method runs once)",
                           type=integer("--repeats", 1, 10**6))
-    finalists: int = option(3, "best designs of each run re-evaluated at full fidelity",
-                            type=integer("--finalists", 1, 1000))
 
     def __post_init__(self):
-        for name, low in (("budget", 1), ("repeats", 1), ("finalists", 1), ("seed", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or int(value) != value or value < low:
-                raise ValueError(f"{flag_of(SearchesConfig, name)} must be an integer of at least {low}, got {value!r}")
-        unknown = [m for m in self.methods if m not in SEARCHES and m not in (EXHAUSTIVE, ALL)]
-        if unknown:
-            allowed = ", ".join(list(SEARCHES) + [EXHAUSTIVE, ALL])
-            raise ValueError(f"--method {unknown[0]}: allowed values are {allowed}")
+        check_options(self)
 
 
 @dataclass(frozen=True)
@@ -80,21 +71,6 @@ def default_evaluations(config: "SearchesConfig") -> int:
     """The evaluations the default searches make under one rule at ``config``'s budget, seed and repeats."""
     return sum(min(config.budget, SEARCHES[m].max_evaluations or config.budget)
                for m, _ in plan(SINGLE_DEFAULT, config.seed, config.repeats))
-
-
-def sweep_instead(context: StudyContext) -> bool:
-    """Whether the default study sweeps the space instead of searching it: no --method given, one objective and
-    one load case, and a space small enough that the sweep costs less than the default searches would (then it
-    also certifies its answer)."""
-    config = context.config(Searches)
-    if config.methods or len(context.case.outputs) > 1 or len(context.case.cases) > 1:
-        return False
-    return context.case.space.size <= SWEEP_DESIGNS_PER_SEARCH_EVALUATION * default_evaluations(config)
-
-
-def sweeps(context: StudyContext) -> bool:
-    """Whether this run sweeps the space: asked (--method exhaustive), or the default study of a small space."""
-    return EXHAUSTIVE in context.config(Searches).methods or sweep_instead(context)
 
 
 def rule_label(rule: str | None) -> str:
@@ -131,8 +107,7 @@ class Searches(Step):
     Config = SearchesConfig
 
     def applies(self, context: StudyContext) -> bool:
-        """Not when the run only sweeps (--method exhaustive alone, or the default study of a small space)."""
-        return bool(self.methods(context)) and not sweep_instead(context)
+        return bool(self.methods(context))
 
     def methods(self, context: StudyContext) -> tuple[str, ...]:
         return methods_for(self.config.methods, len(context.case.outputs))
@@ -140,10 +115,10 @@ class Searches(Step):
     def check(self, context: StudyContext) -> None:
         objectives = len(context.case.outputs)
         for method in self.methods(context):
-            if multi_objective(method) != (objectives > 1) and method not in ("random", "sequential"):
+            if not fits(method, objectives):
                 raise ValueError(f"--method {method}: it minimises {'several objectives' if objectives == 1 else 'one'}"
                                  f", the objective has {objectives}; allowed: "
-                                 + ", ".join(m for m in SEARCHES if multi_objective(m) == (objectives > 1)))
+                                 + ", ".join(m for m in SEARCHES if fits(m, objectives)))
 
     def run(self, context: StudyContext) -> SearchesResult:
         methods = self.methods(context)
@@ -230,5 +205,5 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
     return save(figure, path)
 
 
-__all__ = ["SWEEP_DESIGNS_PER_SEARCH_EVALUATION", "Searches", "SearchesConfig", "SearchesResult",
-           "default_evaluations", "methods_for", "plan", "rule_label", "run_searches", "sweep_instead", "sweeps"]
+__all__ = ["Searches", "SearchesConfig", "SearchesResult", "default_evaluations", "fits", "methods_for",
+           "multi_objective", "plan", "rule_label", "run_searches"]

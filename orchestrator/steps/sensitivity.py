@@ -6,11 +6,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..objective import FULL
-from ..options import integer, option
+from ..options import check_options, integer, option
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order
 from .answers import Answers
-from .finalists import baselines, best_of, finalist_orders
+from .finalists import Finalists, baselines, best_of, finalist_orders
 from .searches import Searches, run_searches
 
 METHODS = ("sa", "local")  # annealing from the baseline, an iterated local search from the chosen design
@@ -22,6 +22,9 @@ class SensitivityConfig:
                                flag="--no-sensitivity", action="store_false")
     budget: int = option(100, "designs each short search evaluates for a variation", flag="--sensitivity-budget",
                          type=integer("--sensitivity-budget", 1, 10**9))
+
+    def __post_init__(self):
+        check_options(self)
 
 
 @dataclass(frozen=True)
@@ -97,7 +100,7 @@ class Sensitivity(Step):
             runs = run_searches(context, varied, METHODS, seed, 1, self.config.budget,
                                 name, options={"local": {"start": chosen.order}},
                                 progress_label=f"sensitivity: {name}")
-            finalists = [o for run in runs for o in finalist_orders(run, 3)]
+            finalists = [o for run in runs for o in finalist_orders(run, context.config(Finalists).per_run)]
             orders = list(dict.fromkeys(list(compared.values()) + finalists))
             full = dict(zip(orders, varied.evaluate(orders, context.evaluator, FULL)))
             full_task, = varied.tasks(FULL)
