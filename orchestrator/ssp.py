@@ -33,7 +33,7 @@ import jinja2
 from fmpy import read_model_description
 from lxml import etree
 
-from fmu_src.materials import MaterialTable
+from fmu_src.materials import FIELD_NAMES, MaterialTable
 
 from .design import DesignSpace
 from .simulation import REAL_TYPES, declared_parameters, enumeration_items, material_columns
@@ -43,7 +43,7 @@ SSV_NAME = "resources/best_design.ssv"
 SYSTEM = "best_design"
 COMPONENT = "lattice"
 REPEAT_PARAMETER = "repeat_materials"
-MATERIAL_FIELDS = ("k", "k_diag", "c", "alpha", "alpha_diag")  # the FMU's parameters per material
+MATERIAL_FIELDS = FIELD_NAMES  # the FMU's parameters per material
 # OMSimulator imports a system only with its own annotation: a weakly coupled system ("oms-ma", the fixed-step
 # master) with the communication step. The fixed-step master does not use the tolerance; OMSimulator writes
 # its default there.
