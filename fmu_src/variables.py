@@ -218,8 +218,9 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
                  start=1, minimum=0, maximum=1, allowed="0 or 1"),
         Variable("use_symmetry", INTEGER, "parameter",
                  "Co-Simulation: 1 = when the lattice is mirror-symmetric about its middle row (an odd number of "
-                 "rows, load_angle 0) integrate only its upper half, the same solution at about half the cost; "
-                 "0 = always the whole lattice. Model Exchange always hands the importer the whole lattice",
+                 "rows, load_angle 0) integrate only its upper half, the same solution at about half the cost, "
+                 "and of a plate also about its middle layer (a quarter); 0 = always the whole lattice. Model "
+                 "Exchange always hands the importer the whole lattice",
                  start=1, minimum=0, maximum=1, allowed="0 or 1"),
         # odd and centred: the core refuses the rest at initialisation (lattice_params_error), in one line
         Variable("load_patch", INTEGER, "parameter",

@@ -16,6 +16,7 @@ from fmpy.validation import validate_fmu
 
 from builder import build as build_fmu
 from fmu_src.variables import make_interface
+from orchestrator.simulation import LatticeFMU, SimulationError
 from scenes import Scene
 
 REFERENCE = json.loads((Path(__file__).resolve().parents[1] / "reference" / "plate_5x5x5_reference.json").read_text())
@@ -141,13 +142,9 @@ def test_fmi3_model_exchange_through_cvode_gives_the_reference_peak(plate_fmu3):
 @pytest.mark.parametrize("patch, why", [(2, "load_patch = 2: allowed 0 (the whole face) or an odd side P"),
                                         (6, "load_patch = 6 is not allowed")])
 def test_a_patch_the_plate_cannot_take_is_refused_in_one_line(plate_fmu, patch, why):
-    messages = []
-    with pytest.raises(Exception):
-        simulate_fmu(str(plate_fmu), stop_time=0.1, start_values={"load_patch": patch},
-                     logger=lambda *args: messages.append(args[-1].decode() if isinstance(args[-1], bytes)
-                                                          else str(args[-1])),
-                     debug_logging=True)
-    assert any(why in message for message in messages), messages
+    with LatticeFMU(plate_fmu) as fmu, pytest.raises(SimulationError) as error:
+        fmu.simulate(horizon=0.1, parameters={"load_patch": patch})
+    assert why in str(error.value) and "\n" not in str(error.value), str(error.value)
 
 
 def test_a_patch_needs_odd_rows_and_layers_at_build_time():
@@ -177,3 +174,15 @@ def test_the_depth_one_fmu_reads_load_patch_and_keeps_its_sizes(fmu_path):
     with zipfile.ZipFile(fmu_path) as archive:
         header = archive.read("sources/model_variables.h").decode()
     assert "#define LATTICE_DEPTH 1" in header
+
+
+def test_run_refuses_a_given_fmu_whose_plate_is_not_the_scenes(plate_fmu, tmp_path, capfd):
+    """--fmu of a 5 x 5 x 5 plate with the scene resized to 5 columns but one layer: refused in one line."""
+    from orchestrator.run import main
+
+    code = main(["--fmu", str(plate_fmu), "--cols", "5", "--out", str(tmp_path / "out"), "--no-progress",
+                 "--no-sensitivity", "--budget", "1"])
+    line = capfd.readouterr().err.strip()
+    assert code == 2 and "\n" not in line, line
+    assert "continuous states" in line and "--depth" in line, line
+    assert not (tmp_path / "out").exists()
