@@ -186,3 +186,14 @@ def test_run_refuses_a_given_fmu_whose_plate_is_not_the_scenes(plate_fmu, tmp_pa
     assert code == 2 and "\n" not in line, line
     assert "continuous states" in line and "--depth" in line, line
     assert not (tmp_path / "out").exists()
+
+
+def test_a_design_file_of_a_plate_carries_its_patch(plate_fmu, tmp_path):
+    """The design a run writes opens in another tool with the same patch (the run's parameters go in it)."""
+    from orchestrator.ssp import read_design_parameters, write_best_design_ssp
+
+    path = tmp_path / "best_design.ssp"
+    write_best_design_ssp(plate_fmu, {"material": [3, 1, 5, 2, 4], "load_patch": 3, "diagonal_rule": "mean"}, path,
+                          stop_time=REFERENCE["horizon"])
+    design = read_design_parameters(path)
+    assert design["load_patch"] == 3 and design["material[1]"] == 3
