@@ -4,6 +4,8 @@ builder.build).
     python build_fmu.py                      # models/MassSpringLattice.fmu, the 11 x 11 armour scene
     python build_fmu.py --scene free_5x5     # a scene from scenes/ (or a path to a scene file)
     python build_fmu.py --rows 7 --cols 9 -o models/Lattice7x9.fmu
+    python build_fmu.py --scene plate_11x11x11   # the plate of 11 layers under a 3 x 3 patch (docs/model.md 10)
+    python build_fmu.py --rows 5 --cols 5 --depth 5 --load-patch 3   # a 5 x 5 x 5 plate, its patch's start 3
     python build_fmu.py --materials my_materials.csv --cols 5   # M materials of a table over 5 columns
     python build_fmu.py --fmi-version 3      # models/MassSpringLattice-fmi3.fmu
     python build_fmu.py --platforms all --fmi-version 3   # binaries for x86_64-linux, x86_64-windows, aarch64-linux
@@ -33,6 +35,11 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"a scene name from scenes/ or a path to a scene .json (default {DEFAULT_SCENE})")
     parser.add_argument("--rows", type=int, help="override the scene's number of rows")
     parser.add_argument("--cols", type=int, help="override the scene's number of columns")
+    parser.add_argument("--depth", type=int,
+                        help="override the scene's number of layers (docs/model.md section 10; 1: one layer)")
+    parser.add_argument("--load-patch", type=int, metavar="P",
+                        help="the start of parameter load_patch: 0 loads column 1's whole face, an odd P its "
+                             "centred P x P patch (P <= min(rows, depth), with odd rows and depth)"),
     parser.add_argument("--materials", metavar="FILE",
                         help="the material table (.csv with the header name,k,k_diag,c,alpha,alpha_diag; .toml or "
                              ".json with the same fields): its M materials are the FMU's; default the scene's")
@@ -56,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
                         "cross_check.py: three scenes, FMI 2.0 and 3.0, cs and me, references, FMPy's results)")
     args = parser.parse_args(argv)
     if args.cross_check:
-        if (args.output or args.rows or args.cols or args.materials or args.reference or args.scene != DEFAULT_SCENE
+        if (args.output or args.rows or args.cols or args.depth or args.load_patch is not None or args.materials or args.reference or args.scene != DEFAULT_SCENE
                 or args.fmi_version != 2 or args.platforms):
             parser.error("--cross-check builds its own scenes and versions: give it with --werror only")
         from builder.cross_check import main as cross_check
@@ -68,7 +75,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     try:
         path = build_fmu(args.scene, args.output, args.rows, args.cols, werror=args.werror,
-                         fmi_version=args.fmi_version, materials=args.materials, platforms=args.platforms)
+                         fmi_version=args.fmi_version, materials=args.materials, platforms=args.platforms,
+                         depth=args.depth, load_patch=args.load_patch)
     except (ValueError, RuntimeError) as exc:
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return 2

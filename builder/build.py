@@ -36,7 +36,7 @@ from builder.sources import DEFAULT_MODEL_DIR, FMU_SOURCE_DIR, SourceTree
 from fmu_src.materials import FIELDS as MATERIAL_FIELDS
 from fmu_src.materials import MaterialTable, load_materials
 from fmu_src.variables import (DERIVATIVE, INDICATOR, REAL, STATE, Interface, c_literal, enumerations,
-                               plotted_masses)
+                               plotted_mass_index, plotted_masses)
 from scenes import DEFAULT_SCENE, Scene, check_identifier
 
 SOURCE_DIR = FMU_SOURCE_DIR  # the C sources ship as package data of fmu_src
@@ -97,6 +97,7 @@ def generate_header(interface: Interface, guid: str) -> str:
         f'#define MODEL_GUID "{guid}"',
         f"#define LATTICE_ROWS {interface.rows}",
         f"#define LATTICE_COLS {interface.cols}",
+        f"#define LATTICE_DEPTH {interface.depth}",
         f"#define LATTICE_MATERIALS {interface.material_count}",
         f"#define N_VALUE_REFERENCES {sum(v.count for v in interface.exposed)}",
         f"#define N_CONTINUOUS_STATES {sum(v.count for v in interface.exposed if v.role == STATE)}",
@@ -168,7 +169,8 @@ def generate_header(interface: Interface, guid: str) -> str:
             lines.append(f"#define PARAM_{variable.c_name}(m, i) ((void)(m), FIXED_{variable.c_name}[(i)])")
     lines.append("")
     for place, (row, col) in plotted_masses(interface.rows, interface.cols).items():
-        lines.append(f"#define MASS_{place.upper()} {(row - 1) * interface.cols + (col - 1)}")
+        index = plotted_mass_index(interface.rows, interface.cols, interface.depth, row, col)
+        lines.append(f"#define MASS_{place.upper()} {index}")
     lines += ["", "#endif", ""]
     return "\n".join(lines)
 
@@ -283,24 +285,30 @@ def object_key(flags: list[str], source: Path, compiler: list[str] | None = None
 
 def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, cols: int | None = None,
                   output: str | os.PathLike | None = None,
-                  materials: MaterialTable | str | os.PathLike | None = None) -> Scene:
+                  materials: MaterialTable | str | os.PathLike | None = None, depth: int | None = None,
+                  load_patch: int | None = None) -> Scene:
     """The scene an FMU is built for: a Scene, a scene name or path (default: the 11 x 11 armour scene), with
-    rows or cols overridden (a resized scene keeps its scalar parameters only) and `materials` (a MaterialTable
-    or the path of a table file) as its material table. Unless the output is given, the default identifier of
-    the armour scene names its size and its table's fingerprint when they are not the study's."""
+    rows, cols or depth overridden (a resized scene keeps its scalar parameters only), load_patch as the start
+    of that parameter, and `materials` (a MaterialTable or the path of a table file) as its material table.
+    Unless the output is given, the default identifier of the armour scene names its size and its table's
+    fingerprint when they are not the study's."""
     if not isinstance(scene, Scene):
         scene = Scene.load(scene or DEFAULT_SCENE)
     resized = scene
-    if rows is not None or cols is not None:
-        resized = replace(scene, rows=rows or scene.rows, cols=cols or scene.cols,
+    if rows is not None or cols is not None or depth is not None:
+        resized = replace(scene, rows=rows or scene.rows, cols=cols or scene.cols, depth=depth or scene.depth,
                           parameters={k: v for k, v in scene.parameters.items() if not isinstance(v, (list, tuple))})
+    if load_patch is not None:
+        resized = replace(resized, parameters={**resized.parameters, "load_patch": load_patch})
     if materials is not None:
         table = materials if isinstance(materials, MaterialTable) else load_materials(materials)
         resized = replace(resized, materials=table)
     if scene.model_identifier == "MassSpringLattice" and output is None:
         identifier = scene.model_identifier
-        if (resized.rows, resized.cols) != (11, 11):
-            identifier += f"{resized.rows}x{resized.cols}"
+        if (resized.rows, resized.cols, resized.depth) != (11, 11, 1):
+            identifier += f"{resized.rows}x{resized.cols}" + (f"x{resized.depth}" if resized.depth > 1 else "")
+        if load_patch is not None:
+            identifier += f"_patch{load_patch}"
         if materials is not None:
             identifier += f"_{resized.material_table().sha256()[:8]}"
         resized = replace(resized, model_identifier=identifier)
@@ -311,17 +319,20 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
               rows: int | None = None, cols: int | None = None, werror: bool = False, fmi_version: int = 2,
               materials: MaterialTable | str | os.PathLike | None = None,
               platforms: str | None = None, reference_results: bool = True,
-              model_dir: str | os.PathLike = DEFAULT_MODEL_DIR) -> Path:
+              model_dir: str | os.PathLike = DEFAULT_MODEL_DIR, depth: int | None = None,
+              load_patch: int | None = None) -> Path:
     """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0),
     from the C model in `model_dir` (its model.h: the model API of fmu_src/common/model_api.h) and the shared FMI
     glue;
     `materials` (a MaterialTable or a table file) replaces the scene's material table: the FMU's
     k[1..M], k_diag[1..M], c[1..M], alpha[1..M], alpha_diag[1..M] start with its values. `platforms` ('all'
     or a comma list of builder.platforms.PLATFORMS) says whose binaries the FMU carries; None, this machine's.
+    `depth` overrides the scene's layers (fixed at build time, like rows and cols), `load_patch` the start of
+    that parameter.
     The armour scene's FMU carries its reference results (builder/reference_results.py) unless
     reference_results is False."""
     targets = parse_platforms(platforms, fmi_version) if platforms is not None else None
-    scene = resolve_scene(scene, rows, cols, output, materials)
+    scene = resolve_scene(scene, rows, cols, output, materials, depth, load_patch)
     interface = scene.interface()
     identifier = check_identifier("model_identifier", scene.model_identifier)
     guid = model_guid(interface, identifier, model_dir)

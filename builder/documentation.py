@@ -37,10 +37,11 @@ def variable_row(variable: Variable, fmi_version: int) -> dict:
 
 
 def reproduces_the_study(interface: Interface, scene) -> bool:
-    """Whether the FMU is the study's scene at its defaults: 11 x 11, its materials, a backplate."""
+    """Whether the FMU is the study's scene at its defaults: 11 x 11 in one layer, its materials, a backplate."""
     names = {v.name for v in interface.exposed}
     table = scene.material_table()
-    return ("material" in names and interface.rows == interface.cols == 11 and "backplate_force" in names
+    return ("material" in names and interface.rows == interface.cols == 11 and interface.depth == 1
+            and "backplate_force" in names
             and (table is None or table == study_materials(11)))
 
 
@@ -51,7 +52,8 @@ def documentation_html(fmi_version: int, interface: Interface, identifier: str, 
     if reproduces_the_study(interface, scene):
         published = [(list(order), repr(peak)) for order, peak in PUBLISHED_PEAKS.items()]
     return render("documentation.html", identifier=identifier, summary=model_summary(interface, scene),
-                  fmi_version=fmi_version, rows=interface.rows, cols=interface.cols, published=published,
+                  fmi_version=fmi_version, rows=interface.rows, cols=interface.cols, depth=interface.depth,
+                  published=published,
                   horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS,
                   rtol=f"{starts['rtol']:g}",
                   reference_points=REFERENCE_POINTS, variables=[variable_row(v, fmi_version) for v in interface.exposed],

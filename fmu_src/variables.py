@@ -25,8 +25,9 @@ LOG_CATEGORIES = (("logStatusError", "Why a call failed"),
 # Roles in the continuous-time contract (fmu_src/lattice/model.h), what Model Exchange declares as its
 # states, their derivatives and its event indicators.
 STATE, DERIVATIVE, INDICATOR = "state", "derivative", "indicator"
-# The continuous state vector in lattice.h's layout: displacements, velocities, the three energy integrals.
-STATE_ORDER = ("ux", "uy", "vx", "vy", "external_work", "dissipated_energy", "nonreciprocal_work")
+# The continuous state vector in lattice.h's layout: displacements, velocities, the three energy integrals (a
+# plate of one layer has no uz and vz).
+STATE_ORDER = ("ux", "uy", "uz", "vx", "vy", "vz", "external_work", "dissipated_energy", "nonreciprocal_work")
 
 
 @dataclass(frozen=True)
@@ -63,6 +64,9 @@ class Variable:
             return [self.name]
         if self.shape and len(self.shape) == 2:  # row-major, as lattice.h lays out the masses
             subscripts = [f"[{row},{col}]" for row in range(1, self.shape[0] + 1) for col in range(1, self.shape[1] + 1)]
+        elif self.shape and len(self.shape) == 3:  # (layer, row, column), row-major as lattice.h lays out a plate
+            subscripts = [f"[{layer},{row},{col}]" for layer in range(1, self.shape[0] + 1)
+                          for row in range(1, self.shape[1] + 1) for col in range(1, self.shape[2] + 1)]
         else:
             subscripts = [f"[{index}]" for index in range(1, self.size + 1)]
         if self.derivative_of:  # der(ux[1,1]), as FMI's structured naming convention writes a derivative
@@ -101,7 +105,8 @@ def enumerations() -> list[Variable]:
 
 
 def plotted_masses(rows: int, cols: int) -> dict[str, tuple[int, int]]:
-    """The masses whose displacements the study plots, as (row, column), 1-based."""
+    """The masses whose displacements the study plots, as (row, column), 1-based (in a plate of layers, of its
+    middle layer: plotted_layer)."""
     middle_row, middle_col = (rows + 1) // 2, (cols + 1) // 2
     return {
         "corner": (1, 1),
@@ -111,16 +116,26 @@ def plotted_masses(rows: int, cols: int) -> dict[str, tuple[int, int]]:
     }
 
 
+def plotted_layer(depth: int) -> int:
+    """The layer (1-based) of a plate whose masses the plotted displacements are: the middle one."""
+    return (depth + 1) // 2
+
+
+def plotted_mass_index(rows: int, cols: int, depth: int, row: int, col: int) -> int:
+    """lattice.h's number of plotted mass (row, col) (1-based) of the plotted layer: (k R + i) C + j, 0-based."""
+    return ((plotted_layer(depth) - 1) * rows + row - 1) * cols + col - 1
+
+
 def default_order(cols: int, materials: int) -> tuple[int, ...]:
     """The order an FMU starts with: material j in column j, the table's materials again from 1 when it has
     fewer than columns."""
     return tuple((j % materials) + 1 for j in range(cols))
 
 
-def all_variables(rows: int, cols: int, materials: MaterialTable | None = None) -> list[Variable]:
+def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, depth: int = 1) -> list[Variable]:
     """Every variable the model knows, in value-reference order, with docs/model.md's published defaults and
     the material table's values (default: the study's, its first C materials, all eleven for a wider lattice,
-    whose default then repeats them) as the table's start values."""
+    whose default then repeats them) as the table's start values; `depth` layers (docs/model.md section 10)."""
     table = materials or study_materials(min(cols, STUDY_MATERIAL_COUNT))
     count = len(table)
     values = table.parameters()
@@ -203,9 +218,18 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None) 
                  start=1, minimum=0, maximum=1, allowed="0 or 1"),
         Variable("use_symmetry", INTEGER, "parameter",
                  "Co-Simulation: 1 = when the lattice is mirror-symmetric about its middle row (an odd number of "
-                 "rows, load_angle 0) integrate only its upper half, the same solution at about half the cost; "
-                 "0 = always the whole lattice. Model Exchange always hands the importer the whole lattice",
+                 "rows, load_angle 0) integrate only its upper half, the same solution at about half the cost, "
+                 "and of a plate also about its middle layer (a quarter); 0 = always the whole lattice. Model "
+                 "Exchange always hands the importer the whole lattice",
                  start=1, minimum=0, maximum=1, allowed="0 or 1"),
+        # odd and centred: the core refuses the rest at initialisation (lattice_params_error), in one line
+        Variable("load_patch", INTEGER, "parameter",
+                 "Where column 1 is loaded: 0 = over its whole face (each mass's share the product of its row's "
+                 "and its layer's weights, half at an edge), or an odd P = the centred P x P patch of its rows x "
+                 "layers, each of those masses an equal share",
+                 start=0, minimum=0, maximum=min(rows, depth),
+                 allowed=f"0 (the whole face) or an odd P, 1 <= P <= min(rows, depth) = {min(rows, depth)}, with "
+                         f"an odd number of rows and of layers"),
         # outputs
         Variable("backplate_force", REAL, "output", "Force on the backplate", unit="N"),
         Variable("peak_backplate_force", REAL, "output",
@@ -242,10 +266,12 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None) 
         Variable("energy_balance_error", REAL, "output",
                  "external_work + nonreciprocal_work - kinetic - potential - dissipated", unit="J"),
     ]
+    where = f" of layer {plotted_layer(depth)}" if depth > 1 else ""
     for place, (row, col) in plotted_masses(rows, cols).items():
         for axis in ("x", "y"):
             variables.append(Variable(f"u{axis}_{place}", REAL, "output",
-                                      f"Displacement {axis} of the mass at row {row}, column {col}", unit="m"))
+                                      f"Displacement {axis} of the mass at row {row}, column {col}{where}",
+                                      unit="m"))
     variables += [
         Variable("rhs_evaluations", INTEGER, "output",
                  "Right-hand-side evaluations so far (Model Exchange: derivative evaluations the importer asked "
@@ -255,23 +281,28 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None) 
         Variable("steps_rejected", INTEGER, "output",
                  "Rejected solver steps so far (Model Exchange: the importer does not tell the FMU, stays 0)"),
     ]
-    return variables + continuous_time_variables(rows, cols)
+    return variables + continuous_time_variables(rows, cols, depth)
 
 
-def continuous_time_variables(rows: int, cols: int) -> list[Variable]:
+def continuous_time_variables(rows: int, cols: int, depth: int = 1) -> list[Variable]:
     """The continuous states, their derivatives and the event indicators (model.h's contract), as variables.
 
-    Model Exchange needs them declared; Co-Simulation answers them too (at the communication point).
+    Model Exchange needs them declared; Co-Simulation answers them too (at the communication point). A plate of
+    layers (depth > 1) adds the z components and indexes its masses [layer, row, column]; its indicators are
+    one per column-C mass, f = k R + i, as lattice.h numbers the face.
     """
-    masses, shape = rows * cols, (rows, cols)
+    masses = rows * cols * depth
+    shape, index = ((rows, cols), "[row, column]") if depth == 1 else ((depth, rows, cols), "[layer, row, column]")
+    axes = ("x", "y") if depth == 1 else ("x", "y", "z")
+    face = "row's" if depth == 1 else "face mass's (layer by layer)"
     variables = []
-    for name, what, unit in (("ux", "Displacement x", "m"), ("uy", "Displacement y", "m"),
-                             ("vx", "Velocity x", "m/s"), ("vy", "Velocity y", "m/s")):
-        variables.append(Variable(name, REAL, "local", f"{what} of each mass [row, column] (a continuous state)",
+    for name, what, unit in ([(f"u{a}", f"Displacement {a}", "m") for a in axes]
+                             + [(f"v{a}", f"Velocity {a}", "m/s") for a in axes]):
+        variables.append(Variable(name, REAL, "local", f"{what} of each mass {index} (a continuous state)",
                                   unit=unit, size=masses, shape=shape, role=STATE))
-    for name, what, unit in (("ux", "Velocity x", "m/s"), ("uy", "Velocity y", "m/s"),
-                             ("vx", "Acceleration x", "m/s2"), ("vy", "Acceleration y", "m/s2")):
-        variables.append(Variable(f"der({name})", REAL, "local", f"{what} of each mass [row, column]", unit=unit,
+    for name, what, unit in ([(f"u{a}", f"Velocity {a}", "m/s") for a in axes]
+                             + [(f"v{a}", f"Acceleration {a}", "m/s2") for a in axes]):
+        variables.append(Variable(f"der({name})", REAL, "local", f"{what} of each mass {index}", unit=unit,
                                   size=masses, shape=shape, role=DERIVATIVE, derivative_of=name))
     for name, what in (("external_work", "Power of the load"), ("dissipated_energy", "Power of the dampers"),
                        ("nonreciprocal_work", "Power of the unequal part of diagonal pairs")):
@@ -279,12 +310,12 @@ def continuous_time_variables(rows: int, cols: int) -> list[Variable]:
                                   derivative_of=name))
     variables += [
         Variable("contact_indicator", REAL, "local",
-                 "Event indicator of each row's column-C mass touching the backplate: ux - backplate_gap "
-                 "(> 0 in contact)", unit="m", size=rows, role=INDICATOR),
+                 f"Event indicator of each {face} column-C mass touching the backplate: ux - backplate_gap "
+                 "(> 0 in contact)", unit="m", size=rows * depth, role=INDICATOR),
         Variable("damping_indicator", REAL, "local",
-                 "Event indicator of each row's backplate damper: vx while in contact (> 0: approaching, the "
+                 f"Event indicator of each {face} backplate damper: vx while in contact (> 0: approaching, the "
                  "damper acts); off the plate the damper cannot switch and this repeats contact_indicator",
-                 size=rows, role=INDICATOR),
+                 size=rows * depth, role=INDICATOR),
     ]
     return variables
 
@@ -299,12 +330,13 @@ class Interface:
     fixed: list[Variable]  # parameters the scene does not expose; their start is compiled in
     value_references: dict[str, int] = field(default_factory=dict)  # first element's vr, by variable name
     material_count: int = 0  # M: the rows of the material table
+    depth: int = 1  # D: the layers of the plate (docs/model.md section 10)
 
     def state_offsets(self) -> dict[str, int]:
         """Where each state variable starts in the continuous state vector (STATE_ORDER, lattice.h's layout)."""
         sizes = {v.name: v.count for v in self.exposed if v.role == STATE}
         offsets, offset = {}, 0
-        for name in STATE_ORDER:
+        for name in (name for name in STATE_ORDER if name in sizes):
             offsets[name] = offset
             offset += sizes[name]
         return offsets
@@ -317,12 +349,13 @@ TABLE_PARAMETERS = tuple(column.name for column in MATERIAL_FIELDS)  # the mater
 
 
 def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden: tuple[str, ...] = (),
-                   materials: MaterialTable | None = None) -> Interface:
-    """Variables for a rows x cols lattice with the material table `materials` (default: the study's, up to one
-    material per column); `parameters` overrides starts, `hidden` compiles them in."""
-    if rows < 1 or cols < 1 or cols > 64 or rows * cols > 100000:
-        raise ValueError(f"rows and cols: allowed 1 <= rows, 1 <= cols <= 64 (got rows={rows}, cols={cols})")
-    variables = all_variables(rows, cols, materials)
+                   materials: MaterialTable | None = None, depth: int = 1) -> Interface:
+    """Variables for a rows x cols x depth lattice with the material table `materials` (default: the study's, up
+    to one material per column); `parameters` overrides starts, `hidden` compiles them in."""
+    if rows < 1 or cols < 1 or cols > 64 or depth < 1 or rows * cols * depth > 100000:
+        raise ValueError(f"rows, cols and depth: allowed 1 <= rows, 1 <= cols <= 64, 1 <= depth, at most 100000 "
+                         f"masses (got rows={rows}, cols={cols}, depth={depth})")
+    variables = all_variables(rows, cols, materials, depth)
     known = {v.name for v in variables}
     unknown = set(parameters or {}) - known | set(hidden) - known
     if unknown:
@@ -332,6 +365,12 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden:
         raise ValueError(f"parameters {in_table} are the material table's: give the table itself (a scene's "
                          f"materials, build_fmu.py --materials FILE)")
     exposed, fixed = [], []
+    patch = (parameters or {}).get("load_patch", 0)
+    if patch != 0 and (isinstance(patch, bool) or not isinstance(patch, int) or patch < 0 or patch % 2 == 0
+                       or patch > min(rows, depth) or rows % 2 == 0 or depth % 2 == 0):
+        raise ValueError(f"parameter load_patch = {patch!r} is not allowed for {rows} rows and {depth} layers: "
+                         f"allowed 0 (the whole face) or an odd P <= min(rows, depth) = {min(rows, depth)}, with an "
+                         f"odd number of rows and of layers")
     for variable in variables:
         if parameters and variable.name in parameters:
             value = parameters[variable.name]
@@ -346,7 +385,7 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden:
         value_references[variable.name] = next_vr
         next_vr += variable.count
     count = next(v.count for v in variables if v.name == "k")
-    return Interface(rows, cols, exposed, fixed, value_references, count)
+    return Interface(rows, cols, exposed, fixed, value_references, count, depth)
 
 
 def _has_backplate(variables: list[Variable]) -> bool:

@@ -90,6 +90,13 @@ def instantiate_once(path: Path) -> None:
         raise FMUError(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
 
 
+def scene_state_count(scene) -> int:
+    """The continuous states the FMU of ``scene`` declares (the variable table's, for its rows x cols x depth)."""
+    from fmu_src.variables import STATE
+
+    return sum(variable.count for variable in scene.interface().exposed if variable.role == STATE)
+
+
 def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
     """The FMU of ``scene`` (a ``scenes.Scene``): ``fmu`` when given (checked, never rebuilt), else the
     scene's FMU in models/, built or rebuilt as needed."""
@@ -104,6 +111,11 @@ def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
         if prepared.columns != scene.cols:
             raise FMUError(f"--fmu {fmu}: its lattice has {prepared.columns} columns, scene {scene.name} "
                            f"{scene.cols}; give the FMU's --scene or --cols {prepared.columns}")
+        states, expected = len(prepared.description.derivatives), scene_state_count(scene)
+        if states and states != expected:
+            raise FMUError(f"--fmu {fmu}: it has {states} continuous states, scene {scene.name}'s {scene.rows} x "
+                           f"{scene.cols} x {scene.depth} lattice {expected}; give the FMU's --scene, --cols or "
+                           f"--depth")
         try:
             instantiate_once(path)
         except FMUError as exc:

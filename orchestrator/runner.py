@@ -89,10 +89,10 @@ def resolve_scene(case: CaseConfig, materials):
 
     scene = Scene.load(case.scene)
     check_table_size(case, scene, materials)
-    if case.cols is not None or materials is not None:
+    if case.cols is not None or case.depth is not None or materials is not None:
         from builder import build
 
-        scene = build.resolve_scene(scene, cols=case.cols, materials=materials)
+        scene = build.resolve_scene(scene, cols=case.cols, materials=materials, depth=case.depth)
     return scene
 
 

@@ -29,7 +29,9 @@ from .progress import Progress
 
 MAX_HORIZON = 3600.0  # s: a longer horizon is refused (one evaluation must end)
 MAX_RUNS_PER_DESIGN = 1000  # FMU runs per design (the product of --case) beyond which --confirm-cost is needed
-SCENE_OPTIONS = {"F_total": "--load", "load_angle": "--load-angle"}
+SCENE_OPTIONS = {"F_total": "--load", "load_angle": "--load-angle", "load_patch": "--load-patch"}
+# The CaseConfig field of each of SCENE_OPTIONS' parameters.
+SCENE_OPTION_FIELDS = {"F_total": "load", "load_angle": "load_angle", "load_patch": "load_patch"}
 # The rule whose answer is the design file by default: the reciprocal one (Newton's third law holds on every
 # diagonal spring). The FMU's own default stays the study's rule, which reproduces its published numbers.
 DESIGN_RULE = "mean"
@@ -57,6 +59,8 @@ class CaseConfig:
                                    show_default=f"the study's {STUDY_MATERIAL_COUNT} materials", path=True)
     cols: int | None = option(None, "columns of the lattice (materials per design)", show_default="the scene's",
                               type=integer("--cols", 2, MAX_COLS))
+    depth: int | None = option(None, "layers of the plate (docs/model.md section 10; 1: the lattice of one layer), "
+                               "fixed when its FMU is built", show_default="the scene's", type=integer("--depth", 1))
     repeat: bool = option(False, "a material may fill several columns (M^C designs; default: each material at "
                           "most once)", action="store_true")
     objective: str = option("sampled", "FMU output(s) to minimise, one or two or three separated by commas: sampled "
@@ -71,6 +75,9 @@ class CaseConfig:
     load_angle: float | None = option(None, "load angle in degrees (0: along +x)",
                                       show_default=f"the scene's, {_LOAD_ANGLE:g}", metavar="DEG",
                                       type=number("--load-angle"))
+    load_patch: int | None = option(None, "where column 1 is loaded: 0 over its whole face, an odd P over the "
+                                    "centred P x P patch of its rows x layers", show_default="the scene's",
+                                    metavar="P", type=integer("--load-patch", 0))
     horizon: float | None = option(None, f"simulated time of the full scene in s, at most {MAX_HORIZON:g}",
                                    show_default=f"the scene's, {_HORIZON:g} s", metavar="S",
                                    type=number("--horizon", 0, MAX_HORIZON))
@@ -198,10 +205,15 @@ def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: Materia
                          "material order to search (give a scene with a material per column)")
     parameters: dict[str, Any] = {}
     for name, option_name in SCENE_OPTIONS.items():
-        value = getattr(config, "load" if name == "F_total" else "load_angle")
+        value = getattr(config, SCENE_OPTION_FIELDS[name])
         if value is not None:
             if name not in fmu.parameters:
                 raise ValueError(f"{option_name}: {fmu.path.name} has no parameter {name}")
+            if name == "load_patch" and value != 0 and (value % 2 == 0 or scene.rows % 2 == 0
+                                                        or scene.depth % 2 == 0):
+                raise ValueError(f"{option_name} {value}: allowed 0 (the whole face) or an odd P <= min(rows, "
+                                 f"depth) = {min(scene.rows, scene.depth)}, with an odd number of rows and of "
+                                 f"layers (rows {scene.rows}, depth {scene.depth})")
             parameters[name] = fmu.parameters[name].convert(value, option_name)
     case_lists: dict[str, tuple[Any, ...]] = {}
     allowed = sorted(n for n in fmu.parameters if n not in NOT_CASE_PARAMETERS)

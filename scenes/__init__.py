@@ -41,13 +41,15 @@ def scene_names() -> list[str]:
 
 @dataclass
 class Scene:
-    """A named scene: lattice size, parameter values, which parameters the FMU exposes, the horizon."""
+    """A named scene: lattice size (rows x cols, and depth layers: docs/model.md section 10), parameter values,
+    which parameters the FMU exposes, the horizon."""
 
     name: str
     model_identifier: str = "MassSpringLattice"
     description: str = ""
     rows: int = 11
     cols: int = 11
+    depth: int = 1
     parameters: dict = field(default_factory=dict)
     hidden: list = field(default_factory=list)
     horizon: float = 8.0
@@ -59,7 +61,7 @@ class Scene:
     def __post_init__(self):
         check_identifier("name", self.name)
         check_identifier("model_identifier", self.model_identifier)
-        for key, high in (("rows", None), ("cols", MAX_COLS)):
+        for key, high in (("rows", None), ("cols", MAX_COLS), ("depth", None)):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1 or (high and value > high):
                 allowed = f"an integer from 1 to {high}" if high else "an integer of at least 1"
@@ -107,13 +109,14 @@ class Scene:
 
     def interface(self) -> Interface:
         """The FMU's variables for this scene: exposed ones with value references, hidden ones compiled in."""
-        return make_interface(self.rows, self.cols, self.parameters, tuple(self.hidden), self.material_table())
+        return make_interface(self.rows, self.cols, self.parameters, tuple(self.hidden), self.material_table(),
+                              self.depth)
 
     def parameter_values(self) -> dict:
         """Every parameter's value in this scene (the scene's own, else the FMU's default), by FMU name;
         arrays as tuples."""
         values = {}
-        for variable in all_variables(self.rows, self.cols, self.material_table()):
+        for variable in all_variables(self.rows, self.cols, self.material_table(), self.depth):
             if variable.causality != "parameter":
                 continue
             value = self.parameters.get(variable.name, variable.start)

@@ -14,19 +14,33 @@ from orchestrator import run as cli
 from scenes import SCENE_DIR, Scene, scene_names
 
 SCENES = scene_names()
+# A plate of layers (depth > 1) takes minutes to build and validate on a 2-core machine: the slow suite's.
+SCENE_CASES = [pytest.param(name, marks=pytest.mark.slow) if Scene.load(name).depth > 1 else name
+               for name in SCENES]
+
+
+class BuiltScenes(dict):
+    """Each scene's FMU, built the first time a test asks for it."""
+
+    def __init__(self, folder):
+        super().__init__()
+        self.folder = folder
+
+    def __missing__(self, name):
+        self[name] = build_library.build_fmu(name, self.folder / f"{name}.fmu", werror=True)
+        return self[name]
 
 
 @pytest.fixture(scope="module")
 def scene_fmus(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("scenes")
-    return {name: build_library.build_fmu(name, folder / f"{name}.fmu", werror=True) for name in SCENES}
+    return BuiltScenes(tmp_path_factory.mktemp("scenes"))
 
 
 def test_the_study_scenes_are_all_there():
     assert {"armour_11x11", "two_masses_linear", "two_masses_exponential", "free_5x5"} <= set(SCENES)
 
 
-@pytest.mark.parametrize("name", SCENES)
+@pytest.mark.parametrize("name", SCENE_CASES)
 def test_scene_builds_validates_and_hides_what_it_does_not_need(scene_fmus, name):
     path = scene_fmus[name]
     assert validate_fmu(str(path)) == []
@@ -104,7 +118,8 @@ def test_scene_names_and_identifiers_must_be_identifiers(tmp_path, key, value):
 
 
 @pytest.mark.parametrize("key, value, allowed", [("cols", 65, "an integer from 1 to 64"), ("cols", 0, "from 1 to 64"),
-                                                 ("cols", 2.5, "an integer"), ("rows", 0, "at least 1")])
+                                                 ("cols", 2.5, "an integer"), ("rows", 0, "at least 1"),
+                                                 ("depth", 0, "at least 1")])
 def test_a_scene_file_with_a_lattice_size_out_of_range_is_refused_in_one_line(tmp_path, key, value, allowed):
     data = json.loads((SCENE_DIR / "two_masses_linear.json").read_text())
     data[key] = value

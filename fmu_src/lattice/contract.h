@@ -16,17 +16,23 @@
 #include "model.h"
 #include "model_variables.h"
 
-#define INDEX_EXTERNAL_WORK (4 * N_MASSES)
-#define INDEX_DISSIPATED (4 * N_MASSES + 1)
-#define INDEX_NONRECIPROCAL_WORK (4 * N_MASSES + 2)
+/* Where the whole layout's vx and quadratures begin (lattice.h). */
+#define VX_BASE (N_COMPONENTS * N_MASSES)
+#define INDEX_EXTERNAL_WORK (2 * N_COMPONENTS * N_MASSES)
+#define INDEX_DISSIPATED (2 * N_COMPONENTS * N_MASSES + 1)
+#define INDEX_NONRECIPROCAL_WORK (2 * N_COMPONENTS * N_MASSES + 2)
 #define FAILURE_SIZE 512
 /* A time within this fraction of a sample interval of a sample belongs to it (rounding of t). */
 #define SAMPLE_TIME_SLACK 1e-9
 
-/* The contract's event indicators (model.h): each row's contact, then each row's damping. */
-#define CONTACT_INDICATOR(row) (row)
-#define DAMPING_INDICATOR(row) (LATTICE_ROWS + (row))
-#define LAST_COLUMN_MASS(row) ((row) * LATTICE_COLS + LATTICE_COLS - 1)
+/* The contract's event indicators (model.h): each face mass's contact, then each one's damping, face mass
+ * f = k*R + i as lattice.h numbers column C's masses. */
+#define CONTACT_INDICATOR(face) (face)
+#define DAMPING_INDICATOR(face) (N_FACE_MASSES + (face))
+/* The column-1 and column-C mass of face mass f (k*rows + i) of a layout of rows x LATTICE_COLS x layers: the
+ * whole lattice's, or the part of it a mirrored solver holds (its own rows). */
+#define FIRST_COLUMN_MASS(face) ((face) * LATTICE_COLS)
+#define LAST_COLUMN_MASS(face) ((face) * LATTICE_COLS + LATTICE_COLS - 1)
 
 struct Model {
     double real[N_VALUE_REFERENCES];
@@ -38,7 +44,7 @@ struct Model {
     LatticeParams params;
     /* the discrete states */
     int load_on;
-    signed char wall_mode[LATTICE_ROWS]; /* frozen between events (WallMode) */
+    signed char wall_mode[N_FACE_MASSES]; /* frozen between events (WallMode), f = k*R + i */
     /* the peaks and the last contact over the points each interface shows (the one sampler) */
     double peak_sampled, max_compression;
     double transmitted_impulse;            /* the trapezoidal integral of the sampled force so far */
@@ -60,13 +66,15 @@ struct Model {
 /* The derivatives of state y (lattice.h's whole layout) under the backplate modes, with the load on or off. */
 void model_derivatives(const Model *m, int load_on, const double *y, double *dydt);
 
-/* Event indicator k is state component *component minus *threshold, in a layout whose vx begin at vx_base
- * (2 N_MASSES: the contract's whole layout; the driver's reduced one has its own). */
-void model_indicator_definition(const Model *m, int k, int vx_base, int *component, double *threshold);
+/* Event indicator k (of the whole face: f = k*R + i) is state component *component minus *threshold, in a
+ * layout of `rows` rows per layer whose vx begin at vx_base (LATTICE_ROWS and VX_BASE: the contract's whole
+ * layout; the driver's reduced one has its own, and asks only of the face masses it holds). */
+void model_indicator_definition(const Model *m, int k, int rows, int vx_base, int *component, double *threshold);
 
-/* The backplate modes docs/model.md section 5 gives the column-C masses of state y, of its first `rows` rows (the whole
- * lattice's, or the upper half's, whose mirror-image rows take the same modes): what an event switches to. */
-void model_wall_modes(const Model *m, const double *y, int rows, int vx_base, signed char *modes);
+/* The backplate modes docs/model.md section 5 gives the column-C masses of state y, whose layout holds `rows`
+ * rows of `layers` layers (the whole lattice's, or the part of a mirror-symmetric one, whose mirror images in y
+ * and z take the same modes): what an event switches to, one per face mass of the whole lattice, f = k*R + i. */
+void model_wall_modes(const Model *m, const double *y, int rows, int layers, int vx_base, signed char *modes);
 
 /* The contract's time event (the load switches off at t_active): 1 and its time while one is ahead. */
 int model_next_time_event(const Model *m, double *time);
@@ -80,14 +88,15 @@ double model_energy_balance(const Model *m, const double *y, double *kinetic, do
 void model_take_sample(Model *m, double time, double force, double compression);
 void model_take_force(Model *m, double time, double force);
 
-/* The compression of the lattice along the load from the ux of its first and last columns' masses, of the first
- * `rows` rows (all of them, or the upper half of a mirror-symmetric lattice): the mean of column 1 minus the mean
- * of column C. */
-double model_compression_of_columns(const Model *m, const double *ux_first, const double *ux_last, int rows);
+/* The compression of the lattice along the load from the ux of its first and last columns' masses, f = k*rows + i
+ * over `rows` rows of `layers` layers (all of them, or the part of a mirror-symmetric lattice, each mass counted
+ * as often as it stands in the whole): the mean of column 1 minus the mean of column C over its R x D masses. */
+double model_compression_of_columns(const Model *m, const double *ux_first, const double *ux_last, int rows,
+                                    int layers);
 
-/* The backplate force from the column-C masses' ux and vx of the first `rows` rows: all of them, or the upper
- * half of a mirror-symmetric lattice (each row but the middle one twice). */
-double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows);
+/* The backplate force from the column-C masses' ux and vx, f = k*rows + i over `rows` rows of `layers` layers:
+ * all of them, or the part of a mirror-symmetric lattice (lattice_backplate_force_mirrored's counts). */
+double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows, int layers);
 
 /* The one output updater: every output from output_state, the continuous peak and its time, the last contact
  * and the counters given by the interface. */

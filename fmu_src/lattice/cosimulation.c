@@ -36,42 +36,65 @@
 #define MAX_SAMPLES_PER_DO_STEP 10000000.0
 #define MAX_STEPS_PER_DO_STEP 200000L
 
+/* The solver holds the part of a mirror-symmetric lattice (fewer rows or layers than the whole). */
+static int solver_mirrored(const Model *m) {
+    return m->cs.solver_rows != LATTICE_ROWS || m->cs.solver_layers != LATTICE_DEPTH;
+}
+
 /* The solver's right-hand side: the contract's derivatives of the whole lattice, or of its reduced layout. */
 static void solver_rhs(void *context, int phase, const double *y, double *dydt) {
     const Model *m = (const Model *)context;
     if (m->cs.solver_along_x) {
-        lattice_rhs_along_x(&m->params, m->cs.solver_rows != LATTICE_ROWS, phase, m->wall_mode, y, dydt);
+        lattice_rhs_along_x(&m->params, solver_mirrored(m), phase, m->wall_mode, y, dydt);
     } else {
         model_derivatives(m, phase, y, dydt);
     }
 }
 
 /* The solver's layout (lattice.h): its masses, where its vx and its quadratures begin. */
-static int solver_masses(const Model *m) { return m->cs.solver_rows * LATTICE_COLS; }
-static int solver_vx_base(const Model *m) { return (m->cs.solver_along_x ? 1 : 2) * solver_masses(m); }
-static int solver_quadrature_base(const Model *m) { return (m->cs.solver_along_x ? 2 : 4) * solver_masses(m); }
-
-/* The smallest state that carries this lattice's solution (use_symmetry; lattice.h): without uy and vy when it
- * is loaded along x, and then of the upper half only when it is also mirror-symmetric (a mirror-symmetric
- * lattice is always loaded along x: lattice_mirror_rows). */
-static void solver_layout(const Model *m, int *rows, int *along_x) {
-    *along_x = PARAM_USE_SYMMETRY(m) && lattice_along_x(&m->params);
-    *rows = *along_x && lattice_mirror_rows(&m->params) ? lattice_mirror_rows(&m->params) : LATTICE_ROWS;
+static int solver_faces(const Model *m) { return m->cs.solver_rows * m->cs.solver_layers; }
+static int solver_masses(const Model *m) { return solver_faces(m) * LATTICE_COLS; }
+static int solver_vx_base(const Model *m) { return (m->cs.solver_along_x ? 1 : N_COMPONENTS) * solver_masses(m); }
+static int solver_quadrature_base(const Model *m) {
+    return (m->cs.solver_along_x ? 2 : 2 * N_COMPONENTS) * solver_masses(m);
 }
 
-/* Where component i of the whole lattice's state (lattice.h) is in the solver's: -1 for uy and vy when the
- * solver leaves them out (they are 0); a row of the lower half of a mirrored lattice is its mirror image's
- * (only a lattice along x is mirrored: solver_layout). */
+/* The smallest state that carries this lattice's solution (use_symmetry; lattice.h): without the y and z
+ * components when it is loaded along x, and then of the upper rows and the front layers only when it is also
+ * mirror-symmetric about its middle row or layer (a mirror-symmetric lattice is always loaded along x:
+ * lattice_mirror_rows, lattice_mirror_layers). */
+static void solver_layout(const Model *m, int *rows, int *layers, int *along_x) {
+    *along_x = PARAM_USE_SYMMETRY(m) && lattice_along_x(&m->params);
+    *rows = *along_x && lattice_mirror_rows(&m->params) ? lattice_mirror_rows(&m->params) : LATTICE_ROWS;
+    *layers = *along_x && lattice_mirror_layers(&m->params) ? lattice_mirror_layers(&m->params) : LATTICE_DEPTH;
+}
+
+/* How often face mass f = k*rows + i of the solver's layout stands in the whole lattice: twice for a mirror
+ * image in y (all rows but the part's last, the middle one), twice more for one in z. */
+static double solver_face_count(const Model *m, int face) {
+    const int rows = m->cs.solver_rows, layers = m->cs.solver_layers;
+    const int i = face % rows, k = face / rows;
+    return (rows != LATTICE_ROWS && i + 1 < rows ? 2.0 : 1.0) *
+           (layers != LATTICE_DEPTH && k + 1 < layers ? 2.0 : 1.0);
+}
+
+/* Where component i of the whole lattice's state (lattice.h) is in the solver's: -1 for the y and z components
+ * when the solver leaves them out (they are 0); a mass outside a mirrored part is its mirror image's in y and
+ * in z (only a lattice along x is mirrored: solver_layout). */
 static int solver_component_of(const Model *m, int i) {
-    int block, mass, row;
+    int block, mass, face, row, layer;
     if (!m->cs.solver_along_x) return i;
-    if (i >= 4 * N_MASSES) return solver_quadrature_base(m) + (i - 4 * N_MASSES); /* the whole lattice's */
+    if (i >= INDEX_EXTERNAL_WORK) return solver_quadrature_base(m) + (i - INDEX_EXTERNAL_WORK); /* the whole's */
     block = i / N_MASSES;
-    if (block == 1 || block == 3) return -1;
+    if (block % N_COMPONENTS != 0) return -1;
     mass = i % N_MASSES;
-    row = mass / LATTICE_COLS;
+    face = mass / LATTICE_COLS;
+    row = face % LATTICE_ROWS;
+    layer = face / LATTICE_ROWS;
     if (row >= m->cs.solver_rows) row = LATTICE_ROWS - 1 - row;
-    return (block / 2) * solver_masses(m) + row * LATTICE_COLS + mass % LATTICE_COLS; /* ux, vx */
+    if (layer >= m->cs.solver_layers) layer = LATTICE_DEPTH - 1 - layer;
+    return (block / N_COMPONENTS) * solver_masses(m) + (layer * m->cs.solver_rows + row) * LATTICE_COLS +
+           mass % LATTICE_COLS; /* ux, vx */
 }
 
 /* The solver's current state as the whole lattice's (itself when the solver integrates the whole). */
@@ -112,28 +135,28 @@ static double look(Model *m, int component, double t, int hermite) {
 
 /* The backplate force at time t of the last step (its column-C masses). */
 static double backplate_force_of(Model *m, double t, int hermite) {
-    double ux[LATTICE_ROWS], vx[LATTICE_ROWS];
+    double ux[N_FACE_MASSES], vx[N_FACE_MASSES];
     const int vx_base = solver_vx_base(m);
-    int i;
-    for (i = 0; i < m->cs.solver_rows; i++) {
-        const int mass = LAST_COLUMN_MASS(i);
-        ux[i] = look(m, mass, t, hermite);
-        vx[i] = look(m, vx_base + mass, t, hermite);
+    int f;
+    for (f = 0; f < solver_faces(m); f++) {
+        const int mass = LAST_COLUMN_MASS(f);
+        ux[f] = look(m, mass, t, hermite);
+        vx[f] = look(m, vx_base + mass, t, hermite);
     }
-    return model_backplate_force_of_column(m, ux, vx, m->cs.solver_rows);
+    return model_backplate_force_of_column(m, ux, vx, m->cs.solver_rows, m->cs.solver_layers);
 }
 
 static double backplate_force_at(Model *m, double t) { return backplate_force_of(m, t, 0); }
 
 /* The compression of the lattice at time t of the last step (its first and last columns). */
 static double compression_at(Model *m, double t, int hermite) {
-    double first[LATTICE_ROWS], last[LATTICE_ROWS];
-    int i;
-    for (i = 0; i < m->cs.solver_rows; i++) {
-        first[i] = look(m, i * LATTICE_COLS, t, hermite);
-        last[i] = look(m, LAST_COLUMN_MASS(i), t, hermite);
+    double first[N_FACE_MASSES], last[N_FACE_MASSES];
+    int f;
+    for (f = 0; f < solver_faces(m); f++) {
+        first[f] = look(m, FIRST_COLUMN_MASS(f), t, hermite);
+        last[f] = look(m, LAST_COLUMN_MASS(f), t, hermite);
     }
-    return model_compression_of_columns(m, first, last, m->cs.solver_rows);
+    return model_compression_of_columns(m, first, last, m->cs.solver_rows, m->cs.solver_layers);
 }
 
 /* The compression a sample takes: a step without contact pays for the dense output only when the free first
@@ -315,16 +338,16 @@ static void update_outputs(Model *m, double t_target) {
 
 /* No column-C mass in contact with the backplate (always so without one). */
 static int wall_free(const Model *m) {
-    int i;
-    for (i = 0; i < LATTICE_ROWS; i++) {
-        if (m->wall_mode[i] != WALL_FREE) return 0;
+    int f;
+    for (f = 0; f < N_FACE_MASSES; f++) {
+        if (m->wall_mode[f] != WALL_FREE) return 0;
     }
     return 1;
 }
 
 /* The modes docs/model.md gives the column-C masses in the state at the end of the last step. */
 static void wall_modes_of_state(const Model *m, signed char *modes) {
-    model_wall_modes(m, solver_state(m->cs.work), m->cs.solver_rows, solver_vx_base(m), modes);
+    model_wall_modes(m, solver_state(m->cs.work), m->cs.solver_rows, m->cs.solver_layers, solver_vx_base(m), modes);
 }
 
 /* Where inside the last step event indicator k (the contract's, under the step's frozen modes) takes the
@@ -337,7 +360,7 @@ static double locate_switch(Model *m, int k) {
     const Solver *s = &m->cs.solver;
     int component;
     double offset;
-    model_indicator_definition(m, k, solver_vx_base(m), &component, &offset);
+    model_indicator_definition(m, k, m->cs.solver_rows, solver_vx_base(m), &component, &offset);
     const int positive_at_end = solver_state(m->cs.work)[component] - offset > 0.0;
     double low = s->t_old, high = s->t, g_low = state_component(m, component, low) - offset;
     double g_high = solver_state(m->cs.work)[component] - offset, width_1 = INFINITY, width_2 = INFINITY;
@@ -373,24 +396,29 @@ static double locate_switch(Model *m, int k) {
  * to the earliest one and the modes are switched there, so no step integrates across a discontinuity. */
 static int handle_wall_events(Model *m) {
     Solver *s = &m->cs.solver;
-    signed char at_end[LATTICE_ROWS];
-    double located[2 * LATTICE_ROWS], earliest = s->t, cut_time;
+    signed char at_end[N_FACE_MASSES];
+    double located[2 * N_FACE_MASSES], earliest = s->t, cut_time;
     int i, changed = 0, cut = 0, count = 0;
     wall_modes_of_state(m, at_end);
-    for (i = 0; i < m->cs.solver_rows; i++) changed = changed || at_end[i] != m->wall_mode[i];
+    /* the face masses the solver holds (f = k*R + i of the whole face); the others are their mirror images */
+    for (i = 0; i < solver_faces(m); i++) {
+        const int f = (i / m->cs.solver_rows) * LATTICE_ROWS + i % m->cs.solver_rows;
+        changed = changed || at_end[f] != m->wall_mode[f];
+    }
     if (!changed) return 0;
     solver_prepare_dense(s, m->cs.work, solver_rhs, m); /* in the step's own modes, before they change */
-    for (i = 0; i < m->cs.solver_rows; i++) {
-        const int contact_before = m->wall_mode[i] != WALL_FREE, contact_after = at_end[i] != WALL_FREE;
-        if (at_end[i] == m->wall_mode[i]) continue;
-        if (contact_before != contact_after) located[count++] = locate_switch(m, CONTACT_INDICATOR(i));
-        if (contact_before && (m->wall_mode[i] == WALL_APPROACHING) != (at_end[i] == WALL_APPROACHING)) {
-            located[count++] = locate_switch(m, DAMPING_INDICATOR(i));
+    for (i = 0; i < solver_faces(m); i++) {
+        const int f = (i / m->cs.solver_rows) * LATTICE_ROWS + i % m->cs.solver_rows;
+        const int contact_before = m->wall_mode[f] != WALL_FREE, contact_after = at_end[f] != WALL_FREE;
+        if (at_end[f] == m->wall_mode[f]) continue;
+        if (contact_before != contact_after) located[count++] = locate_switch(m, CONTACT_INDICATOR(f));
+        if (contact_before && (m->wall_mode[f] == WALL_APPROACHING) != (at_end[f] == WALL_APPROACHING)) {
+            located[count++] = locate_switch(m, DAMPING_INDICATOR(f));
         }
     }
     for (i = 0; i < count; i++) earliest = fmin(earliest, located[i]);
     /* Switches within SIMULTANEOUS_EVENT_FRACTION of a step after the earliest are one event, cut at the
-     * last of them: mirror-image rows (the armour scene is symmetric about its middle row) cross within
+     * last of them: mirror-image masses (the armour scene is symmetric about its middle row) cross within
      * rounding of each other, and cutting at the first alone would leave the other to cut the next step back
      * to a sliver of itself, a whole step's right-hand sides for nothing. */
     cut_time = earliest;
@@ -412,20 +440,19 @@ static int handle_wall_events(Model *m) {
 
 void model_driver_initialize(Model *m) {
     CoSimulation *cs = &m->cs;
-    solver_layout(m, &cs->solver_rows, &cs->solver_along_x);
+    solver_layout(m, &cs->solver_rows, &cs->solver_layers, &cs->solver_along_x);
     solver_init(&cs->solver, cs->work, PARAM_SOLVER(m), solver_quadrature_base(m) + LATTICE_N_QUADRATURES,
                 solver_vx_base(m), PARAM_RTOL(m), PARAM_ATOL(m), PARAM_FIXED_STEP(m), m->load_on, m->output_state);
-    if (cs->solver_rows != LATTICE_ROWS || cs->solver_along_x) {
-        /* each row of an upper half but the middle one stands for itself and its mirror image: the error norms
-         * weight it twice, and take their mean over the whole state (uy and vy, left out, are 0 and err by 0),
-         * so the steps are the whole lattice's */
+    if (solver_mirrored(m) || cs->solver_along_x) {
+        /* each mass of a mirrored part stands for itself and its mirror images (1, 2 or 4 of them: in y, in z):
+         * the error norms weight it so, and take their mean over the whole state (the y and z components, left
+         * out, are 0 and err by 0), so the steps are the whole lattice's */
         double *weight = cs->whole_state; /* scratch until the first step */
-        const int masses = solver_masses(m), mirrored = cs->solver_rows != LATTICE_ROWS;
+        const int masses = solver_masses(m);
         int component;
         for (component = 0; component < cs->solver.n; component++) {
-            const int in_block = component % masses;
             const int mechanical = component < solver_quadrature_base(m);
-            weight[component] = mirrored && mechanical && in_block < masses - LATTICE_COLS ? 2.0 : 1.0;
+            weight[component] = mechanical ? solver_face_count(m, (component % masses) / LATTICE_COLS) : 1.0;
         }
         solver_set_norm_weights(&cs->solver, cs->work, weight, (double)N_STATE);
     }
@@ -440,7 +467,7 @@ void model_driver_initialize(Model *m) {
 static int check_divergence(Model *m, char *message, size_t message_size) {
     const Solver *s = &m->cs.solver;
     const double *y = solver_state(m->cs.work);
-    const int masses = solver_masses(m), velocity_blocks = m->cs.solver_along_x ? 1 : 2;
+    const int masses = solver_masses(m), velocity_blocks = m->cs.solver_along_x ? 1 : N_COMPONENTS;
     const double *velocity = y + solver_vx_base(m), *quadrature = y + solver_quadrature_base(m);
     const double injected = m->initial_energy + fabs(quadrature[0]) + fabs(quadrature[2]); /* W_ext, W_nr */
     const double impulse = m->params.load_total * fmax(m->params.load_duration, PARAM_PEAK_SAMPLE_INTERVAL(m));
@@ -448,13 +475,21 @@ static int check_divergence(Model *m, char *message, size_t message_size) {
     double speed_squared = 0.0, kinetic;
     char reason[FAILURE_SIZE];
     int i;
-    if (m->cs.solver_rows == LATTICE_ROWS) {
+    if (!solver_mirrored(m)) {
         for (i = 0; i < velocity_blocks * masses; i++) speed_squared += velocity[i] * velocity[i];
-    } else { /* the upper half (vx only): each row but the middle one twice (its mirror image moves as it does) */
-        double mirrored = 0.0, middle = 0.0;
-        for (i = 0; i < masses - LATTICE_COLS; i++) mirrored += velocity[i] * velocity[i];
-        for (; i < masses; i++) middle += velocity[i] * velocity[i];
-        speed_squared = 2.0 * mirrored + middle;
+    } else { /* a mirrored part (vx only): each mass as often as it stands in the whole (its images move as it) */
+        double once = 0.0, twice = 0.0, four_times = 0.0;
+        for (i = 0; i < masses; i++) {
+            const double count = solver_face_count(m, i / LATTICE_COLS), squared = velocity[i] * velocity[i];
+            if (count == 1.0) {
+                once += squared;
+            } else if (count == 2.0) {
+                twice += squared;
+            } else {
+                four_times += squared;
+            }
+        }
+        speed_squared = 4.0 * four_times + 2.0 * twice + once;
     }
     kinetic = 0.5 * m->params.mass * speed_squared;
     if (isfinite(kinetic) && isfinite(injected) && kinetic <= ENERGY_LIMIT_FACTOR * injected + floor) {
@@ -596,20 +631,23 @@ int model_driver_check(const Model *m, char *message, size_t message_size) {
     const CoSimulation *cs = &m->cs;
     const Solver *s = &cs->solver;
     const double interval = PARAM_PEAK_SAMPLE_INTERVAL(m);
-    int rows, along_x;
+    int rows, layers, along_x;
     if (!m->initialized) return 0; /* the solver is set up at initialisation */
-    solver_layout(m, &rows, &along_x);
+    solver_layout(m, &rows, &layers, &along_x);
     {
-        const int positions = (along_x ? 1 : 2) * rows * LATTICE_COLS, size = 2 * positions + LATTICE_N_QUADRATURES;
-        const int reduced = rows != LATTICE_ROWS || along_x;
-        if (cs->solver_rows != rows || cs->solver_along_x != along_x || s->n != size ||
+        const int positions = (along_x ? 1 : N_COMPONENTS) * rows * LATTICE_COLS * layers;
+        const int size = 2 * positions + LATTICE_N_QUADRATURES;
+        const int reduced = rows != LATTICE_ROWS || layers != LATTICE_DEPTH || along_x;
+        if (cs->solver_rows != rows || cs->solver_layers != layers || cs->solver_along_x != along_x || s->n != size ||
             s->n_second_order != positions || m->params.rows != LATTICE_ROWS || m->params.cols != LATTICE_COLS ||
-            s->weighted != reduced || s->norm_size != (double)N_STATE) {
+            m->params.depth != LATTICE_DEPTH || s->weighted != reduced || s->norm_size != (double)N_STATE) {
             snprintf(message, message_size,
-                     "the state is corrupt or foreign: its sizes (solver rows %d, along x %d, state %d, positions "
-                     "%d, lattice %d x %d, norm over %g) are not this FMU's (%d, %d, %d, %d, %d x %d, %d)",
-                     cs->solver_rows, cs->solver_along_x, s->n, s->n_second_order, m->params.rows, m->params.cols,
-                     s->norm_size, rows, along_x, size, positions, LATTICE_ROWS, LATTICE_COLS, N_STATE);
+                     "the state is corrupt or foreign: its sizes (solver rows %d, layers %d, along x %d, state %d, "
+                     "positions %d, lattice %d x %d x %d, norm over %g) are not this FMU's (%d, %d, %d, %d, %d, "
+                     "%d x %d x %d, %d)",
+                     cs->solver_rows, cs->solver_layers, cs->solver_along_x, s->n, s->n_second_order,
+                     m->params.rows, m->params.cols, m->params.depth, s->norm_size, rows, layers, along_x, size,
+                     positions, LATTICE_ROWS, LATTICE_COLS, LATTICE_DEPTH, N_STATE);
             return -1;
         }
     }

@@ -31,13 +31,14 @@ void model_derivatives(const Model *m, int load_on, const double *y, double *dyd
     lattice_rhs(&m->params, load_on, m->wall_mode, y, dydt);
 }
 
-void model_indicator_definition(const Model *m, int k, int vx_base, int *component, double *threshold) {
-    const int row = k < LATTICE_ROWS ? k : k - LATTICE_ROWS;
-    if (k >= LATTICE_ROWS && m->wall_mode[row] != WALL_FREE) {
-        *component = vx_base + LAST_COLUMN_MASS(row); /* vx */
+void model_indicator_definition(const Model *m, int k, int rows, int vx_base, int *component, double *threshold) {
+    const int face = k < N_FACE_MASSES ? k : k - N_FACE_MASSES;
+    const int held = (face / LATTICE_ROWS) * rows + face % LATTICE_ROWS; /* its number in the layout */
+    if (k >= N_FACE_MASSES && m->wall_mode[face] != WALL_FREE) {
+        *component = vx_base + LAST_COLUMN_MASS(held); /* vx */
         *threshold = 0.0;
     } else {
-        *component = LAST_COLUMN_MASS(row); /* ux */
+        *component = LAST_COLUMN_MASS(held); /* ux */
         *threshold = m->params.backplate_gap;
     }
 }
@@ -45,17 +46,26 @@ void model_indicator_definition(const Model *m, int k, int vx_base, int *compone
 static double indicator_value(const Model *m, int k, const double *y) {
     int component;
     double threshold;
-    model_indicator_definition(m, k, 2 * N_MASSES, &component, &threshold);
+    model_indicator_definition(m, k, LATTICE_ROWS, VX_BASE, &component, &threshold);
     return y[component] - threshold;
 }
 
-void model_wall_modes(const Model *m, const double *y, int rows, int vx_base, signed char *modes) {
-    int i;
-    for (i = 0; i < rows; i++) {
-        const int mass = LAST_COLUMN_MASS(i);
-        modes[i] = (signed char)lattice_wall_mode(&m->params, y[mass], y[vx_base + mass]);
+void model_wall_modes(const Model *m, const double *y, int rows, int layers, int vx_base, signed char *modes) {
+    int i, k;
+    for (k = 0; k < layers; k++) {
+        for (i = 0; i < rows; i++) {
+            const int mass = LAST_COLUMN_MASS(k * rows + i);
+            modes[k * LATTICE_ROWS + i] = (signed char)lattice_wall_mode(&m->params, y[mass], y[vx_base + mass]);
+        }
     }
-    for (i = rows; i < LATTICE_ROWS; i++) modes[i] = modes[LATTICE_ROWS - 1 - i];
+    /* the rest of the face is the mirror image (in y, in z) of what the layout holds */
+    for (k = 0; k < LATTICE_DEPTH; k++) {
+        const int layer = k < layers ? k : LATTICE_DEPTH - 1 - k;
+        for (i = k < layers ? rows : 0; i < LATTICE_ROWS; i++) {
+            const int row = i < rows ? i : LATTICE_ROWS - 1 - i;
+            modes[k * LATTICE_ROWS + i] = modes[layer * LATTICE_ROWS + row];
+        }
+    }
 }
 
 /* The load acts for 0 <= t <= t_active. */
@@ -228,8 +238,8 @@ static void build_params(const Model *m, LatticeParams *p) {
     memset(p, 0, sizeof(*p));
     p->rows = LATTICE_ROWS;
     p->cols = LATTICE_COLS;
-    p->depth = 1; /* the FMU builds the lattice of one layer, loaded over its whole face */
-    p->load_patch = LATTICE_WHOLE_FACE;
+    p->depth = LATTICE_DEPTH;
+    p->load_patch = PARAM_LOAD_PATCH(m);
     p->mass = PARAM_MASS(m);
     p->k_horizontal = PARAM_K_HORIZONTAL(m);
     p->alpha_horizontal = PARAM_ALPHA_HORIZONTAL(m);
@@ -253,8 +263,10 @@ static void build_params(const Model *m, LatticeParams *p) {
     p->backplate_gap = PARAM_BACKPLATE_GAP(m);
 }
 
-double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows) {
-    if (rows == LATTICE_ROWS) return lattice_backplate_force_from_column(&m->params, ux, vx, 1);
+double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows, int layers) {
+    if (rows == LATTICE_ROWS && layers == LATTICE_DEPTH) {
+        return lattice_backplate_force_from_column(&m->params, ux, vx, 1);
+    }
     return lattice_backplate_force_mirrored(&m->params, ux, vx, 1);
 }
 
@@ -264,17 +276,31 @@ double model_energy_balance(const Model *m, const double *y, double *kinetic, do
            y[INDEX_DISSIPATED];
 }
 
-double model_compression_of_columns(const Model *m, const double *ux_first, const double *ux_last, int rows) {
-    double mirrored = 0.0, middle = 0.0;
-    int i;
+double model_compression_of_columns(const Model *m, const double *ux_first, const double *ux_last, int rows,
+                                    int layers) {
+    /* a row (layer) of a mirrored part but the middle one, its last, stands for itself and its mirror image */
+    const int mirror_y = rows != LATTICE_ROWS, mirror_z = layers != LATTICE_DEPTH;
+    double total = 0.0;
+    int i, k;
     (void)m;
-    if (rows == LATTICE_ROWS) {
-        for (i = 0; i < rows; i++) middle += ux_first[i] - ux_last[i];
-        return middle / LATTICE_ROWS;
+    if (!mirror_y && !mirror_z) {
+        for (i = 0; i < rows * layers; i++) total += ux_first[i] - ux_last[i];
+        return total / N_FACE_MASSES;
     }
-    for (i = 0; i < rows - 1; i++) mirrored += ux_first[i] - ux_last[i];
-    middle = ux_first[rows - 1] - ux_last[rows - 1];
-    return (2.0 * mirrored + middle) / LATTICE_ROWS;
+    for (k = 0; k < layers; k++) {
+        const double *first = ux_first + k * rows, *last = ux_last + k * rows;
+        double mirrored = 0.0, middle = 0.0, layer;
+        if (mirror_y) {
+            for (i = 0; i < rows - 1; i++) mirrored += first[i] - last[i];
+            middle = first[rows - 1] - last[rows - 1];
+            layer = 2.0 * mirrored + middle;
+        } else {
+            for (i = 0; i < rows; i++) middle += first[i] - last[i];
+            layer = middle;
+        }
+        total += (mirror_z && k + 1 < layers ? 2.0 : 1.0) * layer;
+    }
+    return total / N_FACE_MASSES;
 }
 
 void model_take_force(Model *m, double time, double force) {
@@ -353,7 +379,16 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
                  "1e15 samples before it)", PARAM_PEAK_SAMPLE_INTERVAL(m), start_time);
         return -1;
     }
-    build_params(m, &m->params);
+    {
+        LatticeParams params;
+        char why[FAILURE_SIZE];
+        build_params(m, &params);
+        if (lattice_params_error(&params, why, (int)sizeof(why))) {
+            snprintf(message, message_size, "parameter %s", why);
+            return -1;
+        }
+        m->params = params;
+    }
     m->stop_time_defined = stop_time_defined;
     m->stop_time = stop_time;
     m->time = start_time;
@@ -394,9 +429,9 @@ int model_check(const Model *m, char *message, size_t message_size) {
         snprintf(message, message_size, "the state is corrupt: its time %g s is not allowed", m->time);
         return -1;
     }
-    for (i = 0; i < LATTICE_ROWS; i++) {
+    for (i = 0; i < N_FACE_MASSES; i++) {
         if (m->wall_mode[i] != WALL_FREE && m->wall_mode[i] != WALL_RECEDING && m->wall_mode[i] != WALL_APPROACHING) {
-            snprintf(message, message_size, "the state is corrupt: backplate mode %d of row %d is out of range",
+            snprintf(message, message_size, "the state is corrupt: backplate mode %d of face mass %d is out of range",
                      m->wall_mode[i], i + 1);
             return -1;
         }
@@ -420,20 +455,21 @@ static void record_point(Model *m) {
     const double *y = m->output_state;
     const double samples = m->time / PARAM_PEAK_SAMPLE_INTERVAL(m);
     const double force = lattice_backplate_force(&m->params, y);
-    signed char modes[LATTICE_ROWS];
+    signed char modes[N_FACE_MASSES];
     int i, contact = 0;
     if (fabs(samples - floor(samples + 0.5)) <= SAMPLE_TIME_SLACK) {
-        double first[LATTICE_ROWS], last[LATTICE_ROWS];
-        for (i = 0; i < LATTICE_ROWS; i++) {
-            first[i] = y[i * LATTICE_COLS];
+        double first[N_FACE_MASSES], last[N_FACE_MASSES];
+        for (i = 0; i < N_FACE_MASSES; i++) {
+            first[i] = y[FIRST_COLUMN_MASS(i)];
             last[i] = y[LAST_COLUMN_MASS(i)];
         }
-        model_take_sample(m, m->time, force, model_compression_of_columns(m, first, last, LATTICE_ROWS));
+        model_take_sample(m, m->time, force,
+                          model_compression_of_columns(m, first, last, LATTICE_ROWS, LATTICE_DEPTH));
     } else {
         model_take_force(m, m->time, force);
     }
-    model_wall_modes(m, y, LATTICE_ROWS, 2 * N_MASSES, modes);
-    for (i = 0; i < LATTICE_ROWS; i++) contact = contact || modes[i] != WALL_FREE || m->wall_mode[i] != WALL_FREE;
+    model_wall_modes(m, y, LATTICE_ROWS, LATTICE_DEPTH, VX_BASE, modes);
+    for (i = 0; i < N_FACE_MASSES; i++) contact = contact || modes[i] != WALL_FREE || m->wall_mode[i] != WALL_FREE;
     if (contact) m->last_contact_time = m->time;
     m->outputs_stale = 1;
 }
@@ -511,14 +547,14 @@ int model_get_event_indicators(const Model *m, double *z, size_t n, char *messag
 static void modes_of_state(Model *m, signed char *modes) {
     const double *y = m->output_state;
     int i;
-    model_wall_modes(m, y, LATTICE_ROWS, 2 * N_MASSES, modes);
-    for (i = 0; i < LATTICE_ROWS && m->params.has_backplate; i++) {
+    model_wall_modes(m, y, LATTICE_ROWS, LATTICE_DEPTH, VX_BASE, modes);
+    for (i = 0; i < N_FACE_MASSES && m->params.has_backplate; i++) {
         const int mass = LAST_COLUMN_MASS(i);
-        const double penetration = y[mass] - m->params.backplate_gap, vx = y[2 * N_MASSES + mass];
+        const double penetration = y[mass] - m->params.backplate_gap, vx = y[VX_BASE + mass];
         if (penetration < 0.0 || (penetration > 0.0 && vx != 0.0)) continue;
         update_derivatives(m); /* the acceleration, under the modes in force */
         {
-            const double ax = m->derivative[2 * N_MASSES + mass];
+            const double ax = m->derivative[VX_BASE + mass];
             const double inward = vx != 0.0 ? vx : ax;
             if (penetration == 0.0 && !(inward > 0.0)) {
                 modes[i] = WALL_FREE;
@@ -531,11 +567,11 @@ static void modes_of_state(Model *m, signed char *modes) {
 
 /* Switches the backplate modes to those of the state; 1 when any changed. */
 static int switch_wall_modes(Model *m) {
-    signed char modes[LATTICE_ROWS];
+    signed char modes[N_FACE_MASSES];
     int i, changed = 0;
     if (!m->params.has_backplate) return 0;
     modes_of_state(m, modes);
-    for (i = 0; i < LATTICE_ROWS; i++) {
+    for (i = 0; i < N_FACE_MASSES; i++) {
         changed = changed || modes[i] != m->wall_mode[i];
         m->wall_mode[i] = modes[i];
     }
@@ -556,28 +592,28 @@ void model_event_update(Model *m, int *changed, int *next_event_time_defined, do
 }
 
 int model_completed_point(Model *m) {
-    signed char modes[LATTICE_ROWS];
+    signed char modes[N_FACE_MASSES];
     int i;
     m->exchange_points++;
     record_point(m);
     if (!m->params.has_backplate) return 0;
     modes_of_state(m, modes);
-    for (i = 0; i < LATTICE_ROWS; i++) m->switch_pending = m->switch_pending || modes[i] != m->wall_mode[i];
+    for (i = 0; i < N_FACE_MASSES; i++) m->switch_pending = m->switch_pending || modes[i] != m->wall_mode[i];
     return m->switch_pending;
 }
 
 int model_switch_lost_events(Model *m, char *message, size_t message_size) {
-    signed char before[LATTICE_ROWS];
+    signed char before[N_FACE_MASSES];
     int i, switched = 0;
     if (!m->switch_pending) return 0;
     memcpy(before, m->wall_mode, sizeof(before));
     switch_wall_modes(m);
-    for (i = 0; i < LATTICE_ROWS; i++) switched += before[i] != m->wall_mode[i];
+    for (i = 0; i < N_FACE_MASSES; i++) switched += before[i] != m->wall_mode[i];
     m->switch_pending = 0;
     if (switched) {
         snprintf(message, message_size,
-                 "at t = %.17g s the backplate mode of %d row(s) contradicted the state and the importer went on "
-                 "without the event the completed step asked for: the model switched them itself (located only "
+                 "at t = %.17g s the backplate mode of %d column-C mass(es) contradicted the state and the importer "
+                 "went on without the event the completed step asked for: the model switched them itself (located only "
                  "to the importer's step)",
                  model_time(m), switched);
     }

@@ -1,0 +1,199 @@
+"""The FMU built as a plate of layers (docs/model.md section 10): a 5 x 5 x 5 FMU against the independent
+numpy/scipy reference (reference/plate_5x5x5_reference.json, written by reference/lattice3d.py), the mirror
+symmetry in y and z against the whole plate, both FMI versions through fmpy's validator, Model Exchange through
+fmpy's CVode, and the refusals of load_patch. Depth 1 keeps its numbers: tests/test_recorded_outputs.py.
+"""
+from __future__ import annotations
+
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import read_model_description, simulate_fmu
+from fmpy.validation import validate_fmu
+
+from builder import build as build_fmu
+from fmu_src.variables import make_interface
+from orchestrator.simulation import LatticeFMU, SimulationError
+from scenes import Scene
+
+REFERENCE = json.loads((Path(__file__).resolve().parents[1] / "reference" / "plate_5x5x5_reference.json").read_text())
+CASES = REFERENCE["cases"]
+ROWS = COLS = DEPTH = 5
+PEAKS = ("peak_backplate_force", "peak_backplate_force_continuous", "max_compression")
+ENERGIES = ("kinetic_energy", "external_work", "dissipated_energy", "nonreciprocal_work")
+# The reference integrates at rtol 1e-12; the FMU's DOP853 at the same tolerance agrees to far better than 1e-7.
+TIGHT = {"rtol": 1e-12, "atol": 1e-12}
+
+
+@pytest.fixture(scope="module")
+def plate_fmu(tmp_path_factory):
+    return build_fmu.build_fmu("armour_11x11", tmp_path_factory.mktemp("plate") / "Plate5x5x5.fmu", rows=ROWS,
+                               cols=COLS, depth=DEPTH, werror=True)
+
+
+@pytest.fixture(scope="module")
+def plate_fmu3(tmp_path_factory):
+    return build_fmu.build_fmu("armour_11x11", tmp_path_factory.mktemp("plate3") / "Plate5x5x5-fmi3.fmu", rows=ROWS,
+                               cols=COLS, depth=DEPTH, werror=True, fmi_version=3)
+
+
+def case_start(case) -> dict:
+    scene = case["scene"]
+    assert (scene["rows"], scene["cols"], scene["depth"]) == (ROWS, COLS, DEPTH)
+    start = {f"material[{j}]": m for j, m in enumerate(scene["order"], start=1)}
+    start.update(load_patch=scene["load_patch"], diagonal_rule={"receiver": 0, "mean": 1}[scene["diagonal_rule"]])
+    return start
+
+
+def co_simulation(fmu, start: dict, names=PEAKS + ENERGIES) -> dict:
+    result = simulate_fmu(str(fmu), stop_time=REFERENCE["horizon"], output_interval=REFERENCE["horizon"],
+                          start_values=start, output=list(names))
+    return {name: float(result[name][-1]) for name in names}
+
+
+def test_the_plate_fmu_is_built_from_the_reference_scene():
+    """The reference's scene is the study's first five materials with the FMU's defaults: same table, same load."""
+    scene = CASES[0]["scene"]
+    values = Scene(name="plate", rows=ROWS, cols=COLS, depth=DEPTH).parameter_values()
+    assert values["k"] == pytest.approx(scene["k"], rel=1e-15)
+    assert values["k_diag"] == pytest.approx(scene["k_diag"], rel=1e-15)
+    assert values["c"] == pytest.approx(scene["c"], rel=1e-15)
+    for name, key in (("F_total", "F_total"), ("t_active", "t_active"), ("k_wall", "k_wall"), ("c_wall", "c_wall"),
+                      ("backplate_gap", "backplate_gap"), ("k_horizontal", "k0"), ("alpha_horizontal", "alpha0"),
+                      ("c_horizontal", "c0"), ("mass", "mass"), ("load_angle", "load_angle")):
+        assert values[name] == scene[key], name
+
+
+@pytest.mark.parametrize("case", CASES, ids=[case["name"] for case in CASES])
+def test_the_plate_fmu_reproduces_the_numpy_reference(plate_fmu, case):
+    """Both rules, whole face and patch, both orders: peaks and energies to 1e-7 of the reference's."""
+    outputs = co_simulation(plate_fmu, {**case_start(case), **TIGHT})
+    for name in PEAKS + ENERGIES:
+        assert outputs[name] == pytest.approx(case[name], rel=1e-7), name
+
+
+@pytest.mark.parametrize("case", CASES, ids=[case["name"] for case in CASES])
+def test_the_quarter_plate_gives_the_whole_plates_peaks(plate_fmu, case):
+    """use_symmetry integrates a quarter of the plate (mirrored in y and z) with the whole plate's steps."""
+    start = case_start(case)
+    quarter = co_simulation(plate_fmu, {**start, "use_symmetry": 1})
+    whole = co_simulation(plate_fmu, {**start, "use_symmetry": 0})
+    for name in PEAKS:
+        assert quarter[name] == pytest.approx(whole[name], rel=1e-9), name
+
+
+def test_a_plate_declares_six_components_per_mass_and_one_indicator_pair_per_face_mass(plate_fmu, plate_fmu3):
+    masses = ROWS * COLS * DEPTH
+    for fmu in (plate_fmu, plate_fmu3):
+        description = read_model_description(str(fmu))
+        assert description.modelExchange is not None and description.coSimulation is not None
+        assert len(description.derivatives) == 6 * masses + 3
+        assert description.numberOfEventIndicators == 2 * ROWS * DEPTH
+        names = {variable.name for variable in description.modelVariables}
+        assert {"uz[5,5,5]", "vz[1,1,1]", "der(vz[3,3,3])", "contact_indicator[25]", "load_patch"} <= names
+
+
+@pytest.mark.parametrize("which", ["fmi2", "fmi3"])
+def test_fmpy_validates_the_plate_fmu(plate_fmu, plate_fmu3, which):
+    assert validate_fmu(str(plate_fmu if which == "fmi2" else plate_fmu3)) == []
+
+
+def test_the_plotted_masses_are_the_middle_layers(plate_fmu):
+    """ux_centre is the middle mass of the middle layer: mass (k R + i) C + j with i, j, k the middles."""
+    names = ("ux_centre", "ux_left_edge", "ux_corner", "ux_right_edge", "ux[3,3,3]", "ux[3,3,1]", "ux[3,1,1]",
+             "ux[3,3,5]")
+    result = simulate_fmu(str(plate_fmu), stop_time=0.2, output_interval=0.05, output=list(names))
+    assert np.array_equal(result["ux_centre"], result["ux[3,3,3]"])
+    assert np.array_equal(result["ux_left_edge"], result["ux[3,3,1]"])
+    assert np.array_equal(result["ux_corner"], result["ux[3,1,1]"])
+    assert np.array_equal(result["ux_right_edge"], result["ux[3,3,5]"])
+    assert np.abs(result["ux_centre"]).max() > 0.0
+
+
+def model_exchange_peak(fmu, start: dict, stop_time: float) -> float:
+    result = simulate_fmu(str(fmu), fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-9,
+                          output_interval=0.01, stop_time=stop_time, start_values=start, output=["backplate_force"])
+    on_grid = np.abs(result["time"] / 0.01 - np.round(result["time"] / 0.01)) < 1e-9
+    return float(result["backplate_force"][on_grid].max())
+
+
+# The peaks come at about 0.15 s: a 1 s run reaches them.
+EXCHANGE_CASES = [pytest.param(case, marks=[] if index == 1 else pytest.mark.slow, id=case["name"])
+                  for index, case in enumerate(CASES)]
+
+
+@pytest.mark.parametrize("case", EXCHANGE_CASES)
+def test_model_exchange_through_cvode_gives_the_reference_peak(plate_fmu, case):
+    assert case["peak_sample_time"] < 1.0
+    peak = model_exchange_peak(plate_fmu, case_start(case), stop_time=1.0)
+    assert peak == pytest.approx(case["peak_backplate_force"], rel=1e-6)
+
+
+@pytest.mark.slow
+def test_fmi3_model_exchange_through_cvode_gives_the_reference_peak(plate_fmu3):
+    case = CASES[1]
+    peak = model_exchange_peak(plate_fmu3, case_start(case), stop_time=1.0)
+    assert peak == pytest.approx(case["peak_backplate_force"], rel=1e-6)
+
+
+@pytest.mark.parametrize("patch, why", [(2, "load_patch = 2: allowed 0 (the whole face) or an odd side P"),
+                                        (6, "load_patch = 6 is not allowed")])
+def test_a_patch_the_plate_cannot_take_is_refused_in_one_line(plate_fmu, patch, why):
+    with LatticeFMU(plate_fmu) as fmu, pytest.raises(SimulationError) as error:
+        fmu.simulate(horizon=0.1, parameters={"load_patch": patch})
+    assert why in str(error.value) and "\n" not in str(error.value), str(error.value)
+
+
+def test_a_patch_needs_odd_rows_and_layers_at_build_time():
+    with pytest.raises(ValueError, match=r"load_patch = 3 is not allowed for 4 rows and 5 layers"):
+        make_interface(4, 5, {"load_patch": 3}, depth=5)
+    assert make_interface(5, 5, {"load_patch": 3}, depth=5).depth == 5
+
+
+def test_the_plate_scene_is_the_study_in_eleven_layers_under_a_3x3_patch():
+    scene = Scene.load("plate_11x11x11")
+    assert (scene.rows, scene.cols, scene.depth) == (11, 11, 11)
+    values = scene.parameter_values()
+    assert values["load_patch"] == 3
+    armour = Scene.load("armour_11x11").parameter_values()
+    assert {k: v for k, v in values.items() if k != "load_patch"} == {k: v for k, v in armour.items()
+                                                                       if k != "load_patch"}
+    interface = scene.interface()
+    states = sum(v.count for v in interface.exposed if v.role == "state")
+    assert states == 6 * 11 * 11 * 11 + 3
+    assert interface.event_indicator_count() == 2 * 11 * 11
+
+
+def test_the_depth_one_fmu_reads_load_patch_and_keeps_its_sizes(fmu_path):
+    description = read_model_description(str(fmu_path))
+    assert len(description.derivatives) == 4 * 11 * 11 + 3
+    assert description.numberOfEventIndicators == 2 * 11
+    with zipfile.ZipFile(fmu_path) as archive:
+        header = archive.read("sources/model_variables.h").decode()
+    assert "#define LATTICE_DEPTH 1" in header
+
+
+def test_run_refuses_a_given_fmu_whose_plate_is_not_the_scenes(plate_fmu, tmp_path, capfd):
+    """--fmu of a 5 x 5 x 5 plate with the scene resized to 5 columns but one layer: refused in one line."""
+    from orchestrator.run import main
+
+    code = main(["--fmu", str(plate_fmu), "--cols", "5", "--out", str(tmp_path / "out"), "--no-progress",
+                 "--no-sensitivity", "--budget", "1"])
+    line = capfd.readouterr().err.strip()
+    assert code == 2 and "\n" not in line, line
+    assert "continuous states" in line and "--depth" in line, line
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_design_file_of_a_plate_carries_its_patch(plate_fmu, tmp_path):
+    """The design a run writes opens in another tool with the same patch (the run's parameters go in it)."""
+    from orchestrator.ssp import read_design_parameters, write_best_design_ssp
+
+    path = tmp_path / "best_design.ssp"
+    write_best_design_ssp(plate_fmu, {"material": [3, 1, 5, 2, 4], "load_patch": 3, "diagonal_rule": "mean"}, path,
+                          stop_time=REFERENCE["horizon"])
+    design = read_design_parameters(path)
+    assert design["load_patch"] == 3 and design["material[1]"] == 3
