@@ -117,6 +117,7 @@ class Case:
     horizon: float
     search_horizon: float | None
     search_rtol: float | None
+    depth: int = 1  # layers of a plate (docs/model.md section 10); 1: the lattice of one layer
 
     @property
     def cases(self) -> list[dict]:
@@ -138,14 +139,15 @@ class Case:
 
     def describe(self, fmu: PreparedFMU) -> "CaseDescription":
         objective = self.objective(fmu, self.rules[0] if self.rules else None).describe()
-        shown = {name: self.parameters.get(name, fmu.start(name)) for name in ("F_total", "load_angle", "t_active")
-                 if name in fmu.parameters}
+        shown = {name: self.parameters.get(name, fmu.start(name))
+                 for name in ("F_total", "load_angle", "t_active", "load_patch") if name in fmu.parameters}
         return CaseDescription(scene=self.scene, rows=self.rows, columns=self.columns, space=self.space.describe(),
                                design_kind=self.space.kind, design_count=self.space.size,
                                materials=tuple(self.materials.rows()), rules=self.rules, objective=objective,
                                load=shown, parameters=dict(self.parameters),
                                cases={k: list(v) for k, v in self.case_lists.items()},
-                               aggregate=self.aggregate if self.case_lists else None, horizon=self.horizon)
+                               aggregate=self.aggregate if self.case_lists else None, horizon=self.horizon,
+                               depth=self.depth)
 
 
 @dataclass(frozen=True)
@@ -166,14 +168,19 @@ class CaseDescription:
     cases: dict[str, list[Any]]
     aggregate: str | None
     horizon: float
+    depth: int = 1
 
     def line(self) -> str:
         """The case in one line: what the first screen and every chart state."""
         load = self.load
-        parts = [f"{self.rows} x {self.columns} lattice",
-                 f"{len(self.materials)} materials ({self.design_kind}: {self.design_count:,} designs)"]
+        lattice = (f"{self.rows} x {self.columns} lattice" if self.depth == 1 else
+                   f"{self.rows} x {self.columns} x {self.depth} plate ({self.depth} layers of {self.rows} x "
+                   f"{self.columns})")
+        parts = [lattice, f"{len(self.materials)} materials ({self.design_kind}: {self.design_count:,} designs)"]
         if "F_total" in load:
-            parts.append(f"load {load['F_total']:g} N at {load.get('load_angle', 0):g} deg for "
+            patch = int(load.get("load_patch") or 0)
+            spread = f" over a centred {patch} x {patch} patch" if patch else ""
+            parts.append(f"load {load['F_total']:g} N at {load.get('load_angle', 0):g} deg{spread} for "
                          f"{load.get('t_active', 0):g} s")
         parts.append(f"minimising {', '.join(self.objective.outputs)} over {self.horizon:g} s")
         if self.rules:
@@ -261,7 +268,8 @@ def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: Materia
     return Case(scene=scene.name, rows=scene.rows, columns=fmu.columns, materials=materials, space=space,
                 outputs=outputs, rules=rules, rule_default=rule_default, parameters=parameters,
                 case_lists=case_lists, aggregate=config.aggregate or "worst", horizon=horizon,
-                search_horizon=config.search_horizon or None, search_rtol=config.search_rtol or None)
+                search_horizon=config.search_horizon or None, search_rtol=config.search_rtol or None,
+                depth=scene.depth)
 
 
 # ---------------------------------------------------------------------------------------------- steps

@@ -197,3 +197,22 @@ def test_a_design_file_of_a_plate_carries_its_patch(plate_fmu, tmp_path):
                           stop_time=REFERENCE["horizon"])
     design = read_design_parameters(path)
     assert design["load_patch"] == 3 and design["material[1]"] == 3
+
+
+def test_a_study_of_a_plate_says_it_is_a_plate_and_where_it_is_struck(tmp_path, capfd):
+    """The first screen, the console and results.json name the plate's layers and the patch, and the sweep
+    certifies its answer as it does for one layer (the armour scene's 11 rows, 5 columns, 5 layers)."""
+    from orchestrator.run import main
+
+    plate = build_fmu.build_fmu("armour_11x11", tmp_path / "Plate11x5x5.fmu", cols=5, depth=5, werror=True)
+    out = tmp_path / "out"
+    code = main(["--fmu", str(plate), "--cols", "5", "--depth", "5", "--load-patch", "3", "--out", str(out),
+                 "--method", "exhaustive", "--diagonal-rule", "receiver", "--no-progress", "--no-sensitivity",
+                 "--workers", "2"])
+    console = capfd.readouterr()
+    assert code == 0, console.err
+    assert "11 x 5 x 5 plate (5 layers of 11 x 5)" in console.out and "over a centred 3 x 3 patch" in console.out
+    results = json.loads((out / "results.json").read_text())
+    assert results["case"]["depth"] == 5 and results["case"]["load"]["load_patch"] == 3
+    assert results["answers"][0]["evidence"]["status"] == "certified"
+    assert "11 x 5 x 5 plate" in (out / "report.html").read_text()
