@@ -104,14 +104,20 @@ def test_scene_files_have_only_known_keys():
         assert set(data) <= set(Scene.__dataclass_fields__)
 
 
-@pytest.mark.parametrize("key, value", [("model_identifier", "../../outside"), ("model_identifier", "a/b"),
-                                        ("model_identifier", "9lives"), ("model_identifier", ""),
-                                        ("name", "x.json"), ("name", "..")])
-def test_scene_names_and_identifiers_must_be_identifiers(tmp_path, key, value):
+def crafted_scene(tmp_path, key, value):
+    """The two-mass scene's file with one key set to ``value``."""
     data = json.loads((SCENE_DIR / "two_masses_linear.json").read_text())
     data[key] = value
     path = tmp_path / "crafted.json"
     path.write_text(json.dumps(data))
+    return path
+
+
+@pytest.mark.parametrize("key, value", [("model_identifier", "../../outside"), ("model_identifier", "a/b"),
+                                        ("model_identifier", "9lives"), ("model_identifier", ""),
+                                        ("name", "x.json"), ("name", "..")])
+def test_scene_names_and_identifiers_must_be_identifiers(tmp_path, key, value):
+    path = crafted_scene(tmp_path, key, value)
     with pytest.raises(ValueError, match=rf"^scene {key} .* must be .*\[A-Za-z_\]\[A-Za-z0-9_\]\*") as refused:
         Scene.load(path)
     assert "\n" not in str(refused.value)
@@ -121,10 +127,7 @@ def test_scene_names_and_identifiers_must_be_identifiers(tmp_path, key, value):
                                                  ("cols", 2.5, "an integer"), ("rows", 0, "at least 1"),
                                                  ("depth", 0, "at least 1")])
 def test_a_scene_file_with_a_lattice_size_out_of_range_is_refused_in_one_line(tmp_path, key, value, allowed):
-    data = json.loads((SCENE_DIR / "two_masses_linear.json").read_text())
-    data[key] = value
-    path = tmp_path / "crafted.json"
-    path.write_text(json.dumps(data))
+    path = crafted_scene(tmp_path, key, value)
     with pytest.raises(ValueError, match=rf"^scene two_masses_linear: {key} must be .*{allowed}") as refused:
         Scene.load(path)
     assert "\n" not in str(refused.value)
