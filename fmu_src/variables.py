@@ -330,7 +330,7 @@ class Interface:
     fixed: list[Variable]  # parameters the scene does not expose; their start is compiled in
     value_references: dict[str, int] = field(default_factory=dict)  # first element's vr, by variable name
     material_count: int = 0  # M: the rows of the material table
-    depth: int = 1  # D: the layers of the plate (docs/model.md section 10)
+    depth: int = 1  # D: masses along z, through the plate's depth (docs/model.md section 10)
 
     def state_offsets(self) -> dict[str, int]:
         """Where each state variable starts in the continuous state vector (STATE_ORDER, lattice.h's layout)."""

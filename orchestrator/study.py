@@ -59,7 +59,8 @@ class CaseConfig:
                                    show_default=f"the study's {STUDY_MATERIAL_COUNT} materials", path=True)
     cols: int | None = option(None, "columns of the lattice (materials per design)", show_default="the scene's",
                               type=integer("--cols", 2, MAX_COLS))
-    depth: int | None = option(None, "layers of the plate (docs/model.md section 10; 1: the lattice of one layer), "
+    depth: int | None = option(None, "masses through the plate's depth, z (docs/model.md section 10: each layer, one "
+                               "column of one material, is a sheet of rows x depth masses; 1: the 2-D lattice), "
                                "fixed when its FMU is built", show_default="the scene's", type=integer("--depth", 1))
     repeat: bool = option(False, "a material may fill several columns (M^C designs; default: each material at "
                           "most once)", action="store_true")
@@ -117,7 +118,7 @@ class Case:
     horizon: float
     search_horizon: float | None
     search_rtol: float | None
-    depth: int = 1  # layers of a plate (docs/model.md section 10); 1: the lattice of one layer
+    depth: int = 1  # masses along z (docs/model.md section 10); 1: the 2-D lattice
 
     @property
     def cases(self) -> list[dict]:
@@ -174,8 +175,8 @@ class CaseDescription:
         """The case in one line: what the first screen and every chart state."""
         load = self.load
         lattice = (f"{self.rows} x {self.columns} lattice" if self.depth == 1 else
-                   f"{self.rows} x {self.columns} x {self.depth} plate ({self.depth} layers of {self.rows} x "
-                   f"{self.columns})")
+                   f"{self.rows} x {self.columns} x {self.depth} plate ({self.columns} layers of {self.rows} x "
+                   f"{self.depth} masses)")
         parts = [lattice, f"{len(self.materials)} materials ({self.design_kind}: {self.design_count:,} designs)"]
         if "F_total" in load:
             patch = int(load.get("load_patch") or 0)

@@ -211,7 +211,7 @@ def test_a_study_of_a_plate_says_it_is_a_plate_and_where_it_is_struck(tmp_path, 
                  "--workers", "2"])
     console = capfd.readouterr()
     assert code == 0, console.err
-    assert "11 x 5 x 5 plate (5 layers of 11 x 5)" in console.out and "over a centred 3 x 3 patch" in console.out
+    assert "11 x 5 x 5 plate (5 layers of 11 x 5 masses)" in console.out and "over a centred 3 x 3 patch" in console.out
     results = json.loads((out / "results.json").read_text())
     assert results["case"]["depth"] == 5 and results["case"]["load"]["load_patch"] == 3
     assert results["answers"][0]["evidence"]["status"] == "certified"

@@ -11,14 +11,16 @@
  * sections 1 to 7 with the same numbers, bit for bit (the layers' extra springs and components are simply
  * absent there, not added as zeros).
  *
- * State layout (reference/lattice.py shares it at depth 1): R rows i (y), C columns j (x), D layers k (z), all
- * 0-based here; N = R*C*D masses, mass n = (k*R + i)*C + j, so a layer is the two-dimensional lattice's
+ * State layout (reference/lattice.py shares it at depth 1): R rows i (y), C columns j (x), D slices k along z (depth), all
+ * 0-based here; N = R*C*D masses, mass n = (k*R + i)*C + j, so a slice is the two-dimensional lattice's
  * R*C block and depth 1 is its layout unchanged. The components of the state (LATTICE_COMPONENTS):
  *   depth 1:  y[0..N) ux  y[N..2N) uy  y[2N..3N) vx  y[3N..4N) vy                           (2 components)
  *   depth > 1: y[0..N) ux  y[N..2N) uy  y[2N..3N) uz  y[3N..4N) vx  y[4N..5N) vy  y[5N..6N) vz  (3 components)
  * then y[2cN] W_ext (external work), y[2cN+1] D (dissipated energy), y[2cN+2] W_nr (non-reciprocal work),
  * c the components: quadratures, integrating them with the state is what closes the energy balance.
  * The face masses (column 1's for the load, column C's for the backplate) are numbered f = k*R + i.
+ * Words: in this core a "layer" is one of the D slices along z; to the designer (docs/model.md section 10, the
+ * report) a layer is a column, one material's sheet of R x D masses.
  */
 #ifndef LATTICE_H
 #define LATTICE_H
