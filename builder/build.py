@@ -290,8 +290,8 @@ def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, col
     """The scene an FMU is built for: a Scene, a scene name or path (default: the 11 x 11 armour scene), with
     rows, cols or depth overridden (a resized scene keeps its scalar parameters only), load_patch as the start
     of that parameter, and `materials` (a MaterialTable or the path of a table file) as its material table.
-    Unless the output is given, the default identifier of the armour scene names its size and its table's
-    fingerprint when they are not the study's."""
+    Unless the output is given, a scene changed here gets its own identifier, naming the size, the patch and the
+    table's fingerprint that differ from the scene's, so that the FMUs of two variants never share a file."""
     if not isinstance(scene, Scene):
         scene = Scene.load(scene or DEFAULT_SCENE)
     resized = scene
@@ -303,11 +303,11 @@ def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, col
     if materials is not None:
         table = materials if isinstance(materials, MaterialTable) else load_materials(materials)
         resized = replace(resized, materials=table)
-    if scene.model_identifier == "MassSpringLattice" and output is None:
+    if output is None and resized != scene:
         identifier = scene.model_identifier
-        if (resized.rows, resized.cols, resized.depth) != (11, 11, 1):
+        if (resized.rows, resized.cols, resized.depth) != (scene.rows, scene.cols, scene.depth):
             identifier += f"{resized.rows}x{resized.cols}" + (f"x{resized.depth}" if resized.depth > 1 else "")
-        if load_patch is not None:
+        if resized.parameters.get("load_patch") != scene.parameters.get("load_patch"):
             identifier += f"_patch{load_patch}"
         if materials is not None:
             identifier += f"_{resized.material_table().sha256()[:8]}"

@@ -105,8 +105,8 @@ def enumerations() -> list[Variable]:
 
 
 def plotted_masses(rows: int, cols: int) -> dict[str, tuple[int, int]]:
-    """The masses whose displacements the study plots, as (row, column), 1-based (in a plate of layers, of its
-    middle layer: plotted_layer)."""
+    """The masses whose displacements the study plots, as (row, column), 1-based (in a plate, of its
+    middle slice in depth: plotted_layer)."""
     middle_row, middle_col = (rows + 1) // 2, (cols + 1) // 2
     return {
         "corner": (1, 1),
@@ -219,17 +219,17 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
         Variable("use_symmetry", INTEGER, "parameter",
                  "Co-Simulation: 1 = when the lattice is mirror-symmetric about its middle row (an odd number of "
                  "rows, load_angle 0) integrate only its upper half, the same solution at about half the cost, "
-                 "and of a plate also about its middle layer (a quarter); 0 = always the whole lattice. Model "
+                 "and of a plate also about its middle slice in depth (a quarter); 0 = always the whole lattice. Model "
                  "Exchange always hands the importer the whole lattice",
                  start=1, minimum=0, maximum=1, allowed="0 or 1"),
         # odd and centred: the core refuses the rest at initialisation (lattice_params_error), in one line
         Variable("load_patch", INTEGER, "parameter",
                  "Where column 1 is loaded: 0 = over its whole face (each mass's share the product of its row's "
-                 "and its layer's weights, half at an edge), or an odd P = the centred P x P patch of its rows x "
-                 "layers, each of those masses an equal share",
+                 "and its depth slice's weights, half at an edge), or an odd P = the centred P x P patch of its "
+                 "rows x depth masses, each of those masses an equal share",
                  start=0, minimum=0, maximum=min(rows, depth),
                  allowed=f"0 (the whole face) or an odd P, 1 <= P <= min(rows, depth) = {min(rows, depth)}, with "
-                         f"an odd number of rows and of layers"),
+                         f"an odd number of rows and an odd depth"),
         # outputs
         Variable("backplate_force", REAL, "output", "Force on the backplate", unit="N"),
         Variable("peak_backplate_force", REAL, "output",
@@ -368,9 +368,9 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden:
     patch = (parameters or {}).get("load_patch", 0)
     if patch != 0 and (isinstance(patch, bool) or not isinstance(patch, int) or patch < 0 or patch % 2 == 0
                        or patch > min(rows, depth) or rows % 2 == 0 or depth % 2 == 0):
-        raise ValueError(f"parameter load_patch = {patch!r} is not allowed for {rows} rows and {depth} layers: "
+        raise ValueError(f"parameter load_patch = {patch!r} is not allowed for {rows} rows and depth {depth}: "
                          f"allowed 0 (the whole face) or an odd P <= min(rows, depth) = {min(rows, depth)}, with an "
-                         f"odd number of rows and of layers")
+                         f"odd number of rows and an odd depth")
     for variable in variables:
         if parameters and variable.name in parameters:
             value = parameters[variable.name]

@@ -77,7 +77,7 @@ class CaseConfig:
                                       show_default=f"the scene's, {_LOAD_ANGLE:g}", metavar="DEG",
                                       type=number("--load-angle"))
     load_patch: int | None = option(None, "where column 1 is loaded: 0 over its whole face, an odd P over the "
-                                    "centred P x P patch of its rows x layers", show_default="the scene's",
+                                    "centred P x P patch of its rows x depth masses", show_default="the scene's",
                                     metavar="P", type=integer("--load-patch", 0))
     horizon: float | None = option(None, f"simulated time of the full scene in s, at most {MAX_HORIZON:g}",
                                    show_default=f"the scene's, {_HORIZON:g} s", metavar="S",

@@ -82,6 +82,17 @@ def test_a_resized_build_leaves_the_callers_scene_alone(tmp_path):
     assert (scene.rows, scene.cols, scene.model_identifier) == (11, 11, "MassSpringLattice")
 
 
+@pytest.mark.parametrize("scene_name, change, identifier", [
+    ("plate_11x11x11", dict(cols=7), "MassSpringPlate11x7x11"),
+    ("plate_11x11x11", dict(load_patch=0), "MassSpringPlate_patch0"),
+    ("plate_11x11x11", dict(load_patch=3), "MassSpringPlate"),
+    ("plate_11x11x11", dict(cols=11, depth=11), "MassSpringPlate"),
+    ("armour_11x11", dict(depth=3, load_patch=3), "MassSpringLattice11x11x3_patch3"),
+])
+def test_a_changed_scene_builds_under_its_own_name_so_variants_never_share_a_file(scene_name, change, identifier):
+    assert build.resolve_scene(scene_name, **change).model_identifier == identifier
+
+
 @pytest.mark.parametrize("version", [2, 3])
 def test_every_description_declares_the_one_tables_units_and_log_categories(fmu_path, fmu3_path, version):
     from fmu_src.variables import LOG_CATEGORIES, UNITS

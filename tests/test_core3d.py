@@ -274,7 +274,7 @@ def test_which_plates_are_mirror_symmetric(core, settings, depth, patch, rows, l
 @pytest.mark.parametrize("rows,depth,patch,message", [
     (5, 5, 2, r"load_patch = 2: allowed 0 \(the whole face\) or an odd side P .* min\(rows, depth\) = 5"),
     (5, 3, 5, r"load_patch = 5: .*min\(rows, depth\) = 3"),
-    (4, 5, 3, r"load_patch = 3: a centred patch needs an odd number of rows and of layers \(rows = 4, depth = 5\)"),
+    (4, 5, 3, r"load_patch = 3: a centred patch needs an odd number of rows and an odd depth \(rows = 4, depth = 5\)"),
     (5, 0, WHOLE_FACE, r"depth = 0: the lattice needs at least 1 layer")])
 def test_a_plate_the_core_does_not_compute_is_refused_in_one_line(core, rows, depth, patch, message):
     error = core.params_error(plate(Scene(rows=rows, cols=3), depth, patch))

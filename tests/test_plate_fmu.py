@@ -147,8 +147,8 @@ def test_a_patch_the_plate_cannot_take_is_refused_in_one_line(plate_fmu, patch, 
     assert why in str(error.value) and "\n" not in str(error.value), str(error.value)
 
 
-def test_a_patch_needs_odd_rows_and_layers_at_build_time():
-    with pytest.raises(ValueError, match=r"load_patch = 3 is not allowed for 4 rows and 5 layers"):
+def test_a_patch_needs_odd_rows_and_depth_at_build_time():
+    with pytest.raises(ValueError, match=r"load_patch = 3 is not allowed for 4 rows and depth 5"):
         make_interface(4, 5, {"load_patch": 3}, depth=5)
     assert make_interface(5, 5, {"load_patch": 3}, depth=5).depth == 5
 

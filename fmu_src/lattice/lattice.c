@@ -417,7 +417,7 @@ const char *lattice_params_error(const LatticeParams *p, char *message, int size
                  patch, LATTICE_WHOLE_FACE, p->rows < p->depth ? p->rows : p->depth);
     } else if (patch != LATTICE_WHOLE_FACE && (p->rows % 2 == 0 || p->depth % 2 == 0)) {
         snprintf(message, (size_t)size,
-                 "load_patch = %d: a centred patch needs an odd number of rows and of layers (rows = %d, depth = %d)",
+                 "load_patch = %d: a centred patch needs an odd number of rows and an odd depth (rows = %d, depth = %d)",
                  patch, p->rows, p->depth);
     } else {
         return NULL;

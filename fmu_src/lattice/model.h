@@ -1,4 +1,4 @@
-/* The lattice (a plate of LATTICE_DEPTH layers: docs/model.md section 10) as a model of the FMI glue: it
+/* The lattice (a plate LATTICE_DEPTH masses deep: docs/model.md section 10) as a model of the FMI glue: it
  * implements the model API (common/model_api.h) in model.c (variables, initialisation, the continuous-time
  * contract) and cosimulation.c (the Co-Simulation driver).
  *
