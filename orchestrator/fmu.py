@@ -21,8 +21,8 @@ from pathlib import Path
 from typing import Any
 
 from .journal import file_sha256
-from .simulation import (LatticeFMU, Parameter, SimulationError, declared_parameters, material_columns,
-                         model_description)
+from .simulation import (LatticeFMU, Parameter, SimulationError, declared_parameters, lattice_shape,
+                         material_columns, model_description)
 
 
 class FMUError(ValueError):
@@ -90,6 +90,10 @@ def instantiate_once(path: Path) -> None:
         raise FMUError(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
 
 
+def size_text(rows: int, columns: int, depth: int) -> str:
+    return f"{rows} x {columns}" + (f" x {depth} (rows x columns x depth)" if depth > 1 else " (rows x columns)")
+
+
 def scene_state_count(scene) -> int:
     """The continuous states the FMU of ``scene`` declares (the variable table's, for its rows x cols x depth)."""
     from fmu_src.variables import STATE
@@ -108,6 +112,13 @@ def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
         if prepared.columns < 2:
             raise FMUError(f"--fmu {fmu}: {prepared.columns} column(s) with a material parameter: there is no "
                            "material order to search (give a scene with a material per column)")
+        shape = lattice_shape(prepared.description)
+        if shape and shape != (scene.rows, scene.cols, scene.depth):
+            rows, columns, depth = shape
+            raise FMUError(f"--fmu {fmu}: its lattice is {size_text(*shape)}, scene {scene.name}'s "
+                           f"{size_text(scene.rows, scene.cols, scene.depth)}; give the FMU's --scene"
+                           + (f" or --cols {columns} --depth {depth}" if rows == scene.rows else
+                              f" (a scene of {rows} rows)"))
         if prepared.columns != scene.cols:
             raise FMUError(f"--fmu {fmu}: its lattice has {prepared.columns} columns, scene {scene.name} "
                            f"{scene.cols}; give the FMU's --scene or --cols {prepared.columns}")

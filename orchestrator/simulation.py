@@ -99,6 +99,24 @@ def material_columns(description) -> int:
     return sum(1 for v in description.modelVariables if v.name.startswith("material["))
 
 
+def lattice_shape(description) -> tuple[int, int, int] | None:
+    """(rows, columns, depth) of the FMU's lattice, read from its ux[i,j] or ux[i,j,k] states (None when it
+    declares none): what an FMU given on its own says of its plate, whatever scene it is used with."""
+    shape = None
+    for variable in description.modelVariables:
+        name = variable.name
+        if name.startswith("ux[") and name.endswith("]"):
+            try:
+                index = tuple(int(part) for part in name[3:-1].split(","))
+            except ValueError:
+                continue
+            if len(index) == 2:
+                index += (1,)
+            if len(index) == 3:
+                shape = index if shape is None else tuple(max(a, b) for a, b in zip(shape, index))
+    return shape
+
+
 REAL_TYPES = ("Real", "Float64", "Float32")
 WHOLE_NUMBER_TYPES = ("Integer", "Enumeration", "Boolean", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32",
                       "Int64", "UInt64")

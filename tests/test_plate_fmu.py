@@ -177,14 +177,27 @@ def test_the_depth_one_fmu_reads_load_patch_and_keeps_its_sizes(fmu_path):
 
 
 def test_run_refuses_a_given_fmu_whose_plate_is_not_the_scenes(plate_fmu, tmp_path, capfd):
-    """--fmu of a 5 x 5 x 5 plate with the scene resized to 5 columns but one layer: refused in one line."""
+    """--fmu of a 5 x 5 x 5 plate with the scene resized to 5 columns but 11 rows and depth 1: refused in one line."""
     from orchestrator.run import main
 
     code = main(["--fmu", str(plate_fmu), "--cols", "5", "--out", str(tmp_path / "out"), "--no-progress",
                  "--no-sensitivity", "--budget", "1"])
     line = capfd.readouterr().err.strip()
     assert code == 2 and "\n" not in line, line
-    assert "continuous states" in line and "--depth" in line, line
+    assert "its lattice is 5 x 5 x 5 (rows x columns x depth), scene armour_11x11's 11 x 5" in line, line
+    assert "a scene of 5 rows" in line, line
+    assert not (tmp_path / "out").exists()
+
+
+def test_run_names_a_given_plates_size_read_from_the_fmu(plate_fmu, tmp_path, capfd):
+    """--fmu of a 5 x 5 x 5 plate with the default 11 x 11 scene: the FMU's own size, read from its states."""
+    from orchestrator.run import main
+
+    code = main(["--fmu", str(plate_fmu), "--out", str(tmp_path / "out"), "--no-progress", "--no-sensitivity",
+                 "--budget", "1"])
+    line = capfd.readouterr().err.strip()
+    assert code == 2 and "\n" not in line, line
+    assert "its lattice is 5 x 5 x 5 (rows x columns x depth), scene armour_11x11's 11 x 11 (rows x columns)" in line
     assert not (tmp_path / "out").exists()
 
 
