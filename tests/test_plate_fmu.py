@@ -212,6 +212,35 @@ def test_a_design_file_of_a_plate_carries_its_patch(plate_fmu, tmp_path):
     assert design["load_patch"] == 3 and design["material[1]"] == 3
 
 
+@pytest.mark.parametrize("case", [c for c in CASES if c["scene"]["load_patch"] and c["scene"]["diagonal_rule"] == "mean"],
+                         ids=lambda case: case["name"])
+def test_libcosim_runs_a_plates_design_file_to_the_reference_peak(plate_fmu, tmp_path, case):
+    """An importer we did not write (libcosim, through libcosimpy) opens the design file of a plate struck over a
+    patch under the mean rule (neither is the FMU's default) and reaches the numpy reference's peak."""
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+
+    from orchestrator.ssp import COMPONENT, write_best_design_ssp
+
+    scene = case["scene"]
+    parameters = {"material": list(scene["order"]), "load_patch": scene["load_patch"], "diagonal_rule": "mean",
+                  **TIGHT}
+    design = write_best_design_ssp(plate_fmu, parameters, tmp_path / "plate.ssp", stop_time=REFERENCE["horizon"])
+    log_output_level(CosimLogLevel.ERROR)
+    execution = CosimExecution.from_ssp_file(str(design))
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    index = execution.slave_index_from_instance_name(COMPONENT)
+    references = {v.name.decode(): v.reference for v in execution.slave_variables(index)}
+    assert execution.simulate_until(target_time=int(round(REFERENCE["horizon"] * 1e9))), execution.status()
+    peak, = observer.last_real_values(index, [references["peak_backplate_force"]])
+    assert peak == pytest.approx(case["peak_backplate_force"], rel=1e-7)
+    whole_face = next(c for c in CASES if c["scene"]["order"] == scene["order"] and not c["scene"]["load_patch"]
+                      and c["scene"]["diagonal_rule"] == "mean")
+    assert abs(peak / whole_face["peak_backplate_force"] - 1) > 1e-3  # the patch was applied, not the default
+
+
 def test_a_study_of_a_plate_says_it_is_a_plate_and_where_it_is_struck(tmp_path, capfd):
     """The first screen, the console and results.json name the plate's layers and the patch, and the sweep
     certifies its answer as it does for one layer (the armour scene's 11 rows, 5 columns, 5 layers)."""
