@@ -180,7 +180,8 @@ class CaseDescription:
         parts = [lattice, f"{len(self.materials)} materials ({self.design_kind}: {self.design_count:,} designs)"]
         if "F_total" in load:
             patch = int(load.get("load_patch") or 0)
-            spread = f" over a centred {patch} x {patch} patch" if patch else ""
+            spread = (f" over a centred {patch} x {patch} patch" if patch else
+                      " over the whole face" if self.depth > 1 else "")
             parts.append(f"load {load['F_total']:g} N at {load.get('load_angle', 0):g} deg{spread} for "
                          f"{load.get('t_active', 0):g} s")
         parts.append(f"minimising {', '.join(self.objective.outputs)} over {self.horizon:g} s")

@@ -258,3 +258,19 @@ def test_a_study_of_a_plate_says_it_is_a_plate_and_where_it_is_struck(tmp_path, 
     assert results["case"]["depth"] == 5 and results["case"]["load"]["load_patch"] == 3
     assert results["answers"][0]["evidence"]["status"] == "certified"
     assert "11 x 5 x 5 plate" in (out / "report.html").read_text()
+
+
+@pytest.mark.parametrize("depth, patch, says", [(5, 3, "over a centred 3 x 3 patch for"), (5, 0, "over the whole face for"),
+                                                (1, 0, "at 0 deg for")])
+def test_the_case_line_says_where_a_plate_is_struck(depth, patch, says):
+    """A plate struck over its whole face says so; the 2-D lattice (always its whole face) keeps its line."""
+    from orchestrator.objective import ObjectiveDescription
+    from orchestrator.study import CaseDescription
+
+    objective = ObjectiveDescription(("peak_backplate_force",), ("peak",), ("peak",), ("N",), "receiver", {}, (), None,
+                                     8.0, 1.0, 8e-6, "rkn5")
+    case = CaseDescription(scene="plate", rows=5, columns=5, space="permutations", design_kind="permutation",
+                           design_count=120, materials=(), rules=("receiver",), objective=objective,
+                           load={"F_total": 1200.0, "load_angle": 0.0, "t_active": 0.15, "load_patch": patch},
+                           parameters={}, cases={}, aggregate=None, horizon=8.0, depth=depth)
+    assert says in case.line(), case.line()
