@@ -465,3 +465,15 @@ def test_a_scene_is_immutable_and_described_by_name():
     assert described["load_patch"] == 3 and described["order"] == [1, 2, 3, 4, 5]
     assert PlateScene(**described).describe() == described
     assert replace(scene, depth=1, load_patch=1).depth == 1
+
+
+def test_the_nonreciprocal_work_takes_its_sign_from_the_order():
+    """docs/model.md section 2: the receiver rule's unequal diagonal forces take energy out for one order and
+    put it in for another ([3, 1, 5, 2, 4] on the 5 x 5 x 5 plate), so the balance adds the work with its sign."""
+    from pathlib import Path
+
+    cases = json.loads((Path(reference.__file__).resolve().parent / "plate_5x5x5_reference.json").read_text())["cases"]
+    work = {tuple(c["scene"]["order"]): c["nonreciprocal_work"] for c in cases
+            if c["scene"]["diagonal_rule"] == "receiver" and not c["scene"]["load_patch"]}
+    assert work[(1, 2, 3, 4, 5)] < -1.0 and work[(3, 1, 5, 2, 4)] > 1.0, work
+    assert "[3, 1, 5, 2, 4] of the 5 x 5 x 5" in (Path(reference.__file__).resolve().parents[1] / "docs" / "model.md").read_text()
