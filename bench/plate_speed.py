@@ -22,9 +22,10 @@ from dataclasses import dataclass
 
 from fmpy import read_model_description
 
+from fmu_src.variables import STATE_ORDER
 from orchestrator.design import DesignSpace
 from orchestrator.objective import FULL, SEARCH, LatticeObjective, close_instances
-from orchestrator.simulation import LatticeFMU
+from orchestrator.simulation import LatticeFMU, lattice_shape
 from orchestrator.types import Evaluation
 from scenes import Scene
 
@@ -45,6 +46,7 @@ SYMMETRY_TARGET = 1e-9  # relative difference of the peaks with and without symm
 BALANCE_TARGET = 1e-6  # of the external work
 BALANCE_OUTPUTS = ("kinetic_energy", "potential_energy", "external_work", "dissipated_energy", "nonreciprocal_work")
 PEAK = "peak_backplate_force"
+ENERGY_INTEGRALS = tuple(name for name in STATE_ORDER if name[:2] not in ("ux", "uy", "uz", "vx", "vy", "vz"))
 
 
 @dataclass(frozen=True)
@@ -101,20 +103,21 @@ class Accuracy:
     worst_sampled_balance: dict[int, float]  # use_symmetry -> max over every 0.01 s of |balance| / W_ext(end)
 
 
-def integrated_states(scene: Scene, patch: int, symmetry: int, load_angle: float) -> int:
+def integrated_states(shape: tuple[int, int, int], declared: int, patch: int, symmetry: int,
+                      load_angle: float) -> int:
     """The continuous states the Co-Simulation solver integrates, as its layout is chosen (cosimulation.c's
-    solver_layout over lattice.h's layouts): the whole plate's six components per mass and the three energy
-    integrals; under use_symmetry and a load along x only ux and vx, and of them only the rows (layers) up to the
-    middle one when the plate is mirror-symmetric about it (an odd count of at least 3, the load centred)."""
-    rows, cols, depth = scene.rows, scene.cols, scene.depth
+    solver_layout over lattice.h's layouts): every state the FMU declares; under use_symmetry and a load along x
+    only ux and vx and the energy integrals, and of ux and vx only the rows (the slices in depth) up to the middle
+    one when the plate is mirror-symmetric about it (an odd count of at least 3, the load centred)."""
     if not (symmetry and load_angle == 0.0):
-        return 6 * rows * cols * depth + 3
+        return declared
+    rows, cols, depth = shape
 
     def half(extent: int) -> int:
         centred = patch == 0 or (extent - patch) % 2 == 0
         return (extent + 1) // 2 if extent >= 3 and extent % 2 == 1 and centred else extent
 
-    return 2 * half(rows) * cols * half(depth) + 3
+    return 2 * half(rows) * cols * half(depth) + len(ENERGY_INTEGRALS)
 
 
 def time_cases(path, cases, rounds: int) -> dict[tuple, Timing]:
@@ -173,29 +176,31 @@ def main(argv=None) -> int:
     run = Run.start(__file__, argv)
     parser = run.parser(__doc__, quick="the receiver rule only and 3 timing rounds")
     add_fmu_option(parser)
-    parser.add_argument("--rounds", type=int, default=10, help="interleaved timing rounds (the fastest counts)")
+    parser.add_argument("--rounds", type=int, default=None,
+                        help="interleaved timing rounds, the fastest counts (default 10, with --quick 3)")
     args = parser.parse_args(argv)
-    rules = RULES
-    if args.quick:
-        args.rounds, rules = 3, ("receiver",)
+    rules = ("receiver",) if args.quick else RULES
+    if args.rounds is None:
+        args.rounds = 3 if args.quick else 10
     if args.rounds < 1:
         parser.error(f"--rounds {args.rounds}: allowed values are whole numbers >= 1")
 
     scene = Scene.load(SCENE)
     load_angle = float(scene.parameter_values()["load_angle"])
-    whole_states = integrated_states(scene, 0, 0, load_angle)
     cases = [Case(patch, rule, label, order) for patch in PATCHES for rule in rules for label, order in ORDERS.items()]
     with lattice_fmu(args.fmu, scene=SCENE) as path:
-        declared = len(read_model_description(str(path)).derivatives)
-        if declared != whole_states:
-            raise SystemExit(f"--fmu: {path.name} has {declared} continuous states, the {scene.rows} x {scene.cols} "
-                             f"x {scene.depth} plate {whole_states}: give the FMU of the scene {SCENE}")
+        description = read_model_description(str(path))
+        shape, whole_states = lattice_shape(description), len(description.derivatives)
+        if shape != (scene.rows, scene.cols, scene.depth):
+            raise SystemExit(f"--fmu {args.fmu}: its lattice is {' x '.join(map(str, shape or ()))}, the scene "
+                             f"{SCENE}'s {scene.rows} x {scene.cols} x {scene.depth} (rows x columns x depth): give "
+                             f"the FMU of the scene {SCENE}")
         search_text = search_setting_text(search_parameters(path))
         default_text = setting_text(default_setting(path))
         timings = time_cases(path, cases, args.rounds)
         accuracies = accuracy(path, cases)
 
-    states = {(patch, symmetry): integrated_states(scene, patch, symmetry, load_angle)
+    states = {(patch, symmetry): integrated_states(shape, whole_states, patch, symmetry, load_angle)
               for patch in PATCHES for symmetry in SYMMETRIES}
     cost_rows, accuracy_rows, balance_rows = [], [], []
     errors = {evaluation: [] for evaluation in EVALUATIONS}
@@ -260,23 +265,24 @@ def main(argv=None) -> int:
         f"{max(errors[SEARCH]):.1e} (search), {max(errors[FULL]):.1e} (8 s); energy balance within "
         f"{max(balances):.1e} of the external work")
     summary = (
-        f"The scene `{SCENE}` ({scene.rows} rows x {scene.cols} columns x {scene.depth} layers, one material per "
-        f"column), under the centred 3 x 3 patch (`load_patch` 3, the scene's) and the whole face (`load_patch` 0), "
-        f"the {' and '.join(rules)} rule(s), and the orders "
+        f"The scene `{SCENE}` ({scene.rows} rows x {scene.cols} columns x {scene.depth} masses deep: its "
+        f"{scene.cols} layers are its columns, one material each), under the centred 3 x 3 patch (`load_patch` 3, the scene's) and the whole face (`load_patch` 0), "
+        f"the {' and '.join(rules)} rule{'s' if len(rules) > 1 else ''}, and the orders "
         + ", ".join(f"{label} {order_text(order)}" for label, order in ORDERS.items())
         + f". **search**: the orchestrator's search evaluation ({search_text}; re-run over {FULL_HORIZON:g} s when "
         f"the last contact falls in the horizon's last tenth: the horizon column says which ran). **full**: the "
         f"{FULL_HORIZON:g} s evaluation at the FMU's default ({default_text}). Each was run through the task the "
         "Evaluator hands its workers (`FMURun`: reset, parameters, one doStep, every output read), with "
-        f"`use_symmetry` 1 and 0, the fastest CPU time of {args.rounds} interleaved rounds. States integrated: with "
+        f"`use_symmetry` 1 and 0, the fastest CPU time of {args.rounds} interleaved "
+        f"round{'s' if args.rounds > 1 else ''}. States integrated: with "
         f"symmetry {span([states[(p, 1)] for p in PATCHES], '{:d}')} (ux and vx of the quarter up to the middle row "
-        f"and layer, and the three energy integrals), without it {whole_states} (six "
-        "components of every mass and the three integrals), as the FMU's solver lays them out. The right-hand "
+        f"and the middle slice in depth, and the {len(ENERGY_INTEGRALS)} energy integrals), without it "
+        f"{whole_states} (every state the FMU declares), as the FMU's solver lays them out. The right-hand "
         "sides are the FMU's counter (`rhs_evaluations`, both runs when the search re-ran); microseconds per "
         "right-hand side are the run's CPU time over that count, so they include everything else the run does.\n\n"
         f"**One search evaluation under {SEARCH_BUDGET_MS:g} ms of CPU on one core?** "
         + verdict(1, "With symmetry (a centred load along x, what the scene is)") + " "
-        + verdict(0, "Without it (the whole plate, what a load off the centre or at an angle integrates)"))
+        + verdict(0, "Without it (every state of the whole plate, what a load at an angle integrates)"))
     notes = (
         f"Accuracy: *error* is the relative error of the sampled peak (`{PEAK}`) against the tight run, the FMU's "
         f"DOP853 at rtol {TIGHT['rtol']:g}, atol {TIGHT['atol']:g}, with symmetry, over {FULL_HORIZON:g} s (its own "
