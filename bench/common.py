@@ -47,8 +47,10 @@ def add_fmu_option(parser) -> None:
 
 
 @contextlib.contextmanager
-def lattice_fmu(given: str | None = None, rows: int | None = None, cols: int | None = None) -> Iterator[Path]:
-    """The FMU to measure: the one given, or the scene's FMU built now into a folder removed afterwards."""
+def lattice_fmu(given: str | None = None, rows: int | None = None, cols: int | None = None,
+                scene: str | None = None) -> Iterator[Path]:
+    """The FMU to measure: the one given, or the scene's FMU (default: the armour scene) built now into a folder
+    removed afterwards."""
     if given:
         path = Path(given)
         if not path.is_file():
@@ -56,8 +58,11 @@ def lattice_fmu(given: str | None = None, rows: int | None = None, cols: int | N
         yield path
         return
     with tempfile.TemporaryDirectory(prefix="bench_fmu_") as folder:
-        name = "MassSpringLattice.fmu" if rows is None and cols is None else f"Lattice{rows or 11}x{cols or 11}.fmu"
-        yield build_fmu(output=Path(folder) / name, rows=rows, cols=cols)
+        if scene is not None:
+            name = f"{scene}.fmu"
+        else:
+            name = "MassSpringLattice.fmu" if rows is None and cols is None else f"Lattice{rows or 11}x{cols or 11}.fmu"
+        yield build_fmu(scene=scene, output=Path(folder) / name, rows=rows, cols=cols)
 
 
 def default_setting(fmu_path) -> dict:
