@@ -1,13 +1,21 @@
 """The plate as the report and the docs draw it (docs/model.md section 10): which masses of column 1's face the
 load pushes, the same as the numpy reference's weights; the report's lattice picture of a plate shows its layers
-as a stack, the loaded patch and the backplate, while a one-layer lattice keeps its picture; the explore page's
-data of a plate carries its depth and patch."""
+as a stack, the loaded patch and the backplate, while a one-layer lattice keeps its picture."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
+import matplotlib
 import numpy as np
 import pytest
+from matplotlib.colors import LogNorm
 
+from fmu_src.materials import study_materials
 from fmu_src.variables import loaded_face
+from orchestrator.objective import ObjectiveDescription
+from orchestrator.report import charts, plate
+from orchestrator.steps.answers import Answers, draw_lattice
+from orchestrator.study import CaseDescription
 from reference.lattice3d import load_weights
 
 
@@ -40,3 +48,123 @@ def test_a_patch_the_model_cannot_centre_is_refused_in_one_line(rows, depth, pat
     message = str(error.value)
     assert message.startswith(f"load_patch = {patch!r} is not allowed") and "\n" not in message
     assert "0 (the whole face) or an odd P" in message
+
+
+# ------------------------------------------------------------------------------------------- the report's picture
+
+def plate_case(rows: int, columns: int, depth: int, patch: int | None, cases: dict | None = None) -> CaseDescription:
+    """A case as a study describes it (the default scene's load; only the picture's inputs matter)."""
+    load = {"F_total": 1200.0, "load_angle": 0.0, "t_active": 0.15}
+    if patch is not None:
+        load["load_patch"] = patch
+    objective = ObjectiveDescription(("peak_backplate_force",), ("peak backplate force",), ("peak force",), ("N",),
+                                     "mean", {}, ({},), None, 8.0, 1.0, None, "rkn5")
+    return CaseDescription(scene="armour_11x11", rows=rows, columns=columns, space="every order",
+                           design_kind="permutation", design_count=120, materials=tuple(study_materials().rows()),
+                           rules=("mean", "receiver"), objective=objective, load=load, parameters={},
+                           cases=cases or {}, aggregate=None, horizon=8.0, depth=depth)
+
+
+ORDERS = {"mean": (1, 3, 4, 5, 2), "receiver": (1, 4, 3, 2, 5)}
+
+
+def study_of(case: CaseDescription) -> SimpleNamespace:
+    """A finished study as draw_lattice and the explore page read it: the case and each rule's answer."""
+    answers = SimpleNamespace(answers=[SimpleNamespace(diagonal_rule=rule, order=order, peak=2000.0 + len(rule),
+                                                       design_file=f"design_{rule}.ssp")
+                                       for rule, order in ORDERS.items()])
+    return SimpleNamespace(case=case, result=lambda step: answers if step is Answers else None)
+
+
+@pytest.fixture()
+def drawn(monkeypatch, tmp_path):
+    """draw_lattice's figure as saved (not closed)."""
+    monkeypatch.setattr(charts.plt, "close", lambda *args: None)
+
+    def draw(case):
+        assert draw_lattice(study_of(case), tmp_path / "lattice.png") == "lattice.png"
+        assert (tmp_path / "lattice.png").stat().st_size > 0
+        return charts.plt.gcf()
+
+    yield draw
+    charts.plt.close("all")
+
+
+def panels(figure) -> list:
+    """The answers' panels (the colour bar's axes left out)."""
+    return [axis for axis in figure.axes if axis.get_label() != "<colorbar>"]
+
+
+def colour_of(case: CaseDescription, material: int):
+    """The colour the picture gives a material: viridis over log k of the case's materials."""
+    k = [m["k"] for m in case.materials]
+    return matplotlib.colormaps["viridis"](LogNorm(min(k), max(k))(case.materials[material - 1]["k"]))
+
+
+def gids(axis, prefix: str) -> list[str]:
+    return [artist.get_gid() for artist in axis.get_children() if (artist.get_gid() or "").startswith(prefix)]
+
+
+def face_masses_inside(axis, outline, rows: int, depth: int) -> set[tuple[int, int]]:
+    """The masses of layer 1's face, as drawn, that an outline on the page encloses."""
+    i, k = np.meshgrid(np.arange(rows), np.arange(depth), indexing="ij")
+    page = plate.project(plate.layer_x(0), i.ravel(), k.ravel())
+    inside = outline.get_path().contains_points(page)
+    return {(int(a), int(b)) for a, b, hit in zip(i.ravel(), k.ravel(), inside) if hit}
+
+
+def test_the_report_draws_a_plate_as_its_layers_with_the_patch_and_the_backplate(drawn):
+    case = plate_case(11, 5, 5, 3)
+    figure = drawn(case)
+    assert "5 layers along x, each 11 x 5 masses" in figure._suptitle.get_text()
+    assert "centred 3 x 3 patch" in figure._suptitle.get_text()
+    assert len(panels(figure)) == len(ORDERS)
+    for axis, (rule, order) in zip(panels(figure), ORDERS.items()):
+        assert axis.get_title() == f"{rule} rule's answer"
+        assert sorted(gids(axis, "layer ")) == [f"layer {j}" for j in range(1, 6)]
+        assert gids(axis, plate.BACKPLATE_GID) == [plate.BACKPLATE_GID]
+        slabs = {artist.get_gid(): artist for artist in axis.collections if (artist.get_gid() or "").startswith("layer")}
+        for j, material in enumerate(order, start=1):  # the face of each layer in its material's colour
+            assert tuple(slabs[f"layer {j}"].get_facecolors()[0]) == pytest.approx(colour_of(case, material))
+        names = [text.get_text() for text in axis.texts if text.get_rotation() == 60]
+        assert names == [case.materials[m - 1]["name"] for m in order]
+        outline, = [p for p in axis.patches if p.get_gid() == plate.LOAD_GID]
+        assert face_masses_inside(axis, outline, 11, 5) == {(i, k) for i in (4, 5, 6) for k in (1, 2, 3)}
+        red = [c for c in axis.collections if c.get_offsets().shape[0] and
+               tuple(c.get_facecolors()[0]) == pytest.approx(matplotlib.colors.to_rgba(plate.LOAD_COLOUR))]
+        assert len(red) == 1 and len(red[0].get_offsets()) == 9
+        arrow, = [a for a in axis.texts if isinstance(a, matplotlib.text.Annotation) and a.arrow_patch]
+        assert outline.get_path().contains_point(arrow.xy)  # the load's arrow strikes the patch
+
+
+def test_a_plate_loaded_over_its_whole_face_outlines_the_whole_face(drawn):
+    figure = drawn(plate_case(7, 5, 3, 0))
+    assert "over its whole face" in figure._suptitle.get_text()
+    for axis in panels(figure):
+        outline, = [p for p in axis.patches if p.get_gid() == plate.LOAD_GID]
+        assert face_masses_inside(axis, outline, 7, 3) == {(i, k) for i in range(7) for k in range(3)}
+
+
+def test_each_load_cases_patch_is_outlined(drawn):
+    figure = drawn(plate_case(11, 5, 5, None, cases={"load_patch": [1, 3]}))
+    assert "a centred 1 x 1 patch or a centred 3 x 3 patch" in figure._suptitle.get_text()
+    axis = panels(figure)[0]
+    outlines = [p for p in axis.patches if p.get_gid() == plate.LOAD_GID]
+    assert sorted(len(face_masses_inside(axis, o, 11, 5)) for o in outlines) == [1, 9]
+
+
+def test_a_lattice_of_one_layer_keeps_its_picture(drawn):
+    """Depth 1: a dot per mass in its column's colour, the backplate bar, the names as ticks; no slab."""
+    case = plate_case(11, 5, 1, 0)
+    figure = drawn(case)
+    assert figure._suptitle.get_text() == "Load from the left on column 1, backplate on the right (grey bar)"
+    for axis, (rule, order) in zip(panels(figure), ORDERS.items()):
+        assert not gids(axis, "layer ") and not axis.patches
+        dots, = axis.collections
+        x, y = np.meshgrid(np.arange(5), np.arange(11))
+        assert np.array_equal(dots.get_offsets(), np.column_stack([x.ravel(), y.ravel()]))
+        assert np.array_equal(dots.get_array(), np.tile([case.materials[m - 1]["k"] for m in order], 11))
+        bar, = axis.lines
+        assert tuple(bar.get_xdata()) == (4.5, 4.5)
+        assert [t.get_text() for t in axis.get_xticklabels()] == [case.materials[m - 1]["name"] for m in order]
+
