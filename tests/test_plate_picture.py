@@ -1,19 +1,23 @@
 """The plate as the report and the docs draw it (docs/model.md section 10): which masses of column 1's face the
 load pushes, the same as the numpy reference's weights; the report's lattice picture of a plate shows its layers
-as a stack, the loaded patch and the backplate, while a one-layer lattice keeps its picture."""
+as a stack, the loaded patch and the backplate, while a one-layer lattice keeps its picture; the explore page's
+data of a plate carries its depth and patch."""
 from __future__ import annotations
 
+import time
 from types import SimpleNamespace
 
 import matplotlib
 import numpy as np
 import pytest
 from matplotlib.colors import LogNorm
+from test_explore import browser, console_errors, needs_browser  # noqa: F401 (browser: a fixture)
 
 from fmu_src.materials import study_materials
 from fmu_src.variables import loaded_face
 from orchestrator.objective import ObjectiveDescription
 from orchestrator.report import charts, plate
+from orchestrator.report.explore import EXPLORE_FILE, explore_data, write_explore
 from orchestrator.steps.answers import Answers, draw_lattice
 from orchestrator.study import CaseDescription
 from reference.lattice3d import load_weights
@@ -168,3 +172,34 @@ def test_a_lattice_of_one_layer_keeps_its_picture(drawn):
         assert tuple(bar.get_xdata()) == (4.5, 4.5)
         assert [t.get_text() for t in axis.get_xticklabels()] == [case.materials[m - 1]["name"] for m in order]
 
+
+# ------------------------------------------------------------------------------------------- the explore page
+
+def test_the_explore_pages_data_of_a_plate_carries_its_depth_and_patch():
+    case = plate_case(11, 5, 5, 3)
+    data = explore_data(study_of(case), study_materials(), {})
+    assert (data["rows"], data["columns"], data["depth"]) == (11, 5, 5)
+    assert data["loaded_faces"] == [{"load_patch": 3, "whole_face": False, "rows": [4, 6], "depth": [1, 3]}]
+    whole = explore_data(study_of(plate_case(11, 5, 1, 0)), study_materials(), {})
+    assert whole["depth"] == 1 and whole["loaded_faces"] == [{"load_patch": 0, "whole_face": True, "rows": [0, 10],
+                                                              "depth": [0, 0]}]
+
+
+@needs_browser
+def test_the_explore_page_shows_a_plates_face_and_layers_offline(browser, tmp_path):
+    """Written from a plate's study: opened with the network cut off, it draws layer 1's face with the patch's
+    masses in red and names the plate's layers in its title, with no console error."""
+    case = plate_case(11, 5, 5, 3)
+    write_explore(study_of(case), tmp_path, study_materials(), {})
+    browser.get((tmp_path / EXPLORE_FILE).resolve().as_uri())
+    for _ in range(100):
+        if browser.execute_script("return document.querySelectorAll('#lattice .gtitle').length"):
+            break
+        time.sleep(0.1)
+    title = browser.execute_script("return document.querySelector('#lattice .gtitle').textContent")
+    assert "The plate: 5 layers along x, each a sheet of 11 x 5 masses" in title, title
+    assert "centred 3 x 3 patch" in title and "backplate right of layer 5" in title, title
+    colours = browser.execute_script("return [...document.querySelectorAll('#lattice .scatterlayer .point')]"
+                                     ".map(p => p.style.fill)")
+    assert len(colours) == 11 * 5 and sum(c == "rgb(220, 20, 60)" for c in colours) == 9  # crimson
+    assert console_errors(browser) == []
