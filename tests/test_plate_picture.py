@@ -1,10 +1,13 @@
 """The plate as the report and the docs draw it (docs/model.md section 10): which masses of column 1's face the
 load pushes, the same as the numpy reference's weights; the report's lattice picture of a plate shows its layers
 as a stack, the loaded patch and the backplate, while a one-layer lattice keeps its picture; the explore page's
-data of a plate carries its depth and patch."""
+data of a plate carries its depth and patch; the model page's figure draws one mass's eighteen springs and is
+written by the command the page states."""
 from __future__ import annotations
 
 import time
+from collections import Counter
+from pathlib import Path
 from types import SimpleNamespace
 
 import matplotlib
@@ -112,7 +115,7 @@ def gids(axis, prefix: str) -> list[str]:
 def face_masses_inside(axis, outline, rows: int, depth: int) -> set[tuple[int, int]]:
     """The masses of layer 1's face, as drawn, that an outline on the page encloses."""
     i, k = np.meshgrid(np.arange(rows), np.arange(depth), indexing="ij")
-    page = plate.project(plate.layer_x(0), i.ravel(), k.ravel())
+    page = plate.project(plate.layer_x(0, plate.layer_pitch(rows, depth)), i.ravel(), k.ravel())
     inside = outline.get_path().contains_points(page)
     return {(int(a), int(b)) for a, b, hit in zip(i.ravel(), k.ravel(), inside) if hit}
 
@@ -147,6 +150,18 @@ def test_a_plate_loaded_over_its_whole_face_outlines_the_whole_face(drawn):
     for axis in panels(figure):
         outline, = [p for p in axis.patches if p.get_gid() == plate.LOAD_GID]
         assert face_masses_inside(axis, outline, 7, 3) == {(i, k) for i in range(7) for k in range(3)}
+
+
+def test_a_face_too_large_for_dots_shows_the_loaded_region_filled(drawn):
+    side = plate.MAX_DOTS_SIDE + 2  # odd
+    figure = drawn(plate_case(side, 5, side, 3))
+    for axis in panels(figure):
+        assert not [c for c in axis.collections if not (c.get_gid() or "").startswith(("layer", "backplate"))]
+        outline, = [p for p in axis.patches if p.get_gid() == plate.LOAD_GID]
+        assert outline.get_facecolor()[3] > 0
+        middle = (side - 1) // 2
+        assert face_masses_inside(axis, outline, side, side) == {(i, k) for i in range(middle - 1, middle + 2)
+                                                                 for k in range(middle - 1, middle + 2)}
 
 
 def test_each_load_cases_patch_is_outlined(drawn):
@@ -203,3 +218,35 @@ def test_the_explore_page_shows_a_plates_face_and_layers_offline(browser, tmp_pa
                                      ".map(p => p.style.fill)")
     assert len(colours) == 11 * 5 and sum(c == "rgb(220, 20, 60)" for c in colours) == 9  # crimson
     assert console_errors(browser) == []
+
+
+# ------------------------------------------------------------------------------------------- the model page's figure
+
+def test_one_mass_has_six_nearest_neighbours_twelve_face_diagonals_and_no_body_diagonal():
+    offsets = [(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1) if (dx, dy, dz) != (0, 0, 0)]
+    kinds = Counter(plate.spring_kind(offset) for offset in offsets)
+    assert kinds == {0: 2, 1: 4, 2: 8, 3: 4, None: 8}
+    assert [plate.spring_kind(o) for o in ((-1, 0, 0), (0, 0, 1), (1, -1, 0), (1, 0, 1), (0, 1, -1), (1, 1, 1))] \
+        == [0, 1, 2, 2, 3, None]
+
+
+def test_the_springs_drawn_are_one_masses_eighteen():
+    figure, axis = charts.plt.subplots()
+    try:
+        plate.draw_springs(axis)
+        by_colour = Counter(line.get_color() for line in axis.lines)
+    finally:
+        charts.plt.close(figure)
+    assert by_colour == {colour: count for (_, colour, _), count in zip(plate.SPRING_KINDS, (2, 4, 8, 4))}
+
+
+def test_the_model_figure_is_written_by_the_command_its_page_states(tmp_path, capsys):
+    page = (Path(__file__).resolve().parents[1] / "docs" / "model.md").read_text()
+    assert "`python -m orchestrator.report.plate --write docs/images/plate-model.png`" in page
+    assert "(images/plate-model.png)" in page
+    assert plate.main(["--write", str(tmp_path / "plate-model.png")]) == 0
+    assert (tmp_path / "plate-model.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    capsys.readouterr()
+    assert plate.main(["--write", str(tmp_path / "missing" / "plate-model.png")]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("--write") and "does not exist" in error and "\n" not in error
