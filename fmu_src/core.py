@@ -10,10 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from fmu_src.materials import FIELD_NAMES
-from fmu_src.variables import enumeration_values
+from fmu_src.variables import WHOLE_FACE, enumeration_values
 
 MAX_COLS = 64  # LATTICE_MAX_COLS
-WHOLE_FACE = 0  # LATTICE_WHOLE_FACE: load_patch of a load over the whole face
 DIAGONAL_RULES = enumeration_values("diagonal_rule")
 SPRING_LAWS = {"exponential": 0, "linear": 1}
 

@@ -126,6 +126,45 @@ def plotted_mass_index(rows: int, cols: int, depth: int, row: int, col: int) -> 
     return ((plotted_layer(depth) - 1) * rows + row - 1) * cols + col - 1
 
 
+WHOLE_FACE = 0  # load_patch of a load over column 1's whole face (lattice.h: LATTICE_WHOLE_FACE)
+
+
+@dataclass(frozen=True)
+class LoadedFace:
+    """The masses of column 1's rows x depth face the load pushes (docs/model.md section 10): rows i in
+    ``row_range`` and positions k along z in ``depth_range``, 0-based as lattice.c numbers them."""
+
+    row_range: range
+    depth_range: range
+    whole_face: bool  # load_patch 0: every mass of the face, with the edge weights of section 4
+
+    def masses(self) -> frozenset[tuple[int, int]]:
+        """The loaded masses as (i, k), 0-based."""
+        return frozenset((i, k) for i in self.row_range for k in self.depth_range)
+
+
+def load_patch_allowed(rows: int, depth: int, load_patch) -> bool:
+    """The core's rule (lattice.c, lattice_params_error): 0, or an odd P <= min(rows, depth) on a face with an
+    odd number of rows and an odd depth, so that the patch leaves as many on either side."""
+    if load_patch == WHOLE_FACE and not isinstance(load_patch, bool):
+        return True
+    return (isinstance(load_patch, int) and not isinstance(load_patch, bool) and load_patch > 0
+            and load_patch % 2 == 1 and load_patch <= min(rows, depth) and rows % 2 == 1 and depth % 2 == 1)
+
+
+def loaded_face(rows: int, depth: int, load_patch: int) -> LoadedFace:
+    """Which masses of column 1's face the load pushes: all of them (load_patch 0) or the centred load_patch x
+    load_patch square, as lattice.c's load_fraction places it; any other load_patch is refused."""
+    if not load_patch_allowed(rows, depth, load_patch):
+        raise ValueError(f"load_patch = {load_patch!r} is not allowed for {rows} rows and depth {depth}: allowed "
+                         f"0 (the whole face) or an odd P <= min(rows, depth) = {min(rows, depth)}, with an odd "
+                         f"number of rows and an odd depth")
+    if load_patch == WHOLE_FACE:
+        return LoadedFace(range(rows), range(depth), True)
+    first_row, first_depth = (rows - load_patch) // 2, (depth - load_patch) // 2
+    return LoadedFace(range(first_row, first_row + load_patch), range(first_depth, first_depth + load_patch), False)
+
+
 def default_order(cols: int, materials: int) -> tuple[int, ...]:
     """The order an FMU starts with: material j in column j, the table's materials again from 1 when it has
     fewer than columns."""
@@ -365,9 +404,8 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden:
         raise ValueError(f"parameters {in_table} are the material table's: give the table itself (a scene's "
                          f"materials, build_fmu.py --materials FILE)")
     exposed, fixed = [], []
-    patch = (parameters or {}).get("load_patch", 0)
-    if patch != 0 and (isinstance(patch, bool) or not isinstance(patch, int) or patch < 0 or patch % 2 == 0
-                       or patch > min(rows, depth) or rows % 2 == 0 or depth % 2 == 0):
+    patch = (parameters or {}).get("load_patch", WHOLE_FACE)
+    if not load_patch_allowed(rows, depth, patch):
         raise ValueError(f"parameter load_patch = {patch!r} is not allowed for {rows} rows and depth {depth}: "
                          f"allowed 0 (the whole face) or an odd P <= min(rows, depth) = {min(rows, depth)}, with an "
                          f"odd number of rows and an odd depth")

@@ -100,8 +100,9 @@ def material_columns(description) -> int:
 
 
 def lattice_shape(description) -> tuple[int, int, int] | None:
-    """(rows, columns, depth) of the FMU's lattice, read from its ux[i,j] or ux[i,j,k] states (None when it
-    declares none): what an FMU given on its own says of its plate, whatever scene it is used with."""
+    """(rows, columns, depth) of the FMU's lattice, read from its ux[row,column] or, of a plate,
+    ux[layer,row,column] states (fmu_src/variables.py; None when it declares none): what an FMU given on its own
+    says of its plate, whatever scene it is used with."""
     shape = None
     for variable in description.modelVariables:
         name = variable.name
@@ -112,6 +113,8 @@ def lattice_shape(description) -> tuple[int, int, int] | None:
                 continue
             if len(index) == 2:
                 index += (1,)
+            elif len(index) == 3:
+                index = (index[1], index[2], index[0])
             if len(index) == 3:
                 shape = index if shape is None else tuple(max(a, b) for a, b in zip(shape, index))
     return shape

@@ -17,6 +17,7 @@ from typing import Any, ClassVar
 
 from fmu_src.core import MAX_COLS
 from fmu_src.materials import STUDY_MATERIAL_COUNT, MaterialTable
+from fmu_src.variables import WHOLE_FACE, LoadedFace, loaded_face
 from scenes import DEFAULT_SCENE, Scene
 
 from .design import DesignSpace
@@ -170,6 +171,12 @@ class CaseDescription:
     aggregate: str | None
     horizon: float
     depth: int = 1
+
+    def loaded_faces(self) -> tuple[LoadedFace, ...]:
+        """The masses of column 1's face the load pushes: under the case's load_patch, or under each of its load
+        cases' (--case load_patch=...), in their order."""
+        patches = self.cases.get("load_patch") or [self.load.get("load_patch", WHOLE_FACE)]
+        return tuple(loaded_face(self.rows, self.depth, int(p)) for p in dict.fromkeys(patches))
 
     def line(self) -> str:
         """The case in one line: what the first screen and every chart state."""

@@ -257,7 +257,11 @@ def test_a_study_of_a_plate_says_it_is_a_plate_and_where_it_is_struck(tmp_path, 
     results = json.loads((out / "results.json").read_text())
     assert results["case"]["depth"] == 5 and results["case"]["load"]["load_patch"] == 3
     assert results["answers"][0]["evidence"]["status"] == "certified"
-    assert "11 x 5 x 5 plate" in (out / "report.html").read_text()
+    report = (out / "report.html").read_text()
+    assert "11 x 5 x 5 plate" in report and "the answers' plates: the layers as a stack" in report
+    assert (out / "lattice.png").stat().st_size > 0
+    explore = (out / "explore.html").read_text()
+    assert '"depth":5,"loaded_faces":[{"load_patch":3,"whole_face":false,"rows":[4,6],"depth":[1,3]}]' in explore
 
 
 @pytest.mark.parametrize("depth, patch, says", [(5, 3, "over a centred 3 x 3 patch for"), (5, 0, "over the whole face for"),

@@ -18,13 +18,14 @@ COLOURS = {"cmaes": "tab:blue", "pso": "tab:orange", "sa": "tab:green", "ga": "t
 RULE_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple")
 
 
-def save(figure, path: Path, tight: bool = True, labels=()) -> str:
+def save(figure, path: Path, tight: bool = True, labels=(), fit: bool = False) -> str:
     """Writes the figure. ``labels``: annotations beside their points, moved apart where they would overlap
-    (once the layout is final, so that what is checked is what is drawn)."""
+    (once the layout is final, so that what is checked is what is drawn); ``fit``: the image grown or cropped to
+    everything drawn (text outside the axes included)."""
     if tight:
         figure.tight_layout()
     spread_labels(figure, labels)
-    figure.savefig(path, dpi=110)
+    figure.savefig(path, dpi=110, **({"bbox_inches": "tight", "pad_inches": 0.1} if fit else {}))
     plt.close(figure)
     return path.name
 

@@ -3,9 +3,11 @@
 The page holds plotly.js (inlined: plotly is the FMI Python world's charting library, FMPy's GUI and web app use
 it) and the study's results as JSON, and draws: the convergence of every run (methods and seeds toggled in the
 legend), every evaluation as a sortable, filterable table, the Pareto front (two objectives) with each point's
-order, objectives and design file, and the lattice of the design chosen in the table or on the front. The
-table, its sorting and filtering are a few lines of plain JavaScript over the embedded JSON: a table library
-would add more to the page than the code it replaces.
+order, objectives and design file, and the lattice of the design chosen in the table or on the front (of a plate,
+its layers seen from the side beside layer 1's face and the masses the load pushes). The table, its sorting and
+filtering are a few lines of plain JavaScript over the embedded JSON: a table library would add more to the page
+than the code it replaces. The plate is drawn flat, not in plotly's 3-D view: that needs WebGL, which a browser
+without a graphics driver does not have.
 
 Every front point gets a design file (``front/``), so a point clicked on the front can be opened in an SSP tool
 like the answers' design files.
@@ -80,7 +82,10 @@ def explore_data(study: StudyResult, materials, refused: dict[str, str]) -> dict
     answers = study.result(Answers)
     return {
         "case_line": case.line(), "outputs": list(case.objective.outputs), "units": list(case.objective.units),
-        "rows": case.rows, "columns": case.columns,
+        "rows": case.rows, "columns": case.columns, "depth": case.depth,
+        "loaded_faces": [{"load_patch": len(f.row_range) if not f.whole_face else 0, "whole_face": f.whole_face,
+                          "rows": [f.row_range.start, f.row_range.stop - 1],
+                          "depth": [f.depth_range.start, f.depth_range.stop - 1]} for f in case.loaded_faces()],
         "materials": [{"name": m["name"], "k": m["k"]} for m in case.materials],
         "runs": runs, "evaluations": rows, "fronts": fronts,
         "answers": [{"rule": a.diagonal_rule, "order": list(a.order), "value": a.peak,

@@ -306,12 +306,16 @@ def draw_lattice(study, path: Path) -> str | None:
     case = study.case
     materials = case.materials
     designs = [(f"{a.diagonal_rule} rule's answer", a.order) for a in answers.answers]
-    figure, axes = plt.subplots(1, len(designs), figsize=(4.6 * len(designs), 4.4), squeeze=False)
     stiffness = np.array([m["k"] for m in materials])
     colour_map = plt.get_cmap("viridis")
     low, high = float(stiffness.min()), float(stiffness.max())
     norm = (matplotlib.colors.LogNorm(vmin=low, vmax=high) if low > 0 and high > low
             else matplotlib.colors.Normalize(vmin=low, vmax=high if high > low else low + 1.0))
+    if case.depth > 1:  # a plate: its layers as a stack, the loaded patch on layer 1's face
+        from ..report.plate import draw_plate_answers
+
+        return draw_plate_answers(case, designs, colour_map, norm, path)
+    figure, axes = plt.subplots(1, len(designs), figsize=(4.6 * len(designs), 4.4), squeeze=False)
     for axis, (label, order) in zip(axes[0], designs):
         x, y = np.meshgrid(np.arange(case.columns), np.arange(case.rows))
         k = np.tile(np.array([materials[m - 1]["k"] for m in order]), (case.rows, 1))
