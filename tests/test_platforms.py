@@ -262,3 +262,42 @@ def test_fmusim_reproduces_the_published_peaks_on_each_platform(platform, fmi_ve
             row.reached(order, peak)
             assert peak == pytest.approx(PUBLISHED_PEAKS[order], rel=PUBLISHED_ACCURACY)
             assert peak == pytest.approx(native[order], rel=SAME_AS_NATIVE, abs=0.0)
+
+
+@pytest.fixture(scope="session")
+def platform_plate(tmp_path_factory):
+    """A 5 x 5 x 5 plate as one FMI 3 FMU for every platform (the numpy reference's plate)."""
+    missing = _missing_compilers(ALL_PLATFORMS[3])
+    if missing:
+        pytest.skip(missing)
+    return build.build_fmu("armour_11x11", tmp_path_factory.mktemp("platform_plate") / "Plate5x5x5-all.fmu",
+                           rows=5, cols=5, depth=5, werror=True, fmi_version=3, platforms="all")
+
+
+@pytest.mark.platforms
+@pytest.mark.parametrize("platform", list(FMUSIM_VARIABLES))
+def test_fmusim_runs_a_plate_under_a_patch_to_the_reference_on_each_platform(platform, platform_plate, tmp_path):
+    """The plate (docs/model.md section 10) struck over a 3 x 3 patch under the mean rule, neither the FMU's
+    default, co-simulated by fmusim on each platform: the numpy reference's peak to 1e-7."""
+    import json
+    from pathlib import Path
+
+    if native_platform() != "x86_64-linux":
+        pytest.skip("the platform tests run on x86-64 Linux")
+    reference = json.loads((Path(__file__).resolve().parents[1] / "reference" / "plate_5x5x5_reference.json")
+                           .read_text())
+    case = next(c for c in reference["cases"] if c["name"] == "mean-patch3-31524")
+    command = _fmusim(platform)
+    output = tmp_path / "plate.csv"
+    options = ["--interface-type", "cs", "--output-variable", "peak_backplate_force", "--start-value", "load_patch",
+               "3", "--start-value", "diagonal_rule", "1", "--start-value", "rtol", "1e-12", "--start-value", "atol",
+               "1e-12"]
+    for index, material in enumerate(case["scene"]["order"], start=1):
+        options += ["--start-value", f"material[{index}]", str(material)]
+    done = subprocess.run([*command, *options, "--output-file", str(output), str(platform_plate)],
+                          capture_output=True, text=True, env=_environment(), timeout=1800)
+    assert done.returncode == 0 and output.is_file(), (done.stderr or done.stdout)[-2000:]
+    with open(output, newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert float(rows[-1]["time"]) == 8.0
+    assert float(rows[-1]["peak_backplate_force"]) == pytest.approx(case["peak_backplate_force"], rel=1e-7)
