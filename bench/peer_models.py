@@ -701,3 +701,34 @@ def check_plate_against_reference(scenes=None, with_jax: bool = True) -> dict[st
                     raise ValueError(f"the plate's backplate force differs from reference/lattice3d.py by "
                                      f"{difference:.1e} on {label!r}")
     return worst
+
+
+def main(argv=None) -> int:
+    """The checks alone (bench.peers runs them before timing): the worst differences, or one line and exit 1."""
+    import argparse
+    import sys
+
+    parser = argparse.ArgumentParser(prog="python -m bench.peer_models",
+                                     description="Check the peers' right-hand sides against reference/ to "
+                                                 f"{KERNEL_TOLERANCE:g}, as bench.peers does before it times them.")
+    parser.add_argument("--models", nargs="+", choices=("lattice", "plate"), default=["lattice", "plate"],
+                        help="the 2-D lattice's kernels (against reference/lattice.py), the plate's (against "
+                             "reference/lattice3d.py); default both")
+    parser.add_argument("--without-jax", action="store_true", help="the plate's numba kernel only, not its JAX "
+                        "one (the 2-D check always takes both)")
+    args = parser.parse_args(argv)
+    try:
+        if "lattice" in args.models:
+            worst = check_against_reference()
+            print("2-D lattice against reference/lattice.py: " + ", ".join(f"{k} {v:.1e}" for k, v in worst.items()))
+        if "plate" in args.models:
+            worst = check_plate_against_reference(with_jax=not args.without_jax)
+            print("plate against reference/lattice3d.py: " + ", ".join(f"{k} {v:.1e}" for k, v in worst.items()))
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
