@@ -753,13 +753,17 @@ def measurement_page(run, plan, studies, summaries, orders, numba_compile, kerne
         for peer, runs in study["stopped"].items():
             if runs:
                 jacobians = sum(1 for _, after in runs if after)
+                timed_max = next((s["cpu_ms_max"] / 1e3 for s in summaries[name]
+                                  if s["route"] == peer and "cpu_ms_max" in s), None)
+                verdict = ("each stopped run had already cost more CPU than any of its timed runs, so the stop can "
+                           "only favour the peer" if timed_max is not None and timed_max < scenario.walk_cpu_limit
+                           else "the stop may have changed the setting it is timed at")
                 notes.append(
                     f"{scenario.label}: {len(runs)} of {LABELS[peer]}'s runs on the tolerance walk (at rtol "
                     f"{', '.join(sorted({f'{r:.1e}' for r, _ in runs}, key=float, reverse=True))}) were stopped "
                     f"past {scenario.walk_cpu_limit:g} s CPU and counted as failed, {jacobians} of them after a "
-                    "finite-difference Jacobian (as many right-hand sides at one t as the plate has states: LSODA "
-                    "had switched to BDF). Finished, they would have cost more than the rtol the walk went on to, "
-                    "so the stop can only favour the peer.")
+                    "finite-difference Jacobian (as many right-hand sides at one t as the model has states: LSODA "
+                    f"had switched to BDF); {verdict}.")
         if name == "scene8s":
             checks = check_published(study, orders)
             worst = max(c["relative_deviation"] for c in checks) if checks else None
