@@ -48,21 +48,21 @@ def add_fmu_option(parser) -> None:
 
 @contextlib.contextmanager
 def lattice_fmu(given: str | None = None, rows: int | None = None, cols: int | None = None,
-                scene: str | None = None) -> Iterator[Path]:
-    """The FMU to measure: the one given, or the scene's FMU (default: the armour scene) built now into a folder
-    removed afterwards."""
+                scene: str | None = None, option: str = "--fmu") -> Iterator[Path]:
+    """The FMU to measure: the one given (``option`` names it in an error), or the FMU of ``scene`` (default the
+    armour scene, resized to rows x cols if given) built now into a folder removed afterwards."""
     if given:
         path = Path(given)
         if not path.is_file():
-            raise SystemExit(f"--fmu: no such file {given!r}")
+            raise SystemExit(f"{option}: no such file {given!r}")
         yield path
         return
     with tempfile.TemporaryDirectory(prefix="bench_fmu_") as folder:
         if scene is not None:
-            name = f"{scene}.fmu"
-        else:
-            name = "MassSpringLattice.fmu" if rows is None and cols is None else f"Lattice{rows or 11}x{cols or 11}.fmu"
-        yield build_fmu(scene=scene, output=Path(folder) / name, rows=rows, cols=cols)
+            yield build_fmu(scene=scene, output=Path(folder) / f"{scene}.fmu", rows=rows, cols=cols)
+            return
+        name = "MassSpringLattice.fmu" if rows is None and cols is None else f"Lattice{rows or 11}x{cols or 11}.fmu"
+        yield build_fmu(output=Path(folder) / name, rows=rows, cols=cols)
 
 
 def default_setting(fmu_path) -> dict:

@@ -17,6 +17,14 @@ kernel needs is packed by :func:`pack` into four small arrays, so one compiled k
 - ``load`` (2, R): the load's x and y force on each row's column-1 mass while it acts.
 
 State layout as in reference/lattice.py: ``y = [ux(N), uy(N), vx(N), vy(N)]``, mass (i, j) at i*C + j.
+
+The plate of docs/model.md section 10 (R x C x D) has its own kernels, written once the same way and checked by
+:func:`check_plate_against_reference` against reference/lattice3d.py: :func:`pack_plate` adds to the arrays above
+``column_diagonals`` (2, C) (k_diag, alpha_diag of each column's material: a yz diagonal stays in its column) and
+spreads the load over the face as ``load`` (2, D, R). State layout as in reference/lattice3d.py: ``y = [ux, uy,
+uz, vx, vy, vz]``, mass (i, j, k) at (k*R + i)*C + j. They are not a generalisation of the 2-D kernels: a plate of
+depth 1 carries uz and its velocity, so the 2-D kernels would do more work, and their figures would mean another
+code.
 """
 from __future__ import annotations
 
@@ -49,6 +57,9 @@ class Packed:
     def equal_diagonal_alphas(self) -> bool:
         """Both ends of every diagonal see the same alpha: one exp serves both (true for docs/model.md §3's table)."""
         return bool(np.array_equal(self.diagonals[1], self.diagonals[3]))
+
+    def backplate_force(self, states: np.ndarray) -> np.ndarray:
+        return backplate_force(self, states)
 
 
 def pack(scene) -> Packed:
@@ -335,3 +346,389 @@ def check_against_reference() -> dict[str, float]:
             if not difference <= KERNEL_TOLERANCE:
                 raise ValueError(f"the backplate force differs from reference/ by {difference:.1e} on {label!r}")
     return worst
+
+
+# ------------------------------------------------------------------------ the plate (docs/model.md §10)
+@dataclass(frozen=True)
+class PlatePacked:
+    rows: int
+    cols: int
+    depth: int
+    columns: np.ndarray
+    column_diagonals: np.ndarray
+    diagonals: np.ndarray
+    scalars: np.ndarray
+    load: np.ndarray
+    t_active: float
+
+    @property
+    def state_size(self) -> int:
+        return 6 * self.rows * self.cols * self.depth
+
+    def kernel_args(self):
+        return self.columns, self.column_diagonals, self.diagonals, self.scalars, self.load
+
+    @property
+    def equal_diagonal_alphas(self) -> bool:
+        return bool(np.array_equal(self.diagonals[1], self.diagonals[3]))
+
+    def backplate_force(self, states: np.ndarray) -> np.ndarray:
+        """Section 5's backplate force over column C's R x D masses, states stacked as rows (M, 6N) -> (M,)."""
+        R, C, D = self.rows, self.cols, self.depth
+        N = R * C * D
+        k_w, c_w, gap = self.scalars[3], self.scalars[4], self.scalars[5]
+        wall = np.arange(R * D) * C + (C - 1)
+        p = states[:, wall] - gap
+        vx = states[:, 3 * N + wall]
+        return np.where(p > 0, k_w * p + c_w * np.maximum(vx, 0.0), 0.0).sum(axis=1)
+
+
+def face_weights(rows: int, depth: int, patch: int) -> np.ndarray:
+    """Each loaded-face mass's share of the load, (D, R), summing to 1 (docs/model.md §4 and §10): the whole face
+    (patch 0) the product of the row weight in y and in z (1/2 at an edge), a centred odd patch P x P equal."""
+    if patch:
+        weights = np.zeros((depth, rows))
+        k0, i0 = (depth - patch) // 2, (rows - patch) // 2
+        weights[k0:k0 + patch, i0:i0 + patch] = 1.0
+    else:
+        def edge(n):
+            w = np.ones(n)
+            if n > 1:
+                w[0] = w[-1] = 0.5
+            return w
+
+        weights = np.outer(edge(depth), edge(rows))
+    return weights / weights.sum()
+
+
+def pack_plate(scene) -> PlatePacked:
+    """The plate kernels' arrays for a reference.lattice3d.PlateScene (which validates it; exponential springs
+    and a backplate, the plate scene's law)."""
+    if scene.spring_law != "exponential":
+        raise ValueError(f"pack_plate: spring_law must be 'exponential', got {scene.spring_law!r}")
+    material = np.asarray(scene.order) - 1
+    k, k_diag, c, alpha, alpha_diag = (np.asarray(getattr(scene, f), dtype=float)[material]
+                                       for f in ("k", "k_diag", "c", "alpha", "alpha_diag"))
+    columns = np.ascontiguousarray([k, alpha, c])
+    column_diagonals = np.ascontiguousarray([k_diag, alpha_diag])
+    left, right = np.array([k_diag[:-1], alpha_diag[:-1]]), np.array([k_diag[1:], alpha_diag[1:]])
+    if scene.diagonal_rule == "mean":
+        left = right = 0.5 * (left + right)
+    elif scene.diagonal_rule != "receiver":
+        raise ValueError(f"pack_plate: diagonal_rule must be 'receiver' or 'mean', got {scene.diagonal_rule!r}")
+    diagonals = np.ascontiguousarray(np.vstack([left, right]), dtype=float).reshape(4, scene.cols - 1)
+    scalars = np.array([scene.k0, scene.alpha0, scene.c0, scene.k_wall, scene.c_wall, scene.backplate_gap,
+                        1.0 / scene.mass, 1.0 if scene.has_backplate else 0.0])
+    weights = face_weights(scene.rows, scene.depth, scene.load_patch)
+    angle = math.radians(scene.load_angle)
+    load = np.ascontiguousarray([scene.F_total * math.cos(angle) * weights, scene.F_total * math.sin(angle) * weights])
+    return PlatePacked(scene.rows, scene.cols, scene.depth, columns, column_diagonals, diagonals, scalars, load,
+                       float(scene.t_active))
+
+
+_PLATE_NUMBA = {}
+
+
+def plate_numba_kernels():
+    """(rhs_odeint, rhs_solve_ivp, rhs_into) of the plate, compiled on first use, called as the 2-D ones are with
+    the plate's arrays: rhs_odeint(y, t, load_on, columns, column_diagonals, diagonals, scalars, load)."""
+    if _PLATE_NUMBA:
+        return _PLATE_NUMBA["odeint"], _PLATE_NUMBA["solve_ivp"], _PLATE_NUMBA["into"]
+    import numba
+
+    @numba.njit(inline="always")
+    def spring(ux, uy, uz, fx, fy, fz, a, b, ka, aa, kb, ab):
+        rx = ux[b] - ux[a]
+        ry = uy[b] - uy[a]
+        rz = uz[b] - uz[a]
+        d = math.sqrt(rx * rx + ry * ry + rz * rz)
+        if d >= R_EPS:
+            e = math.exp(aa * d) - 1.0
+            inverse = 1.0 / d
+            sa = ka * e * inverse
+            sb = kb * (e if ab == aa else math.exp(ab * d) - 1.0) * inverse
+            fx[a] += sa * rx
+            fy[a] += sa * ry
+            fz[a] += sa * rz
+            fx[b] -= sb * rx
+            fy[b] -= sb * ry
+            fz[b] -= sb * rz
+
+    @numba.njit(inline="always")
+    def damper(vx, vy, vz, fx, fy, fz, a, b, c):
+        dx = c * (vx[b] - vx[a])
+        dy = c * (vy[b] - vy[a])
+        dz = c * (vz[b] - vz[a])
+        fx[a] += dx
+        fy[a] += dy
+        fz[a] += dz
+        fx[b] -= dx
+        fy[b] -= dy
+        fz[b] -= dz
+
+    @numba.njit(cache=False, boundscheck=False)
+    def rhs_into(y, out, load_on, columns, column_diagonals, diagonals, scalars, load):
+        D, R = load.shape[1], load.shape[2]
+        C = columns.shape[1]
+        N = R * C * D
+        plane = R * C  # from layer k to layer k+1
+        ux, uy, uz = y[:N], y[N:2 * N], y[2 * N:3 * N]
+        vx, vy, vz = y[3 * N:4 * N], y[4 * N:5 * N], y[5 * N:]
+        out[:3 * N] = y[3 * N:]
+        fx, fy, fz = out[3 * N:4 * N], out[4 * N:5 * N], out[5 * N:]
+        fx[:] = 0.0
+        fy[:] = 0.0
+        fz[:] = 0.0
+        k0, a0, c0 = scalars[0], scalars[1], scalars[2]
+        for k in range(D):
+            for i in range(R):
+                row = (k * R + i) * C
+                for j in range(C - 1):  # along x (i, j, k)-(i, j+1, k): k0, alpha0, c0
+                    a = row + j
+                    spring(ux, uy, uz, fx, fy, fz, a, a + 1, k0, a0, k0, a0)
+                    damper(vx, vy, vz, fx, fy, fz, a, a + 1, c0)
+                if i < R - 1:
+                    for j in range(C):  # along y (i, j, k)-(i+1, j, k): column j's material
+                        a = row + j
+                        kv, av = columns[0, j], columns[1, j]
+                        spring(ux, uy, uz, fx, fy, fz, a, a + C, kv, av, kv, av)
+                        damper(vx, vy, vz, fx, fy, fz, a, a + C, columns[2, j])
+                    for j in range(C - 1):  # xy diagonals of the cell between columns j and j+1
+                        a = row + j
+                        spring(ux, uy, uz, fx, fy, fz, a, a + C + 1,
+                               diagonals[0, j], diagonals[1, j], diagonals[2, j], diagonals[3, j])
+                        spring(ux, uy, uz, fx, fy, fz, a + 1, a + C,
+                               diagonals[2, j], diagonals[3, j], diagonals[0, j], diagonals[1, j])
+                if k < D - 1:
+                    for j in range(C):  # along z (i, j, k)-(i, j, k+1): column j's material
+                        a = row + j
+                        kv, av = columns[0, j], columns[1, j]
+                        spring(ux, uy, uz, fx, fy, fz, a, a + plane, kv, av, kv, av)
+                        damper(vx, vy, vz, fx, fy, fz, a, a + plane, columns[2, j])
+                    for j in range(C - 1):  # xz diagonals of the cell between columns j and j+1
+                        a = row + j
+                        spring(ux, uy, uz, fx, fy, fz, a, a + plane + 1,
+                               diagonals[0, j], diagonals[1, j], diagonals[2, j], diagonals[3, j])
+                        spring(ux, uy, uz, fx, fy, fz, a + 1, a + plane,
+                               diagonals[2, j], diagonals[3, j], diagonals[0, j], diagonals[1, j])
+                    if i < R - 1:
+                        for j in range(C):  # yz diagonals, inside column j: its own k_diag, alpha_diag
+                            a = row + j
+                            kd, ad = column_diagonals[0, j], column_diagonals[1, j]
+                            spring(ux, uy, uz, fx, fy, fz, a, a + plane + C, kd, ad, kd, ad)
+                            spring(ux, uy, uz, fx, fy, fz, a + C, a + plane, kd, ad, kd, ad)
+        if scalars[7] != 0.0:  # backplate behind column C, each of its R x D masses
+            k_w, c_w, gap = scalars[3], scalars[4], scalars[5]
+            for f in range(R * D):
+                a = f * C + C - 1
+                p = ux[a] - gap
+                if p > 0.0:
+                    v = vx[a]
+                    fx[a] -= k_w * p + (c_w * v if v > 0.0 else 0.0)
+        if load_on != 0.0:
+            for k in range(D):
+                for i in range(R):
+                    a = (k * R + i) * C
+                    fx[a] += load[0, k, i]
+                    fy[a] += load[1, k, i]
+        inverse_mass = scalars[6]
+        if inverse_mass != 1.0:
+            for n in range(3 * N, 6 * N):
+                out[n] *= inverse_mass
+
+    @numba.njit(cache=False)
+    def rhs_odeint(y, t, load_on, columns, column_diagonals, diagonals, scalars, load):
+        out = np.empty_like(y)
+        rhs_into(y, out, load_on, columns, column_diagonals, diagonals, scalars, load)
+        return out
+
+    @numba.njit(cache=False)
+    def rhs_solve_ivp(t, y, load_on, columns, column_diagonals, diagonals, scalars, load):
+        out = np.empty_like(y)
+        rhs_into(y, out, load_on, columns, column_diagonals, diagonals, scalars, load)
+        return out
+
+    _PLATE_NUMBA.update(odeint=rhs_odeint, solve_ivp=rhs_solve_ivp, into=rhs_into)
+    return rhs_odeint, rhs_solve_ivp, rhs_into
+
+
+def jax_plate_rhs(rows: int, cols: int, depth: int, equal_diagonal_alphas: bool = True):
+    """f(y, load_on, columns, column_diagonals, diagonals, scalars, load) -> dy/dt of the plate in jax.numpy, on
+    (D, R, C) grids with static slices, as :func:`jax_rhs` is on (R, C) grids."""
+    import jax.numpy as jnp
+
+    R, C, D = rows, cols, depth
+    N = R * C * D
+    every = slice(None)
+    head, tail = slice(None, -1), slice(1, None)
+
+    def rhs(y, load_on, columns, column_diagonals, diagonals, scalars, load):
+        u = [y[q * N:(q + 1) * N].reshape(D, R, C) for q in range(3)]
+        v = [y[(3 + q) * N:(4 + q) * N].reshape(D, R, C) for q in range(3)]
+        force = [jnp.zeros((D, R, C), y.dtype) for _ in range(3)]
+
+        def add(a, b, ka, aa, kb, ab, c=None):
+            """The springs (and dampers, c) from the masses at slice a to those at slice b."""
+            r = [u[q][b] - u[q][a] for q in range(3)]
+            d = jnp.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+            ok = d >= R_EPS
+            inv_d = jnp.where(ok, 1.0 / jnp.where(ok, d, 1.0), 0.0)
+            ea = jnp.expm1(aa * d)
+            eb = ea if ab is aa else jnp.expm1(ab * d)  # one exp where both ends see one alpha
+            sa = ka * ea * inv_d
+            sb = sa if kb is ka and ab is aa else kb * eb * inv_d
+            for q in range(3):
+                on_a, on_b = sa * r[q], sb * r[q]
+                if c is not None:
+                    damping = c * (v[q][b] - v[q][a])
+                    on_a, on_b = on_a + damping, on_b + damping
+                force[q] = force[q].at[a].add(on_a).at[b].add(-on_b)
+
+        k0, a0, c0 = scalars[0], scalars[1], scalars[2]
+        kv, av, cv = columns[0], columns[1], columns[2]
+        kd, ad = column_diagonals[0], column_diagonals[1]
+        k_left, a_left, k_right = diagonals[0], diagonals[1], diagonals[2]
+        a_right = a_left if equal_diagonal_alphas else diagonals[3]
+        if C > 1:  # along x: the base constants
+            add((every, every, head), (every, every, tail), k0, a0, k0, a0, c0)
+        if R > 1:  # along y: the column's material
+            add((every, head, every), (every, tail, every), kv, av, kv, av, cv)
+        if D > 1:  # along z: the column's material
+            add((head, every, every), (tail, every, every), kv, av, kv, av, cv)
+        if R > 1 and C > 1:  # xy diagonals: (i, j)-(i+1, j+1) and (i, j+1)-(i+1, j)
+            add((every, head, head), (every, tail, tail), k_left, a_left, k_right, a_right)
+            add((every, head, tail), (every, tail, head), k_right, a_right, k_left, a_left)
+        if D > 1 and C > 1:  # xz diagonals: (k, j)-(k+1, j+1) and (k, j+1)-(k+1, j)
+            add((head, every, head), (tail, every, tail), k_left, a_left, k_right, a_right)
+            add((head, every, tail), (tail, every, head), k_right, a_right, k_left, a_left)
+        if D > 1 and R > 1:  # yz diagonals, inside a column: (k, i)-(k+1, i+1) and (k, i+1)-(k+1, i)
+            add((head, head, every), (tail, tail, every), kd, ad, kd, ad)
+            add((head, tail, every), (tail, head, every), kd, ad, kd, ad)
+        # backplate behind column C
+        p = u[0][:, :, -1] - scalars[5]
+        wall = jnp.where(p > 0.0, scalars[3] * p + scalars[4] * jnp.maximum(v[0][:, :, -1], 0.0), 0.0) * scalars[7]
+        fx = force[0].at[:, :, -1].add(-wall).at[:, :, 0].add(load_on * load[0])
+        fy = force[1].at[:, :, 0].add(load_on * load[1])
+        return jnp.concatenate([y[3 * N:], fx.ravel() * scalars[6], fy.ravel() * scalars[6],
+                                force[2].ravel() * scalars[6]])
+
+    return rhs
+
+
+def plate_check_scenes():
+    """Small plates that reach every branch of the plate kernels and tell rows from layers (R != D): a centred
+    patch and the whole face under both diagonal rules, an angled load and mass, a table whose two diagonal
+    ends see different alphas, a plate without a backplate."""
+    from reference.lattice3d import PlateScene
+
+    own_table = dict(k=tuple(np.linspace(50, 150, 4)), k_diag=tuple(np.linspace(10, 60, 4)),
+                     c=tuple(np.linspace(1, 6, 4)), alpha=tuple(np.linspace(5, 12, 4)),
+                     alpha_diag=tuple(np.linspace(4, 14, 4)))
+    return [
+        ("5x5x5, patch 3, receiver", PlateScene(order=(3, 1, 5, 2, 4), load_patch=3)),
+        ("5x5x5, whole face, receiver", PlateScene(order=(3, 1, 5, 2, 4))),
+        ("5x5x5, patch 3, mean", PlateScene(order=(3, 1, 5, 2, 4), load_patch=3, diagonal_rule="mean")),
+        ("5x5x5, whole face, mean", PlateScene(order=(2, 5, 1, 4, 3), diagonal_rule="mean")),
+        ("5x4x3, patch 3, angled load, mass 2", PlateScene(rows=5, cols=4, depth=3, order=(4, 1, 3, 2),
+                                                           load_patch=3, load_angle=30.0, mass=2.0)),
+        ("3x4x5, whole face, own table", PlateScene(rows=3, cols=4, depth=5, order=(4, 1, 3, 2), **own_table)),
+        ("3x4x5, patch 1, mean, own table", PlateScene(rows=3, cols=4, depth=5, order=(2, 4, 1, 3), load_patch=1,
+                                                        diagonal_rule="mean", **own_table)),
+        ("4x3x2, no backplate", PlateScene(rows=4, cols=3, depth=2, has_backplate=False)),
+    ]
+
+
+def random_plate_states(scene, count: int = 3, seed: int = 11):
+    """As :func:`random_states` in three dimensions: uz too, column C past the backplate in about half its masses,
+    one spring (masses 0 and 1) of zero length."""
+    rng = np.random.default_rng(seed)
+    N = scene.n_masses
+    wall = np.arange(scene.rows * scene.depth) * scene.cols + scene.cols - 1
+    states = []
+    for _ in range(count):
+        y = np.concatenate([rng.uniform(-0.1, 0.1, 3 * N), rng.uniform(-3.0, 3.0, 3 * N)])
+        y[wall] += rng.choice([0.0, 0.05], wall.size)
+        for component in range(3):
+            y[component * N] = y[component * N + 1]
+        states.append(y)
+    return states
+
+
+def check_plate_against_reference(scenes=None, with_jax: bool = True) -> dict[str, float]:
+    """The worst relative difference of the plate's kernels (numba as odeint and solve_ivp call it, JAX unless
+    with_jax is false) and backplate force from reference/lattice3d.py over the check scenes (the backplate's
+    modes read from each state, as a peer without events sees them); raises ValueError past KERNEL_TOLERANCE."""
+    from reference.lattice3d import PlateModel
+
+    rhs_odeint, rhs_solve_ivp, _ = plate_numba_kernels()
+    worst = {"numba": 0.0, "backplate force": 0.0}
+    if with_jax:
+        import jax
+
+        jax.config.update("jax_enable_x64", True)
+        worst["jax"] = 0.0
+    for label, scene in plate_check_scenes() if scenes is None else scenes:
+        packed = pack_plate(scene)
+        jax_kernel = (jax.jit(jax_plate_rhs(scene.rows, scene.cols, scene.depth, packed.equal_diagonal_alphas))
+                      if with_jax else None)
+        model = PlateModel(scene)
+        N = scene.n_masses
+        states = random_plate_states(scene)
+        for y in states:
+            contact = y[model.wall_index] - scene.backplate_gap > 0
+            damper_on = contact & (y[3 * N + model.wall_index] > 0)
+            augmented = np.concatenate([y, np.zeros(3)])
+            for load_on in (True, False):
+                want = model.derivative(augmented, load_on, contact, damper_on)[:6 * N]
+                scale = np.max(np.abs(want))
+                flag = 1.0 if load_on else 0.0
+                kernels = [("numba", rhs_odeint(y, 0.0, flag, *packed.kernel_args())),
+                           ("numba", rhs_solve_ivp(0.0, y, flag, *packed.kernel_args()))]
+                if jax_kernel is not None:
+                    kernels.append(("jax", np.asarray(jax_kernel(y, flag, *packed.kernel_args()))))
+                for name, got in kernels:
+                    difference = np.max(np.abs(got - want)) / scale if np.all(np.isfinite(got)) else np.inf
+                    worst[name] = max(worst[name], float(difference))
+                    if not difference <= KERNEL_TOLERANCE:
+                        raise ValueError(f"the plate's {name} right-hand side differs from reference/lattice3d.py by "
+                                         f"{difference:.1e} (relative) on the scene {label!r}")
+            if scene.has_backplate:
+                want = float(model.backplate_force(y, contact, damper_on))
+                got = float(packed.backplate_force(y[None, :])[0])
+                difference = abs(got - want) / max(abs(want), 1e-300)
+                worst["backplate force"] = max(worst["backplate force"], difference)
+                if not difference <= KERNEL_TOLERANCE:
+                    raise ValueError(f"the plate's backplate force differs from reference/lattice3d.py by "
+                                     f"{difference:.1e} on {label!r}")
+    return worst
+
+
+def main(argv=None) -> int:
+    """The checks alone (bench.peers runs them before timing): the worst differences, or one line and exit 1."""
+    import argparse
+    import sys
+
+    parser = argparse.ArgumentParser(prog="python -m bench.peer_models",
+                                     description="Check the peers' right-hand sides against reference/ to "
+                                                 f"{KERNEL_TOLERANCE:g}, as bench.peers does before it times them.")
+    parser.add_argument("--models", nargs="+", choices=("lattice", "plate"), default=["lattice", "plate"],
+                        help="the 2-D lattice's kernels (against reference/lattice.py), the plate's (against "
+                             "reference/lattice3d.py); default both")
+    parser.add_argument("--without-jax", action="store_true", help="the plate's numba kernel only, not its JAX "
+                        "one (the 2-D check always takes both)")
+    args = parser.parse_args(argv)
+    try:
+        if "lattice" in args.models:
+            worst = check_against_reference()
+            print("2-D lattice against reference/lattice.py: " + ", ".join(f"{k} {v:.1e}" for k, v in worst.items()))
+        if "plate" in args.models:
+            worst = check_plate_against_reference(with_jax=not args.without_jax)
+            print("plate against reference/lattice3d.py: " + ", ".join(f"{k} {v:.1e}" for k, v in worst.items()))
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
