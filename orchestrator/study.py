@@ -100,6 +100,25 @@ class CaseConfig:
             raise ValueError("--aggregate: only with --case (there is one case to aggregate)")
 
 
+def departures_from_the_study(fmu: PreparedFMU) -> tuple[str, ...]:
+    """The FMU's scalar parameters whose defaults are not those of the study's own scene (DEFAULT_SCENE), the
+    diagonal rule aside (each rule is a case of its own): whatever a known optimum of the study says, it was not
+    found for such an FMU."""
+    study = Scene.load(DEFAULT_SCENE).parameter_values()
+    departures = []
+    for name, parameter in fmu.parameters.items():
+        value = study.get(name)
+        if name == "diagonal_rule" or isinstance(value, (list, tuple)):
+            continue
+        try:
+            same = value is not None and parameter.value(parameter.start) == parameter.value(value)
+        except ValueError:
+            same = False
+        if not same:
+            departures.append(name)
+    return tuple(departures)
+
+
 @dataclass(frozen=True)
 class Case:
     """The user's case, resolved against the FMU: every value checked, the defaults filled in, the parameters
@@ -120,6 +139,9 @@ class Case:
     search_horizon: float | None
     search_rtol: float | None
     depth: int = 1  # masses along z (docs/model.md section 10); 1: the 2-D lattice
+    # the FMU's own defaults that are not the study's scene's (a scene's load, patch, backplate...): a known
+    # optimum of the study holds for none of them
+    departures: tuple[str, ...] = ()
 
     @property
     def cases(self) -> list[dict]:
@@ -275,6 +297,7 @@ def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: Materia
     if config.repeat:
         parameters["repeat_materials"] = 1
     return Case(scene=scene.name, rows=scene.rows, columns=fmu.columns, materials=materials, space=space,
+                departures=departures_from_the_study(fmu),
                 outputs=outputs, rules=rules, rule_default=rule_default, parameters=parameters,
                 case_lists=case_lists, aggregate=config.aggregate or "worst", horizon=horizon,
                 search_horizon=config.search_horizon or None, search_rtol=config.search_rtol or None,

@@ -46,7 +46,8 @@ def main(*argv):
 
 def test_a_known_optimum_is_looked_up_per_rule(tmp_path, monkeypatch):
     case = SimpleNamespace(outputs=("peak_backplate_force",), parameters={}, case_lists={}, rows=11, columns=4,
-                           horizon=8.0, space=DesignSpace.permutations(4), materials=study_materials(4))
+                           horizon=8.0, space=DesignSpace.permutations(4), materials=study_materials(4), depth=1,
+                           departures=())
     mean = entry(4, "mean", [((1, 2, 3, 4), 2.0), ((2, 1, 3, 4), 3.0)], "mean sweep")
     receiver = entry(4, "receiver", [((4, 3, 2, 1), 1.0), ((3, 4, 2, 1), 1.5)], "receiver sweep")
     table = tmp_path / "known.json"
@@ -56,6 +57,9 @@ def test_a_known_optimum_is_looked_up_per_rule(tmp_path, monkeypatch):
         assert known_optimum(case, "mean").order == (1, 2, 3, 4)
         assert known_optimum(case, "receiver").order == (4, 3, 2, 1)
     assert known_optimum(SimpleNamespace(**{**case.__dict__, "horizon": 4.0}), "mean") is None
+    # a plate of the same columns, or an FMU whose own defaults are not the study's (a patch), is another case
+    assert known_optimum(SimpleNamespace(**{**case.__dict__, "depth": 3}), "mean") is None
+    assert known_optimum(SimpleNamespace(**{**case.__dict__, "departures": ("load_patch",)}), "mean") is None
 
 
 def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(armour_fmu_of_width, tmp_path, monkeypatch, capfd):

@@ -278,3 +278,15 @@ def test_the_case_line_says_where_a_plate_is_struck(depth, patch, says):
                            load={"F_total": 1200.0, "load_angle": 0.0, "t_active": 0.15, "load_patch": patch},
                            parameters={}, cases={}, aggregate=None, horizon=8.0, depth=depth)
     assert says in case.line(), case.line()
+
+
+def test_a_plate_scenes_fmu_departs_from_the_study_so_no_known_optimum_of_the_lattice_is_claimed(tmp_path):
+    """The plate scene's FMU defaults to a 3 x 3 patch: the study's known optima (found on the lattice of one
+    layer over its whole face) are not its optima, whatever its columns; the study's own FMU departs in nothing."""
+    from orchestrator.fmu import describe
+    from orchestrator.study import departures_from_the_study
+
+    plate = build_fmu.build_fmu("plate_11x11x11", tmp_path / "plate.fmu", cols=8, depth=3)
+    lattice = build_fmu.build_fmu("armour_11x11", tmp_path / "lattice.fmu", cols=8)
+    assert departures_from_the_study(describe(plate, 11)) == ("load_patch",)
+    assert departures_from_the_study(describe(lattice, 11)) == ()
