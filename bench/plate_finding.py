@@ -1,7 +1,7 @@
 """The finding of the plate (docs/model.md section 10): does the 2-D study's best order survive in three dimensions?
 
-    python -m bench.plate_finding            # about 25 min on 2 cores: plates 11 masses deep
-    python -m bench.plate_finding --quick    # about 6 min: plates 3 masses deep, smaller search budgets
+    python -m bench.plate_finding            # about 7 min on 2 idle cores: plates 11 masses deep
+    python -m bench.plate_finding --quick    # about 3 min: plates 3 masses deep, smaller search budgets
 
 Why: the study optimises a 2-D lattice loaded over its whole face; a designer's plate is struck over a
 projectile's footprint and spreads the load sideways in two directions. For each load (a centred 3 x 3 patch
