@@ -152,13 +152,16 @@ def load_patch_allowed(rows: int, depth: int, load_patch) -> bool:
             and load_patch % 2 == 1 and load_patch <= min(rows, depth) and rows % 2 == 1 and depth % 2 == 1)
 
 
+def load_patch_refusal(rows: int, depth: int, load_patch) -> str:
+    return (f"load_patch = {load_patch!r} is not allowed for {rows} rows and depth {depth}: allowed 0 (the whole "
+            f"face) or an odd P <= min(rows, depth) = {min(rows, depth)}, with an odd number of rows and an odd depth")
+
+
 def loaded_face(rows: int, depth: int, load_patch: int) -> LoadedFace:
     """Which masses of column 1's face the load pushes: all of them (load_patch 0) or the centred load_patch x
     load_patch square, as lattice.c's load_fraction places it; any other load_patch is refused."""
     if not load_patch_allowed(rows, depth, load_patch):
-        raise ValueError(f"load_patch = {load_patch!r} is not allowed for {rows} rows and depth {depth}: allowed "
-                         f"0 (the whole face) or an odd P <= min(rows, depth) = {min(rows, depth)}, with an odd "
-                         f"number of rows and an odd depth")
+        raise ValueError(load_patch_refusal(rows, depth, load_patch))
     if load_patch == WHOLE_FACE:
         return LoadedFace(range(rows), range(depth), True)
     first_row, first_depth = (rows - load_patch) // 2, (depth - load_patch) // 2
@@ -406,9 +409,7 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden:
     exposed, fixed = [], []
     patch = (parameters or {}).get("load_patch", WHOLE_FACE)
     if not load_patch_allowed(rows, depth, patch):
-        raise ValueError(f"parameter load_patch = {patch!r} is not allowed for {rows} rows and depth {depth}: "
-                         f"allowed 0 (the whole face) or an odd P <= min(rows, depth) = {min(rows, depth)}, with an "
-                         f"odd number of rows and an odd depth")
+        raise ValueError("parameter " + load_patch_refusal(rows, depth, patch))
     for variable in variables:
         if parameters and variable.name in parameters:
             value = parameters[variable.name]
