@@ -20,6 +20,7 @@ SEQUENTIAL = SEQUENTIAL_ORDER
 STUDY_BEST = STUDY_BEST_ORDER
 REVERSED = tuple(reversed(SEQUENTIAL_ORDER))
 FULL_HORIZON = 8.0  # s: the study's scene
+SCREENING_ERROR = 1e-4  # a screening chunk's bound: which designs it keeps (screened_values keeps every value)
 BEST_KNOWN = next(k.order for k in known_optima() if k.columns == 11 and k.diagonal_rule == "receiver")
 
 
@@ -121,6 +122,27 @@ class WithoutLimit:
         return self.run(order)
 
 
+def screened_values(fmu_path, space: DesignSpace, workers: int, parameters: dict | None = None) -> tuple:
+    """Every design's value at the search fidelity, in rank order (None where it failed): the sweep's screening
+    (``orchestrator.exhaustive.ScreenChunk``, every value kept, no force limit) through the Evaluator on a
+    process pool. Only which designs a chunk keeps depends on the screening error; every value is kept here."""
+    from orchestrator.executors import make_executor
+    from orchestrator.exhaustive import ScreenChunk, chunk_ranges
+    from orchestrator.loop import Evaluator
+    from orchestrator.objective import close_instances
+
+    screening, = LatticeObjective(str(fmu_path), space, FULL_HORIZON, parameters=parameters or {}).tasks(SEARCH)
+    with make_executor("process", workers) as executor:
+        chunks = Evaluator(executor).run([ScreenChunk(WithoutLimit(screening), space, a, b, 1, SCREENING_ERROR, None,
+                                                      all_values=True)
+                                          for a, b in chunk_ranges(space.size, max(1, space.size // 100))])
+    close_instances()
+    bad = [chunk for chunk in chunks if not chunk.ok]
+    if bad:
+        raise SystemExit(f"{len(bad)} screening chunks failed, first: {bad[0].message}")
+    return tuple(value for chunk in chunks for value in chunk.values)
+
+
 @contextlib.contextmanager
 def narrow_lattice(columns: int) -> Iterator[tuple[Path, Path]]:
     """(scene file, FMU) of the study's armour scene with fewer columns (the study's material law with one
@@ -140,5 +162,5 @@ def narrow_lattice(columns: int) -> Iterator[tuple[Path, Path]]:
 
 __all__ = ["BEST_KNOWN", "default_setting", "setting_text", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST", "add_fmu_option", "bench_orders",
            "geometric_mean", "lattice_fmu", "narrow_lattice", "order_text", "random_orders", "relative",
-           "search_parameters",
+           "screened_values", "search_parameters",
            "search_setting_text", "span", "WithoutLimit"]

@@ -22,21 +22,19 @@ from dataclasses import dataclass
 
 from orchestrator.design import DesignSpace
 from orchestrator.executors import make_executor
-from orchestrator.exhaustive import ScreenChunk, chunk_ranges
 from orchestrator.known_optima import known_optima
 from orchestrator.loop import Evaluator, run_search
-from orchestrator.objective import SEARCH, LatticeObjective, close_instances
+from orchestrator.objective import LatticeObjective, close_instances
 from orchestrator.search import make_search
 from orchestrator.types import Evaluation, OK, failed
 
-from .common import FULL_HORIZON, WithoutLimit, lattice_fmu, narrow_lattice, order_text
+from .common import FULL_HORIZON, lattice_fmu, narrow_lattice, order_text, screened_values
 from .measurements import Page, Run, Table, write_page
 
 METHODS = ("cmaes", "pso", "sa", "ga", "de", "random")
 MAX_SWEPT = 9  # columns up to which the benchmark sweeps the table itself (9! designs: minutes on 2 cores)
 RECORDED = {k.columns: k for k in known_optima() if k.rows == 11 and k.diagonal_rule == "receiver"}
 BUDGETS = (100, 300, 1000)
-SCREENING_ERROR = 1e-4  # only which designs a chunk keeps depends on it; every value is kept here
 
 
 @dataclass(frozen=True)
@@ -59,17 +57,7 @@ class Lookup:
 def sweep_values(columns: int, workers: int) -> tuple[DesignSpace, tuple]:
     space = DesignSpace.permutations(columns)
     with narrow_lattice(columns) as (_, fmu):
-        screening, = LatticeObjective(fmu, space, FULL_HORIZON).tasks(SEARCH)
-        ranges = chunk_ranges(space.size, max(1, space.size // 100))
-        with make_executor("process", workers) as executor:
-            every = WithoutLimit(screening)
-            chunks = Evaluator(executor).run([ScreenChunk(every, space, a, b, 1, SCREENING_ERROR, None, all_values=True)
-                                              for a, b in ranges])
-        close_instances()
-    bad = [c for c in chunks if not c.ok]
-    if bad:
-        raise SystemExit(f"{len(bad)} chunks failed, first: {bad[0].message}")
-    return space, tuple(v for chunk in chunks for v in chunk.values)
+        return space, screened_values(fmu, space, workers)
 
 
 def ert(runs: list[dict]) -> float:

@@ -32,17 +32,16 @@ from pathlib import Path
 from fmu_src.published import STUDY_BEST_ORDER
 from orchestrator.design import DesignSpace
 from orchestrator.executors import make_executor
-from orchestrator.exhaustive import ScreenChunk, chunk_ranges
 from orchestrator.known_optima import known_optima
 from orchestrator.loop import Evaluator
-from orchestrator.objective import SEARCH, FMURun, LatticeObjective, close_instances
+from orchestrator.objective import FMURun, close_instances
 from orchestrator.runner import RunConfig, run_in_folder
 from orchestrator.steps import STEPS, Answers, Exhaustive, Searches
 from orchestrator.steps.searches import SearchesConfig
 from orchestrator.steps.sensitivity import Sensitivity, SensitivityConfig
 from orchestrator.study import CaseConfig
 
-from .common import FULL_HORIZON, WithoutLimit, order_text
+from .common import FULL_HORIZON, order_text, screened_values
 from .measurements import Page, Run, Table, write_page
 
 PLATE_SCENE = "plate_11x11x11"
@@ -50,7 +49,6 @@ RULES = ("mean", "receiver")
 LOADS = {"3 x 3 patch": 3, "whole face": 0}
 SWEPT_COLUMNS = 7
 SEARCHES = ("cmaes", "pso", "sa", "random", "sequential")
-SCREENING_ERROR = 1e-4  # only which designs a chunk keeps depends on it; every value is kept here
 AGREEMENT = 1e-9  # an answer's reported peak against this benchmark's own evaluation of it
 
 
@@ -95,23 +93,6 @@ def full_peaks(fmu_path, rule: str, patch: int | None, orders, workers: int) -> 
     return {e.order: e.value for e in evaluations}
 
 
-def screened_values(fmu_path, rule: str, patch: int, columns: int, workers: int) -> tuple[DesignSpace, list]:
-    """Every order's value at the search fidelity, in rank order (the sweep's screening, every value kept)."""
-    space = DesignSpace.permutations(columns)
-    objective = LatticeObjective(str(fmu_path), space, FULL_HORIZON,
-                                 parameters={"diagonal_rule": rule, "load_patch": patch})
-    screening, = objective.tasks(SEARCH)
-    with make_executor("process", workers=workers) as executor:
-        chunks = Evaluator(executor).run([ScreenChunk(WithoutLimit(screening), space, a, b, 1, SCREENING_ERROR,
-                                                      None, all_values=True)
-                                          for a, b in chunk_ranges(space.size, max(1, space.size // 40))])
-    close_instances()
-    bad = [c for c in chunks if not c.ok]
-    if bad:
-        raise SystemExit(f"{len(bad)} screening chunks failed, first: {bad[0].message}")
-    return space, [v for chunk in chunks for v in chunk.values]
-
-
 def rank_of(order, space: DesignSpace, values: list) -> tuple[int, int]:
     """(1-based rank of ``order`` by screened value, orders screened); failed orders are not counted."""
     mine = values[space.rank(tuple(order))]
@@ -152,7 +133,9 @@ def seven_layers(root: Path, setting: Setting, log) -> tuple[list, list]:
             in_lattice = full_peaks(flat_fmu, rule, None, [optimum, flat_optimum], setting.workers)
             check_agrees(f"{load}, {rule}: the plate's optimum", certificate.optimum.full, in_plate[optimum])
             check_agrees(f"{rule}: the lattice's optimum", flat_certificate.optimum.full, in_lattice[flat_optimum])
-            space, values = screened_values(plate.study.fmu_path, rule, patch, SWEPT_COLUMNS, setting.workers)
+            space = DesignSpace.permutations(SWEPT_COLUMNS)
+            values = screened_values(plate.study.fmu_path, space, setting.workers,
+                                     {"diagonal_rule": rule, "load_patch": patch})
             rank, screened = rank_of(flat_optimum, space, values)
             same = optimum == flat_optimum
             rows.append((load, rule, order_text(optimum), f"{in_plate[optimum]:.2f}",
