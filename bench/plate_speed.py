@@ -17,11 +17,14 @@ rounds. Each peak is compared with a tight run (the FMU's DOP853 at rtol 1e-13, 
 """
 from __future__ import annotations
 
+import tempfile
 import time
 from dataclasses import dataclass
 
 from fmpy import read_model_description
 
+from builder.build import build_core_library
+from fmu_src.core import Core
 from fmu_src.variables import STATE_ORDER
 from orchestrator.design import DesignSpace
 from orchestrator.objective import FULL, SEARCH, LatticeObjective, close_instances
@@ -103,21 +106,21 @@ class Accuracy:
     worst_sampled_balance: dict[int, float]  # use_symmetry -> max over every 0.01 s of |balance| / W_ext(end)
 
 
-def integrated_states(shape: tuple[int, int, int], declared: int, patch: int, symmetry: int,
+def integrated_states(core, shape: tuple[int, int, int], declared: int, patch: int, symmetry: int,
                       load_angle: float) -> int:
-    """The continuous states the Co-Simulation solver integrates, as its layout is chosen (cosimulation.c's
-    solver_layout over lattice.h's layouts): every state the FMU declares; under use_symmetry and a load along x
-    only ux and vx and the energy integrals, and of ux and vx only the rows (the slices in depth) up to the middle
-    one when the plate is mirror-symmetric about it (an odd count of at least 3, the load centred)."""
-    if not (symmetry and load_angle == 0.0):
-        return declared
+    """The continuous states the Co-Simulation solver integrates, as cosimulation.c's solver_layout chooses them
+    from the core's own rules (asked of the compiled core, ``fmu_src.core.Core``): every state the FMU declares;
+    under use_symmetry and a load along x only ux and vx and the energy integrals, of the part that carries a
+    mirror-symmetric plate's solution."""
+    import reference
+    from fmu_src.core import params_from_scene
+
     rows, cols, depth = shape
-
-    def half(extent: int) -> int:
-        centred = patch == 0 or (extent - patch) % 2 == 0
-        return (extent + 1) // 2 if extent >= 3 and extent % 2 == 1 and centred else extent
-
-    return 2 * half(rows) * cols * half(depth) + len(ENERGY_INTEGRALS)
+    params = params_from_scene(reference.Scene(rows=rows, cols=cols, load_angle=load_angle), depth, patch)
+    if not (symmetry and core.along_x(params)):
+        return declared
+    part_rows, part_depth = core.mirrored_extent(params)
+    return 2 * part_rows * cols * part_depth + len(ENERGY_INTEGRALS)
 
 
 def time_cases(path, cases, rounds: int) -> dict[tuple, Timing]:
@@ -200,8 +203,10 @@ def main(argv=None) -> int:
         timings = time_cases(path, cases, args.rounds)
         accuracies = accuracy(path, cases)
 
-    states = {(patch, symmetry): integrated_states(shape, whole_states, patch, symmetry, load_angle)
-              for patch in PATCHES for symmetry in SYMMETRIES}
+    with tempfile.TemporaryDirectory(prefix="plate_speed_core_", ignore_cleanup_errors=True) as folder:
+        core = Core(build_core_library(folder))
+        states = {(patch, symmetry): integrated_states(core, shape, whole_states, patch, symmetry, load_angle)
+                  for patch in PATCHES for symmetry in SYMMETRIES}
     cost_rows, accuracy_rows, balance_rows = [], [], []
     errors = {evaluation: [] for evaluation in EVALUATIONS}
     against_full, symmetry_differences, balances = [], [], []
