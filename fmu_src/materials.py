@@ -71,8 +71,8 @@ class Material:
     alpha: float = _column("1/m", "vertical spring exponent", positive=True)
     alpha_diag: float = _column("1/m", "diagonal spring exponent", positive=True)
     # docs/model.md section 12; a table without these columns is the study's 1 kg masses and linear dampers
-    mass: float = _column("kg", "mass of each node of a column", positive=True, default=1.0)
-    damping_exponent: float = _column(None, "exponent n of the dampers inside a column (c |dv|^(n-1) dv)",
+    mass: float = _column("kg", "node mass (every node of a column holding it)", positive=True, default=1.0)
+    damping_exponent: float = _column(None, "exponent n of the dampers inside a column (F = -c |dv|^(n-1) dv)",
                                       positive=True, default=1.0)
 
 
