@@ -267,5 +267,5 @@ def write_materials_csv(table: MaterialTable, path: str | Path) -> Path:
     return path
 
 
-__all__ = ["FIELDS", "FIELD_NAMES", "HEADER", "MAX_MATERIALS", "REQUIRED_HEADER", "Material", "MaterialTable", "MaterialTableError",
-           "STUDY_MATERIAL_COUNT", "load_materials", "study_materials", "write_materials_csv"]
+__all__ = ["FIELDS", "FIELD_NAMES", "HEADER", "MAX_MATERIALS", "Material", "MaterialTable", "MaterialTableError",
+           "REQUIRED_HEADER", "STUDY_MATERIAL_COUNT", "load_materials", "study_materials", "write_materials_csv"]

@@ -107,7 +107,8 @@ def test_a_scalar_mass_of_an_older_scene_is_every_materials_mass():
     mass column; a table with masses of its own as well is refused in one line rather than one winning."""
     values = Scene(name="older", parameters={"mass": 2.5}).parameter_values()
     assert values["mass"] == (2.5,) * 11
-    assert Scene(name="older", parameters={"mass": 2.5}).interface().fixed == []
+    exposed = {v.name: v for v in Scene(name="older", parameters={"mass": 2.5}).interface().exposed}
+    assert exposed["mass"].element_starts() == [2.5] * 11  # the FMU's mass[1..11] start with it
     with pytest.raises(ValueError) as refusal:
         make_interface(ROWS, COLS, {"mass": 2.0}, materials=TABLE)
     assert "mass" in str(refusal.value) and "\n" not in str(refusal.value)
@@ -162,7 +163,7 @@ def test_fmi3_co_simulation_closes_the_balance_too(lattice_fmu3):
 
 @pytest.mark.parametrize("interface", ["CoSimulation", "ModelExchange"])
 def test_a_plate_closes_the_balance_with_unequal_masses_and_n_1_5(plate_fmu, interface):
-    options = dict(solver="CVode", relative_tolerance=1e-9) if interface == "ModelExchange" else {}
+    options = {"solver": "CVode", "relative_tolerance": 1e-9} if interface == "ModelExchange" else {}
     result = simulate_fmu(str(plate_fmu), fmi_type=interface, stop_time=HORIZON, output_interval=0.01,
                           start_values={**order_start(PLATE_ORDER), **ACCURATE}, output=list(BALANCE), **options)
     final = {name: float(result[name][-1]) for name in BALANCE}
