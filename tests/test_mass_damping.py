@@ -265,6 +265,28 @@ def test_at_zero_relative_velocity_the_damper_is_still_with_n_below_1(core):
     assert np.all(dydt == 0.0) and np.all(powers == 0.0)
 
 
+@pytest.mark.parametrize("depth", [1, 2])
+def test_a_column_of_n_1_and_1_kg_computes_what_the_linear_1_kg_lattice_does(core, depth):
+    """Only the last column's material differs (n = 1.5, 2 kg): every other column's accelerations are the
+    all-linear, all-1-kg lattice's bit for bit (the last column's own dampers and mass act on it alone)."""
+    rng = np.random.default_rng(7 + depth)
+    rows, cols = 4, 4
+    order = (1, 2, 3, 4)
+    plain = core_params(rows, cols, order, (1.0,) * 4, (1.0,) * 4, depth=depth)
+    changed = core_params(rows, cols, order, (1.0, 1.0, 1.0, 2.0), (1.0, 1.0, 1.0, 1.5), depth=depth)
+    components = 3 if depth > 1 else 2
+    n = rows * cols * depth
+    y = np.concatenate([rng.normal(0.0, 0.03, components * n), rng.normal(0.0, 1.0, components * n)])
+    y[np.arange(cols - 1, n, cols)] = rng.uniform(-0.01, 0.02, n // cols)
+    for load_on in (True, False):
+        expected, expected_powers = core.rhs(plain, y, load_on)
+        got, got_powers = core.rhs(changed, y, load_on)
+        others = np.arange(len(got)) % cols != cols - 1  # every component of the masses of columns 1 .. C-1
+        assert np.array_equal(got[others], expected[others])
+        assert not np.array_equal(got[~others][components * n // cols:], expected[~others][components * n // cols:])
+        assert got_powers[1] != expected_powers[1] and got_powers[0] == expected_powers[0]
+
+
 @pytest.mark.parametrize("depth", [1, 3])
 def test_the_mirrored_part_carries_the_whole_with_unequal_masses_and_n_1_5(core, depth):
     rng = np.random.default_rng(1205 + depth)
