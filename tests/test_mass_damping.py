@@ -153,9 +153,11 @@ def test_the_armour_scene_at_its_default_settings_closes_the_balance_with_unequa
         assert result["stack_mass"] == pytest.approx(11 * sum(masses), rel=1e-14)
 
 
-def test_fmi3_co_simulation_closes_the_balance_too(lattice_fmu3):
-    result = simulate_fmu(str(lattice_fmu3), stop_time=HORIZON, output_interval=HORIZON, output=list(BALANCE),
-                          start_values=ACCURATE)
+@pytest.mark.parametrize("interface", ["CoSimulation", "ModelExchange"])
+def test_fmi3_closes_the_balance_too(lattice_fmu3, interface):
+    options = {"solver": "CVode", "relative_tolerance": 1e-9} if interface == "ModelExchange" else {}
+    result = simulate_fmu(str(lattice_fmu3), fmi_type=interface, stop_time=HORIZON, output_interval=0.01,
+                          output=list(BALANCE), start_values=ACCURATE, **options)
     final = {name: float(result[name][-1]) for name in BALANCE}
     assert abs(final["energy_balance_error"]) <= 1e-6 * final["external_work"]
     assert final["stack_mass"] == pytest.approx(stack_mass(TABLE, (1, 2, 3, 4), ROWS), rel=1e-15)
