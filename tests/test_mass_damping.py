@@ -1,6 +1,6 @@
 """Each material's mass and non-linear dampers (docs/model.md section 12) in the lattice FMU and its core.
 
-mass[m] and damping_exponent[m] beside k[m] ... (FMI 2 indexed scalars, FMI 3 arrays), Co-Simulation and Model
+mass[m] and damping_exponent[m] beside k[m] ... (FMI 2 and 3 alike: indexed scalars), Co-Simulation and Model
 Exchange, the lattice and a plate: the energy balance closes with unequal masses and n != 1, the mirrored half
 still carries the whole lattice, a run below peak_force_limit is the run without it, the damper pushes as section
 12 writes it, and a material table carries the two columns (checked in one line). The defaults' published
@@ -35,8 +35,8 @@ PLATE_ROWS, PLATE_COLS, PLATE_DEPTH = 3, 3, 3
 PLATE_TABLE = MaterialTable(TABLE.materials[:3])
 PLATE_ORDER = (3, 1, 2)
 HORIZON = 1.0  # through the load, the contact with the plate and the rebound
-# the balance closes to the solver's accuracy: rtol 1e-8 keeps these lattices' error far below 1e-6 of W_ext (the
-# default 5e-8 is chosen for the armour scene; here a 0.5 kg column pushed by the whole load is much quicker)
+# the balance closes to the solver's accuracy: rtol 1e-8 keeps these small lattices' error well below 1e-6 of W_ext
+# (the default 5e-8 is chosen for the armour scene, which the test below runs at it)
 ACCURATE = {"rtol": 1e-8}
 BALANCE = ("energy_balance_error", "external_work", "dissipated_energy", "kinetic_energy", "stack_mass",
            "peak_backplate_force")
