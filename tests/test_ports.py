@@ -111,6 +111,12 @@ def test_input_mode_driven_with_the_pulse_gives_the_pulse_peak(co_simulation_fmu
     assert abs(driven["energy_balance_error"]) <= 1e-6 * driven["external_work"]
 
 
+def test_inputs_set_to_what_they_are_leave_the_pulse_bit_for_bit(co_simulation_fmu):
+    """A master that sets every input at every step, unchanged (a resting hull, no force), changes nothing."""
+    pulse = run(co_simulation_fmu)
+    assert run(co_simulation_fmu, front=lambda t: 0.0, back=lambda t: (0.0, 0.0)) == pulse
+
+
 def test_input_mode_without_a_force_leaves_the_lattice_at_rest(fmu_path):
     at_rest = run(fmu_path, INPUT, front=lambda t: 0.0)
     assert at_rest["peak_backplate_force"] == 0.0
