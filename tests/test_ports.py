@@ -412,3 +412,27 @@ def test_the_quarter_plate_keeps_the_ports_and_the_projectile_exact(small_plate,
         assert quarter[name] == pytest.approx(whole[name], rel=1e-6, abs=1e-12), name
     energy_in = quarter["external_work"] if load_mode == INPUT else _impact_energy(small_plate)
     assert abs(quarter["energy_balance_error"]) <= 1e-6 * energy_in
+
+
+def test_an_fmu_state_holds_the_body_the_contact_and_the_ports(fmu_path):
+    """Projectile mode's body and contact, and a moving backplate's anchor, go into an FMU state: a run restored
+    to it goes on as the run it was taken from."""
+    instance = Slave(fmu_path, load_mode=PROJECTILE)
+    try:
+        for i in range(10):
+            instance.set(x_back=1e-4 * i, v_back=1e-2)
+            instance.slave.doStep(i * STEP, STEP)
+        state = instance.slave.getFMUstate()
+
+        def go_on():
+            for i in range(10, 50):
+                instance.set(x_back=1e-4 * i, v_back=1e-2)
+                instance.slave.doStep(i * STEP, STEP)
+            return instance.get(*OUTPUTS)
+
+        first = go_on()
+        instance.slave.setFMUstate(state)
+        assert go_on() == first
+        instance.slave.freeFMUstate(state)
+    finally:
+        instance.close()
