@@ -323,7 +323,8 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
         Variable("F_front", REAL, "input",
                  "Front port: the force along +x on column 1's face in load_mode input, each loaded mass its "
                  "share of it (the pulse's weights, normalised to 1); F_front v_front is the power the port takes "
-                 "in. Co-Simulation holds it over a step", start=0.0, unit="N"),
+                 "in. Co-Simulation holds it over a step, or extrapolates it with the derivative a master gives "
+                 "(fmi2SetRealInputDerivatives)", start=0.0, unit="N"),
         Variable("x_back", REAL, "input",
                  "Back port: the backplate's displacement along +x (0: the rigid wall of section 5). "
                  "Co-Simulation moves the backplate from it with v_back over a step", start=0.0, unit="m"),

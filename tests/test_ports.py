@@ -331,23 +331,45 @@ def _coupled_projectile(path, step, interpolate, horizon=0.5) -> float:
     mass, speed = _start(path, "projectile_mass"), _start(path, "projectile_speed")
     stiffness, exponent = _start(path, "contact_stiffness"), _start(path, "contact_exponent")
     damping = _start(path, "contact_damping")
+    substeps = 20
 
     def contact(overlap, rate):
+        """The contact force and its partial derivatives by the overlap and by its rate (docs/model.md 11)."""
         if overlap <= 0.0:
             return 0.0, 0.0, 0.0
-        elastic = stiffness * overlap ** exponent
-        force = elastic * max(1.0 + damping * rate, 0.0)
-        # the partial derivatives by overlap and by its rate (0 where the force is clipped at 0)
-        by_overlap = exponent * force / overlap
+        force = stiffness * overlap ** exponent * max(1.0 + damping * rate, 0.0)
         by_rate = stiffness * overlap ** exponent * damping if force > 0.0 else 0.0
-        return force, by_overlap, by_rate
+        return force, exponent * force / overlap, by_rate
+
+    def body_over_step(position, velocity, x_face, v_face, a_face):
+        """The body over one step by RK4 substeps; the face's x_front and v_front held over the step, or (with
+        interpolation) extrapolated from them and v_front's derivative a_face."""
+
+        def acceleration(tau, x, v):
+            if interpolate:
+                x_now, v_now = x_face + v_face * tau + 0.5 * a_face * tau * tau, v_face + a_face * tau
+            else:
+                x_now, v_now = x_face, v_face
+            return -contact(x - x_now, v - v_now)[0] / mass
+
+        h = step / substeps
+        for j in range(substeps):
+            tau = j * h
+            k1x, k1v = velocity, acceleration(tau, position, velocity)
+            k2x, k2v = velocity + 0.5 * h * k1v, acceleration(tau + 0.5 * h, position + 0.5 * h * k1x,
+                                                               velocity + 0.5 * h * k1v)
+            k3x, k3v = velocity + 0.5 * h * k2v, acceleration(tau + 0.5 * h, position + 0.5 * h * k2x,
+                                                               velocity + 0.5 * h * k2v)
+            k4x, k4v = velocity + h * k3v, acceleration(tau + h, position + h * k3x, velocity + h * k3v)
+            position += h / 6.0 * (k1x + 2 * k2x + 2 * k3x + k4x)
+            velocity += h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        return position, velocity
 
     instance = Slave(path, horizon, INPUT)
     vr = instance.vr
     position, velocity = 0.0, speed
     try:
         for i in range(round(horizon / step)):
-            t = i * step
             face = instance.get("x_front", "v_front")
             x_face, v_face = face["x_front"], face["v_front"]
             a_face = instance.slave.getRealOutputDerivatives([vr["v_front"]], [1])[0] if interpolate else 0.0
@@ -356,23 +378,8 @@ def _coupled_projectile(path, step, interpolate, horizon=0.5) -> float:
             if interpolate:
                 rate = by_overlap * (velocity - v_face) + by_rate * (-force / mass - a_face)
                 instance.slave.setRealInputDerivatives([vr["F_front"]], [1], [rate])
-            # the body over the step by RK4 substeps, the face held or extrapolated from its derivatives
-            substeps, h = 20, step / 20
-            for j in range(substeps):
-                def acceleration(tau, x, v):
-                    xf = x_face + (v_face * tau + 0.5 * a_face * tau * tau if interpolate else 0.0)
-                    vf = v_face + (a_face * tau if interpolate else 0.0)
-                    return -contact(x - xf, v - vf)[0] / mass
-                tau = j * h
-                k1x, k1v = velocity, acceleration(tau, position, velocity)
-                k2x, k2v = velocity + 0.5 * h * k1v, acceleration(tau + 0.5 * h, position + 0.5 * h * k1x,
-                                                                   velocity + 0.5 * h * k1v)
-                k3x, k3v = velocity + 0.5 * h * k2v, acceleration(tau + 0.5 * h, position + 0.5 * h * k2x,
-                                                                   velocity + 0.5 * h * k2v)
-                k4x, k4v = velocity + h * k3v, acceleration(tau + h, position + h * k3x, velocity + h * k3v)
-                position += h / 6.0 * (k1x + 2 * k2x + 2 * k3x + k4x)
-                velocity += h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
-            instance.slave.doStep(t, step)
+            position, velocity = body_over_step(position, velocity, x_face, v_face, a_face)
+            instance.slave.doStep(i * step, step)
         return instance.get("peak_backplate_force")["peak_backplate_force"]
     finally:
         instance.close()
