@@ -296,13 +296,13 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
                  enumeration="LoadMode",
                  items=(("pulse", "F_total at load_angle for 0 <= t <= t_active (the study's load)"),
                         ("input", "The input F_front along +x, spread over the face with the pulse's weights"),
-                        ("projectile", "A rigid body of projectile_mass striking the face at projectile_speed: "
-                                       "its contact force pushes the face as F_front would"))),
-        # projectile mode (docs/model.md section 11): the default carries the pulse's momentum, 1200 N x 0.15 s
-        # = 180 N s, as a blunt 50 kg body at 3.6 m/s, and its contact lasts about as long as the pulse
+                        ("projectile", ("A rigid body of projectile_mass striking the face at projectile_speed: "
+                                        "its contact force pushes the face as F_front would")))),
+        # projectile mode (docs/model.md section 11): the default body carries the pulse's momentum, F_total x
+        # t_active (tests/test_ports.py checks it), as a blunt impactor
         Variable("projectile_mass", REAL, "parameter",
-                 "Projectile mode: the striking body's mass (with projectile_speed: the pulse's momentum, "
-                 "180 N s, as a blunt 50 kg impactor)", start=50.0, unit="kg", minimum=0.0,
+                 "Projectile mode: the striking body's mass (with projectile_speed, by default the pulse's "
+                 "momentum F_total x t_active, as a blunt impactor)", start=50.0, unit="kg", minimum=0.0,
                  minimum_exclusive=True),
         Variable("projectile_speed", REAL, "parameter",
                  "Projectile mode: the body's speed along +x at t = 0, when it touches the face",

@@ -253,8 +253,8 @@ def test_model_exchange_takes_the_inputs_the_importer_sets(fmu_path):
     """fmpy's CVode drives F_front with the pulse (a step signal at t_active) and gives the pulse's peak."""
     signal = np.array([(0.0, PULSE_FORCE), (PULSE_END, PULSE_FORCE), (PULSE_END, 0.0), (HORIZON, 0.0)],
                       dtype=[("time", np.float64), ("F_front", np.float64)])
-    common = dict(fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-9, output_interval=STEP,
-                  stop_time=HORIZON, output=["peak_backplate_force", "external_work", "energy_balance_error"])
+    common = {"fmi_type": "ModelExchange", "solver": "CVode", "relative_tolerance": 1e-9, "output_interval": STEP,
+              "stop_time": HORIZON, "output": ["peak_backplate_force", "external_work", "energy_balance_error"]}
     pulse = simulate_fmu(str(fmu_path), **common)
     driven = simulate_fmu(str(fmu_path), start_values={"load_mode": INPUT}, input=signal, **common)
     assert driven["peak_backplate_force"][-1] == pytest.approx(pulse["peak_backplate_force"][-1], rel=1e-6)
@@ -299,7 +299,7 @@ def test_projectile_mode_the_contact_pushes_while_the_body_overlaps_the_face(fmu
         instance.close()
 
 
-@pytest.mark.parametrize("variant", [dict(use_symmetry=0), dict(solver=5), dict(step=HORIZON)],
+@pytest.mark.parametrize("variant", [{"use_symmetry": 0}, {"solver": 5}, {"step": HORIZON}],
                          ids=["whole-lattice", "rkn5", "one-step"])
 def test_projectile_mode_agrees_across_solvers_layouts_and_communication(fmu_path, variant):
     """The quarter (here half) lattice with the body, Fine's Nystrom pair (which takes the body as second order)
