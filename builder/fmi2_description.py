@@ -46,8 +46,9 @@ def _elements(interface: Interface) -> list[tuple]:
 
 
 def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[int], list[int]]:
-    """The ScalarVariables in value-reference order, and the indices of the outputs, of the derivatives (in
-    the order of the continuous states) and of the initial unknowns."""
+    """The ScalarVariables in value-reference order, and the indices of the outputs (each with the indices of the
+    inputs it depends on directly, space-separated), of the derivatives (in the order of the continuous states)
+    and of the initial unknowns."""
     scalars, outputs, derivatives, initial_unknowns = [], [], [], []
     state_offsets = interface.state_offsets()
     elements = _elements(interface)
@@ -66,15 +67,18 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[
             continue
         if variable.causality == "parameter":
             attributes = [("causality", "parameter"), ("variability", "fixed")]
+        elif variable.causality == "input":
+            attributes = [("causality", "input"), ("variability", "continuous")]
         else:
             variability = "continuous" if variable.type == REAL else "discrete"
             attributes = [("causality", variable.causality), ("variability", variability), ("initial", "calculated")]
             if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
                 initial_unknowns.append(index)
         if variable.causality == "output":
-            outputs.append(index)
+            outputs.append((index, " ".join(str(first_index[name]) for name in sorted(
+                variable.depends_on, key=first_index.get))))
         type_attributes = []
-        if variable.causality == "parameter":
+        if variable.causality in ("parameter", "input"):
             type_attributes.append(("start", c_literal(variable, start) if variable.type == INTEGER
                                     else repr(float(start))))
         if variable.unit:

@@ -57,10 +57,11 @@ def instantiation_token(fmi2_guid: str, files: list[Path]) -> str:
     return "{" + str(uuid.UUID(bytes=digest.digest()[:16], version=5)) + "}"
 
 
-def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, int]]]:
+def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, int, str | None]]]:
     """Every variable as a scalar (FMI 2's elements and names), value reference = its 1-based position in
     <ModelVariables>, then `time`; and <ModelStructure>'s elements (Output, ContinuousStateDerivative in the
-    order of the continuous states, InitialUnknown, EventIndicator) with their value references."""
+    order of the continuous states, InitialUnknown, EventIndicator) with their value references and, for an
+    Output, the value references of the inputs it depends on directly (space-separated; None: no attribute)."""
     variables, outputs, initial_unknowns, derivatives, indicators = [], [], [], [], []
     references, state_offsets = interface.value_references, interface.state_offsets()
     for variable in interface.exposed:
@@ -70,6 +71,9 @@ def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, i
             attributes = [("name", name), ("valueReference", str(vr))]
             if variable.causality == "parameter":
                 attributes += [("causality", "parameter"), ("variability", "fixed"),
+                               ("start", c_literal(variable, start))]
+            elif variable.causality == "input":
+                attributes += [("causality", "input"), ("variability", "continuous"),
                                ("start", c_literal(variable, start))]
             else:
                 variability = "continuous" if variable.type == REAL else "discrete"
@@ -87,7 +91,8 @@ def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, i
             variables.append({"tag": "Enumeration" if variable.enumeration else TYPE_NAMES[variable.type],
                               "attributes": attributes})
             if variable.causality == "output":
-                outputs.append(vr)
+                outputs.append((vr, " ".join(str(references[name] + VR_OFFSET) for name in sorted(
+                    variable.depends_on, key=references.get))))
             if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
                 initial_unknowns.append(vr)
             if variable.role == INDICATOR:
@@ -96,10 +101,10 @@ def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, i
     variables.append({"tag": "Float64", "attributes": [
         ("name", "time"), ("valueReference", str(time_vr)), ("causality", "independent"),
         ("variability", "continuous"), ("declaredType", "s"), ("description", "Simulation time")]})
-    structure = ([("Output", vr) for vr in outputs]
-                 + [("ContinuousStateDerivative", vr) for _, vr in sorted(derivatives)]
-                 + [("InitialUnknown", vr) for vr in initial_unknowns]
-                 + [("EventIndicator", vr) for vr in indicators])
+    structure = ([("Output", vr, dependencies) for vr, dependencies in outputs]
+                 + [("ContinuousStateDerivative", vr, None) for _, vr in sorted(derivatives)]
+                 + [("InitialUnknown", vr, None) for vr in initial_unknowns]
+                 + [("EventIndicator", vr, None) for vr in indicators])
     return variables, structure
 
 
