@@ -14,12 +14,13 @@ import shutil
 
 import numpy as np
 import pytest
-from fmpy import extract, read_model_description
+from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 
+from builder import build
 from fmu_src.variables import enumeration_values
 from reference.lattice3d import PlateScene
-from reference.system import PiecewiseSignal, SystemScene, simulate_system
+from reference.system import PiecewiseSignal, Projectile, SystemScene, simulate_system
 
 STEP = 0.01
 HORIZON = 1.0  # through the load, the contact with the plate and the rebound
@@ -117,3 +118,104 @@ def test_the_continuous_peak_agrees_with_the_reference(runs):
                      "step for one and the same backplate path, and lies above the reference's maximum (which a "
                      "fine sampling of the reference's own solution confirms); its sampled peak agrees")
     assert agrees, (fmu["peak_backplate_force_continuous"], reference.peak_backplate_force_continuous)
+
+
+# ------------------------------------------------------------------------------------------- projectile mode
+PROJECTILE_MODE = enumeration_values("load_mode")["projectile"]
+PROJECTILE_PARAMETERS = ("projectile_mass", "projectile_speed", "contact_stiffness", "contact_exponent",
+                         "contact_damping")
+PROJECTILE_OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "kinetic_energy",
+                      "potential_energy", "dissipated_energy", "external_work", "nonreciprocal_work",
+                      "energy_balance_error", "projectile_velocity", "x_front")
+
+
+def projectile_of(path, **changed) -> Projectile:
+    """The FMU's own projectile (its parameters' start values), with some of them changed."""
+    starts = {v.name: float(v.start) for v in read_model_description(str(path)).modelVariables
+              if v.name in PROJECTILE_PARAMETERS}
+    starts.update(changed)
+    return Projectile(mass=starts["projectile_mass"], speed=starts["projectile_speed"],
+                      contact_stiffness=starts["contact_stiffness"], contact_exponent=starts["contact_exponent"],
+                      contact_damping=starts["contact_damping"])
+
+
+def projectile_fmu_run(path, horizon: float, projectile: Projectile, **start) -> dict[str, float]:
+    values = {"load_mode": PROJECTILE_MODE, **TIGHT, "projectile_mass": projectile.mass,
+              "projectile_speed": projectile.speed, "contact_stiffness": projectile.contact_stiffness,
+              "contact_exponent": projectile.contact_exponent, "contact_damping": projectile.contact_damping,
+              **start}
+    result = simulate_fmu(str(path), stop_time=horizon, output_interval=horizon, start_values=values,
+                          output=list(PROJECTILE_OUTPUTS))
+    return {name: float(result[name][-1]) for name in PROJECTILE_OUTPUTS}
+
+
+def compare_projectile(fmu: dict, reference, rel: float) -> None:
+    """Peaks to ``rel``; the energy terms (the FMU's hold the body's and the contact's) to ``rel`` of the body's
+    energy; both balances closed to 1e-6 of it."""
+    energy = reference.energy
+    scale = energy.projectile_initial_kinetic
+    assert reference.peak_backplate_force > 0 and reference.peak_contact_force_continuous > 0
+    assert fmu["peak_backplate_force"] == pytest.approx(reference.peak_backplate_force, rel=rel)
+    assert fmu["peak_backplate_force_continuous"] == pytest.approx(reference.peak_backplate_force_continuous,
+                                                                   rel=rel)
+    figures = {"kinetic_energy": energy.lattice_kinetic + energy.projectile_kinetic,
+               "potential_energy": energy.lattice_potential + energy.contact_potential,
+               "dissipated_energy": energy.lattice_dissipation + energy.contact_dissipation,
+               "external_work": -energy.back_work, "nonreciprocal_work": energy.nonreciprocal_work}
+    for name, value in figures.items():
+        assert abs(fmu[name] - value) <= rel * scale, name
+    assert fmu["projectile_velocity"] == pytest.approx(reference.projectile_velocity[-1], rel=rel, abs=rel)
+    assert abs(fmu["energy_balance_error"]) <= 1e-6 * scale
+    assert energy.system_error_relative <= 1e-6
+
+
+def projectile_reference(lattice: PlateScene, projectile: Projectile, horizon: float, **section12):
+    return simulate_system(SystemScene(lattice, load_mode="projectile", projectile=projectile, **section12),
+                           horizon=horizon)
+
+
+PROJECTILE_HORIZON = 1.0  # the default body's contact, the plate's peak and the rebound
+
+
+def test_projectile_mode_agrees_with_the_reference(fmu_path):
+    """The study's 11 x 11 FMU struck by its default projectile, over the contact and the peak."""
+    projectile = projectile_of(fmu_path)
+    fmu = projectile_fmu_run(fmu_path, PROJECTILE_HORIZON, projectile)
+    reference = projectile_reference(PlateScene(rows=11, cols=11, depth=1), projectile, PROJECTILE_HORIZON)
+    compare_projectile(fmu, reference, rel=1e-6)
+
+
+@pytest.mark.slow
+def test_projectile_mode_agrees_with_the_reference_over_the_study_horizon(fmu_path):
+    projectile = projectile_of(fmu_path)
+    fmu = projectile_fmu_run(fmu_path, 8.0, projectile)
+    reference = projectile_reference(PlateScene(rows=11, cols=11, depth=1), projectile, 8.0)
+    compare_projectile(fmu, reference, rel=1e-6)
+
+
+@pytest.fixture(scope="module")
+def small_plate_fmu(tmp_path_factory):
+    return build.build_fmu(rows=3, cols=3, depth=3, werror=True,
+                           output=tmp_path_factory.mktemp("projectile_plate") / "ProjectilePlate.fmu")
+
+
+@pytest.mark.parametrize("patch", [0, 1], ids=["whole-face", "patch1"])
+def test_projectile_mode_on_a_plate_agrees_with_the_reference(small_plate_fmu, patch):
+    projectile = projectile_of(small_plate_fmu)
+    fmu = projectile_fmu_run(small_plate_fmu, PROJECTILE_HORIZON, projectile, load_patch=patch)
+    reference = projectile_reference(PlateScene(rows=3, cols=3, depth=3, load_patch=patch), projectile,
+                                     PROJECTILE_HORIZON)
+    compare_projectile(fmu, reference, rel=1e-6)
+
+
+def test_projectile_mode_with_unequal_masses_and_non_linear_dampers_agrees_with_the_reference(fmu_path):
+    """Section 12 under the projectile: each material's mass and n = 1.5 inside every column, a stiffer linear
+    contact with more damping than the default's."""
+    masses = tuple(0.5 + 0.15 * m for m in range(11))
+    projectile = projectile_of(fmu_path, contact_exponent=1.0, contact_damping=0.3)
+    start = {**{f"mass[{m}]": mass for m, mass in enumerate(masses, start=1)},
+             **{f"damping_exponent[{m}]": 1.5 for m in range(1, 12)}}
+    fmu = projectile_fmu_run(fmu_path, PROJECTILE_HORIZON, projectile, **start)
+    reference = projectile_reference(PlateScene(rows=11, cols=11, depth=1), projectile, PROJECTILE_HORIZON,
+                                     material_mass=masses, damping_exponent=(1.5,) * 11)
+    compare_projectile(fmu, reference, rel=1e-7)
