@@ -75,7 +75,7 @@ def fmu_run(path, backplate_moves: bool) -> dict[str, float]:
 
 
 def reference_run(backplate_moves: bool):
-    held = lambda value: (lambda _t, _v=value: _v)  # noqa: E731
+    held = lambda value: (lambda _t, _v=value: _v)
     front = PiecewiseSignal(STEP_STARTS, tuple(held(front_force(t)) for t in STEP_STARTS))
     if not backplate_moves:
         scene = SystemScene(PlateScene(rows=11, cols=11, depth=1), load_mode="input", front_force=front)
