@@ -212,6 +212,25 @@ def test_projectile_mode_agrees_with_the_reference(fmu_path):
     compare_projectile(fmu, reference, rel=1e-6)
 
 
+def test_projectile_mode_under_model_exchange_agrees_with_the_reference(fmu_path):
+    """fmpy's CVode over the FMU's Model Exchange interface: the sampled peak and the energy terms to 1e-6. Its
+    continuous peak is the largest force at the points the importer stopped at, so it lies between the sampled
+    peak and the reference's continuous maximum."""
+    projectile = projectile_of(fmu_path)
+    result = simulate_fmu(str(fmu_path), fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-10,
+                          stop_time=PROJECTILE_HORIZON, output_interval=STEP,
+                          start_values={"load_mode": PROJECTILE_MODE}, output=list(PROJECTILE_OUTPUTS))
+    fmu = {name: float(result[name][-1]) for name in PROJECTILE_OUTPUTS}
+    reference = projectile_reference(PlateScene(rows=11, cols=11, depth=1), projectile, PROJECTILE_HORIZON)
+    energy = reference.energy
+    assert fmu["peak_backplate_force"] == pytest.approx(reference.peak_backplate_force, rel=1e-6)
+    assert (fmu["peak_backplate_force"] <= fmu["peak_backplate_force_continuous"]
+            <= reference.peak_backplate_force_continuous * (1 + 1e-7))
+    assert fmu["dissipated_energy"] == pytest.approx(energy.lattice_dissipation + energy.contact_dissipation,
+                                                     rel=1e-6)
+    assert abs(fmu["energy_balance_error"]) <= 1e-6 * energy.projectile_initial_kinetic
+
+
 @pytest.mark.slow
 def test_projectile_mode_agrees_with_the_reference_over_the_study_horizon(fmu_path):
     projectile = projectile_of(fmu_path)
