@@ -66,6 +66,8 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[
             continue
         if variable.causality == "parameter":
             attributes = [("causality", "parameter"), ("variability", "fixed")]
+        elif variable.causality == "input":
+            attributes = [("causality", "input"), ("variability", "continuous")]
         else:
             variability = "continuous" if variable.type == REAL else "discrete"
             attributes = [("causality", variable.causality), ("variability", variability), ("initial", "calculated")]
@@ -74,7 +76,7 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[
         if variable.causality == "output":
             outputs.append(index)
         type_attributes = []
-        if variable.causality == "parameter":
+        if variable.causality in ("parameter", "input"):
             type_attributes.append(("start", c_literal(variable, start) if variable.type == INTEGER
                                     else repr(float(start))))
         if variable.unit:
@@ -87,6 +89,18 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[
                         "description": variable.description, "type": variable.type,
                         "type_attributes": type_attributes})
     return scalars, outputs, [i for _, i in sorted(derivatives)], sorted(initial_unknowns)
+
+
+def dependencies(interface: Interface) -> dict[int, str]:
+    """<ModelStructure>'s dependencies attribute of each Output and Derivative whose variable declares them
+    (its table's `dependencies`), by ScalarVariable index: the 1-based indices of the inputs and states it
+    depends on directly, "" for none. An Unknown without one depends on every known (FMI 2.0 section 3.2.2)."""
+    index_of = {}
+    for index, (variable, offset, _, _, alias) in enumerate(_elements(interface), start=1):
+        if offset == 0 and not alias:
+            index_of[variable.name] = index
+    return {index_of[v.name]: " ".join(str(index_of[name]) for name in sorted(v.dependencies, key=index_of.get))
+            for v in interface.exposed if v.dependencies is not None and v.size is None}
 
 
 def enumeration_types(interface: Interface) -> list[dict]:
@@ -106,4 +120,5 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
                   description=model_summary(interface, scene), event_indicators=interface.event_indicator_count(),
                   sources=sources, units=UNITS, enumerations=enumeration_types(interface),
                   log_categories=LOG_CATEGORIES, experiment=default_experiment(scene), variables=scalars,
-                  outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns)
+                  outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns,
+                  dependencies=dependencies(interface))

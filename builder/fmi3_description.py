@@ -57,10 +57,11 @@ def instantiation_token(fmi2_guid: str, files: list[Path]) -> str:
     return "{" + str(uuid.UUID(bytes=digest.digest()[:16], version=5)) + "}"
 
 
-def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, int]]]:
+def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, int, str | None]]]:
     """Every variable as a scalar (FMI 2's elements and names), value reference = its 1-based position in
     <ModelVariables>, then `time`; and <ModelStructure>'s elements (Output, ContinuousStateDerivative in the
-    order of the continuous states, InitialUnknown, EventIndicator) with their value references."""
+    order of the continuous states, InitialUnknown, EventIndicator) with their value references and, where the
+    table declares them, their dependencies (value references of inputs and states; None: undeclared)."""
     variables, outputs, initial_unknowns, derivatives, indicators = [], [], [], [], []
     references, state_offsets = interface.value_references, interface.state_offsets()
     for variable in interface.exposed:
@@ -70,6 +71,9 @@ def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, i
             attributes = [("name", name), ("valueReference", str(vr))]
             if variable.causality == "parameter":
                 attributes += [("causality", "parameter"), ("variability", "fixed"),
+                               ("start", c_literal(variable, start))]
+            elif variable.causality == "input":
+                attributes += [("causality", "input"), ("variability", "continuous"),
                                ("start", c_literal(variable, start))]
             else:
                 variability = "continuous" if variable.type == REAL else "discrete"
@@ -96,10 +100,13 @@ def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, i
     variables.append({"tag": "Float64", "attributes": [
         ("name", "time"), ("valueReference", str(time_vr)), ("causality", "independent"),
         ("variability", "continuous"), ("declaredType", "s"), ("description", "Simulation time")]})
-    structure = ([("Output", vr) for vr in outputs]
-                 + [("ContinuousStateDerivative", vr) for _, vr in sorted(derivatives)]
-                 + [("InitialUnknown", vr) for vr in initial_unknowns]
-                 + [("EventIndicator", vr) for vr in indicators])
+    depends = {references[v.name] + VR_OFFSET: " ".join(str(references[name] + VR_OFFSET)
+                                                         for name in sorted(v.dependencies, key=references.get))
+               for v in interface.exposed if v.dependencies is not None and v.size is None}
+    structure = ([("Output", vr, depends.get(vr)) for vr in outputs]
+                 + [("ContinuousStateDerivative", vr, depends.get(vr)) for _, vr in sorted(derivatives)]
+                 + [("InitialUnknown", vr, None) for vr in initial_unknowns]
+                 + [("EventIndicator", vr, None) for vr in indicators])
     return variables, structure
 
 

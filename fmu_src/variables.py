@@ -50,6 +50,9 @@ class Variable:
     derivative_of: str | None = None  # a DERIVATIVE's state
     enumeration: str | None = None  # an Integer declared as this FMI enumeration type, with these items
     items: tuple[tuple[str, str], ...] = ()  # (name, description) of the values 0, 1, ...
+    # the inputs and states an output or a derivative depends on directly (ModelStructure; a state output: itself);
+    # None: undeclared, which FMI reads as every known
+    dependencies: tuple[str, ...] | None = None
 
     @property
     def c_name(self) -> str:
