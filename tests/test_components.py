@@ -53,7 +53,7 @@ def test_the_model_structure_declares_each_output_s_dependencies(component_fmus,
     assert depends("projectile") == {
         "contact_force": ["projectile_position", "projectile_velocity", "v_front", "x_front"],
         "projectile_position": ["projectile_position"], "projectile_velocity": ["projectile_velocity"]}
-    assert depends("hull") == {"x": ["x"], "v": ["v"]}
+    assert depends("hull") == {"x": ["x"], "v": ["v"], "dissipated_energy": ["dissipated_energy"]}
 
 
 def _projectile_on_a_rigid_face(fmu, step, stop_time=0.3, fmi_type="CoSimulation", **parameters):
@@ -150,3 +150,17 @@ def test_build_fmu_builds_a_component_and_refuses_scene_options(tmp_path, capsys
         build_fmu.main(["--model", "projectile", "--rows", "5"])
     assert exit_.value.code == 2
     assert "--rows: only for --model lattice" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("fmi_type", ["CoSimulation", "ModelExchange"])
+def test_the_hull_s_energy_balance_closes(component_fmus, fmi_type):
+    """A constant push F does work F x; the hull holds it as kinetic and spring energy and its damper's
+    dissipated_energy."""
+    m, k, c, force = 20.0, 2.0e4, 200.0, 1000.0
+    result = simulate_fmu(str(component_fmus["hull", 2]), stop_time=0.3, output_interval=1e-3, fmi_type=fmi_type,
+                          start_values={"m": m, "k": k, "c": c, "F": force}, output=["x", "v", "dissipated_energy"],
+                          relative_tolerance=1e-10)
+    work = force * result["x"]
+    stored = 0.5 * m * result["v"] ** 2 + 0.5 * k * result["x"] ** 2 + result["dissipated_energy"]
+    assert result["dissipated_energy"][-1] > 0.1 * work[-1]
+    assert np.abs(work - stored).max() < 1e-6 * work.max()

@@ -126,6 +126,8 @@ int model_get_real(Model *m, unsigned int vr, double *value, char *message, size
         *value = m->value[VR_V];
     } else if (vr == VR_DER_V) {
         *value = acceleration(m, m->value[VR_F], m->value[VR_X], m->value[VR_V]);
+    } else if (vr == VR_DER_DISSIPATED_ENERGY) {
+        *value = m->value[VR_C] * m->value[VR_V] * m->value[VR_V];
     } else {
         *value = m->value[vr];
     }
@@ -168,7 +170,8 @@ static double longest_substep(const Model *m) {
 
 int model_advance(Model *m, double t_target, char *message, size_t message_size) {
     const double h = t_target - m->time, f0 = m->value[VR_F], slope = m->input_slope;
-    double x = m->value[VR_X], v = m->value[VR_V], tau = 0.0, dt;
+    const double c = m->value[VR_C];
+    double x = m->value[VR_X], v = m->value[VR_V], e = m->value[VR_DISSIPATED_ENERGY], tau = 0.0, dt;
     int n, i;
     if (!(h >= 0.0)) {
         snprintf(message, message_size, "t = %.17g is before the model's time %.17g", t_target, m->time);
@@ -183,10 +186,12 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         const double k3x = v + 0.5 * dt * k2v, k3v = acceleration(m, fm, x + 0.5 * dt * k2x, v + 0.5 * dt * k2v);
         const double k4x = v + dt * k3v, k4v = acceleration(m, fb, x + dt * k3x, v + dt * k3v);
         x += dt / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+        e += dt / 6.0 * c * (v * v + 2.0 * k2x * k2x + 2.0 * k3x * k3x + k4x * k4x);
         v += dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
     }
     m->value[VR_X] = x;
     m->value[VR_V] = v;
+    m->value[VR_DISSIPATED_ENERGY] = e;
     m->value[VR_F] = f0 + slope * h; /* the extrapolated input at the new communication point */
     m->time = t_target;
     return 0;
@@ -247,6 +252,7 @@ int model_get_states(const Model *m, double *x, size_t n, char *message, size_t 
     if (check_size(n, N_CONTINUOUS_STATES, "continuous states", message, message_size)) return -1;
     x[0] = m->value[VR_X];
     x[1] = m->value[VR_V];
+    x[2] = m->value[VR_DISSIPATED_ENERGY];
     return 0;
 }
 
@@ -254,6 +260,7 @@ int model_set_states(Model *m, const double *x, size_t n, char *message, size_t 
     if (check_size(n, N_CONTINUOUS_STATES, "continuous states", message, message_size)) return -1;
     m->value[VR_X] = x[0];
     m->value[VR_V] = x[1];
+    m->value[VR_DISSIPATED_ENERGY] = x[2];
     return 0;
 }
 
@@ -261,6 +268,7 @@ int model_get_derivatives(Model *m, double *dx, size_t n, char *message, size_t 
     if (check_size(n, N_CONTINUOUS_STATES, "derivatives", message, message_size)) return -1;
     dx[0] = m->value[VR_V];
     dx[1] = acceleration(m, m->value[VR_F], m->value[VR_X], m->value[VR_V]);
+    dx[2] = m->value[VR_C] * m->value[VR_V] * m->value[VR_V];
     return 0;
 }
 

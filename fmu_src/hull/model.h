@@ -9,7 +9,8 @@
  * RK4 in substeps short against the hull's own time scales; model_get_output_derivative gives x' and v' at the
  * communication point.
  *
- * Its continuous-time contract: the states x and v, no discrete states, no event indicators.
+ * Its continuous-time contract: the states x, v and the damper's dissipated energy, no discrete states, no event
+ * indicators.
  */
 #ifndef HULL_MODEL_H
 #define HULL_MODEL_H

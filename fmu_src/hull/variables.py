@@ -28,10 +28,16 @@ TABLE = ComponentTable(
                  role=STATE, dependencies=("x",)),
         Variable("v", REAL, "output", "Velocity of the hull along +x (the lattice's v_back)", unit="m/s",
                  role=STATE, dependencies=("v",)),
+        Variable("dissipated_energy", REAL, "output",
+                 "Energy the damper took out so far, the integral of c v^2 (a continuous state): with the kinetic "
+                 "energy m v^2 / 2 and the spring's k x^2 / 2 it closes the hull's energy balance against the "
+                 "work of F", unit="J", role=STATE, dependencies=("dissipated_energy",)),
         Variable("der(x)", REAL, "local", "Velocity of the hull", unit="m/s", role=DERIVATIVE, derivative_of="x",
                  dependencies=("v",)),
         Variable("der(v)", REAL, "local", "Acceleration of the hull: (F - k x - c v) / m", unit="m/s2",
                  role=DERIVATIVE, derivative_of="v", dependencies=("F", "x", "v")),
+        Variable("der(dissipated_energy)", REAL, "local", "Power of the damper: c v^2", unit="W",
+                 role=DERIVATIVE, derivative_of="dissipated_energy", dependencies=("v",)),
     ),
     horizon=8.0,
     communication_step=1e-3,
