@@ -12,6 +12,7 @@ from scipy.linalg import expm
 
 import build_fmu
 from builder.component import build_component_fmu, model_dir
+from builder.platforms import ALL_PLATFORMS, PLATFORMS, compiler_for, header_machine
 from builder.sources import SourceTree
 from fmu_src.component_table import COMPONENT_MODELS, component_table
 
@@ -164,3 +165,19 @@ def test_the_hull_s_energy_balance_closes(component_fmus, fmi_type):
     stored = 0.5 * m * result["v"] ** 2 + 0.5 * k * result["x"] ** 2 + result["dissipated_energy"]
     assert result["dissipated_energy"][-1] > 0.1 * work[-1]
     assert np.abs(work - stored).max() < 1e-6 * work.max()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+@pytest.mark.parametrize("model", COMPONENT_MODELS)
+def test_a_component_cross_builds_for_every_platform(model, version, tmp_path):
+    """`--platforms all`: a binary for each platform the build makes, each of its platform's architecture."""
+    for name in ALL_PLATFORMS[version]:
+        try:
+            compiler_for(PLATFORMS[name])
+        except RuntimeError as exc:
+            pytest.skip(str(exc))
+    fmu = build_component_fmu(model, tmp_path / f"{model}.fmu", fmi_version=version, platforms="all", werror=True)
+    with zipfile.ZipFile(fmu) as archive:
+        binaries = [name for name in archive.namelist() if name.startswith("binaries/") and not name.endswith("/")]
+        machines = {header_machine(archive.read(name), name) for name in binaries}
+    assert len(binaries) == len(ALL_PLATFORMS[version]) == len(machines)
