@@ -53,7 +53,8 @@ def test_the_model_structure_declares_each_output_s_dependencies(component_fmus,
 
     assert depends("projectile") == {
         "contact_force": ["projectile_position", "projectile_velocity", "v_front", "x_front"],
-        "projectile_position": ["projectile_position"], "projectile_velocity": ["projectile_velocity"]}
+        "projectile_position": ["projectile_position"], "projectile_velocity": ["projectile_velocity"],
+        "face_work": ["face_work"]}
     assert depends("hull") == {"x": ["x"], "v": ["v"], "dissipated_energy": ["dissipated_energy"]}
 
 
@@ -181,3 +182,21 @@ def test_a_component_cross_builds_for_every_platform(model, version, tmp_path):
         binaries = [name for name in archive.namelist() if name.startswith("binaries/") and not name.endswith("/")]
         machines = {header_machine(archive.read(name), name) for name in binaries}
     assert len(binaries) == len(ALL_PLATFORMS[version]) == len(machines)
+
+
+def test_the_projectile_s_lost_energy_is_its_work_on_the_face(component_fmus):
+    """A face receding at 1 m/s: the projectile strikes it, leaves it 2 (3.6 - 1) m/s slower than the face,
+    and the kinetic energy it lost is face_work, the work its contact force did on the face. (Co-Simulation:
+    FMPy's Model Exchange holds an input between output points, so the face would jump.)"""
+    table = component_table("projectile")
+    mass, speed, face_speed = table.variable("projectile_mass").start, table.variable("projectile_speed").start, 1.0
+    times = np.linspace(0.0, 0.5, 501)
+    inputs = np.array(list(zip(times, face_speed * times, np.full_like(times, face_speed))),
+                      dtype=[("time", np.float64), ("x_front", np.float64), ("v_front", np.float64)])
+    result = simulate_fmu(str(component_fmus["projectile", 2]), stop_time=0.5, step_size=1e-3, output_interval=1e-3,
+                          input=inputs,
+                          output=["projectile_velocity", "face_work", "contact_force"])
+    assert result["contact_force"][-1] == 0.0  # it has left the face
+    assert result["projectile_velocity"][-1] == pytest.approx(2 * face_speed - speed, rel=1e-4)
+    lost = 0.5 * mass * (speed ** 2 - result["projectile_velocity"][-1] ** 2)
+    assert result["face_work"][-1] == pytest.approx(lost, rel=1e-6)

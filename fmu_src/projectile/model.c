@@ -152,6 +152,8 @@ int model_get_real(Model *m, unsigned int vr, double *value, char *message, size
         *value = m->value[VR_PROJECTILE_VELOCITY];
     } else if (vr == VR_DER_PROJECTILE_VELOCITY) {
         *value = -instantaneous_force(m) / m->value[VR_PROJECTILE_MASS];
+    } else if (vr == VR_DER_FACE_WORK) {
+        *value = instantaneous_force(m) * m->value[VR_V_FRONT];
     } else if (vr == VR_CONTACT_FORCE && (m->model_exchange || !m->stepped)) {
         *value = instantaneous_force(m);
     } else {
@@ -183,6 +185,7 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
     if (check_parameters(m, message, message_size)) return -1;
     m->value[VR_PROJECTILE_POSITION] = 0.0;
     m->value[VR_PROJECTILE_VELOCITY] = m->value[VR_PROJECTILE_SPEED];
+    m->value[VR_FACE_WORK] = 0.0;
     m->time = start_time;
     m->initialized = 1;
     return 0;
@@ -203,7 +206,7 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
     const double x0 = m->value[VR_X_FRONT], v0 = m->value[VR_V_FRONT], a = m->velocity_slope;
     const double s = m->position_slope_given ? m->position_slope : v0;
     const double start_velocity = m->value[VR_PROJECTILE_VELOCITY];
-    double x = m->value[VR_PROJECTILE_POSITION], v = start_velocity, speed, dt;
+    double x = m->value[VR_PROJECTILE_POSITION], v = start_velocity, work = m->value[VR_FACE_WORK], speed, dt;
     int n, i;
     if (!(h >= 0.0)) {
         snprintf(message, message_size, "t = %.17g is before the model's time %.17g", t_target, m->time);
@@ -222,9 +225,12 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         const double k2x = v + 0.5 * dt * k1v, k2v = -contact_force(m, x + 0.5 * dt * k1x, k2x, xm, vm) / mass;
         const double k3x = v + 0.5 * dt * k2v, k3v = -contact_force(m, x + 0.5 * dt * k2x, k3x, xm, vm) / mass;
         const double k4x = v + dt * k3v, k4v = -contact_force(m, x + dt * k3x, k4x, xb, vb) / mass;
+        /* the face's power F_c v_f at the stages: -mass k_v v_f */
+        work -= dt / 6.0 * mass * (k1v * va + 2.0 * k2v * vm + 2.0 * k3v * vm + k4v * vb);
         x += dt / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
         v += dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
     }
+    m->value[VR_FACE_WORK] = work;
     if (h > 0.0) {
         m->value[VR_CONTACT_FORCE] = mass * (start_velocity - v) / h; /* the impulse over the step, per second */
         m->stepped = 1;
@@ -295,6 +301,7 @@ int model_get_states(const Model *m, double *x, size_t n, char *message, size_t 
     if (check_size(n, N_CONTINUOUS_STATES, "continuous states", message, message_size)) return -1;
     x[0] = m->value[VR_PROJECTILE_POSITION];
     x[1] = m->value[VR_PROJECTILE_VELOCITY];
+    x[2] = m->value[VR_FACE_WORK];
     return 0;
 }
 
@@ -302,6 +309,7 @@ int model_set_states(Model *m, const double *x, size_t n, char *message, size_t 
     if (check_size(n, N_CONTINUOUS_STATES, "continuous states", message, message_size)) return -1;
     m->value[VR_PROJECTILE_POSITION] = x[0];
     m->value[VR_PROJECTILE_VELOCITY] = x[1];
+    m->value[VR_FACE_WORK] = x[2];
     return 0;
 }
 
@@ -309,6 +317,7 @@ int model_get_derivatives(Model *m, double *dx, size_t n, char *message, size_t 
     if (check_size(n, N_CONTINUOUS_STATES, "derivatives", message, message_size)) return -1;
     dx[0] = m->value[VR_PROJECTILE_VELOCITY];
     dx[1] = -instantaneous_force(m) / m->value[VR_PROJECTILE_MASS];
+    dx[2] = instantaneous_force(m) * m->value[VR_V_FRONT];
     return 0;
 }
 

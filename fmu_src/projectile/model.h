@@ -16,8 +16,8 @@
  * step hands the face exactly the momentum the projectile lost. model_get_output_derivative gives the
  * derivatives of position and velocity at the communication point; contact_force, a step's mean, has none.
  *
- * Its continuous-time contract: the states projectile_position and projectile_velocity, no discrete states, no
- * event indicators (the force is continuous in the state: it rises from 0 as delta^n and falls to 0 where the
+ * Its continuous-time contract: the states projectile_position, projectile_velocity and face_work (the work of
+ * the contact force on the face), no discrete states, no event indicators (the force is continuous in the state: it rises from 0 as delta^n and falls to 0 where the
  * damping term would pull).
  */
 #ifndef PROJECTILE_MODEL_H

@@ -49,11 +49,18 @@ TABLE = ComponentTable(
                  unit="m", role=STATE, dependencies=("projectile_position",)),
         Variable("projectile_velocity", REAL, "output", "Velocity of the projectile along +x", unit="m/s",
                  role=STATE, dependencies=("projectile_velocity",)),
+        Variable("face_work", REAL, "output",
+                 "Work the contact force did on the face so far, the integral of F_c v_front with the face's motion "
+                 "as the projectile sees it (Co-Simulation: extrapolated over each step; a continuous state). Less "
+                 "the face's received work (the lattice's external_work at the front port), it is the energy the "
+                 "coupling created or lost", unit="J", role=STATE, dependencies=("face_work",)),
         Variable("der(projectile_position)", REAL, "local", "Velocity of the projectile", unit="m/s",
                  role=DERIVATIVE, derivative_of="projectile_position", dependencies=("projectile_velocity",)),
         Variable("der(projectile_velocity)", REAL, "local", "Acceleration of the projectile: -F_c / mass",
                  unit="m/s2", role=DERIVATIVE, derivative_of="projectile_velocity",
                  dependencies=(*INPUTS, *STATES)),
+        Variable("der(face_work)", REAL, "local", "Power of the contact force on the face: F_c v_front", unit="W",
+                 role=DERIVATIVE, derivative_of="face_work", dependencies=(*INPUTS, *STATES)),
     ),
     horizon=1.0,
     communication_step=1e-4,
