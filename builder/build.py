@@ -105,6 +105,7 @@ def generate_header(interface: Interface, guid: str) -> str:
         "#define CAUSALITY_PARAMETER 0",
         "#define CAUSALITY_OUTPUT 1",
         "#define CAUSALITY_LOCAL 2",
+        "#define CAUSALITY_INPUT 3",
         "",
         "typedef struct {",
         "    const char *name;",
@@ -126,8 +127,8 @@ def generate_header(interface: Interface, guid: str) -> str:
     indicator_offset = 0
     for variable in interface.exposed:
         type_code = "MODEL_TYPE_REAL" if variable.type == REAL else "MODEL_TYPE_INTEGER"
-        causality = {"output": "CAUSALITY_OUTPUT", "parameter": "CAUSALITY_PARAMETER"}.get(variable.causality,
-                                                                                            "CAUSALITY_LOCAL")
+        causality = {"output": "CAUSALITY_OUTPUT", "parameter": "CAUSALITY_PARAMETER",
+                     "input": "CAUSALITY_INPUT"}.get(variable.causality, "CAUSALITY_LOCAL")
         state = state_offsets[variable.name] if variable.role == STATE else -1
         derivative = state_offsets[variable.derivative_of] if variable.role == DERIVATIVE else -1
         indicator = indicator_offset if variable.role == INDICATOR else -1

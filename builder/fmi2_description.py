@@ -46,8 +46,9 @@ def _elements(interface: Interface) -> list[tuple]:
 
 
 def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[int], list[int]]:
-    """The ScalarVariables in value-reference order, and the indices of the outputs, of the derivatives (in
-    the order of the continuous states) and of the initial unknowns."""
+    """The ScalarVariables in value-reference order, and the indices of the outputs (each with the indices of the
+    inputs it depends on directly, space-separated), of the derivatives (in the order of the continuous states)
+    and of the initial unknowns."""
     scalars, outputs, derivatives, initial_unknowns = [], [], [], []
     state_offsets = interface.state_offsets()
     elements = _elements(interface)
@@ -74,7 +75,8 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[
             if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
                 initial_unknowns.append(index)
         if variable.causality == "output":
-            outputs.append(index)
+            outputs.append((index, " ".join(str(first_index[name]) for name in sorted(
+                variable.depends_on, key=first_index.get))))
         type_attributes = []
         if variable.causality in ("parameter", "input"):
             type_attributes.append(("start", c_literal(variable, start) if variable.type == INTEGER
@@ -89,18 +91,6 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[
                         "description": variable.description, "type": variable.type,
                         "type_attributes": type_attributes})
     return scalars, outputs, [i for _, i in sorted(derivatives)], sorted(initial_unknowns)
-
-
-def dependencies(interface: Interface) -> dict[int, str]:
-    """<ModelStructure>'s dependencies attribute of each Output and Derivative whose variable declares them
-    (its table's `dependencies`), by ScalarVariable index: the 1-based indices of the inputs and states it
-    depends on directly, "" for none. An Unknown without one depends on every known (FMI 2.0 section 3.2.2)."""
-    index_of = {}
-    for index, (variable, offset, _, _, alias) in enumerate(_elements(interface), start=1):
-        if offset == 0 and not alias:
-            index_of[variable.name] = index
-    return {index_of[v.name]: " ".join(str(index_of[name]) for name in sorted(v.dependencies, key=index_of.get))
-            for v in interface.exposed if v.dependencies is not None and v.size is None}
 
 
 def enumeration_types(interface: Interface) -> list[dict]:
@@ -120,5 +110,4 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
                   description=model_summary(interface, scene), event_indicators=interface.event_indicator_count(),
                   sources=sources, units=UNITS, enumerations=enumeration_types(interface),
                   log_categories=LOG_CATEGORIES, experiment=default_experiment(scene), variables=scalars,
-                  outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns,
-                  dependencies=dependencies(interface))
+                  outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns)

@@ -60,8 +60,8 @@ def instantiation_token(fmi2_guid: str, files: list[Path]) -> str:
 def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, int, str | None]]]:
     """Every variable as a scalar (FMI 2's elements and names), value reference = its 1-based position in
     <ModelVariables>, then `time`; and <ModelStructure>'s elements (Output, ContinuousStateDerivative in the
-    order of the continuous states, InitialUnknown, EventIndicator) with their value references and, where the
-    table declares them, their dependencies (value references of inputs and states; None: undeclared)."""
+    order of the continuous states, InitialUnknown, EventIndicator) with their value references and, for an
+    Output, the value references of the inputs it depends on directly (space-separated; None: no attribute)."""
     variables, outputs, initial_unknowns, derivatives, indicators = [], [], [], [], []
     references, state_offsets = interface.value_references, interface.state_offsets()
     for variable in interface.exposed:
@@ -91,7 +91,8 @@ def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, i
             variables.append({"tag": "Enumeration" if variable.enumeration else TYPE_NAMES[variable.type],
                               "attributes": attributes})
             if variable.causality == "output":
-                outputs.append(vr)
+                outputs.append((vr, " ".join(str(references[name] + VR_OFFSET) for name in sorted(
+                    variable.depends_on, key=references.get))))
             if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
                 initial_unknowns.append(vr)
             if variable.role == INDICATOR:
@@ -100,11 +101,8 @@ def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, i
     variables.append({"tag": "Float64", "attributes": [
         ("name", "time"), ("valueReference", str(time_vr)), ("causality", "independent"),
         ("variability", "continuous"), ("declaredType", "s"), ("description", "Simulation time")]})
-    depends = {references[v.name] + VR_OFFSET: " ".join(str(references[name] + VR_OFFSET)
-                                                         for name in sorted(v.dependencies, key=references.get))
-               for v in interface.exposed if v.dependencies is not None and v.size is None}
-    structure = ([("Output", vr, depends.get(vr)) for vr in outputs]
-                 + [("ContinuousStateDerivative", vr, depends.get(vr)) for _, vr in sorted(derivatives)]
+    structure = ([("Output", vr, dependencies) for vr, dependencies in outputs]
+                 + [("ContinuousStateDerivative", vr, None) for _, vr in sorted(derivatives)]
                  + [("InitialUnknown", vr, None) for vr in initial_unknowns]
                  + [("EventIndicator", vr, None) for vr in indicators])
     return variables, structure

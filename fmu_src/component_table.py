@@ -36,9 +36,11 @@ class ComponentTable:
         if any(v.size is not None for v in self.variables):
             raise ValueError(f"{self.identifier}: a component's variables are scalars")
         for variable in self.variables:
-            unknown = set(variable.dependencies or ()) - set(names)
+            inputs = {v.name for v in self.variables if v.causality == "input"}
+            unknown = set(variable.depends_on) - inputs
             if unknown:
-                raise ValueError(f"{self.identifier}: {variable.name} depends on unknown variables {sorted(unknown)}")
+                raise ValueError(f"{self.identifier}: {variable.name} depends on {sorted(unknown)}, which are not "
+                                 f"inputs")
 
     @property
     def exposed(self) -> list[Variable]:

@@ -30,7 +30,10 @@ class LatticeParams(ctypes.Structure):
                 ("load_total", ctypes.c_double), ("load_angle_deg", ctypes.c_double),
                 ("load_duration", ctypes.c_double), ("has_backplate", ctypes.c_int),
                 ("k_wall", ctypes.c_double), ("c_wall", ctypes.c_double), ("backplate_gap", ctypes.c_double),
-                ("depth", ctypes.c_int), ("load_patch", ctypes.c_int)]
+                ("depth", ctypes.c_int), ("load_patch", ctypes.c_int),
+                # the ports (docs/model.md section 11); zero: the pulse and the rigid wall
+                ("load_mode", ctypes.c_int), ("front_force", ctypes.c_double), ("back_position", ctypes.c_double),
+                ("back_velocity", ctypes.c_double)]
 
 
 def components(params: LatticeParams) -> int:

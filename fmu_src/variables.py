@@ -36,7 +36,7 @@ class Variable:
 
     name: str
     type: str  # REAL or INTEGER
-    causality: str  # "parameter" or "output"
+    causality: str  # "parameter", "input", "output" or "local"
     description: str
     start: float | int | tuple | None = None  # a tuple gives one start value per element of an array
     unit: str | None = None
@@ -50,9 +50,9 @@ class Variable:
     derivative_of: str | None = None  # a DERIVATIVE's state
     enumeration: str | None = None  # an Integer declared as this FMI enumeration type, with these items
     items: tuple[tuple[str, str], ...] = ()  # (name, description) of the values 0, 1, ...
-    # the inputs and states an output or a derivative depends on directly (ModelStructure; a state output: itself);
-    # None: undeclared, which FMI reads as every known
-    dependencies: tuple[str, ...] | None = None
+    # an output's direct dependencies on inputs (<ModelStructure>): the inputs it changes with at the same time,
+    # without integrating (an output without the list would be taken to depend on every input)
+    depends_on: tuple[str, ...] = ()
 
     @property
     def c_name(self) -> str:
@@ -90,6 +90,8 @@ class Variable:
         high = "inf" if self.maximum is None else f"{self.maximum:g}"
         left = "(" if self.minimum_exclusive or self.minimum is None else "["
         right = ")" if self.maximum is None else "]"
+        if self.type == REAL and self.minimum is None and self.maximum is None:
+            return "a finite number"
         return f"a finite number in {left}{low}, {high}{right}" if self.type == REAL else f"an integer in [{low}, {high}]"
 
 
@@ -128,6 +130,9 @@ def plotted_mass_index(rows: int, cols: int, depth: int, row: int, col: int) -> 
     """lattice.h's number of plotted mass (row, col) (1-based) of the plotted layer: (k R + i) C + j, 0-based."""
     return ((plotted_layer(depth) - 1) * rows + row - 1) * cols + col - 1
 
+
+# The back port's inputs: what the backplate force and the penetration at the current time depend on directly.
+BACK_PORT = ("x_back", "v_back")
 
 WHOLE_FACE = 0  # load_patch of a load over column 1's whole face (lattice.h: LATTICE_WHOLE_FACE)
 
@@ -275,33 +280,54 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
                  start=0, minimum=0, maximum=min(rows, depth),
                  allowed=f"0 (the whole face) or an odd P, 1 <= P <= min(rows, depth) = {min(rows, depth)}, with "
                          f"an odd number of rows and an odd depth"),
+        Variable("load_mode", INTEGER, "parameter",
+                 "What pushes column 1: pulse (0, F_total for 0 <= t <= t_active, the "
+                 "study's load), input (1, the input F_front, spread over the face as the pulse is)",
+                 start=0, minimum=0, maximum=1, allowed="0 (pulse) or 1 (input)", enumeration="LoadMode",
+                 items=(("pulse", "F_total at load_angle for 0 <= t <= t_active (the study's load)"),
+                        ("input", "The input F_front along +x, spread over the face with the pulse's weights"))),
+        # inputs: the ports (docs/model.md section 11)
+        Variable("F_front", REAL, "input",
+                 "Front port: the force along +x on column 1's face in load_mode input, each loaded mass its "
+                 "share of it (the pulse's weights, normalised to 1); F_front v_front is the power the port takes "
+                 "in. Co-Simulation holds it over a step", start=0.0, unit="N"),
+        Variable("x_back", REAL, "input",
+                 "Back port: the backplate's displacement along +x (0: the rigid wall of section 5). "
+                 "Co-Simulation moves the backplate from it with v_back over a step", start=0.0, unit="m"),
+        Variable("v_back", REAL, "input",
+                 "Back port: the backplate's velocity along +x; the backplate's damper acts on vx - v_back",
+                 start=0.0, unit="m/s"),
         # outputs
-        Variable("backplate_force", REAL, "output", "Force on the backplate", unit="N"),
+        Variable("backplate_force", REAL, "output", "Force on the backplate", unit="N",
+                 depends_on=BACK_PORT),
         Variable("peak_backplate_force", REAL, "output",
                  "Maximum backplate force over the samples every peak_sample_interval so far. Model Exchange: "
                  "over the sample times at which the importer completed a step or handled an event (the FMU "
                  "sees no other points; an importer that stops on the sample grid, as fmpy does on its output "
-                 "grid, gives the study's sampled peak to its own accuracy)", unit="N"),
+                 "grid, gives the study's sampled peak to its own accuracy)", unit="N", depends_on=BACK_PORT),
         Variable("peak_backplate_force_continuous", REAL, "output",
                  "Maximum backplate force over the continuous solution so far. Model Exchange: over every point "
                  "at which the importer completed a step or handled an event, which can miss the maximum "
-                 "between them", unit="N"),
-        Variable("peak_time", REAL, "output", "Time of peak_backplate_force_continuous", unit="s"),
+                 "between them", unit="N", depends_on=BACK_PORT),
+        Variable("peak_time", REAL, "output", "Time of peak_backplate_force_continuous", unit="s",
+                 depends_on=BACK_PORT),
         Variable("last_contact_time", REAL, "output",
                  "Latest time any column-C mass touched the backplate (0 if none has): a search over a short "
                  "horizon is safe only if this is well before the horizon. Model Exchange: over the points the "
-                 "importer completed, contact ends located as events", unit="s"),
+                 "importer completed, contact ends located as events", unit="s", depends_on=BACK_PORT),
         Variable("max_compression", REAL, "output",
                  "Largest shortening of the lattice along the load so far: the mean x displacement of column 1 "
                  "minus that of column C, over the same samples as peak_backplate_force", unit="m"),
         Variable("transmitted_impulse", REAL, "output",
                  "Impulse transmitted to the backplate so far: the time integral of the backplate force, by the "
-                 "trapezoidal rule over the same samples as peak_backplate_force", unit="N.s"),
+                 "trapezoidal rule over the same samples as peak_backplate_force", unit="N.s", depends_on=BACK_PORT),
         Variable("kinetic_energy", REAL, "output", "Kinetic energy", unit="J"),
         Variable("potential_energy", REAL, "output", "Potential energy of the springs and the backplate",
-                 unit="J"),
+                 unit="J", depends_on=BACK_PORT),
         Variable("external_work", REAL, "output",
-                 "Work done by the load (a continuous state: Model Exchange integrates it with the lattice)",
+                 "Work done on the lattice from outside: by the load (pulse) or the front port, minus the work "
+                 "it does on a moving backplate (a continuous state: Model Exchange integrates it with the "
+                 "lattice)",
                  unit="J", role=STATE),
         Variable("dissipated_energy", REAL, "output", "Energy taken out by the dampers (a continuous state)",
                  unit="J", role=STATE),
@@ -309,7 +335,14 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
                  "Work of the unequal part of diagonal pairs (receiver rule; a continuous state)", unit="J",
                  role=STATE),
         Variable("energy_balance_error", REAL, "output",
-                 "external_work + nonreciprocal_work - kinetic - potential - dissipated", unit="J"),
+                 "external_work + nonreciprocal_work - kinetic - potential - dissipated", unit="J",
+                 depends_on=BACK_PORT),
+        Variable("x_front", REAL, "output",
+                 "Front port: the loaded face's displacement along +x, sum of w_a ux_a over its loaded masses "
+                 "with the load's weights w_a (summing to 1)", unit="m"),
+        Variable("v_front", REAL, "output",
+                 "Front port: the loaded face's velocity along +x, sum of w_a vx_a (F_front v_front is the power "
+                 "the port takes in)", unit="m/s"),
     ]
     where = f" of layer {plotted_layer(depth)}" if depth > 1 else ""
     for place, (row, col) in plotted_masses(rows, cols).items():
@@ -355,11 +388,11 @@ def continuous_time_variables(rows: int, cols: int, depth: int = 1) -> list[Vari
                                   derivative_of=name))
     variables += [
         Variable("contact_indicator", REAL, "local",
-                 f"Event indicator of each {face} column-C mass touching the backplate: ux - backplate_gap "
-                 "(> 0 in contact)", unit="m", size=rows * depth, role=INDICATOR),
+                 f"Event indicator of each {face} column-C mass touching the backplate: ux - backplate_gap - "
+                 "x_back (> 0 in contact)", unit="m", size=rows * depth, role=INDICATOR),
         Variable("damping_indicator", REAL, "local",
-                 f"Event indicator of each {face} backplate damper: vx while in contact (> 0: approaching, the "
-                 "damper acts); off the plate the damper cannot switch and this repeats contact_indicator",
+                 f"Event indicator of each {face} backplate damper: vx - v_back while in contact (> 0: "
+                 "approaching, the damper acts); off the plate the damper cannot switch and this repeats contact_indicator",
                  size=rows * depth, role=INDICATOR),
     ]
     return variables

@@ -16,10 +16,11 @@ from test_fmi3 import Instance
 ENUMERATIONS = {v.name: v for v in all_variables(11, 11) if v.enumeration}
 
 
-def test_diagonal_rule_and_solver_name_the_tables_items_in_both_versions(fmu_path, fmu3_path):
-    assert set(ENUMERATIONS) == {"diagonal_rule", "solver"}
+def test_the_enumerations_name_the_tables_items_in_both_versions(fmu_path, fmu3_path):
+    assert set(ENUMERATIONS) == {"diagonal_rule", "solver", "load_mode"}
     expected = {"diagonal_rule": {"receiver": 0, "mean": 1},
-                "solver": {"dop853": 0, "rk4": 1, "semi_implicit_euler": 2, "tsit5": 3, "dopri5": 4, "rkn5": 5}}
+                "solver": {"dop853": 0, "rk4": 1, "semi_implicit_euler": 2, "tsit5": 3, "dopri5": 4, "rkn5": 5},
+                "load_mode": {"pulse": 0, "input": 1}}
     for path in (fmu_path, fmu3_path):
         description = read_model_description(str(path))
         for name, variable in ENUMERATIONS.items():

@@ -84,6 +84,27 @@ int model_get_integer(Model *m, unsigned int vr, int *value, char *message, size
     return -1;
 }
 
+/* The support holds its input F over a step (its Co-Simulation sub-steps do not extrapolate) and computes no
+ * output derivatives. */
+int model_set_input_derivative(Model *m, unsigned int vr, int order, double value, char *message,
+                               size_t message_size) {
+    (void)m;
+    (void)value;
+    snprintf(message, message_size,
+             "value reference %u, order %d: this model holds its input F over a step and takes no input derivatives",
+             vr, order);
+    return -1;
+}
+
+int model_get_output_derivative(Model *m, unsigned int vr, int order, double *value, char *message,
+                                size_t message_size) {
+    (void)m;
+    (void)value;
+    snprintf(message, message_size, "value reference %u, order %d: this model gives no output derivatives", vr,
+             order);
+    return -1;
+}
+
 static int check_parameters(const Model *m, char *message, size_t message_size) {
     const double *p = m->value;
     if (!(p[VR_M] > 0.0 && isfinite(p[VR_M])) || !(p[VR_K] >= 0.0 && isfinite(p[VR_K])) ||

@@ -23,12 +23,21 @@ void model_free(Model *m);
 /* Back to the start values, uninitialised (fmi2Instantiate, fmi2Reset). */
 void model_reset(Model *m);
 
-/* Setters refuse outputs, unknown references, out-of-range values, and parameters after initialisation. */
+/* Setters refuse outputs, unknown references, out-of-range values, and parameters after initialisation; inputs
+ * may be set at any time. */
 int model_set_real(Model *m, unsigned int vr, double value, char *message, size_t message_size);
 int model_set_integer(Model *m, unsigned int vr, int value, char *message, size_t message_size);
 /* Getters: Model Exchange's outputs and every variable's derivatives are computed here when first asked for. */
 int model_get_real(Model *m, unsigned int vr, double *value, char *message, size_t message_size);
 int model_get_integer(Model *m, unsigned int vr, int *value, char *message, size_t message_size);
+
+/* Co-Simulation: the order-th time derivative (1 = first order) of the real input at vr at the start of the
+ * next step (FMI 2's fmi2SetRealInputDerivatives); the model extrapolates that input over the step with it.
+ * A model that cannot, or an order above the model's maximum, refuses with why. */
+int model_set_input_derivative(Model *m, unsigned int vr, int order, double value, char *message, size_t message_size);
+/* Co-Simulation: the order-th time derivative of the real output at vr at the model's time
+ * (FMI 2's fmi2GetRealOutputDerivatives). */
+int model_get_output_derivative(Model *m, unsigned int vr, int order, double *value, char *message, size_t message_size);
 
 /* How many value references the model's variables take (0 .. count - 1); the type of the one at vr, or -1. */
 unsigned int model_value_reference_count(void);

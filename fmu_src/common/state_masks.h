@@ -28,6 +28,8 @@
 #define MASK_fmi2SetFMUstate ANY_STATE
 /* Co-Simulation */
 #define MASK_fmi2DoStep STEPPING_STATES
+#define MASK_fmi2SetRealInputDerivatives (IN(STATE_INITIALIZATION_MODE) | IN(STATE_STEP))
+#define MASK_fmi2GetRealOutputDerivatives (STEPPING_STATES | IN(STATE_TERMINATED))
 /* Model Exchange */
 #define MASK_fmi2EnterEventMode MODEL_EXCHANGE_STATES
 #define MASK_fmi2NewDiscreteStates IN(STATE_EVENT_MODE)
@@ -55,6 +57,7 @@
 #define MASK_fmi3GetFMUState MASK_fmi2GetFMUstate
 #define MASK_fmi3SetFMUState MASK_fmi2SetFMUstate
 #define MASK_fmi3DoStep MASK_fmi2DoStep
+#define MASK_fmi3GetOutputDerivatives MASK_fmi2GetRealOutputDerivatives
 #define MASK_fmi3EnterEventMode MASK_fmi2EnterEventMode
 #define MASK_fmi3UpdateDiscreteStates MASK_fmi2NewDiscreteStates
 #define MASK_fmi3EnterContinuousTimeMode MASK_fmi2EnterContinuousTimeMode

@@ -309,20 +309,31 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
 
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[]) {
-    (void)vr;
-    (void)nvr;
-    (void)order;
-    (void)value;
-    return error((Instance *)c, "fmi2SetRealInputDerivatives", "this FMU has no inputs");
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    if (!CHECK_STATE(fmi2SetRealInputDerivatives)) return fmi2Error;
+    for (i = 0; i < nvr; i++) {
+        if (model_set_input_derivative(instance->common.model, vr[i], order[i], value[i], message, sizeof(message))) {
+            return error(instance, "fmi2SetRealInputDerivatives", message);
+        }
+    }
+    return fmi2OK;
 }
 
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                         const fmi2Integer order[], fmi2Real value[]) {
-    (void)vr;
-    (void)nvr;
-    (void)order;
-    (void)value;
-    return error((Instance *)c, "fmi2GetRealOutputDerivatives", "not provided by this FMU");
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    if (!CHECK_STATE(fmi2GetRealOutputDerivatives)) return fmi2Error;
+    for (i = 0; i < nvr; i++) {
+        if (model_get_output_derivative(instance->common.model, vr[i], order[i], &value[i], message,
+                                        sizeof(message))) {
+            return error(instance, "fmi2GetRealOutputDerivatives", message);
+        }
+    }
+    return fmi2OK;
 }
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,

@@ -778,12 +778,20 @@ fmi3Status fmi3EnterStepMode(fmi3Instance c) {
 
 fmi3Status fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
                                     const fmi3Int32 orders[], fmi3Float64 values[], size_t nValues) {
-    (void)vr;
-    (void)nvr;
-    (void)orders;
-    (void)values;
-    (void)nValues;
-    return error((Instance *)c, "fmi3GetOutputDerivatives", "not provided by this FMU");
+    Instance *instance = (Instance *)c;
+    char message[MESSAGE_SIZE];
+    size_t i;
+    if (!CHECK_STATE(fmi3GetOutputDerivatives)) return fmi3Error;
+    if (nValues != nvr) return error(instance, "fmi3GetOutputDerivatives", "nValues must equal nValueReferences");
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] < VR_OFFSET ||
+            model_get_output_derivative(instance->common.model, vr[i] - VR_OFFSET, orders[i], &values[i], message,
+                                        sizeof(message))) {
+            if (vr[i] < VR_OFFSET) snprintf(message, sizeof(message), "value reference %u is unknown", vr[i]);
+            return error(instance, "fmi3GetOutputDerivatives", message);
+        }
+    }
+    return fmi3OK;
 }
 
 fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentCommunicationPoint, fmi3Float64 communicationStepSize,

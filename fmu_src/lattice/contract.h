@@ -60,8 +60,25 @@ struct Model {
     int outputs_stale; /* Model Exchange: the outputs still describe an earlier state */
     long exchange_evaluations, exchange_points; /* derivative evaluations and completed points (ME) */
     int switch_pending; /* Model Exchange: a completed point found a mode that contradicts the state */
+    /* Co-Simulation's ports over a step (docs/model.md section 11): the inputs' values at port_time (the last
+     * communication point an input was set at), and the time derivatives the importer gave for them
+     * (model_set_input_derivative; 0 until given, and again once the input itself is set). The backplate
+     * moves from port_back_position with v_back (or with x_back's derivative where one is given). */
+    double port_time, port_front_force, port_back_position, port_back_velocity;
+    double front_force_rate, back_position_rate, back_velocity_rate;
+    int back_position_rate_given;
+    int ports_driven; /* an input was set after initialisation, or load_mode is input: steps end on the
+                         communication points, where the inputs may change */
     CoSimulation cs;
 };
+
+/* Co-Simulation: the ports' values at time t (inputs extrapolated from port_time) into the model's params,
+ * where the physics reads them. */
+void model_ports_at(Model *m, double t);
+
+/* Co-Simulation: the importer set input vr to value at the model's time (after initialisation): the driver
+ * goes on from there with it. 0, or -1 and why. */
+int model_driver_set_input(Model *m, unsigned int vr, double value, char *message, size_t message_size);
 
 /* The derivatives of state y (lattice.h's whole layout) under the backplate modes, with the load on or off. */
 void model_derivatives(const Model *m, int load_on, const double *y, double *dydt);

@@ -41,9 +41,20 @@ static int solver_mirrored(const Model *m) {
     return m->cs.solver_rows != LATTICE_ROWS || m->cs.solver_layers != LATTICE_DEPTH;
 }
 
-/* The solver's right-hand side: the contract's derivatives of the whole lattice, or of its reduced layout. */
-static void solver_rhs(void *context, int phase, const double *y, double *dydt) {
-    const Model *m = (const Model *)context;
+void model_ports_at(Model *m, double t) {
+    const double elapsed = t - m->port_time;
+    const double velocity = m->port_back_velocity, acceleration = m->back_velocity_rate;
+    const double rate = m->back_position_rate_given ? m->back_position_rate : velocity;
+    m->params.front_force = m->port_front_force + m->front_force_rate * elapsed;
+    m->params.back_velocity = velocity + acceleration * elapsed;
+    m->params.back_position = m->port_back_position + rate * elapsed + 0.5 * acceleration * elapsed * elapsed;
+}
+
+/* The solver's right-hand side at time t: the contract's derivatives of the whole lattice, or of its reduced
+ * layout, with the ports' values at t. */
+static void solver_rhs(void *context, int phase, double t, const double *y, double *dydt) {
+    Model *m = (Model *)context;
+    model_ports_at(m, t);
     if (m->cs.solver_along_x) {
         lattice_rhs_along_x(&m->params, solver_mirrored(m), phase, m->wall_mode, y, dydt);
     } else {
@@ -138,6 +149,7 @@ static double backplate_force_of(Model *m, double t, int hermite) {
     double ux[N_FACE_MASSES], vx[N_FACE_MASSES];
     const int vx_base = solver_vx_base(m);
     int f;
+    model_ports_at(m, t);
     for (f = 0; f < solver_faces(m); f++) {
         const int mass = LAST_COLUMN_MASS(f);
         ux[f] = look(m, mass, t, hermite);
@@ -332,6 +344,7 @@ static void update_outputs(Model *m, double t_target) {
             peak_time = partial_time;
         }
     }
+    model_ports_at(m, t_target);
     model_update_outputs(m, peak, peak_time, fmin(m->last_contact_time, t_target), s->rhs_evaluations,
                          s->steps_accepted, s->steps_rejected);
 }
@@ -346,7 +359,8 @@ static int wall_free(const Model *m) {
 }
 
 /* The modes docs/model.md gives the column-C masses in the state at the end of the last step. */
-static void wall_modes_of_state(const Model *m, signed char *modes) {
+static void wall_modes_of_state(Model *m, signed char *modes) {
+    model_ports_at(m, m->cs.solver.t);
     model_wall_modes(m, solver_state(m->cs.work), m->cs.solver_rows, m->cs.solver_layers, solver_vx_base(m), modes);
 }
 
@@ -356,14 +370,20 @@ static void wall_modes_of_state(const Model *m, signed char *modes) {
  * BIT 11 (1971) 168-174), with a bisection whenever the bracket has not halved over two evaluations, which
  * keeps the worst case within a few times bisection's. Where the indicator already has the end's sign at the
  * step's start, no crossing is inside and the bracket closes on the start by bisection. */
-static double locate_switch(Model *m, int k) {
-    const Solver *s = &m->cs.solver;
+static double indicator_at(Model *m, int k, double t) {
     int component;
     double offset;
+    model_ports_at(m, t); /* a moving backplate moves the threshold */
     model_indicator_definition(m, k, m->cs.solver_rows, solver_vx_base(m), &component, &offset);
-    const int positive_at_end = solver_state(m->cs.work)[component] - offset > 0.0;
-    double low = s->t_old, high = s->t, g_low = state_component(m, component, low) - offset;
-    double g_high = solver_state(m->cs.work)[component] - offset, width_1 = INFINITY, width_2 = INFINITY;
+    return state_component(m, component, t) - offset;
+}
+
+static double locate_switch(Model *m, int k) {
+    const Solver *s = &m->cs.solver;
+    const double g_end = indicator_at(m, k, s->t);
+    const int positive_at_end = g_end > 0.0;
+    double low = s->t_old, high = s->t, g_low = indicator_at(m, k, low);
+    double g_high = g_end, width_1 = INFINITY, width_2 = INFINITY;
     int i, side = 0;
     if ((g_low > 0.0) == positive_at_end) g_low = g_high = 0.0; /* no sign change: bisection alone */
     for (i = 0; i < 400 && high - low > 4.0 * DBL_EPSILON * fmax(fabs(high), 1.0); i++) {
@@ -376,7 +396,7 @@ static double locate_switch(Model *m, int k) {
         }
         width_2 = width_1;
         width_1 = width;
-        g = state_component(m, component, x) - offset;
+        g = indicator_at(m, k, x);
         if ((g > 0.0) == positive_at_end) {
             high = x;
             g_high = g;
@@ -497,6 +517,7 @@ static int check_divergence(Model *m, char *message, size_t message_size) {
          * close; a solution that makes energy out of nothing is diverging, even while it stays bounded */
         double potential, balance;
         if (s->steps_accepted % BALANCE_CHECK_STEPS != 0) return 0;
+        model_ports_at(m, s->t);
         balance = model_energy_balance(m, whole_solver_state(m), &kinetic, &potential);
         if (isfinite(balance) && fabs(balance) <= BALANCE_LIMIT_FRACTION * injected + floor) return 0;
         snprintf(reason, sizeof(reason),
@@ -578,6 +599,7 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         double t_limit = INFINITY;
         model_next_time_event(m, &t_limit);
         if (m->stop_time_defined) t_limit = fmin(t_limit, m->stop_time);
+        if (m->ports_driven) t_limit = fmin(t_limit, t_target); /* the inputs may change there */
         if (s->steps_accepted + s->steps_rejected - steps_before >= MAX_STEPS_PER_DO_STEP) {
             snprintf(reason, sizeof(reason),
                      "this doStep reached the cap of %ld solver steps per doStep at t = %.9g s, short of %.9g s: "
@@ -673,6 +695,154 @@ int model_driver_check(const Model *m, char *message, size_t message_size) {
     if ((cs->limit_exceeded != 0 && cs->limit_exceeded != 1) || (cs->terminated != 0 && cs->terminated != 1)) {
         snprintf(message, message_size, "the state is corrupt: its peak_force_limit flags are out of range");
         return -1;
+    }
+    return 0;
+}
+
+/* ---- The ports between communication points (docs/model.md section 11) ---- */
+
+/* Before an input or its derivative changes at the communication point: a solver that went past it with the old
+ * inputs goes back to it (its last step cut there on the dense output, that part's peak taken), and the ports
+ * are anchored there with their present values. */
+static void ports_to_communication_point(Model *m) {
+    CoSimulation *cs = &m->cs;
+    Solver *s = &cs->solver;
+    if (s->t > m->time) {
+        solver_truncate(s, cs->work, solver_rhs, m, m->time);
+        cs->step_peak_known = 0;
+        cs->step_peak_committed = 0;
+        process_step(m, m->time);
+    }
+    model_ports_at(m, m->time);
+    m->port_time = m->time;
+    m->port_front_force = m->params.front_force;
+    m->port_back_position = m->params.back_position;
+    m->port_back_velocity = m->params.back_velocity;
+}
+
+/* After the change: the solver goes on from the communication point under the new inputs, and the outputs
+ * (the backplate force, its modes) are those of the new inputs there. */
+static void ports_changed(Model *m) {
+    m->cs.solver.end_derivative_valid = 0;
+    m->ports_driven = 1;
+    wall_modes_of_state(m, m->wall_mode);
+    m->derivative_valid = 0;
+    update_outputs(m, m->time);
+}
+
+int model_driver_set_input(Model *m, unsigned int vr, double value, char *message, size_t message_size) {
+    (void)message;
+    (void)message_size;
+    m->real[vr] = value;
+    if (m->failed || m->cs.terminated) return 0; /* the run goes no further: nothing to move */
+    ports_to_communication_point(m);
+    if (vr == VR_F_FRONT) {
+        m->port_front_force = value;
+        m->front_force_rate = 0.0; /* held until a derivative is given */
+    } else if (vr == VR_V_BACK) {
+        m->port_back_velocity = value;
+        m->back_velocity_rate = 0.0;
+    } else if (vr == VR_X_BACK) {
+        /* a backplate put somewhere else than where it moved to does work on the lattice in the jump: the
+         * change of the backplate's potential goes into external_work, so the balance still closes */
+        const double *y = whole_solver_state(m);
+        const double before = lattice_backplate_potential(&m->params, y);
+        m->port_back_position = value;
+        m->back_position_rate_given = 0;
+        model_ports_at(m, m->time);
+        m->cs.work[solver_quadrature_base(m)] += lattice_backplate_potential(&m->params, y) - before;
+    }
+    ports_changed(m);
+    return 0;
+}
+
+int model_set_input_derivative(Model *m, unsigned int vr, int order, double value, char *message,
+                               size_t message_size) {
+    const char *name = vr == VR_F_FRONT ? "F_front" : vr == VR_X_BACK ? "x_back" : "v_back";
+    if (vr != VR_F_FRONT && vr != VR_X_BACK && vr != VR_V_BACK) {
+        snprintf(message, message_size, "value reference %u is not an input (the inputs: F_front, x_back, v_back)",
+                 vr);
+        return -1;
+    }
+    if (order != 1) {
+        snprintf(message, message_size,
+                 "%s: derivative order %d is not allowed: this FMU extrapolates its inputs linearly (order 1 only)",
+                 name, order);
+        return -1;
+    }
+    if (!isfinite(value)) {
+        snprintf(message, message_size, "%s: its derivative %g is not allowed: it must be finite", name, value);
+        return -1;
+    }
+    if (m->exchange) {
+        snprintf(message, message_size,
+                 "%s: input derivatives are for Co-Simulation; under Model Exchange the importer sets the inputs "
+                 "at every time it asks for derivatives",
+                 name);
+        return -1;
+    }
+    if (m->initialized && !m->failed && !m->cs.terminated) ports_to_communication_point(m);
+    if (vr == VR_F_FRONT) {
+        m->front_force_rate = value;
+    } else if (vr == VR_V_BACK) {
+        m->back_velocity_rate = value;
+    } else {
+        m->back_position_rate = value;
+        m->back_position_rate_given = 1;
+    }
+    if (m->initialized && !m->failed && !m->cs.terminated) ports_changed(m);
+    return 0;
+}
+
+int model_get_output_derivative(Model *m, unsigned int vr, int order, double *value, char *message,
+                                size_t message_size) {
+    const double *y = m->output_state;
+    const char *name = vr == VR_X_FRONT ? "x_front" : vr == VR_V_FRONT ? "v_front" : "backplate_force";
+    if (vr != VR_X_FRONT && vr != VR_V_FRONT && vr != VR_BACKPLATE_FORCE) {
+        snprintf(message, message_size,
+                 "value reference %u: output derivatives are given for x_front, v_front and backplate_force only", vr);
+        return -1;
+    }
+    if (order != 1) {
+        snprintf(message, message_size, "%s: derivative order %d is not allowed: allowed 1 (maxOutputDerivativeOrder)",
+                 name, order);
+        return -1;
+    }
+    if (!m->initialized || m->exchange) {
+        snprintf(message, message_size, "%s: output derivatives are given in Co-Simulation after initialisation",
+                 name);
+        return -1;
+    }
+    if (vr == VR_X_FRONT) {
+        *value = m->real[VR_V_FRONT];
+        return 0;
+    }
+    model_ports_at(m, m->time);
+    if (!m->derivative_valid) {
+        model_derivatives(m, m->load_on, y, m->derivative);
+        m->derivative_valid = 1;
+    }
+    if (vr == VR_V_FRONT) {
+        double velocity;
+        lattice_front_port(&m->params, m->derivative, &velocity, value); /* (ux', vx') = (vx, ax) */
+        return 0;
+    }
+    {
+        /* d/dt of k_w p + c_w (vx - v_back) over the masses in contact (the damper while approaching) */
+        const double elapsed = m->time - m->port_time;
+        const double back_rate = (m->back_position_rate_given ? m->back_position_rate : m->port_back_velocity) +
+                                 m->back_velocity_rate * elapsed;
+        double rate = 0.0;
+        int f;
+        for (f = 0; f < N_FACE_MASSES; f++) {
+            const int mass = LAST_COLUMN_MASS(f);
+            if (!m->params.has_backplate || m->wall_mode[f] == WALL_FREE) continue;
+            rate += m->params.k_wall * (y[VX_BASE + mass] - back_rate);
+            if (m->wall_mode[f] == WALL_APPROACHING) {
+                rate += m->params.c_wall * (m->derivative[VX_BASE + mass] - m->back_velocity_rate);
+            }
+        }
+        *value = rate;
     }
     return 0;
 }

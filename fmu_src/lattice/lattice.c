@@ -334,7 +334,17 @@ static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, 
     double power_external = 0.0, power_dissipated = springs->dissipated, power_nonreciprocal = springs->nonreciprocal;
     int i, k;
 
-    if (load_on) {
+    if (p->load_mode != LOAD_MODE_PULSE) { /* the front port's force along +x, with the pulse's weights */
+        for (k = 0; k < layers; k++) {
+            for (i = 0; i < rows; i++) {
+                const int a = (k * rows + i) * cols;
+                const double share = p->front_force * load_fraction(p, i, k);
+                if (share == 0.0) continue; /* outside the patch, or no force */
+                fx[a] += share;
+                power_external += mirror_count(mirror_y, mirror_z, rows, layers, i, k) * (share * vx[a]);
+            }
+        }
+    } else if (load_on) {
         const double angle = p->load_angle_deg * (M_PI / 180.0);
         const double cos_angle = cos(angle), sin_angle = sin(angle);
         for (k = 0; k < layers; k++) {
@@ -359,13 +369,17 @@ static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, 
         for (k = 0; k < layers; k++) {
             for (i = 0; i < rows; i++) {
                 const int a = (k * rows + i) * cols + cols - 1;
-                const double penetration = ux[a] - p->backplate_gap;
+                const double penetration = ux[a] - p->backplate_gap - p->back_position;
                 const int mode = wall_mode ? wall_mode[k * p->rows + i] : lattice_wall_mode(p, ux[a], vx[a]);
                 if (mode != WALL_FREE) {
-                    const double damped_velocity = mode == WALL_APPROACHING ? vx[a] : 0.0;
+                    /* the damper on the velocity relative to the backplate; the force on the mass does
+                     * work on the backplate at v_back, which leaves the lattice (docs/model.md section 11) */
+                    const double damped_velocity = mode == WALL_APPROACHING ? vx[a] - p->back_velocity : 0.0;
                     const double counted = mirror_count(mirror_y, mirror_z, rows, layers, i, k);
-                    fx[a] -= p->k_wall * penetration + p->c_wall * damped_velocity;
-                    power_dissipated += counted * (p->c_wall * damped_velocity * vx[a]);
+                    const double wall_force = p->k_wall * penetration + p->c_wall * damped_velocity;
+                    fx[a] -= wall_force;
+                    power_dissipated += counted * (p->c_wall * damped_velocity * damped_velocity);
+                    power_external -= counted * (wall_force * p->back_velocity);
                 }
             }
         }
@@ -381,11 +395,13 @@ static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, 
 }
 
 int lattice_wall_mode(const LatticeParams *p, double ux, double vx) {
-    if (!p->has_backplate || ux - p->backplate_gap <= 0.0) return WALL_FREE;
-    return vx > 0.0 ? WALL_APPROACHING : WALL_RECEDING;
+    if (!p->has_backplate || ux - p->backplate_gap - p->back_position <= 0.0) return WALL_FREE;
+    return vx - p->back_velocity > 0.0 ? WALL_APPROACHING : WALL_RECEDING;
 }
 
-int lattice_along_x(const LatticeParams *p) { return p->load_angle_deg == 0.0 || p->load_total == 0.0; }
+int lattice_along_x(const LatticeParams *p) {
+    return p->load_mode != LOAD_MODE_PULSE || p->load_angle_deg == 0.0 || p->load_total == 0.0;
+}
 
 /* A load along x (or none) that is centred on the face: a patch is centred when its side leaves as many
  * rows (layers) on either side. */
@@ -1028,10 +1044,10 @@ static double backplate_force_of_face(const LatticeParams *p, int rows, int laye
     for (k = 0; k < layers; k++) {
         for (i = 0; i < rows; i++) {
             const int at = (k * rows + i) * stride;
-            const double penetration = ux_last_column[at] - p->backplate_gap;
+            const double penetration = ux_last_column[at] - p->backplate_gap - p->back_position;
             if (penetration > 0.0) {
-                const double vx = vx_last_column[at];
-                const double mass_force = p->k_wall * penetration + p->c_wall * (vx > 0.0 ? vx : 0.0);
+                const double approach = vx_last_column[at] - p->back_velocity;
+                const double mass_force = p->k_wall * penetration + p->c_wall * (approach > 0.0 ? approach : 0.0);
                 force += mirror_count(mirror_y, mirror_z, rows, layers, i, k) * mass_force;
             }
         }
@@ -1055,6 +1071,23 @@ double lattice_backplate_force(const LatticeParams *p, const double *y) {
     const int n = p->rows * p->cols * p->depth;
     return lattice_backplate_force_from_column(p, y + p->cols - 1, y + LATTICE_COMPONENTS(p->depth) * n + p->cols - 1,
                                                p->cols);
+}
+
+void lattice_front_port(const LatticeParams *p, const double *y, double *x_front, double *v_front) {
+    const int rows = p->rows, cols = p->cols, n = rows * cols * p->depth;
+    const double *ux = y, *vx = y + LATTICE_COMPONENTS(p->depth) * n;
+    double x = 0.0, v = 0.0;
+    int i, k;
+    for (k = 0; k < p->depth; k++) {
+        for (i = 0; i < rows; i++) {
+            const int a = (k * rows + i) * cols;
+            const double weight = load_fraction(p, i, k);
+            x += weight * ux[a];
+            v += weight * vx[a];
+        }
+    }
+    *x_front = x;
+    *v_front = v;
 }
 
 /* Potential of one spring: for a non-reciprocal pair, the mean of its two ends' potentials. uz NULL in a
@@ -1136,11 +1169,26 @@ void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, 
     if (p->has_backplate) {
         for (k = 0; k < layers; k++) {
             for (i = 0; i < rows; i++) {
-                const double penetration = ux[k * layer_size + i * cols + cols - 1] - p->backplate_gap;
+                const double penetration =
+                    ux[k * layer_size + i * cols + cols - 1] - p->backplate_gap - p->back_position;
                 if (penetration > 0.0) energy += 0.5 * p->k_wall * penetration * penetration;
             }
         }
     }
     *kinetic = 0.5 * p->mass * speed_squared;
     *potential = energy;
+}
+
+double lattice_backplate_potential(const LatticeParams *p, const double *y) {
+    const int rows = p->rows, cols = p->cols, layer_size = rows * cols;
+    double energy = 0.0;
+    int i, k;
+    if (!p->has_backplate) return 0.0;
+    for (k = 0; k < p->depth; k++) {
+        for (i = 0; i < rows; i++) {
+            const double penetration = y[k * layer_size + i * cols + cols - 1] - p->backplate_gap - p->back_position;
+            if (penetration > 0.0) energy += 0.5 * p->k_wall * penetration * penetration;
+        }
+    }
+    return energy;
 }

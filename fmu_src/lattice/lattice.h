@@ -54,6 +54,11 @@ typedef struct {
     double k_wall, c_wall, backplate_gap;
     int depth;      /* layers D >= 1 (docs/model.md section 10); 1 is the two-dimensional lattice */
     int load_patch; /* LATTICE_WHOLE_FACE, or the odd side P of the centred P x P patch column 1 is pushed on */
+    /* the ports (docs/model.md section 11): what pushes column 1 (enum LoadMode: the pulse above, or
+     * front_force spread with the pulse's weights), and the backplate's displacement and velocity along +x, as
+     * they are at the time the right-hand side is asked for (0, 0: the rigid wall of section 5) */
+    int load_mode;
+    double front_force, back_position, back_velocity;
 } LatticeParams;
 
 /* NULL when the core computes the lattice p describes, else message (of size bytes) filled with one line
@@ -61,7 +66,7 @@ typedef struct {
 const char *lattice_params_error(const LatticeParams *p, char *message, int size);
 
 /* How a column-C mass meets the backplate: docs/model.md section 5 switches the wall force on with penetration
- * p > 0 and its damping with vx > 0. */
+ * p = ux - gap - x_back > 0 and its damping with vx - v_back > 0 (section 11: a moving backplate). */
 typedef enum { WALL_FREE = 0, WALL_RECEDING = 1, WALL_APPROACHING = 2 } WallMode;
 
 /* The mode docs/model.md gives a column-C mass with displacement ux and velocity vx. */
@@ -86,7 +91,7 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
 int lattice_mirror_rows(const LatticeParams *p);
 int lattice_mirror_layers(const LatticeParams *p);
 
-/* A lattice loaded along x (load_angle 0, or no load) moves along x alone for all time: r = u_b - u_a
+/* A lattice loaded along x (load_angle 0, no load, or the ports' load, which is along +x) moves along x alone for all time: r = u_b - u_a
  * (docs/model.md section 2) of two masses that have not moved in y or z has no y or z part, so no spring,
  * damper or load pushes in y or z. Its state without the y and z components, [ux (N), vx (N), W_ext, D,
  * W_nr], carries the whole solution. 1 if so. */
@@ -101,7 +106,12 @@ int lattice_along_x(const LatticeParams *p);
 void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, const signed char *wall_mode,
                          const double *y, double *dydt);
 
-/* Sum over column-C masses in contact of k_w p + c_w max(vx, 0) (docs/model.md section 5). */
+/* The front port (docs/model.md section 11): x_front = sum of w_a ux_a and v_front = sum of w_a vx_a over the
+ * loaded face masses with the load's weights w_a (summing to 1), of whole state y. */
+void lattice_front_port(const LatticeParams *p, const double *y, double *x_front, double *v_front);
+
+/* Sum over column-C masses in contact of k_w p + c_w max(vx - v_back, 0), p = ux - gap - x_back (docs/model.md
+ * sections 5 and 11). */
 double lattice_backplate_force(const LatticeParams *p, const double *y);
 
 /* Backplate force from column C's ux and vx alone, face mass f = k*R + i at [f * stride] (the interpolated
@@ -114,6 +124,10 @@ double lattice_backplate_force_from_column(const LatticeParams *p, const double 
  * in the whole: 4 times off both middle planes, twice on one, once on both. */
 double lattice_backplate_force_mirrored(const LatticeParams *p, const double *ux_last_column,
                                         const double *vx_last_column, int stride);
+
+/* The backplate's part of the potential energy, sum of k_w p^2 / 2 over the column-C masses in contact, of whole
+ * state y. */
+double lattice_backplate_potential(const LatticeParams *p, const double *y);
 
 /* Kinetic and potential energy (docs/model.md section 7; a non-reciprocal pair counts the mean of its ends). */
 void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, double *potential);

@@ -36,10 +36,10 @@ void model_indicator_definition(const Model *m, int k, int rows, int vx_base, in
     const int held = (face / LATTICE_ROWS) * rows + face % LATTICE_ROWS; /* its number in the layout */
     if (k >= N_FACE_MASSES && m->wall_mode[face] != WALL_FREE) {
         *component = vx_base + LAST_COLUMN_MASS(held); /* vx */
-        *threshold = 0.0;
+        *threshold = m->params.back_velocity;
     } else {
         *component = LAST_COLUMN_MASS(held); /* ux */
-        *threshold = m->params.backplate_gap;
+        *threshold = m->params.backplate_gap + m->params.back_position;
     }
 }
 
@@ -68,7 +68,7 @@ void model_wall_modes(const Model *m, const double *y, int rows, int layers, int
     }
 }
 
-/* The load acts for 0 <= t <= t_active. */
+/* The pulse acts for 0 <= t <= t_active (the ports' load has no time event). */
 int model_next_time_event(const Model *m, double *time) {
     if (!m->load_on) return 0;
     *time = m->params.load_duration;
@@ -111,13 +111,13 @@ static int check_reference(unsigned int vr, int type, int setting, int initializ
                  type_names[type], type_names[VARIABLES[vr].type]);
         return -1;
     }
-    if (setting && VARIABLES[vr].causality != CAUSALITY_PARAMETER) {
+    if (setting && VARIABLES[vr].causality != CAUSALITY_PARAMETER && VARIABLES[vr].causality != CAUSALITY_INPUT) {
         snprintf(message, message_size, "%s is %s and cannot be set%s", VARIABLES[vr].name,
                  VARIABLES[vr].causality == CAUSALITY_OUTPUT ? "an output" : "a local variable",
                  VARIABLES[vr].state >= 0 ? " (Model Exchange sets the continuous states as a whole)" : "");
         return -1;
     }
-    if (setting && initialized) {
+    if (setting && initialized && VARIABLES[vr].causality == CAUSALITY_PARAMETER) {
         snprintf(message, message_size,
                  "%s is a fixed parameter: it can be set only before initialisation (reset the FMU first)",
                  VARIABLES[vr].name);
@@ -130,17 +130,35 @@ static int check_range(unsigned int vr, double value, char *message, size_t mess
     const VariableInfo *v = &VARIABLES[vr];
     const int below = v->minimum_exclusive ? value <= v->minimum : value < v->minimum;
     if (!isfinite(value) || below || value > v->maximum) {
-        snprintf(message, message_size, "parameter %s = %g is not allowed: allowed values are %s", v->name, value,
-                 v->allowed);
+        snprintf(message, message_size, "%s %s = %g is not allowed: allowed values are %s",
+                 v->causality == CAUSALITY_INPUT ? "input" : "parameter", v->name, value, v->allowed);
         return -1;
     }
     return 0;
 }
 
+/* The ports' inputs as the physics reads them (Model Exchange: as the importer set them). */
+static void take_inputs(const Model *m, LatticeParams *p) {
+    p->front_force = m->real[VR_F_FRONT];
+    p->back_position = m->real[VR_X_BACK];
+    p->back_velocity = m->real[VR_V_BACK];
+}
+
 int model_set_real(Model *m, unsigned int vr, double value, char *message, size_t message_size) {
     if (check_reference(vr, MODEL_TYPE_REAL, 1, m->initialized, message, message_size)) return -1;
     if (check_range(vr, value, message, message_size)) return -1;
-    m->real[vr] = value;
+    if (!m->initialized || VARIABLES[vr].causality != CAUSALITY_INPUT) {
+        m->real[vr] = value;
+        if (vr == VR_F_FRONT) m->front_force_rate = 0.0; /* a new value is held until a derivative is given */
+        if (vr == VR_X_BACK) m->back_position_rate_given = 0;
+        if (vr == VR_V_BACK) m->back_velocity_rate = 0.0;
+        return 0;
+    }
+    if (!m->exchange) return model_driver_set_input(m, vr, value, message, message_size);
+    m->real[vr] = value; /* Model Exchange: the importer's value at its time */
+    take_inputs(m, &m->params);
+    m->derivative_valid = 0;
+    m->outputs_stale = 1;
     return 0;
 }
 
@@ -261,6 +279,8 @@ static void build_params(const Model *m, LatticeParams *p) {
     p->k_wall = PARAM_K_WALL(m);
     p->c_wall = PARAM_C_WALL(m);
     p->backplate_gap = PARAM_BACKPLATE_GAP(m);
+    p->load_mode = PARAM_LOAD_MODE(m);
+    take_inputs(m, p);
 }
 
 double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows, int layers) {
@@ -341,6 +361,7 @@ void model_update_outputs(Model *m, double peak_continuous, double peak_time, do
     m->real[VR_EXTERNAL_WORK] = y[INDEX_EXTERNAL_WORK];
     m->real[VR_DISSIPATED_ENERGY] = y[INDEX_DISSIPATED];
     m->real[VR_NONRECIPROCAL_WORK] = y[INDEX_NONRECIPROCAL_WORK];
+    lattice_front_port(&m->params, y, &m->real[VR_X_FRONT], &m->real[VR_V_FRONT]);
     for (i = 0; i < 4; i++) {
         m->real[plotted_x[i]] = y[plotted_mass[i]];
         m->real[plotted_y[i]] = y[N_MASSES + plotted_mass[i]];
@@ -392,7 +413,12 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
     m->stop_time_defined = stop_time_defined;
     m->stop_time = stop_time;
     m->time = start_time;
-    m->load_on = start_time < m->params.load_duration;
+    m->load_on = m->params.load_mode == LOAD_MODE_PULSE && start_time < m->params.load_duration;
+    m->port_time = start_time;
+    m->port_front_force = m->params.front_force;
+    m->port_back_position = m->params.back_position;
+    m->port_back_velocity = m->params.back_velocity;
+    m->ports_driven = m->params.load_mode != LOAD_MODE_PULSE;
     memset(m->output_state, 0, sizeof(m->output_state)); /* at rest, in place */
     {
         double kinetic;
@@ -412,7 +438,7 @@ int model_check(const Model *m, char *message, size_t message_size) {
         return -1;
     }
     for (vr = 0; vr < N_VALUE_REFERENCES; vr++) {
-        if (VARIABLES[vr].causality != CAUSALITY_PARAMETER) continue;
+        if (VARIABLES[vr].causality != CAUSALITY_PARAMETER && VARIABLES[vr].causality != CAUSALITY_INPUT) continue;
         if (check_range(vr, VARIABLES[vr].type == MODEL_TYPE_REAL ? m->real[vr] : (double)m->integer[vr], message,
                         message_size)) {
             return -1;

@@ -165,8 +165,8 @@ static const NystromPair FINE_RKN5 = {
     {0.0, 8.0 / 39.0, 4.0 / 13.0, 5.0 / 6.0, 43.0 / 47.0, 1.0, 1.0}, /* C */
 };
 
-static void evaluate(Solver *s, OdeFunction f, void *context, const double *y, double *dydt) {
-    f(context, s->phase, y, dydt);
+static void evaluate(Solver *s, OdeFunction f, void *context, double t, const double *y, double *dydt) {
+    f(context, s->phase, t, y, dydt);
     s->rhs_evaluations++;
 }
 
@@ -226,7 +226,7 @@ static double initial_step(Solver *s, double *work, OdeFunction f, void *context
     h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
     if (h0 > t_span) h0 = t_span;
     for (i = 0; i < n; i++) y1[i] = y0[i] + h0 * f0[i];
-    evaluate(s, f, context, y1, f1);
+    evaluate(s, f, context, s->t + h0, y1, f1);
     for (i = 0; i < n; i++) f1[i] -= f0[i];
     d2 = scaled_rms(s, work, f1, scale) / h0;
     if (d1 <= 1e-15 && d2 <= 1e-15) {
@@ -463,7 +463,7 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
         h_abs = h;
         for (stage = 1; stage < DOP853_N_STAGES; stage++) {
             combine(y_new, y, h, DOP853_A[stage], stage, work, n);
-            evaluate(s, f, context, y_new, row(work, n, ROW_K + stage));
+            evaluate(s, f, context, s->t + DOP853_C[stage] * h, y_new, row(work, n, ROW_K + stage));
         }
         combine(y_new, y, h, DOP853_B, DOP853_N_STAGES, work, n);
 
@@ -484,11 +484,19 @@ static int dop853_step(Solver *s, double *work, OdeFunction f, void *context, do
         }
 
         if (step_accepted(s, error_norm, error_exponent, y_new, &h_abs, &rejected)) {
-            evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
+            evaluate(s, f, context, s->t + h, y_new, row(work, n, ROW_K + STAGE_END));
             accept(s, work, h);
             return 0;
         }
     }
+}
+
+/* Where stage `stage` of a pair sits in its step, as a fraction of it: the row sum of its coefficients. */
+static double stage_fraction(const double *a, int stage) {
+    double sum = 0.0;
+    int j;
+    for (j = 0; j < stage; j++) sum += a[j];
+    return sum;
 }
 
 /* Tsit5 and DOPRI5, their steps controlled as SciPy's RK45 does (RMS norm of the embedded error over
@@ -514,10 +522,11 @@ static int fsal_pair_step(Solver *s, double *work, OdeFunction f, void *context,
         h_abs = h;
         for (stage = 1; stage < PAIR_STAGES; stage++) {
             combine(y_new, y, h, pair->a[stage], stage, work, n);
-            evaluate(s, f, context, y_new, row(work, n, ROW_K + stage));
+            evaluate(s, f, context, s->t + stage_fraction(pair->a[stage], stage) * h, y_new,
+                     row(work, n, ROW_K + stage));
         }
         combine(y_new, y, h, pair->b, PAIR_STAGES, work, n);
-        evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
+        evaluate(s, f, context, s->t + h, y_new, row(work, n, ROW_K + STAGE_END));
         combine(error, NULL, h, pair->e, PAIR_STAGES, work, n);
         accumulate1(error, f_new, h * pair->e[PAIR_STAGES], n); /* the last weight, on f(y_new) */
         if (step_accepted(s, error_norm_of(s, work, y, y_new, error), error_exponent, y_new, &h_abs, &rejected)) {
@@ -573,7 +582,8 @@ static int nystrom_step(Solver *s, double *work, OdeFunction f, void *context, d
                 weights[used++] = h * abar[j];
             }
             combine_rows(out + m, y + m, rows, weights, used, rest);
-            evaluate(s, f, context, out, row(work, n, last ? ROW_K + STAGE_END : ROW_K + stage));
+            evaluate(s, f, context, s->t + (last ? 1.0 : pair->c[stage]) * h, out,
+                     row(work, n, last ? ROW_K + STAGE_END : ROW_K + stage));
         }
         /* the error estimate */
         used = 0;
@@ -610,11 +620,11 @@ static int fixed_step(Solver *s, double *work, OdeFunction f, void *context, dou
         double *stage_state = row(work, n, ROW_DENSE);
         double *k2 = row(work, n, ROW_K + 1), *k3 = row(work, n, ROW_K + 2), *k4 = row(work, n, ROW_K + 3);
         for (i = 0; i < n; i++) stage_state[i] = y[i] + 0.5 * h * k1[i];
-        evaluate(s, f, context, stage_state, k2);
+        evaluate(s, f, context, s->t + 0.5 * h, stage_state, k2);
         for (i = 0; i < n; i++) stage_state[i] = y[i] + 0.5 * h * k2[i];
-        evaluate(s, f, context, stage_state, k3);
+        evaluate(s, f, context, s->t + 0.5 * h, stage_state, k3);
         for (i = 0; i < n; i++) stage_state[i] = y[i] + h * k3[i];
-        evaluate(s, f, context, stage_state, k4);
+        evaluate(s, f, context, s->t + h, stage_state, k4);
         for (i = 0; i < n; i++) y_new[i] = y[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
     } else {
         /* velocities first with the old forces, then positions with the new velocities */
@@ -628,7 +638,7 @@ static int fixed_step(Solver *s, double *work, OdeFunction f, void *context, dou
                  s->t + h, s->fixed_step);
         return -1;
     }
-    evaluate(s, f, context, y_new, row(work, n, ROW_K + STAGE_END));
+    evaluate(s, f, context, s->t + h, y_new, row(work, n, ROW_K + STAGE_END));
     if (s->method == SOLVER_SEMI_IMPLICIT_EULER) {
         /* the work integrals by the trapezoidal rule: the positions moved with the new velocities, so
          * work taken with the old ones alone would lag the kinetic energy by a whole step */
@@ -650,7 +660,7 @@ int solver_step(Solver *s, double *work, OdeFunction f, void *context, double t_
     if (s->end_derivative_valid) {
         memcpy(row(work, n, ROW_K), row(work, n, ROW_K + STAGE_END), (size_t)n * sizeof(double));
     } else {
-        evaluate(s, f, context, row(work, n, ROW_Y), row(work, n, ROW_K));
+        evaluate(s, f, context, s->t, row(work, n, ROW_Y), row(work, n, ROW_K));
     }
     {
         const int status =
@@ -725,7 +735,7 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
         int stage;
         for (stage = DOP853_N_STAGES + 1; stage < DOP853_N_STAGES_EXTENDED; stage++) {
             combine(stage_state, y_old, h, DOP853_A[stage], stage, work, n);
-            evaluate(s, f, context, stage_state, row(work, n, ROW_K + stage));
+            evaluate(s, f, context, s->t_old + DOP853_C[stage] * h, stage_state, row(work, n, ROW_K + stage));
         }
     }
     for (r = 0; r < DOP853_INTERPOLATOR_POWER - 3; r++) {

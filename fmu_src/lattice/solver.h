@@ -24,8 +24,9 @@
 /* 1 for the methods with error control (their steps adapt, an event may cut one back to any length). */
 int solver_is_adaptive(int method);
 
-/* dydt = f(y) in the given phase (the model uses it for load on/off); time never enters the physics. */
-typedef void (*OdeFunction)(void *context, int phase, const double *y, double *dydt);
+/* dydt = f(t, y) in the given phase (the model uses it for load on/off); time enters only through the inputs a
+ * model extrapolates over a step (the lattice's ports), never the physics itself. */
+typedef void (*OdeFunction)(void *context, int phase, double t, const double *y, double *dydt);
 
 #define DENSE_FROM_STAGES (-1)
 #define DENSE_NYSTROM (-2) /* the Nystrom pair's Hermite dense output (solver.c) */

@@ -12,7 +12,6 @@ from fmu_src.component_table import ComponentTable
 from fmu_src.variables import DERIVATIVE, REAL, STATE, Variable
 
 INPUTS = ("x_front", "v_front")
-STATES = ("projectile_position", "projectile_velocity")
 
 TABLE = ComponentTable(
     identifier="Projectile",
@@ -44,23 +43,22 @@ TABLE = ComponentTable(
                  "Co-Simulation: the impulse over the last communication step divided by the step (the "
                  "instantaneous force before the first step), so momentum crosses the interface exactly; Model "
                  "Exchange: the instantaneous force", unit="N",
-                 dependencies=(*INPUTS, *STATES)),
+                 depends_on=INPUTS),
         Variable("projectile_position", REAL, "output", "Position of the projectile along +x (0 at t = 0)",
-                 unit="m", role=STATE, dependencies=("projectile_position",)),
+                 unit="m", role=STATE),
         Variable("projectile_velocity", REAL, "output", "Velocity of the projectile along +x", unit="m/s",
-                 role=STATE, dependencies=("projectile_velocity",)),
+                 role=STATE),
         Variable("face_work", REAL, "output",
                  "Work the contact force did on the face so far, the integral of F_c v_front with the face's motion "
                  "as the projectile sees it (Co-Simulation: extrapolated over each step; a continuous state). Less "
                  "the face's received work (the lattice's external_work at the front port), it is the energy the "
-                 "coupling created or lost", unit="J", role=STATE, dependencies=("face_work",)),
+                 "coupling created or lost", unit="J", role=STATE),
         Variable("der(projectile_position)", REAL, "local", "Velocity of the projectile", unit="m/s",
-                 role=DERIVATIVE, derivative_of="projectile_position", dependencies=("projectile_velocity",)),
+                 role=DERIVATIVE, derivative_of="projectile_position"),
         Variable("der(projectile_velocity)", REAL, "local", "Acceleration of the projectile: -F_c / mass",
-                 unit="m/s2", role=DERIVATIVE, derivative_of="projectile_velocity",
-                 dependencies=(*INPUTS, *STATES)),
+                 unit="m/s2", role=DERIVATIVE, derivative_of="projectile_velocity"),
         Variable("der(face_work)", REAL, "local", "Power of the contact force on the face: F_c v_front", unit="W",
-                 role=DERIVATIVE, derivative_of="face_work", dependencies=(*INPUTS, *STATES)),
+                 role=DERIVATIVE, derivative_of="face_work"),
     ),
     horizon=1.0,
     communication_step=1e-4,
