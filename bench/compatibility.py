@@ -11,7 +11,8 @@ key (``row_file_name``), with exactly these fields:
     importer_version  its version, as the tool or its package says it
     platform          the FMI 3 platform tuple it ran on: x86_64-linux, x86_64-windows, aarch64-linux, ...
     fmi_version       "2.0" or "3.0"
-    interface         "CS" (Co-Simulation) or "ME" (Model Exchange)
+    interface         "CS" (Co-Simulation), "ME" (Model Exchange) or "SSP" (the armour system's three FMUs
+                      from models/ArmourSystem.ssp, co-simulated by the importer as one system)
     result            {"status": "pass" or "fail", "message": one line: what was checked, or what failed}
     worst_error       the largest relative error |peak - published| / published over the published orders
                       the run reached (fmu_src/published.py), or null where the run produced no peak
@@ -45,7 +46,8 @@ PAGE = ROOT / "docs" / "compatibility.md"
 TEMPLATES = Path(__file__).resolve().parent / "templates"
 
 FMI_VERSIONS = ("2.0", "3.0")
-INTERFACES = {"CS": "Co-Simulation", "ME": "Model Exchange"}
+INTERFACES = {"CS": "Co-Simulation", "ME": "Model Exchange",
+              "SSP": "Co-Simulation of the armour system (ArmourSystem.ssp: projectile, lattice, hull)"}
 STATUSES = ("pass", "fail")
 
 
