@@ -15,7 +15,8 @@ key (``row_file_name``), with exactly these fields:
                       from models/ArmourSystem.ssp, co-simulated by the importer as one system)
     result            {"status": "pass" or "fail", "message": one line: what was checked, or what failed}
     worst_error       the largest relative error |peak - published| / published over the published orders
-                      the run reached (fmu_src/published.py), or null where the run produced no peak
+                      the run reached (fmu_src/published.py); for the armour system, against the one-model
+                      reference (reference/system.py); null where the run produced no peak
     date              the day it ran, YYYY-MM-DD (UTC)
     commit            the project's commit it ran at (git hash, 7 to 40 hex digits)
     command           the command that runs it again
