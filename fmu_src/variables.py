@@ -16,7 +16,7 @@ REAL = "Real"
 INTEGER = "Integer"
 
 # Every unit a variable may carry, declared in both model descriptions' <UnitDefinitions>.
-UNITS = ("N", "N.s", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg", "m/s", "m/s2", "W")
+UNITS = ("N", "N.s", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg", "m/s", "m/s2", "W", "s/m")
 # The categories the FMI glue logs under (fmi2/, fmi3/), declared in both model descriptions.
 LOG_CATEGORIES = (("logStatusError", "Why a call failed"),
                   ("logStatusWarning", "Model Exchange: a backplate switch the importer did not handle as an event"),
@@ -27,7 +27,9 @@ LOG_CATEGORIES = (("logStatusError", "Why a call failed"),
 STATE, DERIVATIVE, INDICATOR = "state", "derivative", "indicator"
 # The continuous state vector in lattice.h's layout: displacements, velocities, the three energy integrals (a
 # plate of one layer has no uz and vz).
-STATE_ORDER = ("ux", "uy", "uz", "vx", "vy", "vz", "external_work", "dissipated_energy", "nonreciprocal_work")
+# projectile mode's rigid body last (docs/model.md section 11).
+STATE_ORDER = ("ux", "uy", "uz", "vx", "vy", "vz", "external_work", "dissipated_energy", "nonreciprocal_work",
+               "projectile_position", "projectile_velocity")
 
 
 @dataclass(frozen=True)
@@ -130,6 +132,12 @@ def plotted_mass_index(rows: int, cols: int, depth: int, row: int, col: int) -> 
     """lattice.h's number of plotted mass (row, col) (1-based) of the plotted layer: (k R + i) C + j, 0-based."""
     return ((plotted_layer(depth) - 1) * rows + row - 1) * cols + col - 1
 
+
+# The event indicator of projectile mode's contact (the last indicator; an FMU without a backplate has only it).
+IMPACT_INDICATOR = "impact_indicator"
+# Projectile mode's default contact stiffness (N/m^1.5): with the default 50 kg at 3.6 m/s on the study's lattice
+# the contact force is about the pulse's in size and duration (docs/model.md section 11 says how it was chosen).
+PROJECTILE_CONTACT_STIFFNESS = 3e4
 
 # The back port's inputs: what the backplate force and the penetration at the current time depend on directly.
 BACK_PORT = ("x_back", "v_back")
@@ -280,10 +288,35 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
                          f"an odd number of rows and an odd depth"),
         Variable("load_mode", INTEGER, "parameter",
                  "What pushes column 1: pulse (0, F_total for 0 <= t <= t_active, the "
-                 "study's load), input (1, the input F_front, spread over the face as the pulse is)",
-                 start=0, minimum=0, maximum=1, allowed="0 (pulse) or 1 (input)", enumeration="LoadMode",
+                 "study's load), input (1, the input F_front, spread over the face as the pulse is) or projectile "
+                 "(2, a rigid body striking the face through a Hunt-Crossley contact, integrated with the lattice)",
+                 start=0, minimum=0, maximum=2, allowed="0 (pulse), 1 (input) or 2 (projectile)",
+                 enumeration="LoadMode",
                  items=(("pulse", "F_total at load_angle for 0 <= t <= t_active (the study's load)"),
-                        ("input", "The input F_front along +x, spread over the face with the pulse's weights"))),
+                        ("input", "The input F_front along +x, spread over the face with the pulse's weights"),
+                        ("projectile", "A rigid body of projectile_mass striking the face at projectile_speed: "
+                                       "its contact force pushes the face as F_front would"))),
+        # projectile mode (docs/model.md section 11): the default carries the pulse's momentum, 1200 N x 0.15 s
+        # = 180 N s, as a blunt 50 kg body at 3.6 m/s, and its contact lasts about as long as the pulse
+        Variable("projectile_mass", REAL, "parameter",
+                 "Projectile mode: the striking body's mass (with projectile_speed: the pulse's momentum, "
+                 "180 N s, as a blunt 50 kg impactor)", start=50.0, unit="kg", minimum=0.0,
+                 minimum_exclusive=True),
+        Variable("projectile_speed", REAL, "parameter",
+                 "Projectile mode: the body's speed along +x at t = 0, when it touches the face",
+                 start=3.6, unit="m/s", minimum=0.0),
+        Variable("contact_stiffness", REAL, "parameter",
+                 "Projectile mode: k_c of the Hunt-Crossley contact F_c = k_c d^n (1 + lambda d'), in "
+                 "N/m^contact_exponent (d the overlap of body and face); the default makes the default body's "
+                 "contact force about the pulse's in size and duration", start=PROJECTILE_CONTACT_STIFFNESS,
+                 minimum=0.0, minimum_exclusive=True),
+        Variable("contact_exponent", REAL, "parameter",
+                 "Projectile mode: n of the contact (1.5: Hertz's, a blunt body's curved nose on a flat face)",
+                 start=1.5, minimum=1.0, maximum=3.0),
+        Variable("contact_damping", REAL, "parameter",
+                 "Projectile mode: lambda of the Hunt-Crossley contact (the contact's coefficient of "
+                 "restitution is about 1 - 2 lambda v / 3 at impact speed v: the default gives about 0.76 at "
+                 "3.6 m/s)", start=0.1, unit="s/m", minimum=0.0),
         # inputs: the ports (docs/model.md section 11)
         Variable("F_front", REAL, "input",
                  "Front port: the force along +x on column 1's face in load_mode input, each loaded mass its "
@@ -322,21 +355,26 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
         Variable("transmitted_impulse", REAL, "output",
                  "Impulse transmitted to the backplate so far: the time integral of the backplate force, by the "
                  "trapezoidal rule over the same samples as peak_backplate_force", unit="N.s", depends_on=BACK_PORT),
-        Variable("kinetic_energy", REAL, "output", "Kinetic energy", unit="J"),
-        Variable("potential_energy", REAL, "output", "Potential energy of the springs and the backplate",
+        Variable("kinetic_energy", REAL, "output", "Kinetic energy (projectile mode: with the body's)", unit="J"),
+        Variable("potential_energy", REAL, "output",
+                 "Potential energy of the springs and the backplate (projectile mode: and of the contact, "
+                 "k_c d^(n+1) / (n+1))",
                  unit="J", depends_on=BACK_PORT),
         Variable("external_work", REAL, "output",
                  "Work done on the lattice from outside: by the load (pulse) or the front port, minus the work "
-                 "it does on a moving backplate (a continuous state: Model Exchange integrates it with the "
+                 "it does on a moving backplate (projectile mode: the contact's work stays inside the model, "
+                 "whose energy holds the body's; a continuous state: Model Exchange integrates it with the "
                  "lattice)",
                  unit="J", role=STATE),
-        Variable("dissipated_energy", REAL, "output", "Energy taken out by the dampers (a continuous state)",
+        Variable("dissipated_energy", REAL, "output",
+                 "Energy taken out by the dampers (projectile mode: and by the contact; a continuous state)",
                  unit="J", role=STATE),
         Variable("nonreciprocal_work", REAL, "output",
                  "Work of the unequal part of diagonal pairs (receiver rule; a continuous state)", unit="J",
                  role=STATE),
         Variable("energy_balance_error", REAL, "output",
-                 "external_work + nonreciprocal_work - kinetic - potential - dissipated", unit="J",
+                 "external_work + nonreciprocal_work - kinetic - potential - dissipated (+ the start state's "
+                 "energy: the projectile's kinetic energy)", unit="J",
                  depends_on=BACK_PORT),
         Variable("x_front", REAL, "output",
                  "Front port: the loaded face's displacement along +x, sum of w_a ux_a over its loaded masses "
@@ -344,6 +382,14 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
         Variable("v_front", REAL, "output",
                  "Front port: the loaded face's velocity along +x, sum of w_a vx_a (F_front v_front is the power "
                  "the port takes in)", unit="m/s"),
+        Variable("contact_force", REAL, "output",
+                 "Projectile mode: the contact force between the body and the face, max(k_c d^n (1 + lambda d'), "
+                 "0) while d = projectile_position - x_front > 0, else 0; 0 in the other modes", unit="N"),
+        Variable("projectile_position", REAL, "output",
+                 "Projectile mode: the body's displacement along +x from where it touches the face at t = 0 (a "
+                 "continuous state)", unit="m", role=STATE),
+        Variable("projectile_velocity", REAL, "output",
+                 "Projectile mode: the body's velocity along +x (a continuous state)", unit="m/s", role=STATE),
     ]
     where = f" of layer {plotted_layer(depth)}" if depth > 1 else ""
     for place, (row, col) in plotted_masses(rows, cols).items():
@@ -387,14 +433,22 @@ def continuous_time_variables(rows: int, cols: int, depth: int = 1) -> list[Vari
                        ("nonreciprocal_work", "Power of the unequal part of diagonal pairs")):
         variables.append(Variable(f"der({name})", REAL, "local", what, unit="W", role=DERIVATIVE,
                                   derivative_of=name))
+    for name, what, unit in (("projectile_position", "Velocity of the projectile", "m/s"),
+                             ("projectile_velocity", "Acceleration of the projectile", "m/s2")):
+        variables.append(Variable(f"der({name})", REAL, "local", what, unit=unit, role=DERIVATIVE,
+                                  derivative_of=name))
     variables += [
         Variable("contact_indicator", REAL, "local",
                  f"Event indicator of each {face} column-C mass touching the backplate: ux - backplate_gap - "
                  "x_back (> 0 in contact)", unit="m", size=rows * depth, role=INDICATOR),
         Variable("damping_indicator", REAL, "local",
                  f"Event indicator of each {face} backplate damper: vx - v_back while in contact (> 0: "
-                 "approaching, the damper acts); off the plate the damper cannot switch and this repeats contact_indicator",
+                 "approaching, the damper acts); off the plate the damper cannot switch and this repeats "
+                 "contact_indicator",
                  size=rows * depth, role=INDICATOR),
+        Variable(IMPACT_INDICATOR, REAL, "local",
+                 "Event indicator of the projectile's contact: projectile_position - x_front (> 0 in contact); "
+                 "1 outside projectile mode", unit="m", role=INDICATOR),
     ]
     return variables
 
@@ -476,8 +530,9 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden:
             if variable.size is not None and len(variable.element_starts()) != variable.size:
                 raise ValueError(f"parameter {variable.name}: expected {variable.size} values")
         (fixed if variable.name in hidden else exposed).append(variable)
-    if not _has_backplate(exposed + fixed):  # no backplate: nothing switches, so no event indicators
-        exposed = [variable for variable in exposed if variable.role != INDICATOR]
+    if not _has_backplate(exposed + fixed):  # no backplate: no backplate switches, only the projectile's contact
+        exposed = [variable for variable in exposed
+                   if variable.role != INDICATOR or variable.name == IMPACT_INDICATOR]
     value_references, next_vr = {}, 0
     for variable in exposed:  # reals and integers share one numbering: unique across types, as FMI 3 needs
         value_references[variable.name] = next_vr

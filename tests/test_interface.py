@@ -20,7 +20,7 @@ def test_the_enumerations_name_the_tables_items_in_both_versions(fmu_path, fmu3_
     assert set(ENUMERATIONS) == {"diagonal_rule", "solver", "load_mode"}
     expected = {"diagonal_rule": {"receiver": 0, "mean": 1},
                 "solver": {"dop853": 0, "rk4": 1, "semi_implicit_euler": 2, "tsit5": 3, "dopri5": 4, "rkn5": 5},
-                "load_mode": {"pulse": 0, "input": 1}}
+                "load_mode": {"pulse": 0, "input": 1, "projectile": 2}}
     for path in (fmu_path, fmu3_path):
         description = read_model_description(str(path))
         for name, variable in ENUMERATIONS.items():

@@ -73,11 +73,13 @@ def test_both_interfaces_are_declared_with_the_contracts_sizes(fmu_path, fmu3_pa
     for path in (fmu_path, fmu3_path):
         description = read_model_description(str(path))
         assert description.modelExchange is not None and description.coSimulation is not None
-        assert description.numberOfContinuousStates == 4 * MASSES + 3  # ux, uy, vx, vy, three energy integrals
-        assert description.numberOfEventIndicators == 2 * ROWS  # each row's contact and damping
+        # ux, uy, vx, vy, three energy integrals, projectile mode's body
+        assert description.numberOfContinuousStates == 4 * MASSES + 3 + 2
+        assert description.numberOfEventIndicators == 2 * ROWS + 1  # each row's contact and damping, the impact
     states = [d.variable.derivative.name for d in read_model_description(str(fmu_path)).derivatives]
-    assert states[:2] == ["ux[1,1]", "ux[1,2]"] and states[-3:] == ["external_work", "dissipated_energy",
-                                                                     "nonreciprocal_work"]
+    assert states[:2] == ["ux[1,1]", "ux[1,2]"] and states[-5:] == ["external_work", "dissipated_energy",
+                                                                     "nonreciprocal_work", "projectile_position",
+                                                                     "projectile_velocity"]
 
 
 def as_pointer(array):
@@ -152,7 +154,8 @@ def test_bad_calling_sequences_and_sizes_are_refused_with_a_reason(fmu_path):
         assert list(acceleration_x[:, 0]) == [60.0] + [120.0] * (ROWS - 2) + [60.0]  # docs/model.md section 4, m = 1 kg
         assert not acceleration_x[:, 1:].any() and not dx[:2 * MASSES].any()
         me.fmu.getEventIndicators(as_pointer(z), nz)
-        assert list(z[:nz]) == [-1e-3] * nz  # every mass 1 mm off the plate (the gap)
+        # every mass 1 mm off the plate (the gap); the impact indicator 1 outside projectile mode
+        assert list(z[:nz]) == [-1e-3] * (nz - 1) + [1.0]
     finally:
         me.close()
 
@@ -195,7 +198,7 @@ def test_fmi3_model_exchange_refuses_wrong_sizes_and_sequences_with_a_reason(fmu
             model.setContinuousStates(as_pointer(x), nx + 1)
         assert f"{nx + 1} continuous states given, but this FMU has {nx}" in messages[-1]
         model.getEventIndicators(as_pointer(z), nz)
-        assert list(z[:nz]) == [-1e-3] * nz
+        assert list(z[:nz]) == [-1e-3] * (nz - 1) + [1.0]
     finally:
         model.freeInstance()
 

@@ -91,8 +91,8 @@ def test_a_plate_declares_six_components_per_mass_and_one_indicator_pair_per_fac
     for fmu in (plate_fmu, plate_fmu3):
         description = read_model_description(str(fmu))
         assert description.modelExchange is not None and description.coSimulation is not None
-        assert len(description.derivatives) == 6 * masses + 3
-        assert description.numberOfEventIndicators == 2 * ROWS * DEPTH
+        assert len(description.derivatives) == 6 * masses + 3 + 2  # with projectile mode's body
+        assert description.numberOfEventIndicators == 2 * ROWS * DEPTH + 1  # and the impact
         names = {variable.name for variable in description.modelVariables}
         assert {"uz[5,5,5]", "vz[1,1,1]", "der(vz[3,3,3])", "contact_indicator[25]", "load_patch"} <= names
 
@@ -164,14 +164,14 @@ def test_the_plate_scene_is_the_study_in_eleven_layers_under_a_3x3_patch():
                                                                        if k != "load_patch"}
     interface = scene.interface()
     states = sum(v.count for v in interface.exposed if v.role == "state")
-    assert states == 6 * 11 * 11 * 11 + 3
-    assert interface.event_indicator_count() == 2 * 11 * 11
+    assert states == 6 * 11 * 11 * 11 + 3 + 2
+    assert interface.event_indicator_count() == 2 * 11 * 11 + 1
 
 
 def test_the_depth_one_fmu_reads_load_patch_and_keeps_its_sizes(fmu_path):
     description = read_model_description(str(fmu_path))
-    assert len(description.derivatives) == 4 * 11 * 11 + 3
-    assert description.numberOfEventIndicators == 2 * 11
+    assert len(description.derivatives) == 4 * 11 * 11 + 3 + 2
+    assert description.numberOfEventIndicators == 2 * 11 + 1
     with zipfile.ZipFile(fmu_path) as archive:
         header = archive.read("sources/model_variables.h").decode()
     assert "#define LATTICE_DEPTH 1" in header

@@ -21,6 +21,11 @@
 #define INDEX_EXTERNAL_WORK (2 * N_COMPONENTS * N_MASSES)
 #define INDEX_DISSIPATED (2 * N_COMPONENTS * N_MASSES + 1)
 #define INDEX_NONRECIPROCAL_WORK (2 * N_COMPONENTS * N_MASSES + 2)
+/* projectile mode's body, after the lattice's state */
+#define INDEX_PROJECTILE_POSITION N_LATTICE_STATE
+#define INDEX_PROJECTILE_VELOCITY (N_LATTICE_STATE + 1)
+/* The projectile's contact indicator is the last (an FMU without a backplate has no others). */
+#define IMPACT_INDICATOR (N_EVENT_INDICATORS - 1)
 #define FAILURE_SIZE 512
 /* A time within this fraction of a sample interval of a sample belongs to it (rounding of t). */
 #define SAMPLE_TIME_SLACK 1e-9
@@ -45,6 +50,7 @@ struct Model {
     /* the discrete states */
     int load_on;
     signed char wall_mode[N_FACE_MASSES]; /* frozen between events (WallMode), f = k*R + i */
+    int contact_on; /* projectile mode: the body touches the face (frozen between events) */
     /* the peaks and the last contact over the points each interface shows (the one sampler) */
     double peak_sampled, max_compression;
     double transmitted_impulse;            /* the trapezoidal integral of the sampled force so far */
@@ -80,8 +86,22 @@ void model_ports_at(Model *m, double t);
  * goes on from there with it. 0, or -1 and why. */
 int model_driver_set_input(Model *m, unsigned int vr, double value, char *message, size_t message_size);
 
-/* The derivatives of state y (lattice.h's whole layout) under the backplate modes, with the load on or off. */
-void model_derivatives(const Model *m, int load_on, const double *y, double *dydt);
+/* The derivatives of state y (lattice.h's whole layout) under the backplate modes, with the load on or off
+ * (projectile mode: the body under the contact's mode; the contact force goes into the params' front force). */
+void model_derivatives(Model *m, int load_on, const double *y, double *dydt);
+
+/* Projectile mode: the contact force (N) of overlap delta and its rate (docs/model.md section 11), with the
+ * contact on (frozen between events: continued smoothly past delta = 0 so a step that overshoots the opening
+ * stays smooth until the event cuts it back) or off, and the power it dissipates. */
+double model_contact_force(const Model *m, int contact_on, double delta, double rate, double *dissipation);
+
+/* Projectile mode: whether the body touches the face at overlap delta closing at rate (at delta = 0: when
+ * it closes). */
+int model_contact_of(double delta, double rate);
+
+/* The energies of whole state y: the lattice's, with the body's kinetic energy and the contact's potential in
+ * projectile mode. */
+void model_energies(const Model *m, const double *y, double *kinetic, double *potential);
 
 /* Event indicator k (of the whole face: f = k*R + i) is state component *component minus *threshold, in a
  * layout of `rows` rows per layer whose vx begin at vx_base (LATTICE_ROWS and VX_BASE: the contract's whole

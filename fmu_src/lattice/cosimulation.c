@@ -50,31 +50,68 @@ void model_ports_at(Model *m, double t) {
     m->params.back_position = m->port_back_position + rate * elapsed + 0.5 * acceleration * elapsed * elapsed;
 }
 
+/* The solver's layout (lattice.h): its masses, its positions (the lattice's), where its vx and its quadratures
+ * begin (projectile mode: the body's position after the positions, its velocity after the velocities). */
+static int solver_faces(const Model *m) { return m->cs.solver_rows * m->cs.solver_layers; }
+static int solver_masses(const Model *m) { return solver_faces(m) * LATTICE_COLS; }
+static int solver_positions(const Model *m) {
+    return (m->cs.solver_along_x ? 1 : N_COMPONENTS) * solver_masses(m);
+}
+static int solver_vx_base(const Model *m) { return solver_positions(m) + m->cs.solver_projectile; }
+static int solver_quadrature_base(const Model *m) { return 2 * solver_positions(m) + 2 * m->cs.solver_projectile; }
+
+/* Projectile mode's right-hand side: the lattice's part of y in the lattice's own layout, its rate with the
+ * contact force on the face, and the body's. */
+static void projectile_rhs(Model *m, int phase, const double *y, double *dydt) {
+    CoSimulation *cs = &m->cs;
+    const int positions = solver_positions(m);
+    const size_t block = (size_t)positions * sizeof(double);
+    double *lattice = cs->lattice_state, *rate = cs->lattice_rate;
+    double x_front, v_front, dissipation, force;
+    memcpy(lattice, y, block);
+    memcpy(lattice + positions, y + positions + 1, block);
+    memcpy(lattice + 2 * positions, y + 2 * positions + 2, LATTICE_N_QUADRATURES * sizeof(double));
+    if (cs->solver_along_x) {
+        lattice_front_port_along_x(&m->params, solver_mirrored(m), lattice, &x_front, &v_front);
+    } else {
+        lattice_front_port(&m->params, lattice, &x_front, &v_front);
+    }
+    force = model_contact_force(m, m->contact_on, y[positions] - x_front, y[2 * positions + 1] - v_front,
+                                &dissipation);
+    m->params.front_force = force;
+    if (cs->solver_along_x) {
+        lattice_rhs_along_x(&m->params, solver_mirrored(m), phase, m->wall_mode, lattice, rate);
+    } else {
+        lattice_rhs(&m->params, phase, m->wall_mode, lattice, rate);
+    }
+    memcpy(dydt, rate, block);
+    dydt[positions] = y[2 * positions + 1];
+    memcpy(dydt + positions + 1, rate + positions, block);
+    dydt[2 * positions + 1] = -force / PARAM_PROJECTILE_MASS(m);
+    memcpy(dydt + 2 * positions + 2, rate + 2 * positions, LATTICE_N_QUADRATURES * sizeof(double));
+    dydt[2 * positions + 2 + 1] += dissipation; /* D */
+}
+
 /* The solver's right-hand side at time t: the contract's derivatives of the whole lattice, or of its reduced
  * layout, with the ports' values at t. */
 static void solver_rhs(void *context, int phase, double t, const double *y, double *dydt) {
     Model *m = (Model *)context;
     model_ports_at(m, t);
-    if (m->cs.solver_along_x) {
+    if (m->cs.solver_projectile) {
+        projectile_rhs(m, phase, y, dydt);
+    } else if (m->cs.solver_along_x) {
         lattice_rhs_along_x(&m->params, solver_mirrored(m), phase, m->wall_mode, y, dydt);
-    } else {
-        model_derivatives(m, phase, y, dydt);
+    } else { /* the whole lattice's state, without the body's (at rest outside projectile mode) */
+        lattice_rhs(&m->params, phase, m->wall_mode, y, dydt);
     }
-}
-
-/* The solver's layout (lattice.h): its masses, where its vx and its quadratures begin. */
-static int solver_faces(const Model *m) { return m->cs.solver_rows * m->cs.solver_layers; }
-static int solver_masses(const Model *m) { return solver_faces(m) * LATTICE_COLS; }
-static int solver_vx_base(const Model *m) { return (m->cs.solver_along_x ? 1 : N_COMPONENTS) * solver_masses(m); }
-static int solver_quadrature_base(const Model *m) {
-    return (m->cs.solver_along_x ? 2 : 2 * N_COMPONENTS) * solver_masses(m);
 }
 
 /* The smallest state that carries this lattice's solution (use_symmetry; lattice.h): without the y and z
  * components when it is loaded along x, and then of the upper rows and the front layers only when it is also
  * mirror-symmetric about its middle row or layer (a mirror-symmetric lattice is always loaded along x:
  * lattice_mirror_rows, lattice_mirror_layers). */
-static void solver_layout(const Model *m, int *rows, int *layers, int *along_x) {
+static void solver_layout(const Model *m, int *rows, int *layers, int *along_x, int *projectile) {
+    *projectile = m->params.load_mode == LOAD_MODE_PROJECTILE;
     *along_x = PARAM_USE_SYMMETRY(m) && lattice_along_x(&m->params);
     *rows = *along_x && lattice_mirror_rows(&m->params) ? lattice_mirror_rows(&m->params) : LATTICE_ROWS;
     *layers = *along_x && lattice_mirror_layers(&m->params) ? lattice_mirror_layers(&m->params) : LATTICE_DEPTH;
@@ -93,9 +130,14 @@ static double solver_face_count(const Model *m, int face) {
  * when the solver leaves them out (they are 0); a mass outside a mirrored part is its mirror image's in y and
  * in z (only a lattice along x is mirrored: solver_layout). */
 static int solver_component_of(const Model *m, int i) {
-    int block, mass, face, row, layer;
-    if (!m->cs.solver_along_x) return i;
+    const int positions = solver_positions(m), projectile = m->cs.solver_projectile;
+    int block, mass, face, row, layer, component;
+    if (i >= INDEX_PROJECTILE_POSITION) {
+        if (!projectile) return -1; /* the body rests outside projectile mode */
+        return i == INDEX_PROJECTILE_POSITION ? positions : 2 * positions + 1;
+    }
     if (i >= INDEX_EXTERNAL_WORK) return solver_quadrature_base(m) + (i - INDEX_EXTERNAL_WORK); /* the whole's */
+    if (!m->cs.solver_along_x) return i < positions ? i : i + projectile;
     block = i / N_MASSES;
     if (block % N_COMPONENTS != 0) return -1;
     mass = i % N_MASSES;
@@ -104,15 +146,16 @@ static int solver_component_of(const Model *m, int i) {
     layer = face / LATTICE_ROWS;
     if (row >= m->cs.solver_rows) row = LATTICE_ROWS - 1 - row;
     if (layer >= m->cs.solver_layers) layer = LATTICE_DEPTH - 1 - layer;
-    return (block / N_COMPONENTS) * solver_masses(m) + (layer * m->cs.solver_rows + row) * LATTICE_COLS +
-           mass % LATTICE_COLS; /* ux, vx */
+    component = (block / N_COMPONENTS) * solver_masses(m) + (layer * m->cs.solver_rows + row) * LATTICE_COLS +
+                mass % LATTICE_COLS; /* ux, vx */
+    return component < positions ? component : component + projectile;
 }
 
 /* The solver's current state as the whole lattice's (itself when the solver integrates the whole). */
 static const double *whole_solver_state(Model *m) {
     const double *y = solver_state(m->cs.work);
     int i;
-    if (!m->cs.solver_along_x) return y;
+    if (!m->cs.solver_along_x && !m->cs.solver_projectile) return y;
     for (i = 0; i < N_STATE; i++) {
         const int component = solver_component_of(m, i);
         m->cs.whole_state[i] = component < 0 ? 0.0 : y[component];
@@ -370,9 +413,39 @@ static void wall_modes_of_state(Model *m, signed char *modes) {
  * BIT 11 (1971) 168-174), with a bisection whenever the bracket has not halved over two evaluations, which
  * keeps the worst case within a few times bisection's. Where the indicator already has the end's sign at the
  * step's start, no crossing is inside and the bracket closes on the start by bisection. */
+/* Projectile mode: the front port at time t of the last step (hermite: the free first look). */
+static void front_port_at(Model *m, double t, double *x_front, double *v_front) {
+    const int vx_base = solver_vx_base(m);
+    double x = 0.0, v = 0.0;
+    int f;
+    for (f = 0; f < solver_faces(m); f++) {
+        const double weight = solver_face_count(m, f) *
+                              lattice_load_weight(&m->params, f % m->cs.solver_rows, f / m->cs.solver_rows);
+        if (weight == 0.0) continue;
+        x += weight * state_component(m, FIRST_COLUMN_MASS(f), t);
+        v += weight * state_component(m, vx_base + FIRST_COLUMN_MASS(f), t);
+    }
+    *x_front = x;
+    *v_front = v;
+}
+
+/* Projectile mode: the contact's mode of the solver's state at time t of the last step. */
+static int contact_at(Model *m, double t) {
+    const int positions = solver_positions(m);
+    double x_front, v_front;
+    front_port_at(m, t, &x_front, &v_front);
+    return model_contact_of(state_component(m, positions, t) - x_front,
+                            state_component(m, 2 * positions + 1, t) - v_front);
+}
+
 static double indicator_at(Model *m, int k, double t) {
     int component;
     double offset;
+    if (k == IMPACT_INDICATOR) { /* the body's overlap with the face */
+        double x_front, v_front;
+        front_port_at(m, t, &x_front, &v_front);
+        return state_component(m, solver_positions(m), t) - x_front;
+    }
     model_ports_at(m, t); /* a moving backplate moves the threshold */
     model_indicator_definition(m, k, m->cs.solver_rows, solver_vx_base(m), &component, &offset);
     return state_component(m, component, t) - offset;
@@ -412,14 +485,17 @@ static double locate_switch(Model *m, int k) {
     return high;
 }
 
-/* The backplate's switches (contact on/off, damping on/off) inside the last step: the step is cut back
- * to the earliest one and the modes are switched there, so no step integrates across a discontinuity. */
-static int handle_wall_events(Model *m) {
+/* The backplate's switches (contact on/off, damping on/off) and the projectile's contact inside the last step:
+ * the step is cut back to the earliest one and the modes are switched there, so no step integrates across a
+ * discontinuity. */
+static int handle_events(Model *m) {
     Solver *s = &m->cs.solver;
     signed char at_end[N_FACE_MASSES];
-    double located[2 * N_FACE_MASSES], earliest = s->t, cut_time;
+    double located[2 * N_FACE_MASSES + 1], earliest = s->t, cut_time;
     int i, changed = 0, cut = 0, count = 0;
+    const int contact_at_end = m->cs.solver_projectile ? contact_at(m, s->t) : m->contact_on;
     wall_modes_of_state(m, at_end);
+    changed = contact_at_end != m->contact_on;
     /* the face masses the solver holds (f = k*R + i of the whole face); the others are their mirror images */
     for (i = 0; i < solver_faces(m); i++) {
         const int f = (i / m->cs.solver_rows) * LATTICE_ROWS + i % m->cs.solver_rows;
@@ -436,6 +512,7 @@ static int handle_wall_events(Model *m) {
             located[count++] = locate_switch(m, DAMPING_INDICATOR(f));
         }
     }
+    if (contact_at_end != m->contact_on) located[count++] = locate_switch(m, IMPACT_INDICATOR);
     for (i = 0; i < count; i++) earliest = fmin(earliest, located[i]);
     /* Switches within SIMULTANEOUS_EVENT_FRACTION of a step after the earliest are one event, cut at the
      * last of them: mirror-image masses (the armour scene is symmetric about its middle row) cross within
@@ -455,14 +532,25 @@ static int handle_wall_events(Model *m) {
         cut = 1;
     }
     wall_modes_of_state(m, m->wall_mode);
+    if (m->cs.solver_projectile && contact_at(m, s->t) != m->contact_on) {
+        m->contact_on = !m->contact_on;
+        s->end_derivative_valid = 0; /* the contact force changes there */
+    }
     return cut;
 }
 
 void model_driver_initialize(Model *m) {
     CoSimulation *cs = &m->cs;
-    solver_layout(m, &cs->solver_rows, &cs->solver_layers, &cs->solver_along_x);
+    double *start = cs->lattice_state; /* scratch: the start state in the solver's layout */
+    int i;
+    solver_layout(m, &cs->solver_rows, &cs->solver_layers, &cs->solver_along_x, &cs->solver_projectile);
+    memset(start, 0, sizeof(cs->lattice_state));
+    for (i = 0; i < N_STATE; i++) {
+        const int component = solver_component_of(m, i);
+        if (component >= 0) start[component] = m->output_state[i];
+    }
     solver_init(&cs->solver, cs->work, PARAM_SOLVER(m), solver_quadrature_base(m) + LATTICE_N_QUADRATURES,
-                solver_vx_base(m), PARAM_RTOL(m), PARAM_ATOL(m), PARAM_FIXED_STEP(m), m->load_on, m->output_state);
+                solver_vx_base(m), PARAM_RTOL(m), PARAM_ATOL(m), PARAM_FIXED_STEP(m), m->load_on, start);
     if (solver_mirrored(m) || cs->solver_along_x) {
         /* each mass of a mirrored part stands for itself and its mirror images (1, 2 or 4 of them: in y, in z):
          * the error norms weight it so, and take their mean over the whole state (the y and z components, left
@@ -470,11 +558,16 @@ void model_driver_initialize(Model *m) {
         double *weight = cs->whole_state; /* scratch until the first step */
         const int masses = solver_masses(m);
         int component;
+        const int positions = solver_positions(m), projectile = cs->solver_projectile;
         for (component = 0; component < cs->solver.n; component++) {
-            const int mechanical = component < solver_quadrature_base(m);
-            weight[component] = mechanical ? solver_face_count(m, (component % masses) / LATTICE_COLS) : 1.0;
+            /* the lattice's component: the velocities sit one further on behind the body's position */
+            const int lattice = projectile && component > positions ? component - 1 : component;
+            const int body = projectile && (component == positions || component == 2 * positions + 1);
+            const int mechanical = !body && lattice < 2 * positions;
+            weight[component] = mechanical ? solver_face_count(m, (lattice % masses) / LATTICE_COLS) : 1.0;
         }
-        solver_set_norm_weights(&cs->solver, cs->work, weight, (double)N_STATE);
+        solver_set_norm_weights(&cs->solver, cs->work, weight,
+                                (double)(N_STATE - (projectile ? 0 : N_PROJECTILE_STATES)));
     }
     cs->solver.t = m->time;
     wall_modes_of_state(m, m->wall_mode);
@@ -613,7 +706,7 @@ int model_advance(Model *m, double t_target, char *message, size_t message_size)
         }
         cs->step_peak_known = 0;
         cs->step_peak_committed = 0;
-        cut_by_event = m->params.has_backplate ? handle_wall_events(m) : 0;
+        cut_by_event = m->params.has_backplate || cs->solver_projectile ? handle_events(m) : 0;
         /* in contact during the step (its frozen modes) or from its end on (the modes after its events) */
         cs->step_contact_free = free_before && wall_free(m);
         if (!cs->step_contact_free) m->last_contact_time = s->t;
@@ -654,23 +747,25 @@ int model_driver_check(const Model *m, char *message, size_t message_size) {
     const CoSimulation *cs = &m->cs;
     const Solver *s = &cs->solver;
     const double interval = PARAM_PEAK_SAMPLE_INTERVAL(m);
-    int rows, layers, along_x;
+    int rows, layers, along_x, projectile;
     if (!m->initialized) return 0; /* the solver is set up at initialisation */
-    solver_layout(m, &rows, &layers, &along_x);
+    solver_layout(m, &rows, &layers, &along_x, &projectile);
     {
-        const int positions = (along_x ? 1 : N_COMPONENTS) * rows * LATTICE_COLS * layers;
+        const int positions = (along_x ? 1 : N_COMPONENTS) * rows * LATTICE_COLS * layers + projectile;
         const int size = 2 * positions + LATTICE_N_QUADRATURES;
+        const int norm_size = N_STATE - (projectile ? 0 : N_PROJECTILE_STATES);
         const int reduced = rows != LATTICE_ROWS || layers != LATTICE_DEPTH || along_x;
-        if (cs->solver_rows != rows || cs->solver_layers != layers || cs->solver_along_x != along_x || s->n != size ||
-            s->n_second_order != positions || m->params.rows != LATTICE_ROWS || m->params.cols != LATTICE_COLS ||
-            m->params.depth != LATTICE_DEPTH || s->weighted != reduced || s->norm_size != (double)N_STATE) {
+        if (cs->solver_rows != rows || cs->solver_layers != layers || cs->solver_along_x != along_x ||
+            cs->solver_projectile != projectile || s->n != size || s->n_second_order != positions ||
+            m->params.rows != LATTICE_ROWS || m->params.cols != LATTICE_COLS || m->params.depth != LATTICE_DEPTH ||
+            s->weighted != reduced || s->norm_size != (double)norm_size) {
             snprintf(message, message_size,
                      "the state is corrupt or foreign: its sizes (solver rows %d, layers %d, along x %d, state %d, "
                      "positions %d, lattice %d x %d x %d, norm over %g) are not this FMU's (%d, %d, %d, %d, %d, "
                      "%d x %d x %d, %d)",
                      cs->solver_rows, cs->solver_layers, cs->solver_along_x, s->n, s->n_second_order,
                      m->params.rows, m->params.cols, m->params.depth, s->norm_size, rows, layers, along_x, size,
-                     positions, LATTICE_ROWS, LATTICE_COLS, LATTICE_DEPTH, N_STATE);
+                     positions, LATTICE_ROWS, LATTICE_COLS, LATTICE_DEPTH, norm_size);
             return -1;
         }
     }

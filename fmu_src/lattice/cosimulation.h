@@ -25,7 +25,10 @@
 #define N_MASSES (LATTICE_ROWS * LATTICE_COLS * LATTICE_DEPTH)
 #define N_COMPONENTS LATTICE_COMPONENTS(LATTICE_DEPTH)
 #define N_FACE_MASSES LATTICE_FACE_MASSES(LATTICE_ROWS, LATTICE_DEPTH)
-#define N_STATE LATTICE_STATE_SIZE_OF_PLATE(LATTICE_ROWS, LATTICE_COLS, LATTICE_DEPTH)
+#define N_LATTICE_STATE LATTICE_STATE_SIZE_OF_PLATE(LATTICE_ROWS, LATTICE_COLS, LATTICE_DEPTH)
+/* projectile mode's rigid body (docs/model.md section 11): its position and velocity after the lattice's state */
+#define N_PROJECTILE_STATES 2
+#define N_STATE (N_LATTICE_STATE + N_PROJECTILE_STATES)
 
 typedef struct {
     Solver solver;
@@ -33,6 +36,10 @@ typedef struct {
      * carries its solution (the upper rows, the front layers), with the y and z components or without them (a
      * lattice loaded along x) */
     int solver_rows, solver_layers, solver_along_x;
+    /* projectile mode: the solver integrates the body with the lattice, its position after the lattice's
+     * positions and its velocity after their velocities, [positions, x_p, velocities, v_p, quadratures], so a
+     * Nystrom solver takes it as the second-order body it is */
+    int solver_projectile;
     int step_contact_free; /* no column-C mass touched the plate during the last step: its force is 0 */
     long next_sample;
     int limit_exceeded; /* a sample exceeded peak_force_limit, at limit_time: the run ends there */
@@ -42,6 +49,7 @@ typedef struct {
     double step_peak, step_peak_time;
     int stalled_steps;           /* consecutive steps cut back to (almost) nothing by backplate switches */
     double whole_state[N_STATE]; /* scratch: the solver's state as the whole lattice's */
+    double lattice_state[N_STATE], lattice_rate[N_STATE]; /* scratch: projectile mode's lattice part and its rate */
     double work[SOLVER_WORKSPACE_SIZE(N_STATE)];
 } CoSimulation;
 

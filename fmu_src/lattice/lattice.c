@@ -398,14 +398,17 @@ static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, 
     double power_external = 0.0, power_dissipated = springs->dissipated, power_nonreciprocal = springs->nonreciprocal;
     int i, k;
 
-    if (p->load_mode != LOAD_MODE_PULSE) { /* the front port's force along +x, with the pulse's weights */
+    if (p->load_mode != LOAD_MODE_PULSE) {
+        /* the front port's force along +x, with the pulse's weights; its work is external in input mode, while
+         * projectile mode's contact is inside the model (the body's energy and the contact's take it) */
+        const int external = p->load_mode == LOAD_MODE_INPUT;
         for (k = 0; k < layers; k++) {
             for (i = 0; i < rows; i++) {
                 const int a = (k * rows + i) * cols;
                 const double share = p->front_force * load_fraction(p, i, k);
                 if (share == 0.0) continue; /* outside the patch, or no force */
                 fx[a] += share;
-                power_external += mirror_count(mirror_y, mirror_z, rows, layers, i, k) * (share * vx[a]);
+                if (external) power_external += mirror_count(mirror_y, mirror_z, rows, layers, i, k) * (share * vx[a]);
             }
         }
     } else if (load_on) {
@@ -1185,21 +1188,37 @@ double lattice_backplate_force(const LatticeParams *p, const double *y) {
                                                p->cols);
 }
 
-void lattice_front_port(const LatticeParams *p, const double *y, double *x_front, double *v_front) {
-    const int rows = p->rows, cols = p->cols, n = rows * cols * p->depth;
-    const double *ux = y, *vx = y + LATTICE_COMPONENTS(p->depth) * n;
+double lattice_load_weight(const LatticeParams *p, int i, int k) { return load_fraction(p, i, k); }
+
+/* The front port over the face masses of rows x layers (each counted as often as it stands in the whole). */
+static void front_port_of_face(const LatticeParams *p, int rows, int layers, int mirror_y, int mirror_z,
+                               const double *ux, const double *vx, double *x_front, double *v_front) {
+    const int cols = p->cols;
     double x = 0.0, v = 0.0;
     int i, k;
-    for (k = 0; k < p->depth; k++) {
+    for (k = 0; k < layers; k++) {
         for (i = 0; i < rows; i++) {
             const int a = (k * rows + i) * cols;
-            const double weight = load_fraction(p, i, k);
+            const double weight = mirror_count(mirror_y, mirror_z, rows, layers, i, k) * load_fraction(p, i, k);
             x += weight * ux[a];
             v += weight * vx[a];
         }
     }
     *x_front = x;
     *v_front = v;
+}
+
+void lattice_front_port(const LatticeParams *p, const double *y, double *x_front, double *v_front) {
+    const int n = p->rows * p->cols * p->depth;
+    front_port_of_face(p, p->rows, p->depth, 0, 0, y, y + LATTICE_COMPONENTS(p->depth) * n, x_front, v_front);
+}
+
+void lattice_front_port_along_x(const LatticeParams *p, int mirrored, const double *y, double *x_front,
+                                double *v_front) {
+    const int mirror_rows = mirrored ? lattice_mirror_rows(p) : 0, mirror_layers = mirrored ? lattice_mirror_layers(p) : 0;
+    const int rows = mirror_rows ? mirror_rows : p->rows, layers = mirror_layers ? mirror_layers : p->depth;
+    front_port_of_face(p, rows, layers, mirror_rows != 0, mirror_layers != 0, y, y + rows * p->cols * layers, x_front,
+                       v_front);
 }
 
 /* Potential of one spring: for a non-reciprocal pair, the mean of its two ends' potentials. uz NULL in a

@@ -108,6 +108,12 @@ void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, cons
 /* The front port (docs/model.md section 11): x_front = sum of w_a ux_a and v_front = sum of w_a vx_a over the
  * loaded face masses with the load's weights w_a (summing to 1), of whole state y. */
 void lattice_front_port(const LatticeParams *p, const double *y, double *x_front, double *v_front);
+/* The same of a state in lattice_rhs_along_x's layout (mirrored: of the part it integrates, each face mass
+ * counted as often as it stands in the whole). */
+void lattice_front_port_along_x(const LatticeParams *p, int mirrored, const double *y, double *x_front,
+                                double *v_front);
+/* The load's weight w_a of face mass (i, k) of the whole lattice (0-based; the weights sum to 1). */
+double lattice_load_weight(const LatticeParams *p, int i, int k);
 
 /* Sum over column-C masses in contact of k_w p + c_w max(vx - v_back, 0), p = ux - gap - x_back (docs/model.md
  * sections 5 and 11). */

@@ -27,8 +27,56 @@ size_t model_size(void) { return sizeof(Model); }
 
 /* The contract's derivatives under the model's discrete states (the load phase given, the backplate modes
  * frozen): the one right-hand side of both interfaces. */
-void model_derivatives(const Model *m, int load_on, const double *y, double *dydt) {
+int model_contact_of(double delta, double rate) { return delta > 0.0 || (delta == 0.0 && rate > 0.0); }
+
+double model_contact_force(const Model *m, int contact_on, double delta, double rate, double *dissipation) {
+    const double stiffness = PARAM_CONTACT_STIFFNESS(m), exponent = PARAM_CONTACT_EXPONENT(m);
+    double elastic, force;
+    if (!contact_on) {
+        *dissipation = 0.0;
+        return 0.0;
+    }
+    elastic = stiffness * pow(fabs(delta), exponent) * (delta < 0.0 ? -1.0 : 1.0); /* k d^n, odd past 0 */
+    force = elastic * fmax(1.0 + PARAM_CONTACT_DAMPING(m) * rate, 0.0);
+    /* what the contact takes from the bodies' motion, -F d', beyond its potential's rate k d^n d' */
+    *dissipation = (force - elastic) * rate;
+    return force;
+}
+
+/* Projectile mode: the contact force on state y (whole layout) and its dissipation, from the face's port. */
+static double contact_of_state(const Model *m, int contact_on, const double *y, double *dissipation) {
+    double x_front, v_front;
+    lattice_front_port(&m->params, y, &x_front, &v_front);
+    return model_contact_force(m, contact_on, y[INDEX_PROJECTILE_POSITION] - x_front,
+                               y[INDEX_PROJECTILE_VELOCITY] - v_front, dissipation);
+}
+
+void model_derivatives(Model *m, int load_on, const double *y, double *dydt) {
+    if (m->params.load_mode == LOAD_MODE_PROJECTILE) {
+        double dissipation;
+        const double force = contact_of_state(m, m->contact_on, y, &dissipation);
+        m->params.front_force = force;
+        lattice_rhs(&m->params, load_on, m->wall_mode, y, dydt);
+        dydt[INDEX_DISSIPATED] += dissipation;
+        dydt[INDEX_PROJECTILE_POSITION] = y[INDEX_PROJECTILE_VELOCITY];
+        dydt[INDEX_PROJECTILE_VELOCITY] = -force / PARAM_PROJECTILE_MASS(m);
+        return;
+    }
     lattice_rhs(&m->params, load_on, m->wall_mode, y, dydt);
+    dydt[INDEX_PROJECTILE_POSITION] = 0.0;
+    dydt[INDEX_PROJECTILE_VELOCITY] = 0.0;
+}
+
+void model_energies(const Model *m, const double *y, double *kinetic, double *potential) {
+    lattice_energies(&m->params, y, kinetic, potential);
+    if (m->params.load_mode == LOAD_MODE_PROJECTILE) {
+        double x_front, v_front, delta;
+        const double speed = y[INDEX_PROJECTILE_VELOCITY], exponent = PARAM_CONTACT_EXPONENT(m);
+        lattice_front_port(&m->params, y, &x_front, &v_front);
+        delta = y[INDEX_PROJECTILE_POSITION] - x_front;
+        *kinetic += 0.5 * PARAM_PROJECTILE_MASS(m) * speed * speed;
+        if (delta > 0.0) *potential += PARAM_CONTACT_STIFFNESS(m) * pow(delta, exponent + 1.0) / (exponent + 1.0);
+    }
 }
 
 void model_indicator_definition(const Model *m, int k, int rows, int vx_base, int *component, double *threshold) {
@@ -43,9 +91,18 @@ void model_indicator_definition(const Model *m, int k, int rows, int vx_base, in
     }
 }
 
+/* Projectile mode's contact indicator: the overlap of body and face (1 in the other modes: it never switches). */
+static double impact_indicator_value(const Model *m, const double *y) {
+    double x_front, v_front;
+    if (m->params.load_mode != LOAD_MODE_PROJECTILE) return 1.0;
+    lattice_front_port(&m->params, y, &x_front, &v_front);
+    return y[INDEX_PROJECTILE_POSITION] - x_front;
+}
+
 static double indicator_value(const Model *m, int k, const double *y) {
     int component;
     double threshold;
+    if (k == IMPACT_INDICATOR) return impact_indicator_value(m, y);
     model_indicator_definition(m, k, LATTICE_ROWS, VX_BASE, &component, &threshold);
     return y[component] - threshold;
 }
@@ -292,7 +349,7 @@ double model_backplate_force_of_column(const Model *m, const double *ux, const d
 }
 
 double model_energy_balance(const Model *m, const double *y, double *kinetic, double *potential) {
-    lattice_energies(&m->params, y, kinetic, potential);
+    model_energies(m, y, kinetic, potential);
     return m->initial_energy + y[INDEX_EXTERNAL_WORK] + y[INDEX_NONRECIPROCAL_WORK] - *kinetic - *potential -
            y[INDEX_DISSIPATED];
 }
@@ -364,6 +421,14 @@ void model_update_outputs(Model *m, double peak_continuous, double peak_time, do
     m->real[VR_DISSIPATED_ENERGY] = y[INDEX_DISSIPATED];
     m->real[VR_NONRECIPROCAL_WORK] = y[INDEX_NONRECIPROCAL_WORK];
     lattice_front_port(&m->params, y, &m->real[VR_X_FRONT], &m->real[VR_V_FRONT]);
+    m->real[VR_CONTACT_FORCE] = 0.0;
+    if (m->params.load_mode == LOAD_MODE_PROJECTILE) {
+        const double delta = y[INDEX_PROJECTILE_POSITION] - m->real[VR_X_FRONT];
+        double dissipation;
+        m->real[VR_CONTACT_FORCE] = model_contact_force(m, delta > 0.0, delta,
+                                                        y[INDEX_PROJECTILE_VELOCITY] - m->real[VR_V_FRONT],
+                                                        &dissipation);
+    }
     for (i = 0; i < 4; i++) {
         m->real[plotted_x[i]] = y[plotted_mass[i]];
         m->real[plotted_y[i]] = y[N_MASSES + plotted_mass[i]];
@@ -420,11 +485,17 @@ int model_initialize(Model *m, double start_time, int stop_time_defined, double 
     m->port_front_force = m->params.front_force;
     m->port_back_position = m->params.back_position;
     m->port_back_velocity = m->params.back_velocity;
-    m->ports_driven = m->params.load_mode != LOAD_MODE_PULSE;
+    m->ports_driven = m->params.load_mode == LOAD_MODE_INPUT;
     memset(m->output_state, 0, sizeof(m->output_state)); /* at rest, in place */
+    m->contact_on = 0;
+    if (m->params.load_mode == LOAD_MODE_PROJECTILE) { /* the body touches the face at t = 0, moving in */
+        m->output_state[INDEX_PROJECTILE_VELOCITY] = PARAM_PROJECTILE_SPEED(m);
+        m->contact_on = model_contact_of(0.0, PARAM_PROJECTILE_SPEED(m));
+    }
     {
-        double kinetic;
-        lattice_energies(&m->params, m->output_state, &kinetic, &m->initial_energy);
+        double kinetic, potential;
+        model_energies(m, m->output_state, &kinetic, &potential);
+        m->initial_energy = potential + kinetic; /* the body's kinetic energy in projectile mode */
     }
     m->initialized = 1;
     return 0;
@@ -448,9 +519,10 @@ int model_check(const Model *m, char *message, size_t message_size) {
     }
     if (!m->initialized) return 0; /* the solver, the lattice and the modes are set up at initialisation */
     if (check_material_order(m, message, message_size)) return -1;
-    if ((m->exchange != 0 && m->exchange != 1) || (m->switch_pending != 0 && m->switch_pending != 1)) {
-        snprintf(message, message_size, "the state is corrupt: its interface flags are %d, %d", m->exchange,
-                 m->switch_pending);
+    if ((m->exchange != 0 && m->exchange != 1) || (m->switch_pending != 0 && m->switch_pending != 1) ||
+        (m->contact_on != 0 && m->contact_on != 1)) {
+        snprintf(message, message_size, "the state is corrupt: its interface flags are %d, %d, %d", m->exchange,
+                 m->switch_pending, m->contact_on);
         return -1;
     }
     if (m->exchange && !(m->time >= 0.0 && m->time <= DBL_MAX)) { /* the importer sets the time */
@@ -607,9 +679,28 @@ static int switch_wall_modes(Model *m) {
     return changed;
 }
 
+/* Projectile mode: the contact's mode of the importer's state. */
+static int contact_of_exchange_state(Model *m) {
+    const double *y = m->output_state;
+    double x_front, v_front;
+    if (m->params.load_mode != LOAD_MODE_PROJECTILE) return 0;
+    lattice_front_port(&m->params, y, &x_front, &v_front);
+    return model_contact_of(y[INDEX_PROJECTILE_POSITION] - x_front, y[INDEX_PROJECTILE_VELOCITY] - v_front);
+}
+
+/* Switches the contact to the mode of the state; 1 when it changed. */
+static int switch_contact(Model *m) {
+    const int contact = contact_of_exchange_state(m);
+    if (contact == m->contact_on) return 0;
+    m->contact_on = contact;
+    m->derivative_valid = 0;
+    return 1;
+}
+
 void model_event_update(Model *m, int *changed, int *next_event_time_defined, double *next_event_time) {
     record_point(m); /* the point the event happens at, before anything switches */
     *changed = switch_wall_modes(m);
+    *changed = switch_contact(m) || *changed;
     if (model_load_switches_off(m, m->time)) {
         m->load_on = 0;
         m->derivative_valid = 0;
@@ -624,7 +715,8 @@ int model_completed_point(Model *m) {
     int i;
     m->exchange_points++;
     record_point(m);
-    if (!m->params.has_backplate) return 0;
+    m->switch_pending = m->switch_pending || contact_of_exchange_state(m) != m->contact_on;
+    if (!m->params.has_backplate) return m->switch_pending;
     modes_of_state(m, modes);
     for (i = 0; i < N_FACE_MASSES; i++) m->switch_pending = m->switch_pending || modes[i] != m->wall_mode[i];
     return m->switch_pending;
@@ -637,12 +729,13 @@ int model_switch_lost_events(Model *m, char *message, size_t message_size) {
     memcpy(before, m->wall_mode, sizeof(before));
     switch_wall_modes(m);
     for (i = 0; i < N_FACE_MASSES; i++) switched += before[i] != m->wall_mode[i];
+    switched += switch_contact(m);
     m->switch_pending = 0;
     if (switched) {
         snprintf(message, message_size,
-                 "at t = %.17g s the backplate mode of %d column-C mass(es) contradicted the state and the importer "
-                 "went on without the event the completed step asked for: the model switched them itself (located only "
-                 "to the importer's step)",
+                 "at t = %.17g s the mode of %d backplate or projectile contact(s) contradicted the state and the "
+                 "importer went on without the event the completed step asked for: the model switched them itself "
+                 "(located only to the importer's step)",
                  model_time(m), switched);
     }
     return switched;
