@@ -73,14 +73,17 @@ def test_the_system_file_holds_the_three_fmus_and_the_connections_of_section_11(
 def test_the_default_step_keeps_the_coupling_stable_with_margin(system_ssp):
     """The rigid backplate's spring and damper bound the back port at min(2c/k, 2m/c) = 2 c_wall / k_wall; the
     step stays STEP_MARGIN below the smallest limit."""
-    (back,) = port_limits()
+    front, back = port_limits()
+    assert (front.port, back.port) == ("front", "back")
     assert back.limit == pytest.approx(2.0 * back.damping / back.stiffness)
     assert back.limit == pytest.approx(2.0 * 10.0 / 1e4)  # c_wall / k_wall of the armour scene
+    assert front.mass == pytest.approx(1.0 / (2 * (1 / 20) ** 2 + 9 * (1 / 10) ** 2))  # 11 rows of 1 kg
+    assert front.limit > back.limit
     step = armour_system.system_step(system_ssp)
     assert step == default_step(port_limits())
     assert back.limit / (2 * STEP_MARGIN) < step <= back.limit / STEP_MARGIN
-    heavy = port_limits(hull_mass=1e-3)[0]  # a light hull: its mass bounds the step instead
-    assert heavy.limit == pytest.approx(2.0 * 1e-3 / heavy.damping)
+    light = port_limits(hull_mass=1e-3)[1]  # a light hull: its mass bounds the back port instead
+    assert light.limit == pytest.approx(2.0 * 1e-3 / light.damping)
 
 
 def test_libcosim_runs_the_system_from_its_file(request, libcosim_run, reference):
