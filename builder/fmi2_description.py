@@ -100,6 +100,14 @@ def enumeration_types(interface: Interface) -> list[dict]:
             for v in interface.exposed if v.enumeration]
 
 
+def co_simulation_capabilities(interface: Interface) -> list[tuple[str, str]]:
+    """The <CoSimulation> attributes of a model with inputs: it extrapolates them linearly over a step
+    (fmi2SetRealInputDerivatives) and gives its outputs' first derivatives (fmi2GetRealOutputDerivatives)."""
+    if not any(variable.causality == "input" for variable in interface.exposed):
+        return []
+    return [("canInterpolateInputs", "true"), ("maxOutputDerivativeOrder", "1")]
+
+
 def generate_model_description(interface: Interface, identifier: str, guid: str, scene,
                                sources: list[str] | None = None) -> str:
     """modelDescription.xml (FMI 2.0, Model Exchange and Co-Simulation) from the same table as the C header;
@@ -110,4 +118,5 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
                   description=model_summary(interface, scene), event_indicators=interface.event_indicator_count(),
                   sources=sources, units=UNITS, enumerations=enumeration_types(interface),
                   log_categories=LOG_CATEGORIES, experiment=default_experiment(scene), variables=scalars,
-                  outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns)
+                  outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns,
+                  co_simulation_capabilities=co_simulation_capabilities(interface))
