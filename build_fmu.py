@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.cross_check:
         if (args.output or args.rows or args.cols or args.depth or args.load_patch is not None or args.materials or args.reference or args.scene != DEFAULT_SCENE
-                or args.fmi_version != 2 or args.platforms):
+                or args.fmi_version != 2 or args.platforms or args.model != "lattice" or args.system):
             parser.error("--cross-check builds its own scenes and versions: give it with --werror only")
         from builder.cross_check import main as cross_check
         return cross_check(args.cross_check, werror=args.werror)
