@@ -28,7 +28,7 @@ from fmu_src.core import Core
 from fmu_src.variables import STATE_ORDER
 from orchestrator.design import DesignSpace
 from orchestrator.objective import FULL, SEARCH, LatticeObjective, close_instances
-from orchestrator.simulation import LatticeFMU, lattice_shape
+from orchestrator.simulation import LatticeFMU, declared_lattice_size
 from orchestrator.types import Evaluation
 from scenes import Scene
 
@@ -193,7 +193,7 @@ def main(argv=None) -> int:
     cases = [Case(patch, rule, label, order) for patch in PATCHES for rule in rules for label, order in ORDERS.items()]
     with lattice_fmu(args.fmu, scene=SCENE) as path:
         description = read_model_description(str(path))
-        shape, whole_states = lattice_shape(description), len(description.derivatives)
+        shape, whole_states = declared_lattice_size(path), len(description.derivatives)
         if shape != (scene.rows, scene.cols, scene.depth):
             raise SystemExit(f"--fmu {args.fmu}: its lattice is {' x '.join(map(str, shape or ()))}, the scene "
                              f"{SCENE}'s {scene.rows} x {scene.cols} x {scene.depth} (rows x columns x depth): give "

@@ -25,10 +25,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from fmu_src.materials import load_materials, study_materials, write_materials_csv
+from fmu_src.materials import study_materials, write_materials_csv
 from orchestrator.exhaustive import SWEEP_METHOD
-from orchestrator.fmu import prepare_fmu
-from orchestrator.runner import RunConfig, resolve_scene, run_in_folder
+from orchestrator.runner import RunConfig, run_in_folder
+from orchestrator.scene import resolve
 from orchestrator.steps import STEPS, Answers, Exhaustive, Searches, Sensitivity
 from orchestrator.steps.exhaustive import SWEEP_DESIGNS_PER_SEARCH_EVALUATION
 from orchestrator.steps.searches import SINGLE_DEFAULT, SearchesConfig, default_evaluations
@@ -79,7 +79,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory(prefix="bench_crossover_") as folder:
         folder = Path(folder)
         table = write_materials_csv(study_materials(MATERIALS), folder / "catalogue.csv")
-        prepare_fmu(resolve_scene(CaseConfig(materials=str(table), cols=COLUMNS), load_materials(table)))  # built first
+        resolve(CaseConfig(materials=str(table), cols=COLUMNS))  # its FMU built first
         searched, searched_wall, searched_cpu = fastest(folder, table, SINGLE_DEFAULT, args.workers, repeats,
                                                         "searched", False)
         swept, swept_wall, swept_cpu = fastest(folder, table, (SWEEP_METHOD,), args.workers, repeats, "swept", False)

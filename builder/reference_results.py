@@ -66,9 +66,9 @@ REFERENCE_RESULTS = (ReferenceResult("the sequential order, the FMU's default", 
 
 def carries_reference_results(scene) -> bool:
     """Whether an FMU of ``scene`` (resolved: size and table applied) is the one the published results hold for."""
-    from scenes import DEFAULT_SCENE, Scene
+    from scenes import is_study_scene
 
-    return scene == Scene.load(DEFAULT_SCENE)
+    return is_study_scene(scene)
 
 
 def manifest_xml(identifier: str) -> str:

@@ -13,11 +13,13 @@ import numbers
 import os
 import shutil
 import tempfile
+import zipfile
 from ctypes import POINTER, byref, c_double, c_int, c_size_t, c_uint, c_void_p
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
+from xml.etree import ElementTree
 
 import numpy as np
 from fmpy import extract, read_model_description
@@ -99,25 +101,29 @@ def material_columns(description) -> int:
     return sum(1 for v in description.modelVariables if v.name.startswith("material["))
 
 
-def lattice_shape(description) -> tuple[int, int, int] | None:
-    """(rows, columns, depth) of the FMU's lattice, read from its ux[row,column] or, of a plate,
-    ux[layer,row,column] states (fmu_src/variables.py; None when it declares none): what an FMU given on its own
-    says of its plate, whatever scene it is used with."""
-    shape = None
-    for variable in description.modelVariables:
-        name = variable.name
-        if name.startswith("ux[") and name.endswith("]"):
+def declared_lattice_size(fmu_path: str | Path) -> tuple[int, int, int] | None:
+    """(rows, columns, depth) as the FMU's model description declares them (the builder writes them under the
+    tool or annotation ``scenes.SIZE_ANNOTATION``; None when it declares none): what an FMU given on its own says
+    of its lattice, whatever scene it is used with."""
+    status = os.stat(fmu_path)
+    return _declared_size(str(fmu_path), status.st_mtime_ns, status.st_size)
+
+
+@functools.lru_cache(maxsize=64)
+def _declared_size(fmu_path: str, mtime_ns: int, size: int) -> tuple[int, int, int] | None:
+    from scenes import SIZE_ANNOTATION
+
+    with zipfile.ZipFile(fmu_path) as archive:
+        root = ElementTree.fromstring(archive.read("modelDescription.xml"))
+    for holder in (*root.findall(f"VendorAnnotations/Tool[@name='{SIZE_ANNOTATION}']"),
+                   *root.findall(f"Annotations/Annotation[@type='{SIZE_ANNOTATION}']")):
+        lattice = holder.find("Lattice")
+        if lattice is not None:
             try:
-                index = tuple(int(part) for part in name[3:-1].split(","))
+                return int(lattice.get("rows", "")), int(lattice.get("columns", "")), int(lattice.get("depth", ""))
             except ValueError:
-                continue
-            if len(index) == 2:
-                index += (1,)
-            elif len(index) == 3:
-                index = (index[1], index[2], index[0])
-            if len(index) == 3:
-                shape = index if shape is None else tuple(max(a, b) for a, b in zip(shape, index))
-    return shape
+                return None
+    return None
 
 
 REAL_TYPES = ("Real", "Float64", "Float32")

@@ -190,7 +190,7 @@ def test_run_refuses_a_given_fmu_whose_plate_is_not_the_scenes(plate_fmu, tmp_pa
 
 
 def test_run_names_a_given_plates_size_read_from_the_fmu(plate_fmu, tmp_path, capfd):
-    """--fmu of a 5 x 5 x 5 plate with the default 11 x 11 scene: the FMU's own size, read from its states."""
+    """--fmu of a 5 x 5 x 5 plate with the default 11 x 11 scene: the FMU's own size, as its model description declares it."""
     from orchestrator.run import main
 
     code = main(["--fmu", str(plate_fmu), "--out", str(tmp_path / "out"), "--no-progress", "--no-sensitivity",
@@ -284,7 +284,7 @@ def test_a_plate_scenes_fmu_departs_from_the_study_so_no_known_optimum_of_the_la
     """The plate scene's FMU defaults to a 3 x 3 patch: the study's known optima (found on the lattice of one
     layer over its whole face) are not its optima, whatever its columns; the study's own FMU departs in nothing."""
     from orchestrator.fmu import describe
-    from orchestrator.study import departures_from_the_study
+    from orchestrator.scene import departures_from_the_study
 
     plate = build_fmu.build_fmu("plate_11x11x11", tmp_path / "plate.fmu", cols=8, depth=3)
     lattice = build_fmu.build_fmu("armour_11x11", tmp_path / "lattice.fmu", cols=8)
