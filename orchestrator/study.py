@@ -384,6 +384,11 @@ class StudyContext:
         step = next((s for s in self.steps if isinstance(s, step_type)), None)
         return step.config if step is not None else step_type.Config()
 
+    def options(self, config_type: type):
+        """The options of type ``config_type`` this run was given (its defaults when no step takes them): what a
+        step reads of a later step's options without importing that step."""
+        return next((s.config for s in self.steps if isinstance(s.config, config_type)), config_type())
+
     def given(self, step_type: type) -> frozenset[str]:
         return given(self.config(step_type))
 

@@ -19,7 +19,8 @@ from test_explore import browser, console_errors, needs_browser  # noqa: F401 (b
 from fmu_src.materials import study_materials
 from fmu_src.variables import loaded_face
 from orchestrator.objective import ObjectiveDescription
-from orchestrator.report import charts, plate
+from orchestrator import charts
+from orchestrator import plate_picture as plate
 from orchestrator.report.explore import EXPLORE_FILE, explore_data, write_explore
 from orchestrator.steps.answers import Answers, draw_lattice
 from orchestrator.study import CaseDescription
@@ -242,7 +243,7 @@ def test_the_springs_drawn_are_one_masses_eighteen():
 
 def test_the_model_figure_is_written_by_the_command_its_page_states(tmp_path, capsys):
     page = (Path(__file__).resolve().parents[1] / "docs" / "model.md").read_text()
-    assert "`python -m orchestrator.report.plate --write docs/images/plate-model.png`" in page
+    assert "`python -m orchestrator.plate_picture --write docs/images/plate-model.png`" in page
     assert "(images/plate-model.png)" in page
     assert plate.main(["--write", str(tmp_path / "plate-model.png")]) == 0
     assert (tmp_path / "plate-model.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -19,7 +19,7 @@ from ..records import to_record
 from ..steps.answers import Answers
 from ..steps.exhaustive import Exhaustive
 from ..steps.pareto import Pareto
-from ..steps.searches import Searches
+from ..steps.searches import Searches, draw_convergence
 from ..steps.starts import Starts
 from ..study import StudyResult
 
@@ -149,6 +149,14 @@ def write_certificates(study: StudyResult, out: Path) -> list[str]:
     return written
 
 
+def step_chart(step, study: StudyResult, path: Path, known: dict) -> str | None:
+    """A step's chart. The searches' convergence carries each rule's known optimum, which the later answers
+    step finds: the report, which reads both, composes it; every other chart is its step's own."""
+    if isinstance(step, Searches):
+        return draw_convergence(study, path, study.case.line(), known)
+    return step.chart(study, path)
+
+
 def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> Path:
     """Everything a study gives, into ``out``; returns the path of report.html."""
     out = Path(out)
@@ -158,7 +166,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     figures = {}
     for step in steps:
         if study.result(type(step)) is not None and step.chart_file:
-            made = step.chart(study, out / step.chart_file)
+            made = step_chart(step, study, out / step.chart_file, known)
             if made:
                 figures[type(step)] = made
     refused = write_design_files(study, out, steps, materials)

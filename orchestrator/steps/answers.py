@@ -8,6 +8,7 @@ from pathlib import Path
 
 from fmu_src.published import PUBLISHED_CONDITIONS
 
+from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
 from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
 from ..study import Step, StudyContext, Verdict
@@ -288,8 +289,6 @@ def settlement(context: StudyContext, rule, runs) -> Settlement | None:
         cost = sweep_cost(context, rule, min(values) if values else None)
     except ValueError:
         cost = None
-    from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
-
     command = f"--method {SWEEP_METHOD}" + (" --executor dask --scheduler ADDRESS --confirm-cost"
                                             if context.case.space.size > MAX_LOCAL_DESIGNS else "")
     return Settlement(budget, BUDGET_FACTOR, seconds * BUDGET_FACTOR / 3600, cost, command)
@@ -298,7 +297,7 @@ def settlement(context: StudyContext, rule, runs) -> Settlement | None:
 def draw_lattice(study, path: Path) -> str | None:
     import numpy as np
     import matplotlib
-    from ..report.charts import plt, save
+    from ..charts import plt, save
 
     answers = study.result(Answers)
     if answers is None or not answers.answers:
@@ -312,7 +311,7 @@ def draw_lattice(study, path: Path) -> str | None:
     norm = (matplotlib.colors.LogNorm(vmin=low, vmax=high) if low > 0 and high > low
             else matplotlib.colors.Normalize(vmin=low, vmax=high if high > low else low + 1.0))
     if case.depth > 1:  # a plate: its layers as a stack, the loaded patch on layer 1's face
-        from ..report.plate import draw_plate_answers
+        from ..plate_picture import draw_plate_answers
 
         return draw_plate_answers(case, designs, colour_map, norm, path)
     figure, axes = plt.subplots(1, len(designs), figsize=(4.6 * len(designs), 4.4), squeeze=False)

@@ -1,4 +1,5 @@
-"""The report's charts, drawn from a study's typed results (nothing here simulates)."""
+"""The charts every step draws from a study's typed results (nothing here simulates): matplotlib set up once,
+the methods' names and colours, the figure title and the PNG writer."""
 from __future__ import annotations
 
 from pathlib import Path
