@@ -63,8 +63,8 @@ def main(argv: list[str] | None = None) -> int:
                         "cross_check.py: three scenes, FMI 2.0 and 3.0, cs and me, references, FMPy's results)")
     args = parser.parse_args(argv)
     if args.cross_check:
-        if (args.output or args.rows or args.cols or args.depth or args.load_patch is not None or args.materials or args.reference or args.scene != DEFAULT_SCENE
-                or args.fmi_version != 2 or args.platforms):
+        if (args.output or args.rows or args.cols or args.depth or args.load_patch is not None or args.materials
+                or args.reference or args.scene != DEFAULT_SCENE or args.fmi_version != 2 or args.platforms):
             parser.error("--cross-check builds its own scenes and versions: give it with --werror only")
         from builder.cross_check import main as cross_check
         return cross_check(args.cross_check, werror=args.werror)

@@ -18,13 +18,14 @@ import json
 import os
 import platform
 import shlex
-import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import jinja2
+
+from builder.compatibility import git_output
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = ROOT / "docs" / "measurements"
@@ -103,7 +104,7 @@ class Run:
         seconds = time.perf_counter() - self.started
         load = os.getloadavg()
         return RunInfo(
-            command=self.command, commit=git_output("rev-parse", "HEAD") or "unknown", dirty=_dirty(),
+            command=self.command, commit=git_output("rev-parse", "HEAD", folder=ROOT) or "unknown", dirty=_dirty(),
             date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), cpu=cpu_model(),
             cores=os.cpu_count() or 1, memory=memory(), system=f"{platform.system()} {platform.release()}",
             load=(f"load average {self.load_at_start[0]:.1f} at the start, {load[0]:.1f} at the end (1 min; "
@@ -197,20 +198,12 @@ def _environment() -> jinja2.Environment:
     return environment
 
 
-def git_output(*arguments: str) -> str | None:
-    try:
-        done = subprocess.run(["git", "-C", str(ROOT), *arguments], capture_output=True, text=True, timeout=30)
-    except (OSError, subprocess.TimeoutExpired):
-        return None
-    return done.stdout.strip() if done.returncode == 0 else None
-
-
 MEASURED_CODE = ("bench", "builder", "fmu_src", "orchestrator", "reference", "scenes", "build_fmu.py", "pyproject.toml")
 
 
 def _dirty() -> bool:
     """Whether the code that is measured (not the documentation around it) differs from the commit."""
-    return bool(git_output("status", "--porcelain", "--", *MEASURED_CODE))
+    return bool(git_output("status", "--porcelain", "--", *MEASURED_CODE, folder=ROOT))
 
 
 def cpu_model() -> str:

@@ -271,7 +271,8 @@ def main(argv=None) -> int:
         f"{max(balances):.1e} of the external work")
     summary = (
         f"The scene `{SCENE}` ({scene.rows} rows x {scene.cols} columns x {scene.depth} masses deep: its "
-        f"{scene.cols} layers are its columns, one material each), under the centred 3 x 3 patch (`load_patch` 3, the scene's) and the whole face (`load_patch` 0), "
+        f"{scene.cols} layers are its columns, one material each), under the centred 3 x 3 patch (`load_patch` 3, "
+        "the scene's) and the whole face (`load_patch` 0), "
         f"the {' and '.join(rules)} rule{'s' if len(rules) > 1 else ''}, and the orders "
         + ", ".join(f"{label} {order_text(order)}" for label, order in ORDERS.items())
         + f". **search**: the orchestrator's search evaluation ({search_text}; re-run over {FULL_HORIZON:g} s when "

@@ -164,7 +164,8 @@ def generate_header(interface: Interface, guid: str) -> str:
     for variable in interface.fixed:
         c_type = "double" if variable.type == REAL else "int"
         if variable.size is None:
-            lines.append(f"#define PARAM_{variable.c_name}(m) ((void)(m), ({c_type})({c_literal(variable, variable.start)}))")
+            literal = c_literal(variable, variable.start)
+            lines.append(f"#define PARAM_{variable.c_name}(m) ((void)(m), ({c_type})({literal}))")
         else:
             lines.append(f"#define PARAM_{variable.c_name}(m, i) ((void)(m), FIXED_{variable.c_name}[(i)])")
     lines.append("")
@@ -187,7 +188,8 @@ def generate_table_header() -> str:
              "#ifndef MODEL_TABLE_H", "#define MODEL_TABLE_H", ""]
     for variable in enumerations():
         lines += [f"/* the values of {variable.name} */", f"enum {variable.enumeration} {{"]
-        lines += [f"    {variable.c_name}_{label.upper()} = {value}," for value, (label, _) in enumerate(variable.items)]
+        lines += [f"    {variable.c_name}_{label.upper()} = {value},"
+                  for value, (label, _) in enumerate(variable.items)]
         lines += ["};", ""]
     lines += ["/* The constants of one column: its material's row of the material table (docs/model.md section 2). */",
               "typedef struct {"]

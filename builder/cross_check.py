@@ -130,7 +130,8 @@ def with_reference(fmu: Path, target: Path, reference_csv: Path, stop_time: floa
     """A copy of ``fmu`` at ``target`` with the reference result and its FMI-LS-REF manifest in extra/."""
     from builder.reference_results import LS_DESCRIPTION, LS_NAME, LS_VERSION
 
-    description = f"Outputs from 0 to {stop_time!r} s every {step_size!r} s, by the FMU's Co-Simulation at its default parameters"
+    description = (f"Outputs from 0 to {stop_time!r} s every {step_size!r} s, by the FMU's Co-Simulation at its "
+                   "default parameters")
     manifest = _TEMPLATES.get_template("fmi_ls_ref_manifest.xml").render(
         ls_name=LS_NAME, ls_version=LS_VERSION, ls_description=LS_DESCRIPTION,
         related=[{"source": reference_csv.name, "description": description}])

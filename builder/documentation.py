@@ -56,6 +56,8 @@ def documentation_html(fmi_version: int, interface: Interface, identifier: str, 
                   published=published,
                   horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS,
                   rtol=f"{starts['rtol']:g}",
-                  reference_points=REFERENCE_POINTS, variables=[variable_row(v, fmi_version) for v in interface.exposed],
+                  reference_points=REFERENCE_POINTS,
+                  variables=[variable_row(v, fmi_version) for v in interface.exposed],
                   fixed=[v.name for v in interface.fixed],
-                  materials=(scene.material_table() or study_materials(min(interface.cols, STUDY_MATERIAL_COUNT))).materials)
+                  materials=(scene.material_table()
+                             or study_materials(min(interface.cols, STUDY_MATERIAL_COUNT))).materials)

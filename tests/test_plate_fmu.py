@@ -190,7 +190,8 @@ def test_run_refuses_a_given_fmu_whose_plate_is_not_the_scenes(plate_fmu, tmp_pa
 
 
 def test_run_names_a_given_plates_size_read_from_the_fmu(plate_fmu, tmp_path, capfd):
-    """--fmu of a 5 x 5 x 5 plate with the default 11 x 11 scene: the FMU's own size, as its model description declares it."""
+    """--fmu of a 5 x 5 x 5 plate with the default 11 x 11 scene: the FMU's own size, as its model description
+    declares it."""
     from orchestrator.run import main
 
     code = main(["--fmu", str(plate_fmu), "--out", str(tmp_path / "out"), "--no-progress", "--no-sensitivity",
@@ -212,7 +213,8 @@ def test_a_design_file_of_a_plate_carries_its_patch(plate_fmu, tmp_path):
     assert design["load_patch"] == 3 and design["material[1]"] == 3
 
 
-@pytest.mark.parametrize("case", [c for c in CASES if c["scene"]["load_patch"] and c["scene"]["diagonal_rule"] == "mean"],
+@pytest.mark.parametrize("case", [c for c in CASES
+                                  if c["scene"]["load_patch"] and c["scene"]["diagonal_rule"] == "mean"],
                          ids=lambda case: case["name"])
 def test_libcosim_runs_a_plates_design_file_to_the_reference_peak(plate_fmu, tmp_path, case):
     """An importer we did not write (libcosim, through libcosimpy) opens the design file of a plate struck over a
@@ -264,8 +266,8 @@ def test_a_study_of_a_plate_says_it_is_a_plate_and_where_it_is_struck(tmp_path, 
     assert '"depth":5,"loaded_faces":[{"load_patch":3,"whole_face":false,"rows":[4,6],"depth":[1,3]}]' in explore
 
 
-@pytest.mark.parametrize("depth, patch, says", [(5, 3, "over a centred 3 x 3 patch for"), (5, 0, "over the whole face for"),
-                                                (1, 0, "at 0 deg for")])
+@pytest.mark.parametrize("depth, patch, says", [(5, 3, "over a centred 3 x 3 patch for"),
+                                                (5, 0, "over the whole face for"), (1, 0, "at 0 deg for")])
 def test_the_case_line_says_where_a_plate_is_struck(depth, patch, says):
     """A plate struck over its whole face says so; the 2-D lattice (always its whole face) keeps its line."""
     from orchestrator.objective import ObjectiveDescription

@@ -226,7 +226,8 @@ class Answers(Step):
         sweep's runner-up by its recorded value."""
         objective = context.objective(rule)
         full_task, = objective.with_cases(None).tasks(FULL) if len(context.case.cases) == 1 else (None,)
-        others = [e for e in (context.evaluator.known(full_task) if full_task else []) if e.ok and e.order != best.order]
+        known = context.evaluator.known(full_task) if full_task else []
+        others = [e for e in known if e.ok and e.order != best.order]
         if sweep and sweep.certificate.optimum and sweep.certificate.optimum.order == best.order \
                 and sweep.certificate.runner_up and sweep.certificate.runner_up.full is not None \
                 and not any(e.order == sweep.certificate.runner_up.order for e in others):

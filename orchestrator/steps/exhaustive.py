@@ -244,10 +244,10 @@ class Exhaustive(Step):
             per_rule = f" ({cost.core_hours:,.1f} per rule, {count} rules)" if count > 1 else ""
             raise ValueError(
                 f"--method {SWEEP_METHOD}: {space.size:,} designs is beyond the local limit of {MAX_LOCAL_DESIGNS:,}: "
-                f"projected {cost.core_hours * count:,.1f} core-hours{per_rule} at {cost.designs_per_core_second:,.0f} designs "
-                f"per core-second (measured here on {cost.timed} designs, {cost.censored} stopped at the force limit "
-                "as the sweep's chunks are); run it on a Dask cluster, confirmed: --executor dask --scheduler "
-                "ADDRESS --confirm-cost")
+                f"projected {cost.core_hours * count:,.1f} core-hours{per_rule} at "
+                f"{cost.designs_per_core_second:,.0f} designs per core-second (measured here on {cost.timed} designs, "
+                f"{cost.censored} stopped at the force limit as the sweep's chunks are); run it on a Dask cluster, "
+                "confirmed: --executor dask --scheduler ADDRESS --confirm-cost")
 
     def run(self, context: StudyContext) -> ExhaustiveResult:
         why = f"asked (--method {SWEEP_METHOD})"
