@@ -258,8 +258,9 @@ class SimulationError(RuntimeError):
 
 
 @dataclass(frozen=True)
-class Trajectory:
-    """Outputs at every communication point of one run."""
+class RecordedSamples:
+    """Outputs at every communication point of one run, as the FMU returned them (``objective.Trajectory`` is
+    the study's record of them)."""
 
     time: np.ndarray
     values: dict[str, np.ndarray]
@@ -277,7 +278,7 @@ class SimulationResult(NamedOutputs):
     values: dict[str, float | int]
     stop_time: float
     stopped_early: bool = False
-    trajectory: Trajectory | None = None
+    trajectory: RecordedSamples | None = None
 
 
 class LatticeFMU:
@@ -420,7 +421,7 @@ class LatticeFMU:
                     if stopped_at is not None:
                         break
                 if record:
-                    trajectory = Trajectory(np.array(reached), {k: np.array(v) for k, v in series.items()})
+                    trajectory = RecordedSamples(np.array(reached), {k: np.array(v) for k, v in series.items()})
             values = reader.read(api)
         except FMICallException as exc:
             detail = "; ".join(self._messages) or "the FMU logged no reason"

@@ -13,7 +13,7 @@ from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
 from ..study import Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
-from .descent import Descent
+from .final_descent import FinalDescent
 from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, objective_covered, sweep_cost
 from .finalists import Finalists, best_of, finalist_orders
 from .searches import Searches, rule_label
@@ -134,7 +134,7 @@ def rule_best(context: StudyContext, label: str) -> Evaluation | None:
     """A rule's best design at full fidelity: over its finalists and the end of its final descent."""
     finalists = context.result(Finalists)
     candidates = list(finalists.for_rule(label).evaluations) if finalists else []
-    descent = context.result(Descent)
+    descent = context.result(FinalDescent)
     check = descent.for_rule(label) if descent else None
     if check is not None:
         candidates.append(check.full)
@@ -171,7 +171,7 @@ class Answers(Step):
 
     def run(self, context: StudyContext) -> AnswersResult:
         searched = context.result(Searches)
-        descent = context.result(Descent)
+        descent = context.result(FinalDescent)
         swept = context.result(Exhaustive)
         rules = context.rules
         answers = []

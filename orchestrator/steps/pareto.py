@@ -15,7 +15,7 @@ from ..search import make_search
 from ..search.pareto import dominated_by, hypervolume, non_dominated, reference_point
 from ..study import SILENT, Step, StudyContext, Verdict
 from ..types import Order
-from .descent import MAX_DESCENT
+from .final_descent import MAX_DESCENT
 from .exhaustive import SCREENING_ERROR, Exhaustive, FrontPoint
 from .searches import Searches, multi_objective, rule_label
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from ..design import Design
 from ..optuna_export import designs_from_storage
 from ..options import option
-from ..search.starts import parse_design
+from ..search.starts import DESIGN_EXAMPLE, parse_design
 from ..study import StudyContext
 from ..types import Order
 
@@ -21,7 +21,7 @@ COMMENT = "#"
 class StartsConfig:
     start: tuple[str, ...] = option(
         (), "a design every search evaluates first and starts from: the material of each column, column 1 "
-        "(at the load) first, e.g. 1,7,5,9,3,6,11,8,2,4,10 (repeatable)", action="append", metavar="ORDER")
+        f"(at the load) first, e.g. {DESIGN_EXAMPLE} (repeatable)", action="append", metavar="ORDER")
     start_file: str | None = option(
         None, "starting designs, one per line as for --start (# starts a comment), or an Optuna storage "
         "(e.g. sqlite:///study.db, needs the optuna extra): the best trial of each of its studies (with several "
@@ -47,7 +47,7 @@ def read_start_file(path: str) -> list[tuple[Design, str]]:
         if line:
             found.append((parse_design(line, f"--start-file {path}:{number}:"), f"--start-file {path}:{number}"))
     if not found:
-        raise ValueError(f"--start-file {path}: no design in it (one design per line, e.g. 1,7,5,9,3,6,11,8,2,4,10)")
+        raise ValueError(f"--start-file {path}: no design in it (one design per line, e.g. {DESIGN_EXAMPLE})")
     return found
 
 
