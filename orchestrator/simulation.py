@@ -286,8 +286,8 @@ class LatticeFMU:
 
     A run costs a fixed number of FMI calls whatever it sets and reads: the order and the integer parameters
     in one fmi2SetInteger, the real parameters in one fmi2SetReal, the outputs in one fmi2GetReal and one
-    fmi2GetInteger. Value references are resolved once per set of names and the ctypes arrays kept, and the
-    FMI functions are called through ctypes directly (fmpy's wrappers build their arrays on every call).
+    fmi2GetInteger. Value references are resolved once per set of names and the ctypes arrays kept; the calls
+    FMPy has no such form of are made through ctypes (``_DirectCalls``), every other one through FMPy.
     """
 
     def __init__(self, fmu_path: str | Path, instance_name: str = "lattice"):
@@ -394,11 +394,11 @@ class LatticeFMU:
         reader = self._reader(self.outputs if outputs is None else tuple(outputs))
         stopped_at = None
         try:
-            api.call("fmi2Reset")
-            api.call("fmi2SetupExperiment", 0, 0.0, 0.0, 1, float(horizon))
-            api.call("fmi2EnterInitializationMode")
+            self._slave.reset()
+            self._slave.setupExperiment(startTime=0.0, stopTime=float(horizon))
+            self._slave.enterInitializationMode()
             setter.apply(api, order, list(parameters.values()))
-            api.call("fmi2ExitInitializationMode")
+            self._slave.exitInitializationMode()
             trajectory = None
             if communication_step is None and record is None:
                 stopped_at = api.do_step(0.0, horizon, limited)
@@ -451,23 +451,25 @@ INTEGER_TYPES = ("Integer", "Enumeration")  # set and read with fmi2SetInteger /
 
 
 class _DirectCalls:
-    """The FMI 2 functions a run needs, called through ctypes on the instance fmpy loaded and instantiated."""
+    """The FMI 2 calls FMPy has no form of that a run needs, called through ctypes on the instance FMPy loaded
+    and instantiated (every other call is FMPy's):
+
+    - setting and reading values into arrays made once per set of names (FMPy's ``setReal`` / ``getReal`` build
+      new ctypes arrays from Python lists on every call, thousands of times per search);
+    - a ``fmi2DoStep`` that returns fmi2Discard rather than raising: it is how the FMU says that it stopped the
+      run early at its peak_force_limit (FMPy's ``doStep`` raises on any status above fmi2Warning).
+    """
 
     SIGNATURES = {
-        "fmi2Reset": [c_void_p],
-        "fmi2SetupExperiment": [c_void_p, c_int, c_double, c_double, c_int, c_double],
-        "fmi2EnterInitializationMode": [c_void_p],
-        "fmi2ExitInitializationMode": [c_void_p],
         "fmi2SetReal": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_double)],
         "fmi2SetInteger": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_int)],
         "fmi2GetReal": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_double)],
         "fmi2GetInteger": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_int)],
         "fmi2DoStep": [c_void_p, c_double, c_double, c_int],
-        "fmi2GetBooleanStatus": [c_void_p, c_int, POINTER(c_int)],
-        "fmi2GetRealStatus": [c_void_p, c_int, POINTER(c_double)],
     }
 
     def __init__(self, slave: FMU2Slave):
+        self.slave = slave
         self.component = slave.component
         self.functions = {}
         for name, argtypes in self.SIGNATURES.items():
@@ -475,8 +477,6 @@ class _DirectCalls:
             function.argtypes = argtypes
             function.restype = c_int
             self.functions[name] = function
-        self._terminated = c_int(0)
-        self._time = c_double(0.0)
 
     def call(self, name: str, *args) -> int:
         status = self.functions[name](self.component, *args)
@@ -491,11 +491,8 @@ class _DirectCalls:
         status = self.functions["fmi2DoStep"](self.component, start, size, 1)
         if status <= fmi2Warning:
             return None
-        if status == fmi2Discard and limited:
-            self.call("fmi2GetBooleanStatus", fmi2Terminated, byref(self._terminated))
-            if self._terminated.value:
-                self.call("fmi2GetRealStatus", fmi2LastSuccessfulTime, byref(self._time))
-                return self._time.value
+        if status == fmi2Discard and limited and self.slave.getBooleanStatus(fmi2Terminated):
+            return self.slave.getRealStatus(fmi2LastSuccessfulTime)
         raise FMICallException(function="fmi2DoStep", status=status)
 
 
