@@ -306,7 +306,7 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
     `materials` (a MaterialTable or a table file) replaces the scene's material table: the FMU's
     k[1..M], k_diag[1..M], c[1..M], alpha[1..M], alpha_diag[1..M] start with its values. `platforms` ('all'
     or a comma list of builder.platforms.PLATFORMS) says whose binaries the FMU carries; None, this machine's.
-    `depth` overrides the scene's layers (fixed at build time, like rows and cols), `load_patch` the start of
+    `depth` overrides the scene's depth (fixed at build time, like rows and cols), `load_patch` the start of
     that parameter.
     The armour scene's FMU carries its reference results (builder/reference_results.py) unless
     reference_results is False."""

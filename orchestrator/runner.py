@@ -70,7 +70,7 @@ class RunConfig:
 
 
 class NoResult(RuntimeError):
-    """The study finished without an answer (every evaluation failed, or nothing touched the plate)."""
+    """The study finished without an answer (every evaluation failed, or nothing touched the backplate)."""
 
 
 @dataclass(frozen=True)

@@ -45,7 +45,7 @@ def scene_names() -> list[str]:
 
 @dataclass
 class Scene:
-    """A named scene: lattice size (rows x cols, and depth layers: docs/model.md section 10), parameter values,
+    """A named scene: lattice size (rows x cols, and the depth along z: docs/model.md section 10), parameter values,
     which parameters the FMU exposes, the horizon."""
 
     name: str

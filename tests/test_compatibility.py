@@ -21,7 +21,7 @@ from fmu_src.published import PUBLISHED_PEAKS
 ORDERS = tuple(PUBLISHED_PEAKS)
 TOLERANCE = 1e-6  # relative, on the published peaks
 CS_HORIZON, STEP = 8.0, 0.01
-ME_HORIZON = 1.0  # the peak comes near 0.3 s and the lattice has left the plate before 1 s (horizon study)
+ME_HORIZON = 1.0  # the peak comes near 0.3 s and the lattice has left the backplate before 1 s (horizon study)
 ME_TOLERANCE = 1e-9  # CVode's relative tolerance
 
 

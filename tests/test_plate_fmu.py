@@ -102,7 +102,7 @@ def test_fmpy_validates_the_plate_fmu(plate_fmu, plate_fmu3, which):
 
 
 def test_the_plotted_masses_are_the_middle_layers(plate_fmu):
-    """ux_centre is the middle mass of the middle layer: mass (k R + i) C + j with i, j, k the middles."""
+    """ux_centre is the middle mass of the middle slice along z: mass (k R + i) C + j with i, j, k the middles."""
     names = ("ux_centre", "ux_left_edge", "ux_corner", "ux_right_edge", "ux[3,3,3]", "ux[3,3,1]", "ux[3,1,1]",
              "ux[3,3,5]")
     result = simulate_fmu(str(plate_fmu), stop_time=0.2, output_interval=0.05, output=list(names))

@@ -30,7 +30,7 @@ TERMS = {
     "continuous peak": "the largest backplate force over the continuous solution (between the samples too); "
                        "at least the sampled peak",
     "search fidelity": "the cheaper evaluation the searches rank by: a 1 s horizon (extended while the lattice "
-                       "still touches the plate) at a looser tolerance; every reported number is at full "
+                       "still touches the backplate) at a looser tolerance; every reported number is at full "
                        "fidelity, the whole scene at the FMU's default accuracy",
     "censored": "an evaluation the FMU stopped as soon as its peak passed a force limit the search gave "
                 "(it could no longer win): its value is only known to be above that limit, and it is never "
