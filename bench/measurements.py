@@ -26,10 +26,10 @@ from pathlib import Path
 import jinja2
 
 from builder.compatibility import git_output
+from builder.rendering import add_templates, cell
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = ROOT / "docs" / "measurements"
-TEMPLATES = Path(__file__).resolve().parent / "templates"
 
 
 @dataclass(frozen=True)
@@ -185,17 +185,9 @@ def front_matter(text: str) -> dict:
     return meta
 
 
-def cell(value) -> str:
-    """A table cell: text as it is, a pipe escaped so it cannot split the cell."""
-    return str("" if value is None else value).replace("|", "\\|").replace("\n", " ")
-
-
 def _environment() -> jinja2.Environment:
-    environment = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=False,
-                                     keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True,
-                                     undefined=jinja2.StrictUndefined)
-    environment.filters["cell"] = cell
-    return environment
+    """The one environment (builder.rendering), with the benchmarks' templates."""
+    return add_templates("bench")
 
 
 MEASURED_CODE = ("bench", "builder", "fmu_src", "orchestrator", "reference", "scenes", "build_fmu.py", "pyproject.toml")

@@ -175,14 +175,10 @@ def error_text(error: float | None) -> str:
     return "" if error is None else f"{error:.1e}"
 
 
-def cell(value) -> str:
-    return str("" if value is None else value).replace("|", "\\|").replace("\n", " ")
-
-
 def render(rows: list[CompatibilityRow]) -> str:
     """The page docs/compatibility.md of ``rows``."""
     environment = rendering.environment()
-    environment.filters.update(cell=cell, error=error_text)  # the page's table cells
+    environment.filters["error"] = error_text  # a worst error as the page's table shows it
     importers = sorted({(r.importer, r.importer_version) for r in rows}, key=lambda pair: pair[0].lower())
     platforms = sorted({r.platform for r in rows})
     published = [(list(order), peak) for order, peak in sorted(PUBLISHED_PEAKS.items(), key=lambda item: item[1])]

@@ -15,6 +15,8 @@ from typing import Any
 import jinja2
 import markupsafe
 
+from builder.rendering import add_templates
+
 from ..records import to_record
 from ..steps.answers import Answers
 from ..steps.exhaustive import Exhaustive
@@ -48,9 +50,8 @@ TERMS = {
 
 
 def _env() -> jinja2.Environment:
-    env = jinja2.Environment(loader=jinja2.PackageLoader("orchestrator", "templates"),
-                             autoescape=jinja2.select_autoescape(["html", "j2"]), undefined=jinja2.StrictUndefined,
-                             trim_blocks=True, lstrip_blocks=True)
+    """The one environment (builder.rendering) with the orchestrator's templates and the report's filters."""
+    env = add_templates("orchestrator")
     env.filters["n"] = _number
     env.filters["g2"] = lambda v: "n/a" if v is None else f"{v:,.2g}"
     env.filters["order"] = lambda order: "[" + ", ".join(str(m) for m in order) + "]" if order else "none"
