@@ -292,3 +292,20 @@ def test_a_plate_scenes_fmu_departs_from_the_study_so_no_known_optimum_of_the_la
     lattice = build_fmu.build_fmu("armour_11x11", tmp_path / "lattice.fmu", cols=8)
     assert departures_from_the_study(describe(plate, 11)) == ("load_patch",)
     assert departures_from_the_study(describe(lattice, 11)) == ()
+
+
+def test_both_model_descriptions_declare_the_lattices_size(plate_fmu, plate_fmu3, fmu_path, tmp_path):
+    """An FMU says its lattice's size in its model description, FMI 2 and 3 alike: what an FMU given with --fmu
+    is checked against its scene by. A model description that declares none says nothing (None)."""
+    from orchestrator.simulation import declared_lattice_size
+
+    assert declared_lattice_size(plate_fmu) == declared_lattice_size(plate_fmu3) == (ROWS, COLS, DEPTH)
+    assert declared_lattice_size(fmu_path) == (11, 11, 1)
+    silent = tmp_path / "silent.fmu"
+    with zipfile.ZipFile(fmu_path) as source, zipfile.ZipFile(silent, "w") as target:
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename == "modelDescription.xml":
+                data = data.replace(b'<Tool name="mass-spring-lattice">', b'<Tool name="another-tool">')
+            target.writestr(item, data)
+    assert declared_lattice_size(silent) is None
