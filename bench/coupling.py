@@ -244,11 +244,9 @@ def main(argv=None) -> int:
         notes=(f"The front port's predicted limit ({front.what}: m = {front.mass:.3g} kg, k = {front.stiffness:.3g} "
                f"N/m, c = {front.damping:.3g} N s/m) is {front.limit * 1e3:.3g} ms, above every step here but the "
                "longest: the back port bounds the system's step.",
-               "FMPy's rows: its communication times are sums (0.3400000000000002 where libcosim has 0.34), and the "
-               "lattice's sampled peak then differs from libcosim's on the same inputs by up to about 1 % while "
-               "every output at every communication point agrees to 1e-9 (tests/test_armour_system.py records it "
-               "as an expected failure): its peak error here is that of the lattice's sampler, not of the "
-               "coupling; its energy error is the coupling's."),
+               "FMPy's communication times are sums (0.3400000000000002 where libcosim has 0.34): the "
+               "lattice takes those samples from inside its steps, through its dense output, and gives the same "
+               "peak (tests/test_armour_system.py)."),
         tables=(Table(("hull", "m (kg)", "k at the back port (N/m)", "c at the back port (N s/m)",
                        "predicted limit (ms)", "measured limit (libcosim)", "reference peak (N)"), limit_rows,
                       caption="**Stability limits:**"),
