@@ -242,8 +242,8 @@ def main(argv=None) -> int:
                  "predicted limit dotted, the steps at which libcosim's fixed step diverged shaded.\n\n"
                  "![error against communication step](coupling.png)"),
         notes=(f"The front port's predicted limit ({front.what}: m = {front.mass:.3g} kg, k = {front.stiffness:.3g} "
-               f"N/m, c = {front.damping:.3g} N s/m) is {front.limit * 1e3:.3g} ms, above every step here but the "
-               "longest: the back port bounds the system's step.",
+               f"N/m, c = {front.damping:.3g} N s/m) is {front.limit * 1e3:.3g} ms, above every step here: "
+               "the back port bounds the system's step.",
                "FMPy's communication times are sums (0.3400000000000002 where libcosim has 0.34): the "
                "lattice takes those samples from inside its steps, through its dense output, and gives the same "
                "peak (tests/test_armour_system.py)."),
