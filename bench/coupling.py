@@ -1,6 +1,6 @@
 """Coupling: where the armour system's co-simulation holds and where it fails, measured and predicted.
 
-    python -m bench.coupling            # about 4 min: 12 steps x 4 masters x 2 hulls
+    python -m bench.coupling            # about 2.5 min: 12 steps x 4 masters x 2 hulls
     python -m bench.coupling --quick    # about 1 min: 6 steps x 2 masters x 2 hulls
 
 The armour system (`python build_fmu.py --system`: projectile -> lattice -> hull, three FMUs) co-simulated over
