@@ -434,9 +434,10 @@ class EnergyTerms:
 
     The lattice alone: ``lattice_initial_potential + front_work - back_work + nonreciprocal_work =
     lattice_kinetic + lattice_potential + lattice_dissipation`` (the initial potential: a wall given at
-    ``x_back(0) < -g`` starts pressed into the lattice). The whole system adds the projectile (its initial kinetic energy in; its kinetic
-    energy, the contact potential ``k_c δ^(n+1)/(n+1)`` and the contact's dissipation out) and the hull (its
-    kinetic and spring energy and its dissipation out; the back port's work then stays inside the system).
+    ``x_back(0) < -g`` starts pressed into the lattice). The whole system adds the projectile (its initial kinetic
+    energy in; its kinetic energy, the contact potential ``k_c δ^(n+1)/(n+1)`` and the contact's dissipation out)
+    and the hull (its kinetic and spring energy and its dissipation out; the back port's work then stays inside the
+    system).
     """
 
     lattice_initial_potential: float
@@ -470,7 +471,8 @@ class EnergyTerms:
         kinetic, the lattice's potential), the front port's work, the non-reciprocal work, minus the work given
         to a prescribed back port."""
         given = self.projectile_initial_kinetic if self.with_projectile else self.front_work
-        return self.lattice_initial_potential + given + self.nonreciprocal_work - (0.0 if self.with_hull else self.back_work)
+        back = 0.0 if self.with_hull else self.back_work
+        return self.lattice_initial_potential + given + self.nonreciprocal_work - back
 
     @property
     def system_error(self) -> float:
