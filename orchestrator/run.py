@@ -119,6 +119,15 @@ def front_sureness_line(sureness) -> str:
     return f"best found{ends}; {sureness.settle}"
 
 
+def parameters_line(answer, study) -> str:
+    """The answer as the start values to type into any FMI tool, and what the FMU does without them."""
+    from orchestrator.report import rule_default_note
+
+    note = rule_default_note(study, answer)
+    return (f"in any FMI tool: {answer.start_values_text()}, stop time {study.case.horizon:g} s"
+            + (f" ({note})" if note else ""))
+
+
 def print_answer(outcome) -> None:
     """The answer in a few lines, as the report's first screen gives it."""
     from orchestrator.report import case_line
@@ -137,10 +146,9 @@ def print_answer(outcome) -> None:
         status = evidence.status.replace("_", " ")
         if evidence.status != "best_found" and evidence.covers:
             status += f" for {evidence.covers}"
-        runs = ("every design swept" if evidence.swept and not evidence.runs else
-                f"{'only ' if evidence.few_runs else ''}{evidence.runs_reaching} of {evidence.runs} runs reached it")
         print(f"{answer.diagonal_rule} rule{role}: build {list(answer.order)}: {answer.peak:.2f} {unit}{other}; "
-              f"{status}, {runs}, {local[evidence.local_optimum]}; {answer.design_file}")
+              f"{status}, {evidence.origin()}, {local[evidence.local_optimum]}; {answer.design_file}")
+        print(f"  {parameters_line(answer, study)}")
         if evidence.settlement is not None:
             print(f"  {evidence.settlement.line()}")
         same = answer.equivalence

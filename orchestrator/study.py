@@ -165,13 +165,15 @@ class Case:
         objective = self.objective(fmu, self.rules[0] if self.rules else None).describe()
         shown = {name: self.parameters.get(name, fmu.start(name))
                  for name in ("F_total", "load_angle", "t_active", "load_patch") if name in fmu.parameters}
+        rule_parameter = fmu.parameters.get("diagonal_rule")
         return CaseDescription(scene=self.scene, rows=self.rows, columns=self.columns, space=self.space.describe(),
                                design_kind=self.space.kind, design_count=self.space.size,
                                materials=tuple(self.materials.rows()), rules=self.rules, objective=objective,
                                load=shown, parameters=dict(self.parameters),
                                cases={k: list(v) for k, v in self.case_lists.items()},
                                aggregate=self.aggregate if self.case_lists else None, horizon=self.horizon,
-                               depth=self.depth)
+                               depth=self.depth, rule_default=self.rule_default,
+                               rule_codes=dict(rule_parameter.items) if rule_parameter else {})
 
 
 @dataclass(frozen=True)
@@ -193,6 +195,8 @@ class CaseDescription:
     aggregate: str | None
     horizon: float
     depth: int = 1
+    rule_default: str = ""  # the FMU's own default diagonal rule (what it runs when diagonal_rule is not set)
+    rule_codes: dict[str, int] = field(default_factory=dict)  # each diagonal rule's code in the FMU
 
     def loaded_faces(self) -> tuple[LoadedFace, ...]:
         """The masses of column 1's face the load pushes: under the case's load_patch, or under each of its load

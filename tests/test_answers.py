@@ -188,3 +188,65 @@ def test_the_runner_asks_each_step_in_order_until_one_answers_or_refuses():
     check_answer(study, steps)
     steps, study = verdict_steps(SILENT, SILENT)
     check_answer(study, steps)
+
+
+# ---------------------------------------------------------------- the answer copied into an FMI tool
+@pytest.fixture(scope="module")
+def copied_study(armour_fmu_of_width, tmp_path_factory):
+    """A study of the 3-column armour scene under both rules (swept: certified), and the same scene's FMI 3 FMU."""
+    from builder import build as build_fmu
+
+    out = tmp_path_factory.mktemp("copied") / "out"
+    assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, *COMMON) == 0
+    fmu3 = build_fmu.build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu3_3") / "lattice3.fmu", cols=3,
+                               fmi_version=3)
+    return out, {2: armour_fmu_of_width(3), 3: fmu3}
+
+
+@pytest.mark.parametrize("fmi_version", [2, 3])
+def test_the_answer_copied_from_results_json_into_fmpy_gives_the_reports_number(copied_study, fmi_version):
+    """A user copies each answer's parameters into fmpy.simulate_fmu (defaults otherwise) and gets the report's
+    peak, under both rules; without diagonal_rule the mean rule's answer gives another number."""
+    from fmpy import simulate_fmu
+
+    out, fmus = copied_study
+    results = json.loads((out / "results.json").read_text())
+    answers = {a["diagonal_rule"]: a for a in results["answers"]}
+    assert set(answers) == {"mean", "receiver"}
+    for rule, answer in answers.items():
+        assert answer["parameters"]["diagonal_rule"] == results["case"]["rule_codes"][rule]
+        assert [answer["parameters"][f"material[{j}]"] for j in range(1, 4)] == answer["order"]
+        copied = simulate_fmu(str(fmus[fmi_version]), stop_time=results["case"]["horizon"],
+                              start_values=answer["parameters"], output=["peak_backplate_force"])
+        assert copied["peak_backplate_force"][-1] == pytest.approx(answer["peak"], rel=1e-6), rule
+    mean = answers["mean"]
+    materials_only = {k: v for k, v in mean["parameters"].items() if k != "diagonal_rule"}
+    default_rule = simulate_fmu(str(fmus[fmi_version]), stop_time=results["case"]["horizon"],
+                                start_values=materials_only, output=["peak_backplate_force"])
+    assert abs(default_rule["peak_backplate_force"][-1] - mean["peak"]) > 1.0
+
+
+def test_the_answer_is_shown_as_its_start_values_with_the_rule_code(copied_study):
+    from html import unescape
+
+    out, _ = copied_study
+    results = json.loads((out / "results.json").read_text())
+    html = unescape((out / "report.html").read_text())
+    first_screen = html[:html.index("</table>")]
+    for answer in results["answers"]:
+        typed = " ".join(f"{name}={value}" for name, value in answer["parameters"].items())
+        assert f"<code>{typed}</code>" in first_screen
+    assert "without it the FMU runs its default, 0 = receiver, which reproduces the study's published table" \
+        in first_screen
+    assert "diagonal_rule 0 = receiver is also the FMU's default" in first_screen
+
+
+def test_the_console_gives_each_answer_as_its_start_values(armour_fmu_of_width, tmp_path, capfd):
+    out = tmp_path / "out"
+    assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, "--diagonal-rule", "mean",
+                *COMMON) == 0
+    printed = capfd.readouterr().out.splitlines()
+    answer, = json.loads((out / "results.json").read_text())["answers"]
+    line = next(line for line in printed if "in any FMI tool:" in line)
+    assert line.strip().startswith(f"in any FMI tool: material[1]={answer['order'][0]} ")
+    assert "diagonal_rule=1, stop time 8 s" in line and "its default, 0 = receiver" in line

@@ -65,6 +65,22 @@ def _number(value: Any, digits: int = 2) -> str:
     return f"{value:,.{digits}f}"
 
 
+def rule_default_note(study: StudyResult, answer) -> str:
+    """What the FMU runs when a user leaves diagonal_rule out, after the answer's parameters: its default rule,
+    the receiver rule of the published table (docs/model.md section 2), and whether this answer needs the rule
+    set."""
+    case = study.case
+    default = case.rule_default
+    if not default or "diagonal_rule" not in answer.parameters:
+        return ""
+    code = case.rule_codes.get(default)
+    if answer.diagonal_rule == default:
+        return f"diagonal_rule {code} = {default} is also the FMU's default: it reproduces the study's published table"
+    return (f"diagonal_rule {answer.parameters['diagonal_rule']} = {answer.diagonal_rule}: without it the FMU runs "
+            f"its default, {code} = {default}, which reproduces the study's published table, and gives another "
+            "number")
+
+
 def case_line(study: StudyResult) -> str:
     return study.case.line()
 
@@ -181,10 +197,11 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
             refused=refused)))
     page = env.get_template("report/report.html.j2").render(
         study=study, case_line=study.case.line(), answers=answers, answers_chart=figures.get(Answers),
+        rule_default_note=rule_default_note,
         sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known,
         pareto=study.result(Pareto), starts=study.result(Starts))
     (out / "report.html").write_text(page)
     return out / "report.html"
 
 
-__all__ = ["TERMS", "case_line", "results_record", "write_report"]
+__all__ = ["TERMS", "case_line", "results_record", "rule_default_note", "write_report"]
