@@ -87,6 +87,10 @@ def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(arm
     assert tuple(mean["runner_up"]) == ranked[1][0]
     assert mean["equivalence"]["runner_up_outputs"] is not None  # the runner-up evaluated, not read from the table
     assert receiver["evidence"]["status"] == "best_found"
+    for answer in (mean, receiver):  # no run reached it on its own: it came from elsewhere, and the line says where
+        found_by = answer["evidence"]["found_by"]
+        assert (found_by == "the searches' runs") == (answer["evidence"]["runs_reaching"] > 0)
+        assert found_by == "the searches' runs" or f"found by {found_by};" in printed
     lines = printed.splitlines()
     first = next(i for i, line in enumerate(lines) if line.startswith("mean rule (your design file): build"))
     assert "certified for the sampled peak (0.01 s samples)" in lines[first]
@@ -139,6 +143,20 @@ def test_a_runner_up_closer_than_sampling_decides_is_equivalent():
     assert not far.equivalent
     within_integration = Equivalence(gap=1e-4, sampling=None, integration=1e-3, runner_up_outputs=None)
     assert within_integration.equivalent and "integration error" in within_integration.reason("m")
+
+
+def test_the_evidence_says_where_an_answer_came_from_before_counting_the_runs():
+    """A certified answer the final descent found, which no run reached on its own, says so: "certified ... 0 of 9
+    runs reached it" alone would read as a contradiction."""
+    from orchestrator.steps.answers import FOUND_BY_DESCENT, FOUND_BY_KNOWN
+
+    descended = Evidence(0, 9, True, "certified", "", found_by=FOUND_BY_DESCENT).origin()
+    assert descended == "found by the final descent from the runs' best; 0 of 9 runs reached it on their own"
+    known = Evidence(1, 9, True, "best_found", "", found_by=FOUND_BY_KNOWN).origin()
+    assert known.startswith("found by the recorded known optimum") and "only 1 of 9 runs reached it on their own" \
+        in known
+    assert Evidence(3, 9, True, "best_found", "").origin() == "only 3 of 9 runs reached it"
+    assert Evidence(0, 0, None, "certified", "", swept=True).origin() == "every design swept"
 
 
 def test_few_runs_is_under_half_and_never_for_a_certified_answer():
