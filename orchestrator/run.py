@@ -170,7 +170,26 @@ def print_answer(outcome) -> None:
     if exported is not None and exported.error is None:
         print(f"optuna: {sum(s.trials for s in exported.studies)} trials in {exported.storage} (studies "
               + ", ".join(repr(s.name) for s in exported.studies) + f"): optuna-dashboard {exported.storage}")
+    for line in cost_lines(study):
+        print(line)
     print(f"report: {outcome.report}")
+
+
+def cost_lines(study) -> list[str]:
+    """What the run simulated, step by step, and each step that simulated more than the searches (what --budget
+    bounds) with why and the option that bounds it; nothing when no search ran."""
+    from orchestrator.steps import Searches
+
+    searches = next((cost for cost in study.costs if cost.step == Searches.name), None)
+    if searches is None:
+        return []
+    total = sum(cost.simulated for cost in study.costs)
+    lines = [f"simulated: {total:,} FMU runs: " + ", ".join(
+        f"{cost.step.replace('_', ' ')} {cost.simulated:,}" for cost in study.costs if cost.simulated)]
+    lines += [f"  {cost.step.replace('_', ' ')}: {cost.simulated:,} FMU runs, more than the searches' "
+              f"{searches.simulated:,} (--budget): {cost.note}"
+              for cost in study.costs if cost is not searches and cost.simulated > searches.simulated and cost.note]
+    return lines
 
 
 if __name__ == "__main__":

@@ -373,6 +373,11 @@ class Step:
         """What this step's ``result`` (None: the step did not run) says of the study's answer."""
         return SILENT
 
+    def cost_note(self, context: "StudyContext") -> str:
+        """Why this step simulates what it does, once it ran, and the option that bounds it (the console says
+        it when the step simulates more than the searches)."""
+        return ""
+
 
 @dataclass
 class StudyContext:
@@ -412,6 +417,16 @@ class StudyContext:
 
 
 @dataclass(frozen=True)
+class StepCost:
+    """What one step simulated: the evaluator's tasks (an FMU run each; a sweep's chunk is one), and why."""
+
+    step: str  # the step's name
+    title: str
+    simulated: int
+    note: str
+
+
+@dataclass(frozen=True)
 class StudyResult:
     """What a study found: the case, each step's result by its step's type, and how it was computed."""
 
@@ -422,6 +437,7 @@ class StudyResult:
     evaluator: EvaluatorState
     wall_seconds: float
     run_id: str
+    costs: tuple[StepCost, ...] = ()  # each step that ran, in order
 
     def result(self, step_type: type) -> Any:
         """The result of the step of that type, or None when it did not run."""
@@ -446,16 +462,20 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
     """Every step that applies, in order."""
     start = time.perf_counter()
     results = {}
+    costs = []
     replaced = {other for step in context.steps for other in step.replaces(context)}
     for step in context.steps:
         if type(step) in replaced or not step.applies(context):
             continue
+        simulated = context.evaluator.state().simulated
         result = step.run(context)
         context.results[type(step)] = result
         results[type(step)] = result
+        costs.append(StepCost(step.name, step.title, context.evaluator.state().simulated - simulated,
+                              step.cost_note(context)))
     return StudyResult(context.case.describe(context.fmu), str(context.fmu.path), context.fmu.sha256, results,
-                       context.evaluator.state(), time.perf_counter() - start, run_id)
+                       context.evaluator.state(), time.perf_counter() - start, run_id, tuple(costs))
 
 
 __all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "MAX_HORIZON", "MAX_RUNS_PER_DESIGN", "NoOptions",
-           "SILENT", "Step", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]
+           "SILENT", "Step", "StepCost", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]

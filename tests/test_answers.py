@@ -268,3 +268,42 @@ def test_the_console_gives_each_answer_as_its_start_values(armour_fmu_of_width, 
     line = next(line for line in printed if "in any FMI tool:" in line)
     assert line.strip().startswith(f"in any FMI tool: material[1]={answer['order'][0]} ")
     assert "diagonal_rule=1, stop time 8 s" in line and "its default, 0 = receiver" in line
+
+
+# ---------------------------------------------------------------- a budget that bounds every step
+def test_the_budget_bounds_the_sensitivity_and_the_local_check_and_the_console_says_which_exceeds_it(
+        armour_fmu_of_width, tmp_path, capfd):
+    """With --budget small, the sensitivity's short searches together evaluate no more designs than the searches
+    did, the local check no more than the searches or one neighbourhood, and the console names the step that
+    simulated more than the searches, why, and the option that bounds it."""
+    out = tmp_path / "out"
+    assert main("--fmu", armour_fmu_of_width(5), "--cols", 5, "--out", out, "--method", "cmaes", "sa", "--budget", 4,
+                "--repeats", 1, "--diagonal-rule", "mean", "--no-progress", "--executor", "serial") == 0
+    printed = capfd.readouterr().out
+    results = json.loads((out / "results.json").read_text())
+    searched = sum(run["distinct"] for run in results["steps"]["searches"]["runs"])
+    sensitivity = results["steps"]["sensitivity"]
+    assert sensitivity["budget"] == max(1, searched // (2 * len(sensitivity["variations"]))) < 100
+    check, = results["steps"]["local_optimality"]["rules"]
+    neighbourhood = sum(check["neighbours"].values())
+    assert check["evaluations"] <= max(searched, neighbourhood + 1)
+    costs = {cost["step"]: cost["simulated"] for cost in results["costs"]}
+    assert costs["searches"] <= searched  # two runs may ask one design: simulated once
+    assert sum(costs.values()) == results["evaluator"]["simulated"]
+    assert f"simulated: {sum(costs.values()):,} FMU runs: searches {costs['searches']}," in printed
+    assert costs["local_optimality"] > searched  # one neighbourhood is more than 8 designs
+    assert (f"local optimality: {costs['local_optimality']:,} FMU runs, more than the searches' {costs['searches']} "
+            f"(--budget): a local optimum is known only once each of its {neighbourhood} neighbours is evaluated") in printed
+    assert "--no-local-check skips it" in printed
+
+
+def test_a_sensitivity_budget_given_is_kept_and_the_default_one_is_its_ceiling():
+    from orchestrator.steps.sensitivity import DEFAULT_BUDGET, SensitivityConfig, search_budget
+
+    runs = [SimpleNamespace(distinct=d) for d in (200, 200, 1)]
+    context = SimpleNamespace(result=lambda step: SimpleNamespace(runs_for=lambda label: runs))
+    assert search_budget(context, SensitivityConfig(), "mean", 6) == 401 // 12
+    assert search_budget(context, SensitivityConfig(budget=500), "mean", 6) == 500
+    assert search_budget(context, SensitivityConfig(), "mean", 1) == DEFAULT_BUDGET
+    no_search = SimpleNamespace(result=lambda step: None)
+    assert search_budget(no_search, SensitivityConfig(), "mean", 6) == DEFAULT_BUDGET

@@ -93,7 +93,8 @@ def results_record(study: StudyResult) -> dict:
             "pareto": _pareto_points(study),
             "case": to_record(study.case), "case_line": case_line(study),
             "fmu": {"path": study.fmu_path, "sha256": study.fmu_sha256},
-            "steps": steps, "evaluator": to_record(study.evaluator), "wall_seconds": study.wall_seconds,
+            "steps": steps, "evaluator": to_record(study.evaluator), "costs": to_record(study.costs),
+            "wall_seconds": study.wall_seconds,
             "run": study.run_id, "terms": TERMS}
 
 

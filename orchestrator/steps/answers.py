@@ -236,7 +236,8 @@ class Answers(Step):
             runs = [r for r in (searched.runs_for(label) if searched else []) if r.method not in BASELINE_METHODS]
             reaching = sum(1 for r in runs if run_answer(r, context, label) == best.order)
             check = descent.for_rule(label) if descent else None
-            local = None if check is None else (check.locally_optimal and check.order == best.order)
+            local = (None if check is None or (check.order == best.order and not check.complete) else
+                     check.locally_optimal and check.order == best.order)
             status, source = self.status(context, rule, label, best.order, swept)
             objective = context.objective(rule)
             sweep = swept.for_rule(label) if swept else None
