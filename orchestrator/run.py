@@ -141,13 +141,12 @@ def print_answer(outcome) -> None:
         other = "".join(f", {v:.2f} {unit} under the {r} rule" for r, v in answer.values_by_rule.items()
                         if r != answer.diagonal_rule and v is not None)
         evidence = answer.evidence
-        local = {None: "local optimum not checked", True: "a local optimum", False: "not a local optimum"}
         role = f" ({'; '.join(answer.roles)})" if answer.roles else ""
         status = evidence.status.replace("_", " ")
         if evidence.status != "best_found" and evidence.covers:
             status += f" for {evidence.covers}"
         print(f"{answer.diagonal_rule} rule{role}: build {list(answer.order)}: {answer.peak:.2f} {unit}{other}; "
-              f"{status}, {evidence.origin()}, {local[evidence.local_optimum]}; {answer.design_file}")
+              f"{status}, {evidence.origin()}, {evidence.local_text()}; {answer.design_file}")
         print(f"  {parameters_line(answer, study)}")
         if evidence.settlement is not None:
             print(f"  {evidence.settlement.line()}")

@@ -157,6 +157,9 @@ def test_the_evidence_says_where_an_answer_came_from_before_counting_the_runs():
         in known
     assert Evidence(3, 9, True, "best_found", "").origin() == "only 3 of 9 runs reached it"
     assert Evidence(0, 0, None, "certified", "", swept=True).origin() == "every design swept"
+    capped = Evidence(0, 3, None, "best_found", "", local_unchecked="the local check stopped at its cap")
+    assert capped.local_text() == "local optimum not checked (the local check stopped at its cap)"
+    assert Evidence(0, 3, False, "best_found", "").local_text() == "not a local optimum"
 
 
 def test_few_runs_is_under_half_and_never_for_a_certified_answer():

@@ -56,13 +56,20 @@ class Settlement:
 class Evidence:
     runs_reaching: int  # optimiser runs whose own answer (best finalist at full fidelity) is this design
     runs: int  # optimiser runs under this rule (the baselines not counted)
-    local_optimum: bool | None  # None: not checked (--no-local-check)
+    local_optimum: bool | None  # None: not checked (--no-local-check, or the check's cap came first)
     status: str  # certified, known or best_found
     status_source: str  # what the status rests on
     covers: str = ""  # the objective the status holds for (a certificate says nothing of another objective)
     swept: bool = False  # every design of the space was evaluated (this run's sweep)
     settlement: Settlement | None = None  # what would settle it, when fewer than half the runs reached it
     found_by: str = FOUND_BY_RUNS  # where the design came from: FOUND_BY_* or a baseline's name
+    local_unchecked: str = ""  # why local_optimum is None when the local check ran
+
+    def local_text(self) -> str:
+        """Whether the answer is a local optimum, in a few words (the console's and the report's)."""
+        if self.local_optimum is None:
+            return f"local optimum not checked{f' ({self.local_unchecked})' if self.local_unchecked else ''}"
+        return "a local optimum" if self.local_optimum else "not a local optimum"
 
     @property
     def few_runs(self) -> bool:
@@ -245,7 +252,10 @@ class Answers(Step):
             search = objective.evaluate([best.order], context.evaluator, SEARCH)[0]
             evidence = Evidence(reaching, len(runs), local, status, source, covers=objective_covered(context, label),
                                 swept=sweep is not None and sweep.certificate.covered_once,
-                                found_by=found_by(context, rule, label, best.order, reaching, sweep, check))
+                                found_by=found_by(context, rule, label, best.order, reaching, sweep, check),
+                                local_unchecked="" if check is None or check.complete else (
+                                    f"the local check stopped at its cap of {check.evaluations:,} designs, which "
+                                    "--budget sets, before every neighbour was evaluated"))
             if evidence.few_runs and status == BEST_FOUND and known_optimum(
                     context.case, rule or context.case.rule_default) is None:
                 evidence = replace(evidence, settlement=settlement(context, rule, runs))
