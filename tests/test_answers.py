@@ -136,6 +136,7 @@ def outputs(sampled, continuous):
                        "peak_time": 0.3, "last_contact_time": 1.0}, 8.0)
 
 
+@pytest.mark.quick
 def test_a_runner_up_closer_than_sampling_decides_is_equivalent():
     close = Equivalence(gap=0.0066, sampling=9.6, integration=1e-3, runner_up_outputs=outputs(1405.91, 1415.44))
     assert close.equivalent and "less than the 9.60 N between the sampled and the continuous peak" in close.reason("N")
@@ -145,6 +146,7 @@ def test_a_runner_up_closer_than_sampling_decides_is_equivalent():
     assert within_integration.equivalent and "integration error" in within_integration.reason("m")
 
 
+@pytest.mark.quick
 def test_the_evidence_says_where_an_answer_came_from_before_counting_the_runs():
     """A certified answer the final descent found, which no run reached on its own, says so: "certified ... 0 of 9
     runs reached it" alone would read as a contradiction."""
@@ -162,6 +164,7 @@ def test_the_evidence_says_where_an_answer_came_from_before_counting_the_runs():
     assert Evidence(0, 3, False, "best_found", "").local_text() == "not a local optimum"
 
 
+@pytest.mark.quick
 def test_few_runs_is_under_half_and_never_for_a_certified_answer():
     assert Evidence(4, 9, True, "best_found", "").few_runs
     assert not Evidence(5, 9, True, "best_found", "").few_runs
@@ -224,6 +227,7 @@ def copied_study(armour_fmu_of_width, tmp_path_factory):
     return out, {2: armour_fmu_of_width(3), 3: fmu3}
 
 
+@pytest.mark.quick
 @pytest.mark.parametrize("fmi_version", [2, 3])
 def test_the_answer_copied_from_results_json_into_fmpy_gives_the_reports_number(copied_study, fmi_version):
     """A user copies each answer's parameters into fmpy.simulate_fmu (defaults otherwise) and gets the report's
@@ -247,6 +251,7 @@ def test_the_answer_copied_from_results_json_into_fmpy_gives_the_reports_number(
     assert abs(default_rule["peak_backplate_force"][-1] - mean["peak"]) > 1.0
 
 
+@pytest.mark.quick
 def test_the_answer_is_shown_as_its_start_values_with_the_rule_code(copied_study):
     from html import unescape
 
@@ -300,6 +305,7 @@ def test_the_budget_bounds_the_sensitivity_and_the_local_check_and_the_console_s
     assert "--no-local-check skips it" in printed
 
 
+@pytest.mark.quick
 def test_a_sensitivity_budget_given_is_kept_and_the_default_one_is_its_ceiling():
     from orchestrator.steps.sensitivity import DEFAULT_BUDGET, SensitivityConfig, search_budget
 

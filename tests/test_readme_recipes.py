@@ -18,6 +18,8 @@ from fmu_src.published import STUDY_BEST_ORDER
 from orchestrator.simulation import LatticeFMU
 from orchestrator.ssp import write_best_design_ssp
 
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
