@@ -96,6 +96,24 @@ def resolve_scene(case: CaseConfig, materials):
     return scene
 
 
+def narrowed_table_note(case: CaseConfig, scene, materials) -> str | None:
+    """The one-line note for --cols C below the study's eleven materials without a table of the user's: the
+    lattice takes the study's first C materials, as its narrower lattices and their known optima do, not C of
+    the eleven as a table of M would give; None when that is not the case."""
+    from .design import DesignSpace
+
+    if case.cols is None or materials is not None or case.fmu or scene.material_table() is not None \
+            or case.cols >= STUDY_MATERIAL_COUNT:
+        return None
+    columns = case.cols
+    own = DesignSpace(columns, columns, case.repeat).size
+    chosen = DesignSpace(columns, STUDY_MATERIAL_COUNT, case.repeat).size
+    return (f"note: --cols {columns} without --materials takes the first {columns} of the study's "
+            f"{STUDY_MATERIAL_COUNT} materials (m1..m{columns}: {own:,} designs), as the study's narrower lattices and "
+            f"their known optima do; to choose {columns} of the {STUDY_MATERIAL_COUNT} ({chosen:,} designs), give "
+            "the study's table as --materials FILE (its values: docs/model.md section 3)")
+
+
 def check_table_size(case: CaseConfig, scene, materials) -> None:
     """More columns than the table has materials, each used at most once, is refused in one line (before any
     build): the FMU would otherwise need materials that are in no table."""
@@ -161,6 +179,11 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
     tempfile.tempdir = temp_root  # this process's extractions too; removed with the run
     try:
         materials = load_materials(case_config.materials) if case_config.materials else None
+        from scenes import Scene
+
+        note = narrowed_table_note(case_config, Scene.load(case_config.scene), materials)
+        if note:
+            print(note, file=sys.stderr)
         scene = resolve_scene(case_config, materials)
         fmu = prepare_fmu(scene, case_config.fmu)
         if materials is not None and len(materials) != fmu.materials:
