@@ -165,6 +165,11 @@ def print_answer(outcome) -> None:
         print(f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front "
               f"({front_sureness_line(front.sureness)}); "
               + "; ".join(f"{c.label} {list(c.order)} ({c.design_file})" for c in front.chosen))
+    from orchestrator.steps.pareto import BEST_DESIGN_FILE, best_design
+
+    best = best_design(study)
+    if best is not None:
+        print(f"{BEST_DESIGN_FILE}: the knee of the {best.diagonal_rule} rule's front, {list(best.order)}")
     exported = study.result(OptunaExport)
     if exported is not None and exported.error is None:
         print(f"optuna: {sum(s.trials for s in exported.studies)} trials in {exported.storage} (studies "

@@ -36,3 +36,25 @@ def test_a_run_with_cols_and_no_table_prints_the_note(tmp_path, monkeypatch, cap
     err = capfd.readouterr().err
     assert "note: --cols 3 without --materials takes the first 3 of the study's 11 materials (m1..m3: 6 designs)" \
         in err
+
+
+def test_a_two_objective_run_writes_best_design_ssp_as_the_knee_of_its_front(armour_fmu_of_width, tmp_path, capfd):
+    import json
+
+    import numpy as np
+
+    from orchestrator.ssp import read_design_parameters
+    from orchestrator.steps.pareto import knee
+
+    out = tmp_path / "out"
+    assert main("--fmu", armour_fmu_of_width(4), "--cols", 4, "--out", out, "--objective", "sampled,max_compression",
+                "--diagonal-rule", "mean", "--budget", 12, "--repeats", 1, *COMMON) == 0
+    printed = capfd.readouterr().out
+    front, = json.loads((out / "results.json").read_text())["steps"]["pareto"]["fronts"]
+    points = front["points"]
+    order = points[knee(np.array([p["values"] for p in points]))]["order"]
+    written = read_design_parameters(out / "best_design.ssp")
+    assert [written[f"material[{j}]"] for j in range(1, 5)] == order
+    assert f"best_design.ssp: the knee of the mean rule's front, {order}" in printed
+    html = (out / "report.html").read_text()
+    assert '<a href="best_design.ssp">best_design.ssp</a> holds the knee of the mean rule' in html

@@ -18,7 +18,7 @@ import markupsafe
 from ..records import to_record
 from ..steps.answers import Answers
 from ..steps.exhaustive import Exhaustive
-from ..steps.pareto import Pareto
+from ..steps.pareto import BEST_DESIGN_FILE, Pareto, best_design
 from ..steps.searches import Searches
 from ..steps.starts import Starts
 from ..study import StudyResult
@@ -200,7 +200,8 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
         study=study, case_line=study.case.line(), answers=answers, answers_chart=figures.get(Answers),
         rule_default_note=rule_default_note,
         sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known,
-        pareto=study.result(Pareto), starts=study.result(Starts))
+        pareto=study.result(Pareto), starts=study.result(Starts), best_design=best_design(study),
+        best_design_file=BEST_DESIGN_FILE)
     (out / "report.html").write_text(page)
     return out / "report.html"
 

@@ -24,6 +24,7 @@ class ChosenPoint:
     design_file: str
 
 
+BEST_DESIGN_FILE = "best_design.ssp"
 AGREEMENT = 0.999  # a run agrees with the best known front when its own front covers this share of its hypervolume
 
 
@@ -268,7 +269,32 @@ class Pareto(Step):
 
     def design_files(self, study):
         result = study.result(type(self))
-        return [(c.design_file, c.order, f.diagonal_rule) for f in (result.fronts if result else ()) for c in f.chosen]
+        files = [(c.design_file, c.order, f.diagonal_rule) for f in (result.fronts if result else ()) for c in f.chosen]
+        best = best_design(study)
+        return ([(BEST_DESIGN_FILE, best.order, best.diagonal_rule)] if best else []) + files
+
+
+@dataclass(frozen=True)
+class BestDesign:
+    """The design a two-objective run writes as best_design.ssp: the knee of the first rule's front."""
+
+    diagonal_rule: str
+    order: Order
+    values: tuple[float, ...]
+
+
+def best_design(study) -> BestDesign | None:
+    """best_design.ssp of a run without a single answer: the knee of the first rule's front (the balanced
+    design, as every run writes the design to build as best_design.ssp); None when a single-objective answer
+    writes it, or there is no front."""
+    from .answers import Answers
+
+    result = study.result(Pareto)
+    if study.result(Answers) is not None or result is None or not result.fronts or not result.fronts[0].points:
+        return None
+    front = result.fronts[0]
+    point = front.points[knee(np.array([p.values for p in front.points]))]
+    return BestDesign(front.diagonal_rule, point.order, point.values)
 
 
 def draw_pareto(study, path: Path) -> str | None:
@@ -310,4 +336,4 @@ def draw_pareto(study, path: Path) -> str | None:
     return save(figure, path, labels=labels)
 
 
-__all__ = ["ChosenPoint", "DescendedEnd", "Front", "Pareto", "ParetoResult", "choose", "knee"]
+__all__ = ["BEST_DESIGN_FILE", "BestDesign", "ChosenPoint", "best_design", "DescendedEnd", "Front", "Pareto", "ParetoResult", "choose", "knee"]
