@@ -58,3 +58,25 @@ def test_a_two_objective_run_writes_best_design_ssp_as_the_knee_of_its_front(arm
     assert f"best_design.ssp: the knee of the mean rule's front, {order}" in printed
     html = (out / "report.html").read_text()
     assert '<a href="best_design.ssp">best_design.ssp</a> holds the knee of the mean rule' in html
+
+
+@pytest.mark.parametrize("text, expected", [
+    ('[searches]\nmethod = "cmaes"\n', {"SearchesConfig.methods": ("cmaes",)}),
+    ('[searches]\nmethod = ["cmaes", "pso"]\n', {"SearchesConfig.methods": ("cmaes", "pso")}),
+    ('[case]\ndiagonal-rule = "mean"\n', {"CaseConfig.diagonal_rules": ("mean",)}),
+])
+def test_a_study_file_takes_a_single_value_where_a_list_is_meant(tmp_path, text, expected):
+    from orchestrator.studyfile import read_study_file
+
+    path = tmp_path / "study.toml"
+    path.write_text(text)
+    assert read_study_file(path).values == expected
+
+
+def test_a_study_file_still_refuses_a_wrong_single_value_for_a_list(tmp_path):
+    from orchestrator.studyfile import StudyFileError, read_study_file
+
+    path = tmp_path / "study.toml"
+    path.write_text('[searches]\nmethod = "nelder"\n')
+    with pytest.raises(StudyFileError, match=r"study.toml:2: .*method.*allowed values are cmaes"):
+        read_study_file(path)
