@@ -36,6 +36,11 @@ def test_a_run_with_cols_and_no_table_prints_the_note(tmp_path, monkeypatch, cap
     err = capfd.readouterr().err
     assert "note: --cols 3 without --materials takes the first 3 of the study's 11 materials (m1..m3: 6 designs)" \
         in err
+    html = (tmp_path / "out" / "report.html").read_text()  # a sweep of one objective: no searches, no front
+    link = html[html.index('<a href="explore.html">Explore'):]
+    link = link[:link.index("</p>")]
+    assert "a sortable table of every evaluation and each design&#39;s lattice" in link
+    assert "Pareto" not in link and "convergence" not in link
 
 
 def test_a_two_objective_run_writes_best_design_ssp_as_the_knee_of_its_front(armour_fmu_of_width, tmp_path, capfd):
@@ -58,6 +63,8 @@ def test_a_two_objective_run_writes_best_design_ssp_as_the_knee_of_its_front(arm
     assert f"best_design.ssp: the knee of the mean rule's front, {order}" in printed
     html = (out / "report.html").read_text()
     assert '<a href="best_design.ssp">best_design.ssp</a> holds the knee of the mean rule' in html
+    assert ("Explore every run and every evaluation</a>: convergence by method and seed, a sortable table of every "
+            "evaluation, the Pareto front and each design&#39;s lattice") in html
 
 
 @pytest.mark.parametrize("text, expected", [

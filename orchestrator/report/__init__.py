@@ -184,7 +184,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     record["design_files_refused"] = refused
     (out / "results.json").write_text(json.dumps(record, indent=1, allow_nan=False))
     write_evaluations_csv(study, out / "evaluations.csv")
-    from .explore import write_explore
+    from .explore import explore_contents, write_explore
 
     write_explore(study, out, materials, refused)
     env = _env()
@@ -201,7 +201,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
         rule_default_note=rule_default_note,
         sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known,
         pareto=study.result(Pareto), starts=study.result(Starts), best_design=best_design(study),
-        best_design_file=BEST_DESIGN_FILE)
+        best_design_file=BEST_DESIGN_FILE, explore_contents=explore_contents(study))
     (out / "report.html").write_text(page)
     return out / "report.html"
 
