@@ -133,6 +133,17 @@ def check_table_size(case: CaseConfig, scene, materials) -> None:
                          f"least {columns} materials")
 
 
+def check_same_fmu(run: RunConfig, folder: RunFolder, fmu: PreparedFMU) -> None:
+    """A run resumes only with the FMU it started with (its numbers stay one model's): another build, the scene's
+    FMU rebuilt since, is refused by name, saying what to do."""
+    previous = folder.previous
+    if not run.resume or previous is None or previous.settings.get("fmu_sha256") in (None, fmu.sha256):
+        return
+    raise ValueError(f"--resume: {fmu.path} is another build than the FMU the run in {run.out} started with (it was "
+                     "rebuilt since, or another file was given): a run resumes only with the FMU it started with; "
+                     "start anew with --overwrite, or resume with that FMU (--fmu FILE)")
+
+
 def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
     """Work beyond a stated bound is refused with its projected size unless confirmed (what was beyond a bound
     goes into ``beyond``)."""
@@ -186,6 +197,7 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
             print(note, file=sys.stderr)
         scene = resolve_scene(case_config, materials)
         fmu = prepare_fmu(scene, case_config.fmu)
+        check_same_fmu(run, folder, fmu)
         if materials is not None and len(materials) != fmu.materials:
             raise ValueError(f"--materials {case_config.materials}: {len(materials)} materials, but "
                              f"{fmu.path.name} has a table of {fmu.materials}")

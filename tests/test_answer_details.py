@@ -87,3 +87,25 @@ def test_a_study_file_still_refuses_a_wrong_single_value_for_a_list(tmp_path):
     path.write_text('[searches]\nmethod = "nelder"\n')
     with pytest.raises(StudyFileError, match=r"study.toml:2: .*method.*allowed values are cmaes"):
         read_study_file(path)
+
+
+def test_resuming_with_another_build_of_the_fmu_names_it_as_such(armour_fmu_of_width, tmp_path, capfd):
+    """The same model built again (here: one more file in the archive) has another SHA-256: --resume refuses it
+    in one line that says it is another build and what to do, not with two raw hashes."""
+    import re
+    import shutil
+    import zipfile
+
+    fmu = armour_fmu_of_width(3)
+    out = tmp_path / "out"
+    assert main("--fmu", fmu, "--cols", 3, "--out", out, *COMMON) == 0
+    rebuilt = tmp_path / "rebuilt.fmu"
+    shutil.copy(fmu, rebuilt)
+    with zipfile.ZipFile(rebuilt, "a") as archive:
+        archive.writestr("documentation/build.txt", "built again")
+    capfd.readouterr()
+    assert main("--fmu", rebuilt, "--cols", 3, "--out", out, "--resume", *COMMON) == 2
+    err = capfd.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"--resume: {rebuilt} is another build than the FMU the run in {out} started with" in err
+    assert "--overwrite" in err and not re.search(r"[0-9a-f]{16}", err)
