@@ -301,7 +301,8 @@ def test_the_budget_bounds_the_sensitivity_and_the_local_check_and_the_console_s
     assert f"simulated: {sum(costs.values()):,} FMU runs: searches {costs['searches']}," in printed
     assert costs["local_optimality"] > searched  # one neighbourhood is more than 8 designs
     assert (f"local optimality: {costs['local_optimality']:,} FMU runs, more than the searches' {costs['searches']} "
-            f"(--budget): a local optimum is known only once each of its {neighbourhood} neighbours is evaluated") in printed
+            f"(--budget): a local optimum is known only once each of its {neighbourhood} neighbours is evaluated") \
+        in printed
     assert "--no-local-check skips it" in printed
 
 

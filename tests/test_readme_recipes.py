@@ -77,7 +77,8 @@ def test_the_readmes_fmpy_command_sets_the_rule_and_gives_the_mean_rules_answer(
     assert dict(word.split("=") for word in example.split()) == start_values  # the FMU reference's example too
     (tmp_path / "tmp").mkdir()
     done = subprocess.run([sys.executable, "-m", "fmpy", "simulate", str(fmu_path), *words[3:]], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=600, env={**os.environ, "TMPDIR": str(tmp_path / "tmp")})
+                          capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "TMPDIR": str(tmp_path / "tmp")})
     assert done.returncode == 0, done.stderr
     with (tmp_path / "out.csv").open() as handle:
         peak = float(list(csv.DictReader(handle))[-1]["peak_backplate_force"])

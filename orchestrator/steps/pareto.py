@@ -336,4 +336,5 @@ def draw_pareto(study, path: Path) -> str | None:
     return save(figure, path, labels=labels)
 
 
-__all__ = ["BEST_DESIGN_FILE", "BestDesign", "ChosenPoint", "best_design", "DescendedEnd", "Front", "Pareto", "ParetoResult", "choose", "knee"]
+__all__ = ["BEST_DESIGN_FILE", "BestDesign", "ChosenPoint", "DescendedEnd", "Front", "Pareto", "ParetoResult",
+           "best_design", "choose", "knee"]
