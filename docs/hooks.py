@@ -64,8 +64,9 @@ def variable_tables(scene_name: str = "armour_11x11") -> str:
 def code_table(interface) -> list[str]:
     """Every parameter set by a code: each Enumeration's items (FMPy sets an FMI 3 Enumeration only by its code,
     and FMI 2 declares them Integers), and the Integer switches whose few values have meanings."""
-    lines = ["## Codes", "", "Every parameter a tool sets by a code, with what each code means (an Enumeration "
-             "takes its item's code in every importer: FMPy sets an FMI 3 Enumeration only by its code).", "",
+    lines = ["## Codes", "", ("Every parameter a tool sets by a code, with what each code means (an Enumeration "
+                              "takes its item's code in every importer: FMPy sets an FMI 3 Enumeration only by its "
+                              "code)."), "",
              "| name | type | code: meaning | default |", "|---|---|---|---|"]
     fixed = {variable.name for variable in interface.fixed}
     for variable in interface.exposed + interface.fixed:
