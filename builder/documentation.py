@@ -37,7 +37,7 @@ def variable_row(variable: Variable, fmi_version: int) -> dict:
 
 
 def reproduces_the_study(interface: Interface, scene) -> bool:
-    """Whether the FMU is the study's scene at its defaults: 11 x 11 in one layer, its materials, a backplate."""
+    """Whether the FMU is the study's scene at its defaults: 11 x 11 of depth 1, its materials, a backplate."""
     names = {v.name for v in interface.exposed}
     table = scene.material_table()
     return ("material" in names and interface.rows == interface.cols == 11 and interface.depth == 1
@@ -59,6 +59,8 @@ def documentation_html(fmi_version: int, interface: Interface, identifier: str, 
                   published=published,
                   horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS,
                   rtol=f"{starts['rtol']:g}",
-                  reference_points=REFERENCE_POINTS, variables=[variable_row(v, fmi_version) for v in interface.exposed],
+                  reference_points=REFERENCE_POINTS,
+                  variables=[variable_row(v, fmi_version) for v in interface.exposed],
                   fixed=[v.name for v in interface.fixed],
-                  materials=(scene.material_table() or study_materials(min(interface.cols, STUDY_MATERIAL_COUNT))).materials)
+                  materials=(scene.material_table()
+                             or study_materials(min(interface.cols, STUDY_MATERIAL_COUNT))).materials)

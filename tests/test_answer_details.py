@@ -4,9 +4,8 @@ from __future__ import annotations
 import pytest
 
 from orchestrator import run as cli
-from orchestrator.runner import narrowed_table_note
+from orchestrator.scene import narrowed_table_note
 from orchestrator.study import CaseConfig
-from scenes import Scene
 
 COMMON = ["--no-sensitivity", "--no-progress", "--executor", "serial"]
 
@@ -19,15 +18,15 @@ def main(*argv):
 
 
 def test_cols_without_a_table_says_in_one_line_that_it_takes_the_first_materials_and_how_to_choose():
-    armour = Scene.load("armour_11x11")
-    note = narrowed_table_note(CaseConfig(cols=5), armour, None)
+    note = narrowed_table_note(CaseConfig(cols=5))
     assert note == ("note: --cols 5 without --materials takes the first 5 of the study's 11 materials (m1..m5: 120 "
                     "designs), as the study's narrower lattices and their known optima do; to choose 5 of the 11 "
                     "(55,440 designs), give the study's table as --materials FILE (its values: docs/model.md "
                     "section 3)")
-    assert "(161,051 designs)" in narrowed_table_note(CaseConfig(cols=5, repeat=True), armour, None)
-    for quiet in (CaseConfig(), CaseConfig(cols=11), CaseConfig(cols=5, fmu="given.fmu")):
-        assert narrowed_table_note(quiet, armour, None) is None
+    assert "(161,051 designs)" in narrowed_table_note(CaseConfig(cols=5, repeat=True))
+    for quiet in (CaseConfig(), CaseConfig(cols=11), CaseConfig(cols=5, fmu="given.fmu"),
+                  CaseConfig(cols=5, materials="table.csv")):
+        assert narrowed_table_note(quiet) is None
 
 
 def test_a_run_with_cols_and_no_table_prints_the_note(tmp_path, monkeypatch, capfd):

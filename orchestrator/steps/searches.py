@@ -10,6 +10,7 @@ from ..loop import SearchRun, run_search
 from ..options import check_options, integer, option
 from ..search import SEARCHES, make_search
 from ..study import Step, StudyContext
+from .starting_designs import starting_designs
 
 SINGLE_DEFAULT = ("cmaes", "pso", "sa", "sequential", "random")
 MULTI_DEFAULT = ("nsga2", "random")
@@ -123,8 +124,6 @@ class Searches(Step):
     def run(self, context: StudyContext) -> SearchesResult:
         methods = self.methods(context)
         objectives = len(context.case.outputs)
-        from .starts import starting_designs
-
         starts = starting_designs(context)
         runs = []
         for rule in context.rules:
@@ -139,21 +138,20 @@ class Searches(Step):
         return SearchesResult(methods, self.config.budget, tuple(runs))
 
     def chart(self, study, path):
-        from .answers import Answers  # answers.py reads the searches' results
-
-        answers = study.result(Answers)
-        return draw_convergence(study, path, study.case.line(), answers.known_optima if answers else {})
+        return draw_convergence(study, path, study.case.line(), {})
 
 
 def draw_convergence(study, path: Path, context_line: str, known: dict) -> str | None:
-    """Best value so far against evaluations, median and quartiles over seeds, one panel per rule."""
+    """Best value so far against evaluations, median and quartiles over seeds, one panel per rule, with the
+    known optimum of each rule in ``known`` (by rule label; the answers find them, and the report, which reads
+    both steps, composes the chart with them)."""
     import warnings
 
     import numpy as np
 
     from fmu_src.published import PUBLISHED_CONDITIONS, REFERENCE_POINTS
 
-    from ..report.charts import COLOURS, METHOD_NAMES, best_so_far_matrix, figure_title, plt, save
+    from ..charts import COLOURS, METHOD_NAMES, best_so_far_matrix, figure_title, plt, save
 
     searches = study.result(Searches)
     if searches is None or not searches.runs:

@@ -72,7 +72,7 @@ class Trajectories(Step):
 
 def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
     import numpy as np
-    from ..report.charts import figure_title, legend_below, plt, save
+    from ..charts import figure_title, legend_below, plt, save
 
     trajectories = study.result(Trajectories)
     if trajectories is None:

@@ -77,7 +77,7 @@ class WorkPrecision(Step):
 
 
 def draw_work_precision(study, path: Path) -> str | None:
-    from ..report.charts import legend_below, plt, save
+    from ..charts import legend_below, plt, save
 
     result = study.result(WorkPrecision)
     if result is None:
