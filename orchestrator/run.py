@@ -177,16 +177,18 @@ def print_answer(outcome) -> None:
 def cost_lines(study) -> list[str]:
     """What the run simulated, step by step, and each step that simulated more than the searches (what --budget
     bounds) with why and the option that bounds it; nothing when no search ran."""
-    from orchestrator.steps import Searches
+    from orchestrator.steps import Exhaustive, Searches
 
     searches = next((cost for cost in study.costs if cost.step == Searches.name), None)
     if searches is None:
         return []
     total = sum(cost.simulated for cost in study.costs)
-    lines = [f"simulated: {total:,} FMU runs: " + ", ".join(
+    swept = any(cost.step == Exhaustive.name and cost.simulated for cost in study.costs)
+    unit = "tasks (an FMU run each, a sweep's chunk one)" if swept else "FMU runs"
+    lines = [f"simulated: {total:,} {unit}: " + ", ".join(
         f"{cost.step.replace('_', ' ')} {cost.simulated:,}" for cost in study.costs if cost.simulated)]
-    lines += [f"  {cost.step.replace('_', ' ')}: {cost.simulated:,} FMU runs, more than the searches' "
-              f"{searches.simulated:,} (--budget): {cost.note}"
+    lines += [f"  {cost.step.replace('_', ' ')}: {cost.simulated:,} {'tasks' if swept else 'FMU runs'}, more than "
+              f"the searches' {searches.simulated:,} (--budget): {cost.note}"
               for cost in study.costs if cost is not searches and cost.simulated > searches.simulated and cost.note]
     return lines
 

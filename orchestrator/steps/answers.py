@@ -307,6 +307,9 @@ class Answers(Step):
                                 f"({'certified' if known.certified else 'exhaustive sweep'})")
         return BEST_FOUND, "the best design the searches found; no exhaustive sweep of this case"
 
+    def cost_note(self, context: StudyContext) -> str:
+        return "each rule's answer under the other rules and at the search fidelity: a few runs, whatever the budget"
+
     def chart(self, study, path):
         return draw_lattice(study, path)
 

@@ -256,6 +256,10 @@ class Pareto(Step):
         return FrontSureness(is_exact, len(runs), agreeing, AGREEMENT, shares, known,
                              "" if is_exact else settle_advice(context, runs, agreeing))
 
+    def cost_note(self, context: StudyContext) -> str:
+        return ("the front at full fidelity, and each objective's end descended on that objective alone until no "
+                "single move improves it: not bounded by --budget")
+
     def chart(self, study, path):
         return draw_pareto(study, path)
 
