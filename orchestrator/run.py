@@ -119,7 +119,10 @@ def parameters_line(answer, study) -> str:
     from orchestrator.report import rule_default_note
 
     note = rule_default_note(study, answer)
-    return (f"in any FMI tool: {answer.start_values_text()}, stop time {study.case.horizon:g} s"
+    cases = study.case.cases
+    each = (f", with each load case of {', '.join(f'{name} = {values}' for name, values in cases.items())} "
+            f"(the value is the {study.case.aggregate} of their runs)") if cases else ""
+    return (f"in any FMI tool: {answer.start_values_text()}{each}, stop time {study.case.horizon:g} s"
             + (f" ({note})" if note else ""))
 
 

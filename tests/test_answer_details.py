@@ -108,3 +108,15 @@ def test_resuming_with_another_build_of_the_fmu_names_it_as_such(armour_fmu_of_w
     assert len(err.splitlines()) == 1, err
     assert f"--resume: {rebuilt} is another build than the FMU the run in {out} started with" in err
     assert "--overwrite" in err and not re.search(r"[0-9a-f]{16}", err)
+
+
+def test_an_answer_over_load_cases_names_them_beside_its_start_values(armour_fmu_of_width, tmp_path, capfd):
+    """Its value is an aggregate over runs: the start values alone give one of them, so the line names the cases."""
+    out = tmp_path / "out"
+    assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, "--diagonal-rule", "mean",
+                "--case", "F_total=600,1200", *COMMON) == 0
+    line = next(line for line in capfd.readouterr().out.splitlines() if "in any FMI tool:" in line)
+    assert ("diagonal_rule=1, with each load case of F_total = [600.0, 1200.0] (the value is the worst of their "
+            "runs), stop time 8 s") in line
+    html = (out / "report.html").read_text()
+    assert "with each load case of F_total = [600.0, 1200.0] (the value is the worst of their runs)" in html
