@@ -394,11 +394,11 @@ class LatticeFMU:
         reader = self._reader(self.outputs if outputs is None else tuple(outputs))
         stopped_at = None
         try:
-            self._slave.reset()
-            self._slave.setupExperiment(startTime=0.0, stopTime=float(horizon))
-            self._slave.enterInitializationMode()
+            api.slave.reset()
+            api.slave.setupExperiment(startTime=0.0, stopTime=float(horizon))
+            api.slave.enterInitializationMode()
             setter.apply(api, order, list(parameters.values()))
-            self._slave.exitInitializationMode()
+            api.slave.exitInitializationMode()
             trajectory = None
             if communication_step is None and record is None:
                 stopped_at = api.do_step(0.0, horizon, limited)

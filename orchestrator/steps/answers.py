@@ -6,11 +6,16 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import matplotlib
+import numpy as np
+
 from fmu_src.published import PUBLISHED_CONDITIONS
 
+from ..charts import plt, save
 from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
 from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
+from ..plate_picture import draw_plate_answers
 from ..study import Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
 from .final_descent import FinalDescent
@@ -373,10 +378,6 @@ def settlement(context: StudyContext, rule, runs) -> Settlement | None:
 
 
 def draw_lattice(study, path: Path) -> str | None:
-    import numpy as np
-    import matplotlib
-    from ..charts import plt, save
-
     answers = study.result(Answers)
     if answers is None or not answers.answers:
         return None
@@ -389,8 +390,6 @@ def draw_lattice(study, path: Path) -> str | None:
     norm = (matplotlib.colors.LogNorm(vmin=low, vmax=high) if low > 0 and high > low
             else matplotlib.colors.Normalize(vmin=low, vmax=high if high > low else low + 1.0))
     if case.depth > 1:  # a plate: its layers as a stack, the loaded patch on layer 1's face
-        from ..plate_picture import draw_plate_answers
-
         return draw_plate_answers(case, designs, colour_map, norm, path)
     figure, axes = plt.subplots(1, len(designs), figsize=(4.6 * len(designs), 4.4), squeeze=False)
     for axis, (label, order) in zip(axes[0], designs):

@@ -5,6 +5,9 @@ import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
+from ..charts import plt, save
 from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, SWEEP_METHOD, ChunkResult, Scored, ScreenChunk,
                           calibration_range, chunk_ranges, coverage, not_strongly_dominated, projected_cost,
                           screening_threshold)
@@ -435,9 +438,6 @@ class Exhaustive(Step):
 
 
 def draw_exhaustive(study, path: Path) -> str | None:
-    import numpy as np
-    from ..charts import plt, save
-
     result = study.result(Exhaustive)
     if result is None or not result.sweeps:  # a sweep with several objectives draws its front (the Pareto step)
         return None

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..charts import RULE_COLOURS, legend_below, plt, save
 from ..exhaustive import SWEEP_METHOD, not_strongly_dominated
 from ..known_optima import known_ends
 from ..loop import run_search
@@ -292,9 +293,6 @@ def best_design(study) -> BestDesign | None:
 
 
 def draw_pareto(study, path: Path) -> str | None:
-    import numpy as np
-    from ..charts import RULE_COLOURS, legend_below, plt, save
-
     result = study.result(Pareto)
     if result is None:
         return None

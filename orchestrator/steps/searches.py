@@ -1,9 +1,15 @@
 """The searches: each method and seed, under each diagonal rule, at the search fidelity."""
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
+from fmu_src.published import PUBLISHED_CONDITIONS, REFERENCE_POINTS
+
+from ..charts import COLOURS, METHOD_NAMES, best_so_far_matrix, figure_title, plt, save
 from ..exhaustive import SWEEP_METHOD
 from ..known_optima import known_ends
 from ..loop import SearchRun, run_search
@@ -145,14 +151,6 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
     """Best value so far against evaluations, median and quartiles over seeds, one panel per rule, with the
     known optimum of each rule in ``known`` (by rule label; the answers find them, and the report, which reads
     both steps, composes the chart with them)."""
-    import warnings
-
-    import numpy as np
-
-    from fmu_src.published import PUBLISHED_CONDITIONS, REFERENCE_POINTS
-
-    from ..charts import COLOURS, METHOD_NAMES, best_so_far_matrix, figure_title, plt, save
-
     searches = study.result(Searches)
     if searches is None or not searches.runs:
         return None
