@@ -40,6 +40,8 @@ def test_a_run_with_cols_and_no_table_prints_the_note(tmp_path, monkeypatch, cap
     link = link[:link.index("</p>")]
     assert "a sortable table of every evaluation and each design&#39;s lattice" in link
     assert "Pareto" not in link and "convergence" not in link
+    explore = (tmp_path / "out" / "explore.html").read_text()
+    assert 'id="design-hint">Click a row of the table.</p>' in explore
 
 
 def test_a_two_objective_run_writes_best_design_ssp_as_the_knee_of_its_front(armour_fmu_of_width, tmp_path, capfd):
@@ -64,6 +66,8 @@ def test_a_two_objective_run_writes_best_design_ssp_as_the_knee_of_its_front(arm
     assert '<a href="best_design.ssp">best_design.ssp</a> holds the knee of the mean rule' in html
     assert ("Explore every run and every evaluation</a>: convergence by method and seed, a sortable table of every "
             "evaluation, the Pareto front and each design&#39;s lattice") in html
+    explore = (out / "explore.html").read_text()
+    assert 'id="design-hint">Click a row of the table or a point of the front.</p>' in explore
 
 
 @pytest.mark.parametrize("text, expected", [

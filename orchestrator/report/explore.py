@@ -141,7 +141,9 @@ def write_explore(study: StudyResult, out: Path, materials, refused: dict[str, s
     refused = {**refused, **write_front_design_files(study, out, materials)}
     data = explore_data(study, _Names(study.case.materials), refused)
     page = add_templates("orchestrator").get_template("report/explore.html.j2").render(
-        case_line=study.case.line(), data=_script_json(data), plotly=markupsafe.Markup(
+        case_line=study.case.line(), data=_script_json(data),
+        has_front=len(data["outputs"]) == 2 and bool(data["fronts"]),  # the page draws a front of two objectives
+        plotly=markupsafe.Markup(
             plotly_js().replace("</script", "<\\/script")))
     path = out / EXPLORE_FILE
     path.write_text(page, encoding="utf-8")
