@@ -43,7 +43,10 @@ def documentation_html(fmi_version: int, interface: Interface, identifier: str, 
     starts = {v.name: v.start for v in interface.exposed + interface.fixed}
     if is_study_scene(scene):  # the published numbers hold for the study's scene alone
         published = [(list(order), repr(peak)) for order, peak in PUBLISHED_PEAKS.items()]
+    rule = next((v for v in interface.exposed if v.name == "diagonal_rule" and v.enumeration), None)
+    rule_codes = {name: code for code, (name, _) in enumerate(rule.items)} if rule else {}
     return render("documentation.html", identifier=identifier, summary=model_summary(interface, scene),
+                  rule_codes=rule_codes, material_columns=interface.cols if "material" in starts else 0,
                   fmi_version=fmi_version, rows=interface.rows, cols=interface.cols, depth=interface.depth,
                   published=published,
                   horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS,

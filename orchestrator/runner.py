@@ -25,7 +25,7 @@ from .options import NO_NUMBER, NOT_KEPT, check_options, integer, number, option
 from .progress import Progress
 from .records import to_record
 from .runfolder import RunFolder, make_temp_root
-from .scene import resolve
+from .scene import narrowed_table_note, resolve
 from .studyfile import write_study_file
 from .steps.searches import SearchesConfig
 from .study import MAX_RUNS_PER_DESIGN, CaseConfig, StudyContext, StudyResult, resolve_case, run_study
@@ -81,6 +81,17 @@ class Outcome:
     resumed: bool
 
 
+def check_same_fmu(run: RunConfig, folder: RunFolder, fmu: PreparedFMU) -> None:
+    """A run resumes only with the FMU it started with (its numbers stay one model's): another build, the scene's
+    FMU rebuilt since, is refused by name, saying what to do."""
+    previous = folder.previous
+    if not run.resume or previous is None or previous.settings.get("fmu_sha256") in (None, fmu.sha256):
+        return
+    raise ValueError(f"--resume: {fmu.path} is another build than the FMU the run in {run.out} started with (it was "
+                     "rebuilt since, or another file was given): a run resumes only with the FMU it started with; "
+                     "start anew with --overwrite, or resume with that FMU (--fmu FILE)")
+
+
 def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
     """Work beyond a stated bound is refused with its projected size unless confirmed (what was beyond a bound
     goes into ``beyond``)."""
@@ -126,8 +137,12 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
     previous_tempdir = tempfile.tempdir
     tempfile.tempdir = temp_root  # this process's extractions too; removed with the run
     try:
+        note = narrowed_table_note(case_config)
+        if note:
+            print(note, file=sys.stderr)
         resolved = resolve(case_config)
         fmu, table = resolved.fmu, resolved.table
+        check_same_fmu(run, folder, fmu)
         if study_file is not None:
             study_file.check_materials(table)
         case = resolve_case(case_config, resolved)

@@ -59,6 +59,24 @@ def resolve_scene(case: "CaseConfig", materials: MaterialTable | None) -> Scene:
     return scene
 
 
+def narrowed_table_note(case: "CaseConfig") -> str | None:
+    """The one-line note for --cols C below the study's eleven materials without a table of the user's: the
+    lattice takes the study's first C materials, as its narrower lattices and their known optima do, not C of
+    the eleven as a table of M would give; None when that is not the case."""
+    from .design import DesignSpace
+
+    if case.cols is None or case.materials or case.fmu or case.cols >= STUDY_MATERIAL_COUNT \
+            or Scene.load(case.scene).material_table() is not None:
+        return None
+    columns = case.cols
+    own = DesignSpace(columns, columns, case.repeat).size
+    chosen = DesignSpace(columns, STUDY_MATERIAL_COUNT, case.repeat).size
+    return (f"note: --cols {columns} without --materials takes the first {columns} of the study's "
+            f"{STUDY_MATERIAL_COUNT} materials (m1..m{columns}: {own:,} designs), as the study's narrower lattices and "
+            f"their known optima do; to choose {columns} of the {STUDY_MATERIAL_COUNT} ({chosen:,} designs), give "
+            "the study's table as --materials FILE (its values: docs/model.md section 3)")
+
+
 def check_table_size(case: "CaseConfig", scene: Scene, materials: MaterialTable | None) -> None:
     """More columns than the table has materials, each used at most once, is refused in one line (before any
     build): the FMU would otherwise need materials that are in no table."""
@@ -104,5 +122,5 @@ def departures_from_the_study(fmu: PreparedFMU) -> tuple[str, ...]:
     return tuple(departures)
 
 
-__all__ = ["ResolvedScene", "check_load_patch", "check_table_size", "departures_from_the_study", "resolve",
-           "resolve_scene"]
+__all__ = ["ResolvedScene", "check_load_patch", "check_table_size", "departures_from_the_study",
+           "narrowed_table_note", "resolve", "resolve_scene"]

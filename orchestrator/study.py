@@ -147,13 +147,15 @@ class Case:
         objective = self.objective(fmu, self.rules[0] if self.rules else None).describe()
         shown = {name: self.parameters.get(name, fmu.start(name))
                  for name in ("F_total", "load_angle", "t_active", "load_patch") if name in fmu.parameters}
+        rule_parameter = fmu.parameters.get("diagonal_rule")
         return CaseDescription(scene=self.scene, rows=self.rows, columns=self.columns, space=self.space.describe(),
                                design_kind=self.space.kind, design_count=self.space.size,
                                materials=tuple(self.materials.rows()), rules=self.rules, objective=objective,
                                load=shown, parameters=dict(self.parameters),
                                cases={k: list(v) for k, v in self.case_lists.items()},
                                aggregate=self.aggregate if self.case_lists else None, horizon=self.horizon,
-                               depth=self.depth)
+                               depth=self.depth, rule_default=self.rule_default,
+                               rule_codes=dict(rule_parameter.items) if rule_parameter else {})
 
 
 @dataclass(frozen=True)
@@ -175,6 +177,8 @@ class CaseDescription:
     aggregate: str | None
     horizon: float
     depth: int = 1
+    rule_default: str = ""  # the FMU's own default diagonal rule (what it runs when diagonal_rule is not set)
+    rule_codes: dict[str, int] = field(default_factory=dict)  # each diagonal rule's code in the FMU
 
     def loaded_faces(self) -> tuple[LoadedFace, ...]:
         """The masses of column 1's face the load pushes: under the case's load_patch, or under each of its load
@@ -350,6 +354,11 @@ class Step:
         """What this step's ``result`` (None: the step did not run) says of the study's answer."""
         return SILENT
 
+    def cost_note(self, context: "StudyContext") -> str:
+        """Why this step simulates what it does, once it ran, and the option that bounds it (the console says
+        it when the step simulates more than the searches)."""
+        return ""
+
 
 @dataclass
 class StudyContext:
@@ -394,6 +403,16 @@ class StudyContext:
 
 
 @dataclass(frozen=True)
+class StepCost:
+    """What one step simulated: the evaluator's tasks (an FMU run each; a sweep's chunk is one), and why."""
+
+    step: str  # the step's name
+    title: str
+    simulated: int
+    note: str
+
+
+@dataclass(frozen=True)
 class StudyResult:
     """What a study found: the case, each step's result by its step's type, and how it was computed."""
 
@@ -404,6 +423,7 @@ class StudyResult:
     evaluator: EvaluatorState
     wall_seconds: float
     run_id: str
+    costs: tuple[StepCost, ...] = ()  # each step that ran, in order
 
     def result(self, step_type: type) -> Any:
         """The result of the step of that type, or None when it did not run."""
@@ -428,16 +448,20 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
     """Every step that applies, in order."""
     start = time.perf_counter()
     results = {}
+    costs = []
     replaced = {other for step in context.steps for other in step.replaces(context)}
     for step in context.steps:
         if type(step) in replaced or not step.applies(context):
             continue
+        simulated = context.evaluator.state().simulated
         result = step.run(context)
         context.results[type(step)] = result
         results[type(step)] = result
+        costs.append(StepCost(step.name, step.title, context.evaluator.state().simulated - simulated,
+                              step.cost_note(context)))
     return StudyResult(context.case.describe(context.fmu), str(context.fmu.path), context.fmu.sha256, results,
-                       context.evaluator.state(), time.perf_counter() - start, run_id)
+                       context.evaluator.state(), time.perf_counter() - start, run_id, tuple(costs))
 
 
 __all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "MAX_HORIZON", "MAX_RUNS_PER_DESIGN", "NoOptions",
-           "SILENT", "Step", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]
+           "SILENT", "Step", "StepCost", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]

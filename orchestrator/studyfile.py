@@ -267,7 +267,9 @@ def _parse(meta: dict, key: str, value: Any) -> Any:
             raise ValueError(f"must be true or false (true: the flag {flag} is given), got {_toml_or_repr(value)}")
         return (not value) if action == "store_false" else value
     if action == "append" or meta["nargs"] in ("+", "*") or isinstance(meta["nargs"], int):
-        items = value if isinstance(value, list) else None
+        one = meta["nargs"] in ("+", "*", 1) or action == "append"  # a single value stands for a list of one
+        items = value if isinstance(value, list) else [value] if one and not isinstance(value, (dict, bool)) \
+            else None
         if items is None or (meta["nargs"] == "+" and not items):
             raise ValueError(f"must be a list of values, e.g. [\"a\", \"b\"], got {_toml_or_repr(value)}")
         parsed = [_scalar(meta, flag, item) for item in items]

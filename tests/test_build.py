@@ -164,6 +164,13 @@ def test_the_c_enumerations_and_material_fields_are_the_tables(fmu_path):
     assert not any("ColumnConstants;" in path.read_text() for path in build.DEFAULT_MODEL_DIR.glob("*.h"))
 
 
+@pytest.mark.parametrize("which", ["fmi2", "fmi3"])
+def test_the_documentation_says_to_set_the_rule_by_its_code_with_the_materials(fmu_path, fmu3_path, which):
+    page = _read(fmu_path if which == "fmi2" else fmu3_path, "documentation/index.html")
+    assert "Set <code>diagonal_rule</code> by its code (0 = receiver, 1 = mean:" in page
+    assert "<code>material[1]</code> ...\n<code>material[11]</code>" in page
+
+
 @pytest.mark.parametrize("argv, says", [(["--cols", "0"], "--cols must be at least 1"),
                                         (["--rows", "0", "--cols", "0", "--depth", "0"], "--rows must be at least 1"),
                                         (["--depth", "0"], "--depth must be at least 1"),

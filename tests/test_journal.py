@@ -12,6 +12,8 @@ from orchestrator.journal import JOURNAL_NAME, Journal, JournalError
 from orchestrator.runfolder import FolderError, RunFolder, TEMP_PREFIX, make_temp_root, remove_dead_temp_roots
 from orchestrator.types import Evaluation, RunOutputs, failed
 
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 KINDS = {"evaluation": Evaluation}
 SETTINGS = {"case": {"F_total": 1200.0, "rules": ["receiver", "mean"]}, "fmu_sha256": "abc"}
 

@@ -20,7 +20,7 @@ from builder.rendering import add_templates
 from ..records import to_record
 from ..steps.answers import Answers
 from ..steps.exhaustive import Exhaustive
-from ..steps.pareto import Pareto
+from ..steps.pareto import BEST_DESIGN_FILE, Pareto, best_design
 from ..steps.searches import Searches, draw_convergence
 from ..steps.starts import Starts
 from ..study import StudyResult
@@ -66,6 +66,22 @@ def _number(value: Any, digits: int = 2) -> str:
     return f"{value:,.{digits}f}"
 
 
+def rule_default_note(study: StudyResult, answer) -> str:
+    """What the FMU runs when a user leaves diagonal_rule out, after the answer's parameters: its default rule,
+    the receiver rule of the published table (docs/model.md section 2), and whether this answer needs the rule
+    set."""
+    case = study.case
+    default = case.rule_default
+    if not default or "diagonal_rule" not in answer.parameters:
+        return ""
+    code = case.rule_codes.get(default)
+    if answer.diagonal_rule == default:
+        return f"diagonal_rule {code} = {default} is also the FMU's default: it reproduces the study's published table"
+    return (f"diagonal_rule {answer.parameters['diagonal_rule']} = {answer.diagonal_rule}: without it the FMU runs "
+            f"its default, {code} = {default}, which reproduces the study's published table, and gives another "
+            "number")
+
+
 def case_line(study: StudyResult) -> str:
     return study.case.line()
 
@@ -78,7 +94,8 @@ def results_record(study: StudyResult) -> dict:
             "pareto": _pareto_points(study),
             "case": to_record(study.case), "case_line": case_line(study),
             "fmu": {"path": study.fmu_path, "sha256": study.fmu_sha256},
-            "steps": steps, "evaluator": to_record(study.evaluator), "wall_seconds": study.wall_seconds,
+            "steps": steps, "evaluator": to_record(study.evaluator), "costs": to_record(study.costs),
+            "wall_seconds": study.wall_seconds,
             "run": study.run_id, "terms": TERMS}
 
 
@@ -176,7 +193,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     record["design_files_refused"] = refused
     (out / "results.json").write_text(json.dumps(record, indent=1, allow_nan=False))
     write_evaluations_csv(study, out / "evaluations.csv")
-    from .explore import write_explore
+    from .explore import explore_contents, write_explore
 
     write_explore(study, out, materials, refused)
     env = _env()
@@ -190,10 +207,12 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
             refused=refused)))
     page = env.get_template("report/report.html.j2").render(
         study=study, case_line=study.case.line(), answers=answers, answers_chart=figures.get(Answers),
+        rule_default_note=rule_default_note,
         sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known,
-        pareto=study.result(Pareto), starts=study.result(Starts))
+        pareto=study.result(Pareto), starts=study.result(Starts), best_design=best_design(study),
+        best_design_file=BEST_DESIGN_FILE, explore_contents=explore_contents(study))
     (out / "report.html").write_text(page)
     return out / "report.html"
 
 
-__all__ = ["TERMS", "case_line", "results_record", "write_report"]
+__all__ = ["TERMS", "case_line", "results_record", "rule_default_note", "write_report"]

@@ -429,6 +429,10 @@ class Exhaustive(Step):
                     f"({front.screening_error:g}) under the {front.diagonal_rule} rule: its front may miss designs")
         return SILENT
 
+    def cost_note(self, context: StudyContext) -> str:
+        return ("every design of the space, in chunks (a chunk is one task), then its candidates at full fidelity: "
+                "a sweep is not bounded by --budget")
+
     def chart(self, study, path):
         return draw_exhaustive(study, path)
 

@@ -44,6 +44,11 @@ class LocalCheck:
     full: Evaluation  # the design at full fidelity
     stop_reason: str
 
+    @property
+    def complete(self) -> bool:
+        """Every neighbour of the design it ended at was evaluated (else the cap stopped it first: not known)."""
+        return self.checked == self.neighbours
+
 
 @dataclass(frozen=True)
 class FinalDescentResult:
@@ -53,11 +58,24 @@ class FinalDescentResult:
         return next((c for c in self.rules if c.diagonal_rule == label), None)
 
 
-def check_local_optimum(context: StudyContext, rule: str | None, start: Order, seed: int) -> LocalCheck:
+def descent_cap(context: StudyContext, label: str, start: Order) -> int:
+    """Designs a descent may evaluate: MAX_DESCENT, and no more than the searches evaluated under the rule (so
+    --budget bounds this step too) unless one neighbourhood needs more: a local optimum is known only once each
+    of its neighbours is evaluated."""
+    searched = context.result(Searches)
+    runs = searched.runs_for(label) if searched else []
+    if not runs:
+        return MAX_DESCENT
+    neighbourhood = sum(len(designs) for designs in context.case.space.neighbours(start).values())
+    return min(MAX_DESCENT, max(sum(run.distinct for run in runs), neighbourhood + 1))
+
+
+def check_local_optimum(context: StudyContext, rule: str | None, start: Order, seed: int,
+                        cap: int = MAX_DESCENT) -> LocalCheck:
     objective = context.objective(rule)
     space = context.case.space
     descent = make_search("local", space, seed, start=start, kicks=0)
-    run = run_search(descent, objective, MAX_DESCENT, context.evaluator, method_name="local", seed=seed,
+    run = run_search(descent, objective, cap, context.evaluator, method_name="local", seed=seed,
                      label=rule_label(rule))
     end = run.best_order or start
     moves = space.neighbours(end)
@@ -97,9 +115,16 @@ class FinalDescent(Step):
         for rule in context.rules:
             best = finalists.for_rule(rule_label(rule)).best
             if best is not None:
-                checks.append(check_local_optimum(context, rule, best.order, seed))
+                checks.append(check_local_optimum(context, rule, best.order, seed,
+                                                  descent_cap(context, rule_label(rule), best.order)))
         return FinalDescentResult(tuple(checks))
+
+    def cost_note(self, context: StudyContext) -> str:
+        result = context.result(FinalDescent)
+        sizes = [sum(c.neighbours.values()) for c in (result.rules if result else ())]
+        return (f"a local optimum is known only once each of its {max(sizes, default=0):,} neighbours is evaluated, "
+                "and each improving move starts another neighbourhood; --no-local-check skips it")
 
 
 __all__ = ["FinalDescent", "FinalDescentConfig", "FinalDescentResult", "LocalCheck", "MAX_DESCENT",
-           "check_local_optimum"]
+           "check_local_optimum", "descent_cap"]

@@ -115,6 +115,10 @@ class Finalists(Step):
                                        tuple(disagreements(runs, full, count)), known))
         return FinalistsResult(tuple(rules))
 
+    def cost_note(self, context: StudyContext) -> str:
+        return (f"each run's {self.config.per_run} best designs, the baselines and any known optimum, at full "
+                "fidelity (the whole scene); --finalists N bounds it")
+
 
 def disagreements(runs: list[SearchRun], full: dict[Order, Evaluation], count: int) -> list[Disagreement]:
     found = []

@@ -29,6 +29,7 @@ class ChosenPoint:
     design_file: str
 
 
+BEST_DESIGN_FILE = "best_design.ssp"
 AGREEMENT = 0.999  # a run agrees with the best known front when its own front covers this share of its hypervolume
 
 
@@ -256,12 +257,39 @@ class Pareto(Step):
         return FrontSureness(is_exact, len(runs), agreeing, AGREEMENT, shares, known,
                              "" if is_exact else settle_advice(context, runs, agreeing))
 
+    def cost_note(self, context: StudyContext) -> str:
+        return ("the front at full fidelity, and each objective's end descended on that objective alone until no "
+                "single move improves it: not bounded by --budget")
+
     def chart(self, study, path):
         return draw_pareto(study, path)
 
     def design_files(self, study):
         result = study.result(type(self))
-        return [(c.design_file, c.order, f.diagonal_rule) for f in (result.fronts if result else ()) for c in f.chosen]
+        files = [(c.design_file, c.order, f.diagonal_rule) for f in (result.fronts if result else ()) for c in f.chosen]
+        best = best_design(study)
+        return ([(BEST_DESIGN_FILE, best.order, best.diagonal_rule)] if best else []) + files
+
+
+@dataclass(frozen=True)
+class BestDesign:
+    """The design a two-objective run writes as best_design.ssp: the knee of the first rule's front."""
+
+    diagonal_rule: str
+    order: Order
+    values: tuple[float, ...]
+
+
+def best_design(study) -> BestDesign | None:
+    """best_design.ssp of a run of several objectives (which has no single answer): the knee of the first rule's
+    front (the balanced design, as every run writes the design to build as best_design.ssp); None for one
+    objective (the answer writes it) or without a front."""
+    result = study.result(Pareto)
+    if len(study.case.objective.outputs) < 2 or result is None or not result.fronts or not result.fronts[0].points:
+        return None
+    front = result.fronts[0]
+    point = front.points[knee(np.array([p.values for p in front.points]))]
+    return BestDesign(front.diagonal_rule, point.order, point.values)
 
 
 def draw_pareto(study, path: Path) -> str | None:
@@ -300,4 +328,5 @@ def draw_pareto(study, path: Path) -> str | None:
     return save(figure, path, labels=labels)
 
 
-__all__ = ["ChosenPoint", "DescendedEnd", "Front", "Pareto", "ParetoResult", "choose", "knee"]
+__all__ = ["BEST_DESIGN_FILE", "BestDesign", "ChosenPoint", "DescendedEnd", "Front", "Pareto", "ParetoResult",
+           "best_design", "choose", "knee"]

@@ -66,6 +66,9 @@ class Trajectories(Step):
                        for a, t in zip(answers, results[len(force_tasks):]))
         return TrajectoriesResult(force, energy)
 
+    def cost_note(self, context: StudyContext) -> str:
+        return "one recorded run of each answer and baseline for the force and energy charts, whatever the budget"
+
     def chart(self, study, path):
         return draw_force_and_energy(study, path, study.case.line())
 

@@ -62,6 +62,10 @@ class WorkPrecision(Step):
                   for (family, _, label), e in zip([("the FMU's default", None, default_label)] + SETTINGS, results)]
         return WorkPrecisionResult(answer.diagonal_rule, TARGET, points[0], tuple(points[1:]))
 
+    def cost_note(self, context: StudyContext) -> str:
+        return ("each solver setting of the FMU once on the chosen design, for the work-precision chart, whatever "
+                "the budget")
+
     @staticmethod
     def point(family: str, label: str, evaluation, reference: float) -> SolverPoint:
         if not evaluation.ok:
