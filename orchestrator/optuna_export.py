@@ -8,15 +8,22 @@ failed evaluation, PRUNED for a censored one (stopped above a force limit: it ha
 attribute ``censored_above``), and the method, seed, run index, order, materials, fidelity and seconds as user
 attributes. ``optuna-dashboard STORAGE`` then shows the study. Optuna is an optional extra (``optuna``): the
 study itself never needs it.
+
+Optuna's ``Study.add_trials`` commits each trial on its own, with a query per parameter and attribute; a default
+study has thousands of evaluations, so the trials of an RDB storage are inserted in one transaction, in batches
+(a progress bar per study), as rows of Optuna's own tables; ``tests/test_optuna_export.py`` reads them back
+through Optuna's public API.
 """
 from __future__ import annotations
 
+import json
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from .design import Design
+from .progress import Progress
 
 EXTRA = "pip install -e \".[optuna]\""
 
@@ -43,6 +50,63 @@ def check_storage(url: str, flag: str = "--export-optuna") -> None:
                          "sqlite:///study.db or postgresql://user@host/db") from None
 
 
+BATCH_TRIALS = 1000  # trials a progress step inserts: one executemany per table
+
+
+def _utc(moment):
+    """Optuna's RDB tables hold naive UTC times."""
+    import datetime
+
+    return None if moment is None else moment.astimezone(datetime.timezone.utc).replace(tzinfo=None)
+
+
+def _insert_trials(optuna, storage, target, trials: list, advance) -> None:
+    """``trials`` (validated FrozenTrials) into the study ``target`` of the RDB ``storage`` in one transaction,
+    numbered after the study's trials; ``target.add_trials`` where Optuna's tables are not importable."""
+    try:
+        import sqlalchemy
+        from optuna.storages._rdb import models
+        from optuna.storages._rdb.storage import _create_scoped_session
+    except ImportError:
+        models = None
+    if models is None:
+        for start in range(0, len(trials), BATCH_TRIALS):
+            target.add_trials(trials[start:start + BATCH_TRIALS])
+            advance(min(start + BATCH_TRIALS, len(trials)))
+        return
+    from optuna.distributions import distribution_to_json
+
+    trial_table = models.TrialModel.__table__
+    study_id = storage.get_study_id_from_name(target.study_name)
+    with _create_scoped_session(storage.scoped_session) as session:
+        models.StudyModel.find_or_raise_by_id(study_id, session, for_update=True)
+        number = session.query(models.TrialModel).filter(models.TrialModel.study_id == study_id).count()
+        for start in range(0, len(trials), BATCH_TRIALS):
+            batch = trials[start:start + BATCH_TRIALS]
+            ids = session.execute(
+                sqlalchemy.insert(trial_table).returning(trial_table.c.trial_id, sort_by_parameter_order=True),
+                [{"study_id": study_id, "number": number + start + offset, "state": trial.state,
+                  "datetime_start": _utc(trial.datetime_start), "datetime_complete": _utc(trial.datetime_complete)}
+                 for offset, trial in enumerate(batch)]).scalars().all()
+            params, values, attributes = [], [], []
+            for trial_id, trial in zip(ids, batch):
+                for name, value in trial.params.items():
+                    distribution = trial.distributions[name]
+                    params.append({"trial_id": trial_id, "param_name": name,
+                                   "param_value": distribution.to_internal_repr(value),
+                                   "distribution_json": distribution_to_json(distribution)})
+                for objective, value in enumerate(trial.values or ()):
+                    stored, kind = models.TrialValueModel.value_to_stored_repr(value)
+                    values.append({"trial_id": trial_id, "objective": objective, "value": stored, "value_type": kind})
+                attributes.extend({"trial_id": trial_id, "key": key, "value_json": json.dumps(value)}
+                                  for key, value in trial.user_attrs.items())
+            for model, rows in ((models.TrialParamModel, params), (models.TrialValueModel, values),
+                                (models.TrialUserAttributeModel, attributes)):
+                if rows:
+                    session.execute(sqlalchemy.insert(model.__table__), rows)
+            advance(start + len(batch))
+
+
 def column_parameter(column: int) -> str:
     return f"column_{column:02d}"
 
@@ -55,7 +119,7 @@ class ExportedStudy:
 
 
 def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials: list[str], case_line: str,
-           run_id: str, fmu_sha256: str) -> tuple[ExportedStudy, ...]:
+           run_id: str, fmu_sha256: str, progress: Progress | None = None) -> tuple[ExportedStudy, ...]:
     """Every evaluation of the search ``runs`` into ``storage``, one Optuna study per diagonal rule, named
     "<run_id> <rule>" (ValueError, one line: a study of that name is there already)."""
     optuna = _optuna("--export-optuna")
@@ -63,12 +127,13 @@ def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials
     from optuna.exceptions import DuplicatedStudyError
     from optuna.trial import TrialState, create_trial
 
+    rdb = optuna.storages.RDBStorage(storage)
     distributions = {column_parameter(c): IntDistribution(1, len(materials)) for c in range(1, columns + 1)}
     exported = []
     for rule in dict.fromkeys(run.label for run in runs):
         name = f"{run_id} {rule}"
         try:
-            target = optuna.create_study(storage=storage, study_name=name, directions=["minimize"] * len(outputs))
+            target = optuna.create_study(storage=rdb, study_name=name, directions=["minimize"] * len(outputs))
         except DuplicatedStudyError:
             raise ValueError(f"--export-optuna {storage}: it holds a study named {name!r} already (this run was "
                              "exported before); give another storage") from None
@@ -99,7 +164,8 @@ def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials
                 trials.append(create_trial(
                     state=state, values=values, user_attrs=attributes, distributions=distributions,
                     params={column_parameter(c): int(m) for c, m in enumerate(evaluation.order, start=1)}))
-        target.add_trials(trials)
+        with (progress or Progress()).bar(len(trials), f"Optuna export ({rule})", unit="trial") as advance:
+            _insert_trials(optuna, rdb, target, trials, advance)
         exported.append(ExportedStudy(name, rule, len(trials)))
     return tuple(exported)
 
