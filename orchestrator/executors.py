@@ -26,6 +26,10 @@ from typing import Any, Callable, Iterator
 
 EXECUTORS = ("serial", "process", "dask")
 LOCAL_CLUSTER_START = 120.0  # s a local Dask cluster may take to start all its workers
+# The most designs one Dask task carries: a Dask task costs a round trip to the scheduler, about what a few
+# designs cost to run; bench.study_costs measures the default study at several sizes (its page has the figures).
+DASK_BATCH_DESIGNS = 16
+BATCH_VARIABLE = "LATTICE_DASK_BATCH"  # another batch size, for bench.study_costs's measurement of it
 # The process pool's start method: unset, the platform's default (spawn on Windows and macOS); set to spawn on
 # Linux, the whole test suite runs the way a Windows or macOS user's runs do (every task and argument pickled).
 START_METHOD_VARIABLE = "LATTICE_START_METHOD"
@@ -308,6 +312,7 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmu
         # pure=False: every submit is its own task; Dask never merges two calls by
         # hashing their arguments (the loop already removes duplicate orders).
         executor = client.get_executor(pure=False)
+        executor.batch_size = dask_batch_size()
         try:
             yield executor
         except BaseException:
@@ -315,6 +320,22 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmu
             raise
         else:
             executor.shutdown(wait=True)
+
+
+def dask_batch_size() -> int:
+    """The most designs one Dask task carries: ``LATTICE_DASK_BATCH`` when set (a positive integer), else
+    ``DASK_BATCH_DESIGNS``."""
+    given = os.environ.get(BATCH_VARIABLE, "").strip()
+    if not given:
+        return DASK_BATCH_DESIGNS
+    if not given.isdigit() or int(given) < 1:
+        raise ValueError(f"{BATCH_VARIABLE}={given!r}: give a positive integer (designs per Dask task)")
+    return int(given)
+
+
+def executor_batch_size(executor: Executor) -> int:
+    """How many short tasks the evaluator may send as one submission (1: each task on its own)."""
+    return max(1, int(getattr(executor, "batch_size", 1) or 1))
 
 
 def executor_slots(executor: Executor) -> int:
