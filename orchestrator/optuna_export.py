@@ -53,29 +53,50 @@ def check_storage(url: str, flag: str = "--export-optuna") -> None:
 BATCH_TRIALS = 1000  # trials a progress step inserts: one executemany per table
 
 
-def _utc(moment):
-    """Optuna's RDB tables hold naive UTC times."""
-    import datetime
+@dataclass(frozen=True)
+class TrialRow:
+    """One evaluation as an Optuna trial: its state (a ``TrialState``), objective values (None unless COMPLETE),
+    the material of each column and the user attributes."""
 
-    return None if moment is None else moment.astimezone(datetime.timezone.utc).replace(tzinfo=None)
+    state: Any
+    values: tuple[float, ...] | None
+    params: dict[str, int]
+    user_attrs: dict[str, Any]
 
 
-def _insert_trials(optuna, storage, target, trials: list, advance) -> None:
-    """``trials`` (validated FrozenTrials) into the study ``target`` of the RDB ``storage`` in one transaction,
-    numbered after the study's trials; ``target.add_trials`` where Optuna's tables are not importable."""
+def _rdb_tables():
+    """SQLAlchemy, Optuna's table models and its session scope, or None where this Optuna has them elsewhere."""
     try:
         import sqlalchemy
         from optuna.storages._rdb import models
         from optuna.storages._rdb.storage import _create_scoped_session
     except ImportError:
-        models = None
-    if models is None:
+        return None
+    return sqlalchemy, models, _create_scoped_session
+
+
+def _insert_trials(optuna, storage, target, trials: list[TrialRow], distribution, advance) -> None:
+    """``trials`` into the study ``target`` of the RDB ``storage`` in one transaction, numbered after the study's
+    trials, every parameter on ``distribution``; ``target.add_trials`` where Optuna's tables are not importable."""
+    import datetime
+
+    now = datetime.datetime.now()
+    tables = _rdb_tables()
+    if tables is None:
+        from optuna.trial import create_trial
+
         for start in range(0, len(trials), BATCH_TRIALS):
-            target.add_trials(trials[start:start + BATCH_TRIALS])
+            target.add_trials([create_trial(
+                state=t.state, values=None if t.values is None else list(t.values), user_attrs=t.user_attrs,
+                params=t.params, distributions={name: distribution for name in t.params})
+                for t in trials[start:start + BATCH_TRIALS]])
             advance(min(start + BATCH_TRIALS, len(trials)))
         return
     from optuna.distributions import distribution_to_json
 
+    sqlalchemy, models, _create_scoped_session = tables
+    distribution_json = distribution_to_json(distribution)
+    moment = now.astimezone(datetime.timezone.utc).replace(tzinfo=None)  # Optuna's tables hold naive UTC
     trial_table = models.TrialModel.__table__
     study_id = storage.get_study_id_from_name(target.study_name)
     with _create_scoped_session(storage.scoped_session) as session:
@@ -86,15 +107,13 @@ def _insert_trials(optuna, storage, target, trials: list, advance) -> None:
             ids = session.execute(
                 sqlalchemy.insert(trial_table).returning(trial_table.c.trial_id, sort_by_parameter_order=True),
                 [{"study_id": study_id, "number": number + start + offset, "state": trial.state,
-                  "datetime_start": _utc(trial.datetime_start), "datetime_complete": _utc(trial.datetime_complete)}
+                  "datetime_start": moment, "datetime_complete": moment}
                  for offset, trial in enumerate(batch)]).scalars().all()
             params, values, attributes = [], [], []
             for trial_id, trial in zip(ids, batch):
-                for name, value in trial.params.items():
-                    distribution = trial.distributions[name]
-                    params.append({"trial_id": trial_id, "param_name": name,
-                                   "param_value": distribution.to_internal_repr(value),
-                                   "distribution_json": distribution_to_json(distribution)})
+                params.extend({"trial_id": trial_id, "param_name": name,
+                               "param_value": distribution.to_internal_repr(value),
+                               "distribution_json": distribution_json} for name, value in trial.params.items())
                 for objective, value in enumerate(trial.values or ()):
                     stored, kind = models.TrialValueModel.value_to_stored_repr(value)
                     values.append({"trial_id": trial_id, "objective": objective, "value": stored, "value_type": kind})
@@ -125,10 +144,11 @@ def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials
     optuna = _optuna("--export-optuna")
     from optuna.distributions import IntDistribution
     from optuna.exceptions import DuplicatedStudyError
-    from optuna.trial import TrialState, create_trial
+    from optuna.trial import TrialState
 
     rdb = optuna.storages.RDBStorage(storage)
-    distributions = {column_parameter(c): IntDistribution(1, len(materials)) for c in range(1, columns + 1)}
+    distribution = IntDistribution(1, len(materials))
+    names = [column_parameter(c) for c in range(1, columns + 1)]
     exported = []
     for rule in dict.fromkeys(run.label for run in runs):
         name = f"{run_id} {rule}"
@@ -154,18 +174,16 @@ def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials
                     "fidelity": "search", "seconds": evaluation.seconds}
                 if evaluation.ok:
                     state = TrialState.COMPLETE
-                    values = list(evaluation.values) if len(outputs) > 1 else [evaluation.value]
+                    values = tuple(evaluation.values) if len(outputs) > 1 else (evaluation.value,)
                 elif evaluation.censored:
                     state, values = TrialState.PRUNED, None
                     attributes["censored_above"] = evaluation.limit
                 else:
                     state, values = TrialState.FAIL, None
                     attributes["message"] = evaluation.message
-                trials.append(create_trial(
-                    state=state, values=values, user_attrs=attributes, distributions=distributions,
-                    params={column_parameter(c): int(m) for c, m in enumerate(evaluation.order, start=1)}))
+                trials.append(TrialRow(state, values, dict(zip(names, map(int, evaluation.order))), attributes))
         with (progress or Progress()).bar(len(trials), f"Optuna export ({rule})", unit="trial") as advance:
-            _insert_trials(optuna, rdb, target, trials, advance)
+            _insert_trials(optuna, rdb, target, trials, distribution, advance)
         exported.append(ExportedStudy(name, rule, len(trials)))
     return tuple(exported)
 

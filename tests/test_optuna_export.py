@@ -91,24 +91,31 @@ def test_a_storage_that_is_not_a_url_is_refused_before_any_simulation(fmu_path, 
     assert not (tmp_path / "r").exists()
 
 
-def test_trials_numbered_after_an_existing_study_and_read_back_through_optuna(tmp_path):
+@pytest.mark.parametrize("tables", ["optuna's tables", "optuna's add_trials"])
+def test_trials_numbered_after_an_existing_study_and_read_back_through_optuna(tmp_path, tables, monkeypatch):
     """The trials are written in batches of one transaction: more than one batch, into a storage that holds
-    another study already, read back through Optuna's public API with their numbers, values, states and times."""
+    another study already, read back through Optuna's public API with their numbers, values, states and times;
+    the same through Optuna's add_trials where its tables are not importable."""
+    import orchestrator.optuna_export
+
+    if tables == "optuna's add_trials":
+        monkeypatch.setattr(orchestrator.optuna_export, "_rdb_tables", lambda: None)
+    monkeypatch.setattr(orchestrator.optuna_export, "BATCH_TRIALS", 40)  # three batches, the last one short
     from orchestrator.loop import SearchRun
-    from orchestrator.optuna_export import BATCH_TRIALS, export
+    from orchestrator.optuna_export import export
     from orchestrator.types import Evaluation, censored, failed
 
     storage = f"sqlite:///{tmp_path / 'many.db'}"
     earlier = optuna.create_study(storage=storage, study_name="earlier")
     earlier.add_trial(optuna.trial.create_trial(value=1.0))
     materials = [f"m{k}" for k in range(1, 12)]
-    count = BATCH_TRIALS + 7
+    count = 2 * 40 + 7
     evaluations = []
     for k in range(count):
         order = tuple((k + c) % 11 + 1 for c in range(11))
-        if k % 50 == 3:
+        if k % 20 == 3:
             evaluations.append(censored(order, limit=900.0 + k, stopped_at=0.001))
-        elif k % 50 == 4:
+        elif k % 20 == 4:
             evaluations.append(failed(order, "diverged"))
         else:
             evaluations.append(Evaluation(order, 1000.0 + k / 8, "ok", seconds=0.25))

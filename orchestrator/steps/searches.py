@@ -153,7 +153,7 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
 
     from fmu_src.published import PUBLISHED_CONDITIONS, REFERENCE_POINTS
 
-    from ..report.charts import COLOURS, METHOD_NAMES, best_so_far_matrix, figure_title, plt, save
+    from ..report.charts import METHOD_NAMES, best_so_far_matrix, figure_title, method_colour, plt, save
 
     searches = study.result(Searches)
     if searches is None or not searches.runs:
@@ -173,9 +173,9 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
                 median = np.nanmedian(matrix, axis=0)
                 low, high = np.nanpercentile(matrix, 25, axis=0), np.nanpercentile(matrix, 75, axis=0)
             name = f"{METHOD_NAMES.get(method, method)} (median of {len(own)})"
-            colour = COLOURS.get(method)
+            colour = method_colour(method, [r.method for r in runs])
             if len(median) == 1:
-                axis.axhline(median[-1], color=colour or "black", lw=1, ls=":", label=f"{name}: one design")
+                axis.axhline(median[-1], color=colour, lw=1, ls=":", label=f"{name}: one design")
                 continue
             x = np.arange(1, matrix.shape[1] + 1)
             axis.plot(x, median, color=colour, label=name)
