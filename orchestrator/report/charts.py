@@ -21,7 +21,6 @@ COLOURS = {"cmaes": "#1f77b4", "pso": "#ff7f0e", "sa": "#2ca02c", "ga": "#9467bd
 OTHER_COLOURS = ("#d62728", "#e377c2", "#17becf", "#8c564b")  # methods the palette does not name, in turn
 RULE_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")  # the diagonal rules' answers and fronts, in turn
 MIN_TEXT_PX = 8.0  # the smallest text a chart may show, in screen pixels, as report.html displays it at 1280 px
-REPORT_WIDTH_PX = 1118  # the widest an image is shown in report.html (its body's max-width less the padding)
 
 
 def method_colour(method: str, methods=()) -> str:
