@@ -21,7 +21,7 @@ import sys
 import tempfile
 import threading
 import time
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from typing import Any, Callable, Iterator
 
 EXECUTORS = ("serial", "process", "dask")
@@ -314,7 +314,7 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmu
         try:
             yield executor
         except BaseException:
-            executor.shutdown(wait=False, cancel_futures=True)  # cancel what is still queued
+            executor.shutdown(wait=False)
             raise
         else:
             executor.shutdown(wait=True)
@@ -340,7 +340,6 @@ class DaskActors(Executor):
         self._outstanding: dict[str, int] = {}
         self._looked = 0.0
         self._shutdown = False
-        self._calls = ThreadPoolExecutor(max_workers=64, thread_name_prefix="lattice-dask-call")
         self._refresh()
         if not self._actors:
             raise RuntimeError("the Dask cluster has no worker to run the evaluations")
@@ -368,9 +367,12 @@ class DaskActors(Executor):
         self._holders.pop(address, None)
         self._outstanding.pop(address, None)
 
-    def _take(self, avoid: str | None = None) -> tuple[str, Any]:
+    def _take(self, avoid: str | None = None, look: bool = True) -> tuple[str, Any]:
+        """The actor with the fewest calls outstanding (not the one at ``avoid`` while there is another); with
+        ``look``, first a look for workers that joined or left when one is due (it asks the scheduler: never
+        on the client's event loop)."""
         with self._lock:
-            if time.monotonic() - self._looked > WORKERS_REFRESH or not self._actors:
+            if look and (time.monotonic() - self._looked > WORKERS_REFRESH or not self._actors):
                 self._refresh()
             choices = [a for a in self._actors if a != avoid] or list(self._actors)
             if not choices:
@@ -386,29 +388,37 @@ class DaskActors(Executor):
             if not reachable:
                 self._drop(address)
 
-    def _call(self, function: Callable[..., Any], args: tuple, kwargs: dict) -> Any:
-        avoid = None
+    async def _call(self, future: Future, address: str, actor, function, args: tuple, kwargs: dict) -> None:
+        """On the client's event loop: the call, its result into ``future`` (no thread waits for it)."""
         for attempt in (1, 2):
-            address, actor = self._take(avoid)
             try:
-                result = actor.call(function, args, kwargs).result()
-            except OSError:
+                result = await actor.call(function, args, kwargs)
+            except OSError as exc:
                 self._give_back(address, reachable=False)
-                if attempt == 2:
-                    raise
-                avoid = address
+                if attempt == 2 or not self._actors:
+                    future.set_exception(exc)
+                    return
+                address, actor = self._take(avoid=address, look=False)
                 continue
+            except BaseException as exc:  # noqa: BLE001 - delivered through the Future
+                self._give_back(address, reachable=True)
+                future.set_exception(exc)
+                return
             self._give_back(address, reachable=True)
-            return result
+            future.set_result(result)
+            return
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
         if self._shutdown:
             raise RuntimeError("cannot submit after shutdown")
-        return self._calls.submit(self._call, fn, args, kwargs)
+        address, actor = self._take()
+        future: Future = Future()
+        future.set_running_or_notify_cancel()
+        self._client.loop.add_callback(self._call, future, address, actor, fn, args, kwargs)
+        return future
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         self._shutdown = True
-        self._calls.shutdown(wait=wait, cancel_futures=cancel_futures)
         with self._lock:
             for address in list(self._actors):
                 self._drop(address)
