@@ -96,7 +96,7 @@ def _insert_trials(optuna, storage, target, trials: list[TrialRow], distribution
 
     sqlalchemy, models, _create_scoped_session = tables
     distribution_json = distribution_to_json(distribution)
-    moment = now.astimezone(datetime.timezone.utc).replace(tzinfo=None)  # Optuna's tables hold naive UTC
+    moment = now.astimezone(datetime.UTC).replace(tzinfo=None)  # Optuna's tables hold naive UTC
     trial_table = models.TrialModel.__table__
     study_id = storage.get_study_id_from_name(target.study_name)
     with _create_scoped_session(storage.scoped_session) as session:

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_explore import CHROMEDRIVER, CHROMIUM, browser, main  # noqa: F401 - browser: the fixture, used by name
 
 from orchestrator.report import charts
-from test_explore import CHROMEDRIVER, CHROMIUM, browser, main  # noqa: F401 - browser is a fixture
 
 WINDOW_WIDTH = 1280
 SAVE_DPI = 110  # what orchestrator.report.charts.save writes at
@@ -30,7 +30,7 @@ class Box:
     x1: float
     y1: float
 
-    def overlaps(self, other: "Box") -> bool:
+    def overlaps(self, other: Box) -> bool:
         return (min(self.x1, other.x1) - max(self.x0, other.x0) > OVERLAP_PX
                 and min(self.y1, other.y1) - max(self.y0, other.y0) > OVERLAP_PX)
 
@@ -77,7 +77,7 @@ def box_of(extent) -> Box:
 def sampled(path_points: np.ndarray, step: float = 1.0) -> np.ndarray:
     """The points of a polyline in display space, with points added along each segment every ``step`` px."""
     points = [path_points[:1]]
-    for start, end in zip(path_points[:-1], path_points[1:]):
+    for start, end in itertools.pairwise(path_points):
         count = int(np.hypot(*(end - start)) // step) + 1
         points.append(np.linspace(start, end, count + 1)[1:])
     return np.concatenate(points) if len(path_points) else path_points
@@ -153,7 +153,7 @@ def study(fmu_path, tmp_path_factory):
 
 
 def test_no_chart_has_overlapping_text_or_a_legend_over_labels_or_data(study):
-    out, layouts = study
+    _, layouts = study
     assert {"convergence.png", "force_energy.png", "work_precision.png", "lattice.png"} <= set(layouts)
     problems = [problem for layout in layouts.values() for problem in layout.problems()]
     assert problems == []
@@ -165,11 +165,12 @@ needs_browser = pytest.mark.skipif(
 
 
 @needs_browser
-def test_report_html_holds_its_charts_and_shows_their_text_readable_at_1280_px(study, browser):
+def test_report_html_holds_its_charts_and_shows_their_text_readable_at_1280_px(study, request):
     out, layouts = study
-    browser.set_window_size(WINDOW_WIDTH, 1800)
-    browser.get((out / "report.html").resolve().as_uri())
-    images = browser.execute_script(
+    driver = request.getfixturevalue("browser")
+    driver.set_window_size(WINDOW_WIDTH, 1800)
+    driver.get((out / "report.html").resolve().as_uri())
+    images = driver.execute_script(
         "return [...document.images].map(i => [i.getAttribute('src').slice(0, 22), i.dataset.chart || '', "
         "i.naturalWidth, i.clientWidth])")
     assert images and all(source == "data:image/png;base64," for source, *_ in images), images
@@ -201,23 +202,24 @@ return boxes;
 
 
 @needs_browser
-def test_explore_html_at_1280_px_shows_whole_legends_growing_log_axes_and_no_overlapping_text(study, browser):
+def test_explore_html_at_1280_px_shows_whole_legends_growing_log_axes_and_no_overlapping_text(study, request):
     out, _ = study
-    browser.set_window_size(WINDOW_WIDTH, 1800)
-    browser.get((out / "explore.html").resolve().as_uri())
-    browser.execute_script("window.dispatchEvent(new Event('resize'))")
-    scrollbars = browser.execute_script(
+    driver = request.getfixturevalue("browser")
+    driver.set_window_size(WINDOW_WIDTH, 1800)
+    driver.get((out / "explore.html").resolve().as_uri())
+    driver.execute_script("window.dispatchEvent(new Event('resize'))")
+    scrollbars = driver.execute_script(
         "return [...document.querySelectorAll('.legend .scrollbar')].map(s => s.getBBox().height)"
         ".filter(h => h > 0).length")
     assert scrollbars == 0, "a legend needs scrolling"
-    ticks = browser.execute_script(
+    ticks = driver.execute_script(
         "return [...document.querySelectorAll('#convergence .js-plotly-plot')].map(p => "
         "[...p.querySelectorAll('.xtick text')].map(t => t.textContent))")
     assert ticks and all(ticks)
     for labels in ticks:
         values = [float(label.replace("\u2212", "-").replace(",", "")) for label in labels]
         assert values == sorted(values) and len(set(values)) == len(values), labels
-    boxes = browser.execute_script(PLOT_TEXTS)
+    boxes = driver.execute_script(PLOT_TEXTS)
     overlapping = [(a[1], b[1]) for a, b in itertools.combinations(boxes, 2)
                    if a[0] == b[0] and Box(*a[2:]).overlaps(Box(*b[2:]))]
     assert overlapping == []
