@@ -10,8 +10,8 @@ design) through one Executor and guards them:
 - *Journal*: each finished result is appended as it arrives (time-outs and a task's own transient failures
   are not: they run again on resume).
 - *Bounded work in flight*: at most two submissions per worker at a time.
-- *Batches*: on an executor with a ``batch_size`` above one (Dask: each submission is a round trip to its
-  scheduler), the designs pulled together go as ``TaskBatch`` submissions of up to ``batch_size`` designs,
+- *Batches*: on an executor with a ``batch_size`` above one (Dask: each submission is a round trip to a
+  worker), the designs pulled together go as ``TaskBatch`` submissions of up to ``batch_size`` designs,
   spread over the workers; each design is still cached and journalled on its own, and its time limit is its
   batch's share.
 - *Time limit*: counted from when a task starts in its worker, never from its submission: the process pool
