@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from test_explore import CHROMEDRIVER, CHROMIUM, browser, main  # noqa: F401 - browser: the fixture, used by name
 
-from orchestrator.report import charts
+from orchestrator import charts
 
 WINDOW_WIDTH = 1280
 SAVE_DPI = 110  # the report's charts are saved at this resolution
