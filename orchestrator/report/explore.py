@@ -24,7 +24,7 @@ import markupsafe
 from builder.rendering import add_templates
 
 from ..steps.answers import Answers
-from ..charts import RULE_COLOURS, method_colour
+from ..charts import METHOD_NAMES, RULE_COLOURS, method_colour
 from ..steps.finalists import Finalists
 from ..steps.pareto import Pareto
 from ..steps.searches import Searches
@@ -92,6 +92,7 @@ def explore_data(study: StudyResult, materials, refused: dict[str, str]) -> dict
         "materials": [{"name": m["name"], "k": m["k"]} for m in case.materials],
         "runs": runs, "evaluations": rows, "fronts": fronts,
         "method_colours": {m: method_colour(m, methods) for m in methods},
+        "method_names": {m: METHOD_NAMES.get(m, m) for m in methods},
         "rule_colours": list(RULE_COLOURS),
         "answers": [{"rule": a.diagonal_rule, "order": list(a.order), "value": a.peak,
                      "design_file": None if a.design_file in refused else a.design_file}
