@@ -13,7 +13,10 @@ import shutil
 import sys
 import tempfile
 from dataclasses import dataclass
+from importlib.util import find_spec
 from pathlib import Path
+
+from fmu_src.materials import STUDY_MATERIAL_COUNT, load_materials
 
 from .executors import EXECUTORS, SerialExecutor, make_executor
 from .exhaustive import ChunkResult
@@ -25,7 +28,7 @@ from .options import NO_NUMBER, NOT_KEPT, check_options, integer, number, option
 from .progress import Progress
 from .records import to_record
 from .runfolder import RunFolder, make_temp_root
-from .scene import narrowed_table_note, resolve
+from .scene import narrowed_table_note, resolve, resolve_scene
 from .studyfile import write_study_file
 from .steps.searches import SearchesConfig
 from .study import MAX_RUNS_PER_DESIGN, CaseConfig, StudyContext, StudyResult, resolve_case, run_study
@@ -67,6 +70,8 @@ class RunConfig:
             raise ValueError("--resume and --overwrite: give one of them (continue the run, or start anew)")
         if self.scheduler is not None and self.executor != "dask":
             raise ValueError("--scheduler: only with --executor dask")
+        if self.executor == "dask" and find_spec("distributed") is None:  # before the FMU is built
+            raise ValueError("--executor dask: needs Dask, the project's dask extra (python -m pip install '.[dask]')")
 
 
 class NoResult(RuntimeError):
@@ -115,12 +120,42 @@ def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
 
 def check_confirmation(run: RunConfig, beyond: list[str]) -> None:
     """A confirmation with nothing to confirm is refused: it would hide a mistake in the command."""
+    if run.confirm_cost and not beyond:
+        raise ValueError(nothing_to_confirm())
+
+
+def nothing_to_confirm() -> str:
     from .exhaustive import MAX_LOCAL_DESIGNS
 
-    if run.confirm_cost and not beyond:
-        raise ValueError("--confirm-cost: nothing in this run is beyond a bound (an exhaustive sweep beyond "
-                         f"{MAX_LOCAL_DESIGNS:,} designs, more than {MAX_RUNS_PER_DESIGN} FMU runs per design, more "
-                         f"than {MAX_WORKERS_PER_CORE} workers per core); leave it out")
+    return ("--confirm-cost: nothing in this run is beyond a bound (an exhaustive sweep beyond "
+            f"{MAX_LOCAL_DESIGNS:,} designs, more than {MAX_RUNS_PER_DESIGN} FMU runs per design, more "
+            f"than {MAX_WORKERS_PER_CORE} workers per core); leave it out")
+
+
+def could_be_beyond(run: RunConfig, case_config: CaseConfig, scene, materials, step_configs: dict) -> bool:
+    """Whether anything of this run may be beyond a bound, judged from the options and the scene alone (no FMU):
+    the workers, the --case lists' product (before duplicates are merged) and an asked sweep of a space of at
+    most the table's materials (the study's eleven without a table) over the columns."""
+    from .design import DesignSpace
+    from .exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
+    from .study import parse_case_option
+
+    cores = os.cpu_count() or 1
+    if run.scheduler is None and (run.workers or cores) > MAX_WORKERS_PER_CORE * cores:
+        return True
+    runs = 1
+    for text in case_config.case:
+        runs *= len(parse_case_option(text)[1])
+    if runs > MAX_RUNS_PER_DESIGN:
+        return True
+    searches = next((c for c in step_configs.values() if isinstance(c, SearchesConfig)), SearchesConfig())
+    if SWEEP_METHOD not in searches.methods:
+        return False
+    columns = case_config.cols or scene.cols
+    own = scene.material_table()
+    count = len(materials) if materials is not None else len(own) if own is not None else STUDY_MATERIAL_COUNT
+    repeat = bool(case_config.repeat or scene.parameters.get("repeat_materials"))
+    return DesignSpace(columns, max(count, columns), repeat).size > MAX_LOCAL_DESIGNS
 
 
 def settings(case, fmu: PreparedFMU, steps) -> dict:
@@ -137,6 +172,10 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
     previous_tempdir = tempfile.tempdir
     tempfile.tempdir = temp_root  # this process's extractions too; removed with the run
     try:
+        if run.confirm_cost:  # a confirmation of nothing is refused before the FMU is built
+            materials = load_materials(case_config.materials) if case_config.materials else None
+            if not could_be_beyond(run, case_config, resolve_scene(case_config, materials), materials, step_configs):
+                raise ValueError(nothing_to_confirm())
         note = narrowed_table_note(case_config)
         if note:
             print(note, file=sys.stderr)

@@ -49,6 +49,17 @@ TERMS = {
 }
 
 
+def inline_png(folder: Path):
+    """The jinja2 filter that gives a chart file of ``folder`` as a data URI: report.html holds its images, so the
+    one file can be mailed or moved (the PNGs stay beside it for other uses)."""
+    import base64
+
+    def inline(name: str) -> str:
+        return "data:image/png;base64," + base64.b64encode((folder / name).read_bytes()).decode("ascii")
+
+    return inline
+
+
 def _env() -> jinja2.Environment:
     """The one environment (builder.rendering) with the orchestrator's templates and the report's filters."""
     env = add_templates("orchestrator")
@@ -197,6 +208,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
 
     write_explore(study, out, materials, refused)
     env = _env()
+    env.filters["inline_png"] = inline_png(out)
     sections = []
     for step in steps:
         result = study.result(type(step))

@@ -89,7 +89,7 @@ def draw_work_precision(study, path: Path) -> str | None:
         bad = [p for p in result.points if p.solver == family and p.relative_error is None]
         axis.plot([p.seconds for p in good], [max(p.relative_error, 1e-16) for p in good], "o-", color=colour,
                   label=family)
-        labels += [axis.annotate(p.setting, (p.seconds, max(p.relative_error, 1e-16)), fontsize=6,
+        labels += [axis.annotate(p.setting, (p.seconds, max(p.relative_error, 1e-16)), fontsize=6, color=colour,
                                  textcoords="offset points", xytext=(3, 3)) for p in good]
         if bad:
             axis.plot([max(p.seconds, 1e-5) for p in bad], [1.0] * len(bad), "x", color=colour, ms=9,
