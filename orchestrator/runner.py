@@ -176,11 +176,11 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
             materials = load_materials(case_config.materials) if case_config.materials else None
             if not could_be_beyond(run, case_config, resolve_scene(case_config, materials), materials, step_configs):
                 raise ValueError(nothing_to_confirm())
-        note = narrowed_table_note(case_config)
-        if note:
-            print(note, file=sys.stderr)
         resolved = resolve(case_config)
         fmu, table = resolved.fmu, resolved.table
+        note = narrowed_table_note(case_config)
+        if note:  # once the case is runnable: a refused run says only why, in one line
+            print(note, file=sys.stderr)
         check_same_fmu(run, folder, fmu)
         if study_file is not None:
             study_file.check_materials(table)
