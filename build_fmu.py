@@ -41,8 +41,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="the start of parameter load_patch: 0 loads column 1's whole face, an odd P its "
                              "centred P x P patch (P <= min(rows, depth), with odd rows and depth)"),
     parser.add_argument("--materials", metavar="FILE",
-                        help="the material table (.csv with the header name,k,k_diag,c,alpha,alpha_diag; .toml or "
-                             ".json with the same fields): its M materials are the FMU's; default the scene's")
+                        help="the material table (.csv with the header name,k,k_diag,c,alpha,alpha_diag and "
+                             "optionally mass,damping_exponent; .toml or .json with the same fields): its M materials "
+                             "are the FMU's; default the scene's")
     parser.add_argument("-o", "--output",
                         help="where to write the .fmu (default models/<identifier>.fmu under the current folder)")
     parser.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,

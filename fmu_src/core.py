@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fmu_src.materials import FIELD_NAMES
+from fmu_src.materials import FIELD_NAMES, FIELDS
 from fmu_src.variables import WHOLE_FACE, enumeration_values
 
 MAX_COLS = 64  # LATTICE_MAX_COLS
@@ -23,7 +23,7 @@ class ColumnConstants(ctypes.Structure):
 
 
 class LatticeParams(ctypes.Structure):
-    _fields_ = [("rows", ctypes.c_int), ("cols", ctypes.c_int), ("mass", ctypes.c_double),
+    _fields_ = [("rows", ctypes.c_int), ("cols", ctypes.c_int),
                 ("k_horizontal", ctypes.c_double), ("alpha_horizontal", ctypes.c_double),
                 ("c_horizontal", ctypes.c_double), ("column", ColumnConstants * MAX_COLS),
                 ("diagonal_rule", ctypes.c_int), ("spring_law", ctypes.c_int),
@@ -61,11 +61,10 @@ def _params(scene, has_backplate: bool, depth: int, load_patch: int) -> LatticeP
     if scene.cols > MAX_COLS:
         raise ValueError(f"cols: at most {MAX_COLS} columns, got {scene.cols}")
     p = LatticeParams()
-    p.rows, p.cols, p.mass = scene.rows, scene.cols, scene.mass
+    p.rows, p.cols = scene.rows, scene.cols
     p.k_horizontal, p.alpha_horizontal, p.c_horizontal = scene.k0, scene.alpha0, scene.c0
     for j, material in enumerate(scene.order):
-        m = material - 1
-        p.column[j] = ColumnConstants(**{name: getattr(scene, name)[m] for name in FIELD_NAMES})
+        p.column[j] = ColumnConstants(**{field.name: _material_value(scene, field, material - 1) for field in FIELDS})
     p.diagonal_rule = DIAGONAL_RULES[scene.diagonal_rule]
     p.spring_law = SPRING_LAWS[scene.spring_law]
     p.load_total, p.load_angle_deg, p.load_duration = scene.F_total, scene.load_angle, scene.t_active
@@ -73,6 +72,19 @@ def _params(scene, has_backplate: bool, depth: int, load_patch: int) -> LatticeP
     p.k_wall, p.c_wall, p.backplate_gap = scene.k_wall, scene.c_wall, scene.backplate_gap
     p.depth, p.load_patch = depth, load_patch
     return p
+
+
+def _material_value(scene, field, index: int) -> float:
+    """Material ``index``'s (0-based) value of a table column in a reference scene: a value per material, one
+    value for every material (a scene's single ``mass``), or the column's default when the scene has none."""
+    value = getattr(scene, field.name, None)
+    if value is None:
+        if field.default is None:
+            raise ValueError(f"scene: no {field.name} (a value per material)")
+        return field.default
+    if isinstance(value, (int, float)):
+        return float(value)
+    return float(value[index])
 
 
 class Core:

@@ -1,9 +1,11 @@
 """Material tables: the study's, and the designer's own, as data.
 
 A table has one row per material: ``name, k, k_diag, c, alpha, alpha_diag`` (docs/model.md sections 3 and 9:
-k and k_diag in N, c in N s/m, alpha and alpha_diag in 1/m). Column j of the lattice holds material
-``material[j]`` (1-based row of the table). The FMU is built with the table's values as the start values of
-its parameter arrays ``k[1..M]``, ``k_diag[1..M]``, ``c[1..M]``, ``alpha[1..M]``, ``alpha_diag[1..M]``.
+k and k_diag in N, c in N s/m, alpha and alpha_diag in 1/m) and, optionally, ``mass`` (kg) and
+``damping_exponent`` (docs/model.md section 12; 1 when a table leaves them out, as the study has them). Column j
+of the lattice holds material ``material[j]`` (1-based row of the table). The FMU is built with the table's
+values as the start values of its parameter arrays ``k[1..M]``, ``k_diag[1..M]``, ``c[1..M]``, ``alpha[1..M]``,
+``alpha_diag[1..M]``, ``mass[1..M]``, ``damping_exponent[1..M]``.
 
 The study's table is computed here and only here, with Python floats, so the FMU's start values, the
 reference model and every test see the same bits on every CPU (numpy's vectorised power can differ from
@@ -33,16 +35,27 @@ class Field:
     """One numeric column of a material table and what the model allows for it."""
 
     name: str
-    unit: str
+    unit: str | None  # None: a pure number
     description: str
-    positive: bool  # True: the model needs > 0 (an exponent); False: >= 0 is allowed
+    positive: bool  # True: the model needs > 0 (an exponent, a mass); False: >= 0 is allowed
+    default: float | None = None  # the value of a table that leaves the column out; None: every table gives it
 
     def allowed(self) -> str:
         return "a finite number > 0" if self.positive else "a finite number >= 0"
 
+    def allowed_in_unit(self) -> str:
+        return self.allowed() + (f" ({self.unit})" if self.unit else "")
 
-def _column(unit: str, description: str, positive: bool):
-    return dataclasses.field(metadata={"unit": unit, "description": description, "positive": positive})
+    @property
+    def required(self) -> bool:
+        return self.default is None
+
+
+def _column(unit: str | None, description: str, positive: bool, default: float | None = None):
+    metadata = {"unit": unit, "description": description, "positive": positive, "default": default}
+    if default is None:
+        return dataclasses.field(metadata=metadata)
+    return dataclasses.field(default=default, metadata=metadata)
 
 
 @dataclass(frozen=True)
@@ -57,11 +70,16 @@ class Material:
     c: float = _column("N.s/m", "vertical damping", positive=False)
     alpha: float = _column("1/m", "vertical spring exponent", positive=True)
     alpha_diag: float = _column("1/m", "diagonal spring exponent", positive=True)
+    # docs/model.md section 12; a table without these columns is the study's 1 kg masses and linear dampers
+    mass: float = _column("kg", "node mass (every node of a column holding it)", positive=True, default=1.0)
+    damping_exponent: float = _column(None, "exponent n of the dampers inside a column (F = -c |dv|^(n-1) dv)",
+                                      positive=True, default=1.0)
 
 
 FIELDS = tuple(Field(f.name, **f.metadata) for f in fields(Material) if f.metadata)
 FIELD_NAMES = tuple(f.name for f in FIELDS)
 HEADER = ("name",) + FIELD_NAMES
+REQUIRED_HEADER = ("name",) + tuple(f.name for f in FIELDS if f.required)  # what every table file must name
 
 
 class MaterialTableError(ValueError):
@@ -99,16 +117,27 @@ class MaterialTable:
         """JSON-ready rows (results.json, the report)."""
         return [{f.name: getattr(m, f.name) for f in fields(Material)} for m in self.materials]
 
+    def stack_mass(self, order: Iterable[int], masses_per_column: int) -> float:
+        """docs/model.md section 12: the stack's total mass, ``masses_per_column`` (R D) times the sum of each
+        column's material's mass, in kg."""
+        return masses_per_column * math.fsum(self.materials[number - 1].mass for number in order)
+
     def sha256(self) -> str:
-        """A fingerprint of the table's names and values (exact float bits), for journals and file names."""
-        text = json.dumps([[m.name] + [float(getattr(m, f)).hex() for f in FIELD_NAMES] for m in self.materials])
+        """A fingerprint of the table's names and values (exact float bits), for journals and file names. A
+        column with a default that every row leaves at it is not part of it, so a table keeps its fingerprint
+        whether or not its file spells such a column out."""
+        names = [f.name for f in FIELDS
+                 if f.required or any(getattr(m, f.name) != f.default for m in self.materials)]
+        text = json.dumps([[m.name] + [float(getattr(m, f)).hex() for f in names] for m in self.materials])
         return hashlib.sha256(text.encode()).hexdigest()
 
     @classmethod
     def from_rows(cls, rows: Iterable[dict[str, Any]], source: str = "materials") -> "MaterialTable":
         rows = list(rows)
         check_rows(rows, source)
-        return cls(tuple(Material(str(r["name"]).strip(), *(float(r[f]) for f in FIELD_NAMES)) for r in rows))
+        return cls(tuple(Material(str(r["name"]).strip(), **{f.name: float(r[f.name]) for f in FIELDS
+                                                             if _given(r.get(f.name)) or f.required})
+                         for r in rows))
 
 
 def study_materials(count: int = STUDY_MATERIAL_COUNT) -> MaterialTable:
@@ -124,8 +153,14 @@ def study_materials(count: int = STUDY_MATERIAL_COUNT) -> MaterialTable:
     return MaterialTable(tuple(materials))
 
 
+def _given(value) -> bool:
+    """Whether a cell holds something (an optional column's empty cell takes the column's default)."""
+    return value is not None and not (isinstance(value, str) and not value.strip())
+
+
 def check_rows(rows: list[dict[str, Any]], source: str) -> None:
-    """Every row has a unique non-empty name and every field in its range; else one line naming row and field."""
+    """Every row has a unique non-empty name and every field in its range (an optional field may be left out);
+    else one line naming row and field."""
     if not rows:
         raise MaterialTableError(f"{source}: no materials (expected a header {','.join(HEADER)} and one row per "
                                  "material)")
@@ -150,23 +185,25 @@ def check_rows(rows: list[dict[str, Any]], source: str) -> None:
         for field in FIELDS:
             value = row.get(field.name)
             label = f"{source}: row {number} ({name}), field {field.name}"
-            if value is None or (isinstance(value, str) and not value.strip()):
-                raise MaterialTableError(f"{label}: missing; allowed: {field.allowed()} ({field.unit})")
+            if not _given(value) and not field.required:
+                continue
+            if not _given(value):
+                raise MaterialTableError(f"{label}: missing; allowed: {field.allowed_in_unit()}")
             if isinstance(value, bool):
                 raise MaterialTableError(f"{label}: {value!r} is not a number; allowed: {field.allowed()}")
             try:
                 number_value = float(value)
             except (TypeError, ValueError):
-                raise MaterialTableError(f"{label}: {value!r} is not a number; allowed: {field.allowed()} "
-                                         f"({field.unit})") from None
+                raise MaterialTableError(f"{label}: {value!r} is not a number; allowed: "
+                                         f"{field.allowed_in_unit()}") from None
             if not math.isfinite(number_value) or number_value < 0 or (field.positive and number_value == 0):
-                raise MaterialTableError(f"{label}: {value!r} is not allowed; allowed: {field.allowed()} "
-                                         f"({field.unit})")
+                raise MaterialTableError(f"{label}: {value!r} is not allowed; allowed: {field.allowed_in_unit()}")
 
 
 def load_materials(path: str | Path) -> MaterialTable:
-    """A material table from a .csv (header ``name,k,k_diag,c,alpha,alpha_diag``), .toml (``[[material]]``
-    tables) or .json (a list of objects, or ``{"materials": [...]}``) file; checked before any use."""
+    """A material table from a .csv (header ``name,k,k_diag,c,alpha,alpha_diag``, optionally ``mass`` and
+    ``damping_exponent`` too), .toml (``[[material]]`` tables) or .json (a list of objects, or
+    ``{"materials": [...]}``) file; checked before any use."""
     path = Path(path)
     source = str(path)
     try:
@@ -206,10 +243,11 @@ def _csv_rows(text: str, source: str) -> list[dict[str, Any]]:
         header = [h.strip() for h in next(reader)]
     except StopIteration:
         raise MaterialTableError(f"{source}: empty; expected a header {','.join(HEADER)}") from None
-    missing = [h for h in HEADER if h not in header]
+    missing = [h for h in REQUIRED_HEADER if h not in header]
     if missing or len(set(header)) != len(header):
-        raise MaterialTableError(f"{source}: the header must name each of {','.join(HEADER)} once "
-                                 f"(got {','.join(header)})")
+        optional = [h for h in HEADER if h not in REQUIRED_HEADER]
+        raise MaterialTableError(f"{source}: the header must name each of {','.join(REQUIRED_HEADER)} once, and "
+                                 f"may name {','.join(optional)} (got {','.join(header)})")
     rows = []
     for number, cells in enumerate(reader, start=1):
         if len(cells) != len(header):
@@ -230,4 +268,4 @@ def write_materials_csv(table: MaterialTable, path: str | Path) -> Path:
 
 
 __all__ = ["FIELDS", "FIELD_NAMES", "HEADER", "MAX_MATERIALS", "Material", "MaterialTable", "MaterialTableError",
-           "STUDY_MATERIAL_COUNT", "load_materials", "study_materials", "write_materials_csv"]
+           "REQUIRED_HEADER", "STUDY_MATERIAL_COUNT", "load_materials", "study_materials", "write_materials_csv"]

@@ -217,8 +217,6 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
         Variable("alpha_horizontal", REAL, "parameter", "Horizontal spring exponent alpha0", start=10.0,
                  unit="1/m", minimum=0.0, minimum_exclusive=True),
         Variable("c_horizontal", REAL, "parameter", "Horizontal damping c0", start=5.0, unit="N.s/m", minimum=0.0),
-        Variable("mass", REAL, "parameter", "Mass of every node", start=1.0, unit="kg", minimum=0.0,
-                 minimum_exclusive=True),
         # a magnitude (load_angle gives the direction); the maximum is far beyond any armour load, where the
         # exponential springs stiffen until the adaptive solver's step collapses (tests/test_stability.py)
         Variable("F_total", REAL, "parameter", "Total load on column 1 (its direction is load_angle)", start=1200.0,
@@ -333,6 +331,9 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
         # outputs
         Variable("backplate_force", REAL, "output", "Force on the backplate", unit="N",
                  depends_on=BACK_PORT),
+        Variable("stack_mass", REAL, "output",
+                 "Total mass of the lattice: rows x depth x the sum over the columns of their materials' mass",
+                 unit="kg"),
         Variable("peak_backplate_force", REAL, "output",
                  "Maximum backplate force over the samples every peak_sample_interval so far. Model Exchange: "
                  "over the sample times at which the importer completed a step or handled an event (the FMU "
@@ -480,6 +481,27 @@ class Interface:
 TABLE_PARAMETERS = tuple(column.name for column in MATERIAL_FIELDS)  # the material table's columns
 
 
+def with_node_mass(parameters: dict | None, materials: MaterialTable | None,
+                   cols: int) -> tuple[dict, MaterialTable | None]:
+    """A scene's parameters and table with a scalar ``mass`` among the parameters (the one mass of every node,
+    as scenes gave it before docs/model.md section 12 gave each material its own ``mass[m]``) read as every
+    material's mass: the table with that mass column, the parameters without it. A table that sets masses of
+    its own as well is refused, rather than one silently winning."""
+    parameters = dict(parameters or {})
+    if "mass" not in parameters or isinstance(parameters["mass"], (list, tuple)):
+        return parameters, materials
+    node_mass = parameters.pop("mass")
+    table = materials or study_materials(min(cols, STUDY_MATERIAL_COUNT))
+    if isinstance(node_mass, bool) or not isinstance(node_mass, (int, float)) or not (
+            math.isfinite(node_mass) and node_mass > 0):
+        raise ValueError(f"parameter mass = {node_mass!r} is not allowed: allowed a finite number > 0 (kg, every "
+                         f"material's mass)")
+    if any(m.mass != 1.0 for m in table.materials):
+        raise ValueError(f"parameter mass = {node_mass!r} and the material table's mass column both set the "
+                         f"masses: give the masses in the table only")
+    return parameters, MaterialTable(tuple(replace(m, mass=float(node_mass)) for m in table.materials))
+
+
 def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden: tuple[str, ...] = (),
                    materials: MaterialTable | None = None, depth: int = 1) -> Interface:
     """Variables for a rows x cols x depth lattice with the material table `materials` (default: the study's, up
@@ -487,6 +509,7 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden:
     if rows < 1 or cols < 1 or cols > 64 or depth < 1 or rows * cols * depth > 100000:
         raise ValueError(f"rows, cols and depth: allowed 1 <= rows, 1 <= cols <= 64, 1 <= depth, at most 100000 "
                          f"masses (got rows={rows}, cols={cols}, depth={depth})")
+    parameters, materials = with_node_mass(parameters, materials, cols)
     variables = all_variables(rows, cols, materials, depth)
     known = {v.name for v in variables}
     unknown = set(parameters or {}) - known | set(hidden) - known

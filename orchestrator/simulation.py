@@ -325,7 +325,8 @@ class LatticeFMU:
         if variable is None or variable.causality != "parameter":
             known = sorted(n for n, v in self.variables.items() if v.causality == "parameter" and "[" not in n)
             raise ValueError(f"unknown parameter {name!r}; the FMU's parameters are {known} "
-                             f"and the arrays material[j], k[m], k_diag[m], c[m], alpha[m], alpha_diag[m]")
+                             f"and the arrays material[j], k[m], k_diag[m], c[m], alpha[m], alpha_diag[m], mass[m], "
+                             f"damping_exponent[m]")
         return variable
 
     def _setter(self, with_order: bool, names: tuple) -> "_Setter":

@@ -229,11 +229,15 @@ class Scene:
         if not isinstance(description, scenes.Scene):
             description = scenes.Scene.load(description)
         v = description.parameter_values()
+        masses = set(v["mass"])  # the FMU's mass[m] of each material (docs/model.md section 12)
+        if len(masses) != 1:
+            raise ValueError(f"scene {description.name}: its materials weigh {sorted(masses)} kg; this oracle has "
+                             f"one mass for every node")
         return cls(
             rows=description.rows, cols=description.cols,
             order=tuple(order) if order is not None else v["material"],
             **{f: v[f] for f in MATERIAL_FIELDS},
-            k0=v["k_horizontal"], alpha0=v["alpha_horizontal"], c0=v["c_horizontal"], mass=v["mass"],
+            k0=v["k_horizontal"], alpha0=v["alpha_horizontal"], c0=v["c_horizontal"], mass=masses.pop(),
             F_total=v["F_total"], load_angle=v["load_angle"], t_active=v["t_active"],
             wall=bool(v["has_backplate"]), k_wall=v["k_wall"], c_wall=v["c_wall"],
             backplate_gap=v["backplate_gap"], diagonal_rule=DIAGONAL_RULES[int(v["diagonal_rule"])],

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from fmu_src.core import MAX_COLS
 from fmu_src.materials import MaterialTable, load_materials
-from fmu_src.variables import Interface, all_variables, make_interface
+from fmu_src.variables import Interface, all_variables, make_interface, with_node_mass
 
 SCENE_DIR = Path(__file__).resolve().parent
 DEFAULT_SCENE = "armour_11x11"
@@ -116,10 +116,11 @@ class Scene:
         """Every parameter's value in this scene (the scene's own, else the FMU's default), by FMU name;
         arrays as tuples."""
         values = {}
-        for variable in all_variables(self.rows, self.cols, self.material_table(), self.depth):
+        parameters, table = with_node_mass(self.parameters, self.material_table(), self.cols)
+        for variable in all_variables(self.rows, self.cols, table, self.depth):
             if variable.causality != "parameter":
                 continue
-            value = self.parameters.get(variable.name, variable.start)
+            value = parameters.get(variable.name, variable.start)
             values[variable.name] = tuple(value) if isinstance(value, (list, tuple)) else value
         return values
 

@@ -53,7 +53,7 @@ CRAFTED = {
     "force above its range": ("F_total", replaced("F_total", "Real", "1e300"), "outside its range"),
     "tolerance below its minimum": ("rtol", added(("rtol", "Real", "1e-20")), "outside its range"),
     "angle above its maximum": ("load_angle", added(("load_angle", "Real", "400.0")), "outside its range"),
-    "negative mass": ("mass", added(("mass", "Real", "-1.0")), "outside its range"),
+    "negative mass": ("mass[3]", added(("mass[3]", "Real", "-1.0")), "outside its range"),
     "flag out of range": ("use_symmetry", added(("use_symmetry", "Integer", "2")), "outside its range"),
     "flag as Boolean": ("use_symmetry", added(("use_symmetry", "Boolean", "true")), "given as Boolean"),
     "rule not an item": ("diagonal_rule", replaced("diagonal_rule", "Integer", "2"),

@@ -584,7 +584,8 @@ static int check_divergence(Model *m, char *message, size_t message_size) {
     const double *velocity = y + solver_vx_base(m), *quadrature = y + solver_quadrature_base(m);
     const double injected = m->initial_energy + fabs(quadrature[0]) + fabs(quadrature[2]); /* W_ext, W_nr */
     const double impulse = m->params.load_total * fmax(m->params.load_duration, PARAM_PEAK_SAMPLE_INTERVAL(m));
-    const double floor = 1e-9 + 1e-6 * impulse * impulse / m->params.mass;
+    const double lightest = lattice_lightest_mass(&m->params); /* kinetic below: a lower bound */
+    const double floor = 1e-9 + 1e-6 * impulse * impulse / lightest;
     double speed_squared = 0.0, kinetic;
     char reason[FAILURE_SIZE];
     int i;
@@ -604,7 +605,7 @@ static int check_divergence(Model *m, char *message, size_t message_size) {
         }
         speed_squared = 4.0 * four_times + 2.0 * twice + once;
     }
-    kinetic = 0.5 * m->params.mass * speed_squared;
+    kinetic = 0.5 * lightest * speed_squared;
     if (isfinite(kinetic) && isfinite(injected) && kinetic <= ENERGY_LIMIT_FACTOR * injected + floor) {
         /* every BALANCE_CHECK_STEPS steps (it costs about one right-hand side): the balance must roughly
          * close; a solution that makes energy out of nothing is diverging, even while it stays bounded */

@@ -96,6 +96,65 @@ static SpringEnds reversed(SpringEnds ends) {
     return swapped;
 }
 
+/* docs/model.md section 12: a damper of constant c and exponent n pushes with c |dv|^(n-1) dv, a linear damper
+ * of constant c |dv|^(n-1) at that relative speed; at dv = 0 its force is 0 for every n > 0 (and pow would
+ * give an infinite constant for n < 1). */
+static double nonlinear_damping(double c, double exponent, double speed) {
+    return speed > 0.0 ? c * pow(speed, exponent - 1.0) : 0.0;
+}
+
+/* The columns whose dampers are not linear (exponent != 1), count returned: only they pay for pow, and a
+ * lattice without any takes the linear dampers' code unchanged. */
+static int nonlinear_columns(const LatticeParams *p, int *columns) {
+    int count = 0, j;
+    for (j = 0; j < p->cols; j++) {
+        if (p->column[j].damping_exponent != 1.0) columns[count++] = j;
+    }
+    return count;
+}
+
+/* The constants c_effective[j] of the count non-linear dampers inside columns[] whose ends a and b have the
+ * velocities given (vy and vz NULL along x: there |dv| is |dvx|, what sqrt(dvx^2) gives; vz NULL in a
+ * lattice of one layer). The linear columns' entries are left as they are. */
+static void nonlinear_dampers(const LatticeParams *p, int count, const int *columns, const double *vx_a,
+                              const double *vy_a, const double *vz_a, const double *vx_b, const double *vy_b,
+                              const double *vz_b, double *c_effective) {
+    int q;
+    for (q = 0; q < count; q++) {
+        const int j = columns[q];
+        const double dvx = vx_b[j] - vx_a[j];
+        double speed = fabs(dvx);
+        if (vy_a) {
+            const double dvy = vy_b[j] - vy_a[j], dvz = vz_a ? vz_b[j] - vz_a[j] : 0.0;
+            speed = sqrt(vz_a ? dvx * dvx + dvy * dvy + dvz * dvz : dvx * dvx + dvy * dvy);
+        }
+        c_effective[j] = nonlinear_damping(p->column[j].c, p->column[j].damping_exponent, speed);
+    }
+}
+
+/* Whether every column's mass is 1 kg: then nothing is divided by a mass (multiplying by 1 changes nothing). */
+static int unit_masses(const LatticeParams *p) {
+    int j;
+    for (j = 0; j < p->cols; j++) {
+        if (p->column[j].mass != 1.0) return 0;
+    }
+    return 1;
+}
+
+double lattice_stack_mass(const LatticeParams *p) {
+    double sum = 0.0;
+    int j;
+    for (j = 0; j < p->cols; j++) sum += p->column[j].mass;
+    return (double)p->rows * (double)p->depth * sum;
+}
+
+double lattice_lightest_mass(const LatticeParams *p) {
+    double lightest = p->column[0].mass;
+    int j;
+    for (j = 1; j < p->cols; j++) lightest = p->column[j].mass < lightest ? p->column[j].mass : lightest;
+    return lightest;
+}
+
 
 /* always_inline where the compiler has it: rhs_of_layers is written once and compiled for the lattice and
  * for the plate, with_z folded in each (the plate's z parts cost the lattice nothing). */
@@ -163,6 +222,10 @@ typedef struct {
     double squared[PACKED_SPRINGS], alpha[PACKED_SPRINGS], stretch[PACKED_SPRINGS], inverse[PACKED_SPRINGS];
     double k_vertical[LATTICE_MAX_COLS], c_vertical[LATTICE_MAX_COLS], k_left[LATTICE_MAX_COLS],
         k_right[LATTICE_MAX_COLS];
+    /* the vertical dampers' constants at this row's relative speeds (nonlinear_dampers; c_vertical in the
+     * linear columns) and the columns that are not linear */
+    double c_effective[LATTICE_MAX_COLS];
+    int nonlinear[LATTICE_MAX_COLS], nonlinear_count;
     double dissipated[LATTICE_MAX_COLS], nonreciprocal[LATTICE_MAX_COLS]; /* powers, summed by column */
     double horizontal[3][LATTICE_MAX_COLS + 2], rising_bottom[3][LATTICE_MAX_COLS + 2],
         falling_top[3][LATTICE_MAX_COLS + 2];
@@ -247,9 +310,10 @@ static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
     for (j = 0; j < cols; j++) {
         const ColumnConstants *column = &p->column[j];
         w->k_vertical[j] = column->k;
-        w->c_vertical[j] = column->c;
+        w->c_vertical[j] = w->c_effective[j] = column->c;
         w->alpha[SLOT(VERTICAL, j)] = column->alpha;
     }
+    w->nonlinear_count = nonlinear_columns(p, w->nonlinear);
     for (j = 0; j < links; j++) {
         const SpringEnds ends = diagonal_ends(p, j);
         w->alpha[SLOT(HORIZONTAL, j)] = p->alpha_horizontal;
@@ -388,9 +452,13 @@ static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, 
         }
     }
 
-    if (p->mass != 1.0) { /* (multiplying by 1 changes nothing) */
-        const double inverse_mass = 1.0 / p->mass;
-        for (i = 0; i < force_blocks * n; i++) forces[i] *= inverse_mass;
+    if (!unit_masses(p)) { /* each mass weighs its column's material's mass (docs/model.md section 12) */
+        double inverse_mass[LATTICE_MAX_COLS];
+        int j;
+        for (j = 0; j < cols; j++) inverse_mass[j] = 1.0 / p->column[j].mass;
+        for (i = 0; i < force_blocks * n; i += cols) { /* the forces' rows, each over the columns */
+            for (j = 0; j < cols; j++) forces[i + j] *= inverse_mass[j];
+        }
     }
     powers[0] = power_external;
     powers[1] = power_dissipated;
@@ -420,14 +488,31 @@ int lattice_mirror_layers(const LatticeParams *p) {
     return (p->depth >= 3 && p->depth % 2 == 1 && centred_along_x(p, p->depth)) ? (p->depth + 1) / 2 : 0;
 }
 
+/* The first column whose mass or damping exponent is not a finite number > 0 (docs/model.md section 12), or -1. */
+static int column_out_of_range(const LatticeParams *p) {
+    int j;
+    for (j = 0; j < p->cols && j < LATTICE_MAX_COLS; j++) {
+        const ColumnConstants *column = &p->column[j];
+        if (!(isfinite(column->mass) && column->mass > 0.0) ||
+            !(isfinite(column->damping_exponent) && column->damping_exponent > 0.0)) {
+            return j;
+        }
+    }
+    return -1;
+}
+
 const char *lattice_params_error(const LatticeParams *p, char *message, int size) {
-    const int patch = p->load_patch;
+    const int patch = p->load_patch, column = column_out_of_range(p);
     if (p->rows < 1) {
         snprintf(message, (size_t)size, "rows = %d: the lattice needs at least 1 row", p->rows);
     } else if (p->cols < 1 || p->cols > LATTICE_MAX_COLS) {
         snprintf(message, (size_t)size, "cols = %d: allowed 1 to %d columns", p->cols, LATTICE_MAX_COLS);
     } else if (p->depth < 1) {
         snprintf(message, (size_t)size, "depth = %d: the lattice needs at least 1 layer", p->depth);
+    } else if (column >= 0) {
+        snprintf(message, (size_t)size,
+                 "column %d: mass = %g kg, damping_exponent = %g: allowed for each a finite number > 0", column + 1,
+                 p->column[column].mass, p->column[column].damping_exponent);
     } else if (patch != LATTICE_WHOLE_FACE &&
                (patch < 1 || patch % 2 == 0 || patch > p->rows || patch > p->depth)) {
         snprintf(message, (size_t)size,
@@ -562,13 +647,20 @@ static ALWAYS_INLINE void rhs_of_layers(const LatticeParams *p, const int with_z
 #define FORCES_HRF_SAME(j) FORCES_HRF(j, w.stretch[SLOT(RISING, j)], w.stretch[SLOT(FALLING, j)])
 #define FORCES_HRF_DIFFERENT(j) FORCES_HRF(j, w.stretch[RIGHT_END_SLOT(0, j)], w.stretch[RIGHT_END_SLOT(1, j)])
 #define FORCES_V(j) DAMPED(VERTICAL, j, w.k_vertical[j], w.c_vertical[j], 0, j, 1, j, VERTICAL_FORCE)
+#define FORCES_V_NONLINEAR(j) DAMPED(VERTICAL, j, w.k_vertical[j], w.c_effective[j], 0, j, 1, j, VERTICAL_FORCE)
             if (i + 1 < rows) {
                 if (alphas_differ) {
                     OVER(links, even_links, FORCES_HRF_DIFFERENT)
                 } else {
                     OVER(links, even_links, FORCES_HRF_SAME)
                 }
-                OVER(cols, even_cols, FORCES_V)
+                if (w.nonlinear_count) {
+                    nonlinear_dampers(p, w.nonlinear_count, w.nonlinear, vx0, vy0, with_z ? vz0 : NULL, vx1, vy1,
+                                      with_z ? vz1 : NULL, w.c_effective);
+                    OVER(cols, even_cols, FORCES_V_NONLINEAR)
+                } else {
+                    OVER(cols, even_cols, FORCES_V)
+                }
             } else {
                 OVER(links, even_links, FORCES_H)
             }
@@ -716,13 +808,21 @@ static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored,
 #define FORCES_X_HRF_DIFFERENT(j) \
     FORCES_X_HRF(j, w.stretch[RIGHT_END_SLOT(0, j)], w.stretch[RIGHT_END_SLOT(1, j)])
 #define FORCES_X_V(j) DAMPED_X(VERTICAL, j, w.k_vertical[j], w.c_vertical[j], vx0[j], vx1[j], w.vertical[0][j])
+#define FORCES_X_V_NONLINEAR(j) \
+    DAMPED_X(VERTICAL, j, w.k_vertical[j], w.c_effective[j], vx0[j], vx1[j], w.vertical[0][j])
             if (i + 1 < rows) {
                 if (alphas_differ) {
                     OVER(links, even_links, FORCES_X_HRF_DIFFERENT)
                 } else {
                     OVER(links, even_links, FORCES_X_HRF_SAME)
                 }
-                OVER(cols, even_cols, FORCES_X_V)
+                if (w.nonlinear_count) {
+                    nonlinear_dampers(p, w.nonlinear_count, w.nonlinear, vx0, NULL, NULL, vx1, NULL, NULL,
+                                      w.c_effective);
+                    OVER(cols, even_cols, FORCES_X_V_NONLINEAR)
+                } else {
+                    OVER(cols, even_cols, FORCES_X_V)
+                }
             } else {
                 OVER(links, even_links, FORCES_X_H)
             }
@@ -780,6 +880,8 @@ typedef struct {
         inverse[LAYER_PACKED_SPRINGS];
     double k_vertical[LATTICE_MAX_COLS], c_vertical[LATTICE_MAX_COLS], k_side[LATTICE_MAX_COLS],
         k_left[LATTICE_MAX_COLS], k_right[LATTICE_MAX_COLS];
+    double c_effective[LATTICE_MAX_COLS]; /* the depth dampers' constants at this row's speeds (as RowBuffers) */
+    int nonlinear[LATTICE_MAX_COLS], nonlinear_count;
     double dissipated[LATTICE_MAX_COLS], nonreciprocal[LATTICE_MAX_COLS];
     /* the forces by component: on the front end (the back end gets the opposite) of the reciprocal springs,
      * on each end of the depth diagonals; guards as in RowBuffers */
@@ -830,7 +932,7 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
     for (j = 0; j < cols; j++) {
         const ColumnConstants *column = &p->column[j];
         l.k_vertical[j] = column->k;
-        l.c_vertical[j] = column->c;
+        l.c_vertical[j] = l.c_effective[j] = column->c;
         l.k_side[j] = column->k_diag;
         l.alpha[LAYER_SLOT(DEPTH, j)] = column->alpha;
         l.alpha[LAYER_SLOT(SIDE_RISING, j)] = l.alpha[LAYER_SLOT(SIDE_FALLING, j)] = column->alpha_diag;
@@ -843,6 +945,7 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
         l.k_right[j] = ends.k_b;
         alphas_differ = alphas_differ || ends.alpha_a != ends.alpha_b;
     }
+    l.nonlinear_count = nonlinear_columns(p, l.nonlinear);
     for (c = 0; c < 3; c++) {
         l.rising_front[c][links] = l.rising_back[c][1] = 0.0;
         l.falling_front[c][1] = l.falling_back[c][links] = 0.0;
@@ -955,6 +1058,8 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
         }                                                                  \
     }
 #define LAYER_FORCES_D(j) LAYER_DAMPED(DEPTH, j, l.k_vertical[j], l.c_vertical[j], f0, j, b0, j, DEPTH_FORCE)
+#define LAYER_FORCES_D_NONLINEAR(j) \
+    LAYER_DAMPED(DEPTH, j, l.k_vertical[j], l.c_effective[j], f0, j, b0, j, DEPTH_FORCE)
             /* depth rising: a = (i, j, k) is the left end; depth falling: a = (i, j+1, k) the right end */
 #define LAYER_FORCES_RF(j, rising_right, falling_right)                                                         \
     LAYER_DIAGONAL(DEPTH_RISING, j, l.k_left[j], l.stretch[LAYER_SLOT(DEPTH_RISING, j)], l.k_right[j],          \
@@ -969,7 +1074,14 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
 #define LAYER_FORCES_S(j)                           \
     LAYER_SIDE(SIDE_RISING, j, SIDE_RISING_FORCE)   \
     LAYER_SIDE(SIDE_FALLING, j, SIDE_FALLING_FORCE)
-            LAYER_OVER(cols, even_cols, LAYER_FORCES_D)
+            if (l.nonlinear_count) {
+                nonlinear_dampers(p, l.nonlinear_count, l.nonlinear, vxf0, along_x ? NULL : vyf0,
+                                  along_x ? NULL : vzf0, vxb0, along_x ? NULL : vyb0, along_x ? NULL : vzb0,
+                                  l.c_effective);
+                LAYER_OVER(cols, even_cols, LAYER_FORCES_D_NONLINEAR)
+            } else {
+                LAYER_OVER(cols, even_cols, LAYER_FORCES_D)
+            }
             if (alphas_differ) {
                 LAYER_OVER(links, even_links, LAYER_FORCES_RF_DIFFERENT)
             } else {
@@ -1126,10 +1238,17 @@ void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, 
     const double *ux = y, *uy = y + n, *uz = components == 3 ? y + 2 * n : NULL;
     const double *vx = y + components * n, *vy = vx + n, *vz = components == 3 ? vx + 2 * n : NULL;
     const SpringEnds horizontal = {p->k_horizontal, p->alpha_horizontal, p->k_horizontal, p->alpha_horizontal};
-    double speed_squared = 0.0, energy = 0.0;
+    const int unit = unit_masses(p);
+    double speed_squared = 0.0, weighted = 0.0, energy = 0.0; /* sum |v|^2; sum m |v|^2 of unequal masses */
     int i, j, k;
     for (i = 0; i < n; i++) {
-        speed_squared += vz ? vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i] : vx[i] * vx[i] + vy[i] * vy[i];
+        const double squared =
+            vz ? vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i] : vx[i] * vx[i] + vy[i] * vy[i];
+        if (unit) {
+            speed_squared += squared;
+        } else {
+            weighted += p->column[i % cols].mass * squared;
+        }
     }
     for (k = 0; k < layers; k++) {
         for (i = 0; i < rows; i++) {
@@ -1194,7 +1313,7 @@ void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, 
             }
         }
     }
-    *kinetic = 0.5 * p->mass * speed_squared;
+    *kinetic = unit ? 0.5 * speed_squared : 0.5 * weighted;
     *potential = energy;
 }
 

@@ -44,9 +44,8 @@ typedef enum { SPRING_EXPONENTIAL = 0, SPRING_LINEAR = 1 } SpringLaw;
 /* Flat (no pointers), so a model holding it can be copied with memcpy for FMU states. */
 typedef struct {
     int rows, cols;
-    double mass;
     double k_horizontal, alpha_horizontal, c_horizontal; /* left/right neighbours: k0, alpha0, c0 */
-    ColumnConstants column[LATTICE_MAX_COLS];
+    ColumnConstants column[LATTICE_MAX_COLS]; /* its material's row: springs, dampers, mass (section 12) */
     int diagonal_rule; /* enum DiagonalRule */
     int spring_law;    /* SpringLaw */
     double load_total, load_angle_deg, load_duration; /* F_total, theta, t_active */
@@ -140,5 +139,11 @@ void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, 
 
 /* The potential of the force law for one end with constants (k, alpha). */
 double lattice_spring_potential(int spring_law, double k, double alpha, double distance);
+
+/* The lattice's total mass, rows x depth x the sum of its columns' masses (docs/model.md section 12). */
+double lattice_stack_mass(const LatticeParams *p);
+
+/* The smallest mass of any column: a lower bound of the kinetic energy is half of it times sum |v|^2. */
+double lattice_lightest_mass(const LatticeParams *p);
 
 #endif

@@ -315,7 +315,6 @@ static void build_params(const Model *m, LatticeParams *p) {
     p->cols = LATTICE_COLS;
     p->depth = LATTICE_DEPTH;
     p->load_patch = PARAM_LOAD_PATCH(m);
-    p->mass = PARAM_MASS(m);
     p->k_horizontal = PARAM_K_HORIZONTAL(m);
     p->alpha_horizontal = PARAM_ALPHA_HORIZONTAL(m);
     p->c_horizontal = PARAM_C_HORIZONTAL(m);
@@ -326,6 +325,8 @@ static void build_params(const Model *m, LatticeParams *p) {
         p->column[j].c = PARAM_C(m, material);
         p->column[j].k_diag = PARAM_K_DIAG(m, material);
         p->column[j].alpha_diag = PARAM_ALPHA_DIAG(m, material);
+        p->column[j].mass = PARAM_MASS(m, material);
+        p->column[j].damping_exponent = PARAM_DAMPING_EXPONENT(m, material);
     }
     p->diagonal_rule = PARAM_DIAGONAL_RULE(m);
     p->spring_law = PARAM_SPRING_LAW(m);
@@ -413,6 +414,7 @@ void model_update_outputs(Model *m, double peak_continuous, double peak_time, do
     m->real[VR_LAST_CONTACT_TIME] = last_contact_time;
     m->real[VR_ENERGY_BALANCE_ERROR] = model_energy_balance(m, y, &kinetic, &potential);
     m->real[VR_BACKPLATE_FORCE] = lattice_backplate_force(&m->params, y);
+    m->real[VR_STACK_MASS] = lattice_stack_mass(&m->params);
     m->real[VR_KINETIC_ENERGY] = kinetic;
     m->real[VR_POTENTIAL_ENERGY] = potential;
     m->real[VR_EXTERNAL_WORK] = y[INDEX_EXTERNAL_WORK];

@@ -33,7 +33,6 @@ REAL_PARAMETERS = {
     "k_horizontal": (100.0, lambda v: _finite(v) and v >= 0, "a finite number in [0, inf)"),
     "alpha_horizontal": (10.0, lambda v: _finite(v) and v > 0, "a finite number in (0, inf)"),
     "c_horizontal": (5.0, lambda v: _finite(v) and v >= 0, "a finite number in [0, inf)"),
-    "mass": (1.0, lambda v: _finite(v) and v > 0, "a finite number in (0, inf)"),
     "F_total": (1200.0, _finite, "a finite number"),
     "load_angle": (0.0, lambda v: _finite(v) and -360 <= v <= 360, "a finite number in [-360, 360]"),
     "t_active": (0.15, lambda v: _finite(v) and v >= 0, "a finite number in [0, inf)"),
@@ -84,6 +83,8 @@ class MassSpringLatticeReference(Fmi2Slave):
         for array in MATERIAL_ARRAYS:
             for m in range(1, COLS + 1):
                 self._parameter(f"{array}[{m}]", Real, float(table[array][m - 1]), f"{array} of material m")
+        for m in range(1, COLS + 1):  # the C FMU's mass[m]; this oracle has one mass for every node
+            self._parameter(f"mass[{m}]", Real, 1.0, "mass of each node of a column of material m")
         for name, (start, _, _) in REAL_PARAMETERS.items():
             self._parameter(name, Real, start, name)
         for name, (start, _, _) in INTEGER_PARAMETERS.items():
@@ -136,11 +137,15 @@ class MassSpringLatticeReference(Fmi2Slave):
                 if not ok:
                     raise ValueError(f"{array}[{m}] = {value!r} is not allowed: allowed values are "
                                      f"a finite number in {'(0' if array.startswith('alpha') else '[0'}, inf)")
+        masses = {float(v[f"mass[{m}]"]) for m in range(1, COLS + 1)}
+        if len(masses) != 1 or not all(_finite(mass) and mass > 0 for mass in masses):
+            raise ValueError(f"mass[1..{COLS}] = {sorted(masses)} is not allowed: allowed values are one finite number "
+                             f"in (0, inf) for every material (this reference has one mass for every node)")
         table = {a: [float(v[f"{a}[{m}]"]) for m in range(1, COLS + 1)] for a in MATERIAL_ARRAYS}
         return Scene(
             rows=ROWS, cols=COLS, order=tuple(order), **table,
             k0=float(v["k_horizontal"]), alpha0=float(v["alpha_horizontal"]), c0=float(v["c_horizontal"]),
-            mass=float(v["mass"]), F_total=float(v["F_total"]), load_angle=float(v["load_angle"]),
+            mass=masses.pop(), F_total=float(v["F_total"]), load_angle=float(v["load_angle"]),
             t_active=float(v["t_active"]), wall=True, k_wall=float(v["k_wall"]),
             c_wall=float(v["c_wall"]), backplate_gap=float(v["backplate_gap"]),
             diagonal_rule=("receiver", "mean")[int(v["diagonal_rule"])],
