@@ -9,6 +9,9 @@ builder.build).
     python build_fmu.py --materials my_materials.csv --cols 5   # M materials of a table over 5 columns
     python build_fmu.py --fmi-version 3      # models/MassSpringLattice-fmi3.fmu
     python build_fmu.py --platforms all --fmi-version 3   # binaries for x86_64-linux, x86_64-windows, aarch64-linux
+    python build_fmu.py --model projectile   # models/Projectile.fmu: the projectile of docs/model.md section 11
+    python build_fmu.py --model hull --fmi-version 3     # models/Hull-fmi3.fmu: the hull behind the backplate
+    python build_fmu.py --system             # models/ArmourSystem.ssp: projectile -> lattice -> hull, one SSP
     lattice-build ...                        # the same, installed as a console script (pip install .)
 
 The scenes are the library module `scenes` (scenes/__init__.py and the JSON files beside it); FMUs are
@@ -22,6 +25,7 @@ import sys
 
 from builder.build import (MODELS_DIR, SOURCE_DIR, build_core_library, build_fmu, compile_shared_library,
                            model_guid, platform_folder)
+from builder.component import COMPONENT_MODELS, build_component_fmu
 from scenes import DEFAULT_SCENE, SCENE_DIR, Scene
 
 __all__ = ["DEFAULT_SCENE", "MODELS_DIR", "SCENE_DIR", "SOURCE_DIR", "Scene", "build_core_library", "build_fmu",
@@ -31,6 +35,13 @@ __all__ = ["DEFAULT_SCENE", "MODELS_DIR", "SCENE_DIR", "SOURCE_DIR", "Scene", "b
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--model", default="lattice", choices=("lattice", *COMPONENT_MODELS),
+                        help="which model folder of fmu_src/ to build: the lattice (default; the scene options "
+                             "apply), or a component of the armour system (docs/model.md section 11): projectile, "
+                             "hull")
+    parser.add_argument("--system", action="store_true",
+                        help="write the armour system instead (docs/model.md section 11): the projectile, lattice "
+                             "and hull FMUs (FMI 2) connected port to port in models/ArmourSystem.ssp, or -o")
     parser.add_argument("--scene", default=DEFAULT_SCENE,
                         help=f"a scene name from scenes/ or a path to a scene .json (default {DEFAULT_SCENE})")
     parser.add_argument("--rows", type=int, help="override the scene's number of rows")
@@ -69,6 +80,34 @@ def main(argv: list[str] | None = None) -> int:
             parser.error("--cross-check builds its own scenes and versions: give it with --werror only")
         from builder.cross_check import main as cross_check
         return cross_check(args.cross_check, werror=args.werror)
+    if args.system:
+        given = [name for name, value in {"--model": args.model != "lattice", "--scene": args.scene != DEFAULT_SCENE,
+                                           "--rows": args.rows, "--cols": args.cols, "--depth": args.depth,
+                                           "--load-patch": args.load_patch is not None, "--materials": args.materials,
+                                           "--reference": args.reference, "--fmi-version": args.fmi_version != 2,
+                                           "--platforms": args.platforms}.items() if value]
+        if given:
+            parser.error(f"{', '.join(given)}: --system builds its own three FMI 2 FMUs; give it with -o and "
+                         f"--werror only")
+        from builder.system import build_system
+
+        print(build_system(args.output, werror=args.werror))
+        return 0
+    if args.model != "lattice":
+        scene_options = {"--scene": args.scene != DEFAULT_SCENE, "--rows": args.rows, "--cols": args.cols,
+                         "--depth": args.depth, "--load-patch": args.load_patch is not None,
+                         "--materials": args.materials, "--reference": args.reference}
+        given = [name for name, value in scene_options.items() if value]
+        if given:
+            parser.error(f"{', '.join(given)}: only for --model lattice (the {args.model} has no scene)")
+        try:
+            path = build_component_fmu(args.model, args.output, fmi_version=args.fmi_version,
+                                       platforms=args.platforms, werror=args.werror)
+        except (ValueError, RuntimeError) as exc:
+            print(f"{parser.prog}: error: {exc}", file=sys.stderr)
+            return 2
+        print(path)
+        return 0
     if args.reference:
         from reference.fmu import build_reference_fmu
 

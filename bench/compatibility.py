@@ -11,10 +11,12 @@ key (``row_file_name``), with exactly these fields:
     importer_version  its version, as the tool or its package says it
     platform          the FMI 3 platform tuple it ran on: x86_64-linux, x86_64-windows, aarch64-linux, ...
     fmi_version       "2.0" or "3.0"
-    interface         "CS" (Co-Simulation) or "ME" (Model Exchange)
+    interface         "CS" (Co-Simulation), "ME" (Model Exchange) or "SSP" (the armour system's three FMUs
+                      from models/ArmourSystem.ssp, co-simulated by the importer as one system)
     result            {"status": "pass" or "fail", "message": one line: what was checked, or what failed}
     worst_error       the largest relative error |peak - published| / published over the published orders
-                      the run reached (fmu_src/published.py), or null where the run produced no peak
+                      the run reached (fmu_src/published.py); for the armour system, against the one-model
+                      reference (reference/system.py); null where the run produced no peak
     date              the day it ran, YYYY-MM-DD (UTC)
     commit            the project's commit it ran at (git hash, 7 to 40 hex digits)
     command           the command that runs it again
@@ -45,7 +47,8 @@ PAGE = ROOT / "docs" / "compatibility.md"
 TEMPLATES = Path(__file__).resolve().parent / "templates"
 
 FMI_VERSIONS = ("2.0", "3.0")
-INTERFACES = {"CS": "Co-Simulation", "ME": "Model Exchange"}
+INTERFACES = {"CS": "Co-Simulation", "ME": "Model Exchange",
+              "SSP": "Co-Simulation of the armour system (ArmourSystem.ssp: projectile, lattice, hull)"}
 STATUSES = ("pass", "fail")
 
 

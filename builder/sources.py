@@ -1,8 +1,8 @@
 """Which C files an FMU is built from: the shared FMI glue of fmu_src/ and one model folder.
 
-A model is a folder (fmu_src/lattice/ by default, examples/support_fmu/ another) whose C sources implement the
-functions the glue calls (fmu_src/common/model_api.h, included by the folder's model.h); the glue finds model.h
-through the include path, as the Reference FMUs' CMake passes it.
+A model is a folder (fmu_src/lattice/ by default; fmu_src/projectile/ and fmu_src/hull/ the others) whose C
+sources implement the functions the glue calls (fmu_src/common/model_api.h, included by the folder's model.h);
+the glue finds model.h through the include path, as the Reference FMUs' CMake passes it.
 An FMU carries every file flat in sources/, as the Reference FMUs' do: FMI 2 has no way to name an include
 directory, and fmpy compile passes sources/ alone, so the one folder is the include path everywhere.
 """

@@ -2,8 +2,8 @@
  *
  * This is the seam between the glue and a model, as the Reference FMUs' model.h is: a handful of functions, no
  * FMI types. A model folder's own model.h includes this header (the glue finds it through the include path);
- * fmu_src/lattice/ is one model, examples/support_fmu/ another. Every function that can fail returns 0 on
- * success and -1 with a human-readable reason in `message`.
+ * fmu_src/lattice/ is one model, fmu_src/projectile/ and fmu_src/hull/ the others. Every function that can fail
+ * returns 0 on success and -1 with a human-readable reason in `message`.
  */
 #ifndef FMU_MODEL_API_H
 #define FMU_MODEL_API_H

@@ -1,0 +1,1 @@
+"""The projectile model folder: its C sources and its variable table (variables.py)."""

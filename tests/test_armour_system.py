@@ -1,0 +1,147 @@
+"""The armour system (builder/system.py, `python build_fmu.py --system`): three FMUs in one SSP archive, run in
+libcosim and in FMPy's simulate_ssp (docs/model.md section 11)."""
+from __future__ import annotations
+
+import importlib.metadata
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy.ssp.ssd import read_ssd, read_ssv
+
+from builder.system import CONNECTIONS, LATTICE_PARAMETER_SET, STEP_MARGIN, build_system, default_step, port_limits
+from fmu_src.component_table import component_table
+from fmu_src.variables import enumeration_values
+from compatibility import compatibility_row
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+if str(EXAMPLES) not in sys.path:
+    sys.path.insert(0, str(EXAMPLES))
+
+import armour_system  # noqa: E402
+
+HORIZON = 0.4  # the projectile has struck and left by then
+
+
+@pytest.fixture(scope="module")
+def system_ssp(fmu_path, tmp_path_factory):
+    return build_system(tmp_path_factory.mktemp("system") / "ArmourSystem.ssp", werror=True, lattice_fmu=fmu_path)
+
+
+@pytest.fixture(scope="module")
+def libcosim_run(system_ssp):
+    return armour_system.run_libcosim(system_ssp, HORIZON)
+
+
+@pytest.fixture(scope="module")
+def reference_peak():
+    """The one-model reference of the whole system (reference/system.py: projectile, lattice and hull as one ODE,
+    every switch an event) with the FMUs' defaults: its peak sampled every 0.01 s."""
+    from reference.lattice3d import PlateScene
+    from reference.system import Hull, Projectile, SystemScene, simulate_system
+
+    projectile, hull = component_table("projectile"), component_table("hull")
+    start = {v.name: v.start for table in (projectile, hull) for v in table.variables}
+    scene = SystemScene(PlateScene(rows=11, cols=11, depth=1), load_mode="projectile",
+                        projectile=Projectile(start["projectile_mass"], start["projectile_speed"],
+                                              start["contact_stiffness"], start["contact_exponent"],
+                                              start["contact_damping"]),
+                        hull=Hull(start["m"], start["k"], start["c"]))
+    return simulate_system(scene, horizon=HORIZON, rtol=1e-10, atol=1e-12).peak_backplate_force
+
+
+def test_the_system_file_holds_the_three_fmus_and_the_connections_of_section_11(system_ssp):
+    system = read_ssd(str(system_ssp)).system  # validated against the SSP schema
+    assert sorted(c.name for c in system.elements) == ["hull", "lattice", "projectile"]
+    with zipfile.ZipFile(system_ssp) as archive:
+        for component in system.elements:
+            assert archive.getinfo(component.source).file_size > 0
+    connected = {(c.startElement, c.startConnector, c.endElement, c.endConnector) for c in system.connections}
+    assert connected == {("projectile", "contact_force", "lattice", "F_front"),
+                         ("lattice", "x_front", "projectile", "x_front"),
+                         ("lattice", "v_front", "projectile", "v_front"),
+                         ("lattice", "backplate_force", "hull", "F"),
+                         ("hull", "x", "lattice", "x_back"),
+                         ("hull", "v", "lattice", "v_back")}
+    assert len(CONNECTIONS) == len(connected)
+    values = {p.name: p.value for p in read_ssv(str(system_ssp), resource=LATTICE_PARAMETER_SET).parameters}
+    assert int(values["load_mode"]) == enumeration_values("load_mode")["input"]
+
+
+def test_the_default_step_keeps_the_coupling_stable_with_margin(system_ssp):
+    """The rigid backplate's spring and damper bound the back port at min(2c/k, 2m/c) = 2 c_wall / k_wall; the
+    step stays STEP_MARGIN below the smallest limit."""
+    (back,) = port_limits()
+    assert back.limit == pytest.approx(2.0 * back.damping / back.stiffness)
+    assert back.limit == pytest.approx(2.0 * 10.0 / 1e4)  # c_wall / k_wall of the armour scene
+    step = armour_system.system_step(system_ssp)
+    assert step == default_step(port_limits())
+    assert back.limit / (2 * STEP_MARGIN) < step <= back.limit / STEP_MARGIN
+    heavy = port_limits(hull_mass=1e-3)[0]  # a light hull: its mass bounds the step instead
+    assert heavy.limit == pytest.approx(2.0 * 1e-3 / heavy.damping)
+
+
+def test_libcosim_runs_the_system_from_its_file(request, libcosim_run, reference_peak):
+    """The projectile strikes, slows and hands its momentum to the face step by step (the impulse of its
+    step-mean contact force is the momentum it lost); the face pushes through to the backplate and the hull."""
+    run = libcosim_run
+    mass = component_table("projectile").variable("projectile_mass").start
+    speed = component_table("projectile").variable("projectile_speed").start
+    with compatibility_row(request, "libcosim (libcosimpy)", importlib.metadata.version("libcosimpy"),
+                           fmi_version="2.0", interface="SSP",
+                           checked="the armour system from ArmourSystem.ssp at its default step: the sampled "
+                                   "peak within 1 % of the one-model reference's, the projectile's momentum "
+                                   "handed on, the hull pushed") as row:
+        assert row.reached_reference(run["lattice", "peak_backplate_force"][-1], reference_peak) < 0.01
+        impulse = float(np.sum(run["projectile", "contact_force"]) * run.step)
+        lost = mass * (speed - run["projectile", "projectile_velocity"][-1])
+        assert impulse > 0.5 * mass * speed
+        assert impulse == pytest.approx(lost, rel=1e-9)
+        assert run.peak_backplate_force > 100.0
+        assert np.abs(run["hull", "x"]).max() > 0.0
+        assert run["lattice", "external_work"].max() > 0.0
+
+
+def test_fmpy_runs_the_system_as_libcosim_does(request, system_ssp, libcosim_run, reference_peak):
+    """Both masters step the three FMUs side by side and exchange after each step (Jacobi), from the same
+    values at the start: the same run, to rounding."""
+    with compatibility_row(request, "FMPy", importlib.metadata.version("fmpy"), fmi_version="2.0",
+                           interface="SSP",
+                           checked="the armour system from ArmourSystem.ssp (simulate_ssp with the lattice's "
+                                   "parameter set): the sampled peak within 1 % of the one-model reference's, "
+                                   "every output at every step as libcosim's to 1e-9") as row:
+        run = armour_system.run_fmpy(system_ssp, HORIZON)
+        assert row.reached_reference(run["lattice", "peak_backplate_force"][-1], reference_peak) < 0.01
+        assert len(run.time) == len(libcosim_run.time)
+        np.testing.assert_allclose(run.time, libcosim_run.time, rtol=1e-12)
+        # the lattice's own sampled peak aside: a sample falling on a communication point sees the back port's
+        # input before or after the master's update there, and FMPy sums its times (t += step) where libcosim
+        # counts nanoseconds, so the two land on either side of some samples
+        for key in set(libcosim_run.outputs) - {("lattice", "peak_backplate_force")}:
+            scale = np.abs(libcosim_run[key]).max()
+            assert np.abs(run[key] - libcosim_run[key]).max() <= 1e-9 * max(scale, 1e-12), key
+        assert run.peak_backplate_force == pytest.approx(libcosim_run.peak_backplate_force, rel=1e-9)
+        assert run["lattice", "peak_backplate_force"][-1] == pytest.approx(
+            libcosim_run["lattice", "peak_backplate_force"][-1], rel=0.02)
+
+
+def test_the_example_s_own_jacobi_loop_is_libcosim_s_scheme(system_ssp, libcosim_run):
+    run = armour_system.run_loop(system_ssp, HORIZON, scheme="jacobi")
+    for key in set(libcosim_run.outputs) - {("lattice", "peak_backplate_force")}:
+        scale = np.abs(libcosim_run[key]).max()
+        assert np.abs(run[key] - libcosim_run[key]).max() <= 1e-9 * max(scale, 1e-12), key
+
+
+def test_gauss_seidel_and_ecco_couple_the_same_physics(system_ssp, libcosim_run):
+    """Gauss-Seidel and libcosim's ECCO at the default step: the same peak as Jacobi's to a fraction of a per
+    cent, the projectile at the same speed."""
+    reference = libcosim_run["lattice", "peak_backplate_force"][-1]
+    for run in (armour_system.run_loop(system_ssp, HORIZON, scheme="gauss-seidel"),
+                armour_system.run_libcosim_ecco(system_ssp, HORIZON)):
+        assert run["lattice", "peak_backplate_force"][-1] == pytest.approx(reference, rel=5e-3), run.master
+        assert run["projectile", "projectile_velocity"][-1] == pytest.approx(
+            libcosim_run["projectile", "projectile_velocity"][-1], abs=0.01 * 3.6), run.master
+    with pytest.raises(ValueError, match="scheme 'newton': allowed jacobi, gauss-seidel"):
+        armour_system.run_loop(system_ssp, HORIZON, scheme="newton")
