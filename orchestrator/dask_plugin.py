@@ -20,6 +20,14 @@ from pathlib import Path
 from distributed import WorkerPlugin
 
 
+class TaskRunner:
+    """A Dask actor, one per worker: runs each call the client sends it (``DaskActors``), one at a time. A call
+    goes from the client to the worker and back, never through the scheduler."""
+
+    def call(self, function, args, kwargs):
+        return function(*args, **kwargs)
+
+
 class CloseFMUs(WorkerPlugin):
     def teardown(self, worker) -> None:
         from .objective import close_instances

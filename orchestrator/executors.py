@@ -26,6 +26,11 @@ from typing import Any, Callable, Iterator
 
 EXECUTORS = ("serial", "process", "dask")
 LOCAL_CLUSTER_START = 120.0  # s a local Dask cluster may take to start all its workers
+# The most designs one call to a Dask worker carries; bench.study_costs measures the default study at several
+# sizes (its page has the figures).
+DASK_BATCH_DESIGNS = 16
+WORKERS_REFRESH = 2.0  # s between two looks for workers that joined or left the cluster
+BATCH_VARIABLE = "LATTICE_DASK_BATCH"  # another batch size, for bench.study_costs's measurement of it
 # The process pool's start method: unset, the platform's default (spawn on Windows and macOS); set to spawn on
 # Linux, the whole test suite runs the way a Windows or macOS user's runs do (every task and argument pickled).
 START_METHOD_VARIABLE = "LATTICE_START_METHOD"
@@ -305,16 +310,134 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmu
         for path in fmus:
             plugin = ShipFMU(path)
             client.register_plugin(plugin, name=plugin.plugin_name)  # raises the reason of a worker that cannot run it
-        # pure=False: every submit is its own task; Dask never merges two calls by
-        # hashing their arguments (the loop already removes duplicate orders).
-        executor = client.get_executor(pure=False)
+        executor = DaskActors(client, dask_batch_size())
         try:
             yield executor
         except BaseException:
-            executor.shutdown(wait=False)  # cancel what is still queued
+            executor.shutdown(wait=False)
             raise
         else:
             executor.shutdown(wait=True)
+
+
+class DaskActors(Executor):
+    """Calls on a Dask cluster's workers through one actor per worker (``dask_plugin.TaskRunner``).
+
+    Why actors, not Dask tasks: a search asks a few designs at a time and waits for them, so what a call costs
+    is its round trip; a Dask task goes client, scheduler, worker, scheduler, client, each hop through a batched
+    stream that waits a few milliseconds, while an actor's call goes to its worker and back. A call goes to the
+    actor with the fewest calls outstanding; a call whose worker could not be reached (it died, or left) runs
+    once more on another worker, and the actor is dropped. Workers that join get an actor at the next look
+    (every ``WORKERS_REFRESH`` s).
+    """
+
+    def __init__(self, client, batch_size: int = 1) -> None:
+        self._client = client
+        self.batch_size = int(batch_size)
+        self._lock = threading.Lock()
+        self._actors: dict[str, Any] = {}  # worker address -> the actor there
+        self._holders: dict[str, Any] = {}  # worker address -> the future that keeps its actor alive
+        self._outstanding: dict[str, int] = {}
+        self._looked = 0.0
+        self._shutdown = False
+        self._refresh()
+        if not self._actors:
+            raise RuntimeError("the Dask cluster has no worker to run the evaluations")
+
+    @property
+    def slots(self) -> int:
+        return max(1, len(self._actors))
+
+    def _refresh(self) -> None:
+        """An actor on every worker of the cluster, none on a worker that left (called with the lock held)."""
+        from .dask_plugin import TaskRunner
+
+        self._looked = time.monotonic()
+        workers = set(self._client.scheduler_info()["workers"])
+        for address in [a for a in self._actors if a not in workers]:
+            self._drop(address)
+        for address in sorted(workers - set(self._actors)):
+            holder = self._client.submit(TaskRunner, actor=True, workers=[address], pure=False)
+            self._actors[address] = holder.result()
+            self._holders[address] = holder
+            self._outstanding[address] = 0
+
+    def _drop(self, address: str) -> None:
+        self._actors.pop(address, None)
+        self._holders.pop(address, None)
+        self._outstanding.pop(address, None)
+
+    def _take(self, avoid: str | None = None, look: bool = True) -> tuple[str, Any]:
+        """The actor with the fewest calls outstanding (not the one at ``avoid`` while there is another); with
+        ``look``, first a look for workers that joined or left when one is due (it asks the scheduler: never
+        on the client's event loop)."""
+        with self._lock:
+            if look and (time.monotonic() - self._looked > WORKERS_REFRESH or not self._actors):
+                self._refresh()
+            choices = [a for a in self._actors if a != avoid] or list(self._actors)
+            if not choices:
+                raise RuntimeError("the Dask cluster has no worker left")
+            address = min(choices, key=lambda a: self._outstanding[a])
+            self._outstanding[address] += 1
+            return address, self._actors[address]
+
+    def _give_back(self, address: str, reachable: bool) -> None:
+        with self._lock:
+            if address in self._outstanding:
+                self._outstanding[address] -= 1
+            if not reachable:
+                self._drop(address)
+
+    async def _call(self, future: Future, address: str, actor, function, args: tuple, kwargs: dict) -> None:
+        """On the client's event loop: the call, its result into ``future`` (no thread waits for it)."""
+        for attempt in (1, 2):
+            try:
+                result = await actor.call(function, args, kwargs)
+            except OSError as exc:
+                self._give_back(address, reachable=False)
+                if attempt == 2 or not self._actors:
+                    future.set_exception(exc)
+                    return
+                address, actor = self._take(avoid=address, look=False)
+                continue
+            except BaseException as exc:  # noqa: BLE001 - delivered through the Future
+                self._give_back(address, reachable=True)
+                future.set_exception(exc)
+                return
+            self._give_back(address, reachable=True)
+            future.set_result(result)
+            return
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
+        if self._shutdown:
+            raise RuntimeError("cannot submit after shutdown")
+        address, actor = self._take()
+        future: Future = Future()
+        future.set_running_or_notify_cancel()
+        self._client.loop.add_callback(self._call, future, address, actor, fn, args, kwargs)
+        return future
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._shutdown = True
+        with self._lock:
+            for address in list(self._actors):
+                self._drop(address)
+
+
+def dask_batch_size() -> int:
+    """The most designs one Dask task carries: ``LATTICE_DASK_BATCH`` when set (a positive integer), else
+    ``DASK_BATCH_DESIGNS``."""
+    given = os.environ.get(BATCH_VARIABLE, "").strip()
+    if not given:
+        return DASK_BATCH_DESIGNS
+    if not given.isdigit() or int(given) < 1:
+        raise ValueError(f"{BATCH_VARIABLE}={given!r}: give a positive integer (designs per Dask task)")
+    return int(given)
+
+
+def executor_batch_size(executor: Executor) -> int:
+    """How many short tasks the evaluator may send as one submission (1: each task on its own)."""
+    return max(1, int(getattr(executor, "batch_size", 1) or 1))
 
 
 def executor_slots(executor: Executor) -> int:

@@ -9,7 +9,11 @@ design) through one Executor and guards them:
   so it knows at each point what the interrupted run knew there.
 - *Journal*: each finished result is appended as it arrives (time-outs and a task's own transient failures
   are not: they run again on resume).
-- *Bounded work in flight*: at most two tasks per worker are submitted at a time.
+- *Bounded work in flight*: at most two submissions per worker at a time.
+- *Batches*: on an executor with a ``batch_size`` above one (Dask: each submission is a round trip to its
+  scheduler), the designs pulled together go as ``TaskBatch`` submissions of up to ``batch_size`` designs,
+  spread over the workers; each design is still cached and journalled on its own, and its time limit is its
+  batch's share.
 - *Time limit*: counted from when a task starts in its worker, never from its submission: the process pool
   and Dask start queued tasks first in, first out, so the k-th queued task starts when the k-th task before it
   finishes.
@@ -31,8 +35,8 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Sequence
 
 from .design import DesignSpace, as_design
-from .executors import executor_slots
-from .tasks import EvaluateDesign, Task, function_key, run_task
+from .executors import executor_batch_size, executor_slots
+from .tasks import EvaluateDesign, Task, TaskBatch, function_key, run_task
 from .types import Above, Evaluation, Order
 
 STALL_BATCHES = 200
@@ -70,6 +74,11 @@ class _Flight:
     sequence: int
     submitted: float
     future: Future | None = None
+    members: tuple["_Flight", ...] = ()  # a TaskBatch's flight: one flight per task in it
+
+    @property
+    def tasks(self) -> int:
+        return len(self.members) or 1
 
 
 class Evaluator:
@@ -94,6 +103,7 @@ class Evaluator:
         self.failed = 0
         self._causes: dict[str, tuple[str, int]] = {}  # a cause's kind -> (its first message, count)
         self._slots = executor_slots(executor)
+        self._batch = executor_batch_size(executor)
         self._new_generation()
 
     def _new_generation(self) -> None:
@@ -125,12 +135,39 @@ class Evaluator:
                 progress(done[0])
 
         def finish(flight: _Flight, result: Any, journal: bool = True) -> None:
+            if flight.members:
+                if not isinstance(result, list) or len(result) != len(flight.members):
+                    result = flight.task.failure(f"executor: a batch of {len(flight.members)} gave {result!r:.80}", 0.0)
+                for member, member_result in zip(flight.members, result):
+                    finish(member, member_result, journal)
+                return
             self._record(flight.key, flight.task, result, journal)
             for index in waiting.pop(flight.key):
                 deliver(index, result)
 
+        def submit(flight: _Flight) -> None:
+            future = self._submit(flight)
+            if future is None:
+                finish(flight, flight.task.failure("executor: could not submit (the executor is shut down)", 0.0),
+                       journal=False)
+            else:
+                flights[future] = flight
+
+        def submit_batches(pending: list[_Flight]) -> None:
+            """The pulled designs as batches: as many as the workers (up to ``batch_size`` designs each)."""
+            size = min(self._batch, -(-len(pending) // self._slots))
+            for start in range(0, len(pending), size):
+                members = tuple(pending[start:start + size])
+                if len(members) == 1:
+                    submit(members[0])
+                else:
+                    submit(_Flight("", TaskBatch(tuple(m.task for m in members)), 0, 0.0, members=members))
+
         while True:
-            while not exhausted and len(flights) < 2 * self._slots and not alone:
+            pending: list[_Flight] = []
+            limit = 2 * self._slots * self._batch  # tasks in flight
+            while (not exhausted and not alone
+                   and sum(f.tasks for f in flights.values()) + len(pending) < limit):
                 try:
                     index, task = next(source)
                 except StopIteration:
@@ -149,12 +186,12 @@ class Evaluator:
                 else:
                     waiting[key] = [index]
                     flight = _Flight(key, task, 0, 0.0)
-                    future = self._submit(flight)
-                    if future is None:
-                        finish(flight, task.failure("executor: could not submit (the executor is shut down)", 0.0),
-                               journal=False)
+                    if self._batch > 1 and getattr(task, "batchable", False):
+                        pending.append(flight)
                     else:
-                        flights[future] = flight
+                        submit(flight)
+            if pending:
+                submit_batches(pending)
             if not flights:
                 if alone:
                     for flight in alone:
@@ -173,7 +210,7 @@ class Evaluator:
                     result = future.result()
                 except BrokenProcessPool:
                     broken = True
-                    alone.append(flight)
+                    alone += flight.members or [flight]
                     continue
                 except Exception as exc:  # noqa: BLE001 - the executor's error is this task's failure
                     result = flight.task.failure(f"executor: {type(exc).__name__}: {exc}", 0.0)
@@ -182,7 +219,8 @@ class Evaluator:
                 for flight in self._expire(flights):
                     finish(flight, flight.task.failure(self._timeout_message(), self.time_limit), journal=False)
             if broken:  # every other task in flight died with the pool: each runs again, alone
-                alone += sorted(flights.values(), key=lambda f: f.sequence)
+                alone += [member for f in sorted(flights.values(), key=lambda f: f.sequence)
+                          for member in (f.members or [f])]
                 flights.clear()
                 self._renew()
         return [results[i] for i in range(count)]
@@ -255,14 +293,17 @@ class Evaluator:
     def _wait_timeout(self, flights: dict[Future, _Flight]) -> float | None:
         if self.time_limit is None:
             return None
-        starts = [self._started_at(f) for f in flights.values()]
         now = time.monotonic()
-        if None in starts and hasattr(self.executor, "started_at"):
-            starts = [now if s is None else s for s in starts]  # a task that starts now expires the latest
-        starts = [s for s in starts if s is not None]
-        if not starts:
+        ends = []
+        for flight in flights.values():
+            started = self._started_at(flight)
+            if started is None and hasattr(self.executor, "started_at"):
+                started = now  # a task that starts now expires the latest
+            if started is not None:
+                ends.append(started + self.time_limit * flight.tasks)
+        if not ends:
             return None
-        return max(0.0, min(starts) + self.time_limit - now)
+        return max(0.0, min(ends) - now)
 
     def _timeout_message(self) -> str:
         return (f"exceeded the time limit of {self.time_limit:g} s of its own run time (--time-limit; it runs "
@@ -275,8 +316,8 @@ class Evaluator:
         expired = []
         for future, flight in list(flights.items()):
             started = self._started_at(flight)
-            if started is not None and now - started >= self.time_limit:
-                self.timeouts += 1
+            if started is not None and now - started >= self.time_limit * flight.tasks:
+                self.timeouts += flight.tasks
                 future.cancel()
                 del flights[future]
                 expired.append(flight)

@@ -8,15 +8,22 @@ failed evaluation, PRUNED for a censored one (stopped above a force limit: it ha
 attribute ``censored_above``), and the method, seed, run index, order, materials, fidelity and seconds as user
 attributes. ``optuna-dashboard STORAGE`` then shows the study. Optuna is an optional extra (``optuna``): the
 study itself never needs it.
+
+Optuna's ``Study.add_trials`` commits each trial on its own, with a query per parameter and attribute; a default
+study has thousands of evaluations, so the trials of an RDB storage are inserted in one transaction, in batches
+(a progress bar per study), as rows of Optuna's own tables; ``tests/test_optuna_export.py`` reads them back
+through Optuna's public API.
 """
 from __future__ import annotations
 
+import json
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from .design import Design
+from .progress import Progress
 
 EXTRA = "pip install -e \".[optuna]\""
 
@@ -43,6 +50,82 @@ def check_storage(url: str, flag: str = "--export-optuna") -> None:
                          "sqlite:///study.db or postgresql://user@host/db") from None
 
 
+BATCH_TRIALS = 1000  # trials a progress step inserts: one executemany per table
+
+
+@dataclass(frozen=True)
+class TrialRow:
+    """One evaluation as an Optuna trial: its state (a ``TrialState``), objective values (None unless COMPLETE),
+    the material of each column and the user attributes."""
+
+    state: Any
+    values: tuple[float, ...] | None
+    params: dict[str, int]
+    user_attrs: dict[str, Any]
+
+
+def _rdb_tables():
+    """SQLAlchemy, Optuna's table models and its session scope, or None where this Optuna has them elsewhere."""
+    try:
+        import sqlalchemy
+        from optuna.storages._rdb import models
+        from optuna.storages._rdb.storage import _create_scoped_session
+    except ImportError:
+        return None
+    return sqlalchemy, models, _create_scoped_session
+
+
+def _insert_trials(optuna, storage, target, trials: list[TrialRow], distribution, advance) -> None:
+    """``trials`` into the study ``target`` of the RDB ``storage`` in one transaction, numbered after the study's
+    trials, every parameter on ``distribution``; ``target.add_trials`` where Optuna's tables are not importable."""
+    import datetime
+
+    now = datetime.datetime.now()
+    tables = _rdb_tables()
+    if tables is None:
+        from optuna.trial import create_trial
+
+        for start in range(0, len(trials), BATCH_TRIALS):
+            target.add_trials([create_trial(
+                state=t.state, values=None if t.values is None else list(t.values), user_attrs=t.user_attrs,
+                params=t.params, distributions={name: distribution for name in t.params})
+                for t in trials[start:start + BATCH_TRIALS]])
+            advance(min(start + BATCH_TRIALS, len(trials)))
+        return
+    from optuna.distributions import distribution_to_json
+
+    sqlalchemy, models, _create_scoped_session = tables
+    distribution_json = distribution_to_json(distribution)
+    moment = now.astimezone(datetime.UTC).replace(tzinfo=None)  # Optuna's tables hold naive UTC
+    trial_table = models.TrialModel.__table__
+    study_id = storage.get_study_id_from_name(target.study_name)
+    with _create_scoped_session(storage.scoped_session) as session:
+        models.StudyModel.find_or_raise_by_id(study_id, session, for_update=True)
+        number = session.query(models.TrialModel).filter(models.TrialModel.study_id == study_id).count()
+        for start in range(0, len(trials), BATCH_TRIALS):
+            batch = trials[start:start + BATCH_TRIALS]
+            ids = session.execute(
+                sqlalchemy.insert(trial_table).returning(trial_table.c.trial_id, sort_by_parameter_order=True),
+                [{"study_id": study_id, "number": number + start + offset, "state": trial.state,
+                  "datetime_start": moment, "datetime_complete": moment}
+                 for offset, trial in enumerate(batch)]).scalars().all()
+            params, values, attributes = [], [], []
+            for trial_id, trial in zip(ids, batch):
+                params.extend({"trial_id": trial_id, "param_name": name,
+                               "param_value": distribution.to_internal_repr(value),
+                               "distribution_json": distribution_json} for name, value in trial.params.items())
+                for objective, value in enumerate(trial.values or ()):
+                    stored, kind = models.TrialValueModel.value_to_stored_repr(value)
+                    values.append({"trial_id": trial_id, "objective": objective, "value": stored, "value_type": kind})
+                attributes.extend({"trial_id": trial_id, "key": key, "value_json": json.dumps(value)}
+                                  for key, value in trial.user_attrs.items())
+            for model, rows in ((models.TrialParamModel, params), (models.TrialValueModel, values),
+                                (models.TrialUserAttributeModel, attributes)):
+                if rows:
+                    session.execute(sqlalchemy.insert(model.__table__), rows)
+            advance(start + len(batch))
+
+
 def column_parameter(column: int) -> str:
     return f"column_{column:02d}"
 
@@ -55,20 +138,22 @@ class ExportedStudy:
 
 
 def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials: list[str], case_line: str,
-           run_id: str, fmu_sha256: str) -> tuple[ExportedStudy, ...]:
+           run_id: str, fmu_sha256: str, progress: Progress | None = None) -> tuple[ExportedStudy, ...]:
     """Every evaluation of the search ``runs`` into ``storage``, one Optuna study per diagonal rule, named
     "<run_id> <rule>" (ValueError, one line: a study of that name is there already)."""
     optuna = _optuna("--export-optuna")
     from optuna.distributions import IntDistribution
     from optuna.exceptions import DuplicatedStudyError
-    from optuna.trial import TrialState, create_trial
+    from optuna.trial import TrialState
 
-    distributions = {column_parameter(c): IntDistribution(1, len(materials)) for c in range(1, columns + 1)}
+    rdb = optuna.storages.RDBStorage(storage)
+    distribution = IntDistribution(1, len(materials))
+    names = [column_parameter(c) for c in range(1, columns + 1)]
     exported = []
     for rule in dict.fromkeys(run.label for run in runs):
         name = f"{run_id} {rule}"
         try:
-            target = optuna.create_study(storage=storage, study_name=name, directions=["minimize"] * len(outputs))
+            target = optuna.create_study(storage=rdb, study_name=name, directions=["minimize"] * len(outputs))
         except DuplicatedStudyError:
             raise ValueError(f"--export-optuna {storage}: it holds a study named {name!r} already (this run was "
                              "exported before); give another storage") from None
@@ -89,17 +174,16 @@ def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials
                     "fidelity": "search", "seconds": evaluation.seconds}
                 if evaluation.ok:
                     state = TrialState.COMPLETE
-                    values = list(evaluation.values) if len(outputs) > 1 else [evaluation.value]
+                    values = tuple(evaluation.values) if len(outputs) > 1 else (evaluation.value,)
                 elif evaluation.censored:
                     state, values = TrialState.PRUNED, None
                     attributes["censored_above"] = evaluation.limit
                 else:
                     state, values = TrialState.FAIL, None
                     attributes["message"] = evaluation.message
-                trials.append(create_trial(
-                    state=state, values=values, user_attrs=attributes, distributions=distributions,
-                    params={column_parameter(c): int(m) for c, m in enumerate(evaluation.order, start=1)}))
-        target.add_trials(trials)
+                trials.append(TrialRow(state, values, dict(zip(names, map(int, evaluation.order))), attributes))
+        with (progress or Progress()).bar(len(trials), f"Optuna export ({rule})", unit="trial") as advance:
+            _insert_trials(optuna, rdb, target, trials, distribution, advance)
         exported.append(ExportedStudy(name, rule, len(trials)))
     return tuple(exported)
 

@@ -138,12 +138,42 @@ def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
 
 def check_confirmation(run: RunConfig, beyond: list[str]) -> None:
     """A confirmation with nothing to confirm is refused: it would hide a mistake in the command."""
+    if run.confirm_cost and not beyond:
+        raise ValueError(nothing_to_confirm())
+
+
+def nothing_to_confirm() -> str:
     from .exhaustive import MAX_LOCAL_DESIGNS
 
-    if run.confirm_cost and not beyond:
-        raise ValueError("--confirm-cost: nothing in this run is beyond a bound (an exhaustive sweep beyond "
-                         f"{MAX_LOCAL_DESIGNS:,} designs, more than {MAX_RUNS_PER_DESIGN} FMU runs per design, more "
-                         f"than {MAX_WORKERS_PER_CORE} workers per core); leave it out")
+    return ("--confirm-cost: nothing in this run is beyond a bound (an exhaustive sweep beyond "
+            f"{MAX_LOCAL_DESIGNS:,} designs, more than {MAX_RUNS_PER_DESIGN} FMU runs per design, more "
+            f"than {MAX_WORKERS_PER_CORE} workers per core); leave it out")
+
+
+def could_be_beyond(run: RunConfig, case_config: CaseConfig, scene, materials, step_configs: dict) -> bool:
+    """Whether anything of this run may be beyond a bound, judged from the options and the scene alone (no FMU):
+    the workers, the --case lists' product (before duplicates are merged) and an asked sweep of a space of at
+    most the table's materials (the study's eleven without a table) over the columns."""
+    from .design import DesignSpace
+    from .exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
+    from .study import parse_case_option
+
+    cores = os.cpu_count() or 1
+    if run.scheduler is None and (run.workers or cores) > MAX_WORKERS_PER_CORE * cores:
+        return True
+    runs = 1
+    for text in case_config.case:
+        runs *= len(parse_case_option(text)[1])
+    if runs > MAX_RUNS_PER_DESIGN:
+        return True
+    searches = next((c for c in step_configs.values() if isinstance(c, SearchesConfig)), SearchesConfig())
+    if SWEEP_METHOD not in searches.methods:
+        return False
+    columns = case_config.cols or scene.cols
+    own = scene.material_table()
+    count = len(materials) if materials is not None else len(own) if own is not None else STUDY_MATERIAL_COUNT
+    repeat = bool(case_config.repeat or scene.parameters.get("repeat_materials"))
+    return DesignSpace(columns, max(count, columns), repeat).size > MAX_LOCAL_DESIGNS
 
 
 def settings(case, fmu: PreparedFMU, steps) -> dict:
@@ -162,6 +192,8 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
     try:
         materials = load_materials(case_config.materials) if case_config.materials else None
         scene = resolve_scene(case_config, materials)
+        if run.confirm_cost and not could_be_beyond(run, case_config, scene, materials, step_configs):
+            raise ValueError(nothing_to_confirm())  # before the FMU is built
         fmu = prepare_fmu(scene, case_config.fmu)
         if materials is not None and len(materials) != fmu.materials:
             raise ValueError(f"--materials {case_config.materials}: {len(materials)} materials, but "

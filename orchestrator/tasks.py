@@ -54,6 +54,29 @@ class EvaluateDesign:
     def keep(self, result: Any) -> bool:
         return True
 
+    batchable = True  # a design's run is short: several go to a Dask worker as one TaskBatch
+
+
+@dataclass(frozen=True)
+class TaskBatch:
+    """Several short tasks as one submission (a Dask task costs a round trip to the scheduler): the list of
+    their results, each as ``run_task`` gives it. The Evaluator caches and journals each member on its own."""
+
+    tasks: tuple[Any, ...]
+
+    @property
+    def key(self) -> str:
+        return "batch:" + "|".join(task.key for task in self.tasks)
+
+    def __call__(self) -> list[Any]:
+        return [run_task(task) for task in self.tasks]
+
+    def failure(self, message: str, seconds: float) -> list[Any]:
+        return [task.failure(message, seconds) for task in self.tasks]
+
+    def keep(self, result: Any) -> bool:
+        return False
+
 
 def run_task(task: Task) -> Any:
     """What a worker runs: the task, or its failure when it raised (a task must never kill its worker)."""
@@ -66,4 +89,4 @@ def run_task(task: Task) -> Any:
         return task.failure(f"{type(exc).__name__}: {exc}", time.perf_counter() - start)
 
 
-__all__ = ["EvaluateDesign", "Task", "function_key", "run_task"]
+__all__ = ["EvaluateDesign", "Task", "TaskBatch", "function_key", "run_task"]

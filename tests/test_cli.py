@@ -105,6 +105,36 @@ def test_every_bad_command_line_is_refused_in_one_line_before_any_simulation(fmu
     assert not (tmp_path / "out").exists() and not (tmp_path / "out.partial" / "results.json").exists()
 
 
+def test_a_sweep_refusal_names_only_what_is_missing(fmu_path, tmp_path, capfd):
+    """On Dask without --confirm-cost the refusal asks only for the confirmation; confirmed without Dask, only
+    for a cluster; with neither, for both."""
+    common = ["--method", "exhaustive", "--fmu", fmu_path, "--out", tmp_path / "out", "--no-progress"]
+    assert main(*common, "--executor", "dask", "--scheduler", "tcp://127.0.0.1:8786") == 2
+    line = one_line(capfd)
+    assert line.endswith("confirm its cost with --confirm-cost") and "Dask cluster" not in line, line
+    assert main(*common, "--confirm-cost") == 2
+    line = one_line(capfd)
+    assert "--executor dask --scheduler ADDRESS" in line and "--confirm-cost" not in line.split("core-second")[1], line
+    assert main(*common) == 2
+    assert one_line(capfd).endswith("--executor dask --scheduler ADDRESS --confirm-cost")
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_confirmation_of_nothing_is_refused_before_the_fmu_is_built(tmp_path, capfd, monkeypatch):
+    import orchestrator.runner
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("the FMU was prepared before the options were checked")
+
+    monkeypatch.setattr(orchestrator.runner, "prepare_fmu", no_build)
+    assert main("--confirm-cost", "--out", tmp_path / "out", "--no-progress") == 2
+    assert "error: --confirm-cost: nothing in this run is beyond a bound" in one_line(capfd)
+    assert main("--confirm-cost", "--method", "cmaes", "--case", "F_total=600,1200", "--workers", "2",
+                "--out", tmp_path / "out", "--no-progress") == 2
+    assert "error: --confirm-cost: nothing in this run is beyond a bound" in one_line(capfd)
+    assert not (tmp_path / "out").exists()
+
+
 def test_the_default_study_answers_under_both_rules_with_their_evidence(fmu_path, tmp_path, capfd):
     out = tmp_path / "results"
     code = main("--fmu", fmu_path, "--out", out, "--budget", "25", "--repeats", "2", "--method", "cmaes", "sa",

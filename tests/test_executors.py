@@ -63,8 +63,59 @@ def test_dask_local_cluster_identical_to_serial(serial_outcomes):
     with make_executor("dask", workers=2) as ex:
         client = ex._client
         assert len(client.scheduler_info()["workers"]) == 2
+        assert ex.batch_size > 1  # designs go to the workers in batches
         assert outcomes(runs_with(ex)) == serial_outcomes
     assert client.status == "closed"
+
+
+class BatchingSerial(SerialExecutor):
+    """A serial executor that takes batches, as the Dask one does; it keeps what each submission carried."""
+
+    slots = 2
+    batch_size = 4
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.submitted: list[int] = []
+
+    def submit(self, fn, /, *args, **kwargs):
+        task = args[0]
+        self.submitted.append(len(getattr(task, "tasks", (task,))))
+        return super().submit(fn, *args, **kwargs)
+
+
+class Lines:
+    """A journal in memory: what the evaluator appends."""
+
+    def __init__(self) -> None:
+        self.keys: list[str] = []
+
+    def load(self) -> dict:
+        return {}
+
+    def append(self, key, result) -> None:
+        self.keys.append(key)
+
+
+def test_batches_are_spread_over_the_workers_and_each_design_is_cached_and_journalled_alone(serial_outcomes):
+    executor, journal = BatchingSerial(), Lines()
+    evaluator = Evaluator(executor, journal)
+    orders = [tuple((k + c) % 7 + 1 for c in range(7)) for k in range(7)]
+    first = evaluator.evaluate([(OBJECTIVE, o) for o in orders[:3]])
+    assert executor.submitted == [2, 1]  # three designs on two workers
+    executor.submitted.clear()
+    both = evaluator.evaluate([(OBJECTIVE, o) for o in orders])
+    assert executor.submitted == [2, 2]  # the three known ones are cache hits
+    assert both[:3] == first and evaluator.cache_hits == 3
+    assert len(journal.keys) == len(set(journal.keys)) == 7 and all("batch" not in k for k in journal.keys)
+    with make_executor("serial") as serial:
+        alone = Evaluator(serial).evaluate([(OBJECTIVE, o) for o in orders])
+    assert [(e.order, e.value, e.status, e.message) for e in both] == [
+        (e.order, e.value, e.status, e.message) for e in alone]
+    executor.submitted.clear()
+    evaluator.evaluate([(OBJECTIVE, tuple(reversed(o))) for o in orders] * 3)
+    assert executor.submitted == [4, 3]  # duplicates run once; at most batch_size designs a submission
+    assert outcomes(runs_with(BatchingSerial())) == serial_outcomes
 
 
 def exit_on_identity(order):

@@ -89,3 +89,62 @@ def test_a_storage_that_is_not_a_url_is_refused_before_any_simulation(fmu_path, 
     err = capfd.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--export-optuna study.db: not a database URL" in err, err
     assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("tables", ["optuna's tables", "optuna's add_trials"])
+def test_trials_numbered_after_an_existing_study_and_read_back_through_optuna(tmp_path, tables, monkeypatch):
+    """The trials are written in batches of one transaction: more than one batch, into a storage that holds
+    another study already, read back through Optuna's public API with their numbers, values, states and times;
+    the same through Optuna's add_trials where its tables are not importable."""
+    import orchestrator.optuna_export
+
+    if tables == "optuna's add_trials":
+        monkeypatch.setattr(orchestrator.optuna_export, "_rdb_tables", lambda: None)
+    monkeypatch.setattr(orchestrator.optuna_export, "BATCH_TRIALS", 40)  # three batches, the last one short
+    from orchestrator.loop import SearchRun
+    from orchestrator.optuna_export import export
+    from orchestrator.types import Evaluation, censored, failed
+
+    storage = f"sqlite:///{tmp_path / 'many.db'}"
+    earlier = optuna.create_study(storage=storage, study_name="earlier")
+    earlier.add_trial(optuna.trial.create_trial(value=1.0))
+    materials = [f"m{k}" for k in range(1, 12)]
+    count = 2 * 40 + 7
+    evaluations = []
+    for k in range(count):
+        order = tuple((k + c) % 11 + 1 for c in range(11))
+        if k % 20 == 3:
+            evaluations.append(censored(order, limit=900.0 + k, stopped_at=0.001))
+        elif k % 20 == 4:
+            evaluations.append(failed(order, "diverged"))
+        else:
+            evaluations.append(Evaluation(order, 1000.0 + k / 8, "ok", seconds=0.25))
+    run = SearchRun(method="random", seed=5, budget=count, label="mean", evaluations=tuple(evaluations),
+                    best_order=evaluations[0].order, best_value=1000.0, best_index=1, failed=0, censored=0,
+                    reevaluated=0, distinct=count, stalled=False, truncated=False, stop_reason="budget",
+                    wall_seconds=1.0, batches=count, cache_hits=0)
+    (study,) = export(storage, [run], ("F_peak",), 11, materials, "case", "run7", "0" * 64)
+    assert (study.name, study.trials) == ("run7 mean", count)
+
+    loaded = optuna.load_study(study_name="run7 mean", storage=storage)
+    trials = loaded.get_trials(deepcopy=False)
+    assert [t.number for t in trials] == list(range(count))
+    assert len(optuna.load_study(study_name="earlier", storage=storage).trials) == 1
+    for trial, evaluation in zip(trials, evaluations):
+        assert [trial.params[f"column_{c:02d}"] for c in range(1, 12)] == list(evaluation.order)
+        assert trial.user_attrs["order"] == list(evaluation.order)
+        assert trial.user_attrs["materials"] == [materials[m - 1] for m in evaluation.order]
+        assert trial.datetime_complete is not None and trial.datetime_start <= trial.datetime_complete
+        if evaluation.ok:
+            assert trial.state == optuna.trial.TrialState.COMPLETE
+            assert trial.values == pytest.approx([evaluation.value], rel=1e-12)
+        elif evaluation.censored:
+            assert trial.state == optuna.trial.TrialState.PRUNED
+            assert trial.user_attrs["censored_above"] == pytest.approx(evaluation.limit)
+        else:
+            assert trial.state == optuna.trial.TrialState.FAIL and trial.user_attrs["message"] == "diverged"
+    assert loaded.best_trial.number == 0
+
+    # a study added afterwards through Optuna itself continues the numbering
+    loaded.add_trial(optuna.trial.create_trial(value=1.0))
+    assert loaded.get_trials(deepcopy=False)[-1].number == count

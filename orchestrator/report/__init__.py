@@ -47,6 +47,17 @@ TERMS = {
 }
 
 
+def inline_png(folder: Path):
+    """The jinja2 filter that gives a chart file of ``folder`` as a data URI: report.html holds its images, so the
+    one file can be mailed or moved (the PNGs stay beside it for other uses)."""
+    import base64
+
+    def inline(name: str) -> str:
+        return "data:image/png;base64," + base64.b64encode((folder / name).read_bytes()).decode("ascii")
+
+    return inline
+
+
 def _env() -> jinja2.Environment:
     env = jinja2.Environment(loader=jinja2.PackageLoader("orchestrator", "templates"),
                              autoescape=jinja2.select_autoescape(["html", "j2"]), undefined=jinja2.StrictUndefined,
@@ -171,6 +182,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
 
     write_explore(study, out, materials, refused)
     env = _env()
+    env.filters["inline_png"] = inline_png(out)
     sections = []
     for step in steps:
         result = study.result(type(step))

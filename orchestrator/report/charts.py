@@ -13,9 +13,23 @@ import numpy as np  # noqa: E402
 METHOD_NAMES = {"cmaes": "CMA-ES", "pso": "particle swarm", "sa": "simulated annealing", "ga": "genetic algorithm",
                 "de": "differential evolution", "random": "random search", "local": "iterated local search",
                 "sequential": "baseline order", "nsga2": "NSGA-II"}
-COLOURS = {"cmaes": "tab:blue", "pso": "tab:orange", "sa": "tab:green", "ga": "tab:purple", "de": "tab:brown",
-           "random": "tab:gray", "local": "tab:olive", "sequential": "black", "nsga2": "tab:blue"}
-RULE_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple")
+# The one palette of every chart and page (the PNGs and explore.html): a method has one colour everywhere,
+# and no two methods share one. Hex, so that the browser and matplotlib read the same value.
+COLOURS = {"cmaes": "#1f77b4", "pso": "#ff7f0e", "sa": "#2ca02c", "ga": "#9467bd", "de": "#8c564b",
+           "random": "#7f7f7f", "local": "#bcbd22", "sequential": "#000000", "nsga2": "#17becf",
+           "finalists": "#e377c2"}
+OTHER_COLOURS = ("#d62728", "#e377c2", "#17becf", "#8c564b")  # methods the palette does not name, in turn
+RULE_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")  # the diagonal rules' answers and fronts, in turn
+MIN_TEXT_PX = 8.0  # the smallest text a chart may show, in screen pixels, as report.html displays it at 1280 px
+
+
+def method_colour(method: str, methods=()) -> str:
+    """The colour of ``method`` on every chart and page; a method the palette does not name takes the next
+    colour of ``OTHER_COLOURS`` by its place in ``methods``."""
+    if method in COLOURS:
+        return COLOURS[method]
+    others = [m for m in dict.fromkeys(methods) if m not in COLOURS]
+    return OTHER_COLOURS[(others.index(method) if method in others else 0) % len(OTHER_COLOURS)]
 
 
 def save(figure, path: Path, tight: bool = True, labels=(), fit: bool = False) -> str:
@@ -125,5 +139,5 @@ def wrapped(text: str, width: int = 150) -> str:
     return "\n".join(textwrap.wrap(text, width))
 
 
-__all__ = ["COLOURS", "METHOD_NAMES", "RULE_COLOURS", "best_so_far_matrix", "figure_title", "legend_below", "plt",
+__all__ = ["COLOURS", "METHOD_NAMES", "MIN_TEXT_PX", "RULE_COLOURS", "method_colour", "best_so_far_matrix", "figure_title", "legend_below", "plt",
            "marker_boxes", "save", "spread_labels", "wrapped"]

@@ -23,6 +23,7 @@ import jinja2
 import markupsafe
 
 from ..steps.answers import Answers
+from .charts import RULE_COLOURS, method_colour
 from ..steps.finalists import Finalists
 from ..steps.pareto import Pareto
 from ..steps.searches import Searches
@@ -62,6 +63,7 @@ def explore_data(study: StudyResult, materials, refused: dict[str, str]) -> dict
                      "best": [_number(v) for v in run.best_so_far()]})
         rows += [_row(run.label, run.method, run.seed, index, e, SEARCH, materials)
                  for index, e in enumerate(run.evaluations, start=1)]
+    methods = list(dict.fromkeys(run["method"] for run in runs))
     finalists = study.result(Finalists)
     for rule in (finalists.rules if finalists else ()):
         rows += [_row(rule.diagonal_rule, "finalists", None, index, e, FULL, materials)
@@ -88,6 +90,8 @@ def explore_data(study: StudyResult, materials, refused: dict[str, str]) -> dict
                           "depth": [f.depth_range.start, f.depth_range.stop - 1]} for f in case.loaded_faces()],
         "materials": [{"name": m["name"], "k": m["k"]} for m in case.materials],
         "runs": runs, "evaluations": rows, "fronts": fronts,
+        "method_colours": {m: method_colour(m, methods) for m in methods},
+        "rule_colours": list(RULE_COLOURS),
         "answers": [{"rule": a.diagonal_rule, "order": list(a.order), "value": a.peak,
                      "design_file": None if a.design_file in refused else a.design_file}
                     for a in (answers.answers if answers else ())],

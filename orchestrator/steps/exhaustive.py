@@ -61,6 +61,15 @@ def asked(context: StudyContext) -> bool:
     return SWEEP_METHOD in context.config(Searches).methods
 
 
+def missing_for_sweep(context: StudyContext) -> str:
+    """What a sweep beyond the local limit still needs: a Dask cluster, the confirmation of its cost, or both."""
+    if context.executor_kind == "dask":
+        return "confirm its cost with --confirm-cost"
+    if context.confirm_cost:
+        return "run it on a Dask cluster: --executor dask --scheduler ADDRESS (confirmed already)"
+    return "run it on a Dask cluster, confirmed: --executor dask --scheduler ADDRESS --confirm-cost"
+
+
 def sweep_instead(context: StudyContext) -> bool:
     """Whether the default study sweeps the space instead of searching it: no --method given, one objective and
     one load case, and a space small enough that the sweep costs less than the default searches would (then it
@@ -246,8 +255,7 @@ class Exhaustive(Step):
                 f"--method {SWEEP_METHOD}: {space.size:,} designs is beyond the local limit of {MAX_LOCAL_DESIGNS:,}: "
                 f"projected {cost.core_hours * count:,.1f} core-hours{per_rule} at {cost.designs_per_core_second:,.0f} designs "
                 f"per core-second (measured here on {cost.timed} designs, {cost.censored} stopped at the force limit "
-                "as the sweep's chunks are); run it on a Dask cluster, confirmed: --executor dask --scheduler "
-                "ADDRESS --confirm-cost")
+                f"as the sweep's chunks are); {missing_for_sweep(context)}")
 
     def run(self, context: StudyContext) -> ExhaustiveResult:
         why = f"asked (--method {SWEEP_METHOD})"

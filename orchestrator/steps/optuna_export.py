@@ -48,7 +48,7 @@ class OptunaExport(Step):
             studies = export(storage, searched.runs if searched else (), tuple(context.case.outputs),
                              context.case.columns, list(context.case.materials.names),
                              context.case.describe(context.fmu).line(), getattr(journal, "run_id", "") or "study",
-                             context.fmu.sha256)
+                             context.fmu.sha256, context.progress)
         except Exception as exc:  # noqa: BLE001 - a storage error is reported; the results are kept
             message = str(exc).splitlines()[0] if str(exc).strip() else type(exc).__name__
             print(f"--export-optuna {storage}: not exported: {message}", file=sys.stderr)

@@ -153,13 +153,13 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
 
     from fmu_src.published import PUBLISHED_CONDITIONS, REFERENCE_POINTS
 
-    from ..report.charts import COLOURS, METHOD_NAMES, best_so_far_matrix, figure_title, plt, save
+    from ..report.charts import METHOD_NAMES, best_so_far_matrix, figure_title, legend_below, method_colour, plt, save
 
     searches = study.result(Searches)
     if searches is None or not searches.runs:
         return None
     labels = list(dict.fromkeys(run.label for run in searches.runs))
-    figure, axes = plt.subplots(1, len(labels), figsize=(6.5 * len(labels), 4.8), squeeze=False)
+    figure, axes = plt.subplots(1, len(labels), figsize=(6.5 * len(labels), 6.2), squeeze=False)
     unit = study.case.objective.units[0]
     for axis, label in zip(axes[0], labels):
         runs = [r for r in searches.runs if r.label == label and r.n_evaluations]
@@ -173,9 +173,9 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
                 median = np.nanmedian(matrix, axis=0)
                 low, high = np.nanpercentile(matrix, 25, axis=0), np.nanpercentile(matrix, 75, axis=0)
             name = f"{METHOD_NAMES.get(method, method)} (median of {len(own)})"
-            colour = COLOURS.get(method)
+            colour = method_colour(method, [r.method for r in runs])
             if len(median) == 1:
-                axis.axhline(median[-1], color=colour or "black", lw=1, ls=":", label=f"{name}: one design")
+                axis.axhline(median[-1], color=colour, lw=1, ls=":", label=f"{name}: one design")
                 continue
             x = np.arange(1, matrix.shape[1] + 1)
             axis.plot(x, median, color=colour, label=name)
@@ -187,10 +187,13 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
                          label=f"{'certified' if optimum.certified else 'known'} optimum: {optimum.peak:.2f} {unit}")
         published = study.case.objective.outputs == ("peak_backplate_force",) and known.get(label) and \
             label == PUBLISHED_CONDITIONS["diagonal_rule"]
-        if published:
+        if published:  # at the evaluation the study found it, or at the last one where the study does not say
+            last = max(r.n_evaluations for r in runs) if runs else 1
             for point, marker in zip(REFERENCE_POINTS, "o^sD"):
-                axis.plot([point.evaluation or 100], [point.peak], marker=marker, color="crimson", ls="none",
-                          label=f"published {point.label}: {point.peak:.2f} N")
+                where = (f"found at its evaluation {point.evaluation}" if point.evaluation else
+                         "at which evaluation not published: drawn at the last")
+                axis.plot([point.evaluation or last], [point.peak], marker=marker, color="crimson", ls="none",
+                          label=f"published {point.label}: {point.peak:.2f} N, {where}")
         if axis.lines:
             axis.set_xscale("log")
         else:
@@ -200,7 +203,7 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
         axis.set_title(f"{label} diagonal rule", fontsize=9)
         axis.grid(alpha=0.3)
         if axis.get_legend_handles_labels()[0]:
-            axis.legend(fontsize=7)
+            legend_below(axis, fontsize=7.5)
     figure_title(figure, f"Convergence over seeds: median and quartiles. {context_line}")
     return save(figure, path)
 

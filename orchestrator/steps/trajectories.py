@@ -69,14 +69,18 @@ class Trajectories(Step):
 
 def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
     import numpy as np
-    from ..report.charts import figure_title, legend_below, plt, save
+    from ..report.charts import COLOURS, RULE_COLOURS, figure_title, legend_below, plt, save
 
     trajectories = study.result(Trajectories)
     if trajectories is None:
         return None
-    figure, (force_axis, energy_axis) = plt.subplots(1, 2, figsize=(13, 4.8))
-    colours = ["tab:blue", "tab:red", "black", "tab:gray", "tab:green"]
-    for labelled, colour in zip(trajectories.force, colours):
+    figure, (force_axis, energy_axis) = plt.subplots(1, 2, figsize=(13, 5.6))
+    # the answers in their rules' colours, the sequential baseline in the baseline method's, the others grey
+    # and dashed; the chosen design (the first) is drawn last, so no other curve hides it
+    colours = {labelled.label: colour for labelled, colour in zip(
+        [f for f in trajectories.force if f.label.endswith("rule's answer")], RULE_COLOURS)}
+    colours["sequential"] = COLOURS["sequential"]
+    for rank, labelled in reversed(list(enumerate(trajectories.force))):
         t = labelled.trajectory
         if not t.ok:
             continue
@@ -84,16 +88,19 @@ def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
         time = np.array(t.time)
         samples = np.abs(time / 0.01 - np.round(time / 0.01)) < 1e-6
         sampled = force[samples].max() if samples.any() else float("nan")
-        force_axis.plot(time, force, color=colour,
+        answer = labelled.label in colours and labelled.label != "sequential"
+        force_axis.plot(time, force, color=colours.get(labelled.label, "0.55"), lw=2.2 if rank == 0 else 1.3,
+                        ls="-" if answer else (0, (5, 2)), zorder=3 if rank == 0 else 2,
                         label=f"{labelled.label} {list(t.order)}: peak {force.max():.1f} N every 1 ms, "
                               f"{sampled:.1f} N at the 0.01 s samples")
+    handles, labels = force_axis.get_legend_handles_labels()
+    force_axis.legend(handles[::-1], labels[::-1], fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.16),
+                      frameon=False)  # in the order of the designs: the chosen one first
     force_axis.set_xlabel("time (s)")
     force_axis.set_ylabel("backplate force (N)")
     force_axis.set_title(f"Force on the backplate ({trajectories.force[0].diagonal_rule if trajectories.force else ''}"
                          f" rule), recorded every 1 ms", fontsize=9)
     force_axis.grid(alpha=0.3)
-    if force_axis.get_legend_handles_labels()[0]:
-        legend_below(force_axis, fontsize=6.5)
     names = {"kinetic_energy": "KE", "potential_energy": "PE", "external_work": "W_ext",
              "dissipated_energy": "D", "nonreciprocal_work": "W_nr", "energy_balance_error": "balance error"}
     if trajectories.energy and trajectories.energy[0].trajectory.ok:
