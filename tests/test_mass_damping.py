@@ -153,6 +153,20 @@ def test_the_armour_scene_at_its_default_settings_closes_the_balance_with_unequa
         assert result["stack_mass"] == pytest.approx(11 * sum(masses), rel=1e-14)
 
 
+def test_under_a_projectile_the_balance_closes_with_unequal_masses_and_n_1_5(lattice):
+    """docs/model.md section 11's projectile mode: the body's kinetic energy is what is put in."""
+    rng = np.random.default_rng(11)
+    parameters = {**{f"mass[{m}]": float(mass) for m, mass in enumerate(rng.uniform(0.5, 2.0, 11), start=1)},
+                  **{f"damping_exponent[{m}]": 1.5 for m in range(1, 12)},
+                  "load_mode": "projectile", "projectile_mass": 50.0, "projectile_speed": 3.6}
+    put_in = 0.5 * 50.0 * 3.6 ** 2
+    for symmetry in (1, 0):
+        result = lattice.simulate((1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10), horizon=2.0,
+                                  parameters={**parameters, "use_symmetry": symmetry}, outputs=BALANCE)
+        assert result["peak_backplate_force"] > 0.0
+        assert abs(result["energy_balance_error"]) <= 1e-6 * put_in, symmetry
+
+
 @pytest.mark.parametrize("interface", ["CoSimulation", "ModelExchange"])
 def test_fmi3_closes_the_balance_too(lattice_fmu3, interface):
     options = {"solver": "CVode", "relative_tolerance": 1e-9} if interface == "ModelExchange" else {}
