@@ -26,7 +26,8 @@ integrated with the state.
     from reference.lattice3d import PlateScene
     from reference.system import Hull, Projectile, SystemScene, simulate_system
     scene = SystemScene(PlateScene(rows=5, cols=5, depth=1), load_mode="projectile",
-                        projectile=Projectile(mass=50.0, speed=3.6, contact_stiffness=2e4),
+                        projectile=Projectile(mass=50.0, speed=3.6, contact_stiffness=3e4, contact_exponent=1.5,
+                                              contact_damping=0.1),
                         hull=Hull(mass=100.0, stiffness=1e4, damping=500.0))
     result = simulate_system(scene, horizon=1.0)
     result.peak_backplate_force, result.energy.system_error, result.contact_force
@@ -36,8 +37,8 @@ from __future__ import annotations
 import heapq
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable, Optional
 
 import numpy as np
 from scipy.integrate import DOP853
@@ -86,12 +87,12 @@ class PiecewiseSignal:
         object.__setattr__(self, "pieces", tuple(self.pieces))
 
     @classmethod
-    def held(cls, times, values) -> "PiecewiseSignal":
+    def held(cls, times, values) -> PiecewiseSignal:
         """``values[i]`` held on ``[times[i], times[i+1])`` (a zero-order hold; ``times[0]`` must be 0)."""
         return cls(tuple(times), tuple((lambda _t, _v=float(v): _v) for v in values))
 
     @classmethod
-    def constant(cls, value: float) -> "PiecewiseSignal":
+    def constant(cls, value: float) -> PiecewiseSignal:
         return cls.held((0.0,), (value,))
 
     def piece_at(self, t: float) -> Callable[[float], float]:
@@ -149,13 +150,13 @@ class SystemScene:
 
     lattice: PlateScene
     load_mode: str = "pulse"
-    front_force: Optional[PiecewiseSignal] = None
-    projectile: Optional[Projectile] = None
-    back_position: Optional[PiecewiseSignal] = None
-    back_velocity: Optional[PiecewiseSignal] = None
-    hull: Optional[Hull] = None
-    material_mass: Optional[tuple] = None
-    damping_exponent: Optional[tuple] = None
+    front_force: PiecewiseSignal | None = None
+    projectile: Projectile | None = None
+    back_position: PiecewiseSignal | None = None
+    back_velocity: PiecewiseSignal | None = None
+    hull: Hull | None = None
+    material_mass: tuple | None = None
+    damping_exponent: tuple | None = None
 
     def __post_init__(self):
         if not isinstance(self.lattice, PlateScene):
@@ -200,13 +201,13 @@ class SystemScene:
 
 # ------------------------------------------------------------------------------------------- the model
 @dataclass(frozen=True)
-class _Phase:
+class Phase:
     """What is constant between two breaks: the pulse on or off, and the pieces of the given inputs."""
 
     load_on: bool
-    front_force: Optional[Callable[[float], float]]
-    back_position: Optional[Callable[[float], float]]
-    back_velocity: Optional[Callable[[float], float]]
+    front_force: Callable[[float], float] | None
+    back_position: Callable[[float], float] | None
+    back_velocity: Callable[[float], float] | None
 
 
 class SystemModel:
@@ -256,7 +257,7 @@ class SystemModel:
         self.touch, self.push = 2 * W, 2 * W + 1
 
     # ------------------------------------------------------------------ pieces of the right-hand side
-    def back_port(self, t, z, phase: _Phase):
+    def back_port(self, t, z, phase: Phase):
         """``(x_back, v_back)`` at t: 0, the given functions, or the hull's state."""
         kind = self.scene.back_port
         if kind == "hull":
@@ -332,10 +333,12 @@ class SystemModel:
             out[self.push] = modes[self.touch]
         return out
 
-    def derivative(self, t, z, modes, phase: _Phase) -> np.ndarray:
+    def derivative(self, t, z, modes, phase: Phase) -> np.ndarray:
+        """d/dt of the state (and of the integrals) under frozen modes: a smooth function, so that DOP853's error
+        control means what it says between two switches."""
         sc, N, plate = self.scene.lattice, self.N, self.plate
         y = z[:6 * N]
-        r, d, sa, sb = plate.spring_state(y)
+        r, _, sa, sb = plate.spring_state(y)
         dv = y[plate.dv_b] - y[plate.dv_a]
         if self.linear_dampers:
             cdv = plate.damping3 * dv
@@ -545,7 +548,8 @@ class _PeakSearch:
         for _, _, lo, hi, signal in self.candidates:
             if hi <= lo:
                 continue
-            found = minimize_scalar(lambda s: -float(signal(np.array([s]))[0]), bounds=(lo, hi), method="bounded",
+            found = minimize_scalar(lambda s, _signal=signal: -float(_signal(np.array([s]))[0]), bounds=(lo, hi),
+                                    method="bounded",
                                     options={"xatol": 1e-13 * max(1.0, hi)})
             if -found.fun > value:
                 value, at = float(-found.fun), float(found.x)
@@ -564,8 +568,8 @@ def _phases(scene: SystemScene, horizon: float) -> list:
     phases = []
     for t0, t1 in zip(cuts, cuts[1:]):
         middle = 0.5 * (t0 + t1)
-        pick = lambda s: None if s is None else s.piece_at(middle)  # noqa: E731
-        phases.append((t0, t1, _Phase(load_on=middle <= scene.lattice.t_active, front_force=pick(scene.front_force),
+        pick = lambda s, _at=middle: None if s is None else s.piece_at(_at)  # noqa: E731
+        phases.append((t0, t1, Phase(load_on=middle <= scene.lattice.t_active, front_force=pick(scene.front_force),
                                       back_position=pick(scene.back_position),
                                       back_velocity=pick(scene.back_velocity))))
     return phases
@@ -582,7 +586,7 @@ def simulate_system(scene: SystemScene, horizon: float = 8.0, sample_interval: f
             raise ValueError(f"simulate_system: {name} must be a positive finite number, got {value!r}")
     started = time.perf_counter()
     model = SystemModel(scene)
-    N, W = model.N, model.W
+    W = model.W
     z = np.zeros(model.size)
     pr = scene.projectile
     if pr is not None:
@@ -656,8 +660,9 @@ def simulate_system(scene: SystemScene, horizon: float = 8.0, sample_interval: f
                     if start == 0.0 or np.sign(start) == np.sign(end):
                         roots.append((t_old, q))
                     else:
-                        roots.append((brentq(lambda s: model.indicators(s, interpolant(s), phase)[q], t_old, t_new,
-                                             xtol=1e-16, rtol=4 * np.finfo(float).eps), q))
+                        def crossing(s, _q=q, _f=interpolant, _p=phase):
+                            return model.indicators(s, _f(s), _p)[_q]
+                        roots.append((brentq(crossing, t_old, t_new, xtol=1e-16, rtol=4 * np.finfo(float).eps), q))
                 t_switch = min(root[0] for root in roots)
                 if t_switch > t_old:
                     record(t_old, t_switch, interpolant, phase)

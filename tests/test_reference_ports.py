@@ -18,6 +18,7 @@ import pytest
 from reference.lattice3d import PlateScene, simulate_plate
 from reference.system import (
     Hull,
+    Phase,
     PiecewiseSignal,
     Projectile,
     SystemModel,
@@ -230,8 +231,7 @@ def test_a_column_damper_pushes_with_c_times_the_speed_to_the_n_minus_one(expone
 
 
 def _phase_off():
-    from reference.system import _Phase
-    return _Phase(load_on=False, front_force=None, back_position=None, back_velocity=None)
+    return Phase(load_on=False, front_force=None, back_position=None, back_velocity=None)
 
 
 def test_dampers_between_columns_stay_linear():

@@ -49,7 +49,14 @@ def backplate_inputs(i: int) -> tuple[float, float]:
     return backplate_path(t), (backplate_path(t + STEP) - backplate_path(t)) / STEP
 
 
-def fmu_run(path, backplate_moves: bool) -> dict[str, float]:
+def front_inputs(i: int, interpolated: bool) -> tuple[float, float]:
+    """(F_front, its rate) an importer sets before step i: held, or first-order interpolated along the chord to
+    the next step's value (a continuous broken line)."""
+    t = STEP_STARTS[i]
+    return front_force(t), (front_force(t + STEP) - front_force(t)) / STEP if interpolated else 0.0
+
+
+def fmu_run(path, backplate_moves: bool, interpolated: bool = False) -> dict[str, float]:
     description = read_model_description(str(path))
     vr = {v.name: v.valueReference for v in description.modelVariables}
     unzipped = extract(str(path))
@@ -64,7 +71,10 @@ def fmu_run(path, backplate_moves: bool) -> dict[str, float]:
         slave.exitInitializationMode()
         for i, t in enumerate(STEP_STARTS):
             x_back, v_back = backplate_inputs(i) if backplate_moves else (0.0, 0.0)
-            slave.setReal([vr["F_front"], vr["x_back"], vr["v_back"]], [front_force(t), x_back, v_back])
+            force, rate = front_inputs(i, interpolated)
+            slave.setReal([vr["F_front"], vr["x_back"], vr["v_back"]], [force, x_back, v_back])
+            if interpolated:
+                slave.setRealInputDerivatives([vr["F_front"]], [1], [rate])
             slave.doStep(t, STEP)
         values = slave.getReal([vr[name] for name in OUTPUTS])
         slave.terminate()
@@ -74,16 +84,20 @@ def fmu_run(path, backplate_moves: bool) -> dict[str, float]:
         shutil.rmtree(unzipped, ignore_errors=True)
 
 
-def reference_run(backplate_moves: bool):
-    held = lambda value: (lambda _t, _v=value: _v)  # noqa: E731
-    front = PiecewiseSignal(STEP_STARTS, tuple(held(front_force(t)) for t in STEP_STARTS))
+def line(start: float, rate: float, t0: float):
+    """The piece ``start + rate (t - t0)`` of a given input."""
+    return lambda t: start + rate * (t - t0)
+
+
+def reference_run(backplate_moves: bool, interpolated: bool = False):
+    front = PiecewiseSignal(STEP_STARTS, tuple(line(*front_inputs(i, interpolated), STEP_STARTS[i])
+                                               for i in range(STEPS)))
     if not backplate_moves:
         scene = SystemScene(PlateScene(rows=11, cols=11, depth=1), load_mode="input", front_force=front)
         return simulate_system(scene, horizon=HORIZON, sample_interval=STEP)
     pieces = [backplate_inputs(i) for i in range(STEPS)]
-    position = PiecewiseSignal(STEP_STARTS, tuple((lambda t, _x=x, _v=v, _t0=t0: _x + _v * (t - _t0))
-                                                  for (x, v), t0 in zip(pieces, STEP_STARTS)))
-    velocity = PiecewiseSignal(STEP_STARTS, tuple(held(v) for _, v in pieces))
+    position = PiecewiseSignal(STEP_STARTS, tuple(line(x, v, t0) for (x, v), t0 in zip(pieces, STEP_STARTS)))
+    velocity = PiecewiseSignal(STEP_STARTS, tuple(line(v, 0.0, t0) for (_, v), t0 in zip(pieces, STEP_STARTS)))
     scene = SystemScene(PlateScene(rows=11, cols=11, depth=1), load_mode="input", front_force=front,
                         back_position=position, back_velocity=velocity)
     return simulate_system(scene, horizon=HORIZON, sample_interval=STEP)
@@ -118,6 +132,19 @@ def test_the_continuous_peak_agrees_with_the_reference(runs):
                      "step for one and the same backplate path, and lies above the reference's maximum (which a "
                      "fine sampling of the reference's own solution confirms); its sampled peak agrees")
     assert agrees, (fmu["peak_backplate_force_continuous"], reference.peak_backplate_force_continuous)
+
+
+def test_an_interpolated_front_force_agrees_with_the_reference(fmu_path):
+    """FMI 2's first-order input interpolation (fmi2SetRealInputDerivatives): the FMU ramps F_front over each step
+    as the reference's broken line does."""
+    fmu = fmu_run(fmu_path, backplate_moves=False, interpolated=True)
+    reference = reference_run(backplate_moves=False, interpolated=True)
+    held = reference_run(backplate_moves=False)
+    assert abs(reference.peak_backplate_force / held.peak_backplate_force - 1) > 1e-4  # the ramp is compared
+    for name in ("peak_backplate_force", "peak_backplate_force_continuous"):
+        assert fmu[name] == pytest.approx(getattr(reference, name), rel=1e-7), name
+    assert fmu["external_work"] == pytest.approx(reference.energy.front_work, rel=1e-7)
+    assert abs(fmu["energy_balance_error"]) <= 1e-6 * fmu["external_work"]
 
 
 # ------------------------------------------------------------------------------------------- projectile mode
@@ -183,6 +210,25 @@ def test_projectile_mode_agrees_with_the_reference(fmu_path):
     fmu = projectile_fmu_run(fmu_path, PROJECTILE_HORIZON, projectile)
     reference = projectile_reference(PlateScene(rows=11, cols=11, depth=1), projectile, PROJECTILE_HORIZON)
     compare_projectile(fmu, reference, rel=1e-6)
+
+
+def test_projectile_mode_under_model_exchange_agrees_with_the_reference(fmu_path):
+    """fmpy's CVode over the FMU's Model Exchange interface: the sampled peak and the energy terms to 1e-6. Its
+    continuous peak is the largest force at the points the importer stopped at, so it lies between the sampled
+    peak and the reference's continuous maximum."""
+    projectile = projectile_of(fmu_path)
+    result = simulate_fmu(str(fmu_path), fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-10,
+                          stop_time=PROJECTILE_HORIZON, output_interval=STEP,
+                          start_values={"load_mode": PROJECTILE_MODE}, output=list(PROJECTILE_OUTPUTS))
+    fmu = {name: float(result[name][-1]) for name in PROJECTILE_OUTPUTS}
+    reference = projectile_reference(PlateScene(rows=11, cols=11, depth=1), projectile, PROJECTILE_HORIZON)
+    energy = reference.energy
+    assert fmu["peak_backplate_force"] == pytest.approx(reference.peak_backplate_force, rel=1e-6)
+    assert (fmu["peak_backplate_force"] <= fmu["peak_backplate_force_continuous"]
+            <= reference.peak_backplate_force_continuous * (1 + 1e-7))
+    assert fmu["dissipated_energy"] == pytest.approx(energy.lattice_dissipation + energy.contact_dissipation,
+                                                     rel=1e-6)
+    assert abs(fmu["energy_balance_error"]) <= 1e-6 * energy.projectile_initial_kinetic
 
 
 @pytest.mark.slow
