@@ -4,7 +4,7 @@ port, the lattice in load_mode input through its parameter set, and a communicat
 coupling stable with margin.
 
     build_system()                   # models/ArmourSystem.ssp
-    port_limits()                    # each port's predicted stability limit of explicit coupling
+    port_limits()                    # each port's predicted stability limit of explicit coupling (front, back)
 
 The archive holds SystemStructure.ssd (the components, their connectors, the connections, the step for
 libcosim's and OMSimulator's fixed-step masters) and resources/: the three FMUs and lattice.ssv, the lattice's
@@ -24,7 +24,7 @@ from builder.build import MODELS_DIR, build_fmu, resolve_scene
 from builder.component import build_component_fmu
 from builder.rendering import render
 from fmu_src.component_table import component_table
-from fmu_src.variables import enumeration_values
+from fmu_src.variables import enumeration_values, loaded_face
 from scenes import DEFAULT_SCENE
 
 SYSTEM = "ArmourSystem"
@@ -85,16 +85,45 @@ class PortLimit:
         return min(bounds)
 
 
+def _edge_weights(count: int) -> list[float]:
+    """docs/model.md section 4: 1/2 at either edge, 1 inside (one mass alone: 1)."""
+    return [1.0] if count == 1 else [0.5 if i in (0, count - 1) else 1.0 for i in range(count)]
+
+
+def front_port_mass(scene: str = DEFAULT_SCENE) -> float:
+    """The mass the front port moves: F_front pushes each loaded mass a with w_a F_front and x_front = sum of
+    w_a ux_a (the weights normalised to 1), so the face answers a force like one body of 1 / sum(w_a^2 / m_a)."""
+    interface = resolve_scene(scene).interface()
+    starts = {v.name: v.start for v in interface.exposed + interface.fixed}
+    face = loaded_face(interface.rows, interface.depth, starts["load_patch"])
+    rows, depths = _edge_weights(interface.rows), _edge_weights(interface.depth)
+    weights = [rows[i] * depths[k] if face.whole_face else 1.0 for i, k in sorted(face.masses())]
+    material = starts["material"][0]
+    mass = starts["mass"][material - 1] if isinstance(starts["mass"], tuple) else starts["mass"]
+    total = sum(weights)
+    return 1.0 / sum((w / total) ** 2 / mass for w in weights)
+
+
 def port_limits(hull_mass: float | None = None, scene: str = DEFAULT_SCENE) -> tuple[PortLimit, ...]:
-    """The back port's limit: the hull (mass m) on the backplate's springs and dampers of the lattice's
-    column-C masses in parallel (k_wall, c_wall each), whose force the hull holds over a step. `hull_mass`:
-    default the hull table's."""
+    """Each port's limit. Back: the hull (mass m) on the backplate's springs and dampers of the lattice's
+    column-C masses in parallel (k_wall, c_wall each), whose force the hull holds over a step (`hull_mass`:
+    default the hull table's). Front: the loaded face (front_port_mass) on the projectile's contact, linearised
+    at the deepest indentation of the projectile against a rigid face, where the elastic contact has taken its
+    kinetic energy, delta = ((n + 1) M v^2 / (2 k_c))^(1 / (n + 1)): stiffness n k_c delta^(n - 1), damping
+    lambda k_c delta^n. The projectile's force is a step's mean of its own integration against the face's
+    extrapolated motion, which couples more softly than a held force: its limit is a bound, not a sharp one."""
     interface = resolve_scene(scene).interface()
     starts = {v.name: v.start for v in interface.exposed + interface.fixed}
     face = interface.rows * interface.depth
     mass = component_table("hull").variable("m").start if hull_mass is None else hull_mass
-    return (PortLimit("back", f"hull mass on the backplate's {face} springs and dampers", float(mass),
-                      face * float(starts["k_wall"]), face * float(starts["c_wall"])),)
+    projectile = {v.name: v.start for v in component_table("projectile").variables}
+    k_c, n = projectile["contact_stiffness"], projectile["contact_exponent"]
+    delta = ((n + 1) * projectile["projectile_mass"] * projectile["projectile_speed"] ** 2 / (2 * k_c)) ** (
+        1 / (n + 1))
+    return (PortLimit("front", "the loaded face's port mass on the linearised contact", front_port_mass(scene),
+                      n * k_c * delta ** (n - 1), projectile["contact_damping"] * k_c * delta ** n),
+            PortLimit("back", f"hull mass on the backplate's {face} springs and dampers", float(mass),
+                      face * float(starts["k_wall"]), face * float(starts["c_wall"])))
 
 
 def default_step(limits: tuple[PortLimit, ...]) -> float:

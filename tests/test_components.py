@@ -183,8 +183,8 @@ def test_a_component_cross_builds_for_every_platform(model, version, tmp_path):
 
 
 def test_the_projectile_s_lost_energy_is_its_work_on_the_face(component_fmus):
-    """A face receding at 1 m/s: the projectile strikes it, leaves it 2 (3.6 - 1) m/s slower than the face,
-    and the kinetic energy it lost is face_work, the work its contact force did on the face. (Co-Simulation:
+    """A face receding at 1 m/s: the projectile strikes it through an elastic contact, leaves it 2 (3.6 - 1) m/s
+    slower than the face, and the kinetic energy it lost is face_work, the work its contact force did on the face. (Co-Simulation:
     FMPy's Model Exchange holds an input between output points, so the face would jump.)"""
     table = component_table("projectile")
     mass, speed, face_speed = table.variable("projectile_mass").start, table.variable("projectile_speed").start, 1.0
@@ -192,9 +192,73 @@ def test_the_projectile_s_lost_energy_is_its_work_on_the_face(component_fmus):
     inputs = np.array(list(zip(times, face_speed * times, np.full_like(times, face_speed))),
                       dtype=[("time", np.float64), ("x_front", np.float64), ("v_front", np.float64)])
     result = simulate_fmu(str(component_fmus["projectile", 2]), stop_time=0.5, step_size=1e-3, output_interval=1e-3,
-                          input=inputs,
+                          input=inputs, start_values={"contact_damping": 0.0},
                           output=["projectile_velocity", "face_work", "contact_force"])
     assert result["contact_force"][-1] == 0.0  # it has left the face
     assert result["projectile_velocity"][-1] == pytest.approx(2 * face_speed - speed, rel=1e-4)
     lost = 0.5 * mass * (speed ** 2 - result["projectile_velocity"][-1] ** 2)
     assert result["face_work"][-1] == pytest.approx(lost, rel=1e-6)
+
+
+def _slave(fmu, folder, name):
+    from fmpy import extract
+    from fmpy.fmi2 import FMU2Slave
+
+    description = read_model_description(str(fmu))
+    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(fmu), str(folder / name)),
+                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName=name)
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    return slave, {v.name: v.valueReference for v in description.modelVariables}
+
+
+def test_the_hull_extrapolates_its_input_with_the_derivative_a_master_sets(component_fmus, tmp_path):
+    """One step with F and dF/dt set (FMI 2's input interpolation) is many short steps of that ramp."""
+    slope, step = 4.0e4, 0.05
+    ramped, refs = _slave(component_fmus["hull", 2], tmp_path, "ramped")
+    ramped.setReal([refs["F"]], [100.0])
+    ramped.setRealInputDerivatives([refs["F"]], [1], [slope])
+    ramped.doStep(0.0, step)
+    fine, _ = _slave(component_fmus["hull", 2], tmp_path, "fine")
+    pieces = 2000
+    for i in range(pieces):
+        fine.setReal([refs["F"]], [100.0 + slope * (i + 0.5) * step / pieces])  # the ramp's mean over each piece
+        fine.doStep(i * step / pieces, step / pieces)
+    x, v = ramped.getReal([refs["x"], refs["v"]])
+    assert x == pytest.approx(fine.getReal([refs["x"]])[0], rel=1e-6)
+    assert v == pytest.approx(fine.getReal([refs["v"]])[0], rel=1e-5)
+    # the output derivatives at the communication point: x' = v, v' = (F - k x - c v) / m with F at its end
+    dx, dv = ramped.getRealOutputDerivatives([refs["x"], refs["v"]], [1, 1])
+    m, k, c = 20.0, 2.0e4, 200.0
+    assert dx == v and dv == pytest.approx((100.0 + slope * step - k * x - c * v) / m, rel=1e-12)
+    for slave in (ramped, fine):
+        slave.terminate()
+        slave.freeInstance()
+
+
+def test_the_projectile_follows_an_accelerating_face_from_its_input_derivatives(component_fmus, tmp_path):
+    """A face accelerating at a: one step given x_front, v_front and the derivative of v_front is many short
+    steps given the face's exact motion; contact_force's output derivative is 0 (a step's mean, to be held)."""
+
+    accel, step = 20.0, 0.05
+    one, refs = _slave(component_fmus["projectile", 2], tmp_path, "one")
+    one.setRealInputDerivatives([refs["v_front"]], [1], [accel])
+    one.doStep(0.0, step)
+    many, _ = _slave(component_fmus["projectile", 2], tmp_path, "many")
+    pieces = 1000
+    for i in range(pieces):
+        t = i * step / pieces
+        many.setReal([refs["x_front"], refs["v_front"]], [0.5 * accel * t * t, accel * t])
+        many.setRealInputDerivatives([refs["v_front"]], [1], [accel])
+        many.doStep(t, step / pieces)
+    velocity = one.getReal([refs["projectile_velocity"]])[0]
+    assert velocity == pytest.approx(many.getReal([refs["projectile_velocity"]])[0], rel=1e-7)
+    assert velocity < 3.6 - 0.1  # the contact slowed it
+    assert one.getRealOutputDerivatives([refs["contact_force"]], [1]) == [0.0]
+    speed = one.getReal([refs["projectile_velocity"]])[0]
+    assert one.getRealOutputDerivatives([refs["projectile_position"]], [1]) == [speed]
+    for slave in (one, many):
+        slave.terminate()
+        slave.freeInstance()

@@ -27,7 +27,7 @@ def test_the_example_prints_each_port_s_limit_beside_the_step_and_writes_the_pic
     assert armour_system.main(["--ssp", str(system_ssp), "--horizon", "0.05", "-o", str(picture)]) == 0
     assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     out = capsys.readouterr().out
-    assert "back port" in out and "predicted limit" in out and "stable" in out
+    assert "front port" in out and "back port" in out and "predicted limit" in out and "stable" in out
     assert "peak force on the backplate" in out
 
 

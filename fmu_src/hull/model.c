@@ -111,13 +111,15 @@ int model_set_input_derivative(Model *m, unsigned int vr, int order, double valu
 int model_get_output_derivative(Model *m, unsigned int vr, int order, double *value, char *message,
                                 size_t message_size) {
     if (check_reference(vr, message, message_size)) return -1;
-    if (order != 1 || (vr != VR_X && vr != VR_V)) {
-        snprintf(message, message_size, "derivative of %s of order %d: allowed order 1 of x and v",
-                 VARIABLES[vr].name, order);
+    if (order != 1 || VARIABLES[vr].causality != CAUSALITY_OUTPUT) {
+        snprintf(message, message_size, "derivative of %s of order %d: allowed order 1 of the outputs x, v and "
+                 "dissipated_energy", VARIABLES[vr].name, order);
         return -1;
     }
-    *value = vr == VR_X ? m->value[VR_V] : acceleration(m, m->value[VR_F], m->value[VR_X], m->value[VR_V]);
-    return 0;
+    /* the outputs are the states: their derivatives are the contract's */
+    return model_get_real(m,
+                          (unsigned int)(vr == VR_X ? VR_DER_X : vr == VR_V ? VR_DER_V : VR_DER_DISSIPATED_ENERGY),
+                          value, message, message_size);
 }
 
 int model_get_real(Model *m, unsigned int vr, double *value, char *message, size_t message_size) {

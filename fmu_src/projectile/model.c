@@ -135,15 +135,27 @@ int model_set_input_derivative(Model *m, unsigned int vr, int order, double valu
 int model_get_output_derivative(Model *m, unsigned int vr, int order, double *value, char *message,
                                 size_t message_size) {
     if (check_reference(vr, message, message_size)) return -1;
-    if (order != 1 || (vr != VR_PROJECTILE_POSITION && vr != VR_PROJECTILE_VELOCITY)) {
-        snprintf(message, message_size,
-                 "derivative of %s of order %d: allowed order 1 of projectile_position and projectile_velocity "
-                 "(contact_force is a step's mean)", VARIABLES[vr].name, order);
+    if (order != 1 || VARIABLES[vr].causality != CAUSALITY_OUTPUT) {
+        snprintf(message, message_size, "derivative of %s of order %d: allowed order 1 of the outputs",
+                 VARIABLES[vr].name, order);
         return -1;
     }
-    *value = vr == VR_PROJECTILE_POSITION ? m->value[VR_PROJECTILE_VELOCITY]
-                                          : -instantaneous_force(m) / m->value[VR_PROJECTILE_MASS];
-    return 0;
+    if (vr == VR_CONTACT_FORCE && !m->model_exchange) {
+        /* a step's mean, to be held over the next step: a master that extrapolates it with this derivative
+         * still hands the face exactly the impulse */
+        *value = 0.0;
+        return 0;
+    }
+    if (vr == VR_CONTACT_FORCE) {
+        snprintf(message, message_size, "contact_force: Model Exchange gives no output derivatives");
+        return -1;
+    }
+    /* the other outputs are the states: their derivatives are the contract's */
+    return model_get_real(m,
+                          (unsigned int)(vr == VR_PROJECTILE_POSITION   ? VR_DER_PROJECTILE_POSITION
+                                         : vr == VR_PROJECTILE_VELOCITY ? VR_DER_PROJECTILE_VELOCITY
+                                                                        : VR_DER_FACE_WORK),
+                          value, message, message_size);
 }
 
 int model_get_real(Model *m, unsigned int vr, double *value, char *message, size_t message_size) {

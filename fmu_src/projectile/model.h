@@ -13,8 +13,8 @@
  * x_front a master sets; a the derivative of v_front a master sets, else 0), the projectile's motion is
  * integrated with classic RK4 in substeps short against the contact's time scale, and contact_force is the
  * impulse over the step divided by H: mass (v_p(t0) - v_p(t0 + H)) / H. A master that holds it over the next
- * step hands the face exactly the momentum the projectile lost. model_get_output_derivative gives the
- * derivatives of position and velocity at the communication point; contact_force, a step's mean, has none.
+ * step hands the face exactly the momentum the projectile lost. model_get_output_derivative gives the states'
+ * derivatives at the communication point, and 0 for contact_force, a step's mean to be held.
  *
  * Its continuous-time contract: the states projectile_position, projectile_velocity and face_work (the work of
  * the contact force on the face), no discrete states, no event indicators (the force is continuous in the state: it rises from 0 as delta^n and falls to 0 where the

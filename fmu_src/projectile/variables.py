@@ -1,36 +1,39 @@
 """The projectile's variable table (fmu_src/projectile/): a rigid body striking the lattice's loaded face with
 Hunt-Crossley contact (docs/model.md section 11).
 
-The parameters have the names, units and defaults of the lattice's projectile mode, so that the armour system
-(`python build_fmu.py --system`) and the lattice's one-model projectile mode are the same physics. The builder
+The parameters are the lattice's projectile-mode parameters (fmu_src/variables.py: names, units, defaults, ranges),
+so that the armour system (`python build_fmu.py --system`) and the lattice's one-model projectile mode are the
+same physics. The builder
 generates the projectile's C header and both model descriptions from this table (`python build_fmu.py --model
 projectile`).
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 from fmu_src.component_table import ComponentTable
-from fmu_src.variables import DERIVATIVE, REAL, STATE, Variable
+from fmu_src.variables import DERIVATIVE, REAL, STATE, Variable, all_variables
 
 INPUTS = ("x_front", "v_front")
+# The lattice's projectile-mode parameters, taken from its table with their names, units, defaults and ranges, so
+# the three-FMU system and the one-model projectile mode strike with the same body.
+SHARED_PARAMETERS = ("projectile_mass", "projectile_speed", "contact_stiffness", "contact_exponent",
+                     "contact_damping")
+LATTICE_PREFIX = "Projectile mode: "
+
+
+def shared_parameter(name: str) -> Variable:
+    """The lattice's parameter `name`, described for the projectile FMU."""
+    variable = next(v for v in all_variables(1, 1) if v.name == name)
+    return replace(variable, description=variable.description.removeprefix(LATTICE_PREFIX))
+
 
 TABLE = ComponentTable(
     identifier="Projectile",
     description="A rigid projectile striking the armour's loaded face: Hunt-Crossley contact, its force "
                 "averaged over each communication step",
     variables=(
-        Variable("projectile_mass", REAL, "parameter", "Mass of the projectile", start=50.0, unit="kg",
-                 minimum=0.0, minimum_exclusive=True),
-        Variable("projectile_speed", REAL, "parameter",
-                 "Speed of the projectile along +x at t = 0, when it touches the face (projectile_position = 0)",
-                 start=3.6, unit="m/s", minimum=0.0),
-        Variable("contact_stiffness", REAL, "parameter",
-                 "Hunt-Crossley contact stiffness k_c (N/m^n, n = contact_exponent)", start=1.0e5,
-                 minimum=0.0, minimum_exclusive=True),
-        Variable("contact_exponent", REAL, "parameter", "Hunt-Crossley exponent n of the indentation",
-                 start=1.5, minimum=1.0, maximum=3.0),
-        Variable("contact_damping", REAL, "parameter",
-                 "Hunt-Crossley damping lambda (s/m): F_c = k_c delta^n (1 + lambda delta')", start=0.0,
-                 minimum=0.0),
+        *(shared_parameter(name) for name in SHARED_PARAMETERS),
         Variable("x_front", REAL, "input",
                  "Displacement of the lattice's loaded face along +x (its output x_front). Co-Simulation: "
                  "extrapolated over a step as x_front + v_front (t - t0)", start=0.0, unit="m"),
