@@ -1,6 +1,6 @@
 """Coupling: where the armour system's co-simulation holds and where it fails, measured and predicted.
 
-    python -m bench.coupling            # about 8 min: 12 steps x 4 masters x 2 hulls
+    python -m bench.coupling            # about 2.5 min: 12 steps x 4 masters x 2 hulls
     python -m bench.coupling --quick    # about 1 min: 6 steps x 2 masters x 2 hulls
 
 The armour system (`python build_fmu.py --system`: projectile -> lattice -> hull, three FMUs) co-simulated over
@@ -242,13 +242,11 @@ def main(argv=None) -> int:
                  "predicted limit dotted, the steps at which libcosim's fixed step diverged shaded.\n\n"
                  "![error against communication step](coupling.png)"),
         notes=(f"The front port's predicted limit ({front.what}: m = {front.mass:.3g} kg, k = {front.stiffness:.3g} "
-               f"N/m, c = {front.damping:.3g} N s/m) is {front.limit * 1e3:.3g} ms, above every step here but the "
-               "longest: the back port bounds the system's step.",
-               "FMPy's rows: its communication times are sums (0.3400000000000002 where libcosim has 0.34), and the "
-               "lattice's sampled peak then differs from libcosim's on the same inputs by up to about 1 % while "
-               "every output at every communication point agrees to 1e-9 (tests/test_armour_system.py records it "
-               "as an expected failure): its peak error here is that of the lattice's sampler, not of the "
-               "coupling; its energy error is the coupling's."),
+               f"N/m, c = {front.damping:.3g} N s/m) is {front.limit * 1e3:.3g} ms, above every step here: "
+               "the back port bounds the system's step.",
+               "FMPy's communication times are sums (0.3400000000000002 where libcosim has 0.34): the "
+               "lattice takes those samples from inside its steps, through its dense output, and gives the same "
+               "peak (tests/test_armour_system.py)."),
         tables=(Table(("hull", "m (kg)", "k at the back port (N/m)", "c at the back port (N s/m)",
                        "predicted limit (ms)", "measured limit (libcosim)", "reference peak (N)"), limit_rows,
                       caption="**Stability limits:**"),

@@ -134,8 +134,9 @@ def main(argv=None) -> int:
             f"(so its cache does not answer them); runs per second include the executor's dispatch."),
         tables=(Table(("configuration", "cycles", "per second", "resident after warm-up (MB)", "growth (KB)",
                        "slope (KB per 10^6)", "failures", "< 1 MB"), rows),),
-        notes=(("The driver (orchestrator/soak_driver.c) calls the FMI functions of the binary directly, so no importer "
-                "library's own memory is counted; under Wine the working set is Wine's report for the process."),
+        notes=(("The driver (orchestrator/soak_driver.c) calls the FMI functions of the binary directly, so no "
+                "importer library's own memory is counted; under Wine the working set is Wine's report for the "
+                "process."),
                ("Failures are FMI calls that returned an error (driver), evaluations that failed (Evaluator), or "
                 "bad inputs that were not refused (refusals)."),
                ("Dask: no container of the scheduler, the client, the workers or their actors was found to grow "

@@ -84,7 +84,8 @@ def main(argv=None) -> int:
     page = Page(
         name=run.name, title="Statistical bound: coverage where the optimum is known",
         headline=(f"the {args.confidence:.0%} interval held the swept optimum in {min(coverages):.0%}-"
-                  f"{max(coverages):.0%} of {args.samples} samplings per case: a statistical estimate, not a certificate"),
+                  f"{max(coverages):.0%} of {args.samples} samplings per case: a statistical estimate, not a "
+                  "certificate"),
         summary=(
             f"Every order of the 11 x {args.columns} lattice ({space.size:,}) evaluated at the search fidelity "
             f"under each diagonal rule (the sweep's screening, every value kept, through the Evaluator on "

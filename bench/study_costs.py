@@ -6,7 +6,7 @@
 Why: an option that changes no result must not change the run time much either. The default study
 (``python -m orchestrator.run`` with the FMU given, so nothing is built) runs on the process pool, on the
 process pool with ``--export-optuna sqlite:///...`` (every evaluation an Optuna trial), and on a local Dask
-cluster of as many workers (``--executor dask``) at several batch sizes: the most designs one Dask task
+cluster of as many workers (``--executor dask``) at several batch sizes: the most designs one call to a worker
 carries (``LATTICE_DASK_BATCH``; the default is ``orchestrator.executors.DASK_BATCH_DESIGNS``). Each run is a
 fresh process timed from start to exit (wall clock); with ``--repeats`` the configurations take turns and the
 fastest run of each counts. Every run must make the same evaluations (the rows of evaluations.csv).
@@ -14,6 +14,7 @@ fastest run of each counts. Every run must make the same evaluations (the rows o
 from __future__ import annotations
 
 import csv
+import json
 import os
 import subprocess
 import sys
@@ -36,18 +37,20 @@ QUICK_BUDGET = 300
 class Configuration:
     name: str
     arguments: tuple[str, ...]
-    batch: int | None = None  # designs per Dask task
+    batch: int | None = None  # the most designs per call to a Dask worker
 
 
 @dataclass(frozen=True)
 class Timed:
     configuration: Configuration
-    seconds: float
+    seconds: float  # the process, start to exit
+    study_seconds: float  # the study's own steps (results.json's wall_seconds): no start-up, no report
+    export_seconds: float | None  # writing the Optuna trials (the export step's own time)
     evaluations: int
 
 
 def dask_name(batch: int) -> str:
-    return f"local Dask cluster, {batch} design{'s' if batch > 1 else ''} per task"
+    return f"local Dask cluster, at most {batch} design{'s' if batch > 1 else ''} per call"
 
 
 def configurations(batches: tuple[int, ...]) -> list[Configuration]:
@@ -73,15 +76,18 @@ def run_study(configuration: Configuration, fmu: Path, out: Path, extra: list[st
                          f"{(done.stderr.strip().splitlines() or ['no message'])[-1]}")
     with (out / "evaluations.csv").open() as handle:
         evaluations = sum(1 for _ in csv.DictReader(handle))
-    return Timed(configuration, seconds, evaluations)
+    record = json.loads((out / "results.json").read_text())
+    export = record["steps"].get("optuna_export")
+    return Timed(configuration, seconds, record["wall_seconds"], None if export is None else export["seconds"],
+                 evaluations)
 
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = run.parser(__doc__, quick=f"--budget {QUICK_BUDGET}; Dask at 1 and {DASK_BATCH_DESIGNS} designs per task")
+    parser = run.parser(__doc__, quick=f"--budget {QUICK_BUDGET}; Dask at 1 and {DASK_BATCH_DESIGNS} designs per call")
     add_fmu_option(parser)
     parser.add_argument("--repeats", type=int, default=1, help="runs of each configuration (the fastest counts)")
-    parser.add_argument("--batches", type=int, nargs="+", help="designs per Dask task to measure "
+    parser.add_argument("--batches", type=int, nargs="+", help="the most designs per call to a Dask worker, to measure "
                         f"(default 1 4 {DASK_BATCH_DESIGNS} 64; --quick: 1 {DASK_BATCH_DESIGNS})")
     args = parser.parse_args(argv)
     if args.repeats < 1 or (args.batches and min(args.batches) < 1):
@@ -105,20 +111,27 @@ def main(argv=None) -> int:
     pool = fastest[POOL].seconds
     chosen = fastest[dask_name(DASK_BATCH_DESIGNS)].seconds
     optuna = fastest[OPTUNA].seconds
-    rows = tuple((t.configuration.name, f"{t.seconds:.1f}", f"{t.seconds / pool:.2f}", f"{t.evaluations:,}")
+    rows = tuple((t.configuration.name, f"{t.seconds:.1f}", f"{t.seconds / pool:.2f}", f"{t.study_seconds:.1f}",
+                  "" if t.export_seconds is None else f"{t.export_seconds:.1f}", f"{t.evaluations:,}")
                  for t in fastest.values())
+    exported = fastest[OPTUNA]
     study = "python -m orchestrator.run" + (f" --budget {QUICK_BUDGET}" if args.quick else "")
     page = Page(
         name=run.name, title="What the default study costs with --export-optuna and on Dask",
         headline=(f"default study{f' (--budget {QUICK_BUDGET})' if args.quick else ''}: {pool:.1f} s on the "
                   f"process pool, {optuna:.1f} s with --export-optuna ({optuna / pool:.2f}x), {chosen:.1f} s on a "
-                  f"local Dask cluster at {DASK_BATCH_DESIGNS} designs per task ({chosen / pool:.2f}x)"),
+                  f"local Dask cluster at most {DASK_BATCH_DESIGNS} designs per call ({chosen / pool:.2f}x)"),
         summary=(f"`{study} --fmu FMU --no-progress` in a fresh process per run, timed from start to exit, with "
                  f"{os.cpu_count()} workers (the default: one per core); the fastest of {args.repeats} run"
                  f"{'s' if args.repeats > 1 else ''} of each configuration, the configurations taking turns. The "
-                 f"Dask rows set `{BATCH_VARIABLE}`, the most designs one Dask task carries (the default is "
+                 f"Dask rows set `{BATCH_VARIABLE}`, the most designs one call to a worker carries (the default is "
                  f"{DASK_BATCH_DESIGNS}). Every run made the same {counts.pop():,} evaluations."),
-        tables=(Table(("configuration", "wall s", "x process pool", "evaluations"), rows),),
+        tables=(Table(("configuration", "wall s", "x process pool", "study s", "Optuna export s", "evaluations"),
+                      rows),),
+        notes=(f"Writing the {exported.evaluations:,} trials took {exported.export_seconds:.1f} s of the run with "
+               f"--export-optuna (the export step's own time), {exported.export_seconds / pool:.0%} of the process "
+               "pool's run without it. Wall s: the process from start to exit (with the Dask cluster's start); "
+               "study s: the study's steps alone (results.json's wall_seconds).",),
     )
     write_page(run, page)
     return 0

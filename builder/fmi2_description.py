@@ -10,6 +10,7 @@ from __future__ import annotations
 from builder.rendering import default_experiment, model_summary, render
 from builder.sources import SourceTree
 from fmu_src.variables import DERIVATIVE, INTEGER, LOG_CATEGORIES, REAL, STATE, UNITS, Interface, c_literal
+from scenes import SIZE_ANNOTATION
 
 
 def _number(variable, value) -> str:
@@ -100,6 +101,14 @@ def enumeration_types(interface: Interface) -> list[dict]:
             for v in interface.exposed if v.enumeration]
 
 
+def lattice_size(interface) -> tuple[int, int, int] | None:
+    """The lattice's rows, columns and depth, which its model descriptions declare in an annotation (read back by
+    orchestrator.simulation.declared_lattice_size); None for a component of the armour system, which has no size."""
+    if not isinstance(interface, Interface):
+        return None
+    return interface.rows, interface.cols, interface.depth
+
+
 def co_simulation_capabilities(interface: Interface) -> list[tuple[str, str]]:
     """The <CoSimulation> attributes of a model with inputs: it extrapolates them linearly over a step
     (fmi2SetRealInputDerivatives) and gives its outputs' first derivatives (fmi2GetRealOutputDerivatives)."""
@@ -119,4 +128,5 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
                   sources=sources, units=UNITS, enumerations=enumeration_types(interface),
                   log_categories=LOG_CATEGORIES, experiment=default_experiment(scene), variables=scalars,
                   outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns,
-                  co_simulation_capabilities=co_simulation_capabilities(interface))
+                  co_simulation_capabilities=co_simulation_capabilities(interface),
+                  annotation_tool=SIZE_ANNOTATION, lattice_size=lattice_size(interface))

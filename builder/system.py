@@ -7,9 +7,11 @@ coupling stable with margin.
     port_limits()                    # each port's predicted stability limit of explicit coupling (front, back)
 
 The archive holds SystemStructure.ssd (the components, their connectors, the connections, the step for
-libcosim's and OMSimulator's fixed-step masters) and resources/: the three FMUs and lattice.ssv, the lattice's
-parameter set. It runs in libcosim (`CosimExecution.from_ssp_file`) and in FMPy's `simulate_ssp` (which applies
-no parameter binding: pass the lattice's set as `parameter_set`, named `lattice.` + each name).
+libcosim's and OMSimulator's fixed-step masters), resources/: the three FMUs and lattice.ssv, the lattice's
+parameter set, and OspSystemStructure.xml, the same system in libcosim's own format with the two ports as power
+bonds for its ECCO algorithm. It runs in libcosim (`CosimExecution.from_ssp_file`; unzipped,
+`CosimExecution.from_osp_config_file("OspSystemStructure.xml")` under ECCO) and in FMPy's `simulate_ssp` (which
+applies no parameter binding: pass the lattice's set as `parameter_set`, named `lattice.` + each name).
 """
 from __future__ import annotations
 
@@ -45,18 +47,27 @@ class Connection:
     source_variable: str
     target_component: str
     target_variable: str
+    bond: str | None = None  # the power bond (force one way, velocity the other) it is half of, if any
 
 
 # docs/model.md section 11: the projectile pushes the face, the face's motion drives the contact, the backplate
-# force pushes the hull, the hull carries the backplate.
+# force pushes the hull, the hull carries the backplate. Each port is a power bond: F_front v_front is the power
+# the face takes in, F v the power the hull takes in.
 CONNECTIONS = (
-    Connection("projectile", "contact_force", "lattice", "F_front"),
+    Connection("projectile", "contact_force", "lattice", "F_front", bond="front"),
     Connection("lattice", "x_front", "projectile", "x_front"),
-    Connection("lattice", "v_front", "projectile", "v_front"),
-    Connection("lattice", "backplate_force", "hull", "F"),
+    Connection("lattice", "v_front", "projectile", "v_front", bond="front"),
+    Connection("lattice", "backplate_force", "hull", "F", bond="back"),
     Connection("hull", "x", "lattice", "x_back"),
-    Connection("hull", "v", "lattice", "v_back"),
+    Connection("hull", "v", "lattice", "v_back", bond="back"),
 )
+OSP_NAME = "OspSystemStructure.xml"  # libcosim's own system structure, for its ECCO algorithm
+# ECCO's settings in OSP_NAME: its step starts at the system's step and may go ECCO_STEP_RANGE times shorter or
+# longer; the others are libcosim's own defaults (libcosimpy's EccoParams).
+ECCO_STEP_RANGE = 10.0
+ECCO_DEFAULTS = (("SafetyFactor", 0.8), ("MinimumChangeRate", 0.01), ("MaximumChangeRate", 0.2),
+                 ("ProportionalGain", 0.2), ("IntegralGain", 0.15), ("RelativeTolerance", 1e-4),
+                 ("AbsoluteTolerance", 1e-4))
 COMPONENTS = ("projectile", "lattice", "hull")
 # Each component's outputs declared as connectors (the connected ones and those a master records: FMPy's
 # simulate_ssp returns the connectors' values only), for the peaks and the system's energy balance.
@@ -185,11 +196,20 @@ def build_system(output: str | os.PathLike | None = None, werror: bool = False,
                      components=_components(sources), connections=CONNECTIONS, oms=OMS, osp=OSP,
                      step_size=repr(step), stop_time=repr(STOP_TIME))
         ssv = render("armour_system_ssv.xml", name="lattice", parameters=lattice_parameters())
+        osp = render("armour_system_osp.xml", step_size=repr(step),
+                     components=[{"name": name, "source": sources[name],
+                                  "parameters": lattice_parameters() if name == "lattice" else ()}
+                                 for name in COMPONENTS],
+                     connections=sorted(CONNECTIONS, key=lambda c: (c.bond is None, c.bond or "")),
+                     ecco=(("StepSize", repr(step)), ("MinimumStepSize", repr(step / ECCO_STEP_RANGE)),
+                           ("MaximumStepSize", repr(step * ECCO_STEP_RANGE)),
+                           *((name, repr(value)) for name, value in ECCO_DEFAULTS)))
         output.parent.mkdir(parents=True, exist_ok=True)
         partial = output.with_suffix(".ssp.partial")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as archive:
             archive.writestr(SSD_NAME, ssd)
             archive.writestr(LATTICE_PARAMETER_SET, ssv)
+            archive.writestr(OSP_NAME, osp)
             for name, path in fmus.items():
                 archive.write(path, sources[name])
         partial.replace(output)

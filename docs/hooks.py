@@ -48,6 +48,7 @@ def variable_tables(scene_name: str = "armour_11x11") -> str:
     lines = [f"The default FMU is the scene `{scene.name}`: a lattice of {interface.rows} rows by {interface.cols} "
              "columns. Arrays are written with their first and last element; in FMI 2 each element is a scalar "
              "variable of its own. A range in brackets includes its end, in parentheses excludes it.", ""]
+    lines += code_table(interface)
     for causality, heading in headings.items():
         lines += [f"## {heading}", "", "| name | type | unit | range | default | description |",
                   "|---|---|---|---|---|---|"]
@@ -58,6 +59,30 @@ def variable_tables(scene_name: str = "armour_11x11") -> str:
                   "These parameters of the model are constants of the default FMU (another scene may expose them): "
                   + ", ".join(f"`{v.name}` = {start_text(v.start)}" for v in interface.fixed) + ".", ""]
     return "\n".join(lines)
+
+
+def code_table(interface) -> list[str]:
+    """Every parameter set by a code: each Enumeration's items (FMPy sets an FMI 3 Enumeration only by its code,
+    and FMI 2 declares them Integers), and the Integer switches whose few values have meanings."""
+    lines = ["## Codes", "", ("Every parameter a tool sets by a code, with what each code means (an Enumeration "
+                              "takes its item's code in every importer: FMPy sets an FMI 3 Enumeration only by its "
+                              "code)."), "",
+             "| name | type | code: meaning | default |", "|---|---|---|---|"]
+    fixed = {variable.name for variable in interface.fixed}
+    for variable in interface.exposed + interface.fixed:
+        if variable.causality != "parameter" or variable.size is not None:
+            continue
+        if variable.enumeration:
+            codes = "; ".join(f"`{code}` {name}: {meaning}" for code, (name, meaning) in enumerate(variable.items))
+            kind = f"Enumeration `{variable.enumeration}`"
+        elif variable.allowed and variable.type != "Real" and variable.maximum is not None \
+                and variable.minimum is not None and variable.maximum - variable.minimum <= 5:
+            codes, kind = variable.allowed, variable.type
+        else:
+            continue
+        default = start_text(variable.start) + (" (compiled in by this scene)" if variable.name in fixed else "")
+        lines.append(f"| `{variable.name}` | {cell(kind)} | {cell(codes)} | {default} |")
+    return lines + [""]
 
 
 def row(variable) -> str:

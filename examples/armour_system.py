@@ -31,8 +31,8 @@ import numpy as np
 from lxml import etree
 
 from builder.build import MODELS_DIR
-from builder.system import (COMPONENTS, CONNECTIONS, LATTICE_PARAMETER_SET, RECORDED_OUTPUTS, SSD_NAME, SYSTEM,
-                            build_system, port_limits)
+from builder.system import (COMPONENTS, CONNECTIONS, ECCO_STEP_RANGE, LATTICE_PARAMETER_SET, OSP_NAME,
+                            RECORDED_OUTPUTS, SSD_NAME, SYSTEM, build_system, port_limits)
 
 NANOSECONDS = 1_000_000_000
 SCHEMES = ("jacobi", "gauss-seidel")  # this example's own master loop (run_loop)
@@ -40,8 +40,6 @@ MASTERS = ("libcosim", "fmpy", "libcosim-ecco", *SCHEMES)
 # ECCO's power bonds: (component, its output, its input) at either end, velocity against force.
 POWER_BONDS = ((("lattice", "v_front", "F_front"), ("projectile", "contact_force", "v_front")),
                (("lattice", "backplate_force", "v_back"), ("hull", "v", "F")))
-# How far ECCO may take its step from the start step, either way.
-ECCO_STEP_RANGE = 10.0
 HULL_PARAMETERS = ("m", "k", "c")
 OBSERVED = RECORDED_OUTPUTS
 
@@ -206,8 +204,9 @@ def run_loop(ssp: str | Path, horizon: float, step: float | None = None, hull: d
 def run_libcosim_ecco(ssp: str | Path, horizon: float, step: float | None = None,
                       hull: dict[str, float] | None = None) -> SystemRun:
     """The system in libcosim under its ECCO algorithm (energy-conservation-based step control over the two
-    power bonds: the front port's F_front and v_front, the back port's backplate force and v_back), starting
-    from `step`; the outputs at the end only, since its steps are its own."""
+    power bonds: the front port's F_front and v_front, the back port's backplate force and v_back), built here
+    as the system file's OspSystemStructure.xml sets it up, starting from `step` (None: the system's); the
+    outputs at the end only, since its steps are its own."""
     from fmpy.ssp.ssd import read_ssd
     from libcosimpy.CosimAlgorithm import CosimAlgorithm, EccoParams
     from libcosimpy.CosimExecution import CosimExecution
@@ -253,6 +252,35 @@ def run_libcosim_ecco(ssp: str | Path, horizon: float, step: float | None = None
         for name, outputs in OBSERVED.items():
             row += observer.last_real_values(indices[name], [references[name][o] for o in outputs])
     return _run("libcosim-ecco", step, [row])
+
+
+def run_libcosim_ecco_from_osp(ssp: str | Path, horizon: float, hull: dict[str, float] | None = None) -> SystemRun:
+    """The system under libcosim's ECCO as libcosim reads it from its own system structure, the system file's
+    OspSystemStructure.xml. libcosimpy 0.0.6's parser refuses a system of two power bonds ("The number of
+    powerbonds (1) is not equal to the number of unique power bond names (2)", a check libcosim made inside its
+    loop over the bonds): run_libcosim_ecco builds the same execution through the API."""
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+
+    log_output_level(CosimLogLevel.ERROR)
+    with tempfile.TemporaryDirectory(prefix="armour_system_") as folder:
+        with zipfile.ZipFile(ssp) as archive:
+            archive.extractall(folder)
+        execution = CosimExecution.from_osp_config_file(str(Path(folder) / OSP_NAME))
+        indices = {name: execution.slave_index_from_instance_name(name) for name in OBSERVED}
+        references = {name: {v.name.decode(): v.reference for v in execution.slave_variables(index)}
+                      for name, index in indices.items()}
+        for name, value in (hull or {}).items():
+            execution.real_initial_value(indices["hull"], references["hull"][name], float(value))
+        observer = CosimObserver.create_last_value()
+        execution.add_observer(observer)
+        if not execution.simulate_until(target_time=round(horizon * NANOSECONDS)):
+            raise RuntimeError(f"libcosim's ECCO failed before t = {horizon:g} s: {execution.status()}")
+        row = [horizon]
+        for name, outputs in OBSERVED.items():
+            row += observer.last_real_values(indices[name], [references[name][o] for o in outputs])
+    return _run("libcosim-ecco", system_step(ssp), [row])
 
 
 def _run(master: str, step: float, rows: list[list[float]]) -> SystemRun:

@@ -1,5 +1,5 @@
 """The variable table of a small model folder (fmu_src/projectile/, fmu_src/hull/): the one source of its names,
-causalities, units, defaults, ranges, value references and output dependencies, for its C header and both
+causalities, units, defaults, ranges, value references and outputs' input dependencies, for its C header and both
 model descriptions, as fmu_src/variables.py is the lattice's.
 
 A table answers what builder/fmi2_description.py and builder/fmi3_description.py ask of the lattice's Interface
@@ -12,7 +12,7 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
-from fmu_src.variables import DERIVATIVE, INDICATOR, STATE, Variable
+from fmu_src.variables import INDICATOR, STATE, Variable
 
 # The model folders of fmu_src/ that carry a ComponentTable (as TABLE in their variables.py).
 COMPONENT_MODELS = ("projectile", "hull")
@@ -70,9 +70,6 @@ class ComponentTable:
                 return variable
         raise KeyError(f"{self.identifier} has no variable {name!r}; its variables: "
                        f"{', '.join(v.name for v in self.variables)}")
-
-    def derivatives(self) -> list[Variable]:
-        return [v for v in self.variables if v.role == DERIVATIVE]
 
 
 def component_table(model: str) -> ComponentTable:

@@ -28,8 +28,9 @@ EXECUTORS = ("serial", "process", "dask")
 LOCAL_CLUSTER_START = 120.0  # s a local Dask cluster may take to start all its workers
 # The most designs one call to a Dask worker carries; bench.study_costs measures the default study at several
 # sizes (its page has the figures).
-DASK_BATCH_DESIGNS = 16
+DASK_BATCH_DESIGNS = 64
 WORKERS_REFRESH = 2.0  # s between two looks for workers that joined or left the cluster
+ACTOR_START = 60.0  # s a worker may take to start its actor
 BATCH_VARIABLE = "LATTICE_DASK_BATCH"  # another batch size, for bench.study_costs's measurement of it
 # The process pool's start method: unset, the platform's default (spawn on Windows and macOS); set to spawn on
 # Linux, the whole test suite runs the way a Windows or macOS user's runs do (every task and argument pickled).
@@ -349,18 +350,26 @@ class DaskActors(Executor):
         return max(1, len(self._actors))
 
     def _refresh(self) -> None:
-        """An actor on every worker of the cluster, none on a worker that left (called with the lock held)."""
+        """An actor on every worker of the cluster, none on a worker that left. It asks the scheduler (through
+        the client's event loop), so it runs without the lock: the loop takes the lock when a call returns."""
         from .dask_plugin import TaskRunner
 
-        self._looked = time.monotonic()
-        workers = set(self._client.scheduler_info()["workers"])
-        for address in [a for a in self._actors if a not in workers]:
-            self._drop(address)
-        for address in sorted(workers - set(self._actors)):
+        workers = set(self._client.scheduler_info(n_workers=-1)["workers"])
+        with self._lock:
+            self._looked = time.monotonic()
+            for address in [a for a in self._actors if a not in workers]:
+                self._drop(address)
+            joined = sorted(workers - set(self._actors))
+        for address in joined:
             holder = self._client.submit(TaskRunner, actor=True, workers=[address], pure=False)
-            self._actors[address] = holder.result()
-            self._holders[address] = holder
-            self._outstanding[address] = 0
+            try:
+                actor = holder.result(timeout=ACTOR_START)
+            except TimeoutError:  # the worker left meanwhile: the next look drops it
+                continue
+            with self._lock:
+                self._actors[address] = actor
+                self._holders[address] = holder
+                self._outstanding[address] = 0
 
     def _drop(self, address: str) -> None:
         self._actors.pop(address, None)
@@ -371,9 +380,9 @@ class DaskActors(Executor):
         """The actor with the fewest calls outstanding (not the one at ``avoid`` while there is another); with
         ``look``, first a look for workers that joined or left when one is due (it asks the scheduler: never
         on the client's event loop)."""
+        if look and (time.monotonic() - self._looked > WORKERS_REFRESH or not self._actors):
+            self._refresh()
         with self._lock:
-            if look and (time.monotonic() - self._looked > WORKERS_REFRESH or not self._actors):
-                self._refresh()
             choices = [a for a in self._actors if a != avoid] or list(self._actors)
             if not choices:
                 raise RuntimeError("the Dask cluster has no worker left")
@@ -425,13 +434,13 @@ class DaskActors(Executor):
 
 
 def dask_batch_size() -> int:
-    """The most designs one Dask task carries: ``LATTICE_DASK_BATCH`` when set (a positive integer), else
+    """The most designs one call to a Dask worker carries: ``LATTICE_DASK_BATCH`` when set (a positive integer), else
     ``DASK_BATCH_DESIGNS``."""
     given = os.environ.get(BATCH_VARIABLE, "").strip()
     if not given:
         return DASK_BATCH_DESIGNS
     if not given.isdigit() or int(given) < 1:
-        raise ValueError(f"{BATCH_VARIABLE}={given!r}: give a positive integer (designs per Dask task)")
+        raise ValueError(f"{BATCH_VARIABLE}={given!r}: give a positive integer (designs per call to a Dask worker)")
     return int(given)
 
 

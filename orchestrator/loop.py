@@ -10,8 +10,8 @@ design) through one Executor and guards them:
 - *Journal*: each finished result is appended as it arrives (time-outs and a task's own transient failures
   are not: they run again on resume).
 - *Bounded work in flight*: at most two submissions per worker at a time.
-- *Batches*: on an executor with a ``batch_size`` above one (Dask: each submission is a round trip to its
-  scheduler), the designs pulled together go as ``TaskBatch`` submissions of up to ``batch_size`` designs,
+- *Batches*: on an executor with a ``batch_size`` above one (Dask: each submission is a round trip to a
+  worker), the designs pulled together go as ``TaskBatch`` submissions of up to ``batch_size`` designs,
   spread over the workers; each design is still cached and journalled on its own, and its time limit is its
   batch's share.
 - *Time limit*: counted from when a task starts in its worker, never from its submission: the process pool
@@ -164,10 +164,9 @@ class Evaluator:
                     submit(_Flight("", TaskBatch(tuple(m.task for m in members)), 0, 0.0, members=members))
 
         while True:
-            pending: list[_Flight] = []
-            limit = 2 * self._slots * self._batch  # tasks in flight
-            while (not exhausted and not alone
-                   and sum(f.tasks for f in flights.values()) + len(pending) < limit):
+            pending: list[_Flight] = []  # designs pulled for batches: up to batch_size per submission
+            while (not exhausted and not alone and len(flights) < 2 * self._slots
+                   and len(pending) < 2 * self._slots * self._batch):
                 try:
                     index, task = next(source)
                 except StopIteration:

@@ -14,9 +14,15 @@ OUT.partial/journal.jsonl for --resume.
 """
 from __future__ import annotations
 
-import argparse
-import signal
+import os
 import sys
+
+if __name__ == "__main__":  # run as `python orchestrator/run.py`: import from the checkout's root, so that this
+    # folder's modules (types.py) do not stand in for the standard library's of the same name
+    sys.path[0] = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+import argparse  # noqa: E402
+import signal  # noqa: E402
 
 EXIT_OK, EXIT_USAGE, EXIT_NO_RESULT = 0, 2, 3
 
@@ -25,13 +31,8 @@ class Interrupted(BaseException):
     """SIGTERM, handled like Ctrl-C (a BaseException, so no evaluation guard swallows it)."""
 
 
-class Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # one line, exit 2 (argparse's own words, without the usage block)
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
-
-
 def build_parser():
-    from orchestrator.options import add_options
+    from orchestrator.options import Parser, add_options
     from orchestrator.runner import RunConfig
     from orchestrator.steps import STEPS
     from orchestrator.study import CaseConfig
@@ -119,6 +120,18 @@ def front_sureness_line(sureness) -> str:
     return f"best found{ends}; {sureness.settle}"
 
 
+def parameters_line(answer, study) -> str:
+    """The answer as the start values to type into any FMI tool, and what the FMU does without them."""
+    from orchestrator.report import rule_default_note
+
+    note = rule_default_note(study, answer)
+    cases = study.case.cases
+    each = (f", with each load case of {', '.join(f'{name} = {values}' for name, values in cases.items())} "
+            f"(the value is the {study.case.aggregate} of their runs)") if cases else ""
+    return (f"in any FMI tool: {answer.start_values_text()}{each}, stop time {study.case.horizon:g} s"
+            + (f" ({note})" if note else ""))
+
+
 def print_answer(outcome) -> None:
     """The answer in a few lines, as the report's first screen gives it."""
     from orchestrator.report import case_line
@@ -132,15 +145,13 @@ def print_answer(outcome) -> None:
         other = "".join(f", {v:.2f} {unit} under the {r} rule" for r, v in answer.values_by_rule.items()
                         if r != answer.diagonal_rule and v is not None)
         evidence = answer.evidence
-        local = {None: "local optimum not checked", True: "a local optimum", False: "not a local optimum"}
         role = f" ({'; '.join(answer.roles)})" if answer.roles else ""
         status = evidence.status.replace("_", " ")
         if evidence.status != "best_found" and evidence.covers:
             status += f" for {evidence.covers}"
-        runs = ("every design swept" if evidence.swept and not evidence.runs else
-                f"{'only ' if evidence.few_runs else ''}{evidence.runs_reaching} of {evidence.runs} runs reached it")
         print(f"{answer.diagonal_rule} rule{role}: build {list(answer.order)}: {answer.peak:.2f} {unit}{other}; "
-              f"{status}, {runs}, {local[evidence.local_optimum]}; {answer.design_file}")
+              f"{status}, {evidence.origin()}, {evidence.local_text()}; {answer.design_file}")
+        print(f"  {parameters_line(answer, study)}")
         if evidence.settlement is not None:
             print(f"  {evidence.settlement.line()}")
         same = answer.equivalence
@@ -158,11 +169,37 @@ def print_answer(outcome) -> None:
         print(f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front "
               f"({front_sureness_line(front.sureness)}); "
               + "; ".join(f"{c.label} {list(c.order)} ({c.design_file})" for c in front.chosen))
+    from orchestrator.steps.pareto import BEST_DESIGN_FILE, best_design
+
+    best = best_design(study)
+    if best is not None:
+        print(f"{BEST_DESIGN_FILE}: the knee of the {best.diagonal_rule} rule's front, {list(best.order)}")
     exported = study.result(OptunaExport)
     if exported is not None and exported.error is None:
         print(f"optuna: {sum(s.trials for s in exported.studies)} trials in {exported.storage} (studies "
               + ", ".join(repr(s.name) for s in exported.studies) + f"): optuna-dashboard {exported.storage}")
+    for line in cost_lines(study):
+        print(line)
     print(f"report: {outcome.report}")
+
+
+def cost_lines(study) -> list[str]:
+    """What the run simulated, step by step, and each step that simulated more than the searches (what --budget
+    bounds) with why and the option that bounds it; nothing when no search ran."""
+    from orchestrator.steps import Exhaustive, Searches
+
+    searches = next((cost for cost in study.costs if cost.step == Searches.name), None)
+    if searches is None:
+        return []
+    total = sum(cost.simulated for cost in study.costs)
+    swept = any(cost.step == Exhaustive.name and cost.simulated for cost in study.costs)
+    unit = "tasks (an FMU run each, a sweep's chunk one)" if swept else "FMU runs"
+    lines = [f"simulated: {total:,} {unit}: " + ", ".join(
+        f"{cost.step.replace('_', ' ')} {cost.simulated:,}" for cost in study.costs if cost.simulated)]
+    lines += [f"  {cost.step.replace('_', ' ')}: {cost.simulated:,} {'tasks' if swept else 'FMU runs'}, more than "
+              f"the searches' {searches.simulated:,} (--budget): {cost.note}"
+              for cost in study.costs if cost is not searches and cost.simulated > searches.simulated and cost.note]
+    return lines
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ from .objective import (AGGREGATES, SEARCH_HORIZON, SEARCH_RTOL, LatticeObjectiv
                         expand_cases)
 from .options import check_options, given, integer, number, option
 from .progress import Progress
+from .scene import ResolvedScene, check_load_patch
 
 MAX_HORIZON = 3600.0  # s: a longer horizon is refused (one evaluation must end)
 MAX_RUNS_PER_DESIGN = 1000  # FMU runs per design (the product of --case) beyond which --confirm-cost is needed
@@ -100,25 +101,6 @@ class CaseConfig:
             raise ValueError("--aggregate: only with --case (there is one case to aggregate)")
 
 
-def departures_from_the_study(fmu: PreparedFMU) -> tuple[str, ...]:
-    """The FMU's scalar parameters whose defaults are not those of the study's own scene (DEFAULT_SCENE), the
-    diagonal rule aside (each rule is a case of its own): whatever a known optimum of the study says, it was not
-    found for such an FMU."""
-    study = Scene.load(DEFAULT_SCENE).parameter_values()
-    departures = []
-    for name, parameter in fmu.parameters.items():
-        value = study.get(name)
-        if name == "diagonal_rule" or isinstance(value, (list, tuple)):
-            continue
-        try:
-            same = value is not None and parameter.value(parameter.start) == parameter.value(value)
-        except ValueError:
-            same = False
-        if not same:
-            departures.append(name)
-    return tuple(departures)
-
-
 @dataclass(frozen=True)
 class Case:
     """The user's case, resolved against the FMU: every value checked, the defaults filled in, the parameters
@@ -165,13 +147,15 @@ class Case:
         objective = self.objective(fmu, self.rules[0] if self.rules else None).describe()
         shown = {name: self.parameters.get(name, fmu.start(name))
                  for name in ("F_total", "load_angle", "t_active", "load_patch") if name in fmu.parameters}
+        rule_parameter = fmu.parameters.get("diagonal_rule")
         return CaseDescription(scene=self.scene, rows=self.rows, columns=self.columns, space=self.space.describe(),
                                design_kind=self.space.kind, design_count=self.space.size,
                                materials=tuple(self.materials.rows()), rules=self.rules, objective=objective,
                                load=shown, parameters=dict(self.parameters),
                                cases={k: list(v) for k, v in self.case_lists.items()},
                                aggregate=self.aggregate if self.case_lists else None, horizon=self.horizon,
-                               depth=self.depth)
+                               depth=self.depth, rule_default=self.rule_default,
+                               rule_codes=dict(rule_parameter.items) if rule_parameter else {})
 
 
 @dataclass(frozen=True)
@@ -193,6 +177,8 @@ class CaseDescription:
     aggregate: str | None
     horizon: float
     depth: int = 1
+    rule_default: str = ""  # the FMU's own default diagonal rule (what it runs when diagonal_rule is not set)
+    rule_codes: dict[str, int] = field(default_factory=dict)  # each diagonal rule's code in the FMU
 
     def loaded_faces(self) -> tuple[LoadedFace, ...]:
         """The masses of column 1's face the load pushes: under the case's load_patch, or under each of its load
@@ -236,8 +222,10 @@ NOT_CASE_PARAMETERS = {"peak_force_limit": "the searches set it (their force lim
                        "repeat_materials": "it is the design space (--repeat)"}
 
 
-def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: MaterialTable) -> Case:
-    """The case of ``config`` on ``fmu``: each value checked against the model description."""
+def resolve_case(config: CaseConfig, resolved: ResolvedScene) -> Case:
+    """The case of ``config`` on the scene and FMU ``orchestrator.scene.resolve`` found for it: each value checked
+    against the model description."""
+    scene, fmu, materials = resolved.scene, resolved.fmu, resolved.table
     if fmu.columns < 2:
         raise ValueError(f"{fmu.path.name} has {fmu.columns} column(s) with a material parameter: there is no "
                          "material order to search (give a scene with a material per column)")
@@ -247,11 +235,8 @@ def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: Materia
         if value is not None:
             if name not in fmu.parameters:
                 raise ValueError(f"{option_name}: {fmu.path.name} has no parameter {name}")
-            if name == "load_patch" and value != 0 and (value % 2 == 0 or scene.rows % 2 == 0
-                                                        or scene.depth % 2 == 0):
-                raise ValueError(f"{option_name} {value}: allowed 0 (the whole face) or an odd P <= min(rows, "
-                                 f"depth) = {min(scene.rows, scene.depth)}, with an odd number of rows and of "
-                                 f"layers (rows {scene.rows}, depth {scene.depth})")
+            if name == "load_patch":
+                check_load_patch(option_name, scene, value)
             parameters[name] = fmu.parameters[name].convert(value, option_name)
     case_lists: dict[str, tuple[Any, ...]] = {}
     allowed = sorted(n for n in fmu.parameters if n not in NOT_CASE_PARAMETERS)
@@ -297,7 +282,7 @@ def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: Materia
     if config.repeat:
         parameters["repeat_materials"] = 1
     return Case(scene=scene.name, rows=scene.rows, columns=fmu.columns, materials=materials, space=space,
-                departures=departures_from_the_study(fmu),
+                departures=resolved.departures,
                 outputs=outputs, rules=rules, rule_default=rule_default, parameters=parameters,
                 case_lists=case_lists, aggregate=config.aggregate or "worst", horizon=horizon,
                 search_horizon=config.search_horizon or None, search_rtol=config.search_rtol or None,
@@ -369,6 +354,11 @@ class Step:
         """What this step's ``result`` (None: the step did not run) says of the study's answer."""
         return SILENT
 
+    def cost_note(self, context: "StudyContext") -> str:
+        """Why this step simulates what it does, once it ran, and the option that bounds it (the console says
+        it when the step simulates more than the searches)."""
+        return ""
+
 
 @dataclass
 class StudyContext:
@@ -403,8 +393,23 @@ class StudyContext:
         step = next((s for s in self.steps if isinstance(s, step_type)), None)
         return step.config if step is not None else step_type.Config()
 
+    def options(self, config_type: type):
+        """The options of type ``config_type`` this run was given (its defaults when no step takes them): what a
+        step reads of a later step's options without importing that step."""
+        return next((s.config for s in self.steps if isinstance(s.config, config_type)), config_type())
+
     def given(self, step_type: type) -> frozenset[str]:
         return given(self.config(step_type))
+
+
+@dataclass(frozen=True)
+class StepCost:
+    """What one step simulated: the evaluator's tasks (an FMU run each; a sweep's chunk is one), and why."""
+
+    step: str  # the step's name
+    title: str
+    simulated: int
+    note: str
 
 
 @dataclass(frozen=True)
@@ -418,6 +423,7 @@ class StudyResult:
     evaluator: EvaluatorState
     wall_seconds: float
     run_id: str
+    costs: tuple[StepCost, ...] = ()  # each step that ran, in order
 
     def result(self, step_type: type) -> Any:
         """The result of the step of that type, or None when it did not run."""
@@ -442,16 +448,20 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
     """Every step that applies, in order."""
     start = time.perf_counter()
     results = {}
+    costs = []
     replaced = {other for step in context.steps for other in step.replaces(context)}
     for step in context.steps:
         if type(step) in replaced or not step.applies(context):
             continue
+        simulated = context.evaluator.state().simulated
         result = step.run(context)
         context.results[type(step)] = result
         results[type(step)] = result
+        costs.append(StepCost(step.name, step.title, context.evaluator.state().simulated - simulated,
+                              step.cost_note(context)))
     return StudyResult(context.case.describe(context.fmu), str(context.fmu.path), context.fmu.sha256, results,
-                       context.evaluator.state(), time.perf_counter() - start, run_id)
+                       context.evaluator.state(), time.perf_counter() - start, run_id, tuple(costs))
 
 
 __all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "MAX_HORIZON", "MAX_RUNS_PER_DESIGN", "NoOptions",
-           "SILENT", "Step", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]
+           "SILENT", "Step", "StepCost", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]

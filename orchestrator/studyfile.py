@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import jinja2
+from builder.rendering import environment
 
 from .options import NO_NUMBER, NOT_KEPT, flag_of
 
@@ -189,9 +189,7 @@ def file_hashes(configs: dict[type, Any]) -> list[tuple[str, str]]:
 
 
 def render_study_file(configs: dict[type, Any], folder: Path, materials_sha256: str, fmu_sha256: str) -> str:
-    env = jinja2.Environment(autoescape=False, trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
-                             undefined=jinja2.StrictUndefined)
-    return env.from_string(TEMPLATE).render(
+    return environment().from_string(TEMPLATE).render(
         format=FORMAT, name=STUDY_FILE, sections=study_lines(configs, folder), recorded=RECORDED,
         materials_sha256=_toml(materials_sha256), fmu_sha256=_toml(fmu_sha256), file_hashes=file_hashes(configs))
 
@@ -269,7 +267,9 @@ def _parse(meta: dict, key: str, value: Any) -> Any:
             raise ValueError(f"must be true or false (true: the flag {flag} is given), got {_toml_or_repr(value)}")
         return (not value) if action == "store_false" else value
     if action == "append" or meta["nargs"] in ("+", "*") or isinstance(meta["nargs"], int):
-        items = value if isinstance(value, list) else None
+        one = meta["nargs"] in ("+", "*", 1) or action == "append"  # a single value stands for a list of one
+        items = value if isinstance(value, list) else [value] if one and not isinstance(value, (dict, bool)) \
+            else None
         if items is None or (meta["nargs"] == "+" and not items):
             raise ValueError(f"must be a list of values, e.g. [\"a\", \"b\"], got {_toml_or_repr(value)}")
         parsed = [_scalar(meta, flag, item) for item in items]

@@ -54,12 +54,12 @@ class EvaluateDesign:
     def keep(self, result: Any) -> bool:
         return True
 
-    batchable = True  # a design's run is short: several go to a Dask worker as one TaskBatch
+    batchable = True  # a design's run is short: several go to a Dask worker in one call, as a TaskBatch
 
 
 @dataclass(frozen=True)
 class TaskBatch:
-    """Several short tasks as one submission (a Dask task costs a round trip to the scheduler): the list of
+    """Several short tasks as one submission (a call to a Dask worker costs a round trip): the list of
     their results, each as ``run_task`` gives it. The Evaluator caches and journals each member on its own."""
 
     tasks: tuple[Any, ...]

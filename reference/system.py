@@ -432,12 +432,15 @@ class SystemModel:
 class EnergyTerms:
     """Sections 7 and 11 at the horizon (J).
 
-    The lattice alone: ``front_work - back_work + nonreciprocal_work = lattice_kinetic + lattice_potential +
-    lattice_dissipation``. The whole system adds the projectile (its initial kinetic energy in; its kinetic
-    energy, the contact potential ``k_c δ^(n+1)/(n+1)`` and the contact's dissipation out) and the hull (its
-    kinetic and spring energy and its dissipation out; the back port's work then stays inside the system).
+    The lattice alone: ``lattice_initial_potential + front_work - back_work + nonreciprocal_work =
+    lattice_kinetic + lattice_potential + lattice_dissipation`` (the initial potential: a wall given at
+    ``x_back(0) < -g`` starts pressed into the lattice). The whole system adds the projectile (its initial kinetic
+    energy in; its kinetic energy, the contact potential ``k_c δ^(n+1)/(n+1)`` and the contact's dissipation out)
+    and the hull (its kinetic and spring energy and its dissipation out; the back port's work then stays inside the
+    system).
     """
 
+    lattice_initial_potential: float
     lattice_kinetic: float
     lattice_potential: float
     lattice_dissipation: float
@@ -459,15 +462,17 @@ class EnergyTerms:
     @property
     def lattice_error(self) -> float:
         """Section 11's balance of the lattice alone (J)."""
-        return (self.front_work - self.back_work + self.nonreciprocal_work
+        return (self.lattice_initial_potential + self.front_work - self.back_work + self.nonreciprocal_work
                 - self.lattice_kinetic - self.lattice_potential - self.lattice_dissipation)
 
     @property
     def energy_in(self) -> float:
-        """What enters the whole system from outside (J): the projectile's initial kinetic energy or the front
-        port's work, the non-reciprocal work, minus the work given to a prescribed back port."""
+        """What enters the whole system from outside (J): the energy stored at the start (the projectile's
+        kinetic, the lattice's potential), the front port's work, the non-reciprocal work, minus the work given
+        to a prescribed back port."""
         given = self.projectile_initial_kinetic if self.with_projectile else self.front_work
-        return given + self.nonreciprocal_work - (0.0 if self.with_hull else self.back_work)
+        back = 0.0 if self.with_hull else self.back_work
+        return self.lattice_initial_potential + given + self.nonreciprocal_work - back
 
     @property
     def system_error(self) -> float:
@@ -599,6 +604,7 @@ def simulate_system(scene: SystemScene, horizon: float = 8.0, sample_interval: f
     if pr is not None and values[model.touch] == 0.0:
         modes[model.touch] = pr.speed > 0
     modes[W:2 * W] &= modes[:W]
+    initial_potential = model.stored_energies(0.0, z, modes, phases[0][2])[1]
 
     times = sample_times(horizon, sample_interval)
     series = {name: np.full(times.size, np.nan) for name in
@@ -703,7 +709,7 @@ def simulate_system(scene: SystemScene, horizon: float = 8.0, sample_interval: f
     stored = model.stored_energies(horizon, z, modes, phase)
     integral = dict(zip(SystemModel.INTEGRALS, (float(x) for x in z[model.I:])))
     energy = EnergyTerms(
-        lattice_kinetic=stored[0], lattice_potential=stored[1],
+        lattice_initial_potential=initial_potential, lattice_kinetic=stored[0], lattice_potential=stored[1],
         lattice_dissipation=integral["lattice_dissipation"], nonreciprocal_work=integral["nonreciprocal_work"],
         front_work=integral["front_work"], back_work=integral["back_work"],
         projectile_initial_kinetic=0.5 * pr.mass * pr.speed ** 2 if pr is not None else 0.0,

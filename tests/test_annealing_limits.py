@@ -13,6 +13,8 @@ from orchestrator.search.base import FAILURE
 from orchestrator.types import Above
 from problems import QuadraticAssignment, designs_of, search_run
 
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 QAP8 = QuadraticAssignment.random(8, 1)
 
 

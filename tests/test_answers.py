@@ -62,7 +62,8 @@ def test_a_known_optimum_is_looked_up_per_rule(tmp_path, monkeypatch):
     assert known_optimum(SimpleNamespace(**{**case.__dict__, "departures": ("load_patch",)}), "mean") is None
 
 
-def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(armour_fmu_of_width, tmp_path, monkeypatch, capfd):
+def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(armour_fmu_of_width, tmp_path,
+                                                                            monkeypatch, capfd):
     """A recorded mean-rule optimum (the brute force of a small case, as the 11 x 11 one will be recorded) makes
     the mean answer certified although the searches are too short to reach it; the receiver rule, with no
     entry, is the study's model beside it, best found, with what would settle it."""
@@ -87,6 +88,10 @@ def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(arm
     assert tuple(mean["runner_up"]) == ranked[1][0]
     assert mean["equivalence"]["runner_up_outputs"] is not None  # the runner-up evaluated, not read from the table
     assert receiver["evidence"]["status"] == "best_found"
+    for answer in (mean, receiver):  # no run reached it on its own: it came from elsewhere, and the line says where
+        found_by = answer["evidence"]["found_by"]
+        assert (found_by == "the searches' runs") == (answer["evidence"]["runs_reaching"] > 0)
+        assert found_by == "the searches' runs" or f"found by {found_by};" in printed
     lines = printed.splitlines()
     first = next(i for i, line in enumerate(lines) if line.startswith("mean rule (your design file): build"))
     assert "certified for the sampled peak (0.01 s samples)" in lines[first]
@@ -94,7 +99,8 @@ def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(arm
     evidence = receiver["evidence"]
     assert 2 * evidence["runs_reaching"] < evidence["runs"] == 4
     settle = evidence["settlement"]
-    assert settle["budget"] == 10 and settle["sweep"]["designs"] == 24 and settle["sweep"]["designs_per_core_second"] > 0
+    assert settle["budget"] == 10 and settle["sweep"]["designs"] == 24
+    assert settle["sweep"]["designs_per_core_second"] > 0
     assert "to settle it: `--budget 10`" in printed and "`--method exhaustive`" in printed
     html = (out / "report.html").read_text()
     first_screen = html[:html.index("</table>")]
@@ -132,6 +138,7 @@ def outputs(sampled, continuous):
                        "peak_time": 0.3, "last_contact_time": 1.0}, 8.0)
 
 
+@pytest.mark.quick
 def test_a_runner_up_closer_than_sampling_decides_is_equivalent():
     close = Equivalence(gap=0.0066, sampling=9.6, integration=1e-3, runner_up_outputs=outputs(1405.91, 1415.44))
     assert close.equivalent and "less than the 9.60 N between the sampled and the continuous peak" in close.reason("N")
@@ -141,6 +148,25 @@ def test_a_runner_up_closer_than_sampling_decides_is_equivalent():
     assert within_integration.equivalent and "integration error" in within_integration.reason("m")
 
 
+@pytest.mark.quick
+def test_the_evidence_says_where_an_answer_came_from_before_counting_the_runs():
+    """A certified answer the final descent found, which no run reached on its own, says so: "certified ... 0 of 9
+    runs reached it" alone would read as a contradiction."""
+    from orchestrator.steps.answers import FOUND_BY_DESCENT, FOUND_BY_KNOWN
+
+    descended = Evidence(0, 9, True, "certified", "", found_by=FOUND_BY_DESCENT).origin()
+    assert descended == "found by the final descent from the runs' best; 0 of 9 runs reached it on their own"
+    known = Evidence(1, 9, True, "best_found", "", found_by=FOUND_BY_KNOWN).origin()
+    assert known.startswith("found by the recorded known optimum") and "only 1 of 9 runs reached it on their own" \
+        in known
+    assert Evidence(3, 9, True, "best_found", "").origin() == "only 3 of 9 runs reached it"
+    assert Evidence(0, 0, None, "certified", "", swept=True).origin() == "every design swept"
+    capped = Evidence(0, 3, None, "best_found", "", local_unchecked="the local check stopped at its cap")
+    assert capped.local_text() == "local optimum not checked (the local check stopped at its cap)"
+    assert Evidence(0, 3, False, "best_found", "").local_text() == "not a local optimum"
+
+
+@pytest.mark.quick
 def test_few_runs_is_under_half_and_never_for_a_certified_answer():
     assert Evidence(4, 9, True, "best_found", "").few_runs
     assert not Evidence(5, 9, True, "best_found", "").few_runs
@@ -188,3 +214,108 @@ def test_the_runner_asks_each_step_in_order_until_one_answers_or_refuses():
     check_answer(study, steps)
     steps, study = verdict_steps(SILENT, SILENT)
     check_answer(study, steps)
+
+
+# ---------------------------------------------------------------- the answer copied into an FMI tool
+@pytest.fixture(scope="module")
+def copied_study(armour_fmu_of_width, tmp_path_factory):
+    """A study of the 3-column armour scene under both rules (swept: certified), and the same scene's FMI 3 FMU."""
+    from builder import build as build_fmu
+
+    out = tmp_path_factory.mktemp("copied") / "out"
+    assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, *COMMON) == 0
+    fmu3 = build_fmu.build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu3_3") / "lattice3.fmu", cols=3,
+                               fmi_version=3)
+    return out, {2: armour_fmu_of_width(3), 3: fmu3}
+
+
+@pytest.mark.quick
+@pytest.mark.parametrize("fmi_version", [2, 3])
+def test_the_answer_copied_from_results_json_into_fmpy_gives_the_reports_number(copied_study, fmi_version):
+    """A user copies each answer's parameters into fmpy.simulate_fmu (defaults otherwise) and gets the report's
+    peak, under both rules; without diagonal_rule the mean rule's answer gives another number."""
+    from fmpy import simulate_fmu
+
+    out, fmus = copied_study
+    results = json.loads((out / "results.json").read_text())
+    answers = {a["diagonal_rule"]: a for a in results["answers"]}
+    assert set(answers) == {"mean", "receiver"}
+    for rule, answer in answers.items():
+        assert answer["parameters"]["diagonal_rule"] == results["case"]["rule_codes"][rule]
+        assert [answer["parameters"][f"material[{j}]"] for j in range(1, 4)] == answer["order"]
+        copied = simulate_fmu(str(fmus[fmi_version]), stop_time=results["case"]["horizon"],
+                              start_values=answer["parameters"], output=["peak_backplate_force"])
+        assert copied["peak_backplate_force"][-1] == pytest.approx(answer["peak"], rel=1e-6), rule
+    mean = answers["mean"]
+    materials_only = {k: v for k, v in mean["parameters"].items() if k != "diagonal_rule"}
+    default_rule = simulate_fmu(str(fmus[fmi_version]), stop_time=results["case"]["horizon"],
+                                start_values=materials_only, output=["peak_backplate_force"])
+    assert abs(default_rule["peak_backplate_force"][-1] - mean["peak"]) > 1.0
+
+
+@pytest.mark.quick
+def test_the_answer_is_shown_as_its_start_values_with_the_rule_code(copied_study):
+    from html import unescape
+
+    out, _ = copied_study
+    results = json.loads((out / "results.json").read_text())
+    html = unescape((out / "report.html").read_text())
+    first_screen = html[:html.index("</table>")]
+    for answer in results["answers"]:
+        typed = " ".join(f"{name}={value}" for name, value in answer["parameters"].items())
+        assert f"<code>{typed}</code>" in first_screen
+    assert "without it the FMU runs its default, 0 = receiver, which reproduces the study's published table" \
+        in first_screen
+    assert "diagonal_rule 0 = receiver is also the FMU's default" in first_screen
+
+
+def test_the_console_gives_each_answer_as_its_start_values(armour_fmu_of_width, tmp_path, capfd):
+    out = tmp_path / "out"
+    assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, "--diagonal-rule", "mean",
+                *COMMON) == 0
+    printed = capfd.readouterr().out.splitlines()
+    answer, = json.loads((out / "results.json").read_text())["answers"]
+    line = next(line for line in printed if "in any FMI tool:" in line)
+    assert line.strip().startswith(f"in any FMI tool: material[1]={answer['order'][0]} ")
+    assert "diagonal_rule=1, stop time 8 s" in line and "its default, 0 = receiver" in line
+
+
+# ---------------------------------------------------------------- a budget that bounds every step
+def test_the_budget_bounds_the_sensitivity_and_the_local_check_and_the_console_says_which_exceeds_it(
+        armour_fmu_of_width, tmp_path, capfd):
+    """With --budget small, the sensitivity's short searches together evaluate no more designs than the searches
+    did, the local check no more than the searches or one neighbourhood, and the console names the step that
+    simulated more than the searches, why, and the option that bounds it."""
+    out = tmp_path / "out"
+    assert main("--fmu", armour_fmu_of_width(5), "--cols", 5, "--out", out, "--method", "cmaes", "sa", "--budget", 4,
+                "--repeats", 1, "--diagonal-rule", "mean", "--no-progress", "--executor", "serial") == 0
+    printed = capfd.readouterr().out
+    results = json.loads((out / "results.json").read_text())
+    searched = sum(run["distinct"] for run in results["steps"]["searches"]["runs"])
+    sensitivity = results["steps"]["sensitivity"]
+    assert sensitivity["budget"] == max(1, searched // (2 * len(sensitivity["variations"]))) < 100
+    check, = results["steps"]["final_descent"]["rules"]
+    neighbourhood = sum(check["neighbours"].values())
+    assert check["evaluations"] <= max(searched, neighbourhood + 1)
+    costs = {cost["step"]: cost["simulated"] for cost in results["costs"]}
+    assert costs["searches"] <= searched  # two runs may ask one design: simulated once
+    assert sum(costs.values()) == results["evaluator"]["simulated"]
+    assert f"simulated: {sum(costs.values()):,} FMU runs: searches {costs['searches']}," in printed
+    assert costs["final_descent"] > searched  # one neighbourhood is more than 8 designs
+    assert (f"final descent: {costs['final_descent']:,} FMU runs, more than the searches' {costs['searches']} "
+            f"(--budget): a local optimum is known only once each of its {neighbourhood} neighbours is evaluated") \
+        in printed
+    assert "--no-local-check skips it" in printed
+
+
+@pytest.mark.quick
+def test_a_sensitivity_budget_given_is_kept_and_the_default_one_is_its_ceiling():
+    from orchestrator.steps.sensitivity import DEFAULT_BUDGET, SensitivityConfig, search_budget
+
+    runs = [SimpleNamespace(distinct=d) for d in (200, 200, 1)]
+    context = SimpleNamespace(result=lambda step: SimpleNamespace(runs_for=lambda label: runs))
+    assert search_budget(context, SensitivityConfig(), "mean", 6) == 401 // 12
+    assert search_budget(context, SensitivityConfig(budget=500), "mean", 6) == 500
+    assert search_budget(context, SensitivityConfig(), "mean", 1) == DEFAULT_BUDGET
+    no_search = SimpleNamespace(result=lambda step: None)
+    assert search_budget(no_search, SensitivityConfig(), "mean", 6) == DEFAULT_BUDGET

@@ -14,6 +14,8 @@ from orchestrator.search.base import FAILURE, to_internal
 from problems import LimitedObjective, QuadraticAssignment, brute_force
 from orchestrator.types import Above, Evaluation, censored, check_evaluation
 
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 KINDS = {"evaluation": Evaluation}
 
 QAP = QuadraticAssignment.random(7, 3)

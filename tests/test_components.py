@@ -184,8 +184,8 @@ def test_a_component_cross_builds_for_every_platform(model, version, tmp_path):
 
 def test_the_projectile_s_lost_energy_is_its_work_on_the_face(component_fmus):
     """A face receding at 1 m/s: the projectile strikes it through an elastic contact, leaves it 2 (3.6 - 1) m/s
-    slower than the face, and the kinetic energy it lost is face_work, the work its contact force did on the face. (Co-Simulation:
-    FMPy's Model Exchange holds an input between output points, so the face would jump.)"""
+    slower than the face, and the kinetic energy it lost is face_work, the work its contact force did on the face.
+    (Co-Simulation: FMPy's Model Exchange holds an input between output points, so the face would jump.)"""
     table = component_table("projectile")
     mass, speed, face_speed = table.variable("projectile_mass").start, table.variable("projectile_speed").start, 1.0
     times = np.linspace(0.0, 0.5, 501)

@@ -7,6 +7,8 @@ import pytest
 
 from orchestrator.design import ARRANGEMENT, PERMUTATION, REPETITION, DesignSpace
 
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 SPACES = [DesignSpace(4, 4), DesignSpace(3, 5), DesignSpace(4, 3, repeat=True), DesignSpace(2, 4, repeat=True),
           DesignSpace(1, 1), DesignSpace(1, 3)]
 

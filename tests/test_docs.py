@@ -57,3 +57,24 @@ def test_the_fmu_reference_names_every_parameter_and_output_of_the_built_fmu(sit
             missing.append(f"{base}[1..{last}]")
     assert not missing, f"the FMU reference does not name {missing}"
     assert arrays, "the built FMU has no array parameter (material[j]): the test reads the wrong FMU"
+
+
+def test_the_fmu_reference_gives_every_enumerations_codes_read_from_the_built_fmu(site, fmu3_path):
+    """Each Enumeration parameter of the built FMI 3 FMU is listed with every item's code and name, so a user of an
+    importer that sets only codes (FMPy, for an FMI 3 Enumeration) can set it."""
+    from html import unescape
+
+    html = unescape(site["fmu-reference/index.html"])
+    codes = html[html.index('id="codes"'):html.index('id="parameters"')]
+    description = read_model_description(str(fmu3_path))
+    enumerations = {t.name: t for t in description.typeDefinitions if t.type == "Enumeration"}
+    listed = 0
+    for variable in description.modelVariables:
+        declared = variable.declaredType
+        if variable.causality != "parameter" or declared is None or declared.name not in enumerations:
+            continue
+        row = next(row for row in codes.split("<tr>") if f"<td><code>{variable.name}</code></td>" in row)
+        for item in enumerations[declared.name].items:
+            assert f"<code>{item.value}</code> {item.name}:" in row, (variable.name, item.name)
+        listed += 1
+    assert listed >= 2  # diagonal_rule and solver at least

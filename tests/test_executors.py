@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import time
 from concurrent.futures import Executor
 
 import pytest
@@ -66,6 +67,24 @@ def test_dask_local_cluster_identical_to_serial(serial_outcomes):
         assert ex.batch_size > 1  # designs go to the workers in batches
         assert outcomes(runs_with(ex)) == serial_outcomes
     assert client.status == "closed"
+
+
+def test_dask_calls_go_on_when_a_worker_leaves():
+    """A worker that leaves the cluster takes its actor with it: the calls go to the workers that remain, and
+    every evaluation still has its value."""
+    from orchestrator.executors import WORKERS_REFRESH
+
+    orders = [tuple((k + c) % 7 + 1 for c in range(7)) for k in range(7)]
+    with make_executor("serial") as serial:
+        expected = [e.value for e in Evaluator(serial).evaluate([(OBJECTIVE, o) for o in orders])]
+    with make_executor("dask", workers=2) as ex:
+        client = ex._client
+        evaluator = Evaluator(ex)
+        assert [e.value for e in evaluator.evaluate([(OBJECTIVE, o) for o in orders[:3]])] == expected[:3]
+        leaving = sorted(client.scheduler_info(n_workers=-1)["workers"])[0]
+        client.retire_workers([leaving], close_workers=True, remove=True)
+        time.sleep(WORKERS_REFRESH)
+        assert [e.value for e in evaluator.evaluate([(OBJECTIVE, o) for o in orders[3:]])] == expected[3:]
 
 
 class BatchingSerial(SerialExecutor):

@@ -12,6 +12,8 @@ from orchestrator.journal import JOURNAL_NAME, Journal, JournalError
 from orchestrator.runfolder import FolderError, RunFolder, TEMP_PREFIX, make_temp_root, remove_dead_temp_roots
 from orchestrator.types import Evaluation, RunOutputs, failed
 
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 KINDS = {"evaluation": Evaluation}
 SETTINGS = {"case": {"F_total": 1200.0, "rules": ["receiver", "mean"]}, "fmu_sha256": "abc"}
 
@@ -52,7 +54,8 @@ class WrittenBefore:
 
     def as_record(self):
         return {"order": [1, 2, 3], "value": 1405.9057831694442, "status": "ok", "message": "", "seconds": 0.001,
-                "outputs": {"peak_backplate_force": 1405.9057831694442, "peak_backplate_force_continuous": 1407.4057831694442,
+                "outputs": {"peak_backplate_force": 1405.9057831694442,
+                            "peak_backplate_force_continuous": 1407.4057831694442,
                             "peak_time": 0.31, "last_contact_time": 0.72, "kinetic_energy": 1.0,
                             "potential_energy": 2.0, "external_work": 3.0, "dissipated_energy": 4.0,
                             "nonreciprocal_work": -5.0, "energy_balance_error": 1e-07, "rhs_evaluations": 100,

@@ -6,6 +6,8 @@ import pytest
 from fmu_src.materials import (HEADER, MaterialTable, MaterialTableError, load_materials, study_materials,
                                write_materials_csv)
 
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 
 def test_the_study_table_follows_spec_section_3():
     table = study_materials(11)

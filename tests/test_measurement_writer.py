@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 ROOT = Path(__file__).resolve().parents[1]
 BENCHMARK = textwrap.dedent("""
     import sys

@@ -10,6 +10,8 @@ from orchestrator.loop import Evaluator, run_search
 from orchestrator.objective import FULL, SEARCH, FMURun, LatticeObjective, output_names
 from orchestrator.search import make_search
 
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 SPACE = DesignSpace.permutations(11)
 
 

@@ -4,6 +4,10 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
 
@@ -20,3 +24,18 @@ def test_the_readme_is_short_and_runs_the_test_command_ci_runs():
     assert len(README.splitlines()) <= 300
     ci = (ROOT / ".ci" / "run").read_text()
     assert "python -m pytest\n" in README and ci.rstrip().endswith("python -m pytest")
+
+
+def test_the_readme_quotes_the_run_times_as_their_page_measured_them():
+    """The plate's and the quick tests' run times in the README are the run times page's, not typed apart."""
+    page = (ROOT / "docs" / "measurements" / "run_times.md").read_text()
+    rows = {cells[0].strip("` "): cells[1:] for cells in
+            (line.strip("|").split("|") for line in page.splitlines() if line.startswith("| `"))}
+    plate_wall, plate_did = (cell.strip() for cell in rows["python orchestrator/run.py --scene plate_11x11x11 "
+                                                          "--budget 20 --repeats 1"])
+    quick_wall, quick_did = (cell.strip() for cell in rows["python -m pytest -m quick"])
+    text = " ".join(README.split())
+    plate_runs = plate_did.split(" FMU runs")[0]
+    assert f"(`--budget 20 --repeats 1`: {plate_runs} FMU runs, {plate_wall} on two loaded cores" in text
+    assert f"`python -m pytest -m quick` runs {quick_did.split()[0]} of its tests" in text
+    assert f"in {quick_wall} on two loaded cores" in text

@@ -198,6 +198,20 @@ def test_a_wall_moved_by_a_constant_is_a_wider_gap():
     assert moved.energy.back_work == 0.0
 
 
+def test_a_wall_given_pressed_into_the_lattice_starts_with_its_potential():
+    """x_back(0) beyond the gap: the wall masses start in contact, the wall's potential is there at t = 0, and
+    the balance counts it."""
+    offset = -3 * SMALL.backplate_gap
+    pressed = simulate_system(SystemScene(SMALL, back_position=PiecewiseSignal.constant(offset),
+                                          back_velocity=PiecewiseSignal.constant(0.0)), horizon=1.0)
+    energy = pressed.energy
+    assert energy.lattice_initial_potential == pytest.approx(
+        SMALL.rows * 0.5 * SMALL.k_wall * (offset + SMALL.backplate_gap) ** 2, rel=1e-12)
+    assert pressed.backplate_force[0] == pytest.approx(SMALL.rows * SMALL.k_wall * -(offset + SMALL.backplate_gap),
+                                                       rel=1e-12)
+    assert abs(energy.lattice_error) < 1e-8 * energy.front_work
+
+
 def test_the_back_ports_work_closes_the_balance_of_a_moving_wall():
     moving = SystemScene(SMALL, back_position=PiecewiseSignal((0.0,), (lambda t: 0.002 * math.sin(20 * t),)),
                          back_velocity=PiecewiseSignal((0.0,), (lambda t: 0.04 * math.cos(20 * t),)))

@@ -27,6 +27,8 @@ from fmu_src.published import PUBLISHED_PEAKS, STUDY_BEST_ORDER as PUBLISHED_BES
 from orchestrator.simulation import LatticeFMU
 from test_fmi3 import Instance as Fmi3Instance
 
+pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
+
 ROWS = COLS = 11
 N_STATE = 4 * ROWS * COLS + 3  # LATTICE_STATE_SIZE: positions, velocities, three energy integrals
 HALF_ROWS = (ROWS + 1) // 2  # the upper half of the mirror-symmetric lattice, middle row included

@@ -192,12 +192,14 @@ static double backplate_force_of(Model *m, double t, int hermite) {
     double ux[N_FACE_MASSES], vx[N_FACE_MASSES];
     const int vx_base = solver_vx_base(m);
     int f;
-    model_ports_at(m, t);
     for (f = 0; f < solver_faces(m); f++) {
         const int mass = LAST_COLUMN_MASS(f);
         ux[f] = look(m, mass, t, hermite);
         vx[f] = look(m, vx_base + mass, t, hermite);
     }
+    /* the ports at t after the looks: preparing the dense output evaluates the right-hand side at its stages,
+     * which sets the ports to theirs */
+    model_ports_at(m, t);
     return model_backplate_force_of_column(m, ux, vx, m->cs.solver_rows, m->cs.solver_layers);
 }
 

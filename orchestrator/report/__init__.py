@@ -15,11 +15,13 @@ from typing import Any
 import jinja2
 import markupsafe
 
+from builder.rendering import add_templates
+
 from ..records import to_record
 from ..steps.answers import Answers
 from ..steps.exhaustive import Exhaustive
-from ..steps.pareto import Pareto
-from ..steps.searches import Searches
+from ..steps.pareto import BEST_DESIGN_FILE, Pareto, best_design
+from ..steps.searches import Searches, draw_convergence
 from ..steps.starts import Starts
 from ..study import StudyResult
 
@@ -30,7 +32,7 @@ TERMS = {
     "continuous peak": "the largest backplate force over the continuous solution (between the samples too); "
                        "at least the sampled peak",
     "search fidelity": "the cheaper evaluation the searches rank by: a 1 s horizon (extended while the lattice "
-                       "still touches the plate) at a looser tolerance; every reported number is at full "
+                       "still touches the backplate) at a looser tolerance; every reported number is at full "
                        "fidelity, the whole scene at the FMU's default accuracy",
     "censored": "an evaluation the FMU stopped as soon as its peak passed a force limit the search gave "
                 "(it could no longer win): its value is only known to be above that limit, and it is never "
@@ -59,9 +61,8 @@ def inline_png(folder: Path):
 
 
 def _env() -> jinja2.Environment:
-    env = jinja2.Environment(loader=jinja2.PackageLoader("orchestrator", "templates"),
-                             autoescape=jinja2.select_autoescape(["html", "j2"]), undefined=jinja2.StrictUndefined,
-                             trim_blocks=True, lstrip_blocks=True)
+    """The one environment (builder.rendering) with the orchestrator's templates and the report's filters."""
+    env = add_templates("orchestrator")
     env.filters["n"] = _number
     env.filters["g2"] = lambda v: "n/a" if v is None else f"{v:,.2g}"
     env.filters["order"] = lambda order: "[" + ", ".join(str(m) for m in order) + "]" if order else "none"
@@ -76,6 +77,22 @@ def _number(value: Any, digits: int = 2) -> str:
     return f"{value:,.{digits}f}"
 
 
+def rule_default_note(study: StudyResult, answer) -> str:
+    """What the FMU runs when a user leaves diagonal_rule out, after the answer's parameters: its default rule,
+    the receiver rule of the published table (docs/model.md section 2), and whether this answer needs the rule
+    set."""
+    case = study.case
+    default = case.rule_default
+    if not default or "diagonal_rule" not in answer.parameters:
+        return ""
+    code = case.rule_codes.get(default)
+    if answer.diagonal_rule == default:
+        return f"diagonal_rule {code} = {default} is also the FMU's default: it reproduces the study's published table"
+    return (f"diagonal_rule {answer.parameters['diagonal_rule']} = {answer.diagonal_rule}: without it the FMU runs "
+            f"its default, {code} = {default}, which reproduces the study's published table, and gives another "
+            "number")
+
+
 def case_line(study: StudyResult) -> str:
     return study.case.line()
 
@@ -88,7 +105,8 @@ def results_record(study: StudyResult) -> dict:
             "pareto": _pareto_points(study),
             "case": to_record(study.case), "case_line": case_line(study),
             "fmu": {"path": study.fmu_path, "sha256": study.fmu_sha256},
-            "steps": steps, "evaluator": to_record(study.evaluator), "wall_seconds": study.wall_seconds,
+            "steps": steps, "evaluator": to_record(study.evaluator), "costs": to_record(study.costs),
+            "wall_seconds": study.wall_seconds,
             "run": study.run_id, "terms": TERMS}
 
 
@@ -160,6 +178,14 @@ def write_certificates(study: StudyResult, out: Path) -> list[str]:
     return written
 
 
+def step_chart(step, study: StudyResult, path: Path, known: dict) -> str | None:
+    """A step's chart. The searches' convergence carries each rule's known optimum, which the later answers
+    step finds: the report, which reads both, composes it; every other chart is its step's own."""
+    if isinstance(step, Searches):
+        return draw_convergence(study, path, study.case.line(), known)
+    return step.chart(study, path)
+
+
 def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> Path:
     """Everything a study gives, into ``out``; returns the path of report.html."""
     out = Path(out)
@@ -169,7 +195,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     figures = {}
     for step in steps:
         if study.result(type(step)) is not None and step.chart_file:
-            made = step.chart(study, out / step.chart_file)
+            made = step_chart(step, study, out / step.chart_file, known)
             if made:
                 figures[type(step)] = made
     refused = write_design_files(study, out, steps, materials)
@@ -178,7 +204,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     record["design_files_refused"] = refused
     (out / "results.json").write_text(json.dumps(record, indent=1, allow_nan=False))
     write_evaluations_csv(study, out / "evaluations.csv")
-    from .explore import write_explore
+    from .explore import explore_contents, write_explore
 
     write_explore(study, out, materials, refused)
     env = _env()
@@ -193,10 +219,12 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
             refused=refused)))
     page = env.get_template("report/report.html.j2").render(
         study=study, case_line=study.case.line(), answers=answers, answers_chart=figures.get(Answers),
+        rule_default_note=rule_default_note,
         sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known,
-        pareto=study.result(Pareto), starts=study.result(Starts))
+        pareto=study.result(Pareto), starts=study.result(Starts), best_design=best_design(study),
+        best_design_file=BEST_DESIGN_FILE, explore_contents=explore_contents(study))
     (out / "report.html").write_text(page)
     return out / "report.html"
 
 
-__all__ = ["TERMS", "case_line", "results_record", "write_report"]
+__all__ = ["TERMS", "case_line", "results_record", "rule_default_note", "write_report"]

@@ -74,5 +74,9 @@ class Accuracy(Step):
             last_contact_time=outputs["last_contact_time"] if outputs else None,
             by_horizon=tuple(HorizonValue(run.horizon, e.value) for run, e in zip(shorter, by_horizon)))
 
+    def cost_note(self, context: StudyContext) -> str:
+        return ("the chosen design against a tight reference and over shorter horizons: a fixed few runs, whatever "
+                "the budget")
+
 
 __all__ = ["Accuracy", "AccuracyResult", "HorizonValue", "relative_difference"]

@@ -3,16 +3,22 @@ and how sure we are (how many runs reached it, whether it is a local optimum, wh
 which objective, whether its runner-up is as good for practical purposes, and what would settle it)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+
+import matplotlib
+import numpy as np
 
 from fmu_src.published import PUBLISHED_CONDITIONS
 
+from ..charts import plt, save
+from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
 from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
+from ..plate_picture import draw_plate_answers
 from ..study import Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
-from .descent import Descent
+from .final_descent import FinalDescent
 from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, objective_covered, sweep_cost
 from .finalists import Finalists, best_of, finalist_orders
 from .searches import Searches, rule_label
@@ -22,6 +28,12 @@ BASELINE_METHODS = ("sequential", "random")
 STUDY_RULE = PUBLISHED_CONDITIONS["diagonal_rule"]  # the rule the study computed and published with
 BUDGET_FACTOR = 10  # the budget an unsettled answer suggests: this many times the run's (an order of magnitude)
 DESIGN_FILE_ROLE = "your design file"
+# Where an answer came from (Evidence.found_by).
+FOUND_BY_RUNS = "the searches' runs"
+FOUND_BY_SWEEP = "this run's exhaustive sweep"
+FOUND_BY_DESCENT = "the final descent from the runs' best"
+FOUND_BY_KNOWN = "the recorded known optimum, evaluated among the finalists"
+FOUND_BY_FINALISTS = "the finalists at full fidelity"
 STUDY_MODEL_ROLE = "the study's model: reproduces its published numbers"
 
 
@@ -49,17 +61,35 @@ class Settlement:
 class Evidence:
     runs_reaching: int  # optimiser runs whose own answer (best finalist at full fidelity) is this design
     runs: int  # optimiser runs under this rule (the baselines not counted)
-    local_optimum: bool | None  # None: not checked (--no-local-check)
+    local_optimum: bool | None  # None: not checked (--no-local-check, or the check's cap came first)
     status: str  # certified, known or best_found
     status_source: str  # what the status rests on
     covers: str = ""  # the objective the status holds for (a certificate says nothing of another objective)
     swept: bool = False  # every design of the space was evaluated (this run's sweep)
     settlement: Settlement | None = None  # what would settle it, when fewer than half the runs reached it
+    found_by: str = FOUND_BY_RUNS  # where the design came from: FOUND_BY_* or a baseline's name
+    local_unchecked: str = ""  # why local_optimum is None when the local check ran
+
+    def local_text(self) -> str:
+        """Whether the answer is a local optimum, in a few words (the console's and the report's)."""
+        if self.local_optimum is None:
+            return f"local optimum not checked{f' ({self.local_unchecked})' if self.local_unchecked else ''}"
+        return "a local optimum" if self.local_optimum else "not a local optimum"
 
     @property
     def few_runs(self) -> bool:
         """Fewer than half the runs reached the answer (and nothing else settles it)."""
         return self.runs > 0 and 2 * self.runs_reaching < self.runs and self.status != CERTIFIED
+
+    def origin(self) -> str:
+        """Where the answer came from and how many runs reached it on their own, in one phrase (the console's
+        and the report's): a count of runs is never read as the answer's only source."""
+        if self.swept and not self.runs:
+            return "every design swept"
+        only = "only " if self.few_runs else ""
+        if self.found_by == FOUND_BY_RUNS:
+            return f"{only}{self.runs_reaching} of {self.runs} runs reached it"
+        return f"found by {self.found_by}; {only}{self.runs_reaching} of {self.runs} runs reached it on their own"
 
 
 @dataclass(frozen=True)
@@ -109,6 +139,13 @@ class Answer:
     search_relative_error: float | None  # the search fidelity's value of this design against its full one
     roles: tuple[str, ...] = ()  # what this answer is to the reader: the design file, the study's model
     equivalence: Equivalence | None = None  # against the runner-up (None: no runner-up with a value)
+    # every start value the answer needs in any FMI tool, by the FMU's variable names (start_values_for)
+    parameters: dict[str, int | float] = field(default_factory=dict)
+
+    def start_values_text(self, separator: str = "=") -> str:
+        """The parameters as a user types them: ``material[1]=3 ... diagonal_rule=1`` (``separator`` " ":
+        the words of ``fmpy simulate --start-values``)."""
+        return " ".join(f"{name}{separator}{value_text(value)}" for name, value in self.parameters.items())
 
 
 @dataclass(frozen=True)
@@ -125,6 +162,26 @@ class AnswersResult:
         return self.answers[0] if self.answers else None
 
 
+def value_text(value: int | float) -> str:
+    """A start value as typed: an integer as such, a real number in its shortest exact form."""
+    return str(value) if isinstance(value, int) else repr(float(value))
+
+
+def start_values_for(context: StudyContext, order: Order, rule: str | None) -> dict[str, int | float]:
+    """Every start value a design needs in any FMI tool: each column's material, the diagonal rule by its code
+    (FMPy sets an FMI 3 Enumeration only by its code; the FMU's default rule is not the mean one, so the rule is
+    always given), and every parameter the run set away from the FMU's defaults (enumerations by their codes).
+    Load cases (--case) vary their parameters per run: they are the case's, not the answer's."""
+    fmu = context.fmu
+    values: dict[str, int | float] = {f"material[{column}]": int(m) for column, m in enumerate(order, start=1)}
+    rule_parameter = fmu.parameters.get("diagonal_rule")
+    if rule is not None and rule_parameter is not None:
+        values["diagonal_rule"] = rule_parameter.value(rule)
+    for name, value in context.case.parameters.items():
+        values[name] = fmu.parameters[name].value(value)
+    return values
+
+
 def design_file(index: int, label: str) -> str:
     return "best_design.ssp" if index == 0 else f"design_{label}.ssp"
 
@@ -133,7 +190,7 @@ def rule_best(context: StudyContext, label: str) -> Evaluation | None:
     """A rule's best design at full fidelity: over its finalists and the end of its final descent."""
     finalists = context.result(Finalists)
     candidates = list(finalists.for_rule(label).evaluations) if finalists else []
-    descent = context.result(Descent)
+    descent = context.result(FinalDescent)
     check = descent.for_rule(label) if descent else None
     if check is not None:
         candidates.append(check.full)
@@ -170,7 +227,7 @@ class Answers(Step):
 
     def run(self, context: StudyContext) -> AnswersResult:
         searched = context.result(Searches)
-        descent = context.result(Descent)
+        descent = context.result(FinalDescent)
         swept = context.result(Exhaustive)
         rules = context.rules
         answers = []
@@ -191,14 +248,19 @@ class Answers(Step):
             runs = [r for r in (searched.runs_for(label) if searched else []) if r.method not in BASELINE_METHODS]
             reaching = sum(1 for r in runs if run_answer(r, context, label) == best.order)
             check = descent.for_rule(label) if descent else None
-            local = None if check is None else (check.locally_optimal and check.order == best.order)
+            local = (None if check is None or (check.order == best.order and not check.complete) else
+                     check.locally_optimal and check.order == best.order)
             status, source = self.status(context, rule, label, best.order, swept)
             objective = context.objective(rule)
             sweep = swept.for_rule(label) if swept else None
             runner = self.runner_up(context, rule, best, sweep)
             search = objective.evaluate([best.order], context.evaluator, SEARCH)[0]
             evidence = Evidence(reaching, len(runs), local, status, source, covers=objective_covered(context, label),
-                                swept=sweep is not None and sweep.certificate.covered_once)
+                                swept=sweep is not None and sweep.certificate.covered_once,
+                                found_by=found_by(context, rule, label, best.order, reaching, sweep, check),
+                                local_unchecked="" if check is None or check.complete else (
+                                    f"the local check stopped at its cap of {check.evaluations:,} designs, which "
+                                    "--budget sets, before every neighbour was evaluated"))
             if evidence.few_runs and status == BEST_FOUND and known_optimum(
                     context.case, rule or context.case.rule_default) is None:
                 evidence = replace(evidence, settlement=settlement(context, rule, runs))
@@ -214,7 +276,8 @@ class Answers(Step):
                 design_file=design_file(index, label), runner_up=runner.order if runner else None,
                 runner_up_peak=runner.value if runner else None,
                 search_relative_error=abs(search.value / best.value - 1) if search.ok and best.value else None,
-                roles=roles, equivalence=equivalence(context, best, runner, sweep)))
+                roles=roles, equivalence=equivalence(context, best, runner, sweep),
+                parameters=start_values_for(context, best.order, rule)))
         known = {rule_label(r): known_optimum(context.case, r or context.case.rule_default) for r in rules}
         return AnswersResult(tuple(answers), known)
 
@@ -225,7 +288,8 @@ class Answers(Step):
         sweep's runner-up by its recorded value."""
         objective = context.objective(rule)
         full_task, = objective.with_cases(None).tasks(FULL) if len(context.case.cases) == 1 else (None,)
-        others = [e for e in (context.evaluator.known(full_task) if full_task else []) if e.ok and e.order != best.order]
+        known = context.evaluator.known(full_task) if full_task else []
+        others = [e for e in known if e.ok and e.order != best.order]
         if sweep and sweep.certificate.optimum and sweep.certificate.optimum.order == best.order \
                 and sweep.certificate.runner_up and sweep.certificate.runner_up.full is not None \
                 and not any(e.order == sweep.certificate.runner_up.order for e in others):
@@ -248,12 +312,32 @@ class Answers(Step):
                                 f"({'certified' if known.certified else 'exhaustive sweep'})")
         return BEST_FOUND, "the best design the searches found; no exhaustive sweep of this case"
 
+    def cost_note(self, context: StudyContext) -> str:
+        return "each rule's answer under the other rules and at the search fidelity: a few runs, whatever the budget"
+
     def chart(self, study, path):
         return draw_lattice(study, path)
 
     def design_files(self, study):
         result = study.result(type(self))
         return [(a.design_file, a.order, a.diagonal_rule) for a in (result.answers if result else ())]
+
+
+def found_by(context: StudyContext, rule, label: str, order: Order, reaching: int, sweep, check) -> str:
+    """Where a rule's answer came from: the runs (at least one reached it on its own), the sweep, the final
+    descent from the runs' best, the recorded known optimum, a baseline (by its name), or the finalists."""
+    if reaching:
+        return FOUND_BY_RUNS
+    if sweep is not None and sweep.certificate.optimum and sweep.certificate.optimum.order == order:
+        return FOUND_BY_SWEEP
+    if check is not None and check.order == order and check.start != order:
+        return FOUND_BY_DESCENT
+    known = known_optimum(context.case, rule or context.case.rule_default)
+    if known is not None and known.order == order:
+        return FOUND_BY_KNOWN
+    finalists = context.result(Finalists).for_rule(label)
+    baseline = next((name for name, design in finalists.baselines.items() if design == order), None)
+    return f"the baseline {baseline}" if baseline else FOUND_BY_FINALISTS
 
 
 def equivalence(context: StudyContext, best: Evaluation, runner: Evaluation | None, sweep) -> Equivalence | None:
@@ -288,18 +372,12 @@ def settlement(context: StudyContext, rule, runs) -> Settlement | None:
         cost = sweep_cost(context, rule, min(values) if values else None)
     except ValueError:
         cost = None
-    from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
-
     command = f"--method {SWEEP_METHOD}" + (" --executor dask --scheduler ADDRESS --confirm-cost"
                                             if context.case.space.size > MAX_LOCAL_DESIGNS else "")
     return Settlement(budget, BUDGET_FACTOR, seconds * BUDGET_FACTOR / 3600, cost, command)
 
 
 def draw_lattice(study, path: Path) -> str | None:
-    import numpy as np
-    import matplotlib
-    from ..report.charts import plt, save
-
     answers = study.result(Answers)
     if answers is None or not answers.answers:
         return None
@@ -312,8 +390,6 @@ def draw_lattice(study, path: Path) -> str | None:
     norm = (matplotlib.colors.LogNorm(vmin=low, vmax=high) if low > 0 and high > low
             else matplotlib.colors.Normalize(vmin=low, vmax=high if high > low else low + 1.0))
     if case.depth > 1:  # a plate: its layers as a stack, the loaded patch on layer 1's face
-        from ..report.plate import draw_plate_answers
-
         return draw_plate_answers(case, designs, colour_map, norm, path)
     figure, axes = plt.subplots(1, len(designs), figsize=(4.6 * len(designs), 4.4), squeeze=False)
     for axis, (label, order) in zip(axes[0], designs):
@@ -335,4 +411,5 @@ def draw_lattice(study, path: Path) -> str | None:
 
 
 __all__ = ["Answer", "Answers", "AnswersResult", "BEST_FOUND", "CERTIFIED", "EnergyFlows", "Equivalence",
-           "Evidence", "KNOWN", "STUDY_RULE", "Settlement", "design_file", "rule_best"]
+           "Evidence", "FOUND_BY_DESCENT", "FOUND_BY_FINALISTS", "FOUND_BY_KNOWN", "FOUND_BY_RUNS", "FOUND_BY_SWEEP",
+           "KNOWN", "STUDY_RULE", "Settlement", "design_file", "rule_best", "start_values_for", "value_text"]

@@ -15,6 +15,7 @@ from ..study import Step, StudyContext
 from ..types import Evaluation, Order
 from .exhaustive import Exhaustive
 from .searches import Searches, rule_label
+from .starting_designs import starting_designs
 
 
 @dataclass(frozen=True)
@@ -67,8 +68,6 @@ def finalist_orders(run: SearchRun, count: int) -> list[Order]:
 def baselines(context: StudyContext) -> dict[str, Order]:
     """The designs every answer is compared with: the baseline order, and the study's published best on the
     study's own lattice and materials."""
-    from .starts import starting_designs
-
     space = context.case.space
     found = {"sequential": space.baseline()}
     if (space.kind == "permutation" and space.columns == len(STUDY_BEST_ORDER)
@@ -115,6 +114,10 @@ class Finalists(Step):
             rules.append(RuleFinalists(label, tuple(evaluations), best_of(evaluations),
                                        tuple(disagreements(runs, full, count)), known))
         return FinalistsResult(tuple(rules))
+
+    def cost_note(self, context: StudyContext) -> str:
+        return (f"each run's {self.config.per_run} best designs, the baselines and any known optimum, at full "
+                "fidelity (the whole scene); --finalists N bounds it")
 
 
 def disagreements(runs: list[SearchRun], full: dict[Order, Evaluation], count: int) -> list[Disagreement]:

@@ -7,11 +7,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ..charts import RULE_COLOURS, legend_below, plt, save
 from ..exhaustive import SWEEP_METHOD, not_strongly_dominated
 from ..known_optima import known_ends
+from ..loop import run_search
 from ..objective import FULL
+from ..search import make_search
+from ..search.pareto import dominated_by, hypervolume, non_dominated, reference_point
 from ..study import SILENT, Step, StudyContext, Verdict
 from ..types import Order
+from .final_descent import MAX_DESCENT
 from .exhaustive import SCREENING_ERROR, Exhaustive, FrontPoint
 from .searches import Searches, multi_objective, rule_label
 
@@ -24,6 +29,7 @@ class ChosenPoint:
     design_file: str
 
 
+BEST_DESIGN_FILE = "best_design.ssp"
 AGREEMENT = 0.999  # a run agrees with the best known front when its own front covers this share of its hypervolume
 
 
@@ -84,8 +90,6 @@ class ParetoResult:
 def undominated(evaluations) -> tuple[FrontPoint, ...]:
     """The evaluations no other one dominates, as front points sorted by the objectives: never a point that a
     design of ``evaluations`` (every design evaluated at full fidelity, the known optima among them) dominates."""
-    from ..search.pareto import dominated_by
-
     evaluations = list(evaluations)
     if not evaluations:
         return ()
@@ -97,8 +101,6 @@ def undominated(evaluations) -> tuple[FrontPoint, ...]:
 
 def run_fronts(runs) -> list[list[tuple[float, ...]]]:
     """Each run's own non-dominated set, at the search fidelity it was told."""
-    from ..search.pareto import non_dominated
-
     fronts = []
     for run in runs:
         values = [e.values for e in run.evaluations if e.ok and e.values]
@@ -108,8 +110,6 @@ def run_fronts(runs) -> list[list[tuple[float, ...]]]:
 
 def coverage(fronts: list[list[tuple[float, ...]]]) -> tuple[float, ...]:
     """Each front's hypervolume against the best known front's (their union's), with one reference point."""
-    from ..search.pareto import hypervolume, non_dominated, reference_point
-
     union = [v for front in fronts for v in front]
     if not union:
         return tuple(0.0 for _ in fronts)
@@ -175,8 +175,6 @@ class Pareto(Step):
         return Verdict.answer()
 
     def run(self, context: StudyContext) -> ParetoResult:
-        from ..search.pareto import hypervolume, reference_point
-
         searched = context.result(Searches)
         swept = context.result(Exhaustive)
         fronts = []
@@ -224,10 +222,6 @@ class Pareto(Step):
         """From the front's end on each objective, a descent on that objective alone (the study's final descent,
         at the search fidelity): an end a search of several objectives left one move short of its objective's
         local optimum moves there."""
-        from ..loop import run_search
-        from ..search import make_search
-        from .descent import MAX_DESCENT
-
         if not points:
             return []
         seed = context.config(Searches).seed
@@ -263,18 +257,42 @@ class Pareto(Step):
         return FrontSureness(is_exact, len(runs), agreeing, AGREEMENT, shares, known,
                              "" if is_exact else settle_advice(context, runs, agreeing))
 
+    def cost_note(self, context: StudyContext) -> str:
+        return ("the front at full fidelity, and each objective's end descended on that objective alone until no "
+                "single move improves it: not bounded by --budget")
+
     def chart(self, study, path):
         return draw_pareto(study, path)
 
     def design_files(self, study):
         result = study.result(type(self))
-        return [(c.design_file, c.order, f.diagonal_rule) for f in (result.fronts if result else ()) for c in f.chosen]
+        files = [(c.design_file, c.order, f.diagonal_rule) for f in (result.fronts if result else ()) for c in f.chosen]
+        best = best_design(study)
+        return ([(BEST_DESIGN_FILE, best.order, best.diagonal_rule)] if best else []) + files
+
+
+@dataclass(frozen=True)
+class BestDesign:
+    """The design a two-objective run writes as best_design.ssp: the knee of the first rule's front."""
+
+    diagonal_rule: str
+    order: Order
+    values: tuple[float, ...]
+
+
+def best_design(study) -> BestDesign | None:
+    """best_design.ssp of a run of several objectives (which has no single answer): the knee of the first rule's
+    front (the balanced design, as every run writes the design to build as best_design.ssp); None for one
+    objective (the answer writes it) or without a front."""
+    result = study.result(Pareto)
+    if len(study.case.objective.outputs) < 2 or result is None or not result.fronts or not result.fronts[0].points:
+        return None
+    front = result.fronts[0]
+    point = front.points[knee(np.array([p.values for p in front.points]))]
+    return BestDesign(front.diagonal_rule, point.order, point.values)
 
 
 def draw_pareto(study, path: Path) -> str | None:
-    import numpy as np
-    from ..report.charts import RULE_COLOURS, legend_below, plt, save
-
     result = study.result(Pareto)
     if result is None:
         return None
@@ -310,4 +328,5 @@ def draw_pareto(study, path: Path) -> str | None:
     return save(figure, path, labels=labels)
 
 
-__all__ = ["ChosenPoint", "DescendedEnd", "Front", "Pareto", "ParetoResult", "choose", "knee"]
+__all__ = ["BEST_DESIGN_FILE", "BestDesign", "ChosenPoint", "DescendedEnd", "Front", "Pareto", "ParetoResult",
+           "best_design", "choose", "knee"]

@@ -14,14 +14,18 @@ from .finalists import Finalists, baselines, best_of, finalist_orders
 from .searches import Searches, run_searches
 
 METHODS = ("sa", "local")  # annealing from the baseline, an iterated local search from the chosen design
+DEFAULT_BUDGET = 100  # designs each short search evaluates, unless the searches evaluated fewer
 
 
 @dataclass(frozen=True)
 class SensitivityConfig:
     enabled: bool = option(True, "do not evaluate the chosen design under the standard variations of the case",
                                flag="--no-sensitivity", action="store_false")
-    budget: int = option(100, "designs each short search evaluates for a variation", flag="--sensitivity-budget",
-                         type=integer("--sensitivity-budget", 1, 10**9))
+    budget: int | None = option(None, "designs each short search evaluates for a variation",
+                                flag="--sensitivity-budget",
+                                show_default=f"{DEFAULT_BUDGET}, fewer when the searches evaluated fewer designs under "
+                                "the chosen rule than the step would (--budget bounds it)",
+                                type=integer("--sensitivity-budget", 1, 10**9))
 
     def __post_init__(self):
         check_options(self)
@@ -51,6 +55,25 @@ class SensitivityResult:
     methods: tuple[str, ...]
     diagonal_rule: str
     variations: tuple[Variation, ...]
+
+
+def searched_designs(context: StudyContext, label: str) -> int | None:
+    """The distinct designs the searches evaluated under a rule (None: no search ran): what --budget bounds."""
+    searched = context.result(Searches)
+    runs = searched.runs_for(label) if searched else []
+    return sum(run.distinct for run in runs) if runs else None
+
+
+def search_budget(context: StudyContext, config: SensitivityConfig, label: str, count: int) -> int:
+    """Designs each short search evaluates for a variation: --sensitivity-budget when given; else DEFAULT_BUDGET,
+    lowered so that the step's searches evaluate no more designs than the searches did under the chosen rule
+    (so --budget bounds this step too)."""
+    if config.budget is not None:
+        return config.budget
+    designs = searched_designs(context, label)
+    if designs is None:
+        return DEFAULT_BUDGET
+    return max(1, min(DEFAULT_BUDGET, designs // (len(METHODS) * max(count, 1))))
 
 
 def variations(context: StudyContext, rule: str) -> dict[str, dict[str, Any]]:
@@ -94,10 +117,12 @@ class Sensitivity(Step):
         for label, order in baselines(context).items():
             compared.setdefault(label, order)
         found = []
-        for name, change in variations(context, rule).items():
+        varied_cases = variations(context, rule)
+        budget = search_budget(context, self.config, rule, len(varied_cases))
+        for name, change in varied_cases.items():
             varied = base.with_parameters(**change)
             seed = context.config(Searches).seed
-            runs = run_searches(context, varied, METHODS, seed, 1, self.config.budget,
+            runs = run_searches(context, varied, METHODS, seed, 1, budget,
                                 name, options={"local": {"start": chosen.order}},
                                 progress_label=f"sensitivity: {name}")
             finalists = [o for run in runs for o in finalist_orders(run, context.config(Finalists).per_run)]
@@ -110,7 +135,15 @@ class Sensitivity(Step):
                                      full[order].status, "" if full[order].ok else full[order].message)
                             for label, order in compared.items())
             found.append(Variation(name, change, best, designs))
-        return SensitivityResult(self.config.budget, METHODS, rule, tuple(found))
+        return SensitivityResult(budget, METHODS, rule, tuple(found))
+
+    def cost_note(self, context: StudyContext) -> str:
+        result = context.result(Sensitivity)
+        count = len(result.variations) if result else 0
+        budget = result.budget if result else self.config.budget or DEFAULT_BUDGET
+        return (f"{len(METHODS)} short searches of {budget} designs for each of {count} variations of the case, "
+                "then the compared designs at full fidelity; --sensitivity-budget N or --no-sensitivity bounds it")
 
 
-__all__ = ["Compared", "Sensitivity", "SensitivityConfig", "SensitivityResult", "Variation", "variations"]
+__all__ = ["Compared", "Sensitivity", "SensitivityConfig", "SensitivityResult", "Variation", "search_budget",
+           "searched_designs", "variations"]

@@ -5,6 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
+from ..charts import COLOURS, RULE_COLOURS, figure_title, legend_below, plt, save
 from ..objective import FULL, RecordRun, Trajectory
 from ..simulation import ENERGY_OUTPUTS
 from ..study import Step, StudyContext
@@ -63,14 +66,14 @@ class Trajectories(Step):
                        for a, t in zip(answers, results[len(force_tasks):]))
         return TrajectoriesResult(force, energy)
 
+    def cost_note(self, context: StudyContext) -> str:
+        return "one recorded run of each answer and baseline for the force and energy charts, whatever the budget"
+
     def chart(self, study, path):
         return draw_force_and_energy(study, path, study.case.line())
 
 
 def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
-    import numpy as np
-    from ..report.charts import COLOURS, RULE_COLOURS, figure_title, legend_below, plt, save
-
     trajectories = study.result(Trajectories)
     if trajectories is None:
         return None

@@ -4,9 +4,10 @@
     from reference.fmu import build_reference_fmu; build_reference_fmu("out/Ref.fmu")
 
 The FMU bundles the slave (:mod:`reference.fmu.mass_spring_lattice_reference`), the whole ``reference``
-package, ``fmu_src.materials`` (the study's table) and pythonfmu's Python side; pythonfmu's binary runs it inside a Python interpreter, which must have
-numpy and scipy.  Same variable names as the C FMU, so the same fmpy code path
-(``orchestrator.simulation.LatticeFMU``) drives both: that is how the two are compared in the tests.
+package, ``fmu_src.materials`` (the study's table), ``fmu_src.published`` (the study's orders, which ``reference``
+names) and pythonfmu's Python side; pythonfmu's binary runs it
+inside a Python interpreter, which must have numpy and scipy.  Same variable names as the C FMU, so the same
+fmpy code path (``orchestrator.simulation.LatticeFMU``) drives both: that is how the two are compared in the tests.
 Nothing is done at import (pythonfmu is imported only when building).
 """
 from __future__ import annotations
@@ -18,7 +19,8 @@ REFERENCE_DIR = HERE.parent
 SLAVE_SCRIPT = HERE / "mass_spring_lattice_reference.py"
 MODEL_IDENTIFIER = "MassSpringLatticeReference"
 DEFAULT_OUTPUT = Path("models") / f"{MODEL_IDENTIFIER}.fmu"  # under the current folder, as build_fmu.py's
-MATERIALS_MODULE = REFERENCE_DIR.parent / "fmu_src" / "materials.py"
+# the two modules of fmu_src the reference imports; both need nothing but the standard library
+FMU_SRC_MODULES = (REFERENCE_DIR.parent / "fmu_src" / "materials.py", REFERENCE_DIR.parent / "fmu_src" / "published.py")
 
 
 def build_reference_fmu(output: str | Path | None = None) -> Path:
@@ -32,16 +34,19 @@ def build_reference_fmu(output: str | Path | None = None) -> Path:
     output = Path(output) if output else DEFAULT_OUTPUT
     output.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="reference_fmu_") as staging:
-        # a clean copy of the package: no caches, no build leftovers, nothing of the 3-D reference (another model)
+        # a clean copy of the package: no caches, no build leftovers, nothing of the 3-D reference or the armour
+        # system (other models)
         package = Path(staging) / "reference"
         shutil.copytree(REFERENCE_DIR, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "lattice3d.py",
-                                                                              "*.json", "README.md"))
-        # the study's material table comes from fmu_src.materials, the one place it is computed: the FMU
-        # carries that module as a package of its own (it needs nothing but the standard library)
+                                                                              "system.py", "*.json", "README.md"))
+        # the study's material table and orders come from fmu_src, the one place each is written: the FMU carries
+        # those modules as a package of its own
         materials = Path(staging) / "fmu_src"
         materials.mkdir()
-        (materials / "__init__.py").write_text('"""fmu_src.materials alone, for the reference model."""\n')
-        shutil.copy2(MATERIALS_MODULE, materials / "materials.py")
+        (materials / "__init__.py").write_text('"""fmu_src.materials and fmu_src.published alone, for the reference '
+                                               'model."""\n')
+        for module in FMU_SRC_MODULES:
+            shutil.copy2(module, materials / module.name)
         built = FmuBuilder.build_FMU(SLAVE_SCRIPT, dest=Path(staging) / f"{MODEL_IDENTIFIER}.fmu",
                                      project_files=[package, materials])
         partial = output.with_suffix(".fmu.partial")

@@ -18,7 +18,7 @@ MAX_DESCENT = 5000  # designs a descent may evaluate (it stops at the first loca
 
 
 @dataclass(frozen=True)
-class DescentConfig:
+class FinalDescentConfig:
     enabled: bool = option(True, "skip the final descent and local-optimality check of each rule's best design",
                                flag="--no-local-check", action="store_false")
 
@@ -44,20 +44,38 @@ class LocalCheck:
     full: Evaluation  # the design at full fidelity
     stop_reason: str
 
+    @property
+    def complete(self) -> bool:
+        """Every neighbour of the design it ended at was evaluated (else the cap stopped it first: not known)."""
+        return self.checked == self.neighbours
+
 
 @dataclass(frozen=True)
-class DescentResult:
+class FinalDescentResult:
     rules: tuple[LocalCheck, ...]
 
     def for_rule(self, label: str) -> LocalCheck | None:
         return next((c for c in self.rules if c.diagonal_rule == label), None)
 
 
-def check_local_optimum(context: StudyContext, rule: str | None, start: Order, seed: int) -> LocalCheck:
+def descent_cap(context: StudyContext, label: str, start: Order) -> int:
+    """Designs a descent may evaluate: MAX_DESCENT, and no more than the searches evaluated under the rule (so
+    --budget bounds this step too) unless one neighbourhood needs more: a local optimum is known only once each
+    of its neighbours is evaluated."""
+    searched = context.result(Searches)
+    runs = searched.runs_for(label) if searched else []
+    if not runs:
+        return MAX_DESCENT
+    neighbourhood = sum(len(designs) for designs in context.case.space.neighbours(start).values())
+    return min(MAX_DESCENT, max(sum(run.distinct for run in runs), neighbourhood + 1))
+
+
+def check_local_optimum(context: StudyContext, rule: str | None, start: Order, seed: int,
+                        cap: int = MAX_DESCENT) -> LocalCheck:
     objective = context.objective(rule)
     space = context.case.space
     descent = make_search("local", space, seed, start=start, kicks=0)
-    run = run_search(descent, objective, MAX_DESCENT, context.evaluator, method_name="local", seed=seed,
+    run = run_search(descent, objective, cap, context.evaluator, method_name="local", seed=seed,
                      label=rule_label(rule))
     end = run.best_order or start
     moves = space.neighbours(end)
@@ -79,24 +97,34 @@ def check_local_optimum(context: StudyContext, rule: str | None, start: Order, s
                       (min(e.value for e in good) - own.value) if good and own.ok else None, full, run.stop_reason)
 
 
-class Descent(Step):
-    name = "local_optimality"
+class FinalDescent(Step):
+    """Descends from each rule's best finalist and checks that the design it ends at is a local optimum."""
+
+    name = "final_descent"
     title = "Local optimality"
-    template = "descent.html.j2"
-    Config = DescentConfig
+    template = "final_descent.html.j2"
+    Config = FinalDescentConfig
 
     def applies(self, context: StudyContext) -> bool:
         return self.config.enabled and context.result(Finalists) is not None
 
-    def run(self, context: StudyContext) -> DescentResult:
+    def run(self, context: StudyContext) -> FinalDescentResult:
         finalists = context.result(Finalists)
         seed = context.config(Searches).seed
         checks = []
         for rule in context.rules:
             best = finalists.for_rule(rule_label(rule)).best
             if best is not None:
-                checks.append(check_local_optimum(context, rule, best.order, seed))
-        return DescentResult(tuple(checks))
+                checks.append(check_local_optimum(context, rule, best.order, seed,
+                                                  descent_cap(context, rule_label(rule), best.order)))
+        return FinalDescentResult(tuple(checks))
+
+    def cost_note(self, context: StudyContext) -> str:
+        result = context.result(FinalDescent)
+        sizes = [sum(c.neighbours.values()) for c in (result.rules if result else ())]
+        return (f"a local optimum is known only once each of its {max(sizes, default=0):,} neighbours is evaluated, "
+                "and each improving move starts another neighbourhood; --no-local-check skips it")
 
 
-__all__ = ["Descent", "DescentConfig", "DescentResult", "LocalCheck", "check_local_optimum"]
+__all__ = ["FinalDescent", "FinalDescentConfig", "FinalDescentResult", "LocalCheck", "MAX_DESCENT",
+           "check_local_optimum", "descent_cap"]
