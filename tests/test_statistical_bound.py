@@ -1,0 +1,82 @@
+"""The statistical bound: an extreme-value fit to random designs' values (bench.statistical_bound measures its
+coverage where the optimum is known)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from orchestrator.design import DesignSpace
+from orchestrator.executors import make_executor
+from orchestrator.loop import Evaluator
+from orchestrator.statistical_bound import (
+    KIND,
+    estimate_optimum,
+    group_minima,
+    weibull_bound,
+)
+from orchestrator.types import Evaluation
+
+
+def test_group_minima_are_each_groups_smallest_value():
+    minima = group_minima([5, 3, 4, 9, 1, 2, 7], 3)
+    assert minima.tolist() == [3, 1]
+
+
+def test_the_location_of_weibull_minima_is_found_and_held():
+    from scipy import stats
+
+    # group minima drawn from the law the fit assumes: location 1000, shape 2, scale 30
+    minima = stats.weibull_min.rvs(2.0, loc=1000.0, scale=30.0, size=200, random_state=0)
+    bound = weibull_bound(minima, group_size=1, confidence=0.95)
+    assert bound.lower <= bound.estimate <= bound.best_seen
+    assert bound.estimate == pytest.approx(1000.0, abs=4.0)
+    assert bound.shape == pytest.approx(2.0, abs=0.3)
+    assert bound.holds(1000.0) and not bound.holds(bound.lower - 1.0)
+    assert bound.designs == 200 and bound.groups == 200
+    assert "not a certificate" in bound.kind
+
+
+def test_a_higher_confidence_widens_the_interval():
+    values = 50.0 + np.random.default_rng(3).gamma(2.0, 1.0, 2000)
+    narrow, wide = weibull_bound(values, 50, 0.8), weibull_bound(values, 50, 0.99)
+    assert wide.lower < narrow.lower < narrow.best_seen == wide.best_seen
+
+
+def test_equal_values_give_an_interval_of_one_point():
+    bound = weibull_bound([3.0] * 100, 10)
+    assert bound.lower == bound.estimate == bound.best_seen == 3.0
+
+
+@pytest.mark.parametrize("values, size, confidence, message", [
+    ([1.0] * 100, 10, 1.0, "confidence"),
+    ([1.0] * 100, 0, 0.9, "group_size"),
+    ([1.0] * 40, 10, 0.9, "at least 5 groups"),
+    ([1.0, float("nan")] * 50, 10, 0.9, "finite"),
+])
+def test_bad_input_is_refused(values, size, confidence, message):
+    with pytest.raises(ValueError, match=message):
+        weibull_bound(values, size, confidence)
+
+
+@dataclass(frozen=True)
+class Quadratic:
+    """A cheap objective whose optimum over permutations is known: sum of (position - material)^2 plus 10."""
+
+    key = "quadratic"
+
+    def __call__(self, order) -> Evaluation:
+        value = 10.0 + float(sum((i + 1 - m) ** 2 for i, m in enumerate(order)))
+        return Evaluation(tuple(order), value, "ok")
+
+
+def test_estimate_optimum_runs_random_designs_through_the_evaluator():
+    with make_executor("serial") as executor:
+        evaluator = Evaluator(executor)
+        bound = estimate_optimum(evaluator, Quadratic(), DesignSpace.permutations(6), groups=20, group_size=30,
+                                 rng=np.random.default_rng(11))
+    assert bound.designs == 600
+    assert bound.best_seen >= 10.0
+    assert bound.lower <= bound.best_seen
+    assert KIND.startswith("statistical estimate")
