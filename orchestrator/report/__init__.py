@@ -21,6 +21,7 @@ from ..steps.exhaustive import Exhaustive
 from ..steps.pareto import Pareto
 from ..steps.searches import Searches
 from ..steps.starts import Starts
+from ..steps.trajectories import IMPACT_CHART, draw_impact
 from ..study import StudyResult
 
 RESULTS_FORMAT = "lattice-results/1"
@@ -161,6 +162,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
             made = step.chart(study, out / step.chart_file)
             if made:
                 figures[type(step)] = made
+    impact_chart = draw_impact(study, out / IMPACT_CHART)
     refused = write_design_files(study, out, steps, materials)
     certificates = write_certificates(study, out)
     record = results_record(study)
@@ -181,6 +183,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
             refused=refused)))
     page = env.get_template("report/report.html.j2").render(
         study=study, case_line=study.case.line(), answers=answers, answers_chart=figures.get(Answers),
+        impact_chart=impact_chart,
         sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known,
         pareto=study.result(Pareto), starts=study.result(Starts))
     (out / "report.html").write_text(page)

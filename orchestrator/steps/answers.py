@@ -10,7 +10,7 @@ from fmu_src.published import PUBLISHED_CONDITIONS
 
 from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
-from ..study import Step, StudyContext, Verdict
+from ..study import PROJECTILE, Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
 from .descent import Descent
 from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, objective_covered, sweep_cost
@@ -164,8 +164,10 @@ class Answers(Step):
             return Verdict.no_answer(f"no design was evaluated successfully: {study.failure_summary()}")
         if study.case.objective.units[0] == "N" and all(
                 a.outputs is not None and a.outputs["last_contact_time"] == 0 and a.peak == 0 for a in result.answers):
+            options = ("--projectile-mass, --projectile-speed" if study.case.load.get("load_mode") == PROJECTILE
+                       else "--load, --load-angle")
             return Verdict.no_answer("no design touches the backplate in this case (every peak is 0 N): there is "
-                                     "nothing to minimise; check --load, --load-angle and the scene")
+                                     f"nothing to minimise; check {options} and the scene")
         return Verdict.answer()
 
     def run(self, context: StudyContext) -> AnswersResult:
@@ -330,7 +332,10 @@ def draw_lattice(study, path: Path) -> str | None:
         axis.set_xlim(-1.5, case.columns + 0.2)
     bar = figure.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=colour_map), ax=axes[0].tolist())
     bar.set_label("vertical spring constant k of the column's material (N)")
-    figure.suptitle("Load from the left on column 1, backplate on the right (grey bar)", fontsize=9)
+    load = case.load
+    striker = (f"A {load['projectile_mass']:g} kg projectile at {load['projectile_speed']:g} m/s strikes column 1 "
+               "from the left" if load.get("load_mode") == PROJECTILE else "Load from the left on column 1")
+    figure.suptitle(f"{striker}, backplate on the right (grey bar)", fontsize=9)
     return save(figure, path, tight=False)
 
 
