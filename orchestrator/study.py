@@ -285,8 +285,9 @@ class CaseDescription:
                   " over the whole face" if self.depth > 1 else "")
         if load.get("load_mode") == PROJECTILE:
             parts.append(f"struck{spread} by a {load['projectile_mass']:g} kg projectile at "
-                         f"{load['projectile_speed']:g} m/s (contact k_c {load['contact_stiffness']:g}, n "
-                         f"{load['contact_exponent']:g}, lambda {load['contact_damping']:g} s/m)")
+                         f"{load['projectile_speed']:g} m/s (Hunt-Crossley contact k_c {load['contact_stiffness']:g} "
+                         f"N/m^{load['contact_exponent']:g}, n {load['contact_exponent']:g}, lambda "
+                         f"{load['contact_damping']:g} s/m)")
         elif "F_total" in load:
             parts.append(f"load {load['F_total']:g} N at {load.get('load_angle', 0):g} deg{spread} for "
                          f"{load.get('t_active', 0):g} s")
