@@ -125,9 +125,9 @@ class WithoutLimit:
 def screened_values(fmu_path, space: DesignSpace, workers: int, parameters: dict | None = None,
                     search_horizon: float = SEARCH_HORIZON, search_rtol: float = SEARCH_RTOL) -> tuple:
     """Every design's value at the search fidelity (over ``search_horizon`` at ``search_rtol``), in rank order
-    (None where it failed): the sweep's screening (``orchestrator.exhaustive.ScreenChunk``, every value kept, no force limit)
-    through the Evaluator on a process pool. Only which designs a chunk keeps depends on the screening error;
-    every value is kept here."""
+    (None where it failed): the sweep's screening (``orchestrator.exhaustive.ScreenChunk``, every value kept, no
+    force limit) through the Evaluator on a process pool. Only which designs a chunk keeps depends on the
+    screening error; every value is kept here."""
     from orchestrator.executors import make_executor
     from orchestrator.exhaustive import ScreenChunk, chunk_ranges
     from orchestrator.loop import Evaluator
@@ -163,7 +163,8 @@ def narrow_lattice(columns: int) -> Iterator[tuple[Path, Path]]:
         yield path, build_fmu(scene=str(path), output=Path(folder) / f"MassSpringLattice11x{columns}.fmu")
 
 
-__all__ = ["BEST_KNOWN", "default_setting", "setting_text", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST", "add_fmu_option", "bench_orders",
+__all__ = ["BEST_KNOWN", "default_setting", "setting_text", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST",
+           "add_fmu_option", "bench_orders",
            "geometric_mean", "lattice_fmu", "narrow_lattice", "order_text", "random_orders", "relative",
            "screened_values", "search_parameters",
            "search_setting_text", "span", "WithoutLimit"]

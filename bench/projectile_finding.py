@@ -41,8 +41,8 @@ from orchestrator.executors import make_executor
 from orchestrator.known_optima import known_optima
 from orchestrator.loop import Evaluator
 from orchestrator.fmu import prepare_fmu
-from orchestrator.objective import (SEARCH, SEARCH_HORIZON, SEARCH_RTOL, SEARCH_SOLVER, FMURun, LatticeObjective, RecordRun,
-                                    close_instances)
+from orchestrator.objective import (SEARCH, SEARCH_HORIZON, SEARCH_RTOL, SEARCH_SOLVER, FMURun, LatticeObjective,
+                                    RecordRun, close_instances)
 from orchestrator.runner import RunConfig, run_in_folder
 from orchestrator.steps import STEPS, Answers, Exhaustive, Searches
 from orchestrator.steps.searches import SearchesConfig

@@ -25,13 +25,8 @@ class Interrupted(BaseException):
     """SIGTERM, handled like Ctrl-C (a BaseException, so no evaluation guard swallows it)."""
 
 
-class Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # one line, exit 2 (argparse's own words, without the usage block)
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
-
-
 def build_parser():
-    from orchestrator.options import add_options
+    from orchestrator.options import Parser, add_options
     from orchestrator.runner import RunConfig
     from orchestrator.steps import STEPS
     from orchestrator.study import CaseConfig

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import jinja2
+from builder.rendering import environment
 
 from .options import NO_NUMBER, NOT_KEPT, flag_of
 
@@ -189,9 +189,7 @@ def file_hashes(configs: dict[type, Any]) -> list[tuple[str, str]]:
 
 
 def render_study_file(configs: dict[type, Any], folder: Path, materials_sha256: str, fmu_sha256: str) -> str:
-    env = jinja2.Environment(autoescape=False, trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
-                             undefined=jinja2.StrictUndefined)
-    return env.from_string(TEMPLATE).render(
+    return environment().from_string(TEMPLATE).render(
         format=FORMAT, name=STUDY_FILE, sections=study_lines(configs, folder), recorded=RECORDED,
         materials_sha256=_toml(materials_sha256), fmu_sha256=_toml(fmu_sha256), file_hashes=file_hashes(configs))
 

@@ -8,13 +8,13 @@ from types import SimpleNamespace
 
 import pytest
 
-from fmu_src.materials import study_materials
 from orchestrator import run as cli
 from orchestrator.fmu import describe
 from orchestrator.known_optima import known_optimum
 from orchestrator.options import config_from
 from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL
-from orchestrator.study import PROJECTILE, CaseConfig, departures_from_the_study, resolve_case, search_fidelity
+from orchestrator.scene import departures_from_the_study, resolve
+from orchestrator.study import PROJECTILE, CaseConfig, resolve_case, search_fidelity
 from orchestrator.studyfile import read_study_file, write_study_file
 from scenes import PROJECTILE_SCENE, Scene
 
@@ -39,12 +39,11 @@ def one_line(capfd) -> str:
 def case_of(fmu_path, **options):
     """The case ``options`` give on the armour FMU, resolved as a run resolves it."""
     parser = cli.build_parser()
-    argv = []
+    argv = ["--fmu", str(fmu_path)]
     for name, value in options.items():
         argv += [f"--{name.replace('_', '-')}", str(value)]
     config = config_from(CaseConfig, parser.parse_args(argv))
-    scene = Scene.load(config.scene)
-    return resolve_case(config, scene, describe(fmu_path, scene.rows), study_materials(11))
+    return resolve_case(config, resolve(config))
 
 
 @pytest.mark.parametrize("argv, named", [
@@ -88,7 +87,8 @@ def test_the_projectile_scene_departs_from_the_study_and_carries_its_search_fide
     prepared = describe(struck, 11)
     assert prepared.start("load_mode") == PROJECTILE
     assert departures_from_the_study(prepared) == ("load_mode",)
-    own = resolve_case(CaseConfig(scene=PROJECTILE_SCENE), scene, prepared, study_materials(11))
+    own_config = CaseConfig(scene=PROJECTILE_SCENE, fmu=str(struck))
+    own = resolve_case(own_config, resolve(own_config))
     assert own.load_mode == PROJECTILE and own.parameters == {} and known_optimum(own, "receiver") is None
     fidelity = search_fidelity(PROJECTILE)
     assert (fidelity.horizon, fidelity.rtol) == (scene.search_horizon, scene.search_rtol)

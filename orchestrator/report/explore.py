@@ -19,8 +19,9 @@ import math
 from pathlib import Path
 from typing import Any
 
-import jinja2
 import markupsafe
+
+from builder.rendering import add_templates
 
 from ..steps.answers import Answers
 from ..steps.finalists import Finalists
@@ -126,9 +127,7 @@ def write_explore(study: StudyResult, out: Path, materials, refused: dict[str, s
     out = Path(out)
     refused = {**refused, **write_front_design_files(study, out, materials)}
     data = explore_data(study, _Names(study.case.materials), refused)
-    env = jinja2.Environment(loader=jinja2.PackageLoader("orchestrator", "templates"),
-                             autoescape=jinja2.select_autoescape(["html", "j2"]), undefined=jinja2.StrictUndefined)
-    page = env.get_template("report/explore.html.j2").render(
+    page = add_templates("orchestrator").get_template("report/explore.html.j2").render(
         case_line=study.case.line(), data=_script_json(data), plotly=markupsafe.Markup(
             plotly_js().replace("</script", "<\\/script")))
     path = out / EXPLORE_FILE

@@ -5,6 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
+from ..charts import figure_title, legend_below, plt, save
 from ..objective import FULL, RecordRun, Trajectory
 from ..simulation import ENERGY_OUTPUTS
 from ..study import PROJECTILE, Step, StudyContext
@@ -73,9 +76,6 @@ class Trajectories(Step):
 def draw_impact(study, path: Path) -> str | None:
     """Under a projectile, the first screen's chart: the contact force on the face beside the force on the
     backplate, over time, for each answer and baseline (what goes in against what comes through)."""
-    import numpy as np
-    from ..report.charts import figure_title, legend_below, plt, save
-
     trajectories = study.result(Trajectories)
     load = study.case.load
     if trajectories is None or load.get("load_mode") != PROJECTILE:
@@ -106,9 +106,6 @@ def draw_impact(study, path: Path) -> str | None:
 
 
 def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
-    import numpy as np
-    from ..report.charts import figure_title, legend_below, plt, save
-
     trajectories = study.result(Trajectories)
     if trajectories is None:
         return None

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..charts import legend_below, plt, save
 from ..objective import FULL
 from ..study import Step, StudyContext
 from .accuracy import Accuracy, relative_difference
@@ -73,8 +74,6 @@ class WorkPrecision(Step):
 
 
 def draw_work_precision(study, path: Path) -> str | None:
-    from ..report.charts import legend_below, plt, save
-
     result = study.result(WorkPrecision)
     if result is None:
         return None

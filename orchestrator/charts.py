@@ -1,4 +1,5 @@
-"""The report's charts, drawn from a study's typed results (nothing here simulates)."""
+"""The charts every step draws from a study's typed results (nothing here simulates): matplotlib set up once,
+the methods' names and colours, the figure title and the PNG writer."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -36,7 +37,8 @@ LABEL_RINGS = (3, 7, 12, 18, 26, 36, 48)  # points from its point at which a lab
 def spread_labels(figure, labels, clearance: float = 2.0) -> None:
     """Places each annotation (made with ``textcoords="offset points"``) at the nearest spot around its point,
     right, left, above or below, inside its axes, that keeps ``clearance`` points from every label placed before
-    it and from every marker of its axes but its own point's (a faint background cloud excepted); a label placed away from its point gets a thin leader line.
+    it and from every marker of its axes but its own point's (a faint background cloud excepted); a label placed
+    away from its point gets a thin leader line.
     Why by hand: matplotlib puts a label where it is told and has no collision avoidance, and a crowded chart
     (solver settings of similar cost and error, the ends of a front) would print labels on top of each other."""
     if not labels:
@@ -54,7 +56,8 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
         chosen = None
         for ring in LABEL_RINGS:
             for dx, dy in ((ring, 0.4 * ring), (ring, -ring - 0.6 * height), (-ring - width, 0.4 * ring),
-                           (-ring - width, -ring - 0.6 * height), (-width / 2, ring + 2), (-width / 2, -ring - height - 2)):
+                           (-ring - width, -ring - 0.6 * height), (-width / 2, ring + 2),
+                           (-width / 2, -ring - height - 2)):
                 label.xyann = (dx, dy)
                 box = label.get_window_extent(renderer).padded(pad)
                 if inside(box, frame) and not any(box.overlaps(other) for other in obstacles):
