@@ -24,7 +24,7 @@ from ..steps.pareto import Pareto
 from ..steps.searches import Searches, draw_convergence
 from ..steps.starts import Starts
 from ..steps.trajectories import IMPACT_CHART, draw_impact
-from ..study import StudyResult
+from ..study import PROJECTILE, PULSE, StudyResult, search_fidelity
 
 RESULTS_FORMAT = "lattice-results/1"
 TERMS = {
@@ -32,9 +32,11 @@ TERMS = {
                     "the study computed and published",
     "continuous peak": "the largest backplate force over the continuous solution (between the samples too); "
                        "at least the sampled peak",
-    "search fidelity": "the cheaper evaluation the searches rank by: a 1 s horizon (extended while the lattice "
-                       "still touches the backplate) at a looser tolerance; every reported number is at full "
-                       "fidelity, the whole scene at the FMU's default accuracy",
+    "search fidelity": "the cheaper evaluation the searches rank by: a short horizon (the scene's: "
+                       f"{search_fidelity(PULSE).horizon:g} s under the study's pulse, "
+                       f"{search_fidelity(PROJECTILE).horizon:g} s under a projectile, whose contact lasts longer; "
+                       "extended while the lattice still touches the backplate) at a looser tolerance; every reported "
+                       "number is at full fidelity, the whole scene at the FMU's default accuracy",
     "censored": "an evaluation the FMU stopped as soon as its peak passed a force limit the search gave "
                 "(it could no longer win): its value is only known to be above that limit, and it is never "
                 "reported as a value",
