@@ -342,8 +342,8 @@ def main(argv=None) -> int:
                 f"of {len(seven)} rules, at worst {100 * worst[2]:.1f}% above it ({worst[0]} rule: rank {worst[3]:,} "
                 f"of 5,040); 11 x 11, searched: the pulse's certified optimum is {min(above):.2f}-{max(above):.2f}% "
                 f"above the best order found under the projectile; searched over {fidelity.horizon:g} s at rtol "
-                f"{fidelity.rtol:g} (the contact ends by {check.latest_contact:.2f} s); `run.py --load-mode projectile` "
-                f"took {seconds:.0f} s")
+                f"{fidelity.rtol:g} (the contact ends by {check.latest_contact:.2f} s); `run.py --load-mode "
+                f"projectile` took {seconds:.0f} s")
     horizon_table = Table(
         ("rule", "horizon", "orders whose peak differs from the 8 s peak", "largest relative difference",
          f"orders still touching the plate after {GUARD:g} of it (re-run over the full horizon)"),
