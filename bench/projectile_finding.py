@@ -1,7 +1,7 @@
 """The projectile's finding (docs/model.md section 11): does the pulse's best order survive a body that answers back?
 
-    python -m bench.projectile_finding            # about 6 min on 2 idle cores
-    python -m bench.projectile_finding --quick    # about 2 min: fewer orders in the horizon check, no sensitivity
+    python -m bench.projectile_finding            # about 6 min on 2 cores
+    python -m bench.projectile_finding --quick    # about 4 min: fewer orders and a smaller settling budget
 
 Why: the study loads the armour with a prescribed pulse (1200 N for 0.15 s, 180 N s); a real threat is a body
 whose force depends on the armour it hits. The FMU's projectile mode (``load_mode`` projectile: a rigid body in
