@@ -101,6 +101,14 @@ def enumeration_types(interface: Interface) -> list[dict]:
             for v in interface.exposed if v.enumeration]
 
 
+def co_simulation_capabilities(interface: Interface) -> list[tuple[str, str]]:
+    """The <CoSimulation> attributes of a model with inputs: it extrapolates them linearly over a step
+    (fmi2SetRealInputDerivatives) and gives its outputs' first derivatives (fmi2GetRealOutputDerivatives)."""
+    if not any(variable.causality == "input" for variable in interface.exposed):
+        return []
+    return [("canInterpolateInputs", "true"), ("maxOutputDerivativeOrder", "1")]
+
+
 def generate_model_description(interface: Interface, identifier: str, guid: str, scene,
                                sources: list[str] | None = None) -> str:
     """modelDescription.xml (FMI 2.0, Model Exchange and Co-Simulation) from the same table as the C header;
@@ -112,4 +120,5 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
                   sources=sources, units=UNITS, enumerations=enumeration_types(interface),
                   log_categories=LOG_CATEGORIES, experiment=default_experiment(scene), variables=scalars,
                   outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns,
-                  annotation_tool=SIZE_ANNOTATION, lattice_size=(interface.rows, interface.cols, interface.depth))
+                  annotation_tool=SIZE_ANNOTATION, lattice_size=(interface.rows, interface.cols, interface.depth),
+                  co_simulation_capabilities=co_simulation_capabilities(interface))

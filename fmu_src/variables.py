@@ -299,13 +299,13 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
                  enumeration="LoadMode",
                  items=(("pulse", "F_total at load_angle for 0 <= t <= t_active (the study's load)"),
                         ("input", "The input F_front along +x, spread over the face with the pulse's weights"),
-                        ("projectile", "A rigid body of projectile_mass striking the face at projectile_speed: "
-                                       "its contact force pushes the face as F_front would"))),
-        # projectile mode (docs/model.md section 11): the default carries the pulse's momentum, 1200 N x 0.15 s
-        # = 180 N s, as a blunt 50 kg body at 3.6 m/s, and its contact lasts about as long as the pulse
+                        ("projectile", ("A rigid body of projectile_mass striking the face at projectile_speed: "
+                                        "its contact force pushes the face as F_front would")))),
+        # projectile mode (docs/model.md section 11): the default body carries the pulse's momentum, F_total x
+        # t_active (tests/test_ports.py checks it), as a blunt impactor
         Variable("projectile_mass", REAL, "parameter",
-                 "Projectile mode: the striking body's mass (with projectile_speed: the pulse's momentum, "
-                 "180 N s, as a blunt 50 kg impactor)", start=50.0, unit="kg", minimum=0.0,
+                 "Projectile mode: the striking body's mass (with projectile_speed, by default the pulse's "
+                 "momentum F_total x t_active, as a blunt impactor)", start=50.0, unit="kg", minimum=0.0,
                  minimum_exclusive=True),
         Variable("projectile_speed", REAL, "parameter",
                  "Projectile mode: the body's speed along +x at t = 0, when it touches the face",
@@ -326,7 +326,8 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
         Variable("F_front", REAL, "input",
                  "Front port: the force along +x on column 1's face in load_mode input, each loaded mass its "
                  "share of it (the pulse's weights, normalised to 1); F_front v_front is the power the port takes "
-                 "in. Co-Simulation holds it over a step", start=0.0, unit="N"),
+                 "in. Co-Simulation holds it over a step, or extrapolates it with the derivative a master gives "
+                 "(fmi2SetRealInputDerivatives)", start=0.0, unit="N"),
         Variable("x_back", REAL, "input",
                  "Back port: the backplate's displacement along +x (0: the rigid wall of section 5). "
                  "Co-Simulation moves the backplate from it with v_back over a step", start=0.0, unit="m"),

@@ -111,6 +111,12 @@ def test_input_mode_driven_with_the_pulse_gives_the_pulse_peak(co_simulation_fmu
     assert abs(driven["energy_balance_error"]) <= 1e-6 * driven["external_work"]
 
 
+def test_inputs_set_to_what_they_are_leave_the_pulse_bit_for_bit(co_simulation_fmu):
+    """A master that sets every input at every step, unchanged (a resting hull, no force), changes nothing."""
+    pulse = run(co_simulation_fmu)
+    assert run(co_simulation_fmu, front=lambda t: 0.0, back=lambda t: (0.0, 0.0)) == pulse
+
+
 def test_input_mode_without_a_force_leaves_the_lattice_at_rest(fmu_path):
     at_rest = run(fmu_path, INPUT, front=lambda t: 0.0)
     assert at_rest["peak_backplate_force"] == 0.0
@@ -247,8 +253,8 @@ def test_model_exchange_takes_the_inputs_the_importer_sets(fmu_path):
     """fmpy's CVode drives F_front with the pulse (a step signal at t_active) and gives the pulse's peak."""
     signal = np.array([(0.0, PULSE_FORCE), (PULSE_END, PULSE_FORCE), (PULSE_END, 0.0), (HORIZON, 0.0)],
                       dtype=[("time", np.float64), ("F_front", np.float64)])
-    common = dict(fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-9, output_interval=STEP,
-                  stop_time=HORIZON, output=["peak_backplate_force", "external_work", "energy_balance_error"])
+    common = {"fmi_type": "ModelExchange", "solver": "CVode", "relative_tolerance": 1e-9, "output_interval": STEP,
+              "stop_time": HORIZON, "output": ["peak_backplate_force", "external_work", "energy_balance_error"]}
     pulse = simulate_fmu(str(fmu_path), **common)
     driven = simulate_fmu(str(fmu_path), start_values={"load_mode": INPUT}, input=signal, **common)
     assert driven["peak_backplate_force"][-1] == pytest.approx(pulse["peak_backplate_force"][-1], rel=1e-6)
@@ -293,7 +299,7 @@ def test_projectile_mode_the_contact_pushes_while_the_body_overlaps_the_face(fmu
         instance.close()
 
 
-@pytest.mark.parametrize("variant", [dict(use_symmetry=0), dict(solver=5), dict(step=HORIZON)],
+@pytest.mark.parametrize("variant", [{"use_symmetry": 0}, {"solver": 5}, {"step": HORIZON}],
                          ids=["whole-lattice", "rkn5", "one-step"])
 def test_projectile_mode_agrees_across_solvers_layouts_and_communication(fmu_path, variant):
     """The quarter (here half) lattice with the body, Fine's Nystrom pair (which takes the body as second order)
@@ -315,3 +321,125 @@ def test_projectile_mode_under_model_exchange(fmu_path):
     assert result["peak_backplate_force"][-1] == pytest.approx(co_simulation["peak_backplate_force"], rel=1e-6)
     assert result["projectile_velocity"][-1] == pytest.approx(co_simulation["projectile_velocity"], rel=1e-6)
     assert abs(result["energy_balance_error"][-1]) <= 1e-6 * _impact_energy(fmu_path)
+
+
+def _coupled_projectile(path, step, interpolate, horizon=0.5) -> float:
+    """peak_backplate_force of the lattice in input mode struck by a projectile the master integrates (Jacobi
+    coupling over `step`): the body computes the contact force from x_front, v_front, the lattice takes it as
+    F_front. With `interpolate`, the master hands the lattice dF/dt (fmi2SetRealInputDerivatives) and
+    extrapolates the face with its output derivatives; else each holds the other's values over a step."""
+    mass, speed = _start(path, "projectile_mass"), _start(path, "projectile_speed")
+    stiffness, exponent = _start(path, "contact_stiffness"), _start(path, "contact_exponent")
+    damping = _start(path, "contact_damping")
+    substeps = 20
+
+    def contact(overlap, rate):
+        """The contact force and its partial derivatives by the overlap and by its rate (docs/model.md 11)."""
+        if overlap <= 0.0:
+            return 0.0, 0.0, 0.0
+        force = stiffness * overlap ** exponent * max(1.0 + damping * rate, 0.0)
+        by_rate = stiffness * overlap ** exponent * damping if force > 0.0 else 0.0
+        return force, exponent * force / overlap, by_rate
+
+    def body_over_step(position, velocity, x_face, v_face, a_face):
+        """The body over one step by RK4 substeps; the face's x_front and v_front held over the step, or (with
+        interpolation) extrapolated from them and v_front's derivative a_face."""
+
+        def acceleration(tau, x, v):
+            if interpolate:
+                x_now, v_now = x_face + v_face * tau + 0.5 * a_face * tau * tau, v_face + a_face * tau
+            else:
+                x_now, v_now = x_face, v_face
+            return -contact(x - x_now, v - v_now)[0] / mass
+
+        h = step / substeps
+        for j in range(substeps):
+            tau = j * h
+            k1x, k1v = velocity, acceleration(tau, position, velocity)
+            k2x, k2v = velocity + 0.5 * h * k1v, acceleration(tau + 0.5 * h, position + 0.5 * h * k1x,
+                                                               velocity + 0.5 * h * k1v)
+            k3x, k3v = velocity + 0.5 * h * k2v, acceleration(tau + 0.5 * h, position + 0.5 * h * k2x,
+                                                               velocity + 0.5 * h * k2v)
+            k4x, k4v = velocity + h * k3v, acceleration(tau + h, position + h * k3x, velocity + h * k3v)
+            position += h / 6.0 * (k1x + 2 * k2x + 2 * k3x + k4x)
+            velocity += h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        return position, velocity
+
+    instance = Slave(path, horizon, INPUT)
+    vr = instance.vr
+    position, velocity = 0.0, speed
+    try:
+        for i in range(round(horizon / step)):
+            face = instance.get("x_front", "v_front")
+            x_face, v_face = face["x_front"], face["v_front"]
+            a_face = instance.slave.getRealOutputDerivatives([vr["v_front"]], [1])[0] if interpolate else 0.0
+            force, by_overlap, by_rate = contact(position - x_face, velocity - v_face)
+            instance.set(F_front=force)
+            if interpolate:
+                rate = by_overlap * (velocity - v_face) + by_rate * (-force / mass - a_face)
+                instance.slave.setRealInputDerivatives([vr["F_front"]], [1], [rate])
+            position, velocity = body_over_step(position, velocity, x_face, v_face, a_face)
+            instance.slave.doStep(i * step, step)
+        return instance.get("peak_backplate_force")["peak_backplate_force"]
+    finally:
+        instance.close()
+
+
+def test_input_interpolation_reduces_a_coupled_loops_error_at_the_same_step(fmu_path):
+    """The projectile integrated by the master and coupled through the front port against projectile mode (the
+    same physics as one model): at the same communication step, the loop with input interpolation and output
+    derivatives is nearer the one-model answer."""
+    description = read_model_description(str(fmu_path))
+    assert description.coSimulation.canInterpolateInputs and description.coSimulation.maxOutputDerivativeOrder == 1
+    one_model = run(fmu_path, PROJECTILE, horizon=0.5)["peak_backplate_force"]
+    step = 0.005
+    held = abs(_coupled_projectile(fmu_path, step, interpolate=False) - one_model)
+    interpolated = abs(_coupled_projectile(fmu_path, step, interpolate=True) - one_model)
+    assert interpolated < 0.5 * held, (interpolated, held)
+
+
+@pytest.fixture(scope="module")
+def small_plate(tmp_path_factory):
+    """A 5 x 5 x 5 plate under a centred 3 x 3 patch: mirror-symmetric in y and in z (a quarter carries it)."""
+    from builder.build import build_fmu
+
+    return build_fmu(output=tmp_path_factory.mktemp("plate") / "plate.fmu", rows=5, cols=5, depth=5, load_patch=3,
+                     werror=True)
+
+
+@pytest.mark.parametrize("load_mode", [INPUT, PROJECTILE], ids=["input", "projectile"])
+def test_the_quarter_plate_keeps_the_ports_and_the_projectile_exact(small_plate, load_mode):
+    """The ports and the body act along +x on a symmetric patch: the quarter plate integrates the whole (to the
+    solver's accuracy: its steps are not the whole plate's to the last bit)."""
+    front = pulse_force if load_mode == INPUT else None
+    quarter = run(small_plate, load_mode, front=front, use_symmetry=1)
+    whole = run(small_plate, load_mode, front=front, use_symmetry=0)
+    for name in ("peak_backplate_force", "peak_backplate_force_continuous", "x_front", "v_front",
+                 "projectile_velocity", "kinetic_energy"):
+        assert quarter[name] == pytest.approx(whole[name], rel=1e-6, abs=1e-12), name
+    energy_in = quarter["external_work"] if load_mode == INPUT else _impact_energy(small_plate)
+    assert abs(quarter["energy_balance_error"]) <= 1e-6 * energy_in
+
+
+def test_an_fmu_state_holds_the_body_the_contact_and_the_ports(fmu_path):
+    """Projectile mode's body and contact, and a moving backplate's anchor, go into an FMU state: a run restored
+    to it goes on as the run it was taken from."""
+    instance = Slave(fmu_path, load_mode=PROJECTILE)
+    try:
+        for i in range(10):
+            instance.set(x_back=1e-4 * i, v_back=1e-2)
+            instance.slave.doStep(i * STEP, STEP)
+        state = instance.slave.getFMUstate()
+
+        def go_on():
+            for i in range(10, 50):
+                instance.set(x_back=1e-4 * i, v_back=1e-2)
+                instance.slave.doStep(i * STEP, STEP)
+            return instance.get(*OUTPUTS)
+
+        first = go_on()
+        instance.slave.setFMUstate(state)
+        assert go_on() == first
+        instance.slave.freeFMUstate(state)
+    finally:
+        instance.close()

@@ -413,7 +413,7 @@ static void wall_modes_of_state(Model *m, signed char *modes) {
  * BIT 11 (1971) 168-174), with a bisection whenever the bracket has not halved over two evaluations, which
  * keeps the worst case within a few times bisection's. Where the indicator already has the end's sign at the
  * step's start, no crossing is inside and the bracket closes on the start by bisection. */
-/* Projectile mode: the front port at time t of the last step (hermite: the free first look). */
+/* Projectile mode: the front port at time t of the last step, from the face masses the solver holds. */
 static void front_port_at(Model *m, double t, double *x_front, double *v_front) {
     const int vx_base = solver_vx_base(m);
     double x = 0.0, v = 0.0;
@@ -825,11 +825,21 @@ static void ports_changed(Model *m) {
     update_outputs(m, m->time);
 }
 
+/* Whether value is what input vr already is at the communication point, held (a master that sets every input
+ * at every step, changed or not, leaves the run as it was). */
+static int input_unchanged(Model *m, unsigned int vr, double value) {
+    model_ports_at(m, m->time);
+    if (vr == VR_F_FRONT) return value == m->params.front_force && m->front_force_rate == 0.0;
+    if (vr == VR_V_BACK) return value == m->params.back_velocity && m->back_velocity_rate == 0.0;
+    return value == m->params.back_position && !m->back_position_rate_given;
+}
+
 int model_driver_set_input(Model *m, unsigned int vr, double value, char *message, size_t message_size) {
     (void)message;
     (void)message_size;
     m->real[vr] = value;
     if (m->failed || m->cs.terminated) return 0; /* the run goes no further: nothing to move */
+    if (input_unchanged(m, vr, value)) return 0;
     ports_to_communication_point(m);
     if (vr == VR_F_FRONT) {
         m->port_front_force = value;

@@ -25,8 +25,6 @@ typedef char state_count_matches_the_variable_table[N_CONTINUOUS_STATES == N_STA
 const char *model_guid(void) { return MODEL_GUID; }
 size_t model_size(void) { return sizeof(Model); }
 
-/* The contract's derivatives under the model's discrete states (the load phase given, the backplate modes
- * frozen): the one right-hand side of both interfaces. */
 int model_contact_of(double delta, double rate) { return delta > 0.0 || (delta == 0.0 && rate > 0.0); }
 
 double model_contact_force(const Model *m, int contact_on, double delta, double rate, double *dissipation) {
@@ -51,6 +49,9 @@ static double contact_of_state(const Model *m, int contact_on, const double *y, 
                                y[INDEX_PROJECTILE_VELOCITY] - v_front, dissipation);
 }
 
+/* The contract's derivatives under the model's discrete states (the load phase given, the backplate modes and
+ * the projectile's contact frozen): the one right-hand side of Model Exchange (Co-Simulation's solver takes the
+ * lattice's part of it in its own layout). */
 void model_derivatives(Model *m, int load_on, const double *y, double *dydt) {
     if (m->params.load_mode == LOAD_MODE_PROJECTILE) {
         double dissipation;
