@@ -14,6 +14,7 @@ from orchestrator.known_optima import known_optimum
 from orchestrator.options import config_from
 from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL
 from orchestrator.scene import departures_from_the_study, resolve
+from orchestrator.ssp import read_design_parameters
 from orchestrator.study import PROJECTILE, CaseConfig, resolve_case, search_fidelity
 from orchestrator.studyfile import read_study_file, write_study_file
 from scenes import PROJECTILE_SCENE, Scene
@@ -138,6 +139,10 @@ def test_a_study_under_a_projectile_answers_and_draws_the_contact_force_on_its_f
     assert "60 kg projectile" in first and 'src="impact.png"' in first and (out / "impact.png").is_file()
     force = results["steps"]["trajectories"]["force"][0]["trajectory"]["values"]
     assert set(force) == {"backplate_force", "contact_force"} and max(force["contact_force"]) > 0
+    assert results["design_files_refused"] == {}  # the design file carries the projectile
+    design = read_design_parameters(out / answer["design_file"])
+    assert design["load_mode"] == 2 and design["projectile_mass"] == 60.0
+    assert [design[f"material[{j}]"] for j in range(1, 12)] == answer["order"]
     study = read_study_file(out / "study.toml")
     assert study.values["CaseConfig.load_mode"] == PROJECTILE
     assert study.values["CaseConfig.projectile_mass"] == 60.0
