@@ -160,3 +160,31 @@ def test_sensitivity_under_a_projectile_varies_the_projectile_not_the_pulse(fmu_
     assert found["receiver diagonal rule"] == {"diagonal_rule": "receiver"}
     assert not any(set(change) & {"F_total", "t_active", "load_angle"} for change in found.values())
     assert "load 2x" in variations(SimpleNamespace(fmu=prepared, case=case_of(fmu_path)), "mean")
+
+
+def test_a_sweep_under_a_projectile_certifies_its_own_optimum(armour_fmu_of_width, tmp_path, capfd):
+    out = tmp_path / "results"
+    code = main("--fmu", armour_fmu_of_width(5), "--cols", 5, "--out", out, "--load-mode", "projectile",
+                "--method", "exhaustive", "--diagonal-rule", "mean", "--no-sensitivity", "--no-progress",
+                "--executor", "serial")
+    assert code == 0, capfd.readouterr().err
+    results = json.loads((out / "results.json").read_text())
+    answer, = results["answers"]
+    assert answer["evidence"]["status"] == "certified" and "this run's exhaustive sweep" in \
+        answer["evidence"]["status_source"]
+    certificate = json.loads((out / "exhaustive" / "certificate.json").read_text())
+    assert certificate["certified"] and certificate["optimum"]["order"] == answer["order"]
+
+
+def test_one_order_for_the_pulse_and_the_projectile_is_the_worst_of_both(fmu_path, tmp_path, capfd):
+    out = tmp_path / "results"
+    code = main("--fmu", fmu_path, "--out", out, "--case", "load_mode=pulse,projectile", "--aggregate", "worst",
+                "--diagonal-rule", "receiver", *QUICK)
+    assert code == 0, capfd.readouterr().err
+    answer, = json.loads((out / "results.json").read_text())["answers"]
+    from orchestrator.simulation import LatticeFMU
+
+    with LatticeFMU(fmu_path) as fmu:
+        peaks = [fmu.simulate(answer["order"], 8.0, {"diagonal_rule": "receiver", "load_mode": mode})
+                 ["peak_backplate_force"] for mode in ("pulse", "projectile")]
+    assert answer["peak"] == pytest.approx(max(peaks), rel=1e-9)
