@@ -14,9 +14,15 @@ OUT.partial/journal.jsonl for --resume.
 """
 from __future__ import annotations
 
-import argparse
-import signal
+import os
 import sys
+
+if __name__ == "__main__":  # run as `python orchestrator/run.py`: import from the checkout's root, so that this
+    # folder's modules (types.py) do not stand in for the standard library's of the same name
+    sys.path[0] = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+import argparse  # noqa: E402
+import signal  # noqa: E402
 
 EXIT_OK, EXIT_USAGE, EXIT_NO_RESULT = 0, 2, 3
 
