@@ -95,6 +95,11 @@ class EnergyFlows:
     external_work: float
     nonreciprocal_work: float
     dissipated_energy: float
+    start_energy: float = 0.0  # what the run starts with: under a projectile, its kinetic energy (none is put in)
+
+    @property
+    def energy_in(self) -> float:
+        return self.external_work + self.start_energy
 
 
 @dataclass(frozen=True)
@@ -194,7 +199,8 @@ class Answers(Step):
                 values[rule_label(judge)] = evaluation.value
                 outputs = evaluation.outputs
                 energy[rule_label(judge)] = None if outputs is None else EnergyFlows(
-                    outputs["external_work"], outputs["nonreciprocal_work"], outputs["dissipated_energy"])
+                    outputs["external_work"], outputs["nonreciprocal_work"], outputs["dissipated_energy"],
+                    start_energy(context))
             other_values = [v for k, v in values.items() if k != label]
             runs = [r for r in (searched.runs_for(label) if searched else []) if r.method not in BASELINE_METHODS]
             reaching = sum(1 for r in runs if run_answer(r, context, label) == best.order)
@@ -263,6 +269,16 @@ class Answers(Step):
     def design_files(self, study):
         result = study.result(type(self))
         return [(a.design_file, a.order, a.diagonal_rule) for a in (result.answers if result else ())]
+
+
+def start_energy(context: StudyContext) -> float:
+    """The energy a run starts with (docs/model.md section 11): under a projectile, the body's kinetic energy,
+    which the contact hands to the lattice inside the model; none under the pulse, whose work is external."""
+    if context.case.load_mode != PROJECTILE:
+        return 0.0
+    mass, speed = (float(context.case.parameters.get(name, context.fmu.start(name)))
+                   for name in ("projectile_mass", "projectile_speed"))
+    return 0.5 * mass * speed ** 2
 
 
 def equivalence(context: StudyContext, best: Evaluation, runner: Evaluation | None, sweep) -> Equivalence | None:

@@ -136,8 +136,9 @@ def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
         for name, values in first.trajectory.values.items():
             energy_axis.plot(first.trajectory.time, values, ":" if name == "energy_balance_error" else "-",
                              label=names.get(name, name))
-        energy_axis.set_title(f"Energy of the {first.label} ({first.diagonal_rule} rule): "
-                              "W_ext + W_nr = KE + PE + D", fontsize=9)
+        balance = ("E_0 + W_nr = KE + PE + D" if study.case.load.get("load_mode") == PROJECTILE else
+                   "W_ext + W_nr = KE + PE + D")
+        energy_axis.set_title(f"Energy of the {first.label} ({first.diagonal_rule} rule): {balance}", fontsize=9)
         legend_below(energy_axis, columns=3)
     energy_axis.set_xlabel("time (s)")
     energy_axis.set_ylabel("energy (J)")
