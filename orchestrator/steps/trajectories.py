@@ -70,7 +70,8 @@ class Trajectories(Step):
         return TrajectoriesResult(force, energy)
 
     def chart(self, study, path):
-        return draw_force_and_energy(study, path, study.case.line())
+        return draw_force_and_energy(study, path, study.case.line(),
+                                     struck=study.case.load.get("load_mode") == PROJECTILE)
 
 
 def draw_impact(study, path: Path) -> str | None:
@@ -105,7 +106,9 @@ def draw_impact(study, path: Path) -> str | None:
     return save(figure, path)
 
 
-def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
+def draw_force_and_energy(study, path: Path, context_line: str, struck: bool = False) -> str | None:
+    """``struck``: the load is a projectile, whose kinetic energy at the start (E_0) is what the balance holds in
+    place of external work."""
     trajectories = study.result(Trajectories)
     if trajectories is None:
         return None
@@ -136,8 +139,7 @@ def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
         for name, values in first.trajectory.values.items():
             energy_axis.plot(first.trajectory.time, values, ":" if name == "energy_balance_error" else "-",
                              label=names.get(name, name))
-        balance = ("E_0 + W_nr = KE + PE + D" if study.case.load.get("load_mode") == PROJECTILE else
-                   "W_ext + W_nr = KE + PE + D")
+        balance = "E_0 + W_nr = KE + PE + D" if struck else "W_ext + W_nr = KE + PE + D"
         energy_axis.set_title(f"Energy of the {first.label} ({first.diagonal_rule} rule): {balance}", fontsize=9)
         legend_below(energy_axis, columns=3)
     energy_axis.set_xlabel("time (s)")
