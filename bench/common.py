@@ -14,7 +14,7 @@ from builder.build import build_fmu
 from fmu_src.published import SEQUENTIAL_ORDER, STUDY_BEST_ORDER
 from orchestrator.design import DesignSpace
 from orchestrator.known_optima import known_optima
-from orchestrator.objective import SEARCH, SEARCH_HORIZON, FMURun, LatticeObjective
+from orchestrator.objective import SEARCH, SEARCH_HORIZON, SEARCH_RTOL, FMURun, LatticeObjective
 
 SEQUENTIAL = SEQUENTIAL_ORDER
 STUDY_BEST = STUDY_BEST_ORDER
@@ -122,16 +122,19 @@ class WithoutLimit:
         return self.run(order)
 
 
-def screened_values(fmu_path, space: DesignSpace, workers: int, parameters: dict | None = None) -> tuple:
-    """Every design's value at the search fidelity, in rank order (None where it failed): the sweep's screening
-    (``orchestrator.exhaustive.ScreenChunk``, every value kept, no force limit) through the Evaluator on a
-    process pool. Only which designs a chunk keeps depends on the screening error; every value is kept here."""
+def screened_values(fmu_path, space: DesignSpace, workers: int, parameters: dict | None = None,
+                    search_horizon: float = SEARCH_HORIZON, search_rtol: float = SEARCH_RTOL) -> tuple:
+    """Every design's value at the search fidelity (over ``search_horizon`` at ``search_rtol``), in rank order
+    (None where it failed): the sweep's screening (``orchestrator.exhaustive.ScreenChunk``, every value kept, no
+    force limit) through the Evaluator on a process pool. Only which designs a chunk keeps depends on the
+    screening error; every value is kept here."""
     from orchestrator.executors import make_executor
     from orchestrator.exhaustive import ScreenChunk, chunk_ranges
     from orchestrator.loop import Evaluator
     from orchestrator.objective import close_instances
 
-    screening, = LatticeObjective(str(fmu_path), space, FULL_HORIZON, parameters=parameters or {}).tasks(SEARCH)
+    screening, = LatticeObjective(str(fmu_path), space, FULL_HORIZON, parameters=parameters or {},
+                                  search_horizon=search_horizon, search_rtol=search_rtol).tasks(SEARCH)
     with make_executor("process", workers) as executor:
         chunks = Evaluator(executor).run([ScreenChunk(WithoutLimit(screening), space, a, b, 1, SCREENING_ERROR, None,
                                                       all_values=True)

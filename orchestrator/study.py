@@ -17,8 +17,8 @@ from typing import Any, ClassVar
 
 from fmu_src.core import MAX_COLS
 from fmu_src.materials import STUDY_MATERIAL_COUNT, MaterialTable
-from fmu_src.variables import WHOLE_FACE, LoadedFace, loaded_face
-from scenes import DEFAULT_SCENE, Scene
+from fmu_src.variables import WHOLE_FACE, LoadedFace, enumeration_values, loaded_face
+from scenes import DEFAULT_SCENE, PROJECTILE_SCENE, Scene
 
 from .design import DesignSpace
 from .fmu import PreparedFMU
@@ -31,9 +31,23 @@ from .scene import ResolvedScene, check_load_patch
 
 MAX_HORIZON = 3600.0  # s: a longer horizon is refused (one evaluation must end)
 MAX_RUNS_PER_DESIGN = 1000  # FMU runs per design (the product of --case) beyond which --confirm-cost is needed
-SCENE_OPTIONS = {"F_total": "--load", "load_angle": "--load-angle", "load_patch": "--load-patch"}
+SCENE_OPTIONS = {"F_total": "--load", "load_angle": "--load-angle", "load_patch": "--load-patch",
+                 "load_mode": "--load-mode", "projectile_mass": "--projectile-mass",
+                 "projectile_speed": "--projectile-speed", "contact_stiffness": "--contact-stiffness",
+                 "contact_exponent": "--contact-exponent", "contact_damping": "--contact-damping"}
 # The CaseConfig field of each of SCENE_OPTIONS' parameters.
-SCENE_OPTION_FIELDS = {"F_total": "load", "load_angle": "load_angle", "load_patch": "load_patch"}
+SCENE_OPTION_FIELDS = {"F_total": "load", "load_angle": "load_angle", "load_patch": "load_patch",
+                       "load_mode": "load_mode", "projectile_mass": "projectile_mass",
+                       "projectile_speed": "projectile_speed", "contact_stiffness": "contact_stiffness",
+                       "contact_exponent": "contact_exponent", "contact_damping": "contact_damping"}
+# What loads column 1 (docs/model.md section 11), by the FMU's load_mode items.
+LOAD_MODES = tuple(enumeration_values("load_mode"))
+PULSE, INPUT, PROJECTILE = "pulse", "input", "projectile"
+# The parameters of the projectile and its contact: they act only under a projectile.
+PROJECTILE_PARAMETERS = ("projectile_mass", "projectile_speed", "contact_stiffness", "contact_exponent",
+                         "contact_damping")
+# The parameters of the prescribed pulse: a projectile brings its own momentum, so they act only under a pulse.
+PULSE_PARAMETERS = ("F_total", "load_angle", "t_active")
 # The rule whose answer is the design file by default: the reciprocal one (Newton's third law holds on every
 # diagonal spring). The FMU's own default stays the study's rule, which reproduces its published numbers.
 DESIGN_RULE = "mean"
@@ -47,6 +61,31 @@ def _default_scene_values() -> tuple[float, float, float]:
 
 
 _LOAD, _LOAD_ANGLE, _HORIZON = _default_scene_values()
+# The scene that carries each load mode's search horizon (python -m bench.horizon_study for the pulse, python -m
+# bench.projectile_finding for the projectile).
+LOAD_MODE_SCENES = {PULSE: DEFAULT_SCENE, PROJECTILE: PROJECTILE_SCENE}
+
+
+@dataclass(frozen=True)
+class SearchFidelity:
+    """The searches' cheaper evaluation: its horizon (s) and its solver tolerance."""
+
+    horizon: float
+    rtol: float
+
+
+def search_fidelity(mode: str, scene: Scene | None = None) -> SearchFidelity:
+    """The searches' horizon and tolerance under ``mode`` (pulse or projectile): ``scene``'s own where it gives
+    them for that mode (its load_mode's default), else those of the mode's scene (LOAD_MODE_SCENES)."""
+    own = scene is not None and scene.parameter_values().get("load_mode", 0) == enumeration_values("load_mode")[mode]
+    carrier = scene if own else Scene.load(LOAD_MODE_SCENES[mode])
+    reference = Scene.load(LOAD_MODE_SCENES[mode])
+    return SearchFidelity(carrier.search_horizon or reference.search_horizon or SEARCH_HORIZON,
+                          carrier.search_rtol or reference.search_rtol or SEARCH_RTOL)
+
+
+_PROJECTILE = Scene.load(PROJECTILE_SCENE).parameter_values()  # the default projectile, as --help shows it
+_PULSE_SEARCH, _PROJECTILE_SEARCH = search_fidelity(PULSE), search_fidelity(PROJECTILE)
 
 
 @dataclass(frozen=True)
@@ -81,14 +120,41 @@ class CaseConfig:
     load_patch: int | None = option(None, "where column 1 is loaded: 0 over its whole face, an odd P over the "
                                     "centred P x P patch of its rows x depth masses", show_default="the scene's",
                                     metavar="P", type=integer("--load-patch", 0))
+    load_mode: str | None = option(None, "what strikes column 1 (docs/model.md section 11): pulse, the force --load "
+                                   "for t_active (the study's); projectile, a rigid body of --projectile-mass at "
+                                   "--projectile-speed whose contact force answers the lattice; input (F_front set "
+                                   "by another FMU) needs a co-simulation master and is refused here",
+                                   choices=LOAD_MODES, show_default="the scene's, pulse")
+    projectile_mass: float | None = option(None, "the projectile's mass in kg (only under a projectile)",
+                                           show_default=f"the FMU's, {_PROJECTILE['projectile_mass']:g} kg",
+                                           metavar="KG", type=number("--projectile-mass", 0))
+    projectile_speed: float | None = option(None, "the projectile's speed along +x in m/s as it touches the face at "
+                                            "t = 0 (only under a projectile)",
+                                            show_default=f"the FMU's, {_PROJECTILE['projectile_speed']:g} m/s",
+                                            metavar="M/S", type=number("--projectile-speed", 0))
+    contact_stiffness: float | None = option(None, "k_c of the Hunt-Crossley contact k_c d^n (1 + lambda d') in "
+                                             "N/m^n (only under a projectile)",
+                                             show_default=f"the FMU's, {_PROJECTILE['contact_stiffness']:g}",
+                                             metavar="K", type=number("--contact-stiffness", 0))
+    contact_exponent: float | None = option(None, "n of the contact (only under a projectile)",
+                                            show_default=f"the FMU's, {_PROJECTILE['contact_exponent']:g}",
+                                            metavar="N", type=number("--contact-exponent", 0))
+    contact_damping: float | None = option(None, "lambda of the contact in s/m (only under a projectile)",
+                                           show_default=f"the FMU's, {_PROJECTILE['contact_damping']:g} s/m",
+                                           metavar="S/M", type=number("--contact-damping", 0, low_inclusive=True))
     horizon: float | None = option(None, f"simulated time of the full scene in s, at most {MAX_HORIZON:g}",
                                    show_default=f"the scene's, {_HORIZON:g} s", metavar="S",
                                    type=number("--horizon", 0, MAX_HORIZON))
-    search_horizon: float = option(SEARCH_HORIZON, "horizon of the searches' cheaper objective in s (every "
-                                   "reported number is re-evaluated over the full horizon); 0: the full horizon",
-                                   metavar="S", type=number("--search-horizon", 0, MAX_HORIZON, allow_zero=True))
-    search_rtol: float = option(SEARCH_RTOL, "solver tolerance of the searches' cheaper objective; 0: the FMU's "
-                                "default", metavar="RTOL", type=number("--search-rtol", 1e-13, 1e-2, allow_zero=True))
+    search_horizon: float | None = option(None, "horizon of the searches' cheaper objective in s (every reported "
+                                          "number is re-evaluated over the full horizon); 0: the full horizon",
+                                          show_default=f"the scene's for its load: {_PULSE_SEARCH.horizon:g} s under "
+                                          f"the study's pulse, {_PROJECTILE_SEARCH.horizon:g} s under a projectile",
+                                          metavar="S", type=number("--search-horizon", 0, MAX_HORIZON,
+                                                                   allow_zero=True))
+    search_rtol: float | None = option(None, "solver tolerance of the searches' cheaper objective; 0: the FMU's "
+                                       "default", show_default=f"the scene's for its load: {_PULSE_SEARCH.rtol:g} "
+                                       f"under the study's pulse, {_PROJECTILE_SEARCH.rtol:g} under a projectile",
+                                       metavar="RTOL", type=number("--search-rtol", 1e-13, 1e-2, allow_zero=True))
     case: tuple[str, ...] = option((), "load cases: NAME=V1,V2,... (repeatable; the cases are the product of the "
                                    "lists), NAME a scalar parameter of the FMU", action="append",
                                    metavar="NAME=V1,V2")
@@ -99,6 +165,9 @@ class CaseConfig:
         check_options(self)
         if self.aggregate is not None and not self.case:
             raise ValueError("--aggregate: only with --case (there is one case to aggregate)")
+        if self.load_mode == INPUT:
+            raise ValueError(f"--load-mode {INPUT}: input mode needs a co-simulation master to set F_front (another "
+                             f"FMU pushing the lattice), which a search is not; allowed here: {PULSE}, {PROJECTILE}")
 
 
 @dataclass(frozen=True)
@@ -124,6 +193,7 @@ class Case:
     # the FMU's own defaults that are not the study's scene's (a scene's load, patch, backplate...): a known
     # optimum of the study holds for none of them
     departures: tuple[str, ...] = ()
+    load_mode: str = PULSE  # what strikes column 1 in every run (with --case load_mode=...: the first case's)
 
     @property
     def cases(self) -> list[dict]:
@@ -145,8 +215,9 @@ class Case:
 
     def describe(self, fmu: PreparedFMU) -> "CaseDescription":
         objective = self.objective(fmu, self.rules[0] if self.rules else None).describe()
+        names = (("load_mode",) + PROJECTILE_PARAMETERS if self.load_mode == PROJECTILE else PULSE_PARAMETERS)
         shown = {name: self.parameters.get(name, fmu.start(name))
-                 for name in ("F_total", "load_angle", "t_active", "load_patch") if name in fmu.parameters}
+                 for name in names + ("load_patch",) if name in fmu.parameters}
         rule_parameter = fmu.parameters.get("diagonal_rule")
         return CaseDescription(scene=self.scene, rows=self.rows, columns=self.columns, space=self.space.describe(),
                                design_kind=self.space.kind, design_count=self.space.size,
@@ -171,7 +242,9 @@ class CaseDescription:
     materials: tuple[dict[str, Any], ...]
     rules: tuple[str, ...]
     objective: ObjectiveDescription
-    load: dict[str, Any]  # F_total, load_angle, t_active as the runs use them
+    # F_total, load_angle, t_active as the runs use them; under a projectile, load_mode and the projectile's and
+    # contact's parameters instead
+    load: dict[str, Any]
     parameters: dict[str, Any]
     cases: dict[str, list[Any]]
     aggregate: str | None
@@ -193,10 +266,15 @@ class CaseDescription:
                    f"{self.rows} x {self.columns} x {self.depth} plate ({self.columns} layers of {self.rows} x "
                    f"{self.depth} masses)")
         parts = [lattice, f"{len(self.materials)} materials ({self.design_kind}: {self.design_count:,} designs)"]
-        if "F_total" in load:
-            patch = int(load.get("load_patch") or 0)
-            spread = (f" over a centred {patch} x {patch} patch" if patch else
-                      " over the whole face" if self.depth > 1 else "")
+        patch = int(load.get("load_patch") or 0)
+        spread = (f" over a centred {patch} x {patch} patch" if patch else
+                  " over the whole face" if self.depth > 1 else "")
+        if load.get("load_mode") == PROJECTILE:
+            parts.append(f"struck{spread} by a {load['projectile_mass']:g} kg projectile at "
+                         f"{load['projectile_speed']:g} m/s (Hunt-Crossley contact k_c {load['contact_stiffness']:g} "
+                         f"N/m^{load['contact_exponent']:g}, n {load['contact_exponent']:g}, lambda "
+                         f"{load['contact_damping']:g} s/m)")
+        elif "F_total" in load:
             parts.append(f"load {load['F_total']:g} N at {load.get('load_angle', 0):g} deg{spread} for "
                          f"{load.get('t_active', 0):g} s")
         parts.append(f"minimising {', '.join(self.objective.outputs)} over {self.horizon:g} s")
@@ -254,6 +332,7 @@ def resolve_case(config: CaseConfig, resolved: ResolvedScene) -> Case:
         if name == "diagonal_rule" and config.diagonal_rules:
             raise ValueError("--case diagonal_rule and --diagonal-rule both set the diagonal rule; give one of them")
         case_lists[name] = tuple(dict.fromkeys(fmu.parameters[name].convert(v, "--case") for v in values))
+    load_mode = check_load_mode(config, fmu, parameters, case_lists)
     rule_parameter = fmu.parameters.get("diagonal_rule")
     rule_names = tuple(rule_parameter.items) if rule_parameter and rule_parameter.items else ()
     rule_default = str(rule_parameter.start) if rule_parameter else ""
@@ -278,6 +357,7 @@ def resolve_case(config: CaseConfig, resolved: ResolvedScene) -> Case:
     refusal = missing_output(fmu.path, outputs + FMURun.NEEDS)
     if refusal:
         raise ValueError(f"--objective {refusal}")
+    fidelity = search_fidelity_of(config, scene, load_mode, case_lists)
     parameters = {k: v for k, v in parameters.items() if not fmu.is_default(k, v)}
     if config.repeat:
         parameters["repeat_materials"] = 1
@@ -285,8 +365,44 @@ def resolve_case(config: CaseConfig, resolved: ResolvedScene) -> Case:
                 departures=resolved.departures,
                 outputs=outputs, rules=rules, rule_default=rule_default, parameters=parameters,
                 case_lists=case_lists, aggregate=config.aggregate or "worst", horizon=horizon,
-                search_horizon=config.search_horizon or None, search_rtol=config.search_rtol or None,
-                depth=scene.depth)
+                search_horizon=fidelity.horizon or None, search_rtol=fidelity.rtol or None, depth=scene.depth,
+                load_mode=load_mode)
+
+
+def check_load_mode(config: CaseConfig, fmu: PreparedFMU, parameters: dict[str, Any],
+                    case_lists: dict[str, tuple[Any, ...]]) -> str:
+    """The run's load mode (the first case's with --case load_mode=...); refuses input mode (no master sets
+    F_front in a search) and options of the other mode's load: a projectile brings its own momentum, so the
+    pulse's F_total, load_angle and t_active do nothing under it, and the projectile's parameters nothing under
+    the pulse."""
+    if "load_mode" not in fmu.parameters:
+        return PULSE
+    modes = case_lists.get("load_mode") or (parameters.get("load_mode", fmu.start("load_mode")),)
+    if INPUT in modes:
+        where = ("--case load_mode" if "load_mode" in case_lists else
+                 f"{fmu.path.name}'s load_mode (its default)")
+        raise ValueError(f"{where} {INPUT}: input mode needs a co-simulation master to set F_front, which a search "
+                         f"is not; give --load-mode {PULSE} or {PROJECTILE}")
+    how = f"--load-mode {PROJECTILE} or --scene {PROJECTILE_SCENE}"
+    for name in PROJECTILE_PARAMETERS if PROJECTILE not in modes else PULSE_PARAMETERS if PULSE not in modes else ():
+        option_name = SCENE_OPTIONS.get(name)
+        if name in parameters or name in case_lists:
+            given_as = option_name if name in parameters else f"--case {name}"
+            if name in PROJECTILE_PARAMETERS:
+                raise ValueError(f"{given_as}: only under a projectile ({how}); this run's load is the pulse")
+            raise ValueError(f"{given_as}: the pulse's {name} does nothing under a projectile (it brings its own "
+                             f"momentum); give {', '.join(SCENE_OPTIONS[p] for p in PROJECTILE_PARAMETERS)}")
+    return modes[0]
+
+
+def search_fidelity_of(config: CaseConfig, scene, load_mode: str,
+                       case_lists: dict[str, tuple[Any, ...]]) -> SearchFidelity:
+    """The searches' horizon and tolerance (0: the full horizon, the FMU's tolerance): the ones given, else the
+    load mode's (the longest horizon and the tightest tolerance of the load cases' modes)."""
+    modes = [search_fidelity(mode, scene) for mode in (case_lists.get("load_mode") or (load_mode,))]
+    return SearchFidelity(
+        config.search_horizon if config.search_horizon is not None else max(m.horizon for m in modes),
+        config.search_rtol if config.search_rtol is not None else min(m.rtol for m in modes))
 
 
 # ---------------------------------------------------------------------------------------------- steps
@@ -463,5 +579,6 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
                        context.evaluator.state(), time.perf_counter() - start, run_id, tuple(costs))
 
 
-__all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "MAX_HORIZON", "MAX_RUNS_PER_DESIGN", "NoOptions",
-           "SILENT", "Step", "StepCost", "StudyContext", "StudyResult", "Verdict", "resolve_case", "run_study"]
+__all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "INPUT", "LOAD_MODES", "MAX_HORIZON",
+           "MAX_RUNS_PER_DESIGN", "NoOptions", "PROJECTILE", "PULSE", "SILENT", "Step", "StepCost", "StudyContext",
+           "StudyResult", "SearchFidelity", "Verdict", "resolve_case", "run_study", "search_fidelity"]

@@ -24,6 +24,7 @@ from fmu_src.variables import Interface, all_variables, make_interface, with_nod
 
 SCENE_DIR = Path(__file__).resolve().parent
 DEFAULT_SCENE = "armour_11x11"
+PROJECTILE_SCENE = "projectile_11x11"  # the armour scene struck by the default projectile (docs/model.md 11)
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 # The tool name under which a model description declares its lattice's size (rows, columns, depth): FMI 2's
 # <VendorAnnotations><Tool>, FMI 3's <Annotations><Annotation type>.
@@ -58,6 +59,11 @@ class Scene:
     hidden: list = field(default_factory=list)
     horizon: float = 8.0
     communication_step: float = 0.01
+    # the horizon (s) and the solver tolerance of the searches' cheaper evaluation (None: the study's pulse's,
+    # orchestrator.objective.SEARCH_HORIZON and SEARCH_RTOL), for a scene whose load lasts longer than the pulse
+    # or whose good designs lie closer together
+    search_horizon: float | None = None
+    search_rtol: float | None = None
     # the material table: a list of rows (name, k, k_diag, c, alpha, alpha_diag), the path of a table file
     # (.csv, .toml, .json; relative to the scene file), a MaterialTable, or None for the study's
     materials: str | list | MaterialTable | None = None
@@ -70,6 +76,13 @@ class Scene:
             if isinstance(value, bool) or not isinstance(value, int) or value < 1 or (high and value > high):
                 allowed = f"an integer from 1 to {high}" if high else "an integer of at least 1"
                 raise ValueError(f"scene {self.name}: {key} must be {allowed}, got {value!r}")
+        if self.search_horizon is not None and (isinstance(self.search_horizon, bool) or not isinstance(
+                self.search_horizon, (int, float)) or not 0 < self.search_horizon <= self.horizon):
+            raise ValueError(f"scene {self.name}: search_horizon must be a number of seconds in (0, horizon = "
+                             f"{self.horizon:g}], got {self.search_horizon!r}")
+        if self.search_rtol is not None and (isinstance(self.search_rtol, bool) or not isinstance(
+                self.search_rtol, (int, float)) or not 0 < self.search_rtol < 1):
+            raise ValueError(f"scene {self.name}: search_rtol must be a number in (0, 1), got {self.search_rtol!r}")
 
     def material_table(self) -> MaterialTable | None:
         """The scene's material table (checked row by row), or None for the study's."""
@@ -182,5 +195,5 @@ def is_study_scene(scene: Scene) -> bool:
     return scene == _study_scene()
 
 
-__all__ = ["DEFAULT_SCENE", "IDENTIFIER", "SCENE_DIR", "SIZE_ANNOTATION", "Scene", "check_identifier", "is_study_scene",
-           "resolve_scene", "scene_names", "study_parameter_values"]
+__all__ = ["DEFAULT_SCENE", "IDENTIFIER", "PROJECTILE_SCENE", "SCENE_DIR", "SIZE_ANNOTATION", "Scene",
+           "check_identifier", "is_study_scene", "resolve_scene", "scene_names", "study_parameter_values"]

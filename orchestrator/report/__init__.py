@@ -23,7 +23,8 @@ from ..steps.exhaustive import Exhaustive
 from ..steps.pareto import BEST_DESIGN_FILE, Pareto, best_design
 from ..steps.searches import Searches, draw_convergence
 from ..steps.starts import Starts
-from ..study import StudyResult
+from ..steps.trajectories import IMPACT_CHART, draw_impact
+from ..study import PROJECTILE, PULSE, StudyResult, search_fidelity
 
 RESULTS_FORMAT = "lattice-results/1"
 TERMS = {
@@ -31,9 +32,11 @@ TERMS = {
                     "the study computed and published",
     "continuous peak": "the largest backplate force over the continuous solution (between the samples too); "
                        "at least the sampled peak",
-    "search fidelity": "the cheaper evaluation the searches rank by: a 1 s horizon (extended while the lattice "
-                       "still touches the backplate) at a looser tolerance; every reported number is at full "
-                       "fidelity, the whole scene at the FMU's default accuracy",
+    "search fidelity": "the cheaper evaluation the searches rank by: a short horizon (the scene's: "
+                       f"{search_fidelity(PULSE).horizon:g} s under the study's pulse, "
+                       f"{search_fidelity(PROJECTILE).horizon:g} s under a projectile, whose contact lasts longer; "
+                       "extended while the lattice still touches the backplate) at a looser tolerance; every reported "
+                       "number is at full fidelity, the whole scene at the FMU's default accuracy",
     "censored": "an evaluation the FMU stopped as soon as its peak passed a force limit the search gave "
                 "(it could no longer win): its value is only known to be above that limit, and it is never "
                 "reported as a value",
@@ -198,6 +201,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
             made = step_chart(step, study, out / step.chart_file, known)
             if made:
                 figures[type(step)] = made
+    impact_chart = draw_impact(study, out / IMPACT_CHART)
     refused = write_design_files(study, out, steps, materials)
     certificates = write_certificates(study, out)
     record = results_record(study)
@@ -220,6 +224,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     page = env.get_template("report/report.html.j2").render(
         study=study, case_line=study.case.line(), answers=answers, answers_chart=figures.get(Answers),
         rule_default_note=rule_default_note,
+        impact_chart=impact_chart,
         sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known,
         pareto=study.result(Pareto), starts=study.result(Starts), best_design=best_design(study),
         best_design_file=BEST_DESIGN_FILE, explore_contents=explore_contents(study))

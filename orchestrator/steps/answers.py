@@ -16,7 +16,7 @@ from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
 from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
 from ..plate_picture import draw_plate_answers
-from ..study import Step, StudyContext, Verdict
+from ..study import PROJECTILE, Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
 from .final_descent import FinalDescent
 from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, objective_covered, sweep_cost
@@ -119,6 +119,11 @@ class EnergyFlows:
     external_work: float
     nonreciprocal_work: float
     dissipated_energy: float
+    start_energy: float = 0.0  # what the run starts with: under a projectile, its kinetic energy (none is put in)
+
+    @property
+    def energy_in(self) -> float:
+        return self.external_work + self.start_energy
 
 
 @dataclass(frozen=True)
@@ -221,8 +226,10 @@ class Answers(Step):
             return Verdict.no_answer(f"no design was evaluated successfully: {study.failure_summary()}")
         if study.case.objective.units[0] == "N" and all(
                 a.outputs is not None and a.outputs["last_contact_time"] == 0 and a.peak == 0 for a in result.answers):
+            options = ("--projectile-mass, --projectile-speed" if study.case.load.get("load_mode") == PROJECTILE
+                       else "--load, --load-angle")
             return Verdict.no_answer("no design touches the backplate in this case (every peak is 0 N): there is "
-                                     "nothing to minimise; check --load, --load-angle and the scene")
+                                     f"nothing to minimise; check {options} and the scene")
         return Verdict.answer()
 
     def run(self, context: StudyContext) -> AnswersResult:
@@ -243,7 +250,8 @@ class Answers(Step):
                 values[rule_label(judge)] = evaluation.value
                 outputs = evaluation.outputs
                 energy[rule_label(judge)] = None if outputs is None else EnergyFlows(
-                    outputs["external_work"], outputs["nonreciprocal_work"], outputs["dissipated_energy"])
+                    outputs["external_work"], outputs["nonreciprocal_work"], outputs["dissipated_energy"],
+                    start_energy(context))
             other_values = [v for k, v in values.items() if k != label]
             runs = [r for r in (searched.runs_for(label) if searched else []) if r.method not in BASELINE_METHODS]
             reaching = sum(1 for r in runs if run_answer(r, context, label) == best.order)
@@ -340,6 +348,16 @@ def found_by(context: StudyContext, rule, label: str, order: Order, reaching: in
     return f"the baseline {baseline}" if baseline else FOUND_BY_FINALISTS
 
 
+def start_energy(context: StudyContext) -> float:
+    """The energy a run starts with (docs/model.md section 11): under a projectile, the body's kinetic energy,
+    which the contact hands to the lattice inside the model; none under the pulse, whose work is external."""
+    if context.case.load_mode != PROJECTILE:
+        return 0.0
+    mass, speed = (float(context.case.parameters.get(name, context.fmu.start(name)))
+                   for name in ("projectile_mass", "projectile_speed"))
+    return 0.5 * mass * speed ** 2
+
+
 def equivalence(context: StudyContext, best: Evaluation, runner: Evaluation | None, sweep) -> Equivalence | None:
     """The runner-up's gap against what separates the sampled from the continuous peak and the integration
     error (the second integrator's where this run's sweep measured it, else the full fidelity's bound)."""
@@ -406,7 +424,10 @@ def draw_lattice(study, path: Path) -> str | None:
         axis.set_xlim(-1.5, case.columns + 0.2)
     bar = figure.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=colour_map), ax=axes[0].tolist())
     bar.set_label("vertical spring constant k of the column's material (N)")
-    figure.suptitle("Load from the left on column 1, backplate on the right (grey bar)", fontsize=9)
+    load = case.load
+    striker = (f"A {load['projectile_mass']:g} kg projectile at {load['projectile_speed']:g} m/s strikes column 1 "
+               "from the left" if load.get("load_mode") == PROJECTILE else "Load from the left on column 1")
+    figure.suptitle(f"{striker}, backplate on the right (grey bar)", fontsize=9)
     return save(figure, path, tight=False)
 
 

@@ -7,7 +7,7 @@ from typing import Any
 
 from ..objective import FULL
 from ..options import check_options, integer, option
-from ..study import Step, StudyContext
+from ..study import PROJECTILE, Step, StudyContext
 from ..types import Evaluation, Order
 from .answers import Answers
 from .finalists import Finalists, baselines, best_of, finalist_orders
@@ -78,17 +78,28 @@ def search_budget(context: StudyContext, config: SensitivityConfig, label: str, 
 
 def variations(context: StudyContext, rule: str) -> dict[str, dict[str, Any]]:
     """The standard variations as FMU parameters (those the FMU has): load 0.5x and 2x, load duration 0.5x and
-    2x, each other diagonal rule, load angle 30 degrees."""
+    2x, each other diagonal rule, load angle 30 degrees; under a projectile, its mass and its speed 0.5x and 2x
+    and each other diagonal rule (a projectile strikes along +x with its own momentum)."""
     fmu, parameters = context.fmu, context.case.parameters
-    load = float(parameters.get("F_total", fmu.start("F_total", 1200.0)))
-    duration = float(parameters.get("t_active", fmu.start("t_active", 0.15)))
-    found = {"load 0.5x": {"F_total": 0.5 * load}, "load 2x": {"F_total": 2.0 * load},
-             "load duration 0.5x": {"t_active": 0.5 * duration}, "load duration 2x": {"t_active": 2.0 * duration}}
+
+    def scaled(name: str) -> dict[str, dict[str, float]]:
+        value = float(parameters.get(name, fmu.start(name, 0.0)))
+        label = name.replace("_", " ")
+        return {f"{label} 0.5x": {name: 0.5 * value}, f"{label} 2x": {name: 2.0 * value}}
+    if context.case.load_mode == PROJECTILE:
+        found = {**scaled("projectile_mass"), **scaled("projectile_speed")}
+    else:
+        load = float(parameters.get("F_total", fmu.start("F_total", 1200.0)))
+        duration = float(parameters.get("t_active", fmu.start("t_active", 0.15)))
+        found = {"load 0.5x": {"F_total": 0.5 * load}, "load 2x": {"F_total": 2.0 * load},
+                 "load duration 0.5x": {"t_active": 0.5 * duration},
+                 "load duration 2x": {"t_active": 2.0 * duration}}
     rules = fmu.parameters.get("diagonal_rule")
     for other in (rules.items if rules else ()):
         if other != rule:
             found[f"{other} diagonal rule"] = {"diagonal_rule": other}
-    found["load angle 30 deg"] = {"load_angle": 30.0}
+    if context.case.load_mode != PROJECTILE:
+        found["load angle 30 deg"] = {"load_angle": 30.0}
     return {name: change for name, change in found.items() if set(change) <= set(fmu.parameters)}
 
 

@@ -10,11 +10,12 @@ import numpy as np
 from ..charts import COLOURS, RULE_COLOURS, figure_title, legend_below, plt, save
 from ..objective import FULL, RecordRun, Trajectory
 from ..simulation import ENERGY_OUTPUTS
-from ..study import Step, StudyContext
+from ..study import PROJECTILE, Step, StudyContext
 from .answers import Answers
 from .finalists import baselines
 
-FORCE_HORIZON = 1.0  # s: the force peaks and ends well before (python -m bench.horizon_study)
+FORCE_HORIZON = 1.0  # s: the pulse's force peaks and ends well before (python -m bench.horizon_study)
+IMPACT_CHART = "impact.png"  # under a projectile, the first screen's: contact force beside backplate force
 FORCE_STEP = 1e-3
 ENERGY_STEP = 1e-2
 
@@ -28,7 +29,7 @@ class LabelledTrajectory:
 
 @dataclass(frozen=True)
 class TrajectoriesResult:
-    force: tuple[LabelledTrajectory, ...]  # backplate_force under the chosen design's rule
+    force: tuple[LabelledTrajectory, ...]  # backplate_force (and contact_force under a projectile), chosen rule
     energy: tuple[LabelledTrajectory, ...]  # each answer's energy terms under its own rule
 
 
@@ -54,8 +55,10 @@ class Trajectories(Step):
         designs = {f"{a.diagonal_rule} rule's answer": a.order for a in answers}
         for label, order in baselines(context).items():
             designs.setdefault(label, order)
-        horizon = min(FORCE_HORIZON, context.case.horizon)
-        force_tasks = [record(context, chosen.diagonal_rule, order, horizon, FORCE_STEP, ("backplate_force",))
+        case = context.case
+        horizon = min(max(FORCE_HORIZON, case.search_horizon or case.horizon), case.horizon)  # the searches' span
+        forces = ("backplate_force", "contact_force") if case.load_mode == PROJECTILE else ("backplate_force",)
+        force_tasks = [record(context, chosen.diagonal_rule, order, horizon, FORCE_STEP, forces)
                        for order in designs.values()]
         energy_tasks = [record(context, a.diagonal_rule, a.order, context.case.horizon, ENERGY_STEP, ENERGY_OUTPUTS)
                         for a in answers]
@@ -70,10 +73,45 @@ class Trajectories(Step):
         return "one recorded run of each answer and baseline for the force and energy charts, whatever the budget"
 
     def chart(self, study, path):
-        return draw_force_and_energy(study, path, study.case.line())
+        return draw_force_and_energy(study, path, study.case.line(),
+                                     struck=study.case.load.get("load_mode") == PROJECTILE)
 
 
-def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
+def draw_impact(study, path: Path) -> str | None:
+    """Under a projectile, the first screen's chart: the contact force on the face beside the force on the
+    backplate, over time, for each answer and baseline (what goes in against what comes through)."""
+    trajectories = study.result(Trajectories)
+    load = study.case.load
+    if trajectories is None or load.get("load_mode") != PROJECTILE:
+        return None
+    drawn = [t for t in trajectories.force if t.trajectory.ok and "contact_force" in t.trajectory.values]
+    if not drawn:
+        return None
+    figure, (contact_axis, plate_axis) = plt.subplots(1, 2, figsize=(13, 4.4), sharex=True)
+    colours = ["tab:blue", "tab:red", "black", "tab:gray", "tab:green"]
+    for labelled, colour in zip(drawn, colours):
+        t = labelled.trajectory
+        contact = np.array(t.values["contact_force"])
+        plate = np.array(t.values["backplate_force"])
+        contact_axis.plot(t.time, contact, color=colour,
+                          label=f"{labelled.label} {list(t.order)}: peak {contact.max():.1f} N")
+        plate_axis.plot(t.time, plate, color=colour,
+                        label=f"{labelled.label} {list(t.order)}: peak {plate.max():.1f} N every 1 ms")
+    contact_axis.set_title(f"Contact force of the {load['projectile_mass']:g} kg projectile at "
+                           f"{load['projectile_speed']:g} m/s on column 1", fontsize=9)
+    plate_axis.set_title(f"Force on the backplate ({drawn[0].diagonal_rule} rule)", fontsize=9)
+    for axis, what in ((contact_axis, "contact force (N)"), (plate_axis, "backplate force (N)")):
+        axis.set_xlabel("time (s)")
+        axis.set_ylabel(what)
+        axis.grid(alpha=0.3)
+        legend_below(axis, fontsize=6.5)
+    figure_title(figure, study.case.line())
+    return save(figure, path)
+
+
+def draw_force_and_energy(study, path: Path, context_line: str, struck: bool = False) -> str | None:
+    """``struck``: the load is a projectile, whose kinetic energy at the start (E_0) is what the balance holds in
+    place of external work."""
     trajectories = study.result(Trajectories)
     if trajectories is None:
         return None
@@ -111,8 +149,8 @@ def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
         for name, values in first.trajectory.values.items():
             energy_axis.plot(first.trajectory.time, values, ":" if name == "energy_balance_error" else "-",
                              label=names.get(name, name))
-        energy_axis.set_title(f"Energy of the {first.label} ({first.diagonal_rule} rule): "
-                              "W_ext + W_nr = KE + PE + D", fontsize=9)
+        balance = "E_0 + W_nr = KE + PE + D" if struck else "W_ext + W_nr = KE + PE + D"
+        energy_axis.set_title(f"Energy of the {first.label} ({first.diagonal_rule} rule): {balance}", fontsize=9)
         legend_below(energy_axis, columns=3)
     energy_axis.set_xlabel("time (s)")
     energy_axis.set_ylabel("energy (J)")
@@ -121,4 +159,4 @@ def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
     return save(figure, path)
 
 
-__all__ = ["LabelledTrajectory", "Trajectories", "TrajectoriesResult"]
+__all__ = ["IMPACT_CHART", "LabelledTrajectory", "Trajectories", "TrajectoriesResult", "draw_impact"]
