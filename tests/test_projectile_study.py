@@ -136,7 +136,7 @@ def test_a_study_under_a_projectile_answers_and_draws_the_contact_force_on_its_f
     assert peak == pytest.approx(answer["peak"], rel=1e-9) and abs(peak / pulse - 1) > 1e-6
     html = (out / "report.html").read_text()
     first = html[:html.index("<h2", html.index("<h2") + 1)]  # up to the second section's heading
-    assert "60 kg projectile" in first and 'src="impact.png"' in first and (out / "impact.png").is_file()
+    assert "60 kg projectile" in first and 'data-chart="impact.png"' in first and (out / "impact.png").is_file()
     force = results["steps"]["trajectories"]["force"][0]["trajectory"]["values"]
     assert set(force) == {"backplate_force", "contact_force"} and max(force["contact_force"]) > 0
     speed = describe(fmu_path, 11).start("projectile_speed")  # what is put in: the body's kinetic energy
