@@ -29,6 +29,7 @@ CLUSTERS = ("none", "slurm")
 WALLTIME = re.compile(r"^(\d+):([0-5]\d):([0-5]\d)$")
 MAX_STAGGER = 240.0  # s: dask-jobqueue's example staggers the workers' lifetimes by up to four minutes
 JOB_LOGS = "slurm-jobs"  # the jobs' output files, in the run's folder
+JOB_NAME = "lattice-dask"  # the jobs' name in squeue
 
 
 def walltime_seconds(text: str) -> int:
@@ -134,27 +135,33 @@ class SlurmJobs:
         """The cluster, scaled adaptively to ``jobs`` jobs; every job cancelled on exit."""
         from dask_jobqueue import SLURMCluster
 
-        config = self.config
-        lifetime, stagger = worker_lifetime(walltime_seconds(config.walltime))
         Path(self.log_directory).mkdir(parents=True, exist_ok=True)
         # the scheduler runs in this process: every worker that leaves is logged by Dask as errors of connections
         # to it; the jobs' own logs (log_directory) keep the workers' side
         distributed_log = logging.getLogger("distributed")
         level = distributed_log.level
         distributed_log.setLevel(logging.CRITICAL)
-        cluster = SLURMCluster(
-            cores=config.job_cores, processes=config.job_cores, memory=config.job_memory,
-            walltime=config.walltime, queue=config.queue, account=config.account,
-            job_script_prologue=list(config.job_setup), log_directory=self.log_directory,
-            local_directory=config.job_directory, job_name="lattice-dask", silence_logs=logging.ERROR,
-            worker_extra_args=["--lifetime", f"{lifetime}s", "--lifetime-stagger", f"{stagger}s"],
-            scheduler_options={"dashboard": False, "dashboard_address": ":0"})
         try:
-            cluster.adapt(minimum_jobs=config.jobs, maximum_jobs=config.jobs)
-            yield cluster
+            cluster = SLURMCluster(**self.job_options(), silence_logs=logging.ERROR,
+                                   scheduler_options={"dashboard": False, "dashboard_address": ":0"})
+            try:
+                cluster.adapt(minimum_jobs=self.config.jobs, maximum_jobs=self.config.jobs)
+                yield cluster
+            finally:
+                cluster.close()
         finally:
-            cluster.close()
             distributed_log.setLevel(level)
+
+    def job_options(self) -> dict:
+        """What each job asks SLURM for and runs: one single-threaded worker per core, leaving staggered before
+        the walltime."""
+        config = self.config
+        lifetime, stagger = worker_lifetime(walltime_seconds(config.walltime))
+        return dict(cores=config.job_cores, processes=config.job_cores, memory=config.job_memory,
+                    walltime=config.walltime, queue=config.queue, account=config.account,
+                    job_script_prologue=list(config.job_setup), log_directory=self.log_directory,
+                    local_directory=config.job_directory, job_name=JOB_NAME,
+                    worker_extra_args=["--lifetime", f"{lifetime}s", "--lifetime-stagger", f"{stagger}s"])
 
     def wait(self, client) -> None:
         """Until the first worker joined (the queue may hold the jobs a while); refused past ``job_start``."""
