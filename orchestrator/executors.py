@@ -294,7 +294,7 @@ def _executor(kind: str, workers: int | None, scheduler: str | None,
 
 
 def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmus: tuple = (),
-          cluster=None) -> Iterator[Executor]:
+          jobs=None) -> Iterator[Executor]:
     try:
         from distributed import Client, LocalCluster  # imported lazily: dask is slow to import
     except ImportError:
@@ -304,9 +304,9 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmu
     with contextlib.ExitStack() as stack:
         if scheduler:
             client = stack.enter_context(Client(scheduler))
-        elif cluster is not None:
-            client = stack.enter_context(Client(stack.enter_context(cluster.open())))
-            cluster.wait(client)
+        elif jobs is not None:
+            client = stack.enter_context(Client(stack.enter_context(jobs.open())))
+            jobs.wait(client)
         else:
             count = int(workers or os.cpu_count() or 1)
             cluster = stack.enter_context(LocalCluster(
@@ -324,11 +324,11 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmu
         for path in fmus:
             plugin = ShipFMU(path)
             client.register_plugin(plugin, name=plugin.plugin_name)  # raises the reason of a worker that cannot run it
-        if cluster is None:
+        if jobs is None:
             executor = DaskActors(client, dask_batch_size())
         else:  # workers leave with their jobs: a call waits for a worker, and runs again while workers leave
-            executor = DaskActors(client, dask_batch_size(), worker_wait=cluster.job_start, attempts=JOB_ATTEMPTS,
-                                  planned_workers=cluster.workers)
+            executor = DaskActors(client, dask_batch_size(), worker_wait=jobs.job_start, attempts=JOB_ATTEMPTS,
+                                  planned_workers=jobs.workers)
         try:
             yield executor
         except BaseException:
