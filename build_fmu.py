@@ -19,67 +19,82 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 
 from builder.build import (MODELS_DIR, SOURCE_DIR, build_core_library, build_fmu, compile_shared_library,
                            model_guid, platform_folder)
+from fmu_src.core import MAX_COLS
+from orchestrator.options import EXIT_USAGE, Parser, add_options, config_from, given, integer, option
 from scenes import DEFAULT_SCENE, SCENE_DIR, Scene
 
-__all__ = ["DEFAULT_SCENE", "MODELS_DIR", "SCENE_DIR", "SOURCE_DIR", "Scene", "build_core_library", "build_fmu",
-           "compile_shared_library", "main", "model_guid", "platform_folder"]
+__all__ = ["BuildConfig", "DEFAULT_SCENE", "MODELS_DIR", "SCENE_DIR", "SOURCE_DIR", "Scene", "build_core_library",
+           "build_fmu", "compile_shared_library", "main", "model_guid", "platform_folder"]
+
+PLATFORMS_HELP = ("whose binaries the FMU carries: 'all' or a comma list of x86_64-linux, x86_64-windows, "
+                  "aarch64-linux. Compilers: cc (this machine's; $CC), x86_64-w64-mingw32-gcc (Debian: "
+                  "gcc-mingw-w64-x86-64), aarch64-linux-gnu-gcc (Debian: gcc-aarch64-linux-gnu), x86_64-linux-gnu-gcc "
+                  "elsewhere; CC_X86_64_LINUX, CC_X86_64_WINDOWS, CC_AARCH64_LINUX override them. FMI 2 names one "
+                  "folder (linux64) for both Linux architectures, so there 'all' is x86_64-linux and x86_64-windows, "
+                  "and aarch64-linux goes into an FMU of its own")
+
+
+@dataclass(frozen=True)
+class BuildConfig:
+    """What to build (a scene and what overrides it) and how: declared with the option rules of the study's
+    command line (orchestrator.options), so that a value either builds what it says or is refused in one line."""
+
+    scene: str = option(DEFAULT_SCENE, "a scene name from scenes/ or a path to a scene .json", path=True)
+    rows: int | None = option(None, "override the scene's number of rows", type=integer("--rows", 1),
+                              show_default="the scene's")
+    cols: int | None = option(None, "override the scene's number of columns", type=integer("--cols", 1, MAX_COLS),
+                              show_default="the scene's")
+    depth: int | None = option(None, "override the scene's masses through the plate's depth (docs/model.md "
+                               "section 10; 1: the 2-D lattice)", type=integer("--depth", 1),
+                               show_default="the scene's")
+    load_patch: int | None = option(None, "the start of parameter load_patch: 0 loads column 1's whole face, an odd "
+                                    "P its centred P x P patch (P <= min(rows, depth), with odd rows and depth)",
+                                    type=integer("--load-patch", 0), metavar="P", show_default="the scene's")
+    materials: str | None = option(None, "the material table (.csv with the header name,k,k_diag,c,alpha,"
+                                   "alpha_diag; .toml or .json with the same fields): its M materials are the FMU's",
+                                   metavar="FILE", path=True, show_default="the scene's")
+    output: str | None = option(None, "where to write the .fmu", short="-o", metavar="OUTPUT", path=True,
+                                show_default="models/<identifier>.fmu under the current folder")
+    fmi_version: int = option(2, "2: FMI 2.0; 3: FMI 3.0, written to models/<identifier>-fmi3.fmu", type=int,
+                              choices=(2, 3))
+    platforms: str | None = option(None, PLATFORMS_HELP, metavar="LIST", show_default="this machine's only")
+    werror: bool = option(False, "fail on any compiler warning (CI does)", action="store_true")
+    reference: bool = option(False, "build the reference FMU instead (pythonfmu over the numpy/scipy model of "
+                             "reference/): models/MassSpringLatticeReference.fmu, or -o", action="store_true")
+    cross_check: str | None = option(None, "write the FMI Cross-Check folder into DIR (builder/cross_check.py: three "
+                                     "scenes, FMI 2.0 and 3.0, cs and me, references, FMPy's results)", metavar="DIR",
+                                     path=True, show_default="none")
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--scene", default=DEFAULT_SCENE,
-                        help=f"a scene name from scenes/ or a path to a scene .json (default {DEFAULT_SCENE})")
-    parser.add_argument("--rows", type=int, help="override the scene's number of rows")
-    parser.add_argument("--cols", type=int, help="override the scene's number of columns")
-    parser.add_argument("--depth", type=int,
-                        help="override the scene's number of layers (docs/model.md section 10; 1: one layer)")
-    parser.add_argument("--load-patch", type=int, metavar="P",
-                        help="the start of parameter load_patch: 0 loads column 1's whole face, an odd P its "
-                             "centred P x P patch (P <= min(rows, depth), with odd rows and depth)"),
-    parser.add_argument("--materials", metavar="FILE",
-                        help="the material table (.csv with the header name,k,k_diag,c,alpha,alpha_diag; .toml or "
-                             ".json with the same fields): its M materials are the FMU's; default the scene's")
-    parser.add_argument("-o", "--output",
-                        help="where to write the .fmu (default models/<identifier>.fmu under the current folder)")
-    parser.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
-                        help="2: FMI 2.0 (default); 3: FMI 3.0, written to models/<identifier>-fmi3.fmu")
-    parser.add_argument("--platforms", metavar="LIST",
-                        help="whose binaries the FMU carries: 'all' or a comma list of x86_64-linux, x86_64-windows, "
-                             "aarch64-linux (default: this machine's only). Compilers: cc (this machine's; $CC), "
-                             "x86_64-w64-mingw32-gcc (Debian: gcc-mingw-w64-x86-64), aarch64-linux-gnu-gcc (Debian: "
-                             "gcc-aarch64-linux-gnu), x86_64-linux-gnu-gcc elsewhere; CC_X86_64_LINUX, "
-                             "CC_X86_64_WINDOWS, CC_AARCH64_LINUX override them. FMI 2 names one folder (linux64) for "
-                             "both Linux architectures, so there 'all' is x86_64-linux and x86_64-windows, and "
-                             "aarch64-linux goes into an FMU of its own")
-    parser.add_argument("--werror", action="store_true", help="fail on any compiler warning (CI does)")
-    parser.add_argument("--reference", action="store_true",
-                        help="build the reference FMU instead (pythonfmu over the numpy/scipy model of reference/): "
-                             "models/MassSpringLatticeReference.fmu, or -o")
-    parser.add_argument("--cross-check", metavar="DIR", help="write the FMI Cross-Check folder into DIR (builder/"
-                        "cross_check.py: three scenes, FMI 2.0 and 3.0, cs and me, references, FMPy's results)")
+    parser = Parser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_options(parser, BuildConfig, "the build")
     args = parser.parse_args(argv)
-    if args.cross_check:
-        if (args.output or args.rows or args.cols or args.depth or args.load_patch is not None or args.materials or args.reference or args.scene != DEFAULT_SCENE
-                or args.fmi_version != 2 or args.platforms):
+    try:
+        config = config_from(BuildConfig, args)
+    except ValueError as exc:
+        parser.error(str(exc))
+    if config.cross_check:
+        if given(config) - {"cross_check", "werror"}:
             parser.error("--cross-check builds its own scenes and versions: give it with --werror only")
         from builder.cross_check import main as cross_check
-        return cross_check(args.cross_check, werror=args.werror)
-    if args.reference:
+        return cross_check(config.cross_check, werror=config.werror)
+    if config.reference:
         from reference.fmu import build_reference_fmu
 
-        print(build_reference_fmu(args.output))
+        print(build_reference_fmu(config.output))
         return 0
     try:
-        path = build_fmu(args.scene, args.output, args.rows, args.cols, werror=args.werror,
-                         fmi_version=args.fmi_version, materials=args.materials, platforms=args.platforms,
-                         depth=args.depth, load_patch=args.load_patch)
+        path = build_fmu(config.scene, config.output, config.rows, config.cols, werror=config.werror,
+                         fmi_version=config.fmi_version, materials=config.materials, platforms=config.platforms,
+                         depth=config.depth, load_patch=config.load_patch)
     except (ValueError, RuntimeError) as exc:
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     print(path)
     return 0
 

@@ -160,7 +160,8 @@ def narrow_lattice(columns: int) -> Iterator[tuple[Path, Path]]:
         yield path, build_fmu(scene=str(path), output=Path(folder) / f"MassSpringLattice11x{columns}.fmu")
 
 
-__all__ = ["BEST_KNOWN", "default_setting", "setting_text", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST", "add_fmu_option", "bench_orders",
+__all__ = ["BEST_KNOWN", "default_setting", "setting_text", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST",
+           "add_fmu_option", "bench_orders",
            "geometric_mean", "lattice_fmu", "narrow_lattice", "order_text", "random_orders", "relative",
            "screened_values", "search_parameters",
            "search_setting_text", "span", "WithoutLimit"]

@@ -32,7 +32,7 @@ from orchestrator.runner import RunConfig, run_in_folder
 from orchestrator.search.pareto import hypervolume, reference_point
 from orchestrator.simulation import LatticeFMU
 from orchestrator.steps import Answers, Exhaustive, Finalists, Pareto, Searches
-from orchestrator.steps.descent import DescentConfig, Descent
+from orchestrator.steps.final_descent import FinalDescent, FinalDescentConfig
 from orchestrator.steps.searches import SearchesConfig
 from orchestrator.steps.sensitivity import Sensitivity, SensitivityConfig
 from orchestrator.study import CaseConfig
@@ -40,7 +40,7 @@ from orchestrator.study import CaseConfig
 from .common import order_text
 from .measurements import Page, Run, Table, write_page
 
-STUDY_STEPS = (Searches, Exhaustive, Finalists, Descent, Pareto, Answers)
+STUDY_STEPS = (Searches, Exhaustive, Finalists, FinalDescent, Pareto, Answers)
 
 
 def own_table() -> MaterialTable:
@@ -59,7 +59,7 @@ def own_table() -> MaterialTable:
 def study(folder: Path, case: CaseConfig, methods, budget: int, repeats: int, workers: int, steps=STUDY_STEPS,
           seed: int = 0):
     configs = {Searches: SearchesConfig(methods=methods, budget=budget, repeats=repeats, seed=seed),
-               Descent: DescentConfig(enabled=True), Sensitivity: SensitivityConfig(enabled=False)}
+               FinalDescent: FinalDescentConfig(enabled=True), Sensitivity: SensitivityConfig(enabled=False)}
     return run_in_folder(RunConfig(out=str(folder), workers=workers, progress=False), case, configs, steps)
 
 

@@ -40,7 +40,8 @@ def main(argv=None) -> int:
             data = re.search(r'<script type="application/json" id="study-data">(.*?)</script>', text, re.S).group(1)
             with (out / "evaluations.csv").open() as handle:
                 evaluations = sum(1 for _ in csv.DictReader(handle))
-            front_files = sum(f.stat().st_size for f in (out / "front").glob("*.ssp")) if (out / "front").is_dir() else 0
+            front = out / "front"
+            front_files = sum(f.stat().st_size for f in front.glob("*.ssp")) if front.is_dir() else 0
             rows.append((label, f"{len(text.encode()) / 1e6:.2f}", f"{len(plotly_js().encode()) / 1e6:.2f}",
                          f"{len(data.encode()) / 1e6:.2f}", evaluations, f"{front_files / 1e6:.2f}"))
     finally:

@@ -18,7 +18,6 @@ import json
 import os
 import platform
 import shlex
-import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
@@ -26,9 +25,11 @@ from pathlib import Path
 
 import jinja2
 
+from builder.compatibility import git_output
+from builder.rendering import add_templates, cell
+
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = ROOT / "docs" / "measurements"
-TEMPLATES = Path(__file__).resolve().parent / "templates"
 
 
 @dataclass(frozen=True)
@@ -103,7 +104,7 @@ class Run:
         seconds = time.perf_counter() - self.started
         load = os.getloadavg()
         return RunInfo(
-            command=self.command, commit=git_output("rev-parse", "HEAD") or "unknown", dirty=_dirty(),
+            command=self.command, commit=git_output("rev-parse", "HEAD", folder=ROOT) or "unknown", dirty=_dirty(),
             date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), cpu=cpu_model(),
             cores=os.cpu_count() or 1, memory=memory(), system=f"{platform.system()} {platform.release()}",
             load=(f"load average {self.load_at_start[0]:.1f} at the start, {load[0]:.1f} at the end (1 min; "
@@ -184,25 +185,9 @@ def front_matter(text: str) -> dict:
     return meta
 
 
-def cell(value) -> str:
-    """A table cell: text as it is, a pipe escaped so it cannot split the cell."""
-    return str("" if value is None else value).replace("|", "\\|").replace("\n", " ")
-
-
 def _environment() -> jinja2.Environment:
-    environment = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=False,
-                                     keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True,
-                                     undefined=jinja2.StrictUndefined)
-    environment.filters["cell"] = cell
-    return environment
-
-
-def git_output(*arguments: str) -> str | None:
-    try:
-        done = subprocess.run(["git", "-C", str(ROOT), *arguments], capture_output=True, text=True, timeout=30)
-    except (OSError, subprocess.TimeoutExpired):
-        return None
-    return done.stdout.strip() if done.returncode == 0 else None
+    """The one environment (builder.rendering), with the benchmarks' templates."""
+    return add_templates("bench")
 
 
 MEASURED_CODE = ("bench", "builder", "fmu_src", "orchestrator", "reference", "scenes", "build_fmu.py", "pyproject.toml")
@@ -210,7 +195,7 @@ MEASURED_CODE = ("bench", "builder", "fmu_src", "orchestrator", "reference", "sc
 
 def _dirty() -> bool:
     """Whether the code that is measured (not the documentation around it) differs from the commit."""
-    return bool(git_output("status", "--porcelain", "--", *MEASURED_CODE))
+    return bool(git_output("status", "--porcelain", "--", *MEASURED_CODE, folder=ROOT))
 
 
 def cpu_model() -> str:

@@ -647,12 +647,12 @@ def plate_shape(path) -> PlateShape:
 def checked_plate_fmu(given: str | None):
     """The plate FMU: the one given, checked against the plate scene (columns, continuous states), or built."""
     if given:
-        from orchestrator.fmu import FMUError, prepare_fmu
-        from scenes import Scene as SceneFile
+        from orchestrator.scene import resolve
+        from orchestrator.study import CaseConfig
 
         try:
-            prepare_fmu(SceneFile.load(PLATE_SCENE), given)
-        except FMUError as exc:
+            resolve(CaseConfig(scene=PLATE_SCENE, fmu=given))
+        except ValueError as exc:
             raise SystemExit(str(exc).replace("--fmu", "--plate-fmu", 1)) from None
     return lattice_fmu(given, scene=PLATE_SCENE, option="--plate-fmu")
 

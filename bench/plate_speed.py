@@ -28,7 +28,7 @@ from fmu_src.core import Core
 from fmu_src.variables import STATE_ORDER
 from orchestrator.design import DesignSpace
 from orchestrator.objective import FULL, SEARCH, LatticeObjective, close_instances
-from orchestrator.simulation import LatticeFMU, lattice_shape
+from orchestrator.simulation import LatticeFMU, declared_lattice_size
 from orchestrator.types import Evaluation
 from scenes import Scene
 
@@ -193,7 +193,7 @@ def main(argv=None) -> int:
     cases = [Case(patch, rule, label, order) for patch in PATCHES for rule in rules for label, order in ORDERS.items()]
     with lattice_fmu(args.fmu, scene=SCENE) as path:
         description = read_model_description(str(path))
-        shape, whole_states = lattice_shape(description), len(description.derivatives)
+        shape, whole_states = declared_lattice_size(path), len(description.derivatives)
         if shape != (scene.rows, scene.cols, scene.depth):
             raise SystemExit(f"--fmu {args.fmu}: its lattice is {' x '.join(map(str, shape or ()))}, the scene "
                              f"{SCENE}'s {scene.rows} x {scene.cols} x {scene.depth} (rows x columns x depth): give "
@@ -271,7 +271,8 @@ def main(argv=None) -> int:
         f"{max(balances):.1e} of the external work")
     summary = (
         f"The scene `{SCENE}` ({scene.rows} rows x {scene.cols} columns x {scene.depth} masses deep: its "
-        f"{scene.cols} layers are its columns, one material each), under the centred 3 x 3 patch (`load_patch` 3, the scene's) and the whole face (`load_patch` 0), "
+        f"{scene.cols} layers are its columns, one material each), under the centred 3 x 3 patch (`load_patch` 3, "
+        "the scene's) and the whole face (`load_patch` 0), "
         f"the {' and '.join(rules)} rule{'s' if len(rules) > 1 else ''}, and the orders "
         + ", ".join(f"{label} {order_text(order)}" for label, order in ORDERS.items())
         + f". **search**: the orchestrator's search evaluation ({search_text}; re-run over {FULL_HORIZON:g} s when "

@@ -25,10 +25,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from fmu_src.materials import load_materials, study_materials, write_materials_csv
+from fmu_src.materials import study_materials, write_materials_csv
 from orchestrator.exhaustive import SWEEP_METHOD
-from orchestrator.fmu import prepare_fmu
-from orchestrator.runner import RunConfig, resolve_scene, run_in_folder
+from orchestrator.runner import RunConfig, run_in_folder
+from orchestrator.scene import resolve
 from orchestrator.steps import STEPS, Answers, Exhaustive, Searches, Sensitivity
 from orchestrator.steps.exhaustive import SWEEP_DESIGNS_PER_SEARCH_EVALUATION
 from orchestrator.steps.searches import SINGLE_DEFAULT, SearchesConfig, default_evaluations
@@ -79,7 +79,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory(prefix="bench_crossover_") as folder:
         folder = Path(folder)
         table = write_materials_csv(study_materials(MATERIALS), folder / "catalogue.csv")
-        prepare_fmu(resolve_scene(CaseConfig(materials=str(table), cols=COLUMNS), load_materials(table)))  # built first
+        resolve(CaseConfig(materials=str(table), cols=COLUMNS))  # its FMU built first
         searched, searched_wall, searched_cpu = fastest(folder, table, SINGLE_DEFAULT, args.workers, repeats,
                                                         "searched", False)
         swept, swept_wall, swept_cpu = fastest(folder, table, (SWEEP_METHOD,), args.workers, repeats, "swept", False)
@@ -95,10 +95,11 @@ def main(argv=None) -> int:
     threshold = SWEEP_DESIGNS_PER_SEARCH_EVALUATION * per_rule
     space = math.perm(MATERIALS, COLUMNS)
     holds = SWEEP_DESIGNS_PER_SEARCH_EVALUATION <= ratio
+    certified = all(a.evidence.status == "certified" for a in now.study.result(Answers).answers)
     headline = (f"a sweep screens {ratio:.1f} designs in the core-time of one search evaluation (constant "
                 f"{SWEEP_DESIGNS_PER_SEARCH_EVALUATION}: spaces up to {threshold:,} designs are swept by default); "
                 f"the {space:,}-design catalogue's default study: {now_wall:.0f} s "
-                f"({'certified' if all(a.evidence.status == 'certified' for a in now.study.result(Answers).answers) else 'not certified'}), "
+                f"({'certified' if certified else 'not certified'}), "
                 f"{before_wall:.0f} s with the searches")
     crossover_rows = (
         ("the default searches (" + " ".join(SINGLE_DEFAULT) + ")", f"{evaluations:,} evaluations",
@@ -113,8 +114,8 @@ def main(argv=None) -> int:
         name=run.name, title="Sweep or search: the crossover", headline=headline,
         summary=(f"The study's first {MATERIALS} materials over an 11 x {COLUMNS} lattice ({space:,} arrangements), "
                  f"both diagonal rules, budget {config.budget}, {config.repeats} seeds, {args.workers} worker "
-                 f"process(es); of {repeats} run(s) of each study, the one of least core-time. Core-seconds: CPU time of the client "
-                 "and its worker processes over the whole study."),
+                 f"process(es); of {repeats} run(s) of each study, the one of least core-time. Core-seconds: CPU "
+                 "time of the client and its worker processes over the whole study."),
         tables=(Table(("study (sensitivity off)", "work", "core-seconds", "per core-second", "wall s", "answers"),
                       crossover_rows, caption="**The crossover, measured:**"),
                 Table(("measured ratio (sweep designs per search evaluation)", "constant in the orchestrator",

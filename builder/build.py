@@ -24,7 +24,6 @@ import threading
 import uuid
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import replace
 from pathlib import Path
 
 from builder import fmi2_description as fmi2
@@ -34,10 +33,11 @@ from builder.platforms import PORTABLE_FLAGS, TargetPlatform, compiler_for, pars
 from builder.reference_results import carries_reference_results, extra_files
 from builder.sources import DEFAULT_MODEL_DIR, FMU_SOURCE_DIR, SourceTree
 from fmu_src.materials import FIELDS as MATERIAL_FIELDS
-from fmu_src.materials import MaterialTable, load_materials
+from fmu_src.materials import MaterialTable
 from fmu_src.variables import (DERIVATIVE, INDICATOR, REAL, STATE, Interface, c_literal, enumerations,
                                plotted_mass_index, plotted_masses)
-from scenes import DEFAULT_SCENE, Scene, check_identifier
+from scenes import Scene, check_identifier
+from scenes import resolve_scene as resolve_scenes_scene
 
 SOURCE_DIR = FMU_SOURCE_DIR  # the C sources ship as package data of fmu_src
 # Built FMUs go to models/ under the current folder: the repository's models/ when run from its root (as the
@@ -164,7 +164,8 @@ def generate_header(interface: Interface, guid: str) -> str:
     for variable in interface.fixed:
         c_type = "double" if variable.type == REAL else "int"
         if variable.size is None:
-            lines.append(f"#define PARAM_{variable.c_name}(m) ((void)(m), ({c_type})({c_literal(variable, variable.start)}))")
+            literal = c_literal(variable, variable.start)
+            lines.append(f"#define PARAM_{variable.c_name}(m) ((void)(m), ({c_type})({literal}))")
         else:
             lines.append(f"#define PARAM_{variable.c_name}(m, i) ((void)(m), FIXED_{variable.c_name}[(i)])")
     lines.append("")
@@ -187,7 +188,8 @@ def generate_table_header() -> str:
              "#ifndef MODEL_TABLE_H", "#define MODEL_TABLE_H", ""]
     for variable in enumerations():
         lines += [f"/* the values of {variable.name} */", f"enum {variable.enumeration} {{"]
-        lines += [f"    {variable.c_name}_{label.upper()} = {value}," for value, (label, _) in enumerate(variable.items)]
+        lines += [f"    {variable.c_name}_{label.upper()} = {value},"
+                  for value, (label, _) in enumerate(variable.items)]
         lines += ["};", ""]
     lines += ["/* The constants of one column: its material's row of the material table (docs/model.md section 2). */",
               "typedef struct {"]
@@ -287,32 +289,9 @@ def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, col
                   output: str | os.PathLike | None = None,
                   materials: MaterialTable | str | os.PathLike | None = None, depth: int | None = None,
                   load_patch: int | None = None) -> Scene:
-    """The scene an FMU is built for: a Scene, a scene name or path (default: the 11 x 11 armour scene), with
-    rows, cols or depth overridden (a resized scene keeps its scalar parameters only), load_patch as the start
-    of that parameter, and `materials` (a MaterialTable or the path of a table file) as its material table.
-    Unless the output is given, a scene changed here gets its own identifier, naming the size, the patch and the
-    table's fingerprint that differ from the scene's, so that the FMUs of two variants never share a file."""
-    if not isinstance(scene, Scene):
-        scene = Scene.load(scene or DEFAULT_SCENE)
-    resized = scene
-    if rows is not None or cols is not None or depth is not None:
-        resized = replace(scene, rows=rows or scene.rows, cols=cols or scene.cols, depth=depth or scene.depth,
-                          parameters={k: v for k, v in scene.parameters.items() if not isinstance(v, (list, tuple))})
-    if load_patch is not None:
-        resized = replace(resized, parameters={**resized.parameters, "load_patch": load_patch})
-    if materials is not None:
-        table = materials if isinstance(materials, MaterialTable) else load_materials(materials)
-        resized = replace(resized, materials=table)
-    if output is None and resized != scene:
-        identifier = scene.model_identifier
-        if (resized.rows, resized.cols, resized.depth) != (scene.rows, scene.cols, scene.depth):
-            identifier += f"{resized.rows}x{resized.cols}" + (f"x{resized.depth}" if resized.depth > 1 else "")
-        if resized.parameters.get("load_patch") != scene.parameters.get("load_patch"):
-            identifier += f"_patch{load_patch}"
-        if materials is not None:
-            identifier += f"_{resized.material_table().sha256()[:8]}"
-        resized = replace(resized, model_identifier=identifier)
-    return resized
+    """The scene an FMU is built for (``scenes.resolve_scene``, the one owner of a scene's variants): a scene
+    changed here gets its own model identifier unless the output file is named."""
+    return resolve_scenes_scene(scene, rows, cols, materials, depth, load_patch, own_identifier=output is None)
 
 
 def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None = None,
@@ -327,7 +306,7 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
     `materials` (a MaterialTable or a table file) replaces the scene's material table: the FMU's
     k[1..M], k_diag[1..M], c[1..M], alpha[1..M], alpha_diag[1..M] start with its values. `platforms` ('all'
     or a comma list of builder.platforms.PLATFORMS) says whose binaries the FMU carries; None, this machine's.
-    `depth` overrides the scene's layers (fixed at build time, like rows and cols), `load_patch` the start of
+    `depth` overrides the scene's depth (fixed at build time, like rows and cols), `load_patch` the start of
     that parameter.
     The armour scene's FMU carries its reference results (builder/reference_results.py) unless
     reference_results is False."""

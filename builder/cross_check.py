@@ -30,8 +30,9 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-import jinja2
 import numpy as np
+
+from builder.rendering import environment
 
 TOOL = "mass-spring-lattice"
 IMPORTER = "FMPy"
@@ -45,10 +46,6 @@ SIGNALS = ("backplate_force", "peak_backplate_force", "kinetic_energy", "potenti
 # A Model Exchange importer's relative tolerance (its solver's, not the FMU's own).
 RELATIVE_TOLERANCE = 1e-6
 INTERFACES = {"cs": ("CoSimulation", "Co-Simulation"), "me": ("ModelExchange", "Model Exchange")}
-_TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("builder", "templates"),
-                                autoescape=jinja2.select_autoescape(["xml"]), undefined=jinja2.StrictUndefined,
-                                keep_trailing_newline=True)
-_TEMPLATES.filters["cell"] = lambda value: "" if value is None else str(value).replace("|", "\\|").replace("\n", " ")
 
 
 @dataclass(frozen=True)
@@ -130,8 +127,9 @@ def with_reference(fmu: Path, target: Path, reference_csv: Path, stop_time: floa
     """A copy of ``fmu`` at ``target`` with the reference result and its FMI-LS-REF manifest in extra/."""
     from builder.reference_results import LS_DESCRIPTION, LS_NAME, LS_VERSION
 
-    description = f"Outputs from 0 to {stop_time!r} s every {step_size!r} s, by the FMU's Co-Simulation at its default parameters"
-    manifest = _TEMPLATES.get_template("fmi_ls_ref_manifest.xml").render(
+    description = (f"Outputs from 0 to {stop_time!r} s every {step_size!r} s, by the FMU's Co-Simulation at its "
+                   "default parameters")
+    manifest = environment().get_template("fmi_ls_ref_manifest.xml").render(
         ls_name=LS_NAME, ls_version=LS_VERSION, ls_description=LS_DESCRIPTION,
         related=[{"source": reference_csv.name, "description": description}])
     partial = target.with_name(target.name + ".partial")
@@ -192,7 +190,7 @@ def write_model(out_dir: Path, fmu: Path, fmi_version: str, stop_time: float, st
             shutil.copy2(carried, folder / carried.name)
             shutil.copy2(reference_csv, folder / reference_csv.name)
             (folder / f"{model}_ref.opt").write_text("".join(f"{key}, {value!r}\n" for key, value in options.items()))
-            (folder / "ReadMe.md").write_text(_TEMPLATES.get_template("cross_check_fmu_readme.md").render(
+            (folder / "ReadMe.md").write_text(environment().get_template("cross_check_fmu_readme.md").render(
                 model=model, description=description.description, fmi_version=fmi_version,
                 fmi_type_name=type_name, platform=platform, tool=TOOL, tool_version=version, signals=signals,
                 stop_time=stop_time, step_size=step_size, fmpy_version=fmpy_version,
@@ -214,7 +212,7 @@ def write_model(out_dir: Path, fmu: Path, fmi_version: str, stop_time: float, st
             (verdict_folder / entry.verdict).write_text("")
             if result is not None:
                 shutil.copy2(out_csv, verdict_folder / out_csv.name)
-            (verdict_folder / "ReadMe.md").write_text(_TEMPLATES.get_template("cross_check_result_readme.md").render(
+            (verdict_folder / "ReadMe.md").write_text(environment().get_template("cross_check_result_readme.md").render(
                 model=model, verdict=entry.verdict, fmpy_version=fmpy_version, fmi_type_name=INTERFACES[fmi_type][0],
                 stop_time=stop_time, settings=settings, problem=problem))
             results.append(entry)

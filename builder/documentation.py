@@ -11,6 +11,7 @@ from fmu_src.materials import STUDY_MATERIAL_COUNT, study_materials
 from fmu_src.published import PUBLISHED_CONDITIONS, PUBLISHED_HORIZON, PUBLISHED_PEAKS, REFERENCE_POINTS
 from builder.rendering import model_summary, render
 from fmu_src.variables import INDICATOR, Interface, Variable
+from scenes import is_study_scene
 
 def _format(value) -> str:
     if value is None:
@@ -36,26 +37,19 @@ def variable_row(variable: Variable, fmi_version: int) -> dict:
             "start": _format(variable.start), "allowed": allowed, "description": variable.description}
 
 
-def reproduces_the_study(interface: Interface, scene) -> bool:
-    """Whether the FMU is the study's scene at its defaults: 11 x 11 in one layer, its materials, a backplate."""
-    names = {v.name for v in interface.exposed}
-    table = scene.material_table()
-    return ("material" in names and interface.rows == interface.cols == 11 and interface.depth == 1
-            and "backplate_force" in names
-            and (table is None or table == study_materials(11)))
-
-
 def documentation_html(fmi_version: int, interface: Interface, identifier: str, scene) -> str:
     """The page for the FMU of `scene` (FMI 2 or 3)."""
     published = []
     starts = {v.name: v.start for v in interface.exposed + interface.fixed}
-    if reproduces_the_study(interface, scene):
+    if is_study_scene(scene):  # the published numbers hold for the study's scene alone
         published = [(list(order), repr(peak)) for order, peak in PUBLISHED_PEAKS.items()]
     return render("documentation.html", identifier=identifier, summary=model_summary(interface, scene),
                   fmi_version=fmi_version, rows=interface.rows, cols=interface.cols, depth=interface.depth,
                   published=published,
                   horizon=f"{PUBLISHED_HORIZON:g}", conditions=PUBLISHED_CONDITIONS,
                   rtol=f"{starts['rtol']:g}",
-                  reference_points=REFERENCE_POINTS, variables=[variable_row(v, fmi_version) for v in interface.exposed],
+                  reference_points=REFERENCE_POINTS,
+                  variables=[variable_row(v, fmi_version) for v in interface.exposed],
                   fixed=[v.name for v in interface.fixed],
-                  materials=(scene.material_table() or study_materials(min(interface.cols, STUDY_MATERIAL_COUNT))).materials)
+                  materials=(scene.material_table()
+                             or study_materials(min(interface.cols, STUDY_MATERIAL_COUNT))).materials)

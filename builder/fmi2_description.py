@@ -10,6 +10,7 @@ from __future__ import annotations
 from builder.rendering import default_experiment, model_summary, render
 from builder.sources import SourceTree
 from fmu_src.variables import DERIVATIVE, INTEGER, LOG_CATEGORIES, REAL, STATE, UNITS, Interface, c_literal
+from scenes import SIZE_ANNOTATION
 
 
 def _number(variable, value) -> str:
@@ -106,4 +107,5 @@ def generate_model_description(interface: Interface, identifier: str, guid: str,
                   description=model_summary(interface, scene), event_indicators=interface.event_indicator_count(),
                   sources=sources, units=UNITS, enumerations=enumeration_types(interface),
                   log_categories=LOG_CATEGORIES, experiment=default_experiment(scene), variables=scalars,
-                  outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns)
+                  outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns,
+                  annotation_tool=SIZE_ANNOTATION, lattice_size=(interface.rows, interface.cols, interface.depth))

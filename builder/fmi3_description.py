@@ -26,6 +26,7 @@ from builder.fmi2_description import enumeration_types, range_attributes
 from builder.rendering import default_experiment, model_summary, render
 from builder.sources import SourceTree
 from fmu_src.variables import DERIVATIVE, INDICATOR, INTEGER, LOG_CATEGORIES, REAL, STATE, UNITS, Interface, c_literal
+from scenes import SIZE_ANNOTATION
 
 TYPE_NAMES = {REAL: "Float64", INTEGER: "Int32"}  # an Integer with an enumeration type is an Enumeration (Int64)
 # A Float64 variable gets its unit through a declared type named after the unit (<Float64Type name="N.s/m"
@@ -111,7 +112,8 @@ def generate_model_description(interface: Interface, identifier: str, token: str
     return render("fmi3_model_description.xml", identifier=identifier, token=token,
                   description=model_summary(interface, scene), units=UNITS, unit_types=used,
                   enumerations=enumeration_types(interface), log_categories=LOG_CATEGORIES,
-                  experiment=default_experiment(scene), variables=variables, structure=structure)
+                  experiment=default_experiment(scene), variables=variables, structure=structure,
+                  annotation_tool=SIZE_ANNOTATION, lattice_size=(interface.rows, interface.cols, interface.depth))
 
 
 def generate_build_description(identifier: str, sources: list[str] | None = None) -> str:

@@ -139,5 +139,5 @@ def header_machine(data: bytes, what: str = "the file") -> tuple[str, str]:
     raise ValueError(f"{what}: neither an ELF nor a PE file")
 
 
-__all__ = ["ALL_PLATFORMS", "PLATFORMS", "PORTABLE_FLAGS", "TargetPlatform", "compiler_for", "header_machine", "library_machine",
-           "native_platform", "parse_platforms"]
+__all__ = ["ALL_PLATFORMS", "PLATFORMS", "PORTABLE_FLAGS", "TargetPlatform", "compiler_for", "header_machine",
+           "library_machine", "native_platform", "parse_platforms"]

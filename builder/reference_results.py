@@ -25,8 +25,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-import jinja2
-
+from builder.rendering import environment
 from fmu_src.published import PUBLISHED_PEAKS, SEQUENTIAL_ORDER, STUDY_BEST_ORDER
 
 EXTRA = "extra/org.fmi-standard.fmi-ls-ref"
@@ -38,9 +37,6 @@ LS_DESCRIPTION = "Layered standard providing information on related files includ
 # The outputs recorded, in this order (time first); all change over the default experiment.
 SIGNALS = ("backplate_force", "peak_backplate_force", "peak_backplate_force_continuous", "kinetic_energy",
            "potential_energy", "external_work", "dissipated_energy", "ux_left_edge", "ux_centre", "ux_right_edge")
-_TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("builder", "templates"),
-                                autoescape=jinja2.select_autoescape(["xml"]), undefined=jinja2.StrictUndefined,
-                                keep_trailing_newline=True)
 
 
 @dataclass(frozen=True)
@@ -66,13 +62,13 @@ REFERENCE_RESULTS = (ReferenceResult("the sequential order, the FMU's default", 
 
 def carries_reference_results(scene) -> bool:
     """Whether an FMU of ``scene`` (resolved: size and table applied) is the one the published results hold for."""
-    from scenes import DEFAULT_SCENE, Scene
+    from scenes import is_study_scene
 
-    return scene == Scene.load(DEFAULT_SCENE)
+    return is_study_scene(scene)
 
 
 def manifest_xml(identifier: str) -> str:
-    return _TEMPLATES.get_template("fmi_ls_ref_manifest.xml").render(
+    return environment().get_template("fmi_ls_ref_manifest.xml").render(
         ls_name=LS_NAME, ls_version=LS_VERSION, ls_description=LS_DESCRIPTION,
         related=[{"source": r.file_name(identifier), "description": r.description()} for r in REFERENCE_RESULTS])
 

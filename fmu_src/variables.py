@@ -63,7 +63,8 @@ class Variable:
         if self.size is None:
             return [self.name]
         if self.shape and len(self.shape) == 2:  # row-major, as lattice.h lays out the masses
-            subscripts = [f"[{row},{col}]" for row in range(1, self.shape[0] + 1) for col in range(1, self.shape[1] + 1)]
+            subscripts = [f"[{row},{col}]" for row in range(1, self.shape[0] + 1)
+                          for col in range(1, self.shape[1] + 1)]
         elif self.shape and len(self.shape) == 3:  # (layer, row, column), row-major as lattice.h lays out a plate
             subscripts = [f"[{layer},{row},{col}]" for layer in range(1, self.shape[0] + 1)
                           for row in range(1, self.shape[1] + 1) for col in range(1, self.shape[2] + 1)]
@@ -87,7 +88,9 @@ class Variable:
         high = "inf" if self.maximum is None else f"{self.maximum:g}"
         left = "(" if self.minimum_exclusive or self.minimum is None else "["
         right = ")" if self.maximum is None else "]"
-        return f"a finite number in {left}{low}, {high}{right}" if self.type == REAL else f"an integer in [{low}, {high}]"
+        if self.type == REAL:
+            return f"a finite number in {left}{low}, {high}{right}"
+        return f"an integer in [{low}, {high}]"
 
 
 def enumeration_values(name: str) -> dict[str, int]:

@@ -1,6 +1,6 @@
 """Material-order search for the mass-spring lattice.
 
-Layers: ``types`` (Order, Evaluation), ``objective`` (what is minimised), ``search`` (ask/tell
+Its levels, from the ground up: ``types`` (Order, Evaluation), ``objective`` (what is minimised), ``search`` (ask/tell
 strategies), ``loop`` (the Evaluator: the one guarded evaluation path; run_search), ``executors``
 (serial, process, dask), ``journal`` (resume), ``study`` (what a run is), ``report``, ``run`` (the CLI).
 """

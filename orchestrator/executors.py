@@ -28,7 +28,7 @@ EXECUTORS = ("serial", "process", "dask")
 LOCAL_CLUSTER_START = 120.0  # s a local Dask cluster may take to start all its workers
 # The most designs one call to a Dask worker carries; bench.study_costs measures the default study at several
 # sizes (its page has the figures).
-DASK_BATCH_DESIGNS = 16
+DASK_BATCH_DESIGNS = 64
 WORKERS_REFRESH = 2.0  # s between two looks for workers that joined or left the cluster
 ACTOR_START = 60.0  # s a worker may take to start its actor
 # How many workers a call may lose on a cluster of batch jobs (each a worker that left: its lifetime, a cancelled

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from .journal import file_sha256
-from .simulation import (LatticeFMU, Parameter, SimulationError, declared_parameters, lattice_shape,
+from .simulation import (LatticeFMU, Parameter, SimulationError, declared_lattice_size, declared_parameters,
                          material_columns, model_description)
 
 
@@ -112,8 +112,8 @@ def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
         if prepared.columns < 2:
             raise FMUError(f"--fmu {fmu}: {prepared.columns} column(s) with a material parameter: there is no "
                            "material order to search (give a scene with a material per column)")
-        shape = lattice_shape(prepared.description)
-        if shape and shape != (scene.rows, scene.cols, scene.depth):
+        shape = declared_lattice_size(path)
+        if shape and shape != scene.size():
             rows, columns, depth = shape
             raise FMUError(f"--fmu {fmu}: its lattice is {size_text(*shape)}, scene {scene.name}'s "
                            f"{size_text(scene.rows, scene.cols, scene.depth)}; give the FMU's --scene"

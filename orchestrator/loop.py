@@ -164,10 +164,9 @@ class Evaluator:
                     submit(_Flight("", TaskBatch(tuple(m.task for m in members)), 0, 0.0, members=members))
 
         while True:
-            pending: list[_Flight] = []
-            limit = 2 * self._slots * self._batch  # tasks in flight
-            while (not exhausted and not alone
-                   and sum(f.tasks for f in flights.values()) + len(pending) < limit):
+            pending: list[_Flight] = []  # designs pulled for batches: up to batch_size per submission
+            while (not exhausted and not alone and len(flights) < 2 * self._slots
+                   and len(pending) < 2 * self._slots * self._batch):
                 try:
                     index, task = next(source)
                 except StopIteration:

@@ -7,7 +7,7 @@ space, and at which fidelity:
 - ``SEARCH``, what the searches rank by: a short horizon (``SEARCH_HORIZON``) at a looser tolerance with the
   cheapest solver at that accuracy (``SEARCH_SOLVER`` at ``SEARCH_RTOL``; python -m bench.work_precision and
   python -m bench.horizon_study measure their error against the gaps between good designs), extended to the full
-  horizon for a design whose lattice still touches the plate near its end;
+  horizon for a design whose lattice still touches the backplate near its end;
 - ``FULL``, what is reported: the whole scene at the FMU's default accuracy.
 
 An objective turns a design into tasks (one FMU run per load case) that the one evaluator runs, caches and
@@ -33,10 +33,10 @@ SEARCH = "search"
 FULL = "full"
 FIDELITIES = (SEARCH, FULL)
 
-SEARCH_HORIZON = 1.0  # s: every design has left the plate by then (python -m bench.horizon_study)
+SEARCH_HORIZON = 1.0  # s: every design has left the backplate by then (python -m bench.horizon_study)
 SEARCH_RTOL = 8e-6  # its error stays far below the gaps between good designs (python -m bench.work_precision)
 SEARCH_SOLVER = "rkn5"  # the cheapest pair at that accuracy (python -m bench.work_precision)
-CONTACT_GUARD = 0.1  # a short horizon is trusted only when the lattice left the plate before its last tenth
+CONTACT_GUARD = 0.1  # a short horizon is trusted only when the lattice left the backplate before its last tenth
 AGGREGATES = ("worst", "mean")
 
 
@@ -133,7 +133,7 @@ class FMURun:
     (the FMU file is identified by its hash in the run's settings, not by where it lies). ``outputs`` are the
     objective's: the first is ``Evaluation.value``, and all of them ``Evaluation.values`` when there are
     several. A short horizon is simulated again over ``fallback_horizon`` when a column-C mass still touched
-    the plate in the horizon's last CONTACT_GUARD.
+    the backplate in the horizon's last CONTACT_GUARD.
     """
 
     fmu_path: str

@@ -13,23 +13,32 @@ import math
 from typing import Any, Callable
 
 _GIVEN = "_options_given"
+EXIT_USAGE = 2  # a command line that cannot run, as argparse exits
 KEPT, NO_NUMBER, NOT_KEPT = "kept", "no number", "not kept"  # how a study file keeps an option
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse's parser, with errors in one line (argparse's own words, without the usage block), exit 2."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
 
 
 def option(default: Any, help: str, *, flag: str | None = None, type: Callable[[str], Any] | None = None,
            choices: Any = None, nargs: str | int | None = None, metavar: str | None = None,
-           action: str | None = None, show_default: str | None = None, study: str = KEPT, path: bool = False):
+           action: str | None = None, show_default: str | None = None, study: str = KEPT, path: bool = False,
+           short: str | None = None):
     """A dataclass field that is also a command-line option (``--name-with-dashes`` unless ``flag``).
 
     ``show_default`` replaces the shown default (e.g. "the scene's, 1200 N"); ``action`` "store_true" or
     "store_false" makes a flag (the field's default is then the value without the flag). ``study``: how a
     study file (``orchestrator.studyfile``) keeps it: ``KEPT``, ``NO_NUMBER`` (written as a comment: it changes
     no number) or ``NOT_KEPT`` (it belongs to one invocation); ``path``: the value may be a file's path (a
-    study file writes it relative to itself)."""
+    study file writes it relative to itself); ``short``: a one-letter spelling beside the long one (``-o``)."""
     if study not in (KEPT, NO_NUMBER, NOT_KEPT):
         raise ValueError(f"study must be one of {KEPT}, {NO_NUMBER}, {NOT_KEPT}, got {study!r}")
     metadata = {"help": help, "flag": flag, "type": type, "choices": choices, "nargs": nargs, "metavar": metavar,
-                "action": action, "show_default": show_default, "study": study, "path": path}
+                "action": action, "show_default": show_default, "study": study, "path": path, "short": short}
     if isinstance(default, (list, dict, set)):
         raise TypeError("option defaults must be immutable (use a tuple)")
     return dataclasses.field(default=default, metadata={"option": metadata})
@@ -73,7 +82,8 @@ def add_options(parser: argparse.ArgumentParser, config_type: type, title: str, 
                     kwargs[key] = meta[key]
             if meta["metavar"] is None and meta["choices"] is None:
                 kwargs["metavar"] = f.name.upper()
-        group.add_argument(meta["flag"] or "--" + f.name.replace("_", "-"), **kwargs)
+        flags = [meta["short"]] if meta["short"] else []
+        group.add_argument(*flags, meta["flag"] or "--" + f.name.replace("_", "-"), **kwargs)
 
 
 def config_from(config_type: type, namespace: argparse.Namespace, **extra: Any):
@@ -170,5 +180,5 @@ def integer(flag: str, low: int, high: int | None = None) -> Callable[[str], int
     return parse
 
 
-__all__ = ["KEPT", "NOT_KEPT", "NO_NUMBER", "add_options", "check_options", "config_from", "flag_of", "given",
-           "integer", "number", "option"]
+__all__ = ["EXIT_USAGE", "KEPT", "NOT_KEPT", "NO_NUMBER", "Parser", "add_options", "check_options", "config_from",
+           "flag_of", "given", "integer", "number", "option"]

@@ -213,7 +213,8 @@ def designs_from_storage(url: str) -> list[Design]:
                                  "each column, as --export-optuna writes them)")
             designs.append(tuple(int(trial.params[k]) for k in columns))
     if not designs:
-        raise ValueError(f"--start-file {url}: no complete trial in the storage's studies ({', '.join(names) or 'none'})")
+        raise ValueError(f"--start-file {url}: no complete trial in the storage's studies "
+                         f"({', '.join(names) or 'none'})")
     return list(dict.fromkeys(designs))
 
 

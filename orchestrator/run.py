@@ -15,9 +15,15 @@ OUT.partial/journal.jsonl for --resume.
 """
 from __future__ import annotations
 
-import argparse
-import signal
+import os
 import sys
+
+if __name__ == "__main__":  # run as `python orchestrator/run.py`: import from the checkout's root, so that this
+    # folder's modules (types.py) do not stand in for the standard library's of the same name
+    sys.path[0] = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+import argparse  # noqa: E402
+import signal  # noqa: E402
 
 EXIT_OK, EXIT_USAGE, EXIT_NO_RESULT = 0, 2, 3
 
@@ -26,14 +32,9 @@ class Interrupted(BaseException):
     """SIGTERM, handled like Ctrl-C (a BaseException, so no evaluation guard swallows it)."""
 
 
-class Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # one line, exit 2 (argparse's own words, without the usage block)
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
-
-
 def build_parser():
     from orchestrator.cluster import ClusterConfig
-    from orchestrator.options import add_options
+    from orchestrator.options import Parser, add_options
     from orchestrator.runner import RunConfig
     from orchestrator.steps import STEPS
     from orchestrator.study import CaseConfig

@@ -1,9 +1,9 @@
 """One run of a study in a report folder, from options to a published report.
 
-``run_in_folder`` is what the command line calls: it takes the folder's lock, finds and checks the FMU,
-resolves the case, refuses (before any simulation) options that mean nothing in this run and work beyond a
-stated bound, opens the journal and the executor, runs the study's steps, renders the report and swaps the
-finished folder in (``orchestrator.runfolder``).
+``run_in_folder`` is what the command line calls: it takes the folder's lock, asks ``orchestrator.scene`` for
+the scene, its table and its FMU, resolves the case, refuses (before any simulation) options that mean nothing
+in this run and work beyond a stated bound, opens the journal and the executor, runs the study's steps, renders
+the report and swaps the finished folder in (``orchestrator.runfolder``).
 """
 from __future__ import annotations
 
@@ -15,12 +15,12 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from fmu_src.materials import STUDY_MATERIAL_COUNT, load_materials, study_materials
+from fmu_src.materials import STUDY_MATERIAL_COUNT, load_materials
 
 from .cluster import JOB_LOGS, ClusterConfig, SlurmJobs, check_cluster
 from .executors import EXECUTORS, SerialExecutor, make_executor
 from .exhaustive import ChunkResult
-from .fmu import PreparedFMU, prepare_fmu
+from .fmu import PreparedFMU
 from .journal import Journal
 from .loop import Evaluator
 from .objective import Trajectory, close_instances, count_cases
@@ -28,6 +28,7 @@ from .options import NO_NUMBER, NOT_KEPT, check_options, given, integer, number,
 from .progress import Progress
 from .records import to_record
 from .runfolder import RunFolder, make_temp_root
+from .scene import resolve, resolve_scene
 from .studyfile import write_study_file
 from .steps.searches import SearchesConfig
 from .study import MAX_RUNS_PER_DESIGN, CaseConfig, StudyContext, StudyResult, resolve_case, run_study
@@ -72,7 +73,7 @@ class RunConfig:
 
 
 class NoResult(RuntimeError):
-    """The study finished without an answer (every evaluation failed, or nothing touched the plate)."""
+    """The study finished without an answer (every evaluation failed, or nothing touched the backplate)."""
 
 
 @dataclass(frozen=True)
@@ -81,39 +82,6 @@ class Outcome:
     report: Path
     folder: Path
     resumed: bool
-
-
-def resolve_scene(case: CaseConfig, materials):
-    """The scene to run: the named one, with the lattice's columns and the material table given; refused when
-    the table has fewer materials than columns and a material may fill only one (no material is invented)."""
-    from scenes import Scene
-
-    scene = Scene.load(case.scene)
-    check_table_size(case, scene, materials)
-    if case.cols is not None or case.depth is not None or materials is not None:
-        from builder import build
-
-        scene = build.resolve_scene(scene, cols=case.cols, materials=materials, depth=case.depth)
-    return scene
-
-
-def check_table_size(case: CaseConfig, scene, materials) -> None:
-    """More columns than the table has materials, each used at most once, is refused in one line (before any
-    build): the FMU would otherwise need materials that are in no table."""
-    if case.repeat or scene.parameters.get("repeat_materials"):
-        return
-    columns = case.cols or scene.cols
-    if materials is not None:
-        count, table = len(materials), f"--materials {case.materials} has"
-    else:
-        own = scene.material_table()
-        count = len(own) if own is not None else STUDY_MATERIAL_COUNT
-        table = f"scene {scene.name}'s table has" if own is not None else "the study's table has"
-    if columns > count:
-        flag = f"--cols {columns}" if case.cols else f"scene {scene.name} ({columns} columns)"
-        raise ValueError(f"{flag}: {table} {count} materials and each fills at most one column; give --cols 2.."
-                         f"{count}, --repeat (a material may fill several columns) or --materials FILE with at "
-                         f"least {columns} materials")
 
 
 def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
@@ -196,21 +164,15 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
     previous_tempdir = tempfile.tempdir
     tempfile.tempdir = temp_root  # this process's extractions too; removed with the run
     try:
-        materials = load_materials(case_config.materials) if case_config.materials else None
-        scene = resolve_scene(case_config, materials)
-        if run.confirm_cost and not could_be_beyond(run, case_config, scene, materials, step_configs):
-            raise ValueError(nothing_to_confirm())  # before the FMU is built
-        fmu = prepare_fmu(scene, case_config.fmu)
-        if materials is not None and len(materials) != fmu.materials:
-            raise ValueError(f"--materials {case_config.materials}: {len(materials)} materials, but "
-                             f"{fmu.path.name} has a table of {fmu.materials}")
-        if materials is None and scene.material_table() is None and fmu.materials > STUDY_MATERIAL_COUNT:
-            raise ValueError(f"{fmu.path.name} has a table of {fmu.materials} materials, the study's has "
-                             f"{STUDY_MATERIAL_COUNT}: give the FMU's own table with --materials FILE")
-        table = materials or scene.material_table() or study_materials(fmu.materials)
+        if run.confirm_cost:  # a confirmation of nothing is refused before the FMU is built
+            materials = load_materials(case_config.materials) if case_config.materials else None
+            if not could_be_beyond(run, case_config, resolve_scene(case_config, materials), materials, step_configs):
+                raise ValueError(nothing_to_confirm())
+        resolved = resolve(case_config)
+        fmu, table = resolved.fmu, resolved.table
         if study_file is not None:
             study_file.check_materials(table)
-        case = resolve_case(case_config, scene, fmu, table)
+        case = resolve_case(case_config, resolved)
         steps = [step_type(step_configs.get(step_type)) for step_type in step_types]
         context = StudyContext(fmu=fmu, case=case, evaluator=Evaluator(SerialExecutor()), steps=steps,
                                progress=Progress(run.progress), executor_kind=run.executor,

@@ -13,11 +13,13 @@ import numbers
 import os
 import shutil
 import tempfile
+import zipfile
 from ctypes import POINTER, byref, c_double, c_int, c_size_t, c_uint, c_void_p
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
+from xml.etree import ElementTree
 
 import numpy as np
 from fmpy import extract, read_model_description
@@ -99,25 +101,29 @@ def material_columns(description) -> int:
     return sum(1 for v in description.modelVariables if v.name.startswith("material["))
 
 
-def lattice_shape(description) -> tuple[int, int, int] | None:
-    """(rows, columns, depth) of the FMU's lattice, read from its ux[row,column] or, of a plate,
-    ux[layer,row,column] states (fmu_src/variables.py; None when it declares none): what an FMU given on its own
-    says of its plate, whatever scene it is used with."""
-    shape = None
-    for variable in description.modelVariables:
-        name = variable.name
-        if name.startswith("ux[") and name.endswith("]"):
+def declared_lattice_size(fmu_path: str | Path) -> tuple[int, int, int] | None:
+    """(rows, columns, depth) as the FMU's model description declares them (the builder writes them under the
+    tool or annotation ``scenes.SIZE_ANNOTATION``; None when it declares none): what an FMU given on its own says
+    of its lattice, whatever scene it is used with."""
+    status = os.stat(fmu_path)
+    return _declared_size(str(fmu_path), status.st_mtime_ns, status.st_size)
+
+
+@functools.lru_cache(maxsize=64)
+def _declared_size(fmu_path: str, mtime_ns: int, size: int) -> tuple[int, int, int] | None:
+    from scenes import SIZE_ANNOTATION
+
+    with zipfile.ZipFile(fmu_path) as archive:
+        root = ElementTree.fromstring(archive.read("modelDescription.xml"))
+    for holder in (*root.findall(f"VendorAnnotations/Tool[@name='{SIZE_ANNOTATION}']"),
+                   *root.findall(f"Annotations/Annotation[@type='{SIZE_ANNOTATION}']")):
+        lattice = holder.find("Lattice")
+        if lattice is not None:
             try:
-                index = tuple(int(part) for part in name[3:-1].split(","))
+                return int(lattice.get("rows", "")), int(lattice.get("columns", "")), int(lattice.get("depth", ""))
             except ValueError:
-                continue
-            if len(index) == 2:
-                index += (1,)
-            elif len(index) == 3:
-                index = (index[1], index[2], index[0])
-            if len(index) == 3:
-                shape = index if shape is None else tuple(max(a, b) for a, b in zip(shape, index))
-    return shape
+                return None
+    return None
 
 
 REAL_TYPES = ("Real", "Float64", "Float32")
@@ -252,8 +258,9 @@ class SimulationError(RuntimeError):
 
 
 @dataclass(frozen=True)
-class Trajectory:
-    """Outputs at every communication point of one run."""
+class RecordedSamples:
+    """Outputs at every communication point of one run, as the FMU returned them (``objective.Trajectory`` is
+    the study's record of them)."""
 
     time: np.ndarray
     values: dict[str, np.ndarray]
@@ -271,7 +278,7 @@ class SimulationResult(NamedOutputs):
     values: dict[str, float | int]
     stop_time: float
     stopped_early: bool = False
-    trajectory: Trajectory | None = None
+    trajectory: RecordedSamples | None = None
 
 
 class LatticeFMU:
@@ -279,8 +286,8 @@ class LatticeFMU:
 
     A run costs a fixed number of FMI calls whatever it sets and reads: the order and the integer parameters
     in one fmi2SetInteger, the real parameters in one fmi2SetReal, the outputs in one fmi2GetReal and one
-    fmi2GetInteger. Value references are resolved once per set of names and the ctypes arrays kept, and the
-    FMI functions are called through ctypes directly (fmpy's wrappers build their arrays on every call).
+    fmi2GetInteger. Value references are resolved once per set of names and the ctypes arrays kept; the calls
+    FMPy has no such form of are made through ctypes (``_DirectCalls``), every other one through FMPy.
     """
 
     def __init__(self, fmu_path: str | Path, instance_name: str = "lattice"):
@@ -387,11 +394,11 @@ class LatticeFMU:
         reader = self._reader(self.outputs if outputs is None else tuple(outputs))
         stopped_at = None
         try:
-            api.call("fmi2Reset")
-            api.call("fmi2SetupExperiment", 0, 0.0, 0.0, 1, float(horizon))
-            api.call("fmi2EnterInitializationMode")
+            api.slave.reset()
+            api.slave.setupExperiment(startTime=0.0, stopTime=float(horizon))
+            api.slave.enterInitializationMode()
             setter.apply(api, order, list(parameters.values()))
-            api.call("fmi2ExitInitializationMode")
+            api.slave.exitInitializationMode()
             trajectory = None
             if communication_step is None and record is None:
                 stopped_at = api.do_step(0.0, horizon, limited)
@@ -414,7 +421,7 @@ class LatticeFMU:
                     if stopped_at is not None:
                         break
                 if record:
-                    trajectory = Trajectory(np.array(reached), {k: np.array(v) for k, v in series.items()})
+                    trajectory = RecordedSamples(np.array(reached), {k: np.array(v) for k, v in series.items()})
             values = reader.read(api)
         except FMICallException as exc:
             detail = "; ".join(self._messages) or "the FMU logged no reason"
@@ -444,23 +451,25 @@ INTEGER_TYPES = ("Integer", "Enumeration")  # set and read with fmi2SetInteger /
 
 
 class _DirectCalls:
-    """The FMI 2 functions a run needs, called through ctypes on the instance fmpy loaded and instantiated."""
+    """The FMI 2 calls FMPy has no form of that a run needs, called through ctypes on the instance FMPy loaded
+    and instantiated (every other call is FMPy's):
+
+    - setting and reading values into arrays made once per set of names (FMPy's ``setReal`` / ``getReal`` build
+      new ctypes arrays from Python lists on every call, thousands of times per search);
+    - a ``fmi2DoStep`` that returns fmi2Discard rather than raising: it is how the FMU says that it stopped the
+      run early at its peak_force_limit (FMPy's ``doStep`` raises on any status above fmi2Warning).
+    """
 
     SIGNATURES = {
-        "fmi2Reset": [c_void_p],
-        "fmi2SetupExperiment": [c_void_p, c_int, c_double, c_double, c_int, c_double],
-        "fmi2EnterInitializationMode": [c_void_p],
-        "fmi2ExitInitializationMode": [c_void_p],
         "fmi2SetReal": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_double)],
         "fmi2SetInteger": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_int)],
         "fmi2GetReal": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_double)],
         "fmi2GetInteger": [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_int)],
         "fmi2DoStep": [c_void_p, c_double, c_double, c_int],
-        "fmi2GetBooleanStatus": [c_void_p, c_int, POINTER(c_int)],
-        "fmi2GetRealStatus": [c_void_p, c_int, POINTER(c_double)],
     }
 
     def __init__(self, slave: FMU2Slave):
+        self.slave = slave
         self.component = slave.component
         self.functions = {}
         for name, argtypes in self.SIGNATURES.items():
@@ -468,8 +477,6 @@ class _DirectCalls:
             function.argtypes = argtypes
             function.restype = c_int
             self.functions[name] = function
-        self._terminated = c_int(0)
-        self._time = c_double(0.0)
 
     def call(self, name: str, *args) -> int:
         status = self.functions[name](self.component, *args)
@@ -484,11 +491,8 @@ class _DirectCalls:
         status = self.functions["fmi2DoStep"](self.component, start, size, 1)
         if status <= fmi2Warning:
             return None
-        if status == fmi2Discard and limited:
-            self.call("fmi2GetBooleanStatus", fmi2Terminated, byref(self._terminated))
-            if self._terminated.value:
-                self.call("fmi2GetRealStatus", fmi2LastSuccessfulTime, byref(self._time))
-                return self._time.value
+        if status == fmi2Discard and limited and self.slave.getBooleanStatus(fmi2Terminated):
+            return self.slave.getRealStatus(fmi2LastSuccessfulTime)
         raise FMICallException(function="fmi2DoStep", status=status)
 
 

@@ -29,10 +29,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import jinja2
 from fmpy import read_model_description
 from lxml import etree
 
+from builder.rendering import add_templates
 from fmu_src.materials import FIELD_NAMES, MaterialTable
 
 from .design import DesignSpace
@@ -57,8 +57,6 @@ NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
 SSV_TYPES = ("Real", "Integer", "Boolean", "String", "Enumeration", "Binary")
 INTEGER_TYPES = ("Integer", "Enumeration", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64",
                  "UInt64")
-_TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("orchestrator", "templates"), autoescape=True,
-                                undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
 
 
 @dataclass(frozen=True)
@@ -265,11 +263,11 @@ def write_best_design_ssp(fmu_path: str | Path, parameters: Mapping, out_path: s
                   for v in description.modelVariables
                   if v.causality == "output" and v.type in REAL_TYPES + INTEGER_TYPES
                   and not getattr(v, "dimensions", None)]
-    ssd = _TEMPLATES.get_template("ssp_system_structure.ssd").render(
+    ssd = add_templates("orchestrator").get_template("ssp_system_structure.ssd").render(
         system=SYSTEM, component=COMPONENT, fmu_member=fmu_member, connectors=connectors, parameter_set=SSV_NAME,
         description="A material order found by the lattice study, as a parameter set of the lattice FMU",
         stop_time=repr(float(stop_time)), step_size=repr(float(step_size)), oms=OMS, osp=OSP)
-    ssv = _TEMPLATES.get_template("ssp_parameter_set.ssv").render(name=SYSTEM, parameters=entries)
+    ssv = add_templates("orchestrator").get_template("ssp_parameter_set.ssv").render(name=SYSTEM, parameters=entries)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     partial = out_path.with_name(out_path.name + ".partial")
     try:

@@ -27,6 +27,7 @@ from .objective import (AGGREGATES, SEARCH_HORIZON, SEARCH_RTOL, LatticeObjectiv
                         expand_cases)
 from .options import check_options, given, integer, number, option
 from .progress import Progress
+from .scene import ResolvedScene, check_load_patch
 
 MAX_HORIZON = 3600.0  # s: a longer horizon is refused (one evaluation must end)
 MAX_RUNS_PER_DESIGN = 1000  # FMU runs per design (the product of --case) beyond which --confirm-cost is needed
@@ -98,25 +99,6 @@ class CaseConfig:
         check_options(self)
         if self.aggregate is not None and not self.case:
             raise ValueError("--aggregate: only with --case (there is one case to aggregate)")
-
-
-def departures_from_the_study(fmu: PreparedFMU) -> tuple[str, ...]:
-    """The FMU's scalar parameters whose defaults are not those of the study's own scene (DEFAULT_SCENE), the
-    diagonal rule aside (each rule is a case of its own): whatever a known optimum of the study says, it was not
-    found for such an FMU."""
-    study = Scene.load(DEFAULT_SCENE).parameter_values()
-    departures = []
-    for name, parameter in fmu.parameters.items():
-        value = study.get(name)
-        if name == "diagonal_rule" or isinstance(value, (list, tuple)):
-            continue
-        try:
-            same = value is not None and parameter.value(parameter.start) == parameter.value(value)
-        except ValueError:
-            same = False
-        if not same:
-            departures.append(name)
-    return tuple(departures)
 
 
 @dataclass(frozen=True)
@@ -236,8 +218,10 @@ NOT_CASE_PARAMETERS = {"peak_force_limit": "the searches set it (their force lim
                        "repeat_materials": "it is the design space (--repeat)"}
 
 
-def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: MaterialTable) -> Case:
-    """The case of ``config`` on ``fmu``: each value checked against the model description."""
+def resolve_case(config: CaseConfig, resolved: ResolvedScene) -> Case:
+    """The case of ``config`` on the scene and FMU ``orchestrator.scene.resolve`` found for it: each value checked
+    against the model description."""
+    scene, fmu, materials = resolved.scene, resolved.fmu, resolved.table
     if fmu.columns < 2:
         raise ValueError(f"{fmu.path.name} has {fmu.columns} column(s) with a material parameter: there is no "
                          "material order to search (give a scene with a material per column)")
@@ -247,11 +231,8 @@ def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: Materia
         if value is not None:
             if name not in fmu.parameters:
                 raise ValueError(f"{option_name}: {fmu.path.name} has no parameter {name}")
-            if name == "load_patch" and value != 0 and (value % 2 == 0 or scene.rows % 2 == 0
-                                                        or scene.depth % 2 == 0):
-                raise ValueError(f"{option_name} {value}: allowed 0 (the whole face) or an odd P <= min(rows, "
-                                 f"depth) = {min(scene.rows, scene.depth)}, with an odd number of rows and of "
-                                 f"layers (rows {scene.rows}, depth {scene.depth})")
+            if name == "load_patch":
+                check_load_patch(option_name, scene, value)
             parameters[name] = fmu.parameters[name].convert(value, option_name)
     case_lists: dict[str, tuple[Any, ...]] = {}
     allowed = sorted(n for n in fmu.parameters if n not in NOT_CASE_PARAMETERS)
@@ -297,7 +278,7 @@ def resolve_case(config: CaseConfig, scene, fmu: PreparedFMU, materials: Materia
     if config.repeat:
         parameters["repeat_materials"] = 1
     return Case(scene=scene.name, rows=scene.rows, columns=fmu.columns, materials=materials, space=space,
-                departures=departures_from_the_study(fmu),
+                departures=resolved.departures,
                 outputs=outputs, rules=rules, rule_default=rule_default, parameters=parameters,
                 case_lists=case_lists, aggregate=config.aggregate or "worst", horizon=horizon,
                 search_horizon=config.search_horizon or None, search_rtol=config.search_rtol or None,
@@ -402,6 +383,11 @@ class StudyContext:
     def config(self, step_type: type):
         step = next((s for s in self.steps if isinstance(s, step_type)), None)
         return step.config if step is not None else step_type.Config()
+
+    def options(self, config_type: type):
+        """The options of type ``config_type`` this run was given (its defaults when no step takes them): what a
+        step reads of a later step's options without importing that step."""
+        return next((s.config for s in self.steps if isinstance(s.config, config_type)), config_type())
 
     def given(self, step_type: type) -> frozenset[str]:
         return given(self.config(step_type))

@@ -2,8 +2,8 @@
 
 Every run writes one into its report folder; ``run.py --study FILE`` runs it, options on the command line
 overriding the file's. The keys are the command-line options without their dashes, in one section per config
-(``[case]``, one per step with options, ``[run]``, ``[cluster]``), derived from the configs' ``option`` fields: there is no
-second list of names. Options that change no number (the executor, the workers, the scheduler) are written as
+(``[case]``, one per step with options, ``[run]``, ``[cluster]``), derived from the configs' ``option`` fields:
+there is no second list of names. Options that change no number (the executor, the workers, the scheduler) are written as
 comments; options of one invocation (``--out``, ``--resume``) are not written. ``[recorded]`` holds what the
 file was written against (the content hashes of the material table, the FMU and the other files it names): a
 file whose content changed is refused, another FMU build is named in a note.
@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import jinja2
+from builder.rendering import environment
 
 from .options import NO_NUMBER, NOT_KEPT, flag_of
 
@@ -192,9 +192,7 @@ def file_hashes(configs: dict[type, Any]) -> list[tuple[str, str]]:
 
 
 def render_study_file(configs: dict[type, Any], folder: Path, materials_sha256: str, fmu_sha256: str) -> str:
-    env = jinja2.Environment(autoescape=False, trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
-                             undefined=jinja2.StrictUndefined)
-    return env.from_string(TEMPLATE).render(
+    return environment().from_string(TEMPLATE).render(
         format=FORMAT, name=STUDY_FILE, sections=study_lines(configs, folder), recorded=RECORDED,
         materials_sha256=_toml(materials_sha256), fmu_sha256=_toml(fmu_sha256), file_hashes=file_hashes(configs))
 

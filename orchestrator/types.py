@@ -1,4 +1,5 @@
-"""The few types every layer shares: an evaluation and its parts, and the guards that keep them honest.
+"""The few types every level of the orchestrator shares: an evaluation and its parts, and the guards that keep
+them honest.
 
 An evaluation is what one design is worth under an objective: its value (the objective's number), the FMU's
 outputs that explain it, or why there is no number (failed) or only a bound (censored). A failure is never a
@@ -57,7 +58,7 @@ class NamedOutputs:
 class RunOutputs(NamedOutputs):
     """The FMU's outputs at the end of one run (for several load cases: the run that gave the value), by the
     names its model description declares, and the horizon simulated (a short horizon is extended while the
-    lattice still touches the plate).
+    lattice still touches the backplate).
 
     Its record (the journal, results.json) is flat: each output by its name, and ``horizon``; JSON's null
     (a value that was not a finite number) is read back as NaN.

@@ -14,7 +14,8 @@ from __future__ import annotations
 import json
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from pathlib import Path
 
 from fmu_src.core import MAX_COLS
@@ -24,6 +25,9 @@ from fmu_src.variables import Interface, all_variables, make_interface
 SCENE_DIR = Path(__file__).resolve().parent
 DEFAULT_SCENE = "armour_11x11"
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+# The tool name under which a model description declares its lattice's size (rows, columns, depth): FMI 2's
+# <VendorAnnotations><Tool>, FMI 3's <Annotations><Annotation type>.
+SIZE_ANNOTATION = "mass-spring-lattice"
 IDENTIFIER_RULE = "a letter or underscore, then letters, digits or underscores ([A-Za-z_][A-Za-z0-9_]*)"
 
 
@@ -41,7 +45,7 @@ def scene_names() -> list[str]:
 
 @dataclass
 class Scene:
-    """A named scene: lattice size (rows x cols, and depth layers: docs/model.md section 10), parameter values,
+    """A named scene: lattice size (rows x cols, and the depth along z: docs/model.md section 10), parameter values,
     which parameters the FMU exposes, the horizon."""
 
     name: str
@@ -124,4 +128,58 @@ class Scene:
         return values
 
 
-__all__ = ["DEFAULT_SCENE", "IDENTIFIER", "SCENE_DIR", "Scene", "check_identifier", "scene_names"]
+    def size(self) -> tuple[int, int, int]:
+        """(rows, columns, depth): what an FMU of this scene declares as its lattice's size."""
+        return self.rows, self.cols, self.depth
+
+
+def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, cols: int | None = None,
+                  materials: MaterialTable | str | os.PathLike | None = None, depth: int | None = None,
+                  load_patch: int | None = None, own_identifier: bool = True) -> Scene:
+    """The scene an FMU is built and run for: a Scene, a scene name or path (default: the study's), with rows,
+    cols or depth overridden (a resized scene keeps its scalar parameters only), load_patch as the start of that
+    parameter, and `materials` (a MaterialTable or the path of a table file) as its material table. With
+    `own_identifier`, a scene changed here gets its own model identifier, naming the size, the patch and the
+    table's fingerprint that differ from the scene's, so that the FMUs of two variants never share a file."""
+    if not isinstance(scene, Scene):
+        scene = Scene.load(scene or DEFAULT_SCENE)
+    resized = scene
+    if rows is not None or cols is not None or depth is not None:
+        resized = replace(scene, rows=rows or scene.rows, cols=cols or scene.cols, depth=depth or scene.depth,
+                          parameters={k: v for k, v in scene.parameters.items() if not isinstance(v, (list, tuple))})
+    if load_patch is not None:
+        resized = replace(resized, parameters={**resized.parameters, "load_patch": load_patch})
+    if materials is not None:
+        table = materials if isinstance(materials, MaterialTable) else load_materials(materials)
+        resized = replace(resized, materials=table)
+    if own_identifier and resized != scene:
+        identifier = scene.model_identifier
+        if resized.size() != scene.size():
+            identifier += f"{resized.rows}x{resized.cols}" + (f"x{resized.depth}" if resized.depth > 1 else "")
+        if resized.parameters.get("load_patch") != scene.parameters.get("load_patch"):
+            identifier += f"_patch{load_patch}"
+        if materials is not None:
+            identifier += f"_{resized.material_table().sha256()[:8]}"
+        resized = replace(resized, model_identifier=identifier)
+    return resized
+
+
+@lru_cache(maxsize=1)
+def _study_scene() -> Scene:
+    return Scene.load(DEFAULT_SCENE)
+
+
+def study_parameter_values() -> dict:
+    """Every parameter's value in the study's own scene: what the study's published numbers and known optima
+    hold for."""
+    return dict(_study_scene().parameter_values())
+
+
+def is_study_scene(scene: Scene) -> bool:
+    """Whether ``scene`` (resolved: size, patch and table applied) is the study's own, the one its published
+    results and known optima hold for."""
+    return scene == _study_scene()
+
+
+__all__ = ["DEFAULT_SCENE", "IDENTIFIER", "SCENE_DIR", "SIZE_ANNOTATION", "Scene", "check_identifier", "is_study_scene",
+           "resolve_scene", "scene_names", "study_parameter_values"]

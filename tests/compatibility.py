@@ -1,4 +1,4 @@
-"""The one way a test records its row of the compatibility page (bench/compatibility.py defines the row).
+"""The one way a test records its row of the compatibility page (builder/compatibility.py defines the row).
 
     with compatibility_row(request, "libcosim", version, fmi_version="2.0", interface="CS",
                            checked="...") as row:
@@ -21,8 +21,7 @@ from dataclasses import dataclass, field
 
 import pytest
 
-from bench.compatibility import RESULTS, CompatibilityRow, Result, write_row
-from bench.measurements import git_output
+from builder.compatibility import RESULTS, CompatibilityRow, Result, git_output, write_row
 from builder.fmi3_description import platform_folder
 from fmu_src.published import PUBLISHED_PEAKS
 
@@ -103,6 +102,7 @@ def _write(request, importer, importer_version, fmi_version, interface, result, 
         fmi_version=fmi_version, interface=interface, result=result,
         worst_error=max(recorder.errors) if recorder.errors else None,
         date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d"),
-        commit=git_output("rev-parse", "HEAD") or "unknown", command=reproducing_command(request, environment), note=note)
+        commit=git_output("rev-parse", "HEAD") or "unknown", command=reproducing_command(request, environment),
+        note=note)
     write_row(row, RESULTS)
 

@@ -162,3 +162,17 @@ def test_the_c_enumerations_and_material_fields_are_the_tables(fmu_path):
     assert tuple(re.findall(r"double (\w+);", struct)) == FIELD_NAMES == TABLE_PARAMETERS == tuple(
         name for name, _ in ColumnConstants._fields_)
     assert not any("ColumnConstants;" in path.read_text() for path in build.DEFAULT_MODEL_DIR.glob("*.h"))
+
+
+@pytest.mark.parametrize("argv, says", [(["--cols", "0"], "--cols must be at least 1"),
+                                        (["--rows", "0", "--cols", "0", "--depth", "0"], "--rows must be at least 1"),
+                                        (["--depth", "0"], "--depth must be at least 1"),
+                                        (["--load-patch", "-1"], "--load-patch must be at least 0"),
+                                        (["--fmi-version", "4"], "--fmi-version: invalid choice")])
+def test_the_build_refuses_a_value_it_would_not_build_in_one_line(argv, says, tmp_path, capsys):
+    """build_fmu.py's options follow the study's option rules: a size of 0 is refused, not read as the scene's."""
+    with pytest.raises(SystemExit) as exit_code:
+        build_fmu.main([*argv, "-o", str(tmp_path / "never.fmu")])
+    error = capsys.readouterr().err
+    assert exit_code.value.code == 2 and says in error and error.count("\n") == 1, error
+    assert not (tmp_path / "never.fmu").exists()

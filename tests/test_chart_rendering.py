@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 from test_explore import CHROMEDRIVER, CHROMIUM, browser, main  # noqa: F401 - browser: the fixture, used by name
 
-from orchestrator.report import charts
+from orchestrator import charts
 
 WINDOW_WIDTH = 1280
-SAVE_DPI = 110  # what orchestrator.report.charts.save writes at
+SAVE_DPI = 110  # the report's charts are saved at this resolution
 OVERLAP_PX = 1.0  # boxes overlapping by less than this (in each direction) touch, they do not cover
 
 
@@ -85,10 +85,6 @@ def sampled(path_points: np.ndarray, step: float = 1.0) -> np.ndarray:
 
 def drawn_texts(figure) -> list:
     """The Text artists a draw of the figure renders (the renderer is told each one's text), in drawing order."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    if not hasattr(figure.canvas, "get_renderer"):  # a closed figure: drawn again on a canvas of its own
-        FigureCanvasAgg(figure)
     renderer = figure.canvas.get_renderer()
     drawn: dict[int, object] = {}
     draw_text = renderer.draw_text
@@ -107,7 +103,7 @@ def drawn_texts(figure) -> list:
 
 
 def layout_of(figure, file: str) -> ChartLayout:
-    """The layout of a figure as it was saved (``charts.save`` has laid it out)."""
+    """The layout of a figure as it was saved."""
     from matplotlib.collections import PolyCollection
     from matplotlib.legend import Legend
     from matplotlib.text import Text
@@ -134,18 +130,19 @@ def layout_of(figure, file: str) -> ChartLayout:
 
 @pytest.fixture(scope="module")
 def study(fmu_path, tmp_path_factory):
-    """The default study's steps and charts, small: the default methods with two seeds, the report's charts
-    recorded as ``charts.save`` writes them."""
-    layouts: dict[str, ChartLayout] = {}
-    original = charts.save
+    """The default study's steps and charts, small: the default methods with two seeds, each chart's layout
+    recorded as it is saved (``Figure.savefig``, whichever module draws it)."""
+    from matplotlib.figure import Figure
 
-    def recording_save(figure, path, *args, **kwargs):
-        name = original(figure, path, *args, **kwargs)
+    layouts: dict[str, ChartLayout] = {}
+    original = Figure.savefig
+
+    def recording_savefig(figure, path, *args, **kwargs):
+        original(figure, path, *args, **kwargs)
         layouts[Path(path).name] = layout_of(figure, Path(path).name)
-        return name
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(charts, "save", recording_save)
+        patch.setattr(Figure, "savefig", recording_savefig)
         out = tmp_path_factory.mktemp("charts") / "results"
         assert main("--fmu", fmu_path, "--out", out, "--budget", "30", "--repeats", "2", "--no-sensitivity",
                     "--no-progress", "--executor", "serial") == 0

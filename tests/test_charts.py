@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from orchestrator.objective import Trajectory
-from orchestrator.report import charts
+from orchestrator import charts
 from orchestrator.steps.pareto import Pareto, draw_pareto
 from orchestrator.steps.searches import Searches, draw_convergence
 from orchestrator.steps.trajectories import LabelledTrajectory, Trajectories, draw_force_and_energy

@@ -121,12 +121,12 @@ def test_a_sweep_refusal_names_only_what_is_missing(fmu_path, tmp_path, capfd):
 
 
 def test_a_confirmation_of_nothing_is_refused_before_the_fmu_is_built(tmp_path, capfd, monkeypatch):
-    import orchestrator.runner
+    import orchestrator.scene
 
     def no_build(*args, **kwargs):
         raise AssertionError("the FMU was prepared before the options were checked")
 
-    monkeypatch.setattr(orchestrator.runner, "prepare_fmu", no_build)
+    monkeypatch.setattr(orchestrator.scene, "prepare_fmu", no_build)
     assert main("--confirm-cost", "--out", tmp_path / "out", "--no-progress") == 2
     assert "error: --confirm-cost: nothing in this run is beyond a bound" in one_line(capfd)
     assert main("--confirm-cost", "--method", "cmaes", "--case", "F_total=600,1200", "--workers", "2",

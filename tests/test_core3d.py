@@ -178,7 +178,7 @@ def along_x_plate_state(scene, depth, rng):
 
 
 def mirror_symmetric_x(scene, depth, rng):
-    """ux and vx as (D, R, C) blocks, symmetric about the middle row (odd R) and the middle layer (odd D)."""
+    """ux and vx as (D, R, C) blocks, symmetric about the middle row (odd R) and the middle slice along z (odd D)."""
     blocks = []
     for scale in (0.05, 1.0):
         block = rng.normal(0.0, scale, (depth, scene.rows, scene.cols))

@@ -79,7 +79,6 @@ def test_the_support_refuses_a_parameter_after_initialisation(support_fmu, tmp_p
 
     description = read_model_description(str(support_fmu))
     references = {v.name: v.valueReference for v in description.modelVariables}
-    messages = []
     slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(support_fmu), str(tmp_path / "unzipped")),
                       modelIdentifier=description.coSimulation.modelIdentifier, instanceName="support",
                       fmiCallLogger=None)

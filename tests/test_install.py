@@ -3,9 +3,10 @@
 The project is copied to a temporary folder, installed from there into a fresh virtual environment, and the
 copy is deleted before anything runs: whatever the scripts need (the FMU's C sources, the scene files) must
 have been installed. The copy's models/ holds the session's FMU, as build_fmu.py leaves it before a wheel is
-built: the installation carries it (setup.py), and runs the default scene from it where no compiler is found. The fresh environment sees this environment's site-packages for the dependencies only
-(a path in a .pth file: the editable install of this checkout that lives there is not activated); pip
-fetches only the build backend (setuptools), as for any `pip install .`.
+built: the installation carries it (setup.py), and runs the default scene from it where no compiler is found.
+The fresh environment sees this environment's site-packages for the dependencies only (a path in a .pth file:
+the editable install of this checkout that lives there is not activated); pip fetches only the build backend
+(setuptools), as for any `pip install .`.
 """
 import os
 import shutil

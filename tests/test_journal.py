@@ -52,7 +52,8 @@ class WrittenBefore:
 
     def as_record(self):
         return {"order": [1, 2, 3], "value": 1405.9057831694442, "status": "ok", "message": "", "seconds": 0.001,
-                "outputs": {"peak_backplate_force": 1405.9057831694442, "peak_backplate_force_continuous": 1407.4057831694442,
+                "outputs": {"peak_backplate_force": 1405.9057831694442,
+                            "peak_backplate_force_continuous": 1407.4057831694442,
                             "peak_time": 0.31, "last_contact_time": 0.72, "kinetic_energy": 1.0,
                             "potential_energy": 2.0, "external_work": 3.0, "dissipated_energy": 4.0,
                             "nonreciprocal_work": -5.0, "energy_balance_error": 1e-07, "rhs_evaluations": 100,

@@ -77,8 +77,8 @@ def test_the_table_holds_the_test_data_and_the_certified_sweep():
 @pytest.mark.slow
 def test_the_whole_8_column_sweep_certifies_the_known_optimum(armour_fmu_of_width, tmp_path, capfd):
     out = tmp_path / "sweep8"
-    code = cli.main(["--fmu", str(armour_fmu_of_width(8)), "--cols", "8", "--out", str(out), "--method", "exhaustive", "cmaes",
-                     "--budget", "300", "--repeats", "1", "--diagonal-rule", "receiver", "--no-sensitivity",
+    code = cli.main(["--fmu", str(armour_fmu_of_width(8)), "--cols", "8", "--out", str(out), "--method", "exhaustive",
+                     "cmaes", "--budget", "300", "--repeats", "1", "--diagonal-rule", "receiver", "--no-sensitivity",
                      "--no-progress", "--workers", "2"])
     assert code == 0, capfd.readouterr().err
     certificate = json.loads((out / "exhaustive" / "certificate.json").read_text())

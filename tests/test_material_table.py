@@ -134,9 +134,9 @@ def test_a_scene_carries_its_table_as_rows_or_as_a_file(tmp_path):
 def test_a_lattice_wider_than_the_study_table_invents_no_material(tmp_path):
     """The armour scene over 12 columns keeps the study's eleven materials (the FMU may repeat them); the study's
     formula is never extrapolated to a twelfth, and the orchestrator refuses 12 columns without --repeat."""
-    from builder.build import resolve_scene
+    from scenes import resolve_scene
     from fmu_src.materials import STUDY_MATERIAL_COUNT, study_materials
-    from orchestrator.runner import check_table_size
+    from orchestrator.scene import check_table_size
     from orchestrator.study import CaseConfig
 
     wide = resolve_scene("armour_11x11", cols=12)

@@ -2,7 +2,8 @@
 
 The README quotes the pages' headlines in a block that bench/measurements.py writes when asked
 (`python -m bench.measurements --write-readme`); a page regenerated without its README block, or a figure typed
-into the block by hand, is caught here. Nothing is imported from bench/: the pages and the README are read as a reader reads them.
+into the block by hand, is caught here. Nothing is imported from bench/: the pages and the README are read as a
+reader reads them.
 """
 from __future__ import annotations
 

@@ -131,7 +131,9 @@ def test_bad_calling_sequences_and_sizes_are_refused_with_a_reason(fmu_path):
         me.fmu.enterInitializationMode()
         me.fmu.exitInitializationMode()  # -> event mode
         me.refuses(lambda: me.fmu.setContinuousStates(as_pointer(x), nx), "event mode")
-        assert me.fmu.dll.fmi2DoStep(ctypes.c_void_p(me.fmu.component), ctypes.c_double(0.0), ctypes.c_double(0.01), 0) == FMI2_ERROR
+        status = me.fmu.dll.fmi2DoStep(ctypes.c_void_p(me.fmu.component), ctypes.c_double(0.0),
+                                       ctypes.c_double(0.01), 0)
+        assert status == FMI2_ERROR
         assert "fmi2DoStep" in me.messages[-1]
         event = me.fmu.newDiscreteStates()
         assert event[4] and event[5] == 0.15  # the load switches off at t_active: a time event

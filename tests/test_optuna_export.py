@@ -48,7 +48,8 @@ def test_every_evaluation_is_a_trial_with_the_same_values(fmu_path, tmp_path, ca
         assert len(found) == len(own)
         for trial, row in zip(found, own):
             attrs = trial.user_attrs
-            assert (attrs["method"], str(attrs["seed"]), str(attrs["index"])) == (row["method"], row["seed"], row["index"])
+            stored = (attrs["method"], str(attrs["seed"]), str(attrs["index"]))
+            assert stored == (row["method"], row["seed"], row["index"])
             assert [trial.params[f"column_{c:02d}"] for c in range(1, 12)] == [int(m) for m in row["order"].split()]
             statuses.add(row["status"])
             if row["status"] == "ok":

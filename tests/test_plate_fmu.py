@@ -102,7 +102,7 @@ def test_fmpy_validates_the_plate_fmu(plate_fmu, plate_fmu3, which):
 
 
 def test_the_plotted_masses_are_the_middle_layers(plate_fmu):
-    """ux_centre is the middle mass of the middle layer: mass (k R + i) C + j with i, j, k the middles."""
+    """ux_centre is the middle mass of the middle slice along z: mass (k R + i) C + j with i, j, k the middles."""
     names = ("ux_centre", "ux_left_edge", "ux_corner", "ux_right_edge", "ux[3,3,3]", "ux[3,3,1]", "ux[3,1,1]",
              "ux[3,3,5]")
     result = simulate_fmu(str(plate_fmu), stop_time=0.2, output_interval=0.05, output=list(names))
@@ -190,7 +190,8 @@ def test_run_refuses_a_given_fmu_whose_plate_is_not_the_scenes(plate_fmu, tmp_pa
 
 
 def test_run_names_a_given_plates_size_read_from_the_fmu(plate_fmu, tmp_path, capfd):
-    """--fmu of a 5 x 5 x 5 plate with the default 11 x 11 scene: the FMU's own size, read from its states."""
+    """--fmu of a 5 x 5 x 5 plate with the default 11 x 11 scene: the FMU's own size, as its model description
+    declares it."""
     from orchestrator.run import main
 
     code = main(["--fmu", str(plate_fmu), "--out", str(tmp_path / "out"), "--no-progress", "--no-sensitivity",
@@ -212,7 +213,8 @@ def test_a_design_file_of_a_plate_carries_its_patch(plate_fmu, tmp_path):
     assert design["load_patch"] == 3 and design["material[1]"] == 3
 
 
-@pytest.mark.parametrize("case", [c for c in CASES if c["scene"]["load_patch"] and c["scene"]["diagonal_rule"] == "mean"],
+@pytest.mark.parametrize("case", [c for c in CASES
+                                  if c["scene"]["load_patch"] and c["scene"]["diagonal_rule"] == "mean"],
                          ids=lambda case: case["name"])
 def test_libcosim_runs_a_plates_design_file_to_the_reference_peak(plate_fmu, tmp_path, case):
     """An importer we did not write (libcosim, through libcosimpy) opens the design file of a plate struck over a
@@ -264,8 +266,8 @@ def test_a_study_of_a_plate_says_it_is_a_plate_and_where_it_is_struck(tmp_path, 
     assert '"depth":5,"loaded_faces":[{"load_patch":3,"whole_face":false,"rows":[4,6],"depth":[1,3]}]' in explore
 
 
-@pytest.mark.parametrize("depth, patch, says", [(5, 3, "over a centred 3 x 3 patch for"), (5, 0, "over the whole face for"),
-                                                (1, 0, "at 0 deg for")])
+@pytest.mark.parametrize("depth, patch, says", [(5, 3, "over a centred 3 x 3 patch for"),
+                                                (5, 0, "over the whole face for"), (1, 0, "at 0 deg for")])
 def test_the_case_line_says_where_a_plate_is_struck(depth, patch, says):
     """A plate struck over its whole face says so; the 2-D lattice (always its whole face) keeps its line."""
     from orchestrator.objective import ObjectiveDescription
@@ -284,9 +286,26 @@ def test_a_plate_scenes_fmu_departs_from_the_study_so_no_known_optimum_of_the_la
     """The plate scene's FMU defaults to a 3 x 3 patch: the study's known optima (found on the lattice of one
     layer over its whole face) are not its optima, whatever its columns; the study's own FMU departs in nothing."""
     from orchestrator.fmu import describe
-    from orchestrator.study import departures_from_the_study
+    from orchestrator.scene import departures_from_the_study
 
     plate = build_fmu.build_fmu("plate_11x11x11", tmp_path / "plate.fmu", cols=8, depth=3)
     lattice = build_fmu.build_fmu("armour_11x11", tmp_path / "lattice.fmu", cols=8)
     assert departures_from_the_study(describe(plate, 11)) == ("load_patch",)
     assert departures_from_the_study(describe(lattice, 11)) == ()
+
+
+def test_both_model_descriptions_declare_the_lattices_size(plate_fmu, plate_fmu3, fmu_path, tmp_path):
+    """An FMU says its lattice's size in its model description, FMI 2 and 3 alike: what an FMU given with --fmu
+    is checked against its scene by. A model description that declares none says nothing (None)."""
+    from orchestrator.simulation import declared_lattice_size
+
+    assert declared_lattice_size(plate_fmu) == declared_lattice_size(plate_fmu3) == (ROWS, COLS, DEPTH)
+    assert declared_lattice_size(fmu_path) == (11, 11, 1)
+    silent = tmp_path / "silent.fmu"
+    with zipfile.ZipFile(fmu_path) as source, zipfile.ZipFile(silent, "w") as target:
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename == "modelDescription.xml":
+                data = data.replace(b'<Tool name="mass-spring-lattice">', b'<Tool name="another-tool">')
+            target.writestr(item, data)
+    assert declared_lattice_size(silent) is None

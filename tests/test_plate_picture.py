@@ -19,7 +19,8 @@ from test_explore import browser, console_errors, needs_browser  # noqa: F401 (b
 from fmu_src.materials import study_materials
 from fmu_src.variables import loaded_face
 from orchestrator.objective import ObjectiveDescription
-from orchestrator.report import charts, plate
+from orchestrator import charts
+from orchestrator import plate_picture as plate
 from orchestrator.report.explore import EXPLORE_FILE, explore_data, write_explore
 from orchestrator.steps.answers import Answers, draw_lattice
 from orchestrator.study import CaseDescription
@@ -130,7 +131,8 @@ def test_the_report_draws_a_plate_as_its_layers_with_the_patch_and_the_backplate
         assert axis.get_title() == f"{rule} rule's answer"
         assert sorted(gids(axis, "layer ")) == [f"layer {j}" for j in range(1, 6)]
         assert gids(axis, plate.BACKPLATE_GID) == [plate.BACKPLATE_GID]
-        slabs = {artist.get_gid(): artist for artist in axis.collections if (artist.get_gid() or "").startswith("layer")}
+        slabs = {artist.get_gid(): artist for artist in axis.collections
+                 if (artist.get_gid() or "").startswith("layer")}
         for j, material in enumerate(order, start=1):  # the face of each layer in its material's colour
             assert tuple(slabs[f"layer {j}"].get_facecolors()[0]) == pytest.approx(colour_of(case, material))
         names = [text.get_text() for text in axis.texts if text.get_rotation() == 60]
@@ -201,7 +203,7 @@ def test_the_explore_pages_data_of_a_plate_carries_its_depth_and_patch():
 
 
 @needs_browser
-def test_the_explore_page_shows_a_plates_face_and_layers_offline(browser, tmp_path):
+def test_the_explore_page_shows_a_plates_face_and_layers_offline(browser, tmp_path):  # noqa: F811 (the fixture)
     """Written from a plate's study: opened with the network cut off, it draws layer 1's face with the patch's
     masses in red and names the plate's layers in its title, with no console error."""
     case = plate_case(11, 5, 5, 3)
@@ -242,7 +244,7 @@ def test_the_springs_drawn_are_one_masses_eighteen():
 
 def test_the_model_figure_is_written_by_the_command_its_page_states(tmp_path, capsys):
     page = (Path(__file__).resolve().parents[1] / "docs" / "model.md").read_text()
-    assert "`python -m orchestrator.report.plate --write docs/images/plate-model.png`" in page
+    assert "`python -m orchestrator.plate_picture --write docs/images/plate-model.png`" in page
     assert "(images/plate-model.png)" in page
     assert plate.main(["--write", str(tmp_path / "plate-model.png")]) == 0
     assert (tmp_path / "plate-model.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from fmu_src.published import PUBLISHED_PEAKS
+from fmu_src.published import PUBLISHED_PEAKS  # noqa: E402
 from reference import (  # noqa: E402
     PUBLISHED_ORDER,
     SEQUENTIAL_ORDER,

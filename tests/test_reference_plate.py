@@ -476,4 +476,5 @@ def test_the_nonreciprocal_work_takes_its_sign_from_the_order():
     work = {tuple(c["scene"]["order"]): c["nonreciprocal_work"] for c in cases
             if c["scene"]["diagonal_rule"] == "receiver" and not c["scene"]["load_patch"]}
     assert work[(1, 2, 3, 4, 5)] < -1.0 and work[(3, 1, 5, 2, 4)] > 1.0, work
-    assert "[3, 1, 5, 2, 4] of the 5 x 5 x 5" in (Path(reference.__file__).resolve().parents[1] / "docs" / "model.md").read_text()
+    page = Path(reference.__file__).resolve().parents[1] / "docs" / "model.md"
+    assert "[3, 1, 5, 2, 4] of the 5 x 5 x 5" in page.read_text()

@@ -58,7 +58,8 @@ def test_two_masses_with_a_linear_spring_follow_the_exact_solution(scene_fmus):
         result = fmu.simulate(None, horizon=horizon, outputs=("ux_corner", "ux_right_edge", "kinetic_energy",
                                                                "external_work", "energy_balance_error"))
     # state (x1, x2, v1, v2): x1'' = (k (x2 - x1) + c (v2 - v1) + F) / m, x2'' = -(same internal force) / m
-    system = np.array([[0, 0, 1, 0], [0, 0, 0, 1], [-k, k, -c, c], [k, -k, c, -c]]) / np.array([1, 1, mass, mass])[:, None]
+    masses = np.array([1, 1, mass, mass])[:, None]
+    system = np.array([[0, 0, 1, 0], [0, 0, 0, 1], [-k, k, -c, c], [k, -k, c, -c]]) / masses
     augmented = np.zeros((5, 5))  # the constant force as a fifth state
     augmented[:4, :4] = system
     augmented[2, 4] = force / mass

@@ -128,4 +128,5 @@ def test_the_answer_says_how_much_better_it_is_than_the_starting_design(fmu_path
     page = (out / "report.html").read_text()
     assert "Against your starting designs" in page and f"{comparisons[0]['improvement_percent']:.1f} %" in page
     study = tomllib.loads((out / "study.toml").read_text())
-    assert study["starts"]["start"] == [",".join(map(str, STUDY_BEST))] and study["starts"]["start-file"] == str(starts.resolve())
+    assert study["starts"]["start"] == [",".join(map(str, STUDY_BEST))]
+    assert study["starts"]["start-file"] == str(starts.resolve())

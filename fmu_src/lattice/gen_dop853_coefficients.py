@@ -21,7 +21,8 @@ def main():
     lines = [
         "/* Coefficients of Hairer's DOP853 (8th order, embedded 5th and 3rd order error estimators, 7th order",
         " * dense output), as tabulated in SciPy's scipy/integrate/_ivp/dop853_coefficients.py (BSD-3-Clause),",
-        " * printed with repr() so every double is exact. Regenerate with fmu_src/lattice/gen_dop853_coefficients.py. */",
+        " * printed with repr() so every double is exact. Regenerate with "
+        "fmu_src/lattice/gen_dop853_coefficients.py. */",
         "#ifndef DOP853_COEFFICIENTS_H", "#define DOP853_COEFFICIENTS_H", "",
         f"#define DOP853_N_STAGES {coefficients.N_STAGES}",
         f"#define DOP853_N_STAGES_EXTENDED {coefficients.N_STAGES_EXTENDED}",

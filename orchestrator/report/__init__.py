@@ -15,11 +15,13 @@ from typing import Any
 import jinja2
 import markupsafe
 
+from builder.rendering import add_templates
+
 from ..records import to_record
 from ..steps.answers import Answers
 from ..steps.exhaustive import Exhaustive
 from ..steps.pareto import Pareto
-from ..steps.searches import Searches
+from ..steps.searches import Searches, draw_convergence
 from ..steps.starts import Starts
 from ..study import StudyResult
 
@@ -30,7 +32,7 @@ TERMS = {
     "continuous peak": "the largest backplate force over the continuous solution (between the samples too); "
                        "at least the sampled peak",
     "search fidelity": "the cheaper evaluation the searches rank by: a 1 s horizon (extended while the lattice "
-                       "still touches the plate) at a looser tolerance; every reported number is at full "
+                       "still touches the backplate) at a looser tolerance; every reported number is at full "
                        "fidelity, the whole scene at the FMU's default accuracy",
     "censored": "an evaluation the FMU stopped as soon as its peak passed a force limit the search gave "
                 "(it could no longer win): its value is only known to be above that limit, and it is never "
@@ -59,9 +61,8 @@ def inline_png(folder: Path):
 
 
 def _env() -> jinja2.Environment:
-    env = jinja2.Environment(loader=jinja2.PackageLoader("orchestrator", "templates"),
-                             autoescape=jinja2.select_autoescape(["html", "j2"]), undefined=jinja2.StrictUndefined,
-                             trim_blocks=True, lstrip_blocks=True)
+    """The one environment (builder.rendering) with the orchestrator's templates and the report's filters."""
+    env = add_templates("orchestrator")
     env.filters["n"] = _number
     env.filters["g2"] = lambda v: "n/a" if v is None else f"{v:,.2g}"
     env.filters["order"] = lambda order: "[" + ", ".join(str(m) for m in order) + "]" if order else "none"
@@ -160,6 +161,14 @@ def write_certificates(study: StudyResult, out: Path) -> list[str]:
     return written
 
 
+def step_chart(step, study: StudyResult, path: Path, known: dict) -> str | None:
+    """A step's chart. The searches' convergence carries each rule's known optimum, which the later answers
+    step finds: the report, which reads both, composes it; every other chart is its step's own."""
+    if isinstance(step, Searches):
+        return draw_convergence(study, path, study.case.line(), known)
+    return step.chart(study, path)
+
+
 def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> Path:
     """Everything a study gives, into ``out``; returns the path of report.html."""
     out = Path(out)
@@ -169,7 +178,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
     figures = {}
     for step in steps:
         if study.result(type(step)) is not None and step.chart_file:
-            made = step.chart(study, out / step.chart_file)
+            made = step_chart(step, study, out / step.chart_file, known)
             if made:
                 figures[type(step)] = made
     refused = write_design_files(study, out, steps, materials)

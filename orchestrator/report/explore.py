@@ -19,11 +19,12 @@ import math
 from pathlib import Path
 from typing import Any
 
-import jinja2
 import markupsafe
 
+from builder.rendering import add_templates
+
 from ..steps.answers import Answers
-from .charts import RULE_COLOURS, method_colour
+from ..charts import METHOD_NAMES, RULE_COLOURS, method_colour
 from ..steps.finalists import Finalists
 from ..steps.pareto import Pareto
 from ..steps.searches import Searches
@@ -91,6 +92,7 @@ def explore_data(study: StudyResult, materials, refused: dict[str, str]) -> dict
         "materials": [{"name": m["name"], "k": m["k"]} for m in case.materials],
         "runs": runs, "evaluations": rows, "fronts": fronts,
         "method_colours": {m: method_colour(m, methods) for m in methods},
+        "method_names": {m: METHOD_NAMES.get(m, m) for m in methods},
         "rule_colours": list(RULE_COLOURS),
         "answers": [{"rule": a.diagonal_rule, "order": list(a.order), "value": a.peak,
                      "design_file": None if a.design_file in refused else a.design_file}
@@ -130,9 +132,7 @@ def write_explore(study: StudyResult, out: Path, materials, refused: dict[str, s
     out = Path(out)
     refused = {**refused, **write_front_design_files(study, out, materials)}
     data = explore_data(study, _Names(study.case.materials), refused)
-    env = jinja2.Environment(loader=jinja2.PackageLoader("orchestrator", "templates"),
-                             autoescape=jinja2.select_autoescape(["html", "j2"]), undefined=jinja2.StrictUndefined)
-    page = env.get_template("report/explore.html.j2").render(
+    page = add_templates("orchestrator").get_template("report/explore.html.j2").render(
         case_line=study.case.line(), data=_script_json(data), plotly=markupsafe.Markup(
             plotly_js().replace("</script", "<\\/script")))
     path = out / EXPLORE_FILE

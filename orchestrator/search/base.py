@@ -67,8 +67,9 @@ class Search:
 
     Subclasses set ``name`` and ``OPTIONS`` (option -> default) and implement ``_ask``, ``_tell`` and
     optionally ``_stop`` / ``_state``. Every search accepts ``budget`` (the loop's evaluation budget) so that
-    callers can pass it uniformly, and ``starts`` (designs to start from, see ``start_designs``); the annealing scales its cooling by it and ``make_search`` splits it
-    between an optimiser and its polishing phase (``polish.Polished``).
+    callers can pass it uniformly, and ``starts`` (designs to start from, see ``start_designs``); the annealing
+    scales its cooling by it and ``make_search`` splits it between an optimiser and its polishing phase
+    (``polish.Polished``).
 
     ``memo`` holds the value of every distinct design told so far (failures as ``FAILURE``; a tuple per
     design for a multi-objective search); ``len(memo)`` is the number of evaluations spent. A censored design

@@ -15,19 +15,25 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
+from fmu_src.published import STUDY_BEST_ORDER
+
 from ..design import Design, as_design
 from .base import Search
 
+# How a design is written, shown by the study's published best order
+DESIGN_EXAMPLE = ",".join(map(str, STUDY_BEST_ORDER))
+
 
 def parse_design(text: str, what: str = "--start") -> Design:
-    """A design written as ``1,7,5,9,...`` (spaces, brackets and a trailing comma allowed)."""
+    """A design written as material numbers separated by commas, as ``DESIGN_EXAMPLE`` (spaces, brackets and a
+    trailing comma allowed)."""
     cleaned = text.strip().strip("[]()").replace(" ", ",")
     items = [item for item in cleaned.split(",") if item.strip()]
     try:
         design = tuple(int(item) for item in items)
     except ValueError:
         raise ValueError(f"{what} {text.strip()!r}: expected material numbers separated by commas, e.g. "
-                         "1,7,5,9,3,6,11,8,2,4,10") from None
+                         f"{DESIGN_EXAMPLE}") from None
     if not design:
         raise ValueError(f"{what} {text!r}: no material numbers")
     return design
@@ -70,4 +76,4 @@ class Started:
         return {**self.inner.state(), "starts": [list(d) for d in self.starts]}
 
 
-__all__ = ["Started", "parse_design"]
+__all__ = ["DESIGN_EXAMPLE", "Started", "parse_design"]

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from .accuracy import Accuracy
 from .answers import Answers
-from .descent import Descent
+from .final_descent import FinalDescent
 from .exhaustive import Exhaustive
 from .finalists import Finalists
 from .optuna_export import OptunaExport
@@ -18,7 +18,7 @@ STEPS = (
     Searches,
     Exhaustive,
     Finalists,
-    Descent,
+    FinalDescent,
     Pareto,
     Answers,
     Starts,

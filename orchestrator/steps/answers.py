@@ -6,13 +6,19 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import matplotlib
+import numpy as np
+
 from fmu_src.published import PUBLISHED_CONDITIONS
 
+from ..charts import plt, save
+from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
 from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
+from ..plate_picture import draw_plate_answers
 from ..study import Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
-from .descent import Descent
+from .final_descent import FinalDescent
 from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, objective_covered, sweep_cost
 from .finalists import Finalists, best_of, finalist_orders
 from .searches import Searches, rule_label
@@ -133,7 +139,7 @@ def rule_best(context: StudyContext, label: str) -> Evaluation | None:
     """A rule's best design at full fidelity: over its finalists and the end of its final descent."""
     finalists = context.result(Finalists)
     candidates = list(finalists.for_rule(label).evaluations) if finalists else []
-    descent = context.result(Descent)
+    descent = context.result(FinalDescent)
     check = descent.for_rule(label) if descent else None
     if check is not None:
         candidates.append(check.full)
@@ -170,7 +176,7 @@ class Answers(Step):
 
     def run(self, context: StudyContext) -> AnswersResult:
         searched = context.result(Searches)
-        descent = context.result(Descent)
+        descent = context.result(FinalDescent)
         swept = context.result(Exhaustive)
         rules = context.rules
         answers = []
@@ -225,7 +231,8 @@ class Answers(Step):
         sweep's runner-up by its recorded value."""
         objective = context.objective(rule)
         full_task, = objective.with_cases(None).tasks(FULL) if len(context.case.cases) == 1 else (None,)
-        others = [e for e in (context.evaluator.known(full_task) if full_task else []) if e.ok and e.order != best.order]
+        known = context.evaluator.known(full_task) if full_task else []
+        others = [e for e in known if e.ok and e.order != best.order]
         if sweep and sweep.certificate.optimum and sweep.certificate.optimum.order == best.order \
                 and sweep.certificate.runner_up and sweep.certificate.runner_up.full is not None \
                 and not any(e.order == sweep.certificate.runner_up.order for e in others):
@@ -288,18 +295,12 @@ def settlement(context: StudyContext, rule, runs) -> Settlement | None:
         cost = sweep_cost(context, rule, min(values) if values else None)
     except ValueError:
         cost = None
-    from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
-
     command = f"--method {SWEEP_METHOD}" + (" --executor dask --scheduler ADDRESS --confirm-cost"
                                             if context.case.space.size > MAX_LOCAL_DESIGNS else "")
     return Settlement(budget, BUDGET_FACTOR, seconds * BUDGET_FACTOR / 3600, cost, command)
 
 
 def draw_lattice(study, path: Path) -> str | None:
-    import numpy as np
-    import matplotlib
-    from ..report.charts import plt, save
-
     answers = study.result(Answers)
     if answers is None or not answers.answers:
         return None
@@ -312,8 +313,6 @@ def draw_lattice(study, path: Path) -> str | None:
     norm = (matplotlib.colors.LogNorm(vmin=low, vmax=high) if low > 0 and high > low
             else matplotlib.colors.Normalize(vmin=low, vmax=high if high > low else low + 1.0))
     if case.depth > 1:  # a plate: its layers as a stack, the loaded patch on layer 1's face
-        from ..report.plate import draw_plate_answers
-
         return draw_plate_answers(case, designs, colour_map, norm, path)
     figure, axes = plt.subplots(1, len(designs), figsize=(4.6 * len(designs), 4.4), squeeze=False)
     for axis, (label, order) in zip(axes[0], designs):

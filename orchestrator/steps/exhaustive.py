@@ -5,12 +5,18 @@ import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
+from ..charts import plt, save
 from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, SWEEP_METHOD, ChunkResult, Scored, ScreenChunk,
                           calibration_range, chunk_ranges, coverage, not_strongly_dominated, projected_cost,
                           screening_threshold)
 from ..known_optima import known_optimum
+from ..loop import run_search
 from ..objective import FULL, SEARCH
 from ..options import check_options, integer, option
+from ..search import make_search
+from ..search.pareto import non_dominated
 from ..study import SILENT, Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
 from .searches import Searches, default_evaluations, rule_label
@@ -111,9 +117,6 @@ def projection_incumbent(context: StudyContext, rule: str | None) -> float | Non
     """The best value a sweep would start from, found before the run: the case's known optimum at the search
     fidelity, else the best of a short annealing run (a sweep after the searches starts lower, so the
     projection errs on the costly side)."""
-    from ..loop import run_search
-    from ..search import make_search
-
     objective = context.objective(rule)
     known = known_optimum(context.case, rule or context.case.rule_default)
     if known is not None:
@@ -253,9 +256,9 @@ class Exhaustive(Step):
             per_rule = f" ({cost.core_hours:,.1f} per rule, {count} rules)" if count > 1 else ""
             raise ValueError(
                 f"--method {SWEEP_METHOD}: {space.size:,} designs is beyond the local limit of {MAX_LOCAL_DESIGNS:,}: "
-                f"projected {cost.core_hours * count:,.1f} core-hours{per_rule} at {cost.designs_per_core_second:,.0f} designs "
-                f"per core-second (measured here on {cost.timed} designs, {cost.censored} stopped at the force limit "
-                f"as the sweep's chunks are); {missing_for_sweep(context)}")
+                f"projected {cost.core_hours * count:,.1f} core-hours{per_rule} at "
+                f"{cost.designs_per_core_second:,.0f} designs per core-second (measured here on {cost.timed} designs, "
+                f"{cost.censored} stopped at the force limit as the sweep's chunks are); {missing_for_sweep(context)}")
 
     def run(self, context: StudyContext) -> ExhaustiveResult:
         why = f"asked (--method {SWEEP_METHOD})"
@@ -275,8 +278,6 @@ class Exhaustive(Step):
     def sweep_front(self, context: StudyContext, rule: str | None) -> FrontSweep:
         """Every design with several objectives: the candidates of the chunks merged, verified at full
         fidelity, the non-dominated ones the exact front."""
-        from ..search.pareto import non_dominated
-
         label = rule_label(rule)
         objective = context.objective(rule)
         space = context.case.space
@@ -441,9 +442,6 @@ class Exhaustive(Step):
 
 
 def draw_exhaustive(study, path: Path) -> str | None:
-    import numpy as np
-    from ..report.charts import plt, save
-
     result = study.result(Exhaustive)
     if result is None or not result.sweeps:  # a sweep with several objectives draws its front (the Pareto step)
         return None

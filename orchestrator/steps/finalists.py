@@ -15,6 +15,7 @@ from ..study import Step, StudyContext
 from ..types import Evaluation, Order
 from .exhaustive import Exhaustive
 from .searches import Searches, rule_label
+from .starting_designs import starting_designs
 
 
 @dataclass(frozen=True)
@@ -67,8 +68,6 @@ def finalist_orders(run: SearchRun, count: int) -> list[Order]:
 def baselines(context: StudyContext) -> dict[str, Order]:
     """The designs every answer is compared with: the baseline order, and the study's published best on the
     study's own lattice and materials."""
-    from .starts import starting_designs
-
     space = context.case.space
     found = {"sequential": space.baseline()}
     if (space.kind == "permutation" and space.columns == len(STUDY_BEST_ORDER)

@@ -4,6 +4,7 @@ cannot take the export is reported in the report and on stderr, never losing the
 from __future__ import annotations
 
 import sys
+import time
 from dataclasses import dataclass
 
 from ..options import NO_NUMBER, option
@@ -25,6 +26,7 @@ class OptunaExportResult:
     storage: str
     studies: tuple[ExportedStudy, ...]
     error: str | None  # why the export did not happen (the study's results are kept)
+    seconds: float = 0.0  # how long writing the trials took
 
 
 class OptunaExport(Step):
@@ -44,6 +46,7 @@ class OptunaExport(Step):
         storage = self.config.export_optuna
         searched = context.result(Searches)
         journal = context.evaluator.journal
+        start = time.perf_counter()
         try:
             studies = export(storage, searched.runs if searched else (), tuple(context.case.outputs),
                              context.case.columns, list(context.case.materials.names),
@@ -52,8 +55,8 @@ class OptunaExport(Step):
         except Exception as exc:  # noqa: BLE001 - a storage error is reported; the results are kept
             message = str(exc).splitlines()[0] if str(exc).strip() else type(exc).__name__
             print(f"--export-optuna {storage}: not exported: {message}", file=sys.stderr)
-            return OptunaExportResult(storage, (), message)
-        return OptunaExportResult(storage, tuple(studies), None)
+            return OptunaExportResult(storage, (), message, time.perf_counter() - start)
+        return OptunaExportResult(storage, tuple(studies), None, time.perf_counter() - start)
 
 
 __all__ = ["OptunaExport", "OptunaExportConfig", "OptunaExportResult"]

@@ -7,11 +7,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ..charts import RULE_COLOURS, legend_below, plt, save
 from ..exhaustive import SWEEP_METHOD, not_strongly_dominated
 from ..known_optima import known_ends
+from ..loop import run_search
 from ..objective import FULL
+from ..search import make_search
+from ..search.pareto import dominated_by, hypervolume, non_dominated, reference_point
 from ..study import SILENT, Step, StudyContext, Verdict
 from ..types import Order
+from .final_descent import MAX_DESCENT
 from .exhaustive import SCREENING_ERROR, Exhaustive, FrontPoint
 from .searches import Searches, multi_objective, rule_label
 
@@ -84,8 +89,6 @@ class ParetoResult:
 def undominated(evaluations) -> tuple[FrontPoint, ...]:
     """The evaluations no other one dominates, as front points sorted by the objectives: never a point that a
     design of ``evaluations`` (every design evaluated at full fidelity, the known optima among them) dominates."""
-    from ..search.pareto import dominated_by
-
     evaluations = list(evaluations)
     if not evaluations:
         return ()
@@ -97,8 +100,6 @@ def undominated(evaluations) -> tuple[FrontPoint, ...]:
 
 def run_fronts(runs) -> list[list[tuple[float, ...]]]:
     """Each run's own non-dominated set, at the search fidelity it was told."""
-    from ..search.pareto import non_dominated
-
     fronts = []
     for run in runs:
         values = [e.values for e in run.evaluations if e.ok and e.values]
@@ -108,8 +109,6 @@ def run_fronts(runs) -> list[list[tuple[float, ...]]]:
 
 def coverage(fronts: list[list[tuple[float, ...]]]) -> tuple[float, ...]:
     """Each front's hypervolume against the best known front's (their union's), with one reference point."""
-    from ..search.pareto import hypervolume, non_dominated, reference_point
-
     union = [v for front in fronts for v in front]
     if not union:
         return tuple(0.0 for _ in fronts)
@@ -175,8 +174,6 @@ class Pareto(Step):
         return Verdict.answer()
 
     def run(self, context: StudyContext) -> ParetoResult:
-        from ..search.pareto import hypervolume, reference_point
-
         searched = context.result(Searches)
         swept = context.result(Exhaustive)
         fronts = []
@@ -224,10 +221,6 @@ class Pareto(Step):
         """From the front's end on each objective, a descent on that objective alone (the study's final descent,
         at the search fidelity): an end a search of several objectives left one move short of its objective's
         local optimum moves there."""
-        from ..loop import run_search
-        from ..search import make_search
-        from .descent import MAX_DESCENT
-
         if not points:
             return []
         seed = context.config(Searches).seed
@@ -272,9 +265,6 @@ class Pareto(Step):
 
 
 def draw_pareto(study, path: Path) -> str | None:
-    import numpy as np
-    from ..report.charts import RULE_COLOURS, legend_below, plt, save
-
     result = study.result(Pareto)
     if result is None:
         return None

@@ -1,15 +1,22 @@
 """The searches: each method and seed, under each diagonal rule, at the search fidelity."""
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
+from fmu_src.published import PUBLISHED_CONDITIONS, REFERENCE_POINTS
+
+from ..charts import METHOD_NAMES, best_so_far_matrix, figure_title, legend_below, method_colour, plt, save
 from ..exhaustive import SWEEP_METHOD
 from ..known_optima import known_ends
 from ..loop import SearchRun, run_search
 from ..options import check_options, integer, option
 from ..search import SEARCHES, make_search
 from ..study import Step, StudyContext
+from .starting_designs import starting_designs
 
 SINGLE_DEFAULT = ("cmaes", "pso", "sa", "sequential", "random")
 MULTI_DEFAULT = ("nsga2", "random")
@@ -123,8 +130,6 @@ class Searches(Step):
     def run(self, context: StudyContext) -> SearchesResult:
         methods = self.methods(context)
         objectives = len(context.case.outputs)
-        from .starts import starting_designs
-
         starts = starting_designs(context)
         runs = []
         for rule in context.rules:
@@ -139,22 +144,13 @@ class Searches(Step):
         return SearchesResult(methods, self.config.budget, tuple(runs))
 
     def chart(self, study, path):
-        from .answers import Answers  # answers.py reads the searches' results
-
-        answers = study.result(Answers)
-        return draw_convergence(study, path, study.case.line(), answers.known_optima if answers else {})
+        return draw_convergence(study, path, study.case.line(), {})
 
 
 def draw_convergence(study, path: Path, context_line: str, known: dict) -> str | None:
-    """Best value so far against evaluations, median and quartiles over seeds, one panel per rule."""
-    import warnings
-
-    import numpy as np
-
-    from fmu_src.published import PUBLISHED_CONDITIONS, REFERENCE_POINTS
-
-    from ..report.charts import METHOD_NAMES, best_so_far_matrix, figure_title, legend_below, method_colour, plt, save
-
+    """Best value so far against evaluations, median and quartiles over seeds, one panel per rule, with the
+    known optimum of each rule in ``known`` (by rule label; the answers find them, and the report, which reads
+    both steps, composes the chart with them)."""
     searches = study.result(Searches)
     if searches is None or not searches.runs:
         return None

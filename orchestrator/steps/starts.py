@@ -8,64 +8,13 @@ evaluator's cache) and compared with that rule's answer, in the objective's unit
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
-from ..design import Design
 from ..objective import FULL
-from ..options import option
-from ..search.starts import parse_design
 from ..study import Step, StudyContext
 from ..types import Order
-
-COMMENT = "#"
-
-
-@dataclass(frozen=True)
-class StartsConfig:
-    start: tuple[str, ...] = option(
-        (), "a design every search evaluates first and starts from: the material of each column, column 1 "
-        "(at the load) first, e.g. 1,7,5,9,3,6,11,8,2,4,10 (repeatable)", action="append", metavar="ORDER")
-    start_file: str | None = option(
-        None, "starting designs, one per line as for --start (# starts a comment), or an Optuna storage "
-        "(e.g. sqlite:///study.db, needs the optuna extra): the best trial of each of its studies (with several "
-        "objectives, each study's Pareto front)",
-        metavar="FILE", path=True, show_default="none")
-
-    def __post_init__(self):
-        for text in self.start:
-            parse_design(text)
-
-
-def read_start_file(path: str) -> list[tuple[Design, str]]:
-    """(design, where it was read) of each design of a start file or an Optuna storage."""
-    if "://" in path:
-        from ..optuna_export import designs_from_storage
-
-        return [(design, f"--start-file {path}") for design in designs_from_storage(path)]
-    try:
-        text = Path(path).read_text()
-    except OSError as exc:
-        raise ValueError(f"--start-file {path}: cannot read it ({exc.strerror or exc})") from None
-    found = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        line = line.split(COMMENT, 1)[0].strip()
-        if line:
-            found.append((parse_design(line, f"--start-file {path}:{number}:"), f"--start-file {path}:{number}"))
-    if not found:
-        raise ValueError(f"--start-file {path}: no design in it (one design per line, e.g. 1,7,5,9,3,6,11,8,2,4,10)")
-    return found
-
-
-def starting_designs(context: StudyContext) -> tuple[Order, ...]:
-    """The starting designs of the run, each checked against the design space (ValueError: one line)."""
-    config = context.config(Starts)
-    given = [(parse_design(text), "--start") for text in config.start]
-    if config.start_file:
-        given += read_start_file(config.start_file)
-    for design, where in given:
-        context.case.space.check(design, where)
-    return tuple(dict.fromkeys(design for design, _ in given))
-
+from .answers import Answers
+from .searches import rule_label
+from .starting_designs import StartsConfig, starting_designs
 
 @dataclass(frozen=True)
 class StartComparison:
@@ -100,14 +49,10 @@ class Starts(Step):
         starting_designs(context)
 
     def run(self, context: StudyContext) -> StartsResult:
-        from .answers import Answers
-
         designs = starting_designs(context)
         answers = context.result(Answers)
         comparisons = []
         for rule in context.rules:
-            from .searches import rule_label
-
             answer = answers.for_rule(rule_label(rule)) if answers else None
             if answer is None:
                 continue
@@ -139,5 +84,4 @@ def comparison_line(comparison: StartComparison, unit: str) -> str:
     return f"{start}: {comparison.value:.2f} {unit} under the {comparison.diagonal_rule} rule; {how}"
 
 
-__all__ = ["StartComparison", "Starts", "StartsConfig", "StartsResult", "comparison_line", "read_start_file",
-           "starting_designs"]
+__all__ = ["StartComparison", "Starts", "StartsResult", "comparison_line"]

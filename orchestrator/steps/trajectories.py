@@ -5,6 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
+from ..charts import COLOURS, RULE_COLOURS, figure_title, legend_below, plt, save
 from ..objective import FULL, RecordRun, Trajectory
 from ..simulation import ENERGY_OUTPUTS
 from ..study import Step, StudyContext
@@ -68,9 +71,6 @@ class Trajectories(Step):
 
 
 def draw_force_and_energy(study, path: Path, context_line: str) -> str | None:
-    import numpy as np
-    from ..report.charts import COLOURS, RULE_COLOURS, figure_title, legend_below, plt, save
-
     trajectories = study.result(Trajectories)
     if trajectories is None:
         return None

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..charts import legend_below, plt, save
 from ..objective import FULL
 from ..study import Step, StudyContext
 from .accuracy import Accuracy, relative_difference
@@ -73,8 +74,6 @@ class WorkPrecision(Step):
 
 
 def draw_work_precision(study, path: Path) -> str | None:
-    from ..report.charts import legend_below, plt, save
-
     result = study.result(WorkPrecision)
     if result is None:
         return None
@@ -86,7 +85,7 @@ def draw_work_precision(study, path: Path) -> str | None:
         bad = [p for p in result.points if p.solver == family and p.relative_error is None]
         axis.plot([p.seconds for p in good], [max(p.relative_error, 1e-16) for p in good], "o-", color=colour,
                   label=family)
-        labels += [axis.annotate(p.setting, (p.seconds, max(p.relative_error, 1e-16)), fontsize=6,
+        labels += [axis.annotate(p.setting, (p.seconds, max(p.relative_error, 1e-16)), fontsize=6, color=colour,
                                  textcoords="offset points", xytext=(3, 3)) for p in good]
         if bad:
             axis.plot([max(p.seconds, 1e-5) for p in bad], [1.0] * len(bad), "x", color=colour, ms=9,

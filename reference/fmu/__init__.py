@@ -4,9 +4,9 @@
     from reference.fmu import build_reference_fmu; build_reference_fmu("out/Ref.fmu")
 
 The FMU bundles the slave (:mod:`reference.fmu.mass_spring_lattice_reference`), the whole ``reference``
-package, ``fmu_src.materials`` (the study's table) and pythonfmu's Python side; pythonfmu's binary runs it inside a Python interpreter, which must have
-numpy and scipy.  Same variable names as the C FMU, so the same fmpy code path
-(``orchestrator.simulation.LatticeFMU``) drives both: that is how the two are compared in the tests.
+package, ``fmu_src.materials`` (the study's table) and pythonfmu's Python side; pythonfmu's binary runs it
+inside a Python interpreter, which must have numpy and scipy.  Same variable names as the C FMU, so the same
+fmpy code path (``orchestrator.simulation.LatticeFMU``) drives both: that is how the two are compared in the tests.
 Nothing is done at import (pythonfmu is imported only when building).
 """
 from __future__ import annotations

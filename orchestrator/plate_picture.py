@@ -1,7 +1,7 @@
 """The plate of layers drawn in an oblique view (docs/model.md section 10): the report's lattice picture of a
 plate, and the model page's figure of the plate and the springs of one mass, written by
 
-    python -m orchestrator.report.plate --write docs/images/plate-model.png
+    python -m orchestrator.plate_picture --write docs/images/plate-model.png
 
 The view is a fixed parallel projection: x (the load's direction, through the thickness; one layer, one column
 of one material, per unit) to the right, y (rows) up, z (depth) receding up and to the left, so that the reader
@@ -289,7 +289,7 @@ def draw_model_figure(path: Path) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m orchestrator.report.plate",
+    parser = argparse.ArgumentParser(prog="python -m orchestrator.plate_picture",
                                      description="Draws docs/model.md section 10's figure of the plate.")
     parser.add_argument("--write", required=True, metavar="PNG", type=Path,
                         help="the image to write, e.g. docs/images/plate-model.png")

@@ -18,7 +18,7 @@ MAX_DESCENT = 5000  # designs a descent may evaluate (it stops at the first loca
 
 
 @dataclass(frozen=True)
-class DescentConfig:
+class FinalDescentConfig:
     enabled: bool = option(True, "skip the final descent and local-optimality check of each rule's best design",
                                flag="--no-local-check", action="store_false")
 
@@ -46,7 +46,7 @@ class LocalCheck:
 
 
 @dataclass(frozen=True)
-class DescentResult:
+class FinalDescentResult:
     rules: tuple[LocalCheck, ...]
 
     def for_rule(self, label: str) -> LocalCheck | None:
@@ -79,16 +79,18 @@ def check_local_optimum(context: StudyContext, rule: str | None, start: Order, s
                       (min(e.value for e in good) - own.value) if good and own.ok else None, full, run.stop_reason)
 
 
-class Descent(Step):
-    name = "local_optimality"
+class FinalDescent(Step):
+    """Descends from each rule's best finalist and checks that the design it ends at is a local optimum."""
+
+    name = "final_descent"
     title = "Local optimality"
-    template = "descent.html.j2"
-    Config = DescentConfig
+    template = "final_descent.html.j2"
+    Config = FinalDescentConfig
 
     def applies(self, context: StudyContext) -> bool:
         return self.config.enabled and context.result(Finalists) is not None
 
-    def run(self, context: StudyContext) -> DescentResult:
+    def run(self, context: StudyContext) -> FinalDescentResult:
         finalists = context.result(Finalists)
         seed = context.config(Searches).seed
         checks = []
@@ -96,7 +98,8 @@ class Descent(Step):
             best = finalists.for_rule(rule_label(rule)).best
             if best is not None:
                 checks.append(check_local_optimum(context, rule, best.order, seed))
-        return DescentResult(tuple(checks))
+        return FinalDescentResult(tuple(checks))
 
 
-__all__ = ["Descent", "DescentConfig", "DescentResult", "LocalCheck", "check_local_optimum"]
+__all__ = ["FinalDescent", "FinalDescentConfig", "FinalDescentResult", "LocalCheck", "MAX_DESCENT",
+           "check_local_optimum"]

@@ -1,4 +1,5 @@
-"""The report's charts, drawn from a study's typed results (nothing here simulates)."""
+"""The charts every step draws from a study's typed results (nothing here simulates): matplotlib set up once,
+the methods' names and colours, the figure title and the PNG writer."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -50,7 +51,8 @@ LABEL_RINGS = (3, 7, 12, 18, 26, 36, 48)  # points from its point at which a lab
 def spread_labels(figure, labels, clearance: float = 2.0) -> None:
     """Places each annotation (made with ``textcoords="offset points"``) at the nearest spot around its point,
     right, left, above or below, inside its axes, that keeps ``clearance`` points from every label placed before
-    it and from every marker of its axes but its own point's (a faint background cloud excepted); a label placed away from its point gets a thin leader line.
+    it and from every marker of its axes but its own point's (a faint background cloud excepted), and off every
+    line where there is room; a label placed away from its point gets a thin leader line.
     Why by hand: matplotlib puts a label where it is told and has no collision avoidance, and a crowded chart
     (solver settings of similar cost and error, the ends of a front) would print labels on top of each other."""
     if not labels:
@@ -61,18 +63,24 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
     placed = []
     for label in labels:
         obstacles = placed + marker_boxes(label.axes, exclude=label.xy)
+        lines = line_points(label.axes)
         frame = label.axes.get_window_extent(renderer)
         extent = label.get_window_extent(renderer)
         width, height = extent.width * to_points, extent.height * to_points
         first = label.xyann
         chosen = None
-        for ring in LABEL_RINGS:
-            for dx, dy in ((ring, 0.4 * ring), (ring, -ring - 0.6 * height), (-ring - width, 0.4 * ring),
-                           (-ring - width, -ring - 0.6 * height), (-width / 2, ring + 2), (-width / 2, -ring - height - 2)):
-                label.xyann = (dx, dy)
-                box = label.get_window_extent(renderer).padded(pad)
-                if inside(box, frame) and not any(box.overlaps(other) for other in obstacles):
-                    chosen = (ring, dx, dy)
+        for avoid_lines in (True, False):  # off every line where there is room, else off the markers alone
+            for ring in LABEL_RINGS:
+                for dx, dy in ((ring, 0.4 * ring), (ring, -ring - 0.6 * height), (-ring - width, 0.4 * ring),
+                               (-ring - width, -ring - 0.6 * height), (-width / 2, ring + 2),
+                               (-width / 2, -ring - height - 2)):
+                    label.xyann = (dx, dy)
+                    box = label.get_window_extent(renderer).padded(pad)
+                    if inside(box, frame) and not any(box.overlaps(other) for other in obstacles) \
+                            and not (avoid_lines and crosses(box, lines)):
+                        chosen = (ring, dx, dy)
+                        break
+                if chosen:
                     break
             if chosen:
                 break
@@ -82,6 +90,26 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
             label.axes.annotate("", xy=label.xy, xytext=label.xyann, textcoords="offset points",
                                 arrowprops=dict(arrowstyle="-", lw=0.4, color="0.45", shrinkA=0, shrinkB=2))
         placed.append(label.get_window_extent(renderer))
+
+
+def line_points(axis, step: float = 2.0) -> np.ndarray:
+    """Points every ``step`` pixels along each drawn line of the axis (faint ones excepted), in display space:
+    a label placed on them would hide the line, or read as another point's."""
+    points = [np.empty((0, 2))]
+    for line in axis.lines:
+        if line.get_linestyle() in ("None", "", " ") or (line.get_alpha() or 1.0) < 0.5 or not line.get_visible():
+            continue
+        vertices = axis.transData.transform(line.get_xydata())
+        vertices = vertices[np.isfinite(vertices).all(axis=1)]
+        for start, end in zip(vertices[:-1], vertices[1:]):
+            count = int(np.hypot(*(end - start)) // step) + 2
+            points.append(np.linspace(start, end, min(count, 2000)))
+    return np.concatenate(points)
+
+
+def crosses(box, points: np.ndarray) -> bool:
+    return bool(((points[:, 0] > box.x0) & (points[:, 0] < box.x1)
+                 & (points[:, 1] > box.y0) & (points[:, 1] < box.y1)).any())
 
 
 def inside(box, frame) -> bool:
@@ -139,5 +167,5 @@ def wrapped(text: str, width: int = 150) -> str:
     return "\n".join(textwrap.wrap(text, width))
 
 
-__all__ = ["COLOURS", "METHOD_NAMES", "MIN_TEXT_PX", "RULE_COLOURS", "method_colour", "best_so_far_matrix", "figure_title", "legend_below", "plt",
-           "marker_boxes", "save", "spread_labels", "wrapped"]
+__all__ = ["COLOURS", "METHOD_NAMES", "MIN_TEXT_PX", "RULE_COLOURS", "best_so_far_matrix", "figure_title",
+           "legend_below", "marker_boxes", "method_colour", "plt", "save", "spread_labels", "wrapped"]
