@@ -3,10 +3,10 @@
 Every run writes one into its report folder; ``run.py --study FILE`` runs it, options on the command line
 overriding the file's. The keys are the command-line options without their dashes, in one section per config
 (``[case]``, one per step with options, ``[run]``, ``[cluster]``), derived from the configs' ``option`` fields:
-there is no second list of names. Options that change no number (the executor, the workers, the scheduler) are written as
-comments; options of one invocation (``--out``, ``--resume``) are not written. ``[recorded]`` holds what the
-file was written against (the content hashes of the material table, the FMU and the other files it names): a
-file whose content changed is refused, another FMU build is named in a note.
+there is no second list of names. Options that change no number (the executor, the workers, the scheduler, the
+cluster) are written as comments; options of one invocation (``--out``, ``--resume``) are not written.
+``[recorded]`` holds what the file was written against (the content hashes of the material table, the FMU and
+the other files it names): a file whose content changed is refused, another FMU build is named in a note.
 
 Relative paths in the file are relative to the file's folder: a file inside the folder the run was started from
 (the project) is written so, and the project can be moved or sent whole; a file elsewhere is written by its
