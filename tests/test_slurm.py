@@ -115,7 +115,7 @@ def test_a_sweep_through_slurm_jobs_gives_the_process_pools_certificate(pool_swe
 @needs_slurm
 def test_a_sweep_longer_than_a_jobs_walltime_ends_certified(pool_sweep, tmp_path):
     out = tmp_path / "sweep"
-    done = run_sweep(out, *slurm_options(tmp_path, 2, "00:00:20"))
+    done = run_sweep(out, *slurm_options(tmp_path, 2, "00:00:15"))
     assert done.returncode == 0, done.stderr
     assert_same_certificate(out, pool_sweep)
     assert job_logs(out) > 2, "no job reached its walltime: the sweep was shorter than the test means"
