@@ -13,6 +13,7 @@ import shutil
 import sys
 import tempfile
 from dataclasses import dataclass
+from importlib.util import find_spec
 from pathlib import Path
 
 from fmu_src.materials import STUDY_MATERIAL_COUNT, load_materials
@@ -70,6 +71,8 @@ class RunConfig:
             raise ValueError("--resume and --overwrite: give one of them (continue the run, or start anew)")
         if self.scheduler is not None and self.executor != "dask":
             raise ValueError("--scheduler: only with --executor dask")
+        if self.executor == "dask" and find_spec("distributed") is None:  # before the FMU is built
+            raise ValueError("--executor dask: needs Dask, the project's dask extra (python -m pip install '.[dask]')")
 
 
 class NoResult(RuntimeError):

@@ -113,6 +113,18 @@ def test_the_force_legend_hides_no_curve(drawn, tmp_path):
     assert title_fits(figure)
 
 
+def test_the_chosen_designs_force_curve_is_drawn_over_the_others_and_the_legend_keeps_their_order(drawn, tmp_path):
+    study = force_study()
+    figure = drawn(draw_force_and_energy, study, tmp_path / "force.png", TWO_OBJECTIVE_LINE)
+    force_axis = figure.axes[0]
+    chosen = study.result(Trajectories).force[0].label
+    lines = {line.get_label().split(" [")[0]: line for line in force_axis.lines}
+    assert max(lines.values(), key=lambda line: (line.get_zorder(), force_axis.lines.index(line))) is lines[chosen]
+    assert lines[chosen].get_linewidth() > max(line.get_linewidth() for label, line in lines.items() if label != chosen)
+    legend = [text.get_text().split(" [")[0] for text in force_axis.get_legend().get_texts()]
+    assert legend == [labelled.label for labelled in study.result(Trajectories).force]
+
+
 def test_a_two_objective_convergence_title_is_not_cut_off(drawn, tmp_path):
     def run(label, method, seed):
         curve = list(np.minimum.accumulate(np.random.default_rng(seed).uniform(1400, 4000, 200)))

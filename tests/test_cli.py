@@ -120,6 +120,22 @@ def test_a_sweep_refusal_names_only_what_is_missing(fmu_path, tmp_path, capfd):
     assert not (tmp_path / "out").exists()
 
 
+def test_an_export_or_an_executor_that_cannot_run_is_refused_before_the_fmu_is_built(tmp_path, capfd, monkeypatch):
+    import orchestrator.runner
+    import orchestrator.scene
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("the FMU was prepared before the options were checked")
+
+    monkeypatch.setattr(orchestrator.scene, "prepare_fmu", no_build)
+    assert main("--export-optuna", "study.db", "--out", tmp_path / "out", "--no-progress") == 2
+    assert "error: --export-optuna study.db: not a database URL" in one_line(capfd)
+    monkeypatch.setattr(orchestrator.runner, "find_spec", lambda name: None)  # as where the dask extra is missing
+    assert main("--executor", "dask", "--out", tmp_path / "out", "--no-progress") == 2
+    assert "error: --executor dask: needs Dask, the project's dask extra" in one_line(capfd)
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_confirmation_of_nothing_is_refused_before_the_fmu_is_built(tmp_path, capfd, monkeypatch):
     import orchestrator.scene
 

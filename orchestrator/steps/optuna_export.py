@@ -20,6 +20,10 @@ class OptunaExportConfig:
         "sqlite:///study.db (one study per diagonal rule; needs the optuna extra); optuna-dashboard STORAGE shows "
         "it", metavar="STORAGE", study=NO_NUMBER, show_default="none")
 
+    def __post_init__(self):
+        if self.export_optuna is not None:  # with the options: before the FMU is built
+            check_storage(self.export_optuna)
+
 
 @dataclass(frozen=True)
 class OptunaExportResult:
