@@ -20,6 +20,7 @@ import logging
 import re
 import shutil
 from dataclasses import dataclass
+from importlib.util import find_spec
 from pathlib import Path
 from typing import Iterator
 
@@ -107,11 +108,9 @@ def check_cluster(cluster: ClusterConfig, executor: str, scheduler: str | None) 
     if shutil.which("sbatch") is None:
         raise ValueError("--cluster slurm: sbatch not found on PATH (run on a SLURM cluster's login node, or "
                          "load its module)")
-    try:
-        import dask_jobqueue  # noqa: F401 - only whether it is installed
-    except ImportError:
+    if find_spec("dask_jobqueue") is None:
         raise ValueError("--cluster slurm needs dask-jobqueue: install the project's dask extra "
-                         "(python -m pip install '.[dask]')") from None
+                         "(python -m pip install '.[dask]')")
 
 
 @dataclass(frozen=True)
