@@ -9,6 +9,7 @@ options and their refusals without SLURM.
 """
 from __future__ import annotations
 
+import functools
 import json
 import os
 import shutil
@@ -29,20 +30,32 @@ SWEEP = ["--cols", "8", "--method", "exhaustive", "--diagonal-rule", "receiver",
 JOB_NAME = "lattice-dask"
 
 
+@functools.cache
 def slurm_missing() -> str | None:
-    """Why the SLURM tests cannot run here, or None."""
+    """Why the SLURM tests cannot run here, or None (asked once: sinfo waits a while for a controller that is
+    not there)."""
     for tool in ("sbatch", "squeue", "scancel", "sinfo", "munged"):
         if shutil.which(tool) is None and not Path("/usr/sbin", tool).exists():
             return f"{tool} not found (Debian: apt-get install slurm-wlm munge; then .ci/slurm-up as root)"
     if os.geteuid() != 0:
         return "not root: .ci/slurm-up runs SLURM's daemons as root, and the tests submit jobs to that SLURM"
-    state = subprocess.run(["sinfo", "-h", "-o", "%t"], capture_output=True, text=True)
+    try:
+        state = subprocess.run(["sinfo", "-h", "-o", "%t"], capture_output=True, text=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        return "sinfo did not answer within 60 s: run .ci/slurm-up"
     if state.returncode != 0 or not {"idle", "mix", "alloc"} & set(state.stdout.split()):
         return f"no SLURM node up (sinfo: {(state.stdout + state.stderr).strip() or 'nothing'}): run .ci/slurm-up"
     return None
 
 
-needs_slurm = pytest.mark.skipif(slurm_missing() is not None, reason=str(slurm_missing()))
+def needs_slurm(test):
+    """Skips ``test`` with the reason where SLURM cannot run it (asked when the test runs, not when collected)."""
+    @functools.wraps(test)
+    def run(*args, **kwargs):
+        if slurm_missing():
+            pytest.skip(slurm_missing())
+        return test(*args, **kwargs)
+    return run
 
 
 def run_sweep(out: Path, *extra: str) -> subprocess.CompletedProcess:
