@@ -31,6 +31,10 @@ LOCAL_CLUSTER_START = 120.0  # s a local Dask cluster may take to start all its 
 DASK_BATCH_DESIGNS = 64
 WORKERS_REFRESH = 2.0  # s between two looks for workers that joined or left the cluster
 ACTOR_START = 60.0  # s a worker may take to start its actor
+# How many workers a call may lose on a cluster of batch jobs (each a worker that left: its lifetime, a cancelled
+# job) before it fails: enough for jobs leaving at their walltime, few enough that a call that kills every
+# worker it runs on stops.
+JOB_ATTEMPTS = 5
 BATCH_VARIABLE = "LATTICE_DASK_BATCH"  # another batch size, for bench.study_costs's measurement of it
 # The process pool's start method: unset, the platform's default (spawn on Windows and macOS); set to spawn on
 # Linux, the whole test suite runs the way a Windows or macOS user's runs do (every task and argument pickled).
@@ -66,7 +70,8 @@ class SerialExecutor(Executor):
 
 
 def make_executor(kind: str, workers: int | None = None, scheduler: str | None = None,
-                  temp_root: str | None = None, fmus: tuple = ()) -> contextlib.AbstractContextManager[Executor]:
+                  temp_root: str | None = None, fmus: tuple = (),
+                  cluster=None) -> contextlib.AbstractContextManager[Executor]:
     """Context manager yielding an Executor; everything is shut down on exit.
 
     kind:
@@ -79,13 +84,17 @@ def make_executor(kind: str, workers: int | None = None, scheduler: str | None =
                  cluster's workers must be able to import the objective's module
                  (the project installed); they need no folder of the client's:
                  each FMU of ``fmus`` (paths) is sent to every worker as bytes
-                 (``dask_plugin.ShipFMU``) and the tasks run the worker's copy.
+                 (``dask_plugin.ShipFMU``) and the tasks run the worker's copy. With ``cluster`` (a
+                 ``cluster.SlurmJobs``), the workers are batch jobs it starts; workers come and go
+                 with their jobs, and a call whose worker left waits for another.
     """
     if kind not in EXECUTORS:
         raise ValueError(f"unknown executor {kind!r}; allowed: {', '.join(EXECUTORS)}")
     if workers is not None and int(workers) < 1:
         raise ValueError(f"workers must be at least 1, got {workers!r}")
-    return _executor(kind, workers, scheduler, temp_root, tuple(fmus))  # bad arguments fail here, not at `with`
+    if cluster is not None and (kind != "dask" or scheduler):
+        raise ValueError("a batch-job cluster needs executor 'dask' and no scheduler address")
+    return _executor(kind, workers, scheduler, temp_root, tuple(fmus), cluster)  # bad arguments fail here
 
 
 def pool_start_method() -> str | None:
@@ -253,7 +262,7 @@ class ResilientProcessPool(Executor):
 
 @contextlib.contextmanager
 def _executor(kind: str, workers: int | None, scheduler: str | None,
-              temp_root: str | None = None, fmus: tuple = ()) -> Iterator[Executor]:
+              temp_root: str | None = None, fmus: tuple = (), cluster=None) -> Iterator[Executor]:
     if kind == "serial":
         executor = SerialExecutor()
         try:
@@ -275,16 +284,17 @@ def _executor(kind: str, workers: int | None, scheduler: str | None,
             if own_root:
                 shutil.rmtree(root, ignore_errors=True)
     else:
-        own_root = temp_root is None and not scheduler
+        own_root = temp_root is None and not scheduler and cluster is None
         root = tempfile.mkdtemp(prefix="lattice-workers-") if own_root else temp_root
         try:
-            yield from _dask(workers, scheduler, root, fmus)
+            yield from _dask(workers, scheduler, root, fmus, cluster)
         finally:
             if own_root:
                 shutil.rmtree(root, ignore_errors=True)
 
 
-def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmus: tuple = ()) -> Iterator[Executor]:
+def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmus: tuple = (),
+          jobs=None) -> Iterator[Executor]:
     try:
         from distributed import Client, LocalCluster  # imported lazily: dask is slow to import
     except ImportError:
@@ -294,6 +304,9 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmu
     with contextlib.ExitStack() as stack:
         if scheduler:
             client = stack.enter_context(Client(scheduler))
+        elif jobs is not None:
+            client = stack.enter_context(Client(stack.enter_context(jobs.open())))
+            jobs.wait(client)
         else:
             count = int(workers or os.cpu_count() or 1)
             cluster = stack.enter_context(LocalCluster(
@@ -311,7 +324,11 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmu
         for path in fmus:
             plugin = ShipFMU(path)
             client.register_plugin(plugin, name=plugin.plugin_name)  # raises the reason of a worker that cannot run it
-        executor = DaskActors(client, dask_batch_size())
+        if jobs is None:
+            executor = DaskActors(client, dask_batch_size())
+        else:  # workers leave with their jobs: a call waits for a worker, and runs again while workers leave
+            executor = DaskActors(client, dask_batch_size(), worker_wait=jobs.job_start, attempts=JOB_ATTEMPTS,
+                                  planned_workers=jobs.workers)
         try:
             yield executor
         except BaseException:
@@ -332,9 +349,17 @@ class DaskActors(Executor):
     (every ``WORKERS_REFRESH`` s).
     """
 
-    def __init__(self, client, batch_size: int = 1) -> None:
+    def __init__(self, client, batch_size: int = 1, worker_wait: float = 0.0, attempts: int = 2,
+                 planned_workers: int = 0) -> None:
+        """``worker_wait``: seconds a call waits for a worker while the cluster has none (its workers' jobs
+        left, others are queued); ``attempts``: on how many workers a call may run before its failure is
+        delivered (a worker that could not be reached counts); ``planned_workers``: the workers the cluster
+        is scaled to, which the evaluator keeps busy although some jobs have not started yet."""
+        self._planned = int(planned_workers)
         self._client = client
         self.batch_size = int(batch_size)
+        self._worker_wait = float(worker_wait)
+        self._attempts = int(attempts)
         self._lock = threading.Lock()
         self._actors: dict[str, Any] = {}  # worker address -> the actor there
         self._holders: dict[str, Any] = {}  # worker address -> the future that keeps its actor alive
@@ -347,7 +372,7 @@ class DaskActors(Executor):
 
     @property
     def slots(self) -> int:
-        return max(1, len(self._actors))
+        return max(1, len(self._actors), self._planned)
 
     def _refresh(self) -> None:
         """An actor on every worker of the cluster, none on a worker that left. It asks the scheduler (through
@@ -382,6 +407,8 @@ class DaskActors(Executor):
         on the client's event loop)."""
         if look and (time.monotonic() - self._looked > WORKERS_REFRESH or not self._actors):
             self._refresh()
+        if look and not self._actors and self._worker_wait > 0:
+            self._await_worker()
         with self._lock:
             choices = [a for a in self._actors if a != avoid] or list(self._actors)
             if not choices:
@@ -397,14 +424,43 @@ class DaskActors(Executor):
             if not reachable:
                 self._drop(address)
 
-    async def _call(self, future: Future, address: str, actor, function, args: tuple, kwargs: dict) -> None:
+    def _await_worker(self) -> None:
+        """Looks for workers until one joined, for up to ``worker_wait`` seconds (not on the event loop)."""
+        deadline = time.monotonic() + self._worker_wait
+        while not self._actors and time.monotonic() < deadline and not self._shutdown:
+            time.sleep(WORKERS_REFRESH)
+            self._refresh()
+
+    def _call_elsewhere(self, future: Future, avoid: str, function, args: tuple, kwargs: dict, attempt: int) -> None:
+        """In a thread of its own: waits for a worker (the cluster may have none a while), then the call runs
+        there on the event loop."""
+        try:
+            address, actor = self._take(avoid=avoid)
+        except BaseException as exc:  # noqa: BLE001 - delivered through the Future
+            future.set_exception(exc)
+            return
+        self._client.loop.add_callback(self._call, future, address, actor, function, args, kwargs, attempt)
+
+    async def _call(self, future: Future, address: str, actor, function, args: tuple, kwargs: dict,
+                    first_attempt: int = 1) -> None:
         """On the client's event loop: the call, its result into ``future`` (no thread waits for it)."""
-        for attempt in (1, 2):
+        for attempt in range(first_attempt, self._attempts + 1):
             try:
-                result = await actor.call(function, args, kwargs)
+                try:
+                    method = actor.call
+                except RuntimeError as exc:  # Dask: the worker holding the actor was lost
+                    raise ConnectionError(str(exc)) from None
+                result = await method(function, args, kwargs)
             except OSError as exc:
                 self._give_back(address, reachable=False)
-                if attempt == 2 or not self._actors:
+                if attempt == self._attempts or self._shutdown:
+                    future.set_exception(exc)
+                    return
+                if not self._actors and self._worker_wait > 0:
+                    threading.Thread(target=self._call_elsewhere, name="lattice-dask-wait", daemon=True,
+                                     args=(future, address, function, args, kwargs, attempt + 1)).start()
+                    return
+                if not self._actors:
                     future.set_exception(exc)
                     return
                 address, actor = self._take(avoid=address, look=False)

@@ -5,6 +5,7 @@
     python orchestrator/run.py --materials my_materials.csv --cols 5
     python orchestrator/run.py --case F_total=600,1200,2400 --aggregate worst
     python orchestrator/run.py --executor dask --scheduler tcp://10.0.0.5:8786
+    python orchestrator/run.py --executor dask --cluster slurm --jobs 8 --walltime 02:00:00
     python orchestrator/run.py --resume                # continue an interrupted run
     python orchestrator/run.py --study results/study.toml --out again   # a study file, run again
 
@@ -32,6 +33,7 @@ class Interrupted(BaseException):
 
 
 def build_parser():
+    from orchestrator.cluster import ClusterConfig
     from orchestrator.options import Parser, add_options
     from orchestrator.runner import RunConfig
     from orchestrator.steps import STEPS
@@ -44,6 +46,8 @@ def build_parser():
         if step.Config.__dataclass_fields__:
             add_options(parser, step.Config, step.title.lower())
     add_options(parser, RunConfig, "the run")
+    add_options(parser, ClusterConfig, "the cluster", "Dask's workers as SLURM batch jobs (--executor dask "
+                "--cluster slurm); every option also a key of a study file's [cluster] section")
     parser.add_argument("--study", metavar="FILE", help="run the study file FILE (every run writes one: "
                         "OUT/study.toml); options given here override the file's")
     return parser
@@ -56,6 +60,7 @@ def _on_sigterm(signum, frame):
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from orchestrator.cluster import ClusterConfig
     from orchestrator.options import config_from
     from orchestrator.runner import NoResult, RunConfig, run_in_folder
     from orchestrator.steps import STEPS
@@ -74,12 +79,13 @@ def main(argv=None) -> int:
     try:
         run = config_from(RunConfig, args)
         case = config_from(CaseConfig, args)
+        cluster = config_from(ClusterConfig, args)
         configs = {step: config_from(step.Config, args) for step in STEPS if step.Config.__dataclass_fields__}
     except ValueError as exc:
         parser.error(str(exc))
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        outcome = run_in_folder(run, case, configs, STEPS, study_file=study_file)
+        outcome = run_in_folder(run, case, configs, STEPS, study_file=study_file, cluster=cluster)
     except (KeyboardInterrupt, Interrupted) as exc:
         print(f"interrupted: the finished evaluations are kept in {run.out}.partial/journal.jsonl; continue with "
               "the same options and --resume", file=sys.stderr)

@@ -18,13 +18,14 @@ from pathlib import Path
 
 from fmu_src.materials import STUDY_MATERIAL_COUNT, load_materials
 
+from .cluster import JOB_LOGS, ClusterConfig, SlurmJobs, check_cluster
 from .executors import EXECUTORS, SerialExecutor, make_executor
 from .exhaustive import ChunkResult
 from .fmu import PreparedFMU
 from .journal import Journal
 from .loop import Evaluator
 from .objective import Trajectory, close_instances, count_cases
-from .options import NO_NUMBER, NOT_KEPT, check_options, integer, number, option
+from .options import NO_NUMBER, NOT_KEPT, check_options, given, integer, number, option
 from .progress import Progress
 from .records import to_record
 from .runfolder import RunFolder, make_temp_root
@@ -165,8 +166,13 @@ def settings(case, fmu: PreparedFMU, steps) -> dict:
 
 
 def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, step_types,
-                  study_file=None) -> Outcome:
-    """``study_file``: the ``orchestrator.studyfile.StudyFile`` the options came from, if any."""
+                  study_file=None, cluster: ClusterConfig | None = None) -> Outcome:
+    """``study_file``: the ``orchestrator.studyfile.StudyFile`` the options came from, if any; ``cluster``:
+    where Dask's workers run (a local cluster without it)."""
+    cluster = cluster or ClusterConfig()
+    check_cluster(cluster, run.executor, run.scheduler)
+    if cluster.slurm and "workers" in given(run):
+        raise ValueError("--workers: not with --cluster slurm (its workers are --jobs x --job-cores)")
     folder = RunFolder.open(run.out, resume=run.resume, overwrite=run.overwrite)
     temp_root = make_temp_root()
     previous_tempdir = tempfile.tempdir
@@ -193,12 +199,13 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
         for step in steps:
             step.check(context)
         check_confirmation(run, context.beyond_bounds)
-        write_study_file(folder.partial, {RunConfig: run, CaseConfig: case_config,
+        jobs = SlurmJobs(cluster, str(folder.partial / JOB_LOGS)) if cluster.slurm else None
+        write_study_file(folder.partial, {RunConfig: run, CaseConfig: case_config, ClusterConfig: cluster,
                                           **{type(step).Config: step.config for step in steps}},
                          table.sha256(), fmu.sha256)
         with Journal(folder.partial, settings(case, fmu, steps), RESULT_KINDS,
                      resume=folder.previous is not None) as journal, \
-                make_executor(run.executor, run.workers, run.scheduler, temp_root, (fmu.path,)) as executor:
+                make_executor(run.executor, run.workers, run.scheduler, temp_root, (fmu.path,), jobs) as executor:
             context.evaluator = Evaluator(executor, journal, run.time_limit)
             if journal.repaired:
                 print(f"{journal.path}: its last line was cut off (the run was killed); that task runs again",

@@ -2,11 +2,11 @@
 
 Every run writes one into its report folder; ``run.py --study FILE`` runs it, options on the command line
 overriding the file's. The keys are the command-line options without their dashes, in one section per config
-(``[case]``, one per step with options, ``[run]``), derived from the configs' ``option`` fields: there is no
-second list of names. Options that change no number (the executor, the workers, the scheduler) are written as
-comments; options of one invocation (``--out``, ``--resume``) are not written. ``[recorded]`` holds what the
-file was written against (the content hashes of the material table, the FMU and the other files it names): a
-file whose content changed is refused, another FMU build is named in a note.
+(``[case]``, one per step with options, ``[run]``, ``[cluster]``), derived from the configs' ``option`` fields:
+there is no second list of names. Options that change no number (the executor, the workers, the scheduler, the
+cluster) are written as comments; options of one invocation (``--out``, ``--resume``) are not written.
+``[recorded]`` holds what the file was written against (the content hashes of the material table, the FMU and
+the other files it names): a file whose content changed is refused, another FMU build is named in a note.
 
 Relative paths in the file are relative to the file's folder: a file inside the folder the run was started from
 (the project) is written so, and the project can be moved or sent whole; a file elsewhere is written by its
@@ -42,6 +42,7 @@ RECORDED = "recorded"
 
 def sections() -> list[tuple[str, type]]:
     """(section, config type) of every config with options, in the order the CLI shows them."""
+    from .cluster import ClusterConfig
     from .runner import RunConfig
     from .steps import STEPS
     from .study import CaseConfig
@@ -49,6 +50,7 @@ def sections() -> list[tuple[str, type]]:
     found = [("case", CaseConfig)]
     found += [(step.name, step.Config) for step in STEPS if dataclasses.fields(step.Config)]
     found.append(("run", RunConfig))
+    found.append(("cluster", ClusterConfig))
     return found
 
 
@@ -128,8 +130,9 @@ def study_lines(configs: dict[type, Any], folder: Path) -> list[tuple[str, str, 
                                                       "command line)"), active=False))
             else:
                 lines.append(Line(key, text, _comment(f"{key}: {help_text}")))
-        comment = "how the run ran: none of it changes a number but time-limit (which evaluations fail)" \
-            if section == "run" else ""
+        comment = {"run": "how the run ran: none of it changes a number but time-limit (which evaluations fail)",
+                   "cluster": "where Dask's workers ran (with --executor dask): none of it changes a number"
+                   }.get(section, "")
         out.append((section, comment, lines))
     return out
 
