@@ -6,21 +6,27 @@
   them to write the model description.
 - ``optimisers.md``: at the line ``<!-- the options of every search -->`` goes each search's options with their
   defaults, read from the searches themselves (``orchestrator.search.SEARCHES``).
+- ``fmu-reference.md``: at the line ``<!-- the variables of the component FMUs -->`` go the projectile's and the
+  hull's parameters, inputs and outputs, read from their tables (``fmu_src.component_table``) as the build reads
+  them, with the inputs each output depends on directly (its ``<ModelStructure>`` dependencies).
 """
 from __future__ import annotations
 
 VARIABLES = "<!-- the variables of the default FMU -->"
 OPTIONS = "<!-- the options of every search -->"
+COMPONENTS = "<!-- the variables of the component FMUs -->"
 
 
 def on_page_markdown(markdown: str, page, config, files) -> str:
-    generated = {"fmu-reference.md": (VARIABLES, variable_tables), "optimisers.md": (OPTIONS, search_options)}
+    generated = {"fmu-reference.md": ((VARIABLES, variable_tables), (COMPONENTS, component_tables)),
+                 "optimisers.md": ((OPTIONS, search_options),)}
     if page.file.src_uri not in generated:
         return markdown
-    marker, make = generated[page.file.src_uri]
-    if marker not in markdown:
-        raise ValueError(f"{page.file.src_uri}: the line {marker} is missing (the hook puts its table there)")
-    return markdown.replace(marker, make())
+    for marker, make in generated[page.file.src_uri]:
+        if marker not in markdown:
+            raise ValueError(f"{page.file.src_uri}: the line {marker} is missing (the hook puts its table there)")
+        markdown = markdown.replace(marker, make())
+    return markdown
 
 
 def search_options() -> str:
@@ -61,6 +67,32 @@ def variable_tables(scene_name: str = "armour_11x11") -> str:
     return "\n".join(lines)
 
 
+COMPONENT_HEADINGS = {"parameter": "parameters", "input": "inputs", "output": "outputs"}
+
+
+def component_tables() -> str:
+    """Each component FMU's parameters, inputs and outputs (its derivatives, local variables, left out: they are
+    the states' rates), an output with the inputs it depends on directly."""
+    from fmu_src.component_table import COMPONENT_MODELS, component_table
+
+    lines = []
+    for model in COMPONENT_MODELS:
+        table = component_table(model)
+        lines += [f"### {table.identifier} (`python build_fmu.py --model {model}`)", "", f"{table.description}. "
+                  f"Default experiment: {table.horizon:g} s, communication step {table.communication_step:g} s.", ""]
+        for causality, heading in COMPONENT_HEADINGS.items():
+            variables = [v for v in table.variables if v.causality == causality]
+            if not variables:
+                continue
+            outputs = causality == "output"
+            lines += [f"**{table.identifier}'s {heading}**", "",
+                      "| name | type | unit | range | default | " + ("depends on | " if outputs else "")
+                      + "description |", "|---|---|---|---|---|" + ("---|" if outputs else "") + "---|"]
+            lines += [row(v, dependencies=outputs) for v in variables]
+            lines.append("")
+    return "\n".join(lines)
+
+
 def code_table(interface) -> list[str]:
     """Every parameter set by a code: each Enumeration's items (FMPy sets an FMI 3 Enumeration only by its code,
     and FMI 2 declares them Integers), and the Integer switches whose few values have meanings."""
@@ -85,11 +117,17 @@ def code_table(interface) -> list[str]:
     return lines + [""]
 
 
-def row(variable) -> str:
-    return "| " + " | ".join(cell(text) for text in (
-        name_text(variable), type_text(variable), f"`{variable.unit}`" if variable.unit else "",
-        range_text(variable), start_text(variable.start) if variable.causality == "parameter" else "",
-        variable.description)) + " |"
+def row(variable, dependencies: bool = False) -> str:
+    """A variable's table row; with ``dependencies``, a column of the inputs an output depends on directly."""
+    texts = [name_text(variable), type_text(variable), f"`{variable.unit}`" if variable.unit else "",
+             range_text(variable), start_text(variable.start) if variable.causality in ("parameter", "input") else ""]
+    if dependencies:
+        texts.append(dependency_text(variable))
+    return "| " + " | ".join(cell(text) for text in (*texts, variable.description)) + " |"
+
+
+def dependency_text(variable) -> str:
+    return ", ".join(f"`{name}`" for name in variable.depends_on) or "none"
 
 
 def name_text(variable) -> str:

@@ -78,3 +78,29 @@ def test_the_fmu_reference_gives_every_enumerations_codes_read_from_the_built_fm
             assert f"<code>{item.value}</code> {item.name}:" in row, (variable.name, item.name)
         listed += 1
     assert listed >= 2  # diagonal_rule and solver at least
+
+
+def test_the_fmu_reference_lists_every_variable_of_each_component_fmu_with_its_unit_and_default(site):
+    """The projectile's and the hull's parameters, inputs and outputs, each in its component's section with its
+    unit, its default (parameters and inputs) and the inputs it depends on (outputs), as their tables give them."""
+    from html import unescape
+
+    from fmu_src.component_table import COMPONENT_MODELS, component_table
+
+    html = unescape(site["fmu-reference/index.html"])
+    sections = html.split("<h3 id=")[1:]  # the part before the first is the navigation
+    for model in COMPONENT_MODELS:
+        table = component_table(model)
+        section, = [s for s in sections if f"--model {model}</code>" in s.split("</h3>")[0]]
+        rows = {re.search(r"<td><code>([^<]+)</code></td>", row).group(1): row
+                for row in section.split("<tr>") if row.startswith("\n<td><code>") or row.startswith("<td><code>")}
+        listed = [v for v in table.variables if v.causality in ("parameter", "input", "output")]
+        assert sorted(rows) == sorted(v.name for v in listed), model
+        for variable in listed:
+            cells = re.findall(r"<td>(.*?)</td>", rows[variable.name], flags=re.S)
+            assert cells[2] == (f"<code>{variable.unit}</code>" if variable.unit else ""), variable.name
+            if variable.causality != "output":
+                assert float(cells[4]) == pytest.approx(variable.start), variable.name
+            else:
+                named = re.findall(r"<code>([^<]+)</code>", cells[5])
+                assert named == list(variable.depends_on) or (not variable.depends_on and cells[5] == "none")
