@@ -8,6 +8,7 @@ is found and its GUID says it was built from these sources. An editable install 
 the checkout, where models/ is. Why a build_py step of our own: setuptools' package data can only take files
 from inside a package folder, and the FMU is built outside any.
 """
+
 from __future__ import annotations
 
 import shutil
@@ -32,8 +33,10 @@ class BuildPyWithPrebuiltFMU(build_py):
             shutil.copyfile(fmu, target / fmu.name)
             print(f"prebuilt FMU: {fmu.name} carried as orchestrator/prebuilt/{fmu.name}")
         if not found:
-            print("prebuilt FMU: none in models/ (run python build_fmu.py first); a machine without a C compiler "
-                  "will not run this build")
+            print(
+                "prebuilt FMU: none in models/ (run python build_fmu.py first); a machine without a C compiler "
+                "will not run this build"
+            )
 
 
 setup(cmdclass={"build_py": BuildPyWithPrebuiltFMU})

@@ -1,5 +1,6 @@
 """What the benchmarks share: the designs they measure, the FMU they measure (built fresh from fmu_src/ unless
 one is given) and the searches' FMU settings as the orchestrator sets them."""
+
 from __future__ import annotations
 
 import contextlib
@@ -48,8 +49,13 @@ def add_fmu_option(parser) -> None:
 
 
 @contextlib.contextmanager
-def lattice_fmu(given: str | None = None, rows: int | None = None, cols: int | None = None,
-                scene: str | None = None, option: str = "--fmu") -> Iterator[Path]:
+def lattice_fmu(
+    given: str | None = None,
+    rows: int | None = None,
+    cols: int | None = None,
+    scene: str | None = None,
+    option: str = "--fmu",
+) -> Iterator[Path]:
     """The FMU to measure: the one given (``option`` names it in an error), or the FMU of ``scene`` (default the
     armour scene, resized to rows x cols if given) built now into a folder removed afterwards."""
     if given:
@@ -75,8 +81,10 @@ def default_setting(fmu_path) -> dict:
 
 
 def setting_text(setting: dict) -> str:
-    return f"{setting['solver'].upper() if setting['solver'] == 'dop853' else setting['solver']}, rtol " \
-           f"{setting['rtol']:g}, atol {setting['atol']:g}"
+    return (
+        f"{setting['solver'].upper() if setting['solver'] == 'dop853' else setting['solver']}, rtol "
+        f"{setting['rtol']:g}, atol {setting['atol']:g}"
+    )
 
 
 def search_parameters(fmu_path, columns: int = 11) -> dict:
@@ -105,8 +113,6 @@ def relative(value: float, reference: float) -> float:
     return abs(value / reference - 1.0) if reference else abs(value - reference)
 
 
-
-
 @dataclass(frozen=True)
 class WithoutLimit:
     """An FMU run that never stops early: a chunk given it evaluates every design to its value (a chunk given
@@ -122,8 +128,14 @@ class WithoutLimit:
         return self.run(order)
 
 
-def screened_values(fmu_path, space: DesignSpace, workers: int, parameters: dict | None = None,
-                    search_horizon: float = SEARCH_HORIZON, search_rtol: float = SEARCH_RTOL) -> tuple:
+def screened_values(
+    fmu_path,
+    space: DesignSpace,
+    workers: int,
+    parameters: dict | None = None,
+    search_horizon: float = SEARCH_HORIZON,
+    search_rtol: float = SEARCH_RTOL,
+) -> tuple:
     """Every design's value at the search fidelity (over ``search_horizon`` at ``search_rtol``), in rank order
     (None where it failed): the sweep's screening (``orchestrator.exhaustive.ScreenChunk``, every value kept, no
     force limit) through the Evaluator on a process pool. Only which designs a chunk keeps depends on the
@@ -133,12 +145,21 @@ def screened_values(fmu_path, space: DesignSpace, workers: int, parameters: dict
     from orchestrator.loop import Evaluator
     from orchestrator.objective import close_instances
 
-    screening, = LatticeObjective(str(fmu_path), space, FULL_HORIZON, parameters=parameters or {},
-                                  search_horizon=search_horizon, search_rtol=search_rtol).tasks(SEARCH)
+    (screening,) = LatticeObjective(
+        str(fmu_path),
+        space,
+        FULL_HORIZON,
+        parameters=parameters or {},
+        search_horizon=search_horizon,
+        search_rtol=search_rtol,
+    ).tasks(SEARCH)
     with make_executor("process", workers) as executor:
-        chunks = Evaluator(executor).run([ScreenChunk(WithoutLimit(screening), space, a, b, 1, SCREENING_ERROR, None,
-                                                      all_values=True)
-                                          for a, b in chunk_ranges(space.size, max(1, space.size // 100))])
+        chunks = Evaluator(executor).run(
+            [
+                ScreenChunk(WithoutLimit(screening), space, a, b, 1, SCREENING_ERROR, None, all_values=True)
+                for a, b in chunk_ranges(space.size, max(1, space.size // 100))
+            ]
+        )
     close_instances()
     bad = [chunk for chunk in chunks if not chunk.ok]
     if bad:
@@ -156,15 +177,36 @@ def narrow_lattice(columns: int) -> Iterator[tuple[Path, Path]]:
 
     with tempfile.TemporaryDirectory(prefix="bench_lattice_") as folder:
         scene = json.loads((SCENE_DIR / "armour_11x11.json").read_text())
-        scene.update(name=f"armour_11x{columns}", model_identifier=f"MassSpringLattice11x{columns}", cols=columns,
-                     description=f"The study's armour scene with {columns} columns")
+        scene.update(
+            name=f"armour_11x{columns}",
+            model_identifier=f"MassSpringLattice11x{columns}",
+            cols=columns,
+            description=f"The study's armour scene with {columns} columns",
+        )
         path = Path(folder) / f"armour_11x{columns}.json"
         path.write_text(json.dumps(scene, indent=1))
         yield path, build_fmu(scene=str(path), output=Path(folder) / f"MassSpringLattice11x{columns}.fmu")
 
 
-__all__ = ["BEST_KNOWN", "default_setting", "setting_text", "FULL_HORIZON", "REVERSED", "SEQUENTIAL", "STUDY_BEST",
-           "add_fmu_option", "bench_orders",
-           "geometric_mean", "lattice_fmu", "narrow_lattice", "order_text", "random_orders", "relative",
-           "screened_values", "search_parameters",
-           "search_setting_text", "span", "WithoutLimit"]
+__all__ = [
+    "BEST_KNOWN",
+    "default_setting",
+    "setting_text",
+    "FULL_HORIZON",
+    "REVERSED",
+    "SEQUENTIAL",
+    "STUDY_BEST",
+    "add_fmu_option",
+    "bench_orders",
+    "geometric_mean",
+    "lattice_fmu",
+    "narrow_lattice",
+    "order_text",
+    "random_orders",
+    "relative",
+    "screened_values",
+    "search_parameters",
+    "search_setting_text",
+    "span",
+    "WithoutLimit",
+]

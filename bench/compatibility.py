@@ -7,6 +7,7 @@ The rows' format and the page's rendering are ``builder.compatibility`` (the tes
 with ``python -m pytest --record-compatibility ...``); a row from elsewhere (fmusim under Wine or qemu-user) is
 written with its ``write_row``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -17,8 +18,11 @@ from builder.compatibility import PAGE, RESULTS, ROOT, RowError, load_rows, rend
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m bench.compatibility", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--check", action="store_true",
-                        help="write nothing; exit 1 when docs/compatibility.md differs from what the rows make")
+    parser.add_argument(
+        "--check",
+        action="store_true",
+        help="write nothing; exit 1 when docs/compatibility.md differs from what the rows make",
+    )
     args = parser.parse_args(argv)
     try:
         page = render(load_rows())
@@ -27,8 +31,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.check:
         if not PAGE.is_file() or PAGE.read_text(encoding="utf-8") != page:
-            print(f"{PAGE.relative_to(ROOT)} differs from the rows in {RESULTS.relative_to(ROOT)}: run "
-                  f"{parser.prog}", file=sys.stderr)
+            print(
+                f"{PAGE.relative_to(ROOT)} differs from the rows in {RESULTS.relative_to(ROOT)}: run {parser.prog}",
+                file=sys.stderr,
+            )
             return 1
         return 0
     PAGE.write_text(page, encoding="utf-8")

@@ -16,6 +16,7 @@ answer computed independently through the Evaluator:
 - *two objectives*: the peak and the compression over 11 x 7 (5,040 orders): the sweep's exact front, and the
   hypervolume of NSGA-II's front after 2,000 designs against it, over seeds.
 """
+
 from __future__ import annotations
 
 import statistics
@@ -46,20 +47,42 @@ STUDY_STEPS = (Searches, Exhaustive, Finalists, FinalDescent, Pareto, Answers)
 def own_table() -> MaterialTable:
     """Eleven materials of a designer's own: stiffness, damping and exponents that follow no one formula."""
     rng = np.random.default_rng(11)
-    names = ("steel", "titanium", "ceramic", "aramid", "uhmwpe", "glass fibre", "carbon fibre", "rubber", "foam",
-             "cork", "gel")
+    names = (
+        "steel",
+        "titanium",
+        "ceramic",
+        "aramid",
+        "uhmwpe",
+        "glass fibre",
+        "carbon fibre",
+        "rubber",
+        "foam",
+        "cork",
+        "gel",
+    )
     materials = []
     for name, k in zip(names, sorted(rng.uniform(3.0, 140.0, len(names)), reverse=True)):
-        materials.append(Material(name, round(float(k), 3), round(float(k * rng.uniform(0.3, 0.7)), 3),
-                                  round(float(rng.uniform(0.5, 6.0)), 3), round(float(rng.uniform(7.0, 13.0)), 3),
-                                  round(float(rng.uniform(7.0, 13.0)), 3)))
+        materials.append(
+            Material(
+                name,
+                round(float(k), 3),
+                round(float(k * rng.uniform(0.3, 0.7)), 3),
+                round(float(rng.uniform(0.5, 6.0)), 3),
+                round(float(rng.uniform(7.0, 13.0)), 3),
+                round(float(rng.uniform(7.0, 13.0)), 3),
+            )
+        )
     return MaterialTable(tuple(materials))
 
 
-def study(folder: Path, case: CaseConfig, methods, budget: int, repeats: int, workers: int, steps=STUDY_STEPS,
-          seed: int = 0):
-    configs = {Searches: SearchesConfig(methods=methods, budget=budget, repeats=repeats, seed=seed),
-               FinalDescent: FinalDescentConfig(enabled=True), Sensitivity: SensitivityConfig(enabled=False)}
+def study(
+    folder: Path, case: CaseConfig, methods, budget: int, repeats: int, workers: int, steps=STUDY_STEPS, seed: int = 0
+):
+    configs = {
+        Searches: SearchesConfig(methods=methods, budget=budget, repeats=repeats, seed=seed),
+        FinalDescent: FinalDescentConfig(enabled=True),
+        Sensitivity: SensitivityConfig(enabled=False),
+    }
     return run_in_folder(RunConfig(out=str(folder), workers=workers, progress=False), case, configs, steps)
 
 
@@ -77,8 +100,7 @@ def brute_force(fmu: Path, space, parameters: dict, workers: int):
 def own_materials(folder: Path, workers: int, budget: int) -> tuple:
     table = own_table()
     path = write_materials_csv(table, folder / "own_materials.csv")
-    outcome = study(folder / "own", CaseConfig(materials=str(path)), ("cmaes", "sa", "sequential"), budget, 2,
-                    workers)
+    outcome = study(folder / "own", CaseConfig(materials=str(path)), ("cmaes", "sa", "sequential"), budget, 2, workers)
     html = outcome.report.read_text()
     rows = []
     fmu = outcome.study.fmu_path
@@ -86,14 +108,23 @@ def own_materials(folder: Path, workers: int, budget: int) -> tuple:
         for answer in outcome.study.result(Answers).answers:
             again = lattice.simulate(answer.order, 8.0, {"diagonal_rule": answer.diagonal_rule})
             error = abs(again["peak_backplate_force"] / answer.peak - 1)
-            rows.append((answer.diagonal_rule, order_text(answer.order), ", ".join(answer.materials),
-                         f"{answer.peak:.4f}", f"{error:.1e}", answer.evidence.status))
+            rows.append(
+                (
+                    answer.diagonal_rule,
+                    order_text(answer.order),
+                    ", ".join(answer.materials),
+                    f"{answer.peak:.4f}",
+                    f"{error:.1e}",
+                    answer.evidence.status,
+                )
+            )
     named = all(name in html for name in table.names)
     return rows, named
 
 
-def catalogue(folder: Path, label: str, table: MaterialTable, columns: int, repeat: bool, workers: int,
-              seeds: int) -> tuple:
+def catalogue(
+    folder: Path, label: str, table: MaterialTable, columns: int, repeat: bool, workers: int, seeds: int
+) -> tuple:
     """The sweep's optimum against the brute force, and CMA-ES at 300 designs over seeds."""
     path = write_materials_csv(table, folder / f"{label}.csv")
     case = CaseConfig(materials=str(path), cols=columns, repeat=repeat, diagonal_rules=("receiver",))
@@ -107,15 +138,22 @@ def catalogue(folder: Path, label: str, table: MaterialTable, columns: int, repe
     best, failed = brute_force(Path(swept.study.fmu_path), space, parameters, workers)
     reached = 0
     for seed in range(seeds):
-        outcome = study(folder / f"{label}_cmaes_{seed}", case, ("cmaes",), 300, 1, workers,
-                        steps=(Searches,), seed=seed)
+        outcome = study(
+            folder / f"{label}_cmaes_{seed}", case, ("cmaes",), 300, 1, workers, steps=(Searches,), seed=seed
+        )
         run = outcome.study.result(Searches).runs[0]
         reached += run.best_order == best.order
-    return (label, space.describe(), order_text(certificate.optimum.order) if certificate.optimum else "none",
-            order_text(best.order), "yes" if certificate.optimum and certificate.optimum.order == best.order else "NO",
-            f"{abs(certificate.optimum.full / best.value - 1):.1e}" if certificate.optimum else "n/a",
-            "yes" if certificate.certified else "no: " + "; ".join(certificate.reasons), f"{reached} of {seeds}",
-            failed)
+    return (
+        label,
+        space.describe(),
+        order_text(certificate.optimum.order) if certificate.optimum else "none",
+        order_text(best.order),
+        "yes" if certificate.optimum and certificate.optimum.order == best.order else "NO",
+        f"{abs(certificate.optimum.full / best.value - 1):.1e}" if certificate.optimum else "n/a",
+        "yes" if certificate.certified else "no: " + "; ".join(certificate.reasons),
+        f"{reached} of {seeds}",
+        failed,
+    )
 
 
 def two_objectives(folder: Path, workers: int, seeds: int, budget: int) -> tuple:
@@ -145,35 +183,59 @@ def main(argv=None) -> int:
         own_rows, named = own_materials(folder, args.workers, 200)
         catalogue_rows = [
             catalogue(folder, "catalogue", study_materials(8), catalogue_columns, False, args.workers, seeds),
-            catalogue(folder, "repetition", MaterialTable(study_materials(11).materials[::5]), 7, True,
-                      args.workers, seeds),
+            catalogue(
+                folder, "repetition", MaterialTable(study_materials(11).materials[::5]), 7, True, args.workers, seeds
+            ),
         ]
         front, ratios, exact_volume = two_objectives(folder, args.workers, seeds, nsga_budget)
     median = statistics.median(ratios)
     worst = max(float(r[4]) for r in own_rows)
     reproduced = "bit for bit" if worst == 0 else f"to {worst:.0e}"
-    headline = (f"own materials reproduced {reproduced}; catalogue and repetition "
-                f"optima equal the brute force; NSGA-II at {nsga_budget} designs reaches {median:.3f} of the exact "
-                f"front's hypervolume (median of {seeds})")
+    headline = (
+        f"own materials reproduced {reproduced}; catalogue and repetition "
+        f"optima equal the brute force; NSGA-II at {nsga_budget} designs reaches {median:.3f} of the exact "
+        f"front's hypervolume (median of {seeds})"
+    )
     page = Page(
-        name=run.name, title="The designer's problem: own materials, catalogues, repetition, two objectives",
+        name=run.name,
+        title="The designer's problem: own materials, catalogues, repetition, two objectives",
         headline=headline,
-        summary=("Each part runs the orchestrator's study on the case and compares it with an exact answer computed "
-                 "independently through the Evaluator. Full fidelity: 8 s at the FMU's default accuracy; the "
-                 "searches at the search fidelity (1 s, Fine's RKN 5(4) at rtol 8e-6)."),
+        summary=(
+            "Each part runs the orchestrator's study on the case and compares it with an exact answer computed "
+            "independently through the Evaluator. Full fidelity: 8 s at the FMU's default accuracy; the "
+            "searches at the search fidelity (1 s, Fine's RKN 5(4) at rtol 8e-6)."
+        ),
         tables=(
-            Table(("rule", "answer", "materials", "peak (N)", "reproduced by the FMU (relative)", "status"),
-                  tuple(own_rows), "A table of 11 materials of a designer's own (not the study's formula): every "
-                  f"material named in report.html: {'yes' if named else 'NO'}."),
-            Table(("case", "space", "sweep optimum", "brute force optimum", "equal", "values differ by",
-                   "certified", "CMA-ES at 300 reaches it", "failed"), tuple(catalogue_rows),
-                  "A catalogue larger than the stack, and repetition (receiver rule)."),
-            Table(("designs on the exact front", "exact hypervolume", "NSGA-II / exact, per seed", "median"),
-                  ((len(front.front), f"{exact_volume:.6g}", ", ".join(f"{r:.4f}" for r in ratios), f"{median:.4f}"),),
-                  f"peak_backplate_force against max_compression over 11 x 7 (5,040 orders); the exact front is the "
-                  f"sweep's (exact: {front.exact}); the reference point is the exact front's nadir plus a tenth of "
-                  "its range."),
-        ))
+            Table(
+                ("rule", "answer", "materials", "peak (N)", "reproduced by the FMU (relative)", "status"),
+                tuple(own_rows),
+                "A table of 11 materials of a designer's own (not the study's formula): every "
+                f"material named in report.html: {'yes' if named else 'NO'}.",
+            ),
+            Table(
+                (
+                    "case",
+                    "space",
+                    "sweep optimum",
+                    "brute force optimum",
+                    "equal",
+                    "values differ by",
+                    "certified",
+                    "CMA-ES at 300 reaches it",
+                    "failed",
+                ),
+                tuple(catalogue_rows),
+                "A catalogue larger than the stack, and repetition (receiver rule).",
+            ),
+            Table(
+                ("designs on the exact front", "exact hypervolume", "NSGA-II / exact, per seed", "median"),
+                ((len(front.front), f"{exact_volume:.6g}", ", ".join(f"{r:.4f}" for r in ratios), f"{median:.4f}"),),
+                f"peak_backplate_force against max_compression over 11 x 7 (5,040 orders); the exact front is the "
+                f"sweep's (exact: {front.exact}); the reference point is the exact front's nadir plus a tenth of "
+                "its range.",
+            ),
+        ),
+    )
     write_page(run, page)
     return 0
 

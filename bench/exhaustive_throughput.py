@@ -15,6 +15,7 @@ the orchestrator's exhaustive step (``run_in_folder`` with the searches, the swe
 finalists and the answers) on the armour scene narrowed to C columns, once alone (the first chunks run without
 an incumbent) and once after a short annealing run that hands the sweep its best value.
 """
+
 from __future__ import annotations
 
 import math
@@ -44,20 +45,24 @@ def chunk_rates(columns: int, designs: int, repeats: int) -> dict:
     """Designs per core-second of one chunk, without and with the limit at the known optimum's threshold."""
     with narrow_lattice(columns) as (_, fmu):
         space = DesignSpace.permutations(columns)
-        screening, = LatticeObjective(fmu, space, FULL_HORIZON).tasks(SEARCH)
+        (screening,) = LatticeObjective(fmu, space, FULL_HORIZON).tasks(SEARCH)
         incumbent = screening(KNOWN[columns]).value
         limit = screening_threshold(incumbent, SCREENING_ERROR)
         start = space.size // 2
         with make_executor("serial") as executor:
             Evaluator(executor).evaluate([(screening, KNOWN[columns])])  # this process opens the FMU first
             out = {"incumbent": incumbent, "threshold": limit}
-            variants = (("no limit", WithoutLimit(screening), None), ("no incumbent", screening, None),
-                        ("limit", screening, limit))
+            variants = (
+                ("no limit", WithoutLimit(screening), None),
+                ("no incumbent", screening, None),
+                ("limit", screening, limit),
+            )
             for name, function, chunk_limit in variants:
                 best = None
                 for _ in range(repeats):
-                    chunk = Evaluator(executor).run([ScreenChunk(function, space, start, start + designs, 20,
-                                                                 SCREENING_ERROR, chunk_limit)])[0]
+                    chunk = Evaluator(executor).run(
+                        [ScreenChunk(function, space, start, start + designs, 20, SCREENING_ERROR, chunk_limit)]
+                    )[0]
                     if not chunk.ok:
                         raise SystemExit(f"11 x {columns}: the chunk failed: {chunk.message}")
                     if best is None or chunk.cpu_seconds < best.cpu_seconds:
@@ -69,10 +74,12 @@ def chunk_rates(columns: int, designs: int, repeats: int) -> dict:
 
 def sweep(scene: Path, fmu: Path, folder: Path, methods: tuple[str, ...], budget: int, workers: int):
     started = time.perf_counter()
-    outcome = run_in_folder(RunConfig(out=str(folder), workers=workers, progress=False),
-                            CaseConfig(scene=str(scene), fmu=str(fmu), diagonal_rules=("receiver",)),
-                            {Searches: SearchesConfig(methods=methods, budget=budget, repeats=1)},
-                            (Searches, Exhaustive, Finalists, Answers))
+    outcome = run_in_folder(
+        RunConfig(out=str(folder), workers=workers, progress=False),
+        CaseConfig(scene=str(scene), fmu=str(fmu), diagonal_rules=("receiver",)),
+        {Searches: SearchesConfig(methods=methods, budget=budget, repeats=1)},
+        (Searches, Exhaustive, Finalists, Answers),
+    )
     wall = time.perf_counter() - started
     return outcome.study.result(Exhaustive).sweeps[0], wall
 
@@ -80,8 +87,14 @@ def sweep(scene: Path, fmu: Path, folder: Path, methods: tuple[str, ...], budget
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
     parser = run.parser(__doc__, quick="chunks of 11 x 8 only (300 designs, once); 11 x 7 swept")
-    parser.add_argument("--chunk-columns", nargs="+", type=int, default=[8, 9, 11], choices=sorted(KNOWN),
-                        help="lattices 11 x C whose chunk is timed (those with a known optimum)")
+    parser.add_argument(
+        "--chunk-columns",
+        nargs="+",
+        type=int,
+        default=[8, 9, 11],
+        choices=sorted(KNOWN),
+        help="lattices 11 x C whose chunk is timed (those with a known optimum)",
+    )
     parser.add_argument("--chunk-designs", type=int, default=600, help="designs in the timed chunk")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs of each chunk (the fastest counts)")
     parser.add_argument("--sweep-columns", type=int, default=8, help="the lattice 11 x C swept twice")
@@ -94,45 +107,74 @@ def main(argv=None) -> int:
     chunk_rows, rates = [], {}
     for columns in args.chunk_columns:
         measured = chunk_rates(columns, args.chunk_designs, args.repeats)
-        for name, what in (("no limit", "none: every design to its value"),
-                           ("no incumbent", "from the chunk's own best on"),
-                           ("limit", f"the incumbent's threshold, {measured['threshold']:.3f} N")):
+        for name, what in (
+            ("no limit", "none: every design to its value"),
+            ("no incumbent", "from the chunk's own best on"),
+            ("limit", f"the incumbent's threshold, {measured['threshold']:.3f} N"),
+        ):
             chunk = measured[name]
             rate = chunk.designs / chunk.cpu_seconds
             rates[(columns, name)] = rate
-            chunk_rows.append((f"11 x {columns}", f"{math.factorial(columns):,}", what,
-                               f"{rate:.0f}", f"{chunk.censored} of {chunk.designs}"))
+            chunk_rows.append(
+                (
+                    f"11 x {columns}",
+                    f"{math.factorial(columns):,}",
+                    what,
+                    f"{rate:.0f}",
+                    f"{chunk.censored} of {chunk.designs}",
+                )
+            )
     with narrow_lattice(args.sweep_columns) as (scene, fmu), tempfile.TemporaryDirectory(prefix="bench_sweep_") as out:
         alone, alone_wall = sweep(scene, fmu, Path(out) / "alone", ("exhaustive",), args.search_budget, args.workers)
-        searched, searched_wall = sweep(scene, fmu, Path(out) / "searched", ("exhaustive", "sa"), args.search_budget,
-                                        args.workers)
+        searched, searched_wall = sweep(
+            scene, fmu, Path(out) / "searched", ("exhaustive", "sa"), args.search_budget, args.workers
+        )
     sweep_rows = []
-    for label, result, wall in (("alone", alone, alone_wall),
-                                (f"after an annealing run of {args.search_budget} designs", searched, searched_wall)):
+    for label, result, wall in (
+        ("alone", alone, alone_wall),
+        (f"after an annealing run of {args.search_budget} designs", searched, searched_wall),
+    ):
         certificate = result.certificate
         optimum = certificate.optimum
-        sweep_rows.append((label, "none" if result.initial_limit is None else f"{result.initial_limit:.3f} N",
-                           f"{certificate.designs:,}", f"{certificate.censored:,}",
-                           f"{result.designs_per_core_second:.0f}", f"{result.cpu_seconds:.1f}", f"{wall:.0f}",
-                           f"{order_text(optimum.order)} {optimum.full:.6f} N" if optimum else "none",
-                           "yes" if certificate.certified else "no: " + "; ".join(certificate.reasons)))
-    same = (alone.certificate.optimum and searched.certificate.optimum
-            and alone.certificate.optimum.order == searched.certificate.optimum.order)
+        sweep_rows.append(
+            (
+                label,
+                "none" if result.initial_limit is None else f"{result.initial_limit:.3f} N",
+                f"{certificate.designs:,}",
+                f"{certificate.censored:,}",
+                f"{result.designs_per_core_second:.0f}",
+                f"{result.cpu_seconds:.1f}",
+                f"{wall:.0f}",
+                f"{order_text(optimum.order)} {optimum.full:.6f} N" if optimum else "none",
+                "yes" if certificate.certified else "no: " + "; ".join(certificate.reasons),
+            )
+        )
+    same = (
+        alone.certificate.optimum
+        and searched.certificate.optimum
+        and alone.certificate.optimum.order == searched.certificate.optimum.order
+    )
     notes = []
     if (11, "limit") in rates:
         hours = math.factorial(11) / rates[(11, "limit")] / 3600
         free_hours = math.factorial(11) / rates[(11, "no limit")] / 3600
-        notes.append(f"At the 11 x 11 chunk rates, a sweep of all {math.factorial(11):,} orders costs about "
-                     f"{hours:.1f} core-hours with the limit ({free_hours:.1f} without): {hours / 16:.2f} hours on 16 "
-                     f"cores, {hours * 60 / 100:.0f} minutes on 100.")
+        notes.append(
+            f"At the 11 x 11 chunk rates, a sweep of all {math.factorial(11):,} orders costs about "
+            f"{hours:.1f} core-hours with the limit ({free_hours:.1f} without): {hours / 16:.2f} hours on 16 "
+            f"cores, {hours * 60 / 100:.0f} minutes on 100."
+        )
     notes.append(f"Both sweeps found the same optimum: {'yes' if same else 'NO'}.")
     first = args.chunk_columns[0]
-    headline = (f"11 x {first} chunk: {rates[(first, 'no limit')]:.0f} designs per core-second without the limit, "
-                f"{rates[(first, 'limit')]:.0f} with it; an 11 x {args.sweep_columns} sweep "
-                f"{alone.designs_per_core_second:.0f} alone, {searched.designs_per_core_second:.0f} after a short "
-                "search")
+    headline = (
+        f"11 x {first} chunk: {rates[(first, 'no limit')]:.0f} designs per core-second without the limit, "
+        f"{rates[(first, 'limit')]:.0f} with it; an 11 x {args.sweep_columns} sweep "
+        f"{alone.designs_per_core_second:.0f} alone, {searched.designs_per_core_second:.0f} after a short "
+        "search"
+    )
     page = Page(
-        name=run.name, title="Exhaustive sweep throughput", headline=headline,
+        name=run.name,
+        title="Exhaustive sweep throughput",
+        headline=headline,
         summary=(
             f"Screening at the search fidelity; the screening error bound is {SCREENING_ERROR:.0e} (relative), and the "
             "limit is the largest screened value that can still be the optimum given the incumbent "
@@ -141,13 +183,30 @@ def main(argv=None) -> int:
             "inside the chunk; the incumbent is the known optimum's value at the search fidelity. Sweeps: "
             f"11 x {args.sweep_columns}, receiver rule, {args.workers} worker process(es), designs per core-second "
             "over the chunks' CPU time, wall time of the whole run (the sweep, the verification of every candidate "
-            "at full fidelity, the second integrator on the optimum and runner-up, the report)."),
-        tables=(Table(("lattice", "designs of the lattice", "limit", "designs per core-second", "censored"),
-                      tuple(chunk_rows),
-                      caption="**One chunk:**"),
-                Table(("sweep", "first chunks' limit", "designs", "censored", "designs per core-second", "CPU s",
-                       "wall s", "optimum (full fidelity)", "certified"), tuple(sweep_rows),
-                      caption="**A whole sweep, with and without a short search's incumbent:**")),
+            "at full fidelity, the second integrator on the optimum and runner-up, the report)."
+        ),
+        tables=(
+            Table(
+                ("lattice", "designs of the lattice", "limit", "designs per core-second", "censored"),
+                tuple(chunk_rows),
+                caption="**One chunk:**",
+            ),
+            Table(
+                (
+                    "sweep",
+                    "first chunks' limit",
+                    "designs",
+                    "censored",
+                    "designs per core-second",
+                    "CPU s",
+                    "wall s",
+                    "optimum (full fidelity)",
+                    "certified",
+                ),
+                tuple(sweep_rows),
+                caption="**A whole sweep, with and without a short search's incumbent:**",
+            ),
+        ),
         notes=tuple(notes),
     )
     write_page(run, page)

@@ -11,6 +11,7 @@ solver takes a step or two. Each batch runs distinct random orders, timed with `
 FMU run (``orchestrator.objective.FMURun``, which makes the Evaluation), and through the Evaluator on a serial
 executor (cache, keys, the task protocol). The fastest batch counts.
 """
+
 from __future__ import annotations
 
 import time
@@ -55,31 +56,42 @@ def main(argv=None) -> int:
             def direct(orders):
                 for order in orders:
                     fmu.simulate(order, horizon=HORIZON, parameters=parameters)
+
             layers["LatticeFMU.simulate"] = fastest(
-                [random_orders(args.runs, seed) for seed in range(args.batches)], direct)
+                [random_orders(args.runs, seed) for seed in range(args.batches)], direct
+            )
         task(random_orders(1, 0)[0])  # opens this process's instance once
 
         def objective_run(orders):
             for order in orders:
                 task(order)
+
         layers["FMURun (an Evaluation made)"] = fastest(
-            [random_orders(args.runs, 100 + seed) for seed in range(args.batches)], objective_run)
+            [random_orders(args.runs, 100 + seed) for seed in range(args.batches)], objective_run
+        )
         with make_executor("serial") as executor:
+
             def evaluator_run(orders):
                 Evaluator(executor).evaluate([(task, order) for order in orders])
+
             layers["Evaluator, serial executor"] = fastest(
-                [random_orders(args.runs, 200 + seed) for seed in range(args.batches)], evaluator_run)
+                [random_orders(args.runs, 200 + seed) for seed in range(args.batches)], evaluator_run
+            )
         close_instances()
     rows = tuple((layer, f"{seconds * 1e3:.4f}") for layer, seconds in layers.items())
     page = Page(
-        name=run.name, title="Fixed cost per run",
-        headline=(f"{layers['LatticeFMU.simulate'] * 1e3:.3f} ms CPU per FMU run around the integration, "
-                  f"{layers['Evaluator, serial executor'] * 1e3:.3f} ms through the Evaluator"),
+        name=run.name,
+        title="Fixed cost per run",
+        headline=(
+            f"{layers['LatticeFMU.simulate'] * 1e3:.3f} ms CPU per FMU run around the integration, "
+            f"{layers['Evaluator, serial executor'] * 1e3:.3f} ms through the Evaluator"
+        ),
         summary=(
             f"Runs of {HORIZON * 1e3:g} ms of simulated time ({rhs} right-hand sides) with the searches' parameters "
             f"({', '.join(f'{k} {v:g}' if isinstance(v, float) else f'{k} {v}' for k, v in parameters.items())}), "
             f"reading the {outputs} outputs an evaluation reads; the fastest of {args.batches} batches of "
-            f"{args.runs} distinct random orders, CPU time per run."),
+            f"{args.runs} distinct random orders, CPU time per run."
+        ),
         tables=(Table(("layer", "CPU ms per run"), rows),),
     )
     write_page(run, page)

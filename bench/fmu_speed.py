@@ -11,6 +11,7 @@ loosest rtol of a 1-2-5 grid from 1e-8 to 1e-10 (atol rtol / 100) whose error is
 decades would hand scipy up to ten times the FMU's accuracy, and its cost with it. Each peak is compared with
 the FMU at rtol 1e-13 and with the study's published number.
 """
+
 from __future__ import annotations
 
 import time
@@ -20,8 +21,18 @@ from orchestrator.simulation import LatticeFMU
 from reference import Scene
 from reference.simulate import simulate
 
-from .common import (FULL_HORIZON, SEQUENTIAL, STUDY_BEST, add_fmu_option, default_setting, lattice_fmu, order_text,
-                     relative, setting_text, span)
+from .common import (
+    FULL_HORIZON,
+    SEQUENTIAL,
+    STUDY_BEST,
+    add_fmu_option,
+    default_setting,
+    lattice_fmu,
+    order_text,
+    relative,
+    setting_text,
+    span,
+)
 from .measurements import Page, Run, Table, write_page
 
 MATCHING_RTOLS = (1e-8, 5e-9, 2e-9, 1e-9, 5e-10, 2e-10, 1e-10)
@@ -44,8 +55,9 @@ def time_scipy(order, rtol: float, atol: float, repeats: int):
     best, result = float("inf"), None
     for _ in range(repeats):
         start = time.perf_counter()
-        result = simulate(Scene(order=order), horizon=FULL_HORIZON, rtol=rtol, atol=atol, method="DOP853",
-                          continuous_peak=False)
+        result = simulate(
+            Scene(order=order), horizon=FULL_HORIZON, rtol=rtol, atol=atol, method="DOP853", continuous_peak=False
+        )
         best = min(best, time.perf_counter() - start)
     return best, result
 
@@ -69,15 +81,31 @@ def main(argv=None) -> int:
             error = relative(peak, truth)
             fmu_errors.append(error)
             published_errors.append(relative(peak, PUBLISHED_PEAKS[order]))
-            rows.append((label, f"FMU through fmpy, defaults ({setting_text(default_setting(path))})",
-                         f"{seconds * 1e3:.2f}",
-                         result["rhs_evaluations"], f"{peak:.6f}", f"{error:.1e}", ""))
+            rows.append(
+                (
+                    label,
+                    f"FMU through fmpy, defaults ({setting_text(default_setting(path))})",
+                    f"{seconds * 1e3:.2f}",
+                    result["rhs_evaluations"],
+                    f"{peak:.6f}",
+                    f"{error:.1e}",
+                    "",
+                )
+            )
             scipy_seconds, scipy = time_scipy(order, 1e-8, 1e-6, args.scipy_repeats)
             scipy_error = relative(scipy.peak_backplate_force, truth)
             speedups.append(scipy_seconds / seconds)
-            rows.append(("", "scipy DOP853 over numpy, rtol 1e-8, atol 1e-6", f"{scipy_seconds * 1e3:.1f}",
-                         scipy.n_rhs, f"{scipy.peak_backplate_force:.6f}", f"{scipy_error:.1e}",
-                         f"{speedups[-1]:.0f}x"))
+            rows.append(
+                (
+                    "",
+                    "scipy DOP853 over numpy, rtol 1e-8, atol 1e-6",
+                    f"{scipy_seconds * 1e3:.1f}",
+                    scipy.n_rhs,
+                    f"{scipy.peak_backplate_force:.6f}",
+                    f"{scipy_error:.1e}",
+                    f"{speedups[-1]:.0f}x",
+                )
+            )
             for rtol in MATCHING_RTOLS:
                 matched_seconds, matched = time_scipy(order, rtol, rtol * 1e-2, args.scipy_repeats)
                 matched_error = relative(matched.peak_backplate_force, truth)
@@ -86,17 +114,31 @@ def main(argv=None) -> int:
             reached = matched_error <= error
             if reached:
                 equal_speedups.append(matched_seconds / seconds)
-            rows.append(("", f"scipy at the FMU's accuracy (rtol {rtol:g}, atol {rtol * 1e-2:g})"
-                         + ("" if reached else ": not reached"), f"{matched_seconds * 1e3:.1f}", matched.n_rhs,
-                         f"{matched.peak_backplate_force:.6f}", f"{matched_error:.1e}",
-                         f"{matched_seconds / seconds:.0f}x" if reached else ""))
+            rows.append(
+                (
+                    "",
+                    f"scipy at the FMU's accuracy (rtol {rtol:g}, atol {rtol * 1e-2:g})"
+                    + ("" if reached else ": not reached"),
+                    f"{matched_seconds * 1e3:.1f}",
+                    matched.n_rhs,
+                    f"{matched.peak_backplate_force:.6f}",
+                    f"{matched_error:.1e}",
+                    f"{matched_seconds / seconds:.0f}x" if reached else "",
+                )
+            )
 
-    equal = (f"{span(equal_speedups, '{:.0f}')}x faster than scipy at the FMU's accuracy or better"
-             if equal_speedups else f"scipy did not reach the FMU's accuracy by rtol {MATCHING_RTOLS[-1]:g}")
-    headline = (f"one 8 s evaluation: the FMU is {span(speedups, '{:.0f}')}x faster than the study's scipy route "
-                f"and {equal}; the FMU's error {span(fmu_errors, '{:.1e}')}")
+    equal = (
+        f"{span(equal_speedups, '{:.0f}')}x faster than scipy at the FMU's accuracy or better"
+        if equal_speedups
+        else f"scipy did not reach the FMU's accuracy by rtol {MATCHING_RTOLS[-1]:g}"
+    )
+    headline = (
+        f"one 8 s evaluation: the FMU is {span(speedups, '{:.0f}')}x faster than the study's scipy route "
+        f"and {equal}; the FMU's error {span(fmu_errors, '{:.1e}')}"
+    )
     page = Page(
-        name=run.name, title="FMU speed and accuracy against scipy",
+        name=run.name,
+        title="FMU speed and accuracy against scipy",
         headline=headline,
         summary=(
             f"One evaluation of the study's scene ({FULL_HORIZON:g} s, peak over the 0.01 s samples, receiver rule) "
@@ -105,9 +147,14 @@ def main(argv=None) -> int:
             "setting, through `orchestrator.simulation.LatticeFMU` (reset, parameters, one doStep, outputs) and "
             "`reference.simulate` (scipy's `solve_ivp` over the vectorised numpy model of `reference/`). The "
             "error is relative to the FMU at rtol 1e-13, atol 1e-15 on the same order. At its defaults the FMU "
-            f"gives the published peaks to {span(published_errors, '{:.1e}')} (relative)."),
-        tables=(Table(("order", "route", "ms per evaluation", "right-hand sides", "peak (N)", "error",
-                       "scipy / FMU"), tuple(rows)),),
+            f"gives the published peaks to {span(published_errors, '{:.1e}')} (relative)."
+        ),
+        tables=(
+            Table(
+                ("order", "route", "ms per evaluation", "right-hand sides", "peak (N)", "error", "scipy / FMU"),
+                tuple(rows),
+            ),
+        ),
     )
     write_page(run, page)
     return 0

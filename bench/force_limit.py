@@ -13,6 +13,7 @@ below the limit must give the same peak bit for bit. Per search: each method's r
 ``orchestrator.loop.run_search`` on the orchestrator's objective with and without limits (the same seeds, a
 fresh Evaluator per run), their CPU time, the evaluations censored and whether the best design is the same.
 """
+
 from __future__ import annotations
 
 import statistics
@@ -25,9 +26,17 @@ from orchestrator.objective import SEARCH, SEARCH_HORIZON, LatticeObjective, clo
 from orchestrator.search import make_search
 from orchestrator.simulation import LatticeFMU
 
-from .common import (BEST_KNOWN, FULL_HORIZON, SEQUENTIAL, add_fmu_option, lattice_fmu, random_orders,
-                     search_parameters,
-                     search_setting_text, span)
+from .common import (
+    BEST_KNOWN,
+    FULL_HORIZON,
+    SEQUENTIAL,
+    add_fmu_option,
+    lattice_fmu,
+    random_orders,
+    search_parameters,
+    search_setting_text,
+    span,
+)
 from .measurements import Page, Run, Table, write_page
 
 OUTPUTS = ("peak_backplate_force", "rhs_evaluations")
@@ -36,16 +45,19 @@ METHODS = ("cmaes", "pso", "sa")
 
 def one_pass(fmu: LatticeFMU, orders, parameters, limit) -> tuple[float, list[dict]]:
     start = time.process_time()
-    results = [fmu.simulate(order, horizon=SEARCH_HORIZON, parameters=parameters, outputs=OUTPUTS,
-                            peak_force_limit=limit) for order in orders]
+    results = [
+        fmu.simulate(order, horizon=SEARCH_HORIZON, parameters=parameters, outputs=OUTPUTS, peak_force_limit=limit)
+        for order in orders
+    ]
     return time.process_time() - start, results
 
 
 def per_run(path, orders, passes: int):
     parameters = search_parameters(path)
     with LatticeFMU(path) as fmu:
-        limit = fmu.simulate(BEST_KNOWN, horizon=SEARCH_HORIZON, parameters=parameters,
-                             outputs=OUTPUTS)["peak_backplate_force"]
+        limit = fmu.simulate(BEST_KNOWN, horizon=SEARCH_HORIZON, parameters=parameters, outputs=OUTPUTS)[
+            "peak_backplate_force"
+        ]
         one_pass(fmu, orders[:3], parameters, None)  # warm caches before timing
         free_times, limited_times = [], []
         for _ in range(passes):
@@ -59,17 +71,25 @@ def per_run(path, orders, passes: int):
         raise SystemExit("a run below the limit did not give the same peak bit for bit as without the limit")
     if any(f["peak_backplate_force"] <= limit for f, r in zip(free, limited) if r.stopped_early):
         raise SystemExit("a run was stopped although its peak stays below the limit")
-    return {"parameters": parameters, "limit": limit, "free_ms": min(free_times) * 1e3 / len(orders),
-            "limited_ms": min(limited_times) * 1e3 / len(orders),
-            "free_rhs": sum(r["rhs_evaluations"] for r in free) / len(orders),
-            "limited_rhs": sum(r["rhs_evaluations"] for r in limited) / len(orders), "censored": len(censored),
-            "below": len(below), "stopped": [r.stop_time for r in censored]}
+    return {
+        "parameters": parameters,
+        "limit": limit,
+        "free_ms": min(free_times) * 1e3 / len(orders),
+        "limited_ms": min(limited_times) * 1e3 / len(orders),
+        "free_rhs": sum(r["rhs_evaluations"] for r in free) / len(orders),
+        "limited_rhs": sum(r["rhs_evaluations"] for r in limited) / len(orders),
+        "censored": len(censored),
+        "below": len(below),
+        "stopped": [r.stop_time for r in censored],
+    }
 
 
 def per_search(path, methods, seeds: int, budget: int):
     space = DesignSpace.permutations(11)
-    variants = {"with": LatticeObjective(path, space, FULL_HORIZON),
-                "without": LatticeObjective(path, space, FULL_HORIZON, use_limits=False)}
+    variants = {
+        "with": LatticeObjective(path, space, FULL_HORIZON),
+        "without": LatticeObjective(path, space, FULL_HORIZON, use_limits=False),
+    }
     rows, ratios, same = [], [], True
     variants["with"].tasks(SEARCH)[0](SEQUENTIAL)  # this process opens the FMU before anything is timed
     with make_executor("serial") as executor:
@@ -81,8 +101,14 @@ def per_search(path, methods, seeds: int, budget: int):
                 bests = {}
                 for name, objective in variants.items():
                     start = time.process_time()
-                    result = run_search(make_search(method, 11, seed, budget=budget), objective, budget,
-                                        Evaluator(executor), method_name=method, seed=seed)
+                    result = run_search(
+                        make_search(method, 11, seed, budget=budget),
+                        objective,
+                        budget,
+                        Evaluator(executor),
+                        method_name=method,
+                        seed=seed,
+                    )
                     cpu[name].append(time.process_time() - start)
                     bests[name] = result.best_order
                     if name == "with":
@@ -92,9 +118,19 @@ def per_search(path, methods, seeds: int, budget: int):
             same &= agree == seeds
             ratio = statistics.median(a / b for a, b in zip(cpu["with"], cpu["without"]))
             ratios.append(ratio)
-            rows.append((method, seeds, budget, f"{statistics.median(cpu['with']):.2f}",
-                         f"{statistics.median(cpu['without']):.2f}", f"{ratio:.2f}",
-                         f"{censored} of {seeds * budget}", reevaluated, f"{agree} of {seeds}"))
+            rows.append(
+                (
+                    method,
+                    seeds,
+                    budget,
+                    f"{statistics.median(cpu['with']):.2f}",
+                    f"{statistics.median(cpu['without']):.2f}",
+                    f"{ratio:.2f}",
+                    f"{censored} of {seeds * budget}",
+                    reevaluated,
+                    f"{agree} of {seeds}",
+                )
+            )
     close_instances()
     return rows, ratios, same
 
@@ -118,32 +154,59 @@ def main(argv=None) -> int:
     stopped = runs["stopped"]
     run_rows = (
         ("without the limit", f"{runs['free_ms']:.3f}", f"{runs['free_rhs']:.0f}", ""),
-        (f"limit {runs['limit']:.3f} N", f"{runs['limited_ms']:.3f}", f"{runs['limited_rhs']:.0f}",
-         f"{runs['censored']} of {args.orders}" + (f", stopped at {min(stopped):.2f}-{max(stopped):.2f} s"
-                                                   if stopped else "")),
+        (
+            f"limit {runs['limit']:.3f} N",
+            f"{runs['limited_ms']:.3f}",
+            f"{runs['limited_rhs']:.0f}",
+            f"{runs['censored']} of {args.orders}"
+            + (f", stopped at {min(stopped):.2f}-{max(stopped):.2f} s" if stopped else ""),
+        ),
     )
     saving = runs["free_ms"] / runs["limited_ms"]
     page = Page(
-        name=run.name, title="What the force limit saves",
-        headline=(f"with the limit at the best known peak a random design's run costs 1/{saving:.1f} of its CPU "
-                  f"time; a search with limits {span(ratios)} of its CPU time without them"
-                  + (", the same best design in every run" if same else ", NOT always the same best design")),
+        name=run.name,
+        title="What the force limit saves",
+        headline=(
+            f"with the limit at the best known peak a random design's run costs 1/{saving:.1f} of its CPU "
+            f"time; a search with limits {span(ratios)} of its CPU time without them"
+            + (", the same best design in every run" if same else ", NOT always the same best design")
+        ),
         summary=(
             f"Per run: {args.orders} random orders (seed {args.seed}) over the search evaluation "
             f"({search_setting_text(runs['parameters'])}), the limit at the peak of the best known order "
             f"{list(BEST_KNOWN)} at that fidelity; CPU ms per order of the fastest of {args.passes} interleaved "
             f"passes, right-hand sides per order. "
-            + (f"The {runs['below']} orders that stay below the limit gave the same peak bit for bit as without it "
-               "(checked). " if runs["below"] else "No order stays below the limit. ")
+            + (
+                f"The {runs['below']} orders that stay below the limit gave the same peak bit for bit as without it "
+                "(checked). "
+                if runs["below"]
+                else "No order stays below the limit. "
+            )
             + "Per search: CPU seconds of a whole search run through "
             "`run_search` on a serial executor (median over seeds), with the orchestrator's objective with limits "
             "(the descent asks each neighbour with the current value, the annealing each move with its "
-            "Metropolis threshold) and without."),
-        tables=(Table(("run", "CPU ms per order", "right-hand sides per order", "censored"), run_rows,
-                      caption="**Per run:**"),
-                Table(("search", "seeds", "budget", "CPU s with limits", "CPU s without", "ratio (median)",
-                       "evaluations censored", "designs evaluated again", "same best design"), tuple(search_rows),
-                      caption="**Per search:**")),
+            "Metropolis threshold) and without."
+        ),
+        tables=(
+            Table(
+                ("run", "CPU ms per order", "right-hand sides per order", "censored"), run_rows, caption="**Per run:**"
+            ),
+            Table(
+                (
+                    "search",
+                    "seeds",
+                    "budget",
+                    "CPU s with limits",
+                    "CPU s without",
+                    "ratio (median)",
+                    "evaluations censored",
+                    "designs evaluated again",
+                    "same best design",
+                ),
+                tuple(search_rows),
+                caption="**Per search:**",
+            ),
+        ),
     )
     write_page(run, page)
     return 0

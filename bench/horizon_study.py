@@ -14,6 +14,7 @@ Every run is a recorded FMU run (``orchestrator.objective.RecordRun``) through t
 a process pool. A sample of orders is also run exactly as the searches run it, to confirm that a run read at
 the horizon equals a run that stops there.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -25,8 +26,16 @@ from orchestrator.loop import Evaluator
 from orchestrator.objective import SEARCH_HORIZON, SEARCH_RTOL, SEARCH_SOLVER, RecordRun, close_instances
 from orchestrator.simulation import LatticeFMU
 
-from .common import (SEQUENTIAL, STUDY_BEST, add_fmu_option, lattice_fmu, order_text, random_orders, relative,
-                     search_parameters)
+from .common import (
+    SEQUENTIAL,
+    STUDY_BEST,
+    add_fmu_option,
+    lattice_fmu,
+    order_text,
+    random_orders,
+    relative,
+    search_parameters,
+)
 from .measurements import Page, Run, Table, write_page
 
 HORIZONS = (0.5, 0.75, 1.0, 2.0, 8.0)
@@ -49,8 +58,9 @@ def swaps(order) -> list[tuple[int, ...]]:
 
 def kendall_tau(a: list[float], b: list[float]) -> float:
     pairs = list(itertools.combinations(range(len(a)), 2))
-    concordance = sum(math.copysign(1, (a[i] - a[j]) * (b[i] - b[j])) for i, j in pairs
-                      if (a[i] - a[j]) * (b[i] - b[j]) != 0)
+    concordance = sum(
+        math.copysign(1, (a[i] - a[j]) * (b[i] - b[j])) for i, j in pairs if (a[i] - a[j]) * (b[i] - b[j]) != 0
+    )
     return concordance / len(pairs)
 
 
@@ -91,27 +101,33 @@ def main(argv=None) -> int:
 
         tasks = [recorded(o, 8.0, TRUTH) for o in orders]
         tasks += [recorded(o, 2.0, {**search, "rtol": r, "atol": r * 1e-2}) for r in rtols for o in orders]
-        direct_orders = orders[::max(1, len(orders) // 12)]
+        direct_orders = orders[:: max(1, len(orders) // 12)]
         with make_executor("process", args.workers) as executor:
             results = Evaluator(executor).run(tasks)
         with LatticeFMU(path) as fmu:
-            direct = {o: fmu.simulate(o, horizon=SEARCH_HORIZON, parameters=search, outputs=RECORD)
-                      for o in direct_orders}
+            direct = {
+                o: fmu.simulate(o, horizon=SEARCH_HORIZON, parameters=search, outputs=RECORD) for o in direct_orders
+            }
         close_instances()
     failed = [t for t in results if not t.ok]
     if failed:
         raise SystemExit(f"{len(failed)} runs failed, first {list(failed[0].order)}: {failed[0].message}")
-    truth = {o: t for o, t in zip(orders, results[:len(orders)])}
-    by_rtol = {r: dict(zip(orders, results[len(orders) * (k + 1):len(orders) * (k + 2)])) for k, r in enumerate(rtols)}
+    truth = {o: t for o, t in zip(orders, results[: len(orders)])}
+    by_rtol = {
+        r: dict(zip(orders, results[len(orders) * (k + 1) : len(orders) * (k + 2)])) for k, r in enumerate(rtols)
+    }
     final = {o: at(truth[o], 8.0) for o in orders}
 
     horizon_rows = []
     for h in HORIZONS[:-1]:
         values = {o: at(truth[o], h) for o in orders}
-        diffs = [max(relative(values[o]["peak_backplate_force"], final[o]["peak_backplate_force"]),
-                     relative(values[o]["peak_backplate_force_continuous"],
-                              final[o]["peak_backplate_force_continuous"]))
-                 for o in orders]
+        diffs = [
+            max(
+                relative(values[o]["peak_backplate_force"], final[o]["peak_backplate_force"]),
+                relative(values[o]["peak_backplate_force_continuous"], final[o]["peak_backplate_force_continuous"]),
+            )
+            for o in orders
+        ]
         guard = sum(1 for o in orders if values[o]["last_contact_time"] >= 0.9 * h)
         horizon_rows.append((f"{h:g} s", sum(d > SAME for d in diffs), f"{max(diffs):.1e}", guard))
 
@@ -133,14 +149,30 @@ def main(argv=None) -> int:
             by_truth = sorted(members, key=true_peak.get)[:TOP]
             by_tolerance = sorted(members, key=lambda o: peaks[o]["peak_backplate_force"])[:TOP]
             kept.append("yes" if by_truth == by_tolerance else "no")
-            taus.append(kendall_tau([true_peak[o] for o in members],
-                                    [peaks[o]["peak_backplate_force"] for o in members]))
-        tolerance_rows.append((f"{rtol:g}" + (" (the searches')" if rtol == SEARCH_RTOL else ""), f"{max(errors):.1e}",
-                               f"{statistics.median(errors):.1e}", f"{max(errors) / smallest_gap:.2f}", *kept,
-                               *(f"{t:.4f}" for t in taus)))
-    direct_difference = max(max(relative(direct[o]["peak_backplate_force"], at(by_rtol[SEARCH_RTOL][o], SEARCH_HORIZON)
-                                         ["peak_backplate_force"]) for o in direct_orders) if SEARCH_RTOL in by_rtol
-                            else 0.0, 0.0)
+            taus.append(
+                kendall_tau([true_peak[o] for o in members], [peaks[o]["peak_backplate_force"] for o in members])
+            )
+        tolerance_rows.append(
+            (
+                f"{rtol:g}" + (" (the searches')" if rtol == SEARCH_RTOL else ""),
+                f"{max(errors):.1e}",
+                f"{statistics.median(errors):.1e}",
+                f"{max(errors) / smallest_gap:.2f}",
+                *kept,
+                *(f"{t:.4f}" for t in taus),
+            )
+        )
+    direct_difference = max(
+        max(
+            relative(
+                direct[o]["peak_backplate_force"], at(by_rtol[SEARCH_RTOL][o], SEARCH_HORIZON)["peak_backplate_force"]
+            )
+            for o in direct_orders
+        )
+        if SEARCH_RTOL in by_rtol
+        else 0.0,
+        0.0,
+    )
     contact = [final[o]["last_contact_time"] for o in orders]
     peak_times = [final[o]["peak_time"] for o in orders]
     latest = max(orders, key=lambda o: final[o]["last_contact_time"])
@@ -156,30 +188,54 @@ def main(argv=None) -> int:
         f"not by errors that happen to be alike): " + (f"rtol {max(safe):g}." if safe else "none of those tried."),
     ]
     if SEARCH_RTOL in by_rtol:
-        notes.append(f"A run stopped at {SEARCH_HORIZON:g} s with the searches' setting against the 2 s run read at "
-                     f"{SEARCH_HORIZON:g} s: largest relative difference {direct_difference:.1e} over "
-                     f"{len(direct_orders)} orders.")
-    headline = (f"at {SEARCH_HORIZON:g} s the peak equals the 8 s peak for {len(orders) - one_second[1]} of "
-                f"{len(orders)} orders; the last contact ends by {max(contact):.2f} s; the searches' "
-                f"{SEARCH_SOLVER} at rtol {SEARCH_RTOL:g} errs by at most "
-                + (f"{errors_at[SEARCH_RTOL]:.1e}" if SEARCH_RTOL in errors_at else "(not run)")
-                + f" against a smallest top-{TOP} gap of {smallest_gap:.1e}")
+        notes.append(
+            f"A run stopped at {SEARCH_HORIZON:g} s with the searches' setting against the 2 s run read at "
+            f"{SEARCH_HORIZON:g} s: largest relative difference {direct_difference:.1e} over "
+            f"{len(direct_orders)} orders."
+        )
+    headline = (
+        f"at {SEARCH_HORIZON:g} s the peak equals the 8 s peak for {len(orders) - one_second[1]} of "
+        f"{len(orders)} orders; the last contact ends by {max(contact):.2f} s; the searches' "
+        f"{SEARCH_SOLVER} at rtol {SEARCH_RTOL:g} errs by at most "
+        + (f"{errors_at[SEARCH_RTOL]:.1e}" if SEARCH_RTOL in errors_at else "(not run)")
+        + f" against a smallest top-{TOP} gap of {smallest_gap:.1e}"
+    )
     page = Page(
-        name=run.name, title="Horizon and tolerance of the search evaluation", headline=headline,
+        name=run.name,
+        title="Horizon and tolerance of the search evaluation",
+        headline=headline,
         summary=(
             f"{len(orders)} orders: {args.orders} random ones (seed {args.seed}), the sequential order, the study's "
             f"best and its 55 single swaps. The truth is each order's run to 8 s with DOP853 at rtol 1e-10, atol "
             f"1e-12, read at every horizon; the tolerances are runs to 2 s with the searches' solver "
             f"({SEARCH_SOLVER}, atol = rtol / 100) read at {SEARCH_HORIZON:g} s and compared with the truth at 8 s. "
-            f"All runs through the orchestrator's Evaluator on {args.workers} worker process(es)."),
+            f"All runs through the orchestrator's Evaluator on {args.workers} worker process(es)."
+        ),
         tables=(
-            Table(("horizon", "orders whose peak differs from the 8 s peak", "largest relative difference",
-                   "orders still touching the plate in its last tenth (re-run over the full horizon)"),
-                  tuple(horizon_rows), caption="**Shorter horizons against 8 s** (the truth's tolerance):"),
-            Table(("rtol", "worst error", "median error", "worst error / smallest top-10 gap",
-                   "top 10 kept, random set", "top 10 kept, neighbourhood", "Kendall tau, random set",
-                   "Kendall tau, neighbourhood"), tuple(tolerance_rows),
-                  caption=f"**Tolerances** ({SEARCH_HORIZON:g} s peak against the truth at 8 s):"),
+            Table(
+                (
+                    "horizon",
+                    "orders whose peak differs from the 8 s peak",
+                    "largest relative difference",
+                    "orders still touching the plate in its last tenth (re-run over the full horizon)",
+                ),
+                tuple(horizon_rows),
+                caption="**Shorter horizons against 8 s** (the truth's tolerance):",
+            ),
+            Table(
+                (
+                    "rtol",
+                    "worst error",
+                    "median error",
+                    "worst error / smallest top-10 gap",
+                    "top 10 kept, random set",
+                    "top 10 kept, neighbourhood",
+                    "Kendall tau, random set",
+                    "Kendall tau, neighbourhood",
+                ),
+                tuple(tolerance_rows),
+                caption=f"**Tolerances** ({SEARCH_HORIZON:g} s peak against the truth at 8 s):",
+            ),
         ),
         notes=tuple(notes),
     )

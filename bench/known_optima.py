@@ -14,6 +14,7 @@ searches run on the FMU itself (the orchestrator's objective at its search fidel
 against the optimum recorded in ``orchestrator/known_optima.json``. The expected running time (ERT) is COCO's:
 evaluations summed over all runs, a successful run counted up to its success, divided by the number of successes.
 """
+
 from __future__ import annotations
 
 import math
@@ -74,16 +75,30 @@ def search_table(methods, budgets, seeds: int, columns: int, objective, optimum,
         for budget in budgets:
             runs = []
             for seed in range(seeds):
-                result = run_search(make_search(method, columns, seed, budget=budget), objective, budget,
-                                    Evaluator(executor), method_name=method, seed=seed)
+                result = run_search(
+                    make_search(method, columns, seed, budget=budget),
+                    objective,
+                    budget,
+                    Evaluator(executor),
+                    method_name=method,
+                    seed=seed,
+                )
                 hit = next((k for k, e in enumerate(result.evaluations, start=1) if e.order == optimum), None)
-                runs.append({"success": hit is not None, "found_at": hit, "evaluations": result.n_evaluations,
-                             "best": result.best_value})
+                runs.append(
+                    {
+                        "success": hit is not None,
+                        "found_at": hit,
+                        "evaluations": result.n_evaluations,
+                        "best": result.best_value,
+                    }
+                )
             successes = sum(r["success"] for r in runs)
             successes_by_method.setdefault(method, []).append(successes)
             value = ert(runs)
-            cells.append(f"{successes}/{len(runs)}, ERT {'inf' if math.isinf(value) else f'{value:.0f}'}, median "
-                         f"{statistics.median(r['best'] for r in runs):.2f}")
+            cells.append(
+                f"{successes}/{len(runs)}, ERT {'inf' if math.isinf(value) else f'{value:.0f}'}, median "
+                f"{statistics.median(r['best'] for r in runs):.2f}"
+            )
         rows.append((method, *cells))
     return rows, successes_by_method
 
@@ -91,9 +106,13 @@ def search_table(methods, budgets, seeds: int, columns: int, objective, optimum,
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
     parser = run.parser(__doc__, quick="11 x 7, 5 seeds, budgets 100 and 300")
-    parser.add_argument("--columns", type=int, default=8,
-                        help=f"the lattice 11 x C: swept when C <= {MAX_SWEPT}; beyond, the searches run on the FMU "
-                             "against the optimum orchestrator/known_optima.json records for C")
+    parser.add_argument(
+        "--columns",
+        type=int,
+        default=8,
+        help=f"the lattice 11 x C: swept when C <= {MAX_SWEPT}; beyond, the searches run on the FMU "
+        "against the optimum orchestrator/known_optima.json records for C",
+    )
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     parser.add_argument("--budgets", nargs="+", type=int, default=list(BUDGETS))
     parser.add_argument("--seeds", type=int, default=20)
@@ -108,37 +127,49 @@ def main(argv=None) -> int:
         known = sorted((v, r) for r, v in enumerate(values) if v is not None)
         optimum = space.unrank(known[0][1])
         with make_executor("serial") as executor:
-            rows, successes = search_table(args.methods, args.budgets, args.seeds, args.columns,
-                                           Lookup(space, values), optimum, executor)
-        what = (f"swept at the search fidelity: optimum {order_text(optimum)} at {known[0][0]:.6f} N, the second "
-                f"best at {known[1][0]:.6f} N ({known[1][0] / known[0][0] - 1:.1e} above)")
+            rows, successes = search_table(
+                args.methods, args.budgets, args.seeds, args.columns, Lookup(space, values), optimum, executor
+            )
+        what = (
+            f"swept at the search fidelity: optimum {order_text(optimum)} at {known[0][0]:.6f} N, the second "
+            f"best at {known[1][0]:.6f} N ({known[1][0] / known[0][0] - 1:.1e} above)"
+        )
     else:
         recorded = RECORDED.get(args.columns)
         if recorded is None:
-            parser.error(f"--columns {args.columns}: beyond {MAX_SWEPT} a recorded optimum is needed; "
-                         f"orchestrator/known_optima.json has one for {sorted(RECORDED)}")
+            parser.error(
+                f"--columns {args.columns}: beyond {MAX_SWEPT} a recorded optimum is needed; "
+                f"orchestrator/known_optima.json has one for {sorted(RECORDED)}"
+            )
         optimum = recorded.order
-        with lattice_fmu(None, cols=args.columns) as fmu, \
-                make_executor("process", args.workers) as executor:
+        with lattice_fmu(None, cols=args.columns) as fmu, make_executor("process", args.workers) as executor:
             objective = LatticeObjective(fmu, space, FULL_HORIZON)
-            rows, successes = search_table(args.methods, args.budgets, args.seeds, args.columns, objective,
-                                           optimum, executor)
+            rows, successes = search_table(
+                args.methods, args.budgets, args.seeds, args.columns, objective, optimum, executor
+            )
             close_instances()
-        what = (f"not swept here: the optimum recorded in orchestrator/known_optima.json "
-                f"({'certified' if recorded.certified else 'not certified'}), {order_text(optimum)} at "
-                f"{recorded.peak:.6f} N over the full horizon; every run simulates on the FMU through a process pool "
-                f"of {args.workers}")
+        what = (
+            f"not swept here: the optimum recorded in orchestrator/known_optima.json "
+            f"({'certified' if recorded.certified else 'not certified'}), {order_text(optimum)} at "
+            f"{recorded.peak:.6f} N over the full horizon; every run simulates on the FMU through a process pool "
+            f"of {args.workers}"
+        )
     largest = args.budgets[-1]
     everyone = [m for m in optimiser_methods if successes[m][-1] == args.seeds]
     headline = f"11 x {args.columns}: at {largest} designs " + (
-        f"every optimiser found the optimum in all {args.seeds} seeds" if everyone == optimiser_methods else
-        f"{', '.join(everyone) or 'no optimiser'} found the optimum in all {args.seeds} seeds")
+        f"every optimiser found the optimum in all {args.seeds} seeds"
+        if everyone == optimiser_methods
+        else f"{', '.join(everyone) or 'no optimiser'} found the optimum in all {args.seeds} seeds"
+    )
     page = Page(
-        name=run.name, title="Search methods against a known optimum", headline=headline,
+        name=run.name,
+        title="Search methods against a known optimum",
+        headline=headline,
         summary=(
             f"The armour scene with {args.columns} columns (receiver rule; {space.size:,} designs), {what}. Each "
             f"cell: runs that evaluated the optimum of {args.seeds} seeds (0-{args.seeds - 1}), COCO's expected "
-            "running time in evaluations, and the median best value (N, search fidelity)."),
+            "running time in evaluations, and the median best value (N, search fidelity)."
+        ),
         tables=(Table(("method", *(f"budget {b}" for b in args.budgets)), tuple(rows)),),
     )
     write_page(run, page)

@@ -10,6 +10,7 @@ README.md quotes the pages' headlines in a block between two markers. A benchmar
 asked (``--write-readme``): running one to look at a figure must not change a file the user did not name.
 ``python -m bench.measurements --write-readme`` rebuilds the block from the pages as they are.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -90,8 +91,13 @@ class Run:
                 setattr(namespace, self.dest, True)
                 run.write_readme = True
 
-        parser.add_argument("--write-readme", nargs=0, action=WriteReadme, default=False,
-                            help="also rebuild README.md's table of headlines (default: only the measurement pages)")
+        parser.add_argument(
+            "--write-readme",
+            nargs=0,
+            action=WriteReadme,
+            default=False,
+            help="also rebuild README.md's table of headlines (default: only the measurement pages)",
+        )
         return parser
 
     @property
@@ -104,13 +110,22 @@ class Run:
         seconds = time.perf_counter() - self.started
         load = os.getloadavg()
         return RunInfo(
-            command=self.command, commit=git_output("rev-parse", "HEAD", folder=ROOT) or "unknown", dirty=_dirty(),
-            date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), cpu=cpu_model(),
-            cores=os.cpu_count() or 1, memory=memory(), system=f"{platform.system()} {platform.release()}",
-            load=(f"load average {self.load_at_start[0]:.1f} at the start, {load[0]:.1f} at the end (1 min; "
-                  f"{os.cpu_count()} cores; the machine is shared, so times are minima of repeated runs where "
-                  "the page says so)"),
-            python=platform.python_version(), run_time=duration(seconds))
+            command=self.command,
+            commit=git_output("rev-parse", "HEAD", folder=ROOT) or "unknown",
+            dirty=_dirty(),
+            date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            cpu=cpu_model(),
+            cores=os.cpu_count() or 1,
+            memory=memory(),
+            system=f"{platform.system()} {platform.release()}",
+            load=(
+                f"load average {self.load_at_start[0]:.1f} at the start, {load[0]:.1f} at the end (1 min; "
+                f"{os.cpu_count()} cores; the machine is shared, so times are minima of repeated runs where "
+                "the page says so)"
+            ),
+            python=platform.python_version(),
+            run_time=duration(seconds),
+        )
 
 
 def write_page(run: Run, page: Page) -> Path:
@@ -125,8 +140,10 @@ def write_page(run: Run, page: Page) -> Path:
     if run.write_readme:
         write_readme()
     else:
-        print("README.md's table of headlines is unchanged; to rebuild it from the pages: "
-              "python -m bench.measurements --write-readme")
+        print(
+            "README.md's table of headlines is unchanged; to rebuild it from the pages: "
+            "python -m bench.measurements --write-readme"
+        )
     return path
 
 
@@ -142,9 +159,16 @@ def index_entries() -> list[dict]:
         if path.name == "index.md":
             continue
         meta = front_matter(path.read_text())
-        entries.append({"file": path.name, "title": meta.get("title", path.stem), "headline": meta.get("headline", ""),
-                        "command": meta.get("command", ""), "commit": meta.get("commit", ""),
-                        "date": meta.get("date", "")})
+        entries.append(
+            {
+                "file": path.name,
+                "title": meta.get("title", path.stem),
+                "headline": meta.get("headline", ""),
+                "command": meta.get("command", ""),
+                "commit": meta.get("commit", ""),
+                "date": meta.get("date", ""),
+            }
+        )
     return entries
 
 
@@ -168,7 +192,7 @@ def readme_with_headlines(readme: str, entries: list[dict]) -> str:
     if start < 0 or end < start:
         raise ValueError(f"README.md has no block between {README_START!r} and {README_END!r}")
     block = _environment().get_template("readme_headlines.md.j2").render(entries=entries)
-    return readme[:start + len(README_START)] + "\n" + block + readme[end:]
+    return readme[: start + len(README_START)] + "\n" + block + readme[end:]
 
 
 def front_matter(text: str) -> dict:
@@ -225,9 +249,11 @@ def duration(seconds: float) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m bench.measurements",
-                                     description="Rebuild the measurement pages' index, and with --write-readme "
-                                                 "README.md's table of headlines, from the pages as they are.")
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.measurements",
+        description="Rebuild the measurement pages' index, and with --write-readme "
+        "README.md's table of headlines, from the pages as they are.",
+    )
     parser.add_argument("--write-readme", action="store_true", help="also rebuild README.md's table of headlines")
     args = parser.parse_args(argv)
     print(f"wrote {write_index().relative_to(ROOT)}")
@@ -236,8 +262,20 @@ def main(argv=None) -> int:
     return 0
 
 
-__all__ = ["Page", "Run", "RunInfo", "Table", "cell", "front_matter", "index_entries", "main",
-           "readme_with_headlines", "write_index", "write_page", "write_readme"]
+__all__ = [
+    "Page",
+    "Run",
+    "RunInfo",
+    "Table",
+    "cell",
+    "front_matter",
+    "index_entries",
+    "main",
+    "readme_with_headlines",
+    "write_index",
+    "write_page",
+    "write_readme",
+]
 
 
 if __name__ == "__main__":

@@ -26,6 +26,7 @@ uz, vx, vy, vz]``, mass (i, j, k) at (k*R + i)*C + j. They are not a generalisat
 depth 1 carries uz and its velocity, so the 2-D kernels would do more work, and their figures would mean another
 code.
 """
+
 from __future__ import annotations
 
 import math
@@ -76,16 +77,33 @@ def pack(scene) -> Packed:
     elif scene.diagonal_rule != "receiver":
         raise ValueError(f"pack: diagonal_rule must be 'receiver' or 'mean', got {scene.diagonal_rule!r}")
     diagonals = np.ascontiguousarray(np.vstack([left, right]), dtype=float).reshape(4, scene.cols - 1)
-    scalars = np.array([scene.k0, scene.alpha0, scene.c0, scene.k_wall, scene.c_wall, scene.backplate_gap,
-                        1.0 / scene.mass, 1.0 if scene.wall else 0.0])
+    scalars = np.array(
+        [
+            scene.k0,
+            scene.alpha0,
+            scene.c0,
+            scene.k_wall,
+            scene.c_wall,
+            scene.backplate_gap,
+            1.0 / scene.mass,
+            1.0 if scene.wall else 0.0,
+        ]
+    )
     weights = np.ones(scene.rows)
     if scene.rows > 1:
         weights[0] = weights[-1] = 0.5
     weights /= weights.sum()
     angle = math.radians(scene.load_angle)
     load = np.array([scene.F_total * math.cos(angle) * weights, scene.F_total * math.sin(angle) * weights])
-    return Packed(scene.rows, scene.cols, np.ascontiguousarray(columns), diagonals, scalars,
-                  np.ascontiguousarray(load), float(scene.t_active))
+    return Packed(
+        scene.rows,
+        scene.cols,
+        np.ascontiguousarray(columns),
+        diagonals,
+        scalars,
+        np.ascontiguousarray(load),
+        float(scene.t_active),
+    )
 
 
 def backplate_force(packed: Packed, states: np.ndarray) -> np.ndarray:
@@ -143,9 +161,9 @@ def numba_kernels():
         R = load.shape[1]
         C = columns.shape[1]
         N = R * C
-        ux, uy, vx, vy = y[:N], y[N:2 * N], y[2 * N:3 * N], y[3 * N:]
-        out[:2 * N] = y[2 * N:]
-        fx, fy = out[2 * N:3 * N], out[3 * N:]
+        ux, uy, vx, vy = y[:N], y[N : 2 * N], y[2 * N : 3 * N], y[3 * N :]
+        out[: 2 * N] = y[2 * N :]
+        fx, fy = out[2 * N : 3 * N], out[3 * N :]
         fx[:] = 0.0
         fy[:] = 0.0
         k0, a0, c0 = scalars[0], scalars[1], scalars[2]
@@ -164,11 +182,9 @@ def numba_kernels():
             for j in range(C - 1):  # the two diagonals of the cell between columns j and j+1
                 a = i * C + j
                 # (i, j)-(i+1, j+1): this end in column j, the other in column j+1
-                spring(ux, uy, fx, fy, a, a + C + 1,
-                       diagonals[0, j], diagonals[1, j], diagonals[2, j], diagonals[3, j])
+                spring(ux, uy, fx, fy, a, a + C + 1, diagonals[0, j], diagonals[1, j], diagonals[2, j], diagonals[3, j])
                 # (i, j+1)-(i+1, j): this end in column j+1, the other in column j
-                spring(ux, uy, fx, fy, a + 1, a + C,
-                       diagonals[2, j], diagonals[3, j], diagonals[0, j], diagonals[1, j])
+                spring(ux, uy, fx, fy, a + 1, a + C, diagonals[2, j], diagonals[3, j], diagonals[0, j], diagonals[1, j])
         if scalars[7] != 0.0:  # backplate behind column C
             k_w, c_w, gap = scalars[3], scalars[4], scalars[5]
             for i in range(R):
@@ -224,7 +240,7 @@ def jax_rhs(rows: int, cols: int, equal_diagonal_alphas: bool = True):
         return jnp.zeros((R, C), fa.dtype).at[a_slice].add(fa).at[b_slice].add(fb)
 
     def rhs(y, load_on, columns, diagonals, scalars, load):
-        ux, uy, vx, vy = (y[k * N:(k + 1) * N].reshape(R, C) for k in range(4))
+        ux, uy, vx, vy = (y[k * N : (k + 1) * N].reshape(R, C) for k in range(4))
         k0, a0, c0 = scalars[0], scalars[1], scalars[2]
         fx = jnp.zeros((R, C), y.dtype)
         fy = jnp.zeros((R, C), y.dtype)
@@ -245,12 +261,21 @@ def jax_rhs(rows: int, cols: int, equal_diagonal_alphas: bool = True):
         if R > 1 and C > 1:
             k_left, a_left, k_right, a_right = diagonals[0], diagonals[1], diagonals[2], diagonals[3]
             for a, b, (ka, aa), (kb, ab) in (
-                    # (i, j)-(i+1, j+1): a in column j (left), b in column j+1 (right)
-                    ((slice(None, -1), slice(None, -1)), (slice(1, None), slice(1, None)),
-                     (k_left, a_left), (k_right, a_right)),
-                    # (i, j+1)-(i+1, j): a in column j+1 (right), b in column j (left)
-                    ((slice(None, -1), slice(1, None)), (slice(1, None), slice(None, -1)),
-                     (k_right, a_right), (k_left, a_left))):
+                # (i, j)-(i+1, j+1): a in column j (left), b in column j+1 (right)
+                (
+                    (slice(None, -1), slice(None, -1)),
+                    (slice(1, None), slice(1, None)),
+                    (k_left, a_left),
+                    (k_right, a_right),
+                ),
+                # (i, j+1)-(i+1, j): a in column j+1 (right), b in column j (left)
+                (
+                    (slice(None, -1), slice(1, None)),
+                    (slice(1, None), slice(None, -1)),
+                    (k_right, a_right),
+                    (k_left, a_left),
+                ),
+            ):
                 rx, ry = ux[b] - ux[a], uy[b] - uy[a]
                 d = jnp.sqrt(rx * rx + ry * ry)
                 ok = d >= R_EPS
@@ -266,7 +291,7 @@ def jax_rhs(rows: int, cols: int, equal_diagonal_alphas: bool = True):
         fx = fx.at[:, -1].add(-wall)
         fx = fx.at[:, 0].add(load_on * load[0])
         fy = fy.at[:, 0].add(load_on * load[1])
-        return jnp.concatenate([y[2 * N:], fx.ravel() * scalars[6], fy.ravel() * scalars[6]])
+        return jnp.concatenate([y[2 * N :], fx.ravel() * scalars[6], fy.ravel() * scalars[6]])
 
     return rhs
 
@@ -286,9 +311,19 @@ def check_scenes():
         ("study's best", Scene(order=STUDY_BEST_ORDER)),
         ("mean rule", Scene(order=(3, 1, 11, 2, 10, 4, 9, 5, 8, 6, 7), diagonal_rule="mean")),
         ("7 x 5, angled load, mass 2", Scene(rows=7, cols=5, order=(2, 5, 1, 4, 3), load_angle=30.0, mass=2.0)),
-        ("4 x 6, own table", Scene(rows=4, cols=6, order=(6, 1, 5, 2, 4, 3), k=np.linspace(50, 150, 6),
-                                   k_diag=np.linspace(10, 60, 6), c=np.linspace(1, 6, 6),
-                                   alpha=np.linspace(5, 12, 6), alpha_diag=np.linspace(4, 14, 6))),
+        (
+            "4 x 6, own table",
+            Scene(
+                rows=4,
+                cols=6,
+                order=(6, 1, 5, 2, 4, 3),
+                k=np.linspace(50, 150, 6),
+                k_diag=np.linspace(10, 60, 6),
+                c=np.linspace(1, 6, 6),
+                alpha=np.linspace(5, 12, 6),
+                alpha_diag=np.linspace(4, 14, 6),
+            ),
+        ),
         ("no wall", Scene(rows=5, cols=5, wall=False)),
     ]
 
@@ -329,14 +364,18 @@ def check_against_reference() -> dict[str, float]:
                 want = reference_rhs(scene, 0.0, y, load_on=load_on)
                 scale = np.max(np.abs(want))
                 flag = 1.0 if load_on else 0.0
-                for name, got in (("numba", rhs_odeint(y, 0.0, flag, *packed.kernel_args())),
-                                  ("numba", rhs_solve_ivp(0.0, y, flag, *packed.kernel_args())),
-                                  ("jax", np.asarray(compiled[key](y, flag, *packed.kernel_args())))):
+                for name, got in (
+                    ("numba", rhs_odeint(y, 0.0, flag, *packed.kernel_args())),
+                    ("numba", rhs_solve_ivp(0.0, y, flag, *packed.kernel_args())),
+                    ("jax", np.asarray(compiled[key](y, flag, *packed.kernel_args()))),
+                ):
                     difference = np.max(np.abs(got - want)) / scale if np.all(np.isfinite(got)) else np.inf
                     worst[name] = max(worst[name], float(difference))
                     if not difference <= KERNEL_TOLERANCE:
-                        raise ValueError(f"the {name} right-hand side differs from reference/ by {difference:.1e} "
-                                         f"(relative) on the scene {label!r}")
+                        raise ValueError(
+                            f"the {name} right-hand side differs from reference/ by {difference:.1e} "
+                            f"(relative) on the scene {label!r}"
+                        )
         if scene.wall:
             stacked = np.array(states)
             want = reference_backplate_force(scene, stacked.T)
@@ -389,8 +428,9 @@ def face_weights(rows: int, depth: int, patch: int) -> np.ndarray:
     if patch:
         weights = np.zeros((depth, rows))
         k0, i0 = (depth - patch) // 2, (rows - patch) // 2
-        weights[k0:k0 + patch, i0:i0 + patch] = 1.0
+        weights[k0 : k0 + patch, i0 : i0 + patch] = 1.0
     else:
+
         def edge(n):
             w = np.ones(n)
             if n > 1:
@@ -407,8 +447,9 @@ def pack_plate(scene) -> PlatePacked:
     if scene.spring_law != "exponential":
         raise ValueError(f"pack_plate: spring_law must be 'exponential', got {scene.spring_law!r}")
     material = np.asarray(scene.order) - 1
-    k, k_diag, c, alpha, alpha_diag = (np.asarray(getattr(scene, f), dtype=float)[material]
-                                       for f in ("k", "k_diag", "c", "alpha", "alpha_diag"))
+    k, k_diag, c, alpha, alpha_diag = (
+        np.asarray(getattr(scene, f), dtype=float)[material] for f in ("k", "k_diag", "c", "alpha", "alpha_diag")
+    )
     columns = np.ascontiguousarray([k, alpha, c])
     column_diagonals = np.ascontiguousarray([k_diag, alpha_diag])
     left, right = np.array([k_diag[:-1], alpha_diag[:-1]]), np.array([k_diag[1:], alpha_diag[1:]])
@@ -417,13 +458,24 @@ def pack_plate(scene) -> PlatePacked:
     elif scene.diagonal_rule != "receiver":
         raise ValueError(f"pack_plate: diagonal_rule must be 'receiver' or 'mean', got {scene.diagonal_rule!r}")
     diagonals = np.ascontiguousarray(np.vstack([left, right]), dtype=float).reshape(4, scene.cols - 1)
-    scalars = np.array([scene.k0, scene.alpha0, scene.c0, scene.k_wall, scene.c_wall, scene.backplate_gap,
-                        1.0 / scene.mass, 1.0 if scene.has_backplate else 0.0])
+    scalars = np.array(
+        [
+            scene.k0,
+            scene.alpha0,
+            scene.c0,
+            scene.k_wall,
+            scene.c_wall,
+            scene.backplate_gap,
+            1.0 / scene.mass,
+            1.0 if scene.has_backplate else 0.0,
+        ]
+    )
     weights = face_weights(scene.rows, scene.depth, scene.load_patch)
     angle = math.radians(scene.load_angle)
     load = np.ascontiguousarray([scene.F_total * math.cos(angle) * weights, scene.F_total * math.sin(angle) * weights])
-    return PlatePacked(scene.rows, scene.cols, scene.depth, columns, column_diagonals, diagonals, scalars, load,
-                       float(scene.t_active))
+    return PlatePacked(
+        scene.rows, scene.cols, scene.depth, columns, column_diagonals, diagonals, scalars, load, float(scene.t_active)
+    )
 
 
 _PLATE_NUMBA = {}
@@ -472,10 +524,10 @@ def plate_numba_kernels():
         C = columns.shape[1]
         N = R * C * D
         plane = R * C  # from layer k to layer k+1
-        ux, uy, uz = y[:N], y[N:2 * N], y[2 * N:3 * N]
-        vx, vy, vz = y[3 * N:4 * N], y[4 * N:5 * N], y[5 * N:]
-        out[:3 * N] = y[3 * N:]
-        fx, fy, fz = out[3 * N:4 * N], out[4 * N:5 * N], out[5 * N:]
+        ux, uy, uz = y[:N], y[N : 2 * N], y[2 * N : 3 * N]
+        vx, vy, vz = y[3 * N : 4 * N], y[4 * N : 5 * N], y[5 * N :]
+        out[: 3 * N] = y[3 * N :]
+        fx, fy, fz = out[3 * N : 4 * N], out[4 * N : 5 * N], out[5 * N :]
         fx[:] = 0.0
         fy[:] = 0.0
         fz[:] = 0.0
@@ -495,10 +547,34 @@ def plate_numba_kernels():
                         damper(vx, vy, vz, fx, fy, fz, a, a + C, columns[2, j])
                     for j in range(C - 1):  # xy diagonals of the cell between columns j and j+1
                         a = row + j
-                        spring(ux, uy, uz, fx, fy, fz, a, a + C + 1,
-                               diagonals[0, j], diagonals[1, j], diagonals[2, j], diagonals[3, j])
-                        spring(ux, uy, uz, fx, fy, fz, a + 1, a + C,
-                               diagonals[2, j], diagonals[3, j], diagonals[0, j], diagonals[1, j])
+                        spring(
+                            ux,
+                            uy,
+                            uz,
+                            fx,
+                            fy,
+                            fz,
+                            a,
+                            a + C + 1,
+                            diagonals[0, j],
+                            diagonals[1, j],
+                            diagonals[2, j],
+                            diagonals[3, j],
+                        )
+                        spring(
+                            ux,
+                            uy,
+                            uz,
+                            fx,
+                            fy,
+                            fz,
+                            a + 1,
+                            a + C,
+                            diagonals[2, j],
+                            diagonals[3, j],
+                            diagonals[0, j],
+                            diagonals[1, j],
+                        )
                 if k < D - 1:
                     for j in range(C):  # along z (i, j, k)-(i, j, k+1): column j's material
                         a = row + j
@@ -507,10 +583,34 @@ def plate_numba_kernels():
                         damper(vx, vy, vz, fx, fy, fz, a, a + plane, columns[2, j])
                     for j in range(C - 1):  # xz diagonals of the cell between columns j and j+1
                         a = row + j
-                        spring(ux, uy, uz, fx, fy, fz, a, a + plane + 1,
-                               diagonals[0, j], diagonals[1, j], diagonals[2, j], diagonals[3, j])
-                        spring(ux, uy, uz, fx, fy, fz, a + 1, a + plane,
-                               diagonals[2, j], diagonals[3, j], diagonals[0, j], diagonals[1, j])
+                        spring(
+                            ux,
+                            uy,
+                            uz,
+                            fx,
+                            fy,
+                            fz,
+                            a,
+                            a + plane + 1,
+                            diagonals[0, j],
+                            diagonals[1, j],
+                            diagonals[2, j],
+                            diagonals[3, j],
+                        )
+                        spring(
+                            ux,
+                            uy,
+                            uz,
+                            fx,
+                            fy,
+                            fz,
+                            a + 1,
+                            a + plane,
+                            diagonals[2, j],
+                            diagonals[3, j],
+                            diagonals[0, j],
+                            diagonals[1, j],
+                        )
                     if i < R - 1:
                         for j in range(C):  # yz diagonals, inside column j: its own k_diag, alpha_diag
                             a = row + j
@@ -563,8 +663,8 @@ def jax_plate_rhs(rows: int, cols: int, depth: int, equal_diagonal_alphas: bool 
     head, tail = slice(None, -1), slice(1, None)
 
     def rhs(y, load_on, columns, column_diagonals, diagonals, scalars, load):
-        u = [y[q * N:(q + 1) * N].reshape(D, R, C) for q in range(3)]
-        v = [y[(3 + q) * N:(4 + q) * N].reshape(D, R, C) for q in range(3)]
+        u = [y[q * N : (q + 1) * N].reshape(D, R, C) for q in range(3)]
+        v = [y[(3 + q) * N : (4 + q) * N].reshape(D, R, C) for q in range(3)]
         force = [jnp.zeros((D, R, C), y.dtype) for _ in range(3)]
 
         def add(a, b, ka, aa, kb, ab, c=None):
@@ -609,8 +709,9 @@ def jax_plate_rhs(rows: int, cols: int, depth: int, equal_diagonal_alphas: bool 
         wall = jnp.where(p > 0.0, scalars[3] * p + scalars[4] * jnp.maximum(v[0][:, :, -1], 0.0), 0.0) * scalars[7]
         fx = force[0].at[:, :, -1].add(-wall).at[:, :, 0].add(load_on * load[0])
         fy = force[1].at[:, :, 0].add(load_on * load[1])
-        return jnp.concatenate([y[3 * N:], fx.ravel() * scalars[6], fy.ravel() * scalars[6],
-                                force[2].ravel() * scalars[6]])
+        return jnp.concatenate(
+            [y[3 * N :], fx.ravel() * scalars[6], fy.ravel() * scalars[6], force[2].ravel() * scalars[6]]
+        )
 
     return rhs
 
@@ -621,19 +722,27 @@ def plate_check_scenes():
     ends see different alphas, a plate without a backplate."""
     from reference.lattice3d import PlateScene
 
-    own_table = dict(k=tuple(np.linspace(50, 150, 4)), k_diag=tuple(np.linspace(10, 60, 4)),
-                     c=tuple(np.linspace(1, 6, 4)), alpha=tuple(np.linspace(5, 12, 4)),
-                     alpha_diag=tuple(np.linspace(4, 14, 4)))
+    own_table = dict(
+        k=tuple(np.linspace(50, 150, 4)),
+        k_diag=tuple(np.linspace(10, 60, 4)),
+        c=tuple(np.linspace(1, 6, 4)),
+        alpha=tuple(np.linspace(5, 12, 4)),
+        alpha_diag=tuple(np.linspace(4, 14, 4)),
+    )
     return [
         ("5x5x5, patch 3, receiver", PlateScene(order=(3, 1, 5, 2, 4), load_patch=3)),
         ("5x5x5, whole face, receiver", PlateScene(order=(3, 1, 5, 2, 4))),
         ("5x5x5, patch 3, mean", PlateScene(order=(3, 1, 5, 2, 4), load_patch=3, diagonal_rule="mean")),
         ("5x5x5, whole face, mean", PlateScene(order=(2, 5, 1, 4, 3), diagonal_rule="mean")),
-        ("5x4x3, patch 3, angled load, mass 2", PlateScene(rows=5, cols=4, depth=3, order=(4, 1, 3, 2),
-                                                           load_patch=3, load_angle=30.0, mass=2.0)),
+        (
+            "5x4x3, patch 3, angled load, mass 2",
+            PlateScene(rows=5, cols=4, depth=3, order=(4, 1, 3, 2), load_patch=3, load_angle=30.0, mass=2.0),
+        ),
         ("3x4x5, whole face, own table", PlateScene(rows=3, cols=4, depth=5, order=(4, 1, 3, 2), **own_table)),
-        ("3x4x5, patch 1, mean, own table", PlateScene(rows=3, cols=4, depth=5, order=(2, 4, 1, 3), load_patch=1,
-                                                        diagonal_rule="mean", **own_table)),
+        (
+            "3x4x5, patch 1, mean, own table",
+            PlateScene(rows=3, cols=4, depth=5, order=(2, 4, 1, 3), load_patch=1, diagonal_rule="mean", **own_table),
+        ),
         ("4x3x2, no backplate", PlateScene(rows=4, cols=3, depth=2, has_backplate=False)),
     ]
 
@@ -669,8 +778,11 @@ def check_plate_against_reference(scenes=None, with_jax: bool = True) -> dict[st
         worst["jax"] = 0.0
     for label, scene in plate_check_scenes() if scenes is None else scenes:
         packed = pack_plate(scene)
-        jax_kernel = (jax.jit(jax_plate_rhs(scene.rows, scene.cols, scene.depth, packed.equal_diagonal_alphas))
-                      if with_jax else None)
+        jax_kernel = (
+            jax.jit(jax_plate_rhs(scene.rows, scene.cols, scene.depth, packed.equal_diagonal_alphas))
+            if with_jax
+            else None
+        )
         model = PlateModel(scene)
         N = scene.n_masses
         states = random_plate_states(scene)
@@ -679,27 +791,33 @@ def check_plate_against_reference(scenes=None, with_jax: bool = True) -> dict[st
             damper_on = contact & (y[3 * N + model.wall_index] > 0)
             augmented = np.concatenate([y, np.zeros(3)])
             for load_on in (True, False):
-                want = model.derivative(augmented, load_on, contact, damper_on)[:6 * N]
+                want = model.derivative(augmented, load_on, contact, damper_on)[: 6 * N]
                 scale = np.max(np.abs(want))
                 flag = 1.0 if load_on else 0.0
-                kernels = [("numba", rhs_odeint(y, 0.0, flag, *packed.kernel_args())),
-                           ("numba", rhs_solve_ivp(0.0, y, flag, *packed.kernel_args()))]
+                kernels = [
+                    ("numba", rhs_odeint(y, 0.0, flag, *packed.kernel_args())),
+                    ("numba", rhs_solve_ivp(0.0, y, flag, *packed.kernel_args())),
+                ]
                 if jax_kernel is not None:
                     kernels.append(("jax", np.asarray(jax_kernel(y, flag, *packed.kernel_args()))))
                 for name, got in kernels:
                     difference = np.max(np.abs(got - want)) / scale if np.all(np.isfinite(got)) else np.inf
                     worst[name] = max(worst[name], float(difference))
                     if not difference <= KERNEL_TOLERANCE:
-                        raise ValueError(f"the plate's {name} right-hand side differs from reference/lattice3d.py by "
-                                         f"{difference:.1e} (relative) on the scene {label!r}")
+                        raise ValueError(
+                            f"the plate's {name} right-hand side differs from reference/lattice3d.py by "
+                            f"{difference:.1e} (relative) on the scene {label!r}"
+                        )
             if scene.has_backplate:
                 want = float(model.backplate_force(y, contact, damper_on))
                 got = float(packed.backplate_force(y[None, :])[0])
                 difference = abs(got - want) / max(abs(want), 1e-300)
                 worst["backplate force"] = max(worst["backplate force"], difference)
                 if not difference <= KERNEL_TOLERANCE:
-                    raise ValueError(f"the plate's backplate force differs from reference/lattice3d.py by "
-                                     f"{difference:.1e} on {label!r}")
+                    raise ValueError(
+                        f"the plate's backplate force differs from reference/lattice3d.py by "
+                        f"{difference:.1e} on {label!r}"
+                    )
     return worst
 
 
@@ -708,14 +826,24 @@ def main(argv=None) -> int:
     import argparse
     import sys
 
-    parser = argparse.ArgumentParser(prog="python -m bench.peer_models",
-                                     description="Check the peers' right-hand sides against reference/ to "
-                                                 f"{KERNEL_TOLERANCE:g}, as bench.peers does before it times them.")
-    parser.add_argument("--models", nargs="+", choices=("lattice", "plate"), default=["lattice", "plate"],
-                        help="the 2-D lattice's kernels (against reference/lattice.py), the plate's (against "
-                             "reference/lattice3d.py); default both")
-    parser.add_argument("--without-jax", action="store_true", help="the plate's numba kernel only, not its JAX "
-                        "one (the 2-D check always takes both)")
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.peer_models",
+        description="Check the peers' right-hand sides against reference/ to "
+        f"{KERNEL_TOLERANCE:g}, as bench.peers does before it times them.",
+    )
+    parser.add_argument(
+        "--models",
+        nargs="+",
+        choices=("lattice", "plate"),
+        default=["lattice", "plate"],
+        help="the 2-D lattice's kernels (against reference/lattice.py), the plate's (against "
+        "reference/lattice3d.py); default both",
+    )
+    parser.add_argument(
+        "--without-jax",
+        action="store_true",
+        help="the plate's numba kernel only, not its JAX one (the 2-D check always takes both)",
+    )
     args = parser.parse_args(argv)
     try:
         if "lattice" in args.models:

@@ -38,6 +38,7 @@ never enter a run's time. Also checks the published peaks to 1e-5 with every rou
 The page holds every scene from one run: a run of some scenes (--scenes) prints its tables and leaves the page as
 it is, so that no page mixes figures of two commits.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -62,11 +63,28 @@ from reference import Scene  # noqa: E402
 from reference.lattice3d import PlateScene  # noqa: E402
 from reference.simulate import sample_times  # noqa: E402
 
-from .common import (STUDY_BEST, add_fmu_option, bench_orders, default_setting, lattice_fmu, order_text,  # noqa: E402
-                     search_parameters)
+from .common import (
+    STUDY_BEST,
+    add_fmu_option,
+    bench_orders,
+    default_setting,
+    lattice_fmu,
+    order_text,  # noqa: E402
+    search_parameters,
+)
 from .measurements import Page, Run, Table, write_page  # noqa: E402
-from .peer_models import (PlatePacked, check_against_reference, check_plate_against_reference, jax_plate_rhs,  # noqa: E402
-                          jax_rhs, numba_kernels, pack, pack_plate, plate_check_scenes, plate_numba_kernels)
+from .peer_models import (
+    PlatePacked,
+    check_against_reference,
+    check_plate_against_reference,
+    jax_plate_rhs,  # noqa: E402
+    jax_rhs,
+    numba_kernels,
+    pack,
+    pack_plate,
+    plate_check_scenes,
+    plate_numba_kernels,
+)
 
 PUBLISHED_TOLERANCE = 1e-5
 SAMPLE_INTERVAL = 0.01
@@ -76,9 +94,13 @@ LADDER_START = 100.0  # times the FMU's rtol: every peer errs above the target t
 LADDER_END = 1e-12
 ROUTES = ("fmu", "fmu_whole", "odeint", "dop853", "diffrax")
 PEERS = ROUTES[2:]
-LABELS = {"fmu": "FMU via fmpy", "fmu_whole": "FMU via fmpy, whole lattice (use_symmetry 0)",
-          "odeint": "scipy odeint (LSODA) + numba",
-          "dop853": "scipy solve_ivp DOP853 + numba", "diffrax": "diffrax Tsit5 (JAX, CPU)"}
+LABELS = {
+    "fmu": "FMU via fmpy",
+    "fmu_whole": "FMU via fmpy, whole lattice (use_symmetry 0)",
+    "odeint": "scipy odeint (LSODA) + numba",
+    "dop853": "scipy solve_ivp DOP853 + numba",
+    "diffrax": "diffrax Tsit5 (JAX, CPU)",
+}
 
 
 @dataclass(frozen=True)
@@ -91,8 +113,9 @@ class PlateShape:
     load_patch: int
 
     def scene(self, order) -> PlateScene:
-        return PlateScene(rows=self.rows, cols=self.cols, depth=self.depth, order=tuple(order),
-                          load_patch=self.load_patch)
+        return PlateScene(
+            rows=self.rows, cols=self.cols, depth=self.depth, order=tuple(order), load_patch=self.load_patch
+        )
 
     @property
     def text(self) -> str:
@@ -124,21 +147,35 @@ class Scenario:
 PLATE_WALK_CPU_LIMIT = 5.0
 
 
-def scenarios(search: dict, default: dict, plate_search: dict | None = None,
-              plate: PlateShape | None = None, lattice: bool = True) -> dict[str, Scenario]:
+def scenarios(
+    search: dict, default: dict, plate_search: dict | None = None, plate: PlateShape | None = None, lattice: bool = True
+) -> dict[str, Scenario]:
     """The scenes: the searches' evaluation (``search``: the orchestrator's parameters) and the 8 s scene at the
     FMU's default setting (``default``: read from the FMU) on the 2-D lattice (unless not ``lattice``), and the
     search evaluation of the plate (``plate_search``: the orchestrator's parameters over the plate FMU) if
     given."""
     out = {}
     if lattice:
-        out["search"] = Scenario("search", f"search evaluation ({SEARCH_HORIZON:g} s)", SEARCH_HORIZON,
-                                 search["rtol"], search["atol"], search["solver"])
+        out["search"] = Scenario(
+            "search",
+            f"search evaluation ({SEARCH_HORIZON:g} s)",
+            SEARCH_HORIZON,
+            search["rtol"],
+            search["atol"],
+            search["solver"],
+        )
         out["scene8s"] = Scenario("scene8s", "8 s scene", 8.0, default["rtol"], default["atol"], default["solver"])
     if plate is not None:
-        out["plate"] = Scenario("plate", f"{plate.text}, search evaluation ({SEARCH_HORIZON:g} s)", SEARCH_HORIZON,
-                                plate_search["rtol"], plate_search["atol"], plate_search["solver"], plate=plate,
-                                walk_cpu_limit=PLATE_WALK_CPU_LIMIT)
+        out["plate"] = Scenario(
+            "plate",
+            f"{plate.text}, search evaluation ({SEARCH_HORIZON:g} s)",
+            SEARCH_HORIZON,
+            plate_search["rtol"],
+            plate_search["atol"],
+            plate_search["solver"],
+            plate=plate,
+            walk_cpu_limit=PLATE_WALK_CPU_LIMIT,
+        )
     return out
 
 
@@ -178,10 +215,12 @@ class FMURoute:
     def run(self, order, packed, rtol, atol, cpu_limit=None):
         """(peak, right-hand sides); the FMU is never stopped (cpu_limit is the scipy routes')."""
         try:
-            result = self.fmu.simulate(order, horizon=self.horizon,
-                                       parameters={"solver": self.solver, "rtol": rtol, "atol": atol,
-                                                   "use_symmetry": self.use_symmetry},
-                                       outputs=("peak_backplate_force", "rhs_evaluations"))
+            result = self.fmu.simulate(
+                order,
+                horizon=self.horizon,
+                parameters={"solver": self.solver, "rtol": rtol, "atol": atol, "use_symmetry": self.use_symmetry},
+                outputs=("peak_backplate_force", "rhs_evaluations"),
+            )
         except SimulationError as exc:
             raise RouteFailed(str(exc)) from None
         return result["peak_backplate_force"], int(result["rhs_evaluations"])
@@ -237,10 +276,12 @@ class ScipyRoute:
         except OverCPULimit:
             self.last_jacobians = None
             most = max(rhs_odeint.most_calls_at_one_t, rhs_solve_ivp.most_calls_at_one_t)
-            why = (f", after a finite-difference Jacobian ({most} right-hand sides at one t, "
-                   f"{packed.state_size} states)" if most >= packed.state_size else "")
-            raise StoppedRun(f"{self.kind}: stopped past {cpu_limit:g} s CPU{why}", most >= packed.state_size) \
-                from None
+            why = (
+                f", after a finite-difference Jacobian ({most} right-hand sides at one t, {packed.state_size} states)"
+                if most >= packed.state_size
+                else ""
+            )
+            raise StoppedRun(f"{self.kind}: stopped past {cpu_limit:g} s CPU{why}", most >= packed.state_size) from None
 
     def _run(self, packed, rtol, atol, rhs_odeint, rhs_solve_ivp):
         ts, parts = phases(self.horizon, packed.t_active)
@@ -254,8 +295,16 @@ class ScipyRoute:
             if t_out.size == 0 or t_out[-1] < t1:
                 t_out = np.append(t_out, t1)
             if self.kind == "odeint":
-                ys, info = self.odeint(rhs_odeint, y, np.concatenate([[t0], t_out]), args=(load_on, *args),
-                                       rtol=rtol, atol=atol, full_output=True, mxstep=100000)
+                ys, info = self.odeint(
+                    rhs_odeint,
+                    y,
+                    np.concatenate([[t0], t_out]),
+                    args=(load_on, *args),
+                    rtol=rtol,
+                    atol=atol,
+                    full_output=True,
+                    mxstep=100000,
+                )
                 if info["message"] != "Integration successful.":
                     raise RouteFailed(f"odeint: {info['message']}")
                 n_rhs += int(info["nfe"][-1])  # LSODA counts its finite-difference Jacobians' calls here too
@@ -263,13 +312,21 @@ class ScipyRoute:
                 self.lsoda_methods.update(int(m) for m in info["mused"])
                 ys = ys[1:]
             else:
-                sol = self.solve_ivp(rhs_solve_ivp, (t0, t1), y, method="DOP853", t_eval=t_out,
-                                     args=(load_on, *args), rtol=rtol, atol=atol)
+                sol = self.solve_ivp(
+                    rhs_solve_ivp,
+                    (t0, t1),
+                    y,
+                    method="DOP853",
+                    t_eval=t_out,
+                    args=(load_on, *args),
+                    rtol=rtol,
+                    atol=atol,
+                )
                 if sol.status != 0:
                     raise RouteFailed(f"solve_ivp: {sol.message}")
                 n_rhs += int(sol.nfev)
                 ys = sol.y.T
-            states[sel] = ys[:sel.size]
+            states[sel] = ys[: sel.size]
             y = np.ascontiguousarray(ys[-1])
         self.last_jacobians = jacobians if self.kind == "odeint" else None
         force = packed.backplate_force(states)
@@ -325,11 +382,20 @@ class DiffraxRoute:
                     t_out = ts[sel]
                     if t_out.size == 0 or t_out[-1] < t1:
                         t_out = np.append(t_out, t1)
-                    sol = diffrax.diffeqsolve(term, solver, t0, t1, None, y, args=(load_on, arrays),
-                                              saveat=diffrax.SaveAt(ts=jnp.asarray(t_out)),
-                                              stepsize_controller=controller, adjoint=diffrax.ForwardMode(),
-                                              max_steps=1_000_000)
-                    ys = sol.ys[:sel.size]
+                    sol = diffrax.diffeqsolve(
+                        term,
+                        solver,
+                        t0,
+                        t1,
+                        None,
+                        y,
+                        args=(load_on, arrays),
+                        saveat=diffrax.SaveAt(ts=jnp.asarray(t_out)),
+                        stepsize_controller=controller,
+                        adjoint=diffrax.ForwardMode(),
+                        max_steps=1_000_000,
+                    )
+                    ys = sol.ys[: sel.size]
                     p = ys[:, wall] - scalars[5]
                     vx = ys[:, components * N + wall]
                     forces.append(jnp.where(p > 0, scalars[3] * p + scalars[4] * jnp.maximum(vx, 0), 0.0).sum(axis=1))
@@ -347,8 +413,14 @@ class DiffraxRoute:
 
     @staticmethod
     def compiled_for(packed):
-        return (type(packed), packed.rows, packed.cols, getattr(packed, "depth", 1), packed.equal_diagonal_alphas,
-                packed.t_active)
+        return (
+            type(packed),
+            packed.rows,
+            packed.cols,
+            getattr(packed, "depth", 1),
+            packed.equal_diagonal_alphas,
+            packed.t_active,
+        )
 
     def run(self, order, packed, rtol, atol, cpu_limit=None):
         """(peak, None): one compiled call, never stopped (cpu_limit is the scipy routes')."""
@@ -440,25 +512,31 @@ def rhs_microseconds(kernels, packed, count: int, repeats: int = 5) -> dict:
     return out
 
 
-def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: int, log,
-                   with_diffrax: bool = True) -> dict:
+def study_scenario(
+    scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: int, log, with_diffrax: bool = True
+) -> dict:
     packs = {label: scenario.pack(order) for label, order in orders.items()}
     plate = scenario.plate is not None
-    routes = {"fmu": FMURoute(fmu, scenario.horizon, scenario.fmu_solver),
-              "fmu_whole": FMURoute(fmu, scenario.horizon, scenario.fmu_solver, use_symmetry=0),
-              "odeint": ScipyRoute("odeint", scenario.horizon, plate),
-              "dop853": ScipyRoute("dop853", scenario.horizon, plate)}
+    routes = {
+        "fmu": FMURoute(fmu, scenario.horizon, scenario.fmu_solver),
+        "fmu_whole": FMURoute(fmu, scenario.horizon, scenario.fmu_solver, use_symmetry=0),
+        "odeint": ScipyRoute("odeint", scenario.horizon, plate),
+        "dop853": ScipyRoute("dop853", scenario.horizon, plate),
+    }
     log(f"\n== {scenario.label}")
     if with_diffrax:
         routes["diffrax"] = DiffraxRoute(scenario.horizon, next(iter(packs.values())))
-        log(f"diffrax compiled in {routes['diffrax'].compile_cpu:.1f} s CPU ({routes['diffrax'].compile_wall:.1f} s "
-            "wall)")
+        log(
+            f"diffrax compiled in {routes['diffrax'].compile_cpu:.1f} s CPU ({routes['diffrax'].compile_wall:.1f} s "
+            "wall)"
+        )
     peers = [name for name in PEERS if name in routes]
 
     reference = {}
     for label, order in orders.items():
-        reference[label] = fmu.simulate(order, horizon=scenario.horizon, parameters=REFERENCE_TOLERANCES,
-                                        outputs=("peak_backplate_force",))["peak_backplate_force"]
+        reference[label] = fmu.simulate(
+            order, horizon=scenario.horizon, parameters=REFERENCE_TOLERANCES, outputs=("peak_backplate_force",)
+        )["peak_backplate_force"]
 
     stopped = {name: [] for name in peers}  # (rtol, after a Jacobian) of the walk's runs stopped at the CPU limit
 
@@ -468,16 +546,25 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
         rows = []
         for label, order in orders.items():
             cpu_limit = scenario.walk_cpu_limit if route_name in peers else None
-            peak, n_rhs, seconds = timed(routes[route_name], order, packs[label], rtol, atol, cpu_limit,
-                                         count=False)
+            peak, n_rhs, seconds = timed(routes[route_name], order, packs[label], rtol, atol, cpu_limit, count=False)
             error = abs(peak / reference[label] - 1) if peak is not None else math.nan
             if isinstance(n_rhs, StoppedRun):
                 stopped[route_name].append((rtol, n_rhs.after_jacobian))
-            rows.append({"scene": scenario.name, "route": route_name, "rtol": rtol, "atol": atol, "order": label,
-                         "peak": peak if peak is not None else math.nan, "error": error,
-                         "rhs": n_rhs if peak is not None else None, "cpu_ms_single": seconds * 1e3,
-                         "lsoda_jacobians": getattr(routes[route_name], "last_jacobians", None),
-                         "failure": "" if peak is not None else str(n_rhs)})
+            rows.append(
+                {
+                    "scene": scenario.name,
+                    "route": route_name,
+                    "rtol": rtol,
+                    "atol": atol,
+                    "order": label,
+                    "peak": peak if peak is not None else math.nan,
+                    "error": error,
+                    "rhs": n_rhs if peak is not None else None,
+                    "cpu_ms_single": seconds * 1e3,
+                    "lsoda_jacobians": getattr(routes[route_name], "last_jacobians", None),
+                    "failure": "" if peak is not None else str(n_rhs),
+                }
+            )
             if peak is None:
                 log(f"    {route_name} failed on {label}: {n_rhs}")
             if target is not None and not error <= target:
@@ -489,9 +576,11 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
 
     ladder_rows = errors_at("fmu", scenario.fmu_rtol, scenario.fmu_atol)
     target = worst(ladder_rows)
-    log(f"FMU ({scenario.fmu_solver}) at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}: "
+    log(
+        f"FMU ({scenario.fmu_solver}) at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}: "
         f"worst error {target:.2e} "
-        "(the target every peer must meet)")
+        "(the target every peer must meet)"
+    )
     chosen = {"fmu": (scenario.fmu_rtol, scenario.fmu_atol), "fmu_whole": (scenario.fmu_rtol, scenario.fmu_atol)}
     top = math.log10(LADDER_START * scenario.fmu_rtol)
     steps = int(round((top - math.log10(LADDER_END)) * LADDER_STEPS_PER_DECADE))
@@ -502,8 +591,10 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
             rows = errors_at(name, rtol, rtol * 1e-2, target)
             ladder_rows += rows
             ok = worst(rows) <= target
-            log(f"  {name:8s} rtol {rtol:8.1e}: worst error {worst(rows):.2e} "
-                + ("ok" if ok else f"(over the target at {rows[-1]['order']})"))
+            log(
+                f"  {name:8s} rtol {rtol:8.1e}: worst error {worst(rows):.2e} "
+                + ("ok" if ok else f"(over the target at {rows[-1]['order']})")
+            )
             if ok and passed_at is not None:
                 break
             passed_at = rtol if ok else None
@@ -518,7 +609,7 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
     results = {}
     active = [name for name in routes if chosen[name] is not None]
     for round_index in range(repeats):
-        rotation = active[round_index % len(active):] + active[:round_index % len(active)]
+        rotation = active[round_index % len(active) :] + active[: round_index % len(active)]
         for label, order in orders.items():
             for name in rotation:
                 rtol, atol = chosen[name]
@@ -527,35 +618,58 @@ def study_scenario(scenario: Scenario, fmu: LatticeFMU, orders: dict, repeats: i
                     results[(name, label)] = {"failure": str(n_rhs)}
                     continue
                 timing[(name, label)].append(seconds)
-                results[(name, label)] = {"peak": peak, "rhs": n_rhs,
-                                          "lsoda_jacobians": getattr(routes[name], "last_jacobians", None)}
+                results[(name, label)] = {
+                    "peak": peak,
+                    "rhs": n_rhs,
+                    "lsoda_jacobians": getattr(routes[name], "last_jacobians", None),
+                }
     rows = []
     for name in active:
         for label in orders:
             result = results[(name, label)]
             times = timing[(name, label)]
-            row = {"scene": scenario.name, "route": name, "order": label, "order_materials": orders[label],
-                   "rtol": chosen[name][0], "atol": chosen[name][1], "repeats": len(times)}
+            row = {
+                "scene": scenario.name,
+                "route": name,
+                "order": label,
+                "order_materials": orders[label],
+                "rtol": chosen[name][0],
+                "atol": chosen[name][1],
+                "repeats": len(times),
+            }
             if "failure" in result or not times:
                 row["failure"] = result.get("failure", "no run")
             else:
                 cpu = min(times)
-                row.update(peak=result["peak"], reference_peak=reference[label],
-                           error=abs(result["peak"] / reference[label] - 1), rhs=result["rhs"],
-                           lsoda_jacobians=result["lsoda_jacobians"],
-                           cpu_ms=cpu * 1e3, cpu_ms_median=statistics.median(times) * 1e3,
-                           us_per_rhs=cpu / result["rhs"] * 1e6)
+                row.update(
+                    peak=result["peak"],
+                    reference_peak=reference[label],
+                    error=abs(result["peak"] / reference[label] - 1),
+                    rhs=result["rhs"],
+                    lsoda_jacobians=result["lsoda_jacobians"],
+                    cpu_ms=cpu * 1e3,
+                    cpu_ms_median=statistics.median(times) * 1e3,
+                    us_per_rhs=cpu / result["rhs"] * 1e6,
+                )
             rows.append(row)
     for base, key in (("fmu", "ratio_to_fmu"), ("fmu_whole", "ratio_to_fmu_whole")):
         base_cpu = {r["order"]: r["cpu_ms"] for r in rows if r["route"] == base and "cpu_ms" in r}
         for row in rows:
             if "cpu_ms" in row and row["order"] in base_cpu:
                 row[key] = row["cpu_ms"] / base_cpu[row["order"]]
-    extra = {"routes": tuple(routes), "target": target, "chosen": chosen, "reference": reference,
-             "lsoda_methods": sorted(routes["odeint"].lsoda_methods), "stopped": stopped, "repeats": repeats}
+    extra = {
+        "routes": tuple(routes),
+        "target": target,
+        "chosen": chosen,
+        "reference": reference,
+        "lsoda_methods": sorted(routes["odeint"].lsoda_methods),
+        "stopped": stopped,
+        "repeats": repeats,
+    }
     if with_diffrax:
-        extra.update(diffrax_compile_cpu=routes["diffrax"].compile_cpu,
-                     diffrax_compile_wall=routes["diffrax"].compile_wall)
+        extra.update(
+            diffrax_compile_cpu=routes["diffrax"].compile_cpu, diffrax_compile_wall=routes["diffrax"].compile_wall
+        )
     return {"rows": rows, "ladder": ladder_rows, **extra}
 
 
@@ -575,21 +689,34 @@ def summarise(scenario: Scenario, study: dict) -> list[dict]:
             entry["status"] = "did not reach the FMU's accuracy" if chosen is None else "failed"
             summary.append(entry)
             continue
-        entry.update(status="ok" if len(good) == len(rows) else "some runs failed", rtol=chosen[0], atol=chosen[1],
-                     worst_error=max(r["error"] for r in good), orders=len(good),
-                     cpu_ms_min=min(r["cpu_ms"] for r in good), cpu_ms_max=max(r["cpu_ms"] for r in good),
-                     cpu_ms_mean=statistics.fmean(r["cpu_ms"] for r in good),
-                     rhs_min=min(r["rhs"] for r in good), rhs_max=max(r["rhs"] for r in good),
-                     us_per_rhs_min=min(r["us_per_rhs"] for r in good),
-                     us_per_rhs_max=max(r["us_per_rhs"] for r in good))
+        entry.update(
+            status="ok" if len(good) == len(rows) else "some runs failed",
+            rtol=chosen[0],
+            atol=chosen[1],
+            worst_error=max(r["error"] for r in good),
+            orders=len(good),
+            cpu_ms_min=min(r["cpu_ms"] for r in good),
+            cpu_ms_max=max(r["cpu_ms"] for r in good),
+            cpu_ms_mean=statistics.fmean(r["cpu_ms"] for r in good),
+            rhs_min=min(r["rhs"] for r in good),
+            rhs_max=max(r["rhs"] for r in good),
+            us_per_rhs_min=min(r["us_per_rhs"] for r in good),
+            us_per_rhs_max=max(r["us_per_rhs"] for r in good),
+        )
         ratios = [r["ratio_to_fmu"] for r in good if "ratio_to_fmu" in r]
         if ratios and name != "fmu":
-            entry.update(ratio_min=min(ratios), ratio_max=max(ratios), ratio_geomean=math.exp(statistics.fmean(
-                math.log(x) for x in ratios)))
+            entry.update(
+                ratio_min=min(ratios),
+                ratio_max=max(ratios),
+                ratio_geomean=math.exp(statistics.fmean(math.log(x) for x in ratios)),
+            )
         whole = [r["ratio_to_fmu_whole"] for r in good if "ratio_to_fmu_whole" in r]
         if whole and name in PEERS:  # the lead at equal model: both integrate the whole lattice
-            entry.update(ratio_whole_min=min(whole), ratio_whole_max=max(whole),
-                         ratio_whole_geomean=math.exp(statistics.fmean(math.log(x) for x in whole)))
+            entry.update(
+                ratio_whole_min=min(whole),
+                ratio_whole_max=max(whole),
+                ratio_whole_geomean=math.exp(statistics.fmean(math.log(x) for x in whole)),
+            )
         summary.append(entry)
     return summary
 
@@ -601,9 +728,16 @@ def check_published(study: dict, orders: dict) -> list[dict]:
         order = tuple(row["order_materials"])
         if order in PUBLISHED_PEAKS and "peak" in row:
             deviation = abs(row["peak"] / PUBLISHED_PEAKS[order] - 1)
-            out.append({"route": row["route"], "order": row["order"], "peak": row["peak"],
-                        "published": PUBLISHED_PEAKS[order],
-                        "relative_deviation": deviation, "ok": deviation <= PUBLISHED_TOLERANCE})
+            out.append(
+                {
+                    "route": row["route"],
+                    "order": row["order"],
+                    "peak": row["peak"],
+                    "published": PUBLISHED_PEAKS[order],
+                    "relative_deviation": deviation,
+                    "ok": deviation <= PUBLISHED_TOLERANCE,
+                }
+            )
     return out
 
 
@@ -613,13 +747,20 @@ def summary_rows(summary: list[dict]) -> tuple:
         if "cpu_ms_min" not in s:
             rows.append((s["label"], s["status"], "", "", "", "", "", ""))
             continue
-        rows.append((s["label"], f"{s['rtol']:.1e}", f"{s['worst_error']:.1e}",
-                     f"{s['cpu_ms_min']:.2f}-{s['cpu_ms_max']:.2f}", f"{s['rhs_min']}-{s['rhs_max']}",
-                     f"{s['us_per_rhs_min']:.2f}-{s['us_per_rhs_max']:.2f}",
-                     f"{s['ratio_min']:.1f}-{s['ratio_max']:.1f}x ({s['ratio_geomean']:.1f}x)"
-                     if "ratio_min" in s else "",
-                     f"{s['ratio_whole_min']:.1f}-{s['ratio_whole_max']:.1f}x ({s['ratio_whole_geomean']:.1f}x)"
-                     if "ratio_whole_min" in s else ""))
+        rows.append(
+            (
+                s["label"],
+                f"{s['rtol']:.1e}",
+                f"{s['worst_error']:.1e}",
+                f"{s['cpu_ms_min']:.2f}-{s['cpu_ms_max']:.2f}",
+                f"{s['rhs_min']}-{s['rhs_max']}",
+                f"{s['us_per_rhs_min']:.2f}-{s['us_per_rhs_max']:.2f}",
+                f"{s['ratio_min']:.1f}-{s['ratio_max']:.1f}x ({s['ratio_geomean']:.1f}x)" if "ratio_min" in s else "",
+                f"{s['ratio_whole_min']:.1f}-{s['ratio_whole_max']:.1f}x ({s['ratio_whole_geomean']:.1f}x)"
+                if "ratio_whole_min" in s
+                else "",
+            )
+        )
     return tuple(rows)
 
 
@@ -659,22 +800,34 @@ def checked_plate_fmu(given: str | None):
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = run.parser(__doc__, quick="sequential, study's best and one random order; "
-                        "fewer rounds")
+    parser = run.parser(__doc__, quick="sequential, study's best and one random order; fewer rounds")
     add_fmu_option(parser)
-    parser.add_argument("--plate-fmu", help=f"the plate FMU to measure (default: built from the {PLATE_SCENE} "
-                        "scene into a temporary folder)")
-    parser.add_argument("--scenes", nargs="+", choices=SCENES, default=list(SCENES),
-                        help="the scenes to measure (default all); the page is written only when all are measured, "
-                             "otherwise the tables are printed")
-    parser.add_argument("--random-orders", type=int, default=2, help="random orders beside sequential, study's "
-                        "best and reversed")
-    parser.add_argument("--repeats", type=int, default=None, help="interleaved timing rounds (default 8 for the "
-                        "search evaluation, 4 for the 8 s scene, 3 for the plate; --quick: 4, 2 and 2)")
+    parser.add_argument(
+        "--plate-fmu",
+        help=f"the plate FMU to measure (default: built from the {PLATE_SCENE} scene into a temporary folder)",
+    )
+    parser.add_argument(
+        "--scenes",
+        nargs="+",
+        choices=SCENES,
+        default=list(SCENES),
+        help="the scenes to measure (default all); the page is written only when all are measured, "
+        "otherwise the tables are printed",
+    )
+    parser.add_argument(
+        "--random-orders", type=int, default=2, help="random orders beside sequential, study's best and reversed"
+    )
+    parser.add_argument(
+        "--repeats",
+        type=int,
+        default=None,
+        help="interleaved timing rounds (default 8 for the "
+        "search evaluation, 4 for the 8 s scene, 3 for the plate; --quick: 4, 2 and 2)",
+    )
     args = parser.parse_args(argv)
     missing = [name for name in ("numba", "jax", "diffrax") if importlib.util.find_spec(name) is None]
     if missing:
-        parser.error(f"{', '.join(missing)} not installed: pip install -e \".[bench]\"")
+        parser.error(f'{", ".join(missing)} not installed: pip install -e ".[bench]"')
     if args.repeats is not None and args.repeats < 1:
         parser.error(f"--repeats must be at least 1, got {args.repeats}")
     scenes = [name for name in SCENES if name in args.scenes]
@@ -699,30 +852,36 @@ def main(argv=None) -> int:
             plate_packed = pack_plate(shape.scene(STUDY_BEST))
             numba_compile["plate"] = compile_numba(plate_numba_kernels, plate_packed)
             kernels["plate"] = check_plate_against_reference()
-            log("plate kernels against reference/lattice3d.py: "
-                + ", ".join(f"{k} {v:.1e}" for k, v in kernels["plate"].items()))
+            log(
+                "plate kernels against reference/lattice3d.py: "
+                + ", ".join(f"{k} {v:.1e}" for k, v in kernels["plate"].items())
+            )
             micro["plate"] = rhs_microseconds(plate_numba_kernels, plate_packed, 1000)
         if lattice_scenes:
             path = stack.enter_context(lattice_fmu(args.fmu))
             fmu = stack.enter_context(LatticeFMU(path))
             plan.update(scenarios(search_parameters(path), default_setting(path)))
             for name in lattice_scenes:
-                studies[name] = study_scenario(plan[name], fmu, orders, args.repeats or repeats_of(name, args.quick),
-                                               log)
+                studies[name] = study_scenario(
+                    plan[name], fmu, orders, args.repeats or repeats_of(name, args.quick), log
+                )
                 summaries[name] = summarise(plan[name], studies[name])
         if "plate" in scenes:
             plate_fmu = stack.enter_context(LatticeFMU(plate_path))
             plan["plate"] = scenarios({}, {}, search_parameters(plate_path), shape, lattice=False)["plate"]
-            studies["plate"] = study_scenario(plan["plate"], plate_fmu, orders,
-                                              args.repeats or repeats_of("plate", args.quick), log)
+            studies["plate"] = study_scenario(
+                plan["plate"], plate_fmu, orders, args.repeats or repeats_of("plate", args.quick), log
+            )
             summaries["plate"] = summarise(plan["plate"], studies["plate"])
     page = measurement_page(run, plan, studies, summaries, orders, numba_compile, kernels, micro)
     if scenes != list(SCENES):
         # a page holds every scene from one command and one commit; a part of them is shown, not written
         for table in page.tables:
             log(f"\n{table.caption}\n" + "\n".join(" | ".join(map(str, row)) for row in table.rows))
-        log(f"\nthe page is written by a run of every scene ({' '.join(SCENES)}); this run measured "
-            f"{' '.join(scenes)}, so docs/measurements/{run.name}.md is unchanged")
+        log(
+            f"\nthe page is written by a run of every scene ({' '.join(SCENES)}); this run measured "
+            f"{' '.join(scenes)}, so docs/measurements/{run.name}.md is unchanged"
+        )
         return 0
     write_page(run, page)
     return 0
@@ -733,21 +892,41 @@ def measurement_page(run, plan, studies, summaries, orders, numba_compile, kerne
     for name in studies:
         scenario, study = plan[name], studies[name]
         model = "whole-plate" if scenario.plate else "whole-lattice"
-        tables.append(Table(("route", "rtol", "worst error", "CPU ms per run", "right-hand sides", "us per "
-                             "right-hand side", "peer / FMU (geometric mean)", f"peer / {model} FMU"),
-                            summary_rows(summaries[name]),
-                            caption=f"**{scenario.label[0].upper() + scenario.label[1:]}** (the FMU: "
-                                    f"{scenario.fmu_solver} at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}; "
-                                    f"target error {study['target']:.1e}; timing rounds: {study['repeats']}):"))
+        tables.append(
+            Table(
+                (
+                    "route",
+                    "rtol",
+                    "worst error",
+                    "CPU ms per run",
+                    "right-hand sides",
+                    "us per right-hand side",
+                    "peer / FMU (geometric mean)",
+                    f"peer / {model} FMU",
+                ),
+                summary_rows(summaries[name]),
+                caption=f"**{scenario.label[0].upper() + scenario.label[1:]}** (the FMU: "
+                f"{scenario.fmu_solver} at rtol {scenario.fmu_rtol:g}, atol {scenario.fmu_atol:g}; "
+                f"target error {study['target']:.1e}; timing rounds: {study['repeats']}):",
+            )
+        )
         lsoda = next((s for s in summaries[name] if s["route"] == "odeint" and "ratio_geomean" in s), None)
-        fastest = min((s for s in summaries[name] if s["route"] in PEERS and "ratio_geomean" in s),
-                      key=lambda s: s["ratio_geomean"], default=None)
+        fastest = min(
+            (s for s in summaries[name] if s["route"] in PEERS and "ratio_geomean" in s),
+            key=lambda s: s["ratio_geomean"],
+            default=None,
+        )
         if fastest:
-            headline.append(f"{scenario.label}: the closest peer ({LABELS[fastest['route']]}) takes "
-                            f"{fastest['ratio_geomean']:.1f}x the FMU's CPU time"
-                            + (f" ({fastest['ratio_whole_geomean']:.1f}x the whole-plate FMU's)"
-                               if scenario.plate and "ratio_whole_geomean" in fastest else "")
-                            + (f", LSODA {lsoda['ratio_geomean']:.1f}x" if lsoda and lsoda is not fastest else ""))
+            headline.append(
+                f"{scenario.label}: the closest peer ({LABELS[fastest['route']]}) takes "
+                f"{fastest['ratio_geomean']:.1f}x the FMU's CPU time"
+                + (
+                    f" ({fastest['ratio_whole_geomean']:.1f}x the whole-plate FMU's)"
+                    if scenario.plate and "ratio_whole_geomean" in fastest
+                    else ""
+                )
+                + (f", LSODA {lsoda['ratio_geomean']:.1f}x" if lsoda and lsoda is not fastest else "")
+            )
         if study["lsoda_methods"]:
             used = {1: "Adams (non-stiff)", 2: "BDF (stiff)"}
             methods = ", ".join(used.get(m, str(m)) for m in study["lsoda_methods"])
@@ -755,58 +934,88 @@ def measurement_page(run, plan, studies, summaries, orders, numba_compile, kerne
         for peer, runs in study["stopped"].items():
             if runs:
                 jacobians = sum(1 for _, after in runs if after)
-                timed_max = next((s["cpu_ms_max"] / 1e3 for s in summaries[name]
-                                  if s["route"] == peer and "cpu_ms_max" in s), None)
-                verdict = ("each stopped run had already cost more CPU than any of its timed runs, so the stop can "
-                           "only favour the peer" if timed_max is not None and timed_max < scenario.walk_cpu_limit
-                           else "the stop may have changed the setting it is timed at")
+                timed_max = next(
+                    (s["cpu_ms_max"] / 1e3 for s in summaries[name] if s["route"] == peer and "cpu_ms_max" in s), None
+                )
+                verdict = (
+                    "each stopped run had already cost more CPU than any of its timed runs, so the stop can "
+                    "only favour the peer"
+                    if timed_max is not None and timed_max < scenario.walk_cpu_limit
+                    else "the stop may have changed the setting it is timed at"
+                )
                 notes.append(
                     f"{scenario.label}: {len(runs)} of {LABELS[peer]}'s runs on the tolerance walk (at rtol "
                     f"{', '.join(sorted({f'{r:.1e}' for r, _ in runs}, key=float, reverse=True))}) were stopped "
                     f"past {scenario.walk_cpu_limit:g} s CPU and counted as failed, {jacobians} of them after a "
                     "finite-difference Jacobian (as many right-hand sides at one t as the model has states: LSODA "
-                    f"had switched to BDF); {verdict}.")
+                    f"had switched to BDF); {verdict}."
+                )
         if name == "scene8s":
             checks = check_published(study, orders)
             worst = max(c["relative_deviation"] for c in checks) if checks else None
             if worst is not None:
-                notes.append(f"Every route gives both published peaks to {worst:.1e} (relative) at its 8 s setting "
-                             f"({'within' if worst <= PUBLISHED_TOLERANCE else 'NOT within'} the "
-                             f"{PUBLISHED_TOLERANCE:g} checked).")
+                notes.append(
+                    f"Every route gives both published peaks to {worst:.1e} (relative) at its 8 s setting "
+                    f"({'within' if worst <= PUBLISHED_TOLERANCE else 'NOT within'} the "
+                    f"{PUBLISHED_TOLERANCE:g} checked)."
+                )
     if "lattice" in kernels:
-        notes.append(f"Before timing, the kernels were checked against reference/lattice.py on "
-                     f"{len(kernels['lattice'])} quantities over six scenes: worst relative difference "
-                     + ", ".join(f"{k} {v:.1e}" for k, v in kernels["lattice"].items()) + ".")
+        notes.append(
+            f"Before timing, the kernels were checked against reference/lattice.py on "
+            f"{len(kernels['lattice'])} quantities over six scenes: worst relative difference "
+            + ", ".join(f"{k} {v:.1e}" for k, v in kernels["lattice"].items())
+            + "."
+        )
     if "plate" in kernels:
-        notes.append(f"Before timing, the plate's kernels were checked against reference/lattice3d.py's right-hand "
-                     f"side over {len(plate_check_scenes())} small plates (5 x 5 x 5 and smaller, R != D, a centred "
-                     "patch and the whole face, both diagonal rules): worst relative difference "
-                     + ", ".join(f"{k} {v:.1e}" for k, v in kernels["plate"].items()) + ".")
-    compile_text = "; ".join(f"{'the plate' if k == 'plate' else 'the 2-D lattice'} {v['cpu']:.1f} s"
-                             for k, v in numba_compile.items())
-    diffrax_text = ", ".join(f"{plan[n].label} {studies[n]['diffrax_compile_cpu']:.1f} s CPU" for n in studies
-                             if "diffrax_compile_cpu" in studies[n])
-    micro_text = "; ".join(f"{'the plate' if k == 'plate' else 'the 2-D lattice'} {v['numba']:.2f} us in a "
-                           f"compiled loop and {v['numba_from_python']:.2f} us called from Python"
-                           for k, v in micro.items())
-    notes.append(f"Compile times, never in a run's time: numba (CPU) {compile_text}; diffrax {diffrax_text}. One "
-                 f"numba right-hand side costs: {micro_text}; the rest of a peer's time per right-hand side is its "
-                 "solver's own work.")
+        notes.append(
+            f"Before timing, the plate's kernels were checked against reference/lattice3d.py's right-hand "
+            f"side over {len(plate_check_scenes())} small plates (5 x 5 x 5 and smaller, R != D, a centred "
+            "patch and the whole face, both diagonal rules): worst relative difference "
+            + ", ".join(f"{k} {v:.1e}" for k, v in kernels["plate"].items())
+            + "."
+        )
+    compile_text = "; ".join(
+        f"{'the plate' if k == 'plate' else 'the 2-D lattice'} {v['cpu']:.1f} s" for k, v in numba_compile.items()
+    )
+    diffrax_text = ", ".join(
+        f"{plan[n].label} {studies[n]['diffrax_compile_cpu']:.1f} s CPU"
+        for n in studies
+        if "diffrax_compile_cpu" in studies[n]
+    )
+    micro_text = "; ".join(
+        f"{'the plate' if k == 'plate' else 'the 2-D lattice'} {v['numba']:.2f} us in a "
+        f"compiled loop and {v['numba_from_python']:.2f} us called from Python"
+        for k, v in micro.items()
+    )
+    notes.append(
+        f"Compile times, never in a run's time: numba (CPU) {compile_text}; diffrax {diffrax_text}. One "
+        f"numba right-hand side costs: {micro_text}; the rest of a peer's time per right-hand side is its "
+        "solver's own work."
+    )
     if "plate" in studies:
-        notes.append("The plate: the FMU as shipped (`use_symmetry` 1) integrates a quarter of the plate under the "
-                     "centred patch, with the whole plate's steps; the peers integrate the whole plate (a quarter "
-                     "would need the mirror planes' conditions written into their kernels, which this benchmark "
-                     "does not do), so the last column compares them with the FMU integrating the whole plate "
-                     "(`use_symmetry` 0), at equal model.")
+        notes.append(
+            "The plate: the FMU as shipped (`use_symmetry` 1) integrates a quarter of the plate under the "
+            "centred patch, with the whole plate's steps; the peers integrate the whole plate (a quarter "
+            "would need the mirror planes' conditions written into their kernels, which this benchmark "
+            "does not do), so the last column compares them with the FMU integrating the whole plate "
+            "(`use_symmetry` 0), at equal model."
+        )
     summary = (
         f"{len(orders)} orders ({', '.join(f'{k} {order_text(v)}' for k, v in orders.items())}), on every scene. "
         "Each peer runs at the loosest rtol (quarter decades, atol = rtol / 100) whose worst sampled-peak error "
         "over the orders (against the FMU's DOP853 at rtol 1e-13) is within the FMU's, confirmed by the next "
         "tighter one. CPU time per run (`process_time`), the routes interleaved, the fastest round per order (the "
         "rounds of each scene in its table's caption: the plate's runs take seconds, so it has fewer); ranges over "
-        "the orders. The whole-lattice FMU (`use_symmetry` 0) integrates what the peers integrate.")
-    return Page(name=run.name, title="The FMU against its peers at equal accuracy", headline="; ".join(headline),
-                summary=summary, tables=tuple(tables), notes=tuple(notes))
+        "the orders. The whole-lattice FMU (`use_symmetry` 0) integrates what the peers integrate."
+    )
+    return Page(
+        name=run.name,
+        title="The FMU against its peers at equal accuracy",
+        headline="; ".join(headline),
+        summary=summary,
+        tables=tuple(tables),
+        notes=tuple(notes),
+    )
 
 
 if __name__ == "__main__":

@@ -22,6 +22,7 @@ Every peak in the tables is the sampled peak over 8 s at the FMU's default setti
 fidelity), computed here through ``FMURun`` and the Evaluator; each answer's own reported peak must agree with it
 to 1e-9 or the benchmark stops.
 """
+
 from __future__ import annotations
 
 import tempfile
@@ -66,12 +67,15 @@ COSTS: list[tuple] = []  # (study, designs evaluated, wall seconds) of every stu
 def study(folder: Path, case: CaseConfig, methods, setting: Setting, budget: int | None = None):
     """The orchestrator's own study of ``case`` (what run.py runs, sensitivity off), and its wall seconds."""
     configs = {step: None for step in STEPS}
-    configs[Searches] = SearchesConfig(methods=tuple(methods), budget=budget or setting.budget,
-                                       repeats=setting.repeats)
+    configs[Searches] = SearchesConfig(methods=tuple(methods), budget=budget or setting.budget, repeats=setting.repeats)
     configs[Sensitivity] = SensitivityConfig(enabled=False)
     start = time.perf_counter()
-    outcome = run_in_folder(RunConfig(out=str(folder), workers=setting.workers, progress=False), case,
-                            {k: v for k, v in configs.items() if v is not None}, STEPS)
+    outcome = run_in_folder(
+        RunConfig(out=str(folder), workers=setting.workers, progress=False),
+        case,
+        {k: v for k, v in configs.items() if v is not None},
+        STEPS,
+    )
     seconds = time.perf_counter() - start
     COSTS.append((outcome.study.case.line(), " ".join(methods), f"{seconds:.0f}"))
     return outcome, seconds
@@ -111,15 +115,17 @@ def percent(value: float, reference: float) -> str:
 
 def seven_layers(root: Path, setting: Setting, log) -> tuple[list, list]:
     """The swept plate against the swept 2-D lattice of the same materials: rows of the table, and findings."""
-    flat, seconds = study(root / "lattice_11x7", CaseConfig(cols=SWEPT_COLUMNS, diagonal_rules=RULES),
-                          ("exhaustive",), setting, budget=1)
+    flat, seconds = study(
+        root / "lattice_11x7", CaseConfig(cols=SWEPT_COLUMNS, diagonal_rules=RULES), ("exhaustive",), setting, budget=1
+    )
     log(f"11 x {SWEPT_COLUMNS} lattice swept in {seconds:.0f} s")
     flat_sweeps = flat.study.result(Exhaustive)
     flat_fmu = flat.study.fmu_path
     rows, findings = [], []
     for load, patch in LOADS.items():
-        case = CaseConfig(scene=PLATE_SCENE, cols=SWEPT_COLUMNS, depth=setting.depth, load_patch=patch,
-                          diagonal_rules=RULES)
+        case = CaseConfig(
+            scene=PLATE_SCENE, cols=SWEPT_COLUMNS, depth=setting.depth, load_patch=patch, diagonal_rules=RULES
+        )
         plate, seconds = study(root / f"plate_7_{patch}", case, ("exhaustive",), setting, budget=1)
         log(f"{plate.study.case.line()}: swept in {seconds:.0f} s")
         sweeps = plate.study.result(Exhaustive)
@@ -134,16 +140,26 @@ def seven_layers(root: Path, setting: Setting, log) -> tuple[list, list]:
             check_agrees(f"{load}, {rule}: the plate's optimum", certificate.optimum.full, in_plate[optimum])
             check_agrees(f"{rule}: the lattice's optimum", flat_certificate.optimum.full, in_lattice[flat_optimum])
             space = DesignSpace.permutations(SWEPT_COLUMNS)
-            values = screened_values(plate.study.fmu_path, space, setting.workers,
-                                     {"diagonal_rule": rule, "load_patch": patch})
+            values = screened_values(
+                plate.study.fmu_path, space, setting.workers, {"diagonal_rule": rule, "load_patch": patch}
+            )
             rank, screened = rank_of(flat_optimum, space, values)
             same = optimum == flat_optimum
-            rows.append((load, rule, order_text(optimum), f"{in_plate[optimum]:.2f}",
-                         f"{certificate.gap:.3f}" if certificate.gap is not None else "n/a",
-                         "yes" if certificate.certified else "no: " + "; ".join(certificate.reasons),
-                         order_text(flat_optimum), f"{in_plate[flat_optimum]:.2f}",
-                         percent(in_plate[flat_optimum], in_plate[optimum]), f"{rank:,} of {screened:,}",
-                         percent(in_lattice[optimum], in_lattice[flat_optimum])))
+            rows.append(
+                (
+                    load,
+                    rule,
+                    order_text(optimum),
+                    f"{in_plate[optimum]:.2f}",
+                    f"{certificate.gap:.3f}" if certificate.gap is not None else "n/a",
+                    "yes" if certificate.certified else "no: " + "; ".join(certificate.reasons),
+                    order_text(flat_optimum),
+                    f"{in_plate[flat_optimum]:.2f}",
+                    percent(in_plate[flat_optimum], in_plate[optimum]),
+                    f"{rank:,} of {screened:,}",
+                    percent(in_lattice[optimum], in_lattice[flat_optimum]),
+                )
+            )
             findings.append((load, rule, same, in_plate[flat_optimum] / in_plate[optimum] - 1.0, rank))
     return rows, findings
 
@@ -160,19 +176,30 @@ def eleven_layers(root: Path, setting: Setting, log) -> tuple[list, list]:
         for rule in RULES:
             answer = answers.for_rule(rule)
             flat = flat_optima[rule]
-            peaks = full_peaks(plate.study.fmu_path, rule, patch, [answer.order, flat.order, STUDY_BEST_ORDER],
-                               setting.workers)
+            peaks = full_peaks(
+                plate.study.fmu_path, rule, patch, [answer.order, flat.order, STUDY_BEST_ORDER], setting.workers
+            )
             check_agrees(f"{load}, {rule}: the plate's answer", answer.peak, peaks[answer.order])
             best = min(peaks, key=peaks.get)
             evidence = answer.evidence
-            rows.append((load, rule, order_text(answer.order), f"{peaks[answer.order]:.2f}",
-                         f"{evidence.status.replace('_', ' ')}; {evidence.runs_reaching} of {evidence.runs} "
-                         "search runs ended at it",
-                         order_text(flat.order), f"{peaks[flat.order]:.2f}",
-                         percent(peaks[flat.order], peaks[answer.order]), f"{peaks[STUDY_BEST_ORDER]:.2f}",
-                         "the answer" if best == answer.order else order_text(best)))
-            findings.append((load, rule, answer.order == flat.order, peaks[flat.order] / peaks[best] - 1.0,
-                             best == answer.order))
+            rows.append(
+                (
+                    load,
+                    rule,
+                    order_text(answer.order),
+                    f"{peaks[answer.order]:.2f}",
+                    f"{evidence.status.replace('_', ' ')}; {evidence.runs_reaching} of {evidence.runs} "
+                    "search runs ended at it",
+                    order_text(flat.order),
+                    f"{peaks[flat.order]:.2f}",
+                    percent(peaks[flat.order], peaks[answer.order]),
+                    f"{peaks[STUDY_BEST_ORDER]:.2f}",
+                    "the answer" if best == answer.order else order_text(best),
+                )
+            )
+            findings.append(
+                (load, rule, answer.order == flat.order, peaks[flat.order] / peaks[best] - 1.0, best == answer.order)
+            )
     return rows, findings
 
 
@@ -183,8 +210,12 @@ def main(argv=None) -> int:
     parser.add_argument("--budget", type=int, default=500, help="designs per search run on the 11-layer plate")
     parser.add_argument("--repeats", type=int, default=3, help="seeds per search method on the 11-layer plate")
     args = parser.parse_args(argv)
-    setting = Setting(depth=3 if args.quick else 11, budget=100 if args.quick else args.budget,
-                      repeats=args.repeats, workers=args.workers)
+    setting = Setting(
+        depth=3 if args.quick else 11,
+        budget=100 if args.quick else args.budget,
+        repeats=args.repeats,
+        workers=args.workers,
+    )
 
     def log(text: str) -> None:
         print(text, flush=True)
@@ -196,34 +227,65 @@ def main(argv=None) -> int:
     survived = [f for f in seven if f[2]]
     worst = max(seven, key=lambda f: f[3])
     above = [100 * f[3] for f in eleven]
-    headline = (f"11 x 7 x {depth} plate, certified: the 2-D optimum is the plate's optimum in {len(survived)} of "
-                f"{len(seven)} cases (load x rule), at worst {100 * worst[3]:.1f}% above it ({worst[0]}, {worst[1]} "
-                f"rule: rank {worst[4]:,} of 5,040); 11 x 11 x {depth} plate, searched: the 2-D optimum is "
-                f"{min(above):.2f}-{max(above):.2f}% above the best order known in the plate")
+    headline = (
+        f"11 x 7 x {depth} plate, certified: the 2-D optimum is the plate's optimum in {len(survived)} of "
+        f"{len(seven)} cases (load x rule), at worst {100 * worst[3]:.1f}% above it ({worst[0]}, {worst[1]} "
+        f"rule: rank {worst[4]:,} of 5,040); 11 x 11 x {depth} plate, searched: the 2-D optimum is "
+        f"{min(above):.2f}-{max(above):.2f}% above the best order known in the plate"
+    )
     seven_table = Table(
-        ("load", "rule", f"plate 11 x 7 x {depth}: certified optimum", "its peak (N)", "runner-up gap (N)",
-         "certified", "11 x 7 lattice's optimum (2-D)", "its peak in the plate (N)", "above the plate's optimum (%)",
-         "its rank in the plate (search fidelity)", "the plate's optimum in 2-D, above the 2-D optimum (%)"),
+        (
+            "load",
+            "rule",
+            f"plate 11 x 7 x {depth}: certified optimum",
+            "its peak (N)",
+            "runner-up gap (N)",
+            "certified",
+            "11 x 7 lattice's optimum (2-D)",
+            "its peak in the plate (N)",
+            "above the plate's optimum (%)",
+            "its rank in the plate (search fidelity)",
+            "the plate's optimum in 2-D, above the 2-D optimum (%)",
+        ),
         tuple(seven_rows),
-        caption="7 layers (the study's materials 1-7, 5,040 orders), swept in the plate and in the lattice")
+        caption="7 layers (the study's materials 1-7, 5,040 orders), swept in the plate and in the lattice",
+    )
     eleven_table = Table(
-        ("load", "rule", f"plate 11 x 11 x {depth}: best found", "its peak (N)", "evidence",
-         "11 x 11 lattice's certified optimum (2-D)", "its peak in the plate (N)", "above the plate's answer (%)",
-         "the study's best order in the plate (N)", "best of these in the plate"),
+        (
+            "load",
+            "rule",
+            f"plate 11 x 11 x {depth}: best found",
+            "its peak (N)",
+            "evidence",
+            "11 x 11 lattice's certified optimum (2-D)",
+            "its peak in the plate (N)",
+            "above the plate's answer (%)",
+            "the study's best order in the plate (N)",
+            "best of these in the plate",
+        ),
         tuple(eleven_rows),
-        caption=(f"11 layers (11! orders): searched with {', '.join(SEARCHES)}, {setting.repeats} seeds, "
-                 f"{setting.budget} designs per run"))
+        caption=(
+            f"11 layers (11! orders): searched with {', '.join(SEARCHES)}, {setting.repeats} seeds, "
+            f"{setting.budget} designs per run"
+        ),
+    )
     page = Page(
-        name=run.name, title="The plate's finding: the 2-D optimum in three dimensions",
+        name=run.name,
+        title="The plate's finding: the 2-D optimum in three dimensions",
         headline=headline,
-        summary=(f"Plates {depth} masses deep (docs/model.md section 10), 11 rows, the study's load of 1200 N for "
-                 "0.15 s on column 1 over a centred 3 x 3 patch or the whole face, backplate behind the last layer; "
-                 "both diagonal rules. Peaks: the sampled peak over 8 s at the FMU's default setting, through "
-                 "the Evaluator. Ranks: among every order screened at the search fidelity (1 s, the searches' "
-                 "tolerance). The studies are the orchestrator's own (`run_in_folder`, sensitivity off), each "
-                 f"on {setting.workers} worker processes."),
-        tables=(seven_table, eleven_table,
-                Table(("study", "methods", "wall s"), tuple(COSTS), caption="What each study cost")),
+        summary=(
+            f"Plates {depth} masses deep (docs/model.md section 10), 11 rows, the study's load of 1200 N for "
+            "0.15 s on column 1 over a centred 3 x 3 patch or the whole face, backplate behind the last layer; "
+            "both diagonal rules. Peaks: the sampled peak over 8 s at the FMU's default setting, through "
+            "the Evaluator. Ranks: among every order screened at the search fidelity (1 s, the searches' "
+            "tolerance). The studies are the orchestrator's own (`run_in_folder`, sensitivity off), each "
+            f"on {setting.workers} worker processes."
+        ),
+        tables=(
+            seven_table,
+            eleven_table,
+            Table(("study", "methods", "wall s"), tuple(COSTS), caption="What each study cost"),
+        ),
         notes=(
             "A certified optimum is the sweep's (every order screened, the best re-run at full fidelity and by a "
             "second integrator, the screening bound held); a best found is the searches' answer and says nothing "

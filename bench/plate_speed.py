@@ -15,6 +15,7 @@ seconds (``time.process_time``: the FMU runs on one thread, so one core's time) 
 rounds. Each peak is compared with a tight run (the FMU's DOP853 at rtol 1e-13, atol 1e-15, with symmetry, over
 8 s); the energy balance of docs/model.md section 7 is read as tests/test_fmu.py reads it, from the outputs.
 """
+
 from __future__ import annotations
 
 import tempfile
@@ -32,8 +33,21 @@ from orchestrator.simulation import LatticeFMU, declared_lattice_size
 from orchestrator.types import Evaluation
 from scenes import Scene
 
-from .common import (BEST_KNOWN, FULL_HORIZON, SEQUENTIAL, STUDY_BEST, add_fmu_option, default_setting, lattice_fmu,
-                     order_text, relative, search_parameters, search_setting_text, setting_text, span)
+from .common import (
+    BEST_KNOWN,
+    FULL_HORIZON,
+    SEQUENTIAL,
+    STUDY_BEST,
+    add_fmu_option,
+    default_setting,
+    lattice_fmu,
+    order_text,
+    relative,
+    search_parameters,
+    search_setting_text,
+    setting_text,
+    span,
+)
 from .measurements import Page, Run, Table, write_page
 
 SCENE = "plate_11x11x11"
@@ -106,8 +120,9 @@ class Accuracy:
     worst_sampled_balance: dict[int, float]  # use_symmetry -> max over every 0.01 s of |balance| / W_ext(end)
 
 
-def integrated_states(core, shape: tuple[int, int, int], declared: int, patch: int, symmetry: int,
-                      load_angle: float) -> int:
+def integrated_states(
+    core, shape: tuple[int, int, int], declared: int, patch: int, symmetry: int, load_angle: float
+) -> int:
     """The continuous states the Co-Simulation solver integrates, as cosimulation.c's solver_layout chooses them
     from the core's own rules (asked of the compiled core, ``fmu_src.core.Core``): every state the FMU declares;
     under use_symmetry and a load along x only ux and vx and the energy integrals, of the part that carries a
@@ -129,8 +144,9 @@ def time_cases(path, cases, rounds: int) -> dict[tuple, Timing]:
     tasks = {}
     for case in cases:
         for symmetry in SYMMETRIES:
-            objective = LatticeObjective(str(path), DesignSpace.permutations(len(case.order)), FULL_HORIZON,
-                                         parameters=case.parameters(symmetry))
+            objective = LatticeObjective(
+                str(path), DesignSpace.permutations(len(case.order)), FULL_HORIZON, parameters=case.parameters(symmetry)
+            )
             for evaluation in EVALUATIONS:
                 tasks[(case, evaluation, symmetry)] = objective.tasks(evaluation)[0]
     best: dict[tuple, Timing] = {}
@@ -141,8 +157,10 @@ def time_cases(path, cases, rounds: int) -> dict[tuple, Timing]:
                 result = task(key[0].order)
                 seconds = time.process_time() - start
                 if not result.ok:
-                    raise SystemExit(f"{key[0].load}, {key[0].rule}, {order_text(key[0].order)}, {key[1]} "
-                                     f"evaluation, use_symmetry {key[2]}: failed: {result.message}")
+                    raise SystemExit(
+                        f"{key[0].load}, {key[0].rule}, {order_text(key[0].order)}, {key[1]} "
+                        f"evaluation, use_symmetry {key[2]}: failed: {result.message}"
+                    )
                 if round_ and (key not in best or seconds < best[key].seconds):
                     best[key] = Timing(seconds, result)
     finally:
@@ -154,20 +172,35 @@ def accuracy(path, cases) -> dict[Case, Accuracy]:
     out = {}
     with LatticeFMU(path, instance_name="tight") as fmu:
         for case in cases:
-            tight = fmu.simulate(case.order, horizon=FULL_HORIZON, parameters={**case.parameters(1), **TIGHT},
-                                 outputs=(PEAK, "rhs_evaluations"))
-            check = fmu.simulate(case.order, horizon=FULL_HORIZON, parameters={**case.parameters(1), **TIGHT_CHECK},
-                                 outputs=(PEAK,))
+            tight = fmu.simulate(
+                case.order,
+                horizon=FULL_HORIZON,
+                parameters={**case.parameters(1), **TIGHT},
+                outputs=(PEAK, "rhs_evaluations"),
+            )
+            check = fmu.simulate(
+                case.order, horizon=FULL_HORIZON, parameters={**case.parameters(1), **TIGHT_CHECK}, outputs=(PEAK,)
+            )
             worst = {}
             for symmetry in SYMMETRIES:  # tests/test_fmu.py's balance of the outputs, every 0.01 s
-                result = fmu.simulate(case.order, horizon=FULL_HORIZON, parameters=case.parameters(symmetry),
-                                      communication_step=0.01, record=BALANCE_OUTPUTS, outputs=BALANCE_OUTPUTS)
+                result = fmu.simulate(
+                    case.order,
+                    horizon=FULL_HORIZON,
+                    parameters=case.parameters(symmetry),
+                    communication_step=0.01,
+                    record=BALANCE_OUTPUTS,
+                    outputs=BALANCE_OUTPUTS,
+                )
                 v = result.trajectory.values
-                balance = (v["external_work"] + v["nonreciprocal_work"] - v["kinetic_energy"]
-                           - v["potential_energy"] - v["dissipated_energy"])
+                balance = (
+                    v["external_work"]
+                    + v["nonreciprocal_work"]
+                    - v["kinetic_energy"]
+                    - v["potential_energy"]
+                    - v["dissipated_energy"]
+                )
                 worst[symmetry] = float(max(abs(balance)) / v["external_work"][-1])
-            out[case] = Accuracy(tight[PEAK], int(tight["rhs_evaluations"]), relative(check[PEAK], tight[PEAK]),
-                                 worst)
+            out[case] = Accuracy(tight[PEAK], int(tight["rhs_evaluations"]), relative(check[PEAK], tight[PEAK]), worst)
     return out
 
 
@@ -179,8 +212,12 @@ def main(argv=None) -> int:
     run = Run.start(__file__, argv)
     parser = run.parser(__doc__, quick="the receiver rule only and 3 timing rounds")
     add_fmu_option(parser)
-    parser.add_argument("--rounds", type=int, default=None,
-                        help="interleaved timing rounds, the fastest counts (default 10, with --quick 3)")
+    parser.add_argument(
+        "--rounds",
+        type=int,
+        default=None,
+        help="interleaved timing rounds, the fastest counts (default 10, with --quick 3)",
+    )
     args = parser.parse_args(argv)
     rules = ("receiver",) if args.quick else RULES
     if args.rounds is None:
@@ -195,9 +232,11 @@ def main(argv=None) -> int:
         description = read_model_description(str(path))
         shape, whole_states = declared_lattice_size(path), len(description.derivatives)
         if shape != (scene.rows, scene.cols, scene.depth):
-            raise SystemExit(f"--fmu {args.fmu}: its lattice is {' x '.join(map(str, shape or ()))}, the scene "
-                             f"{SCENE}'s {scene.rows} x {scene.cols} x {scene.depth} (rows x columns x depth): give "
-                             f"the FMU of the scene {SCENE}")
+            raise SystemExit(
+                f"--fmu {args.fmu}: its lattice is {' x '.join(map(str, shape or ()))}, the scene "
+                f"{SCENE}'s {scene.rows} x {scene.cols} x {scene.depth} (rows x columns x depth): give "
+                f"the FMU of the scene {SCENE}"
+            )
         search_text = search_setting_text(search_parameters(path))
         default_text = setting_text(default_setting(path))
         timings = time_cases(path, cases, args.rounds)
@@ -205,8 +244,11 @@ def main(argv=None) -> int:
 
     with tempfile.TemporaryDirectory(prefix="plate_speed_core_", ignore_cleanup_errors=True) as folder:
         core = Core(build_core_library(folder))
-        states = {(patch, symmetry): integrated_states(core, shape, whole_states, patch, symmetry, load_angle)
-                  for patch in PATCHES for symmetry in SYMMETRIES}
+        states = {
+            (patch, symmetry): integrated_states(core, shape, whole_states, patch, symmetry, load_angle)
+            for patch in PATCHES
+            for symmetry in SYMMETRIES
+        }
     cost_rows, accuracy_rows, balance_rows = [], [], []
     errors = {evaluation: [] for evaluation in EVALUATIONS}
     against_full, symmetry_differences, balances = [], [], []
@@ -215,9 +257,20 @@ def main(argv=None) -> int:
         for evaluation in EVALUATIONS:
             with_, without = timings[(case, evaluation, 1)], timings[(case, evaluation, 0)]
             rhs = str(with_.rhs) if with_.rhs == without.rhs else f"{with_.rhs} / {without.rhs}"
-            cost_rows.append((case.load, case.rule, case.label, evaluation, ms(with_.seconds), ms(without.seconds),
-                              rhs, f"{with_.us_per_rhs:.1f}", f"{without.us_per_rhs:.1f}",
-                              f"{without.seconds / with_.seconds:.1f}x"))
+            cost_rows.append(
+                (
+                    case.load,
+                    case.rule,
+                    case.label,
+                    evaluation,
+                    ms(with_.seconds),
+                    ms(without.seconds),
+                    rhs,
+                    f"{with_.us_per_rhs:.1f}",
+                    f"{without.us_per_rhs:.1f}",
+                    f"{without.seconds / with_.seconds:.1f}x",
+                )
+            )
             error = relative(with_.peak, tight.tight_peak)
             errors[evaluation].append(error)
             full = timings[(case, FULL, 1)].peak
@@ -225,19 +278,48 @@ def main(argv=None) -> int:
                 against_full.append(relative(with_.peak, full))
             difference = relative(with_.peak, without.peak)
             symmetry_differences.append(difference)
-            accuracy_rows.append((case.load, case.rule, case.label, evaluation, f"{with_.horizon:g}",
-                                  f"{with_.peak:.6f}", f"{error:.1e}",
-                                  f"{relative(with_.peak, full):.1e}" if evaluation == SEARCH else "",
-                                  f"{difference:.1e}"))
+            accuracy_rows.append(
+                (
+                    case.load,
+                    case.rule,
+                    case.label,
+                    evaluation,
+                    f"{with_.horizon:g}",
+                    f"{with_.peak:.6f}",
+                    f"{error:.1e}",
+                    f"{relative(with_.peak, full):.1e}" if evaluation == SEARCH else "",
+                    f"{difference:.1e}",
+                )
+            )
         full_with, full_without = timings[(case, FULL, 1)], timings[(case, FULL, 0)]
         ends = [abs(t.output("energy_balance_error")) / t.output("external_work") for t in (full_with, full_without)]
         sampled = [tight.worst_sampled_balance[s] for s in SYMMETRIES]
         balances.extend(ends + sampled)
-        balance_rows.append((case.load, case.rule, case.label, f"{full_with.output('external_work'):.4f}",
-                             f"{ends[0]:.1e}", f"{ends[1]:.1e}", f"{sampled[0]:.1e}", f"{sampled[1]:.1e}"))
-        accuracy_rows.append((case.load, case.rule, case.label, "tight run", f"{FULL_HORIZON:g}",
-                              f"{tight.tight_peak:.6f}", f"{tight.tight_moved:.1e} (from rtol "
-                              f"{TIGHT_CHECK['rtol']:g})", "", ""))
+        balance_rows.append(
+            (
+                case.load,
+                case.rule,
+                case.label,
+                f"{full_with.output('external_work'):.4f}",
+                f"{ends[0]:.1e}",
+                f"{ends[1]:.1e}",
+                f"{sampled[0]:.1e}",
+                f"{sampled[1]:.1e}",
+            )
+        )
+        accuracy_rows.append(
+            (
+                case.load,
+                case.rule,
+                case.label,
+                "tight run",
+                f"{FULL_HORIZON:g}",
+                f"{tight.tight_peak:.6f}",
+                f"{tight.tight_moved:.1e} (from rtol {TIGHT_CHECK['rtol']:g})",
+                "",
+                "",
+            )
+        )
 
     def seconds_of(evaluation, symmetry):
         return [timings[(c, evaluation, symmetry)].seconds for c in cases]
@@ -250,16 +332,20 @@ def main(argv=None) -> int:
         worst_case = max(cases, key=lambda c: timings[(c, SEARCH, symmetry)].seconds)
         worst = timings[(worst_case, SEARCH, symmetry)]
         if worst.seconds < budget:
-            return (f"{what}: **yes**, every search evaluation measured takes under {SEARCH_BUDGET_MS:g} ms of CPU "
-                    f"(the most {ms(worst.seconds)} ms: {worst_case.load}, {worst_case.rule} rule, "
-                    f"{worst_case.label}).")
+            return (
+                f"{what}: **yes**, every search evaluation measured takes under {SEARCH_BUDGET_MS:g} ms of CPU "
+                f"(the most {ms(worst.seconds)} ms: {worst_case.load}, {worst_case.rule} rule, "
+                f"{worst_case.label})."
+            )
         over = [c for c in cases if timings[(c, SEARCH, symmetry)].seconds >= budget]
-        return (f"{what}: **no**, {len(over)} of {len(cases)} search evaluations take {SEARCH_BUDGET_MS:g} ms or more. "
-                f"What stands in the way is the cost of a right-hand side over the states integrated "
-                f"({states[(worst_case.patch, symmetry)]}): the most expensive ({worst_case.load}, {worst_case.rule} "
-                f"rule, {worst_case.label}) takes {worst.rhs} right-hand sides at {worst.us_per_rhs:.1f} us each, "
-                f"{ms(worst.seconds)} ms; at that many right-hand sides {SEARCH_BUDGET_MS:g} ms allows "
-                f"{SEARCH_BUDGET_MS * 1e3 / worst.rhs:.1f} us each.")
+        return (
+            f"{what}: **no**, {len(over)} of {len(cases)} search evaluations take {SEARCH_BUDGET_MS:g} ms or more. "
+            f"What stands in the way is the cost of a right-hand side over the states integrated "
+            f"({states[(worst_case.patch, symmetry)]}): the most expensive ({worst_case.load}, {worst_case.rule} "
+            f"rule, {worst_case.label}) takes {worst.rhs} right-hand sides at {worst.us_per_rhs:.1f} us each, "
+            f"{ms(worst.seconds)} ms; at that many right-hand sides {SEARCH_BUDGET_MS:g} ms allows "
+            f"{SEARCH_BUDGET_MS * 1e3 / worst.rhs:.1f} us each."
+        )
 
     under = max(search_with) < budget
     headline = (
@@ -268,7 +354,8 @@ def main(argv=None) -> int:
         f"{span([s * 1e3 for s in search_without], '{:.0f}')} ms on the whole plate; one 8 s evaluation "
         f"{span(full_with, '{:.3f}')} s, {span(full_without, '{:.2f}')} s; peak error at most "
         f"{max(errors[SEARCH]):.1e} (search), {max(errors[FULL]):.1e} (8 s); energy balance within "
-        f"{max(balances):.1e} of the external work")
+        f"{max(balances):.1e} of the external work"
+    )
     summary = (
         f"The scene `{SCENE}` ({scene.rows} rows x {scene.cols} columns x {scene.depth} masses deep: its "
         f"{scene.cols} layers are its columns, one material each), under the centred 3 x 3 patch (`load_patch` 3, "
@@ -287,8 +374,10 @@ def main(argv=None) -> int:
         "sides are the FMU's counter (`rhs_evaluations`, both runs when the search re-ran); microseconds per "
         "right-hand side are the run's CPU time over that count, so they include everything else the run does.\n\n"
         f"**One search evaluation under {SEARCH_BUDGET_MS:g} ms of CPU on one core?** "
-        + verdict(1, "With symmetry (a centred load along x, what the scene is)") + " "
-        + verdict(0, "Without it (every state of the whole plate, what a load at an angle integrates)"))
+        + verdict(1, "With symmetry (a centred load along x, what the scene is)")
+        + " "
+        + verdict(0, "Without it (every state of the whole plate, what a load at an angle integrates)")
+    )
     notes = (
         f"Accuracy: *error* is the relative error of the sampled peak (`{PEAK}`) against the tight run, the FMU's "
         f"DOP853 at rtol {TIGHT['rtol']:g}, atol {TIGHT['atol']:g}, with symmetry, over {FULL_HORIZON:g} s (its own "
@@ -308,20 +397,57 @@ def main(argv=None) -> int:
         f"at most {max(balances):.1e}.",
     )
     page = Page(
-        name=run.name, title="One evaluation of the 11 x 11 x 11 plate: cost and accuracy", headline=headline,
+        name=run.name,
+        title="One evaluation of the 11 x 11 x 11 plate: cost and accuracy",
+        headline=headline,
         summary=summary,
-        tables=(Table(("load", "rule", "order", "evaluation", "CPU ms, symmetry", "CPU ms, whole plate",
-                       "right-hand sides", "us per right-hand side, symmetry", "us per right-hand side, whole plate",
-                       "whole / symmetry"), tuple(cost_rows), caption="**Cost of one evaluation:**"),
-                Table(("load", "rule", "order", "evaluation", "horizon run (s)", "peak (N), symmetry",
-                       "error against the tight run", f"error against the {FULL_HORIZON:g} s evaluation",
-                       "use_symmetry 1 against 0"), tuple(accuracy_rows),
-                      caption="**Accuracy of its peak:**"),
-                Table(("load", "rule", "order", "external work (J)", "balance at the end, symmetry",
-                       "at the end, whole plate", "worst every 0.01 s, symmetry", "worst every 0.01 s, whole plate"),
-                      tuple(balance_rows),
-                      caption=f"**Energy balance of the {FULL_HORIZON:g} s evaluation** (relative to the external "
-                              "work):")),
+        tables=(
+            Table(
+                (
+                    "load",
+                    "rule",
+                    "order",
+                    "evaluation",
+                    "CPU ms, symmetry",
+                    "CPU ms, whole plate",
+                    "right-hand sides",
+                    "us per right-hand side, symmetry",
+                    "us per right-hand side, whole plate",
+                    "whole / symmetry",
+                ),
+                tuple(cost_rows),
+                caption="**Cost of one evaluation:**",
+            ),
+            Table(
+                (
+                    "load",
+                    "rule",
+                    "order",
+                    "evaluation",
+                    "horizon run (s)",
+                    "peak (N), symmetry",
+                    "error against the tight run",
+                    f"error against the {FULL_HORIZON:g} s evaluation",
+                    "use_symmetry 1 against 0",
+                ),
+                tuple(accuracy_rows),
+                caption="**Accuracy of its peak:**",
+            ),
+            Table(
+                (
+                    "load",
+                    "rule",
+                    "order",
+                    "external work (J)",
+                    "balance at the end, symmetry",
+                    "at the end, whole plate",
+                    "worst every 0.01 s, symmetry",
+                    "worst every 0.01 s, whole plate",
+                ),
+                tuple(balance_rows),
+                caption=f"**Energy balance of the {FULL_HORIZON:g} s evaluation** (relative to the external work):",
+            ),
+        ),
         notes=notes,
     )
     write_page(run, page)

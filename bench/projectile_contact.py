@@ -12,6 +12,7 @@ defaults but the stiffness, the contact force read every 1 ms; per stiffness: th
 it stays above half of that peak, how long the first contact lasts and the impulse it delivers, and the sampled
 peak backplate force. The pulse's row is the same quantities of its 1200 N for 0.15 s.
 """
+
 from __future__ import annotations
 
 import shutil
@@ -34,8 +35,12 @@ def contact_history(path, stiffness: float | None) -> dict:
     vr = {v.name: v.valueReference for v in description.modelVariables}
     starts = {v.name: float(v.start) for v in description.modelVariables if v.start is not None}
     unzip_dir = extract(str(path))
-    slave = FMU2Slave(guid=description.guid, unzipDirectory=unzip_dir,
-                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName="contact")
+    slave = FMU2Slave(
+        guid=description.guid,
+        unzipDirectory=unzip_dir,
+        modelIdentifier=description.coSimulation.modelIdentifier,
+        instanceName="contact",
+    )
     try:
         slave.instantiate()
         slave.setupExperiment(startTime=0.0, stopTime=HORIZON)
@@ -47,8 +52,11 @@ def contact_history(path, stiffness: float | None) -> dict:
         forces = []
         for i in range(round(HORIZON / READ_STEP)):
             t = i * READ_STEP
-            forces.append(starts["F_total"] if stiffness is None and t < starts["t_active"] else
-                          slave.getReal([vr["contact_force"]])[0])
+            forces.append(
+                starts["F_total"]
+                if stiffness is None and t < starts["t_active"]
+                else slave.getReal([vr["contact_force"]])[0]
+            )
             slave.doStep(t, READ_STEP)
         peak_backplate = slave.getReal([vr["peak_backplate_force"]])[0]
         slave.terminate()
@@ -58,8 +66,13 @@ def contact_history(path, stiffness: float | None) -> dict:
     first_end = next((i for i, force in enumerate(forces) if i > 0 and force <= 0.0), len(forces))
     first = forces[:first_end]
     peak = max(first)
-    return {"peak": peak, "above_half": sum(force > 0.5 * peak for force in first) * READ_STEP,
-            "duration": first_end * READ_STEP, "impulse": sum(first) * READ_STEP, "peak_backplate": peak_backplate}
+    return {
+        "peak": peak,
+        "above_half": sum(force > 0.5 * peak for force in first) * READ_STEP,
+        "duration": first_end * READ_STEP,
+        "impulse": sum(first) * READ_STEP,
+        "peak_backplate": peak_backplate,
+    }
 
 
 def main(argv=None) -> int:
@@ -70,28 +83,61 @@ def main(argv=None) -> int:
     stiffnesses = (1e4, PROJECTILE_CONTACT_STIFFNESS, 1e5) if args.quick else STIFFNESSES
     with lattice_fmu(args.fmu) as path:
         pulse = contact_history(path, None)
-        rows = [("the pulse (load_mode pulse)", "", f"{pulse['peak']:.0f}", f"{pulse['above_half']:.3f}",
-                 f"{pulse['duration']:.3f}", f"{pulse['impulse']:.1f}", f"{pulse['peak_backplate']:.2f}")]
+        rows = [
+            (
+                "the pulse (load_mode pulse)",
+                "",
+                f"{pulse['peak']:.0f}",
+                f"{pulse['above_half']:.3f}",
+                f"{pulse['duration']:.3f}",
+                f"{pulse['impulse']:.1f}",
+                f"{pulse['peak_backplate']:.2f}",
+            )
+        ]
         measured = {}
         for stiffness in stiffnesses:
             measured[stiffness] = result = contact_history(path, stiffness)
-            rows.append(("projectile" + (" (the default)" if stiffness == PROJECTILE_CONTACT_STIFFNESS else ""),
-                         f"{stiffness:g}", f"{result['peak']:.0f}", f"{result['above_half']:.3f}",
-                         f"{result['duration']:.3f}", f"{result['impulse']:.1f}", f"{result['peak_backplate']:.2f}"))
+            rows.append(
+                (
+                    "projectile" + (" (the default)" if stiffness == PROJECTILE_CONTACT_STIFFNESS else ""),
+                    f"{stiffness:g}",
+                    f"{result['peak']:.0f}",
+                    f"{result['above_half']:.3f}",
+                    f"{result['duration']:.3f}",
+                    f"{result['impulse']:.1f}",
+                    f"{result['peak_backplate']:.2f}",
+                )
+            )
     default = measured[PROJECTILE_CONTACT_STIFFNESS]
     page = Page(
-        name=run.name, title="The projectile's contact beside the pulse",
-        headline=(f"the default projectile (contact_stiffness {PROJECTILE_CONTACT_STIFFNESS:g} N/m^1.5) pushes with "
-                  f"at most {default['peak']:.0f} N, above half of that for {default['above_half']:.3f} s (the "
-                  f"pulse: {pulse['peak']:.0f} N for {pulse['above_half']:.3f} s)"),
-        summary=(f"The study's 11 x 11 lattice in its default order, projectile mode with the FMU's defaults (the "
-                 f"pulse's momentum) but contact_stiffness, over {HORIZON:g} s; the contact force read every "
-                 f"{READ_STEP * 1e3:g} ms (the pulse: its prescribed force on the same grid). The first contact "
-                 "ends where the force first returns to 0; the body may strike again later, when the lattice "
-                 "rebounds from the backplate. Peak backplate force: the FMU's sampled peak (every 0.01 s)."),
-        tables=(Table(("load", "contact_stiffness (N/m^1.5)", "peak force (N)", "above half its peak (s)",
-                       "first contact (s)", "impulse of the first contact (N s)", "peak backplate force (N)"),
-                      tuple(rows)),),
+        name=run.name,
+        title="The projectile's contact beside the pulse",
+        headline=(
+            f"the default projectile (contact_stiffness {PROJECTILE_CONTACT_STIFFNESS:g} N/m^1.5) pushes with "
+            f"at most {default['peak']:.0f} N, above half of that for {default['above_half']:.3f} s (the "
+            f"pulse: {pulse['peak']:.0f} N for {pulse['above_half']:.3f} s)"
+        ),
+        summary=(
+            f"The study's 11 x 11 lattice in its default order, projectile mode with the FMU's defaults (the "
+            f"pulse's momentum) but contact_stiffness, over {HORIZON:g} s; the contact force read every "
+            f"{READ_STEP * 1e3:g} ms (the pulse: its prescribed force on the same grid). The first contact "
+            "ends where the force first returns to 0; the body may strike again later, when the lattice "
+            "rebounds from the backplate. Peak backplate force: the FMU's sampled peak (every 0.01 s)."
+        ),
+        tables=(
+            Table(
+                (
+                    "load",
+                    "contact_stiffness (N/m^1.5)",
+                    "peak force (N)",
+                    "above half its peak (s)",
+                    "first contact (s)",
+                    "impulse of the first contact (N s)",
+                    "peak backplate force (N)",
+                ),
+                tuple(rows),
+            ),
+        ),
     )
     write_page(run, page)
     return 0

@@ -28,6 +28,7 @@ Every peak in the tables is the sampled peak over 8 s at the FMU's default setti
 computed here through ``FMURun`` and the Evaluator; each answer's own reported peak must agree with it to 1e-9 or
 the benchmark stops.
 """
+
 from __future__ import annotations
 
 import math
@@ -42,8 +43,16 @@ from orchestrator.executors import make_executor
 from orchestrator.known_optima import known_optima
 from orchestrator.loop import Evaluator
 from orchestrator.fmu import prepare_fmu
-from orchestrator.objective import (SEARCH, SEARCH_HORIZON, SEARCH_RTOL, SEARCH_SOLVER, FMURun, LatticeObjective,
-                                    RecordRun, close_instances)
+from orchestrator.objective import (
+    SEARCH,
+    SEARCH_HORIZON,
+    SEARCH_RTOL,
+    SEARCH_SOLVER,
+    FMURun,
+    LatticeObjective,
+    RecordRun,
+    close_instances,
+)
 from orchestrator.runner import RunConfig, run_in_folder
 from orchestrator.steps import STEPS, Answers, Exhaustive, Searches
 from orchestrator.steps.answers import BUDGET_FACTOR
@@ -75,8 +84,9 @@ class Setting:
     settle_budget: int  # the 11 x 11 searches' budget that settles an answer (the report's suggestion)
 
 
-def study(folder: Path, case: CaseConfig, setting: Setting, methods: tuple[str, ...] | None = None,
-          budget: int | None = None):
+def study(
+    folder: Path, case: CaseConfig, setting: Setting, methods: tuple[str, ...] | None = None, budget: int | None = None
+):
     """The orchestrator's own study of ``case``: with neither ``methods`` nor ``budget``, every step at its default
     (what ``python orchestrator/run.py`` runs with the case's options); else those methods (a sweep) or the
     default searches at that budget, sensitivity off."""
@@ -91,8 +101,13 @@ def study(folder: Path, case: CaseConfig, setting: Setting, methods: tuple[str, 
     outcome = run_in_folder(RunConfig(out=str(folder), workers=setting.workers, progress=False), case, configs, STEPS)
     seconds = time.perf_counter() - start
     searches = outcome.study.result(Searches)
-    COSTS.append((outcome.study.case.line(), " ".join(methods) if methods else
-                  f"{' '.join(searches.methods)}, budget {searches.budget}", f"{seconds:.0f}"))
+    COSTS.append(
+        (
+            outcome.study.case.line(),
+            " ".join(methods) if methods else f"{' '.join(searches.methods)}, budget {searches.budget}",
+            f"{seconds:.0f}",
+        )
+    )
     return outcome, seconds
 
 
@@ -171,20 +186,31 @@ def horizon_check(fmu_path, search_horizon: float, search_rtol: float, setting: 
         failed = [t for t in results if not t.ok]
         if failed:
             raise SystemExit(f"{len(failed)} runs failed, first {order_text(failed[0].order)}: {failed[0].message}")
-        truth = dict(zip(orders, results[:len(orders)]))
+        truth = dict(zip(orders, results[: len(orders)]))
         final = {o: at(truth[o], FULL_HORIZON) for o in orders}
         passing = []
         for h in horizons:
             values = {o: at(truth[o], h) for o in orders}
-            diffs = [max(relative(values[o]["peak_backplate_force"], final[o]["peak_backplate_force"]),
-                         relative(values[o]["peak_backplate_force_continuous"],
-                                  final[o]["peak_backplate_force_continuous"])) for o in orders]
+            diffs = [
+                max(
+                    relative(values[o]["peak_backplate_force"], final[o]["peak_backplate_force"]),
+                    relative(values[o]["peak_backplate_force_continuous"], final[o]["peak_backplate_force_continuous"]),
+                )
+                for o in orders
+            ]
             differ = sum(d > SAME for d in diffs)
             guard = sum(1 for o in orders if values[o]["last_contact_time"] >= GUARD * h)
             if not differ and not guard:
                 passing.append(h)
-            rows.append((rule, f"{h:g} s" + (" (the projectile's search horizon)" if h == search_horizon else ""),
-                         differ, f"{max(diffs):.1e}", guard))
+            rows.append(
+                (
+                    rule,
+                    f"{h:g} s" + (" (the projectile's search horizon)" if h == search_horizon else ""),
+                    differ,
+                    f"{max(diffs):.1e}",
+                    guard,
+                )
+            )
         needed.append(min(passing) if passing else math.inf)
         contacts += [final[o]["last_contact_time"] for o in orders]
         peaks += [final[o]["peak_time"] for o in orders]
@@ -195,7 +221,7 @@ def horizon_check(fmu_path, search_horizon: float, search_rtol: float, setting: 
             rule_gaps.append(min(relative(true_peak[b], true_peak[a]) for a, b in zip(best, best[1:])))
         gaps.append(min(rule_gaps))
         for k, rtol in enumerate(rtols):
-            part = results[len(orders) * (k + 1):len(orders) * (k + 2)]
+            part = results[len(orders) * (k + 1) : len(orders) * (k + 2)]
             at_search = {o: at(t, search_horizon)["peak_backplate_force"] for o, t in zip(orders, part)}
             errors = [relative(at_search[o], true_peak[o]) for o in orders]
             kept, taus = [], []
@@ -204,15 +230,31 @@ def horizon_check(fmu_path, search_horizon: float, search_rtol: float, setting: 
                 best = sorted(members, key=true_peak.get)[:TOP]
                 kept.append("yes" if best == sorted(members, key=at_search.get)[:TOP] else "no")
                 taus.append(f"{kendall_tau([true_peak[o] for o in members], [at_search[o] for o in members]):.4f}")
-            by_rule[(rule, rtol)] = (max(errors), (rule, f"{rtol:g}" + (" (the projectile's searches')"
-                                                                         if rtol == search_rtol else ""),
-                                                   f"{max(errors):.1e}", f"{statistics.median(errors):.1e}",
-                                                   f"{min(rule_gaps):.1e}", f"{max(errors) / min(rule_gaps):.2f}",
-                                                   *kept, *taus))
+            by_rule[(rule, rtol)] = (
+                max(errors),
+                (
+                    rule,
+                    f"{rtol:g}" + (" (the projectile's searches')" if rtol == search_rtol else ""),
+                    f"{max(errors):.1e}",
+                    f"{statistics.median(errors):.1e}",
+                    f"{min(rule_gaps):.1e}",
+                    f"{max(errors) / min(rule_gaps):.2f}",
+                    *kept,
+                    *taus,
+                ),
+            )
     smallest_gap = min(gaps)
     safe = [r for r in rtols if all(by_rule[(rule, r)][0] < smallest_gap / 10 for rule in RULES)]
-    return HorizonCheck(tuple(rows), tuple(by_rule[(rule, r)][1] for rule in RULES for r in rtols), max(needed),
-                        max(safe) if safe else None, max(contacts), max(peaks), smallest_gap, len(orders))
+    return HorizonCheck(
+        tuple(rows),
+        tuple(by_rule[(rule, r)][1] for rule in RULES for r in rtols),
+        max(needed),
+        max(safe) if safe else None,
+        max(contacts),
+        max(peaks),
+        smallest_gap,
+        len(orders),
+    )
 
 
 def rank_of(order, space: DesignSpace, values: list) -> tuple[int, int]:
@@ -224,11 +266,16 @@ def rank_of(order, space: DesignSpace, values: list) -> tuple[int, int]:
 
 def seven_columns(root: Path, setting: Setting, fidelity: SearchFidelity, log) -> tuple[list, list]:
     """The 11 x 7 lattice swept under the pulse and under the projectile: rows of the table, and findings."""
-    pulse, seconds = study(root / "pulse_11x7", CaseConfig(cols=SWEPT_COLUMNS, diagonal_rules=RULES), setting,
-                           ("exhaustive",))
+    pulse, seconds = study(
+        root / "pulse_11x7", CaseConfig(cols=SWEPT_COLUMNS, diagonal_rules=RULES), setting, ("exhaustive",)
+    )
     log(f"{pulse.study.case.line()}: swept in {seconds:.0f} s")
-    struck, seconds = study(root / "projectile_11x7", CaseConfig(cols=SWEPT_COLUMNS, load_mode=PROJECTILE,
-                                                                 diagonal_rules=RULES), setting, ("exhaustive",))
+    struck, seconds = study(
+        root / "projectile_11x7",
+        CaseConfig(cols=SWEPT_COLUMNS, load_mode=PROJECTILE, diagonal_rules=RULES),
+        setting,
+        ("exhaustive",),
+    )
     log(f"{struck.study.case.line()}: swept in {seconds:.0f} s")
     fmu = struck.study.fmu_path
     if fmu != pulse.study.fmu_path:
@@ -241,22 +288,44 @@ def seven_columns(root: Path, setting: Setting, fidelity: SearchFidelity, log) -
         if certificate.optimum is None or pulse_certificate.optimum is None:
             raise SystemExit(f"{rule} rule: a sweep has no optimum ({'; '.join(certificate.reasons)})")
         optimum, pulse_optimum = certificate.optimum.order, pulse_certificate.optimum.order
-        struck_peaks = full_peaks(fmu, {"diagonal_rule": rule, **PROJECTILE_PARAMETERS}, [optimum, pulse_optimum],
-                                  setting.workers)
+        struck_peaks = full_peaks(
+            fmu, {"diagonal_rule": rule, **PROJECTILE_PARAMETERS}, [optimum, pulse_optimum], setting.workers
+        )
         pulse_peaks = full_peaks(fmu, {"diagonal_rule": rule}, [optimum, pulse_optimum], setting.workers)
         check_agrees(f"{rule}: the projectile's optimum", certificate.optimum.full, struck_peaks[optimum])
         check_agrees(f"{rule}: the pulse's optimum", pulse_certificate.optimum.full, pulse_peaks[pulse_optimum])
-        values = screened_values(fmu, space, setting.workers, {"diagonal_rule": rule, **PROJECTILE_PARAMETERS},
-                                 search_horizon=fidelity.horizon, search_rtol=fidelity.rtol)
+        values = screened_values(
+            fmu,
+            space,
+            setting.workers,
+            {"diagonal_rule": rule, **PROJECTILE_PARAMETERS},
+            search_horizon=fidelity.horizon,
+            search_rtol=fidelity.rtol,
+        )
         rank, screened = rank_of(pulse_optimum, space, values)
-        rows.append((rule, order_text(optimum), f"{struck_peaks[optimum]:.2f}",
-                     f"{certificate.gap:.3f}" if certificate.gap is not None else "n/a",
-                     "yes" if certificate.certified else "no: " + "; ".join(certificate.reasons),
-                     order_text(pulse_optimum), f"{struck_peaks[pulse_optimum]:.2f}",
-                     percent(struck_peaks[pulse_optimum], struck_peaks[optimum]), f"{rank:,} of {screened:,}",
-                     percent(pulse_peaks[optimum], pulse_peaks[pulse_optimum])))
-        findings.append((rule, optimum == pulse_optimum, struck_peaks[pulse_optimum] / struck_peaks[optimum] - 1.0,
-                         rank, certificate.certified))
+        rows.append(
+            (
+                rule,
+                order_text(optimum),
+                f"{struck_peaks[optimum]:.2f}",
+                f"{certificate.gap:.3f}" if certificate.gap is not None else "n/a",
+                "yes" if certificate.certified else "no: " + "; ".join(certificate.reasons),
+                order_text(pulse_optimum),
+                f"{struck_peaks[pulse_optimum]:.2f}",
+                percent(struck_peaks[pulse_optimum], struck_peaks[optimum]),
+                f"{rank:,} of {screened:,}",
+                percent(pulse_peaks[optimum], pulse_peaks[pulse_optimum]),
+            )
+        )
+        findings.append(
+            (
+                rule,
+                optimum == pulse_optimum,
+                struck_peaks[pulse_optimum] / struck_peaks[optimum] - 1.0,
+                rank,
+                certificate.certified,
+            )
+        )
     return rows, findings
 
 
@@ -265,56 +334,98 @@ def eleven_columns(root: Path, setting: Setting, fidelity: SearchFidelity, log) 
     settle an answer few runs reached, against the pulse's certified 11 x 11 optima."""
     outcome, seconds = study(root / "projectile_11x11", CaseConfig(load_mode=PROJECTILE), setting)
     log(f"{outcome.study.case.line()}: the default study in {seconds:.0f} s")
-    settled, settled_seconds = study(root / "projectile_11x11_settled", CaseConfig(load_mode=PROJECTILE), setting,
-                                     budget=setting.settle_budget)
+    settled, settled_seconds = study(
+        root / "projectile_11x11_settled", CaseConfig(load_mode=PROJECTILE), setting, budget=setting.settle_budget
+    )
     log(f"the same at budget {setting.settle_budget} in {settled_seconds:.0f} s")
     fmu = outcome.study.fmu_path
     optima = pulse_optima_11x11()
     rows, findings = [], []
     for rule in RULES:
-        answers = {name: o.study.result(Answers).for_rule(rule) for name, o in (("default", outcome),
-                                                                                 ("settled", settled))}
+        answers = {
+            name: o.study.result(Answers).for_rule(rule) for name, o in (("default", outcome), ("settled", settled))
+        }
         pulse = optima[rule]
         parameters = {"diagonal_rule": rule, **PROJECTILE_PARAMETERS}
         peaks = full_peaks(fmu, parameters, [a.order for a in answers.values()] + [pulse.order], setting.workers)
         for name, answer in answers.items():
             check_agrees(f"{rule}: the projectile's answer ({name})", answer.peak, peaks[answer.order])
         best = min((a.order for a in answers.values()), key=peaks.get)
-        objective = LatticeObjective(fmu, DesignSpace.permutations(11), FULL_HORIZON, parameters=parameters,
-                                     search_horizon=fidelity.horizon, search_rtol=fidelity.rtol)
+        objective = LatticeObjective(
+            fmu,
+            DesignSpace.permutations(11),
+            FULL_HORIZON,
+            parameters=parameters,
+            search_horizon=fidelity.horizon,
+            search_rtol=fidelity.rtol,
+        )
         with make_executor("process", workers=setting.workers) as executor:
-            screened, = objective.evaluate([pulse.order], Evaluator(executor), SEARCH)
+            (screened,) = objective.evaluate([pulse.order], Evaluator(executor), SEARCH)
         close_instances()
         if not screened.ok:
             raise SystemExit(f"{rule}: the pulse's optimum failed at the search fidelity: {screened.message}")
-        evaluated = {e.order: e for o in (outcome, settled) for run in o.study.result(Searches).runs_for(rule)
-                     for e in run.evaluations}
+        evaluated = {
+            e.order: e
+            for o in (outcome, settled)
+            for run in o.study.result(Searches).runs_for(rule)
+            for e in run.evaluations
+        }
         below = sum(1 for e in evaluated.values() if e.ok and e.order != pulse.order and e.value < screened.value)
 
         def answered(answer) -> tuple[str, str, str]:
             evidence = answer.evidence
-            return (order_text(answer.order), f"{peaks[answer.order]:.2f}",
-                    f"{evidence.status.replace('_', ' ')}; {evidence.runs_reaching} of {evidence.runs} search runs")
-        rows.append((rule, *answered(answers["default"]), *answered(answers["settled"]), order_text(pulse.order),
-                     f"{pulse.peak:.2f}", f"{peaks[pulse.order]:.2f}", percent(peaks[pulse.order], peaks[best]),
-                     f"{below:,} of {len(evaluated):,}"))
-        findings.append((rule, best == pulse.order, peaks[pulse.order] / peaks[best] - 1.0, below,
-                         answers["default"].order == answers["settled"].order))
+            return (
+                order_text(answer.order),
+                f"{peaks[answer.order]:.2f}",
+                f"{evidence.status.replace('_', ' ')}; {evidence.runs_reaching} of {evidence.runs} search runs",
+            )
+
+        rows.append(
+            (
+                rule,
+                *answered(answers["default"]),
+                *answered(answers["settled"]),
+                order_text(pulse.order),
+                f"{pulse.peak:.2f}",
+                f"{peaks[pulse.order]:.2f}",
+                percent(peaks[pulse.order], peaks[best]),
+                f"{below:,} of {len(evaluated):,}",
+            )
+        )
+        findings.append(
+            (
+                rule,
+                best == pulse.order,
+                peaks[pulse.order] / peaks[best] - 1.0,
+                below,
+                answers["default"].order == answers["settled"].order,
+            )
+        )
     return rows, findings, seconds
 
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = run.parser(__doc__, quick="40 random orders in the horizon check, the 11 x 11 study without "
-                                       "sensitivity, its settling searches at twice the default budget")
+    parser = run.parser(
+        __doc__,
+        quick="40 random orders in the horizon check, the 11 x 11 study without "
+        "sensitivity, its settling searches at twice the default budget",
+    )
     parser.add_argument("--workers", type=int, default=2, help="worker processes of every study and check")
-    parser.add_argument("--orders", type=int, default=100, help="random orders of the horizon check (besides the "
-                                                                 "pulse optima and their swaps)")
+    parser.add_argument(
+        "--orders",
+        type=int,
+        default=100,
+        help="random orders of the horizon check (besides the pulse optima and their swaps)",
+    )
     args = parser.parse_args(argv)
     default_budget = SearchesConfig().budget
-    setting = Setting(random_orders=min(args.orders, 40) if args.quick else args.orders, workers=args.workers,
-                      sensitivity=not args.quick,
-                      settle_budget=default_budget * (2 if args.quick else BUDGET_FACTOR))
+    setting = Setting(
+        random_orders=min(args.orders, 40) if args.quick else args.orders,
+        workers=args.workers,
+        sensitivity=not args.quick,
+        settle_budget=default_budget * (2 if args.quick else BUDGET_FACTOR),
+    )
     fidelity = search_fidelity(PROJECTILE)
 
     def log(text: str) -> None:
@@ -322,15 +433,21 @@ def main(argv=None) -> int:
 
     fmu = prepare_fmu(Scene.load(DEFAULT_SCENE)).path  # the armour FMU the 11 x 11 study runs
     check = horizon_check(fmu, fidelity.horizon, fidelity.rtol, setting)
-    log(f"horizon check: {check.orders} orders per rule, every peak by {check.needed:g} s, rtol "
-        f"{check.loosest_rtol} keeps the errors below a tenth of the smallest gap")
+    log(
+        f"horizon check: {check.orders} orders per rule, every peak by {check.needed:g} s, rtol "
+        f"{check.loosest_rtol} keeps the errors below a tenth of the smallest gap"
+    )
     if check.needed > fidelity.horizon:
-        raise SystemExit(f"under the projectile the peaks need a search horizon of {check.needed:g} s, "
-                         f"scenes/{PROJECTILE_SCENE}.json gives {fidelity.horizon:g} s: set its search_horizon")
+        raise SystemExit(
+            f"under the projectile the peaks need a search horizon of {check.needed:g} s, "
+            f"scenes/{PROJECTILE_SCENE}.json gives {fidelity.horizon:g} s: set its search_horizon"
+        )
     if check.loosest_rtol is None or fidelity.rtol > check.loosest_rtol:
-        raise SystemExit(f"under the projectile the searches' errors at rtol {fidelity.rtol:g} are not below a tenth "
-                         f"of the smallest gap ({check.smallest_gap:.1e}): set search_rtol in "
-                         f"scenes/{PROJECTILE_SCENE}.json to {check.loosest_rtol} or tighter")
+        raise SystemExit(
+            f"under the projectile the searches' errors at rtol {fidelity.rtol:g} are not below a tenth "
+            f"of the smallest gap ({check.smallest_gap:.1e}): set search_rtol in "
+            f"scenes/{PROJECTILE_SCENE}.json to {check.loosest_rtol} or tighter"
+        )
     with tempfile.TemporaryDirectory(prefix="projectile_finding_") as folder:
         seven_rows, seven = seven_columns(Path(folder), setting, fidelity, log)
         eleven_rows, eleven, seconds = eleven_columns(Path(folder), setting, fidelity, log)
@@ -338,54 +455,106 @@ def main(argv=None) -> int:
     survived = [f for f in seven if f[1]]
     worst = max(seven, key=lambda f: f[2])
     above = [100 * f[2] for f in eleven]
-    headline = (f"11 x 7, certified under the projectile: the pulse's optimum is the projectile's in {len(survived)} "
-                f"of {len(seven)} rules, at worst {100 * worst[2]:.1f}% above it ({worst[0]} rule: rank {worst[3]:,} "
-                f"of 5,040); 11 x 11, searched: the pulse's certified optimum is {min(above):.2f}-{max(above):.2f}% "
-                f"above the best order found under the projectile; searched over {fidelity.horizon:g} s at rtol "
-                f"{fidelity.rtol:g} (the contact ends by {check.latest_contact:.2f} s); `run.py --load-mode "
-                f"projectile` took {seconds:.0f} s")
+    headline = (
+        f"11 x 7, certified under the projectile: the pulse's optimum is the projectile's in {len(survived)} "
+        f"of {len(seven)} rules, at worst {100 * worst[2]:.1f}% above it ({worst[0]} rule: rank {worst[3]:,} "
+        f"of 5,040); 11 x 11, searched: the pulse's certified optimum is {min(above):.2f}-{max(above):.2f}% "
+        f"above the best order found under the projectile; searched over {fidelity.horizon:g} s at rtol "
+        f"{fidelity.rtol:g} (the contact ends by {check.latest_contact:.2f} s); `run.py --load-mode "
+        f"projectile` took {seconds:.0f} s"
+    )
     horizon_table = Table(
-        ("rule", "horizon", "orders whose peak differs from the 8 s peak", "largest relative difference",
-         f"orders still touching the plate after {GUARD:g} of it (re-run over the full horizon)"),
-        check.rows, caption=f"**Shorter horizons against 8 s under the projectile** ({check.orders} orders per rule):")
+        (
+            "rule",
+            "horizon",
+            "orders whose peak differs from the 8 s peak",
+            "largest relative difference",
+            f"orders still touching the plate after {GUARD:g} of it (re-run over the full horizon)",
+        ),
+        check.rows,
+        caption=f"**Shorter horizons against 8 s under the projectile** ({check.orders} orders per rule):",
+    )
     tolerance_table = Table(
-        ("rule", "rtol", "worst error", "median error", "smallest top-10 gap", "worst error / gap",
-         "top 10 kept, random set",
-         "top 10 kept, neighbourhood", "Kendall tau, random set", "Kendall tau, neighbourhood"),
+        (
+            "rule",
+            "rtol",
+            "worst error",
+            "median error",
+            "smallest top-10 gap",
+            "worst error / gap",
+            "top 10 kept, random set",
+            "top 10 kept, neighbourhood",
+            "Kendall tau, random set",
+            "Kendall tau, neighbourhood",
+        ),
         check.tolerance_rows,
-        caption=(f"**The searches' solver** ({SEARCH_SOLVER}, atol = rtol / 100, read at {fidelity.horizon:g} s) at "
-                 "each tolerance against the truth at 8 s:"))
+        caption=(
+            f"**The searches' solver** ({SEARCH_SOLVER}, atol = rtol / 100, read at {fidelity.horizon:g} s) at "
+            "each tolerance against the truth at 8 s:"
+        ),
+    )
     seven_table = Table(
-        ("rule", "projectile: certified optimum", "its peak (N)", "runner-up gap (N)", "certified",
-         "pulse's certified optimum", "its peak under the projectile (N)", "above the projectile's optimum (%)",
-         "its rank under the projectile (search fidelity)", "the projectile's optimum under the pulse, above the "
-         "pulse's optimum (%)"),
-        tuple(seven_rows), caption=f"**11 x {SWEPT_COLUMNS}** (the study's materials 1-{SWEPT_COLUMNS}, 5,040 orders), "
-                                   "swept under the projectile and under the pulse")
+        (
+            "rule",
+            "projectile: certified optimum",
+            "its peak (N)",
+            "runner-up gap (N)",
+            "certified",
+            "pulse's certified optimum",
+            "its peak under the projectile (N)",
+            "above the projectile's optimum (%)",
+            "its rank under the projectile (search fidelity)",
+            "the projectile's optimum under the pulse, above the pulse's optimum (%)",
+        ),
+        tuple(seven_rows),
+        caption=f"**11 x {SWEPT_COLUMNS}** (the study's materials 1-{SWEPT_COLUMNS}, 5,040 orders), "
+        "swept under the projectile and under the pulse",
+    )
     eleven_table = Table(
-        ("rule", "projectile, default study: best found", "its peak (N)", "evidence",
-         f"projectile, budget {setting.settle_budget}: best found", "its peak (N)", "evidence",
-         "pulse's certified optimum", "its peak under the pulse (N)", "its peak under the projectile (N)",
-         "above the best found under the projectile (%)", "designs the searches evaluated below it (search fidelity)"),
+        (
+            "rule",
+            "projectile, default study: best found",
+            "its peak (N)",
+            "evidence",
+            f"projectile, budget {setting.settle_budget}: best found",
+            "its peak (N)",
+            "evidence",
+            "pulse's certified optimum",
+            "its peak under the pulse (N)",
+            "its peak under the projectile (N)",
+            "above the best found under the projectile (%)",
+            "designs the searches evaluated below it (search fidelity)",
+        ),
         tuple(eleven_rows),
-        caption=("**11 x 11** (11! orders): `python orchestrator/run.py --load-mode projectile`, and the same "
-                 f"searches at `--budget {setting.settle_budget}` (the budget its report gives to settle an answer "
-                 "fewer than half the runs reached), sensitivity off"))
+        caption=(
+            "**11 x 11** (11! orders): `python orchestrator/run.py --load-mode projectile`, and the same "
+            f"searches at `--budget {setting.settle_budget}` (the budget its report gives to settle an answer "
+            "fewer than half the runs reached), sensitivity off"
+        ),
+    )
     projectile = Scene.load(PROJECTILE_SCENE).parameter_values()
     page = Page(
-        name=run.name, title="The projectile's finding: the pulse's optimum under a body that answers back",
+        name=run.name,
+        title="The projectile's finding: the pulse's optimum under a body that answers back",
         headline=headline,
-        summary=(f"The study's 11-row armour lattice struck by the default projectile (docs/model.md section 11): "
-                 f"{projectile['projectile_mass']:g} kg at {projectile['projectile_speed']:g} m/s, Hunt-Crossley "
-                 f"contact k_c {projectile['contact_stiffness']:g}, n {projectile['contact_exponent']:g}, lambda "
-                 f"{projectile['contact_damping']:g} s/m, against the pulse of 1200 N for 0.15 s it replaces; both "
-                 "diagonal rules. Peaks: the sampled peak over 8 s at the FMU's default setting, through the "
-                 f"Evaluator. The search fidelity under the projectile: {SEARCH_SOLVER} at rtol {fidelity.rtol:g} over "
-                 f"{fidelity.horizon:g} s (scenes/{PROJECTILE_SCENE}.json; the pulse's: rtol {SEARCH_RTOL:g} over "
-                 f"{SEARCH_HORIZON:g} s), checked first. The studies are the "
-                 f"orchestrator's own (`run_in_folder`), each on {setting.workers} worker processes."),
-        tables=(horizon_table, tolerance_table, seven_table, eleven_table,
-                Table(("study", "methods", "wall s"), tuple(COSTS), caption="What each study cost")),
+        summary=(
+            f"The study's 11-row armour lattice struck by the default projectile (docs/model.md section 11): "
+            f"{projectile['projectile_mass']:g} kg at {projectile['projectile_speed']:g} m/s, Hunt-Crossley "
+            f"contact k_c {projectile['contact_stiffness']:g}, n {projectile['contact_exponent']:g}, lambda "
+            f"{projectile['contact_damping']:g} s/m, against the pulse of 1200 N for 0.15 s it replaces; both "
+            "diagonal rules. Peaks: the sampled peak over 8 s at the FMU's default setting, through the "
+            f"Evaluator. The search fidelity under the projectile: {SEARCH_SOLVER} at rtol {fidelity.rtol:g} over "
+            f"{fidelity.horizon:g} s (scenes/{PROJECTILE_SCENE}.json; the pulse's: rtol {SEARCH_RTOL:g} over "
+            f"{SEARCH_HORIZON:g} s), checked first. The studies are the "
+            f"orchestrator's own (`run_in_folder`), each on {setting.workers} worker processes."
+        ),
+        tables=(
+            horizon_table,
+            tolerance_table,
+            seven_table,
+            eleven_table,
+            Table(("study", "methods", "wall s"), tuple(COSTS), caption="What each study cost"),
+        ),
         notes=(
             f"The horizon check: {check.orders} orders per rule ({setting.random_orders} random ones, seed 7, and "
             "each rule's certified pulse optimum with its 55 single swaps). The continuous peak comes by "

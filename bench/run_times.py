@@ -12,6 +12,7 @@ folder; the tests with an empty build cache of their own, so the session builds 
 does. Wall-clock seconds; each study also says what it simulated (results.json's ``costs``), which does not
 depend on the machine's load.
 """
+
 from __future__ import annotations
 
 import json
@@ -46,22 +47,35 @@ def run_command(words: list[str], env: dict[str, str]) -> tuple[float, subproces
 
 def time_study(fmu: Path, options: tuple[str, ...], folder: Path) -> Timed:
     out = folder / f"study{len(list(folder.iterdir()))}"
-    words = [sys.executable, "-m", "orchestrator.run", "--scene", PLATE, "--fmu", str(fmu), "--out", str(out),
-             "--no-progress", *options]
+    words = [
+        sys.executable,
+        "-m",
+        "orchestrator.run",
+        "--scene",
+        PLATE,
+        "--fmu",
+        str(fmu),
+        "--out",
+        str(out),
+        "--no-progress",
+        *options,
+    ]
     seconds, done = run_command(words, {**os.environ, "TMPDIR": str(folder)})
     if done.returncode != 0:
         raise SystemExit(f"the study failed ({done.returncode}): {done.stderr.strip()[-2000:]}")
     costs = json.loads((out / "results.json").read_text())["costs"]
     total = sum(cost["simulated"] for cost in costs)
     shown = ", ".join(f"{cost['step'].replace('_', ' ')} {cost['simulated']:,}" for cost in costs if cost["simulated"])
-    return Timed(" ".join(["python orchestrator/run.py --scene", PLATE, *options]), seconds,
-                 f"{total:,} FMU runs: {shown}")
+    return Timed(
+        " ".join(["python orchestrator/run.py --scene", PLATE, *options]), seconds, f"{total:,} FMU runs: {shown}"
+    )
 
 
 def time_tests(arguments: tuple[str, ...], folder: Path) -> Timed:
     env = {key: value for key, value in os.environ.items() if key != "LATTICE_BUILD_CACHE"}
-    seconds, done = run_command([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *arguments],
-                                {**env, "TMPDIR": str(folder)})
+    seconds, done = run_command(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *arguments], {**env, "TMPDIR": str(folder)}
+    )
     summary = (done.stdout.strip().splitlines() or [""])[-1]
     if done.returncode != 0:
         raise SystemExit(f"the tests failed ({done.returncode}): {summary}")
@@ -91,20 +105,35 @@ def main(argv=None) -> int:
     small = timed[0]
     quick = by_command["python -m pytest -m quick"]
     suite = by_command.get("python -m pytest")
-    headline = (f"the plate at --budget 20 --repeats 1: {minutes(small.seconds)}; the quick tests: "
-                f"{minutes(quick.seconds)}" + (f"; the whole suite: {minutes(suite.seconds)}" if suite else
-                                               "; the whole suite: not measured in --quick mode"))
+    headline = (
+        f"the plate at --budget 20 --repeats 1: {minutes(small.seconds)}; the quick tests: "
+        f"{minutes(quick.seconds)}"
+        + (
+            f"; the whole suite: {minutes(suite.seconds)}"
+            if suite
+            else "; the whole suite: not measured in --quick mode"
+        )
+    )
     page = Page(
-        name=run.name, title="Run times a user meets",
+        name=run.name,
+        title="Run times a user meets",
         headline=headline,
-        summary=(f"Each command as a user runs it from the project's folder, one after the other: the studies of "
-                 f"the `{PLATE}` scene with its FMU built beforehand (not timed), on the default process pool; the "
-                 "tests with an empty build cache, so the session compiles its FMUs as a fresh clone's does. "
-                 "Wall-clock time, which grows with the machine's load (below); what each study simulated does not."),
-        tables=(Table(("command", "wall", "what it did"),
-                      tuple((f"`{t.command}`", minutes(t.seconds), t.outcome) for t in timed)),),
-        notes=(("Measured with --quick: the default plate study and the whole suite were not run.",) if args.quick
-               else ()))
+        summary=(
+            f"Each command as a user runs it from the project's folder, one after the other: the studies of "
+            f"the `{PLATE}` scene with its FMU built beforehand (not timed), on the default process pool; the "
+            "tests with an empty build cache, so the session compiles its FMUs as a fresh clone's does. "
+            "Wall-clock time, which grows with the machine's load (below); what each study simulated does not."
+        ),
+        tables=(
+            Table(
+                ("command", "wall", "what it did"),
+                tuple((f"`{t.command}`", minutes(t.seconds), t.outcome) for t in timed),
+            ),
+        ),
+        notes=(
+            ("Measured with --quick: the default plate study and the whole suite were not run.",) if args.quick else ()
+        ),
+    )
     write_page(run, page)
     return 0
 

@@ -12,6 +12,7 @@ FMU's counter) and so microseconds per right-hand side; a least-squares line in 
 cost ~ N^p over the number of masses N. Workers: random designs evaluated at the search fidelity through the
 orchestrator's Evaluator on a process pool of 1 .. W workers, designs per wall second.
 """
+
 from __future__ import annotations
 
 import os
@@ -30,8 +31,15 @@ from orchestrator.tasks import EvaluateDesign
 from orchestrator.objective import SEARCH, SEARCH_HORIZON, LatticeObjective, close_instances
 from orchestrator.simulation import LatticeFMU, SimulationError
 
-from .common import (FULL_HORIZON, default_setting, lattice_fmu, random_orders, search_parameters,
-                     search_setting_text, setting_text)
+from .common import (
+    FULL_HORIZON,
+    default_setting,
+    lattice_fmu,
+    random_orders,
+    search_parameters,
+    search_setting_text,
+    setting_text,
+)
 from .measurements import Page, Run, Table, write_page
 
 SIZES = (5, 8, 11, 14, 20, 25, 31)
@@ -55,8 +63,10 @@ def lattice_costs(sizes, random_count: int, rounds: int, seed: int) -> tuple[lis
                 path = build_fmu(output=Path(folder) / f"Lattice{rows}x{cols}.fmu", rows=rows, cols=cols)
                 fmus[(rows, cols)] = LatticeFMU(path, instance_name=f"scaling{rows}x{cols}")
                 orders[(rows, cols)] = [tuple(range(1, cols + 1))] + random_orders(random_count, seed + cols, cols)
-                settings[(rows, cols)] = {"search": (SEARCH_HORIZON, search_parameters(path, cols)),
-                                          "scene": (FULL_HORIZON, {})}
+                settings[(rows, cols)] = {
+                    "search": (SEARCH_HORIZON, search_parameters(path, cols)),
+                    "scene": (FULL_HORIZON, {}),
+                }
             for _ in range(rounds):
                 for shape in shapes:
                     for index, order in enumerate(orders[shape]):
@@ -64,8 +74,9 @@ def lattice_costs(sizes, random_count: int, rounds: int, seed: int) -> tuple[lis
                             entry = results.setdefault((shape, evaluation, index), {"times": []})
                             start = time.process_time()
                             try:
-                                entry["result"] = fmus[shape].simulate(order, horizon=horizon, parameters=parameters,
-                                                                       outputs=OUTPUTS)
+                                entry["result"] = fmus[shape].simulate(
+                                    order, horizon=horizon, parameters=parameters, outputs=OUTPUTS
+                                )
                             except SimulationError as exc:
                                 entry["failure"] = str(exc)
                                 continue
@@ -76,22 +87,38 @@ def lattice_costs(sizes, random_count: int, rounds: int, seed: int) -> tuple[lis
     table = []
     for shape in shapes:
         for evaluation in ("search", "scene"):
-            good = [e for (s, ev, _), e in results.items() if s == shape and ev == evaluation and e["times"]
-                    and "failure" not in e]
+            good = [
+                e
+                for (s, ev, _), e in results.items()
+                if s == shape and ev == evaluation and e["times"] and "failure" not in e
+            ]
             if not good:
                 table.append({"rows": shape[0], "cols": shape[1], "evaluation": evaluation, "failed": True})
                 continue
             ms = [min(e["times"]) * 1e3 for e in good]
             rhs = [e["result"]["rhs_evaluations"] for e in good]
-            table.append({"rows": shape[0], "cols": shape[1], "masses": shape[0] * shape[1], "evaluation": evaluation,
-                          "ms": statistics.median(ms), "ms_range": (min(ms), max(ms)), "rhs": statistics.median(rhs),
-                          "us_per_rhs": statistics.median(m * 1e3 / r for m, r in zip(ms, rhs)),
-                          "last_contact": max(e["result"]["last_contact_time"] for e in good), "failed": False})
+            table.append(
+                {
+                    "rows": shape[0],
+                    "cols": shape[1],
+                    "masses": shape[0] * shape[1],
+                    "evaluation": evaluation,
+                    "ms": statistics.median(ms),
+                    "ms_range": (min(ms), max(ms)),
+                    "rhs": statistics.median(rhs),
+                    "us_per_rhs": statistics.median(m * 1e3 / r for m, r in zip(ms, rhs)),
+                    "last_contact": max(e["result"]["last_contact_time"] for e in good),
+                    "failed": False,
+                }
+            )
     fits = {}
     for series, members in (("R x R", [(n, n) for n in sizes]), ("11 x C", [(11, n) for n in sizes])):
         for evaluation in ("search", "scene"):
-            points = [t for t in table if (t["rows"], t["cols"]) in members and t["evaluation"] == evaluation
-                      and not t["failed"]]
+            points = [
+                t
+                for t in table
+                if (t["rows"], t["cols"]) in members and t["evaluation"] == evaluation and not t["failed"]
+            ]
             if len(points) >= 2:
                 ns = [p["masses"] for p in points]
                 fits[(series, evaluation)] = tuple(fit(ns, [p[q] for p in points]) for q in ("ms", "rhs", "us_per_rhs"))
@@ -100,7 +127,7 @@ def lattice_costs(sizes, random_count: int, rounds: int, seed: int) -> tuple[lis
 
 def worker_throughput(path, worker_counts, designs: int) -> list[tuple[int, float, float]]:
     objective = LatticeObjective(path, DesignSpace.permutations(11), FULL_HORIZON)
-    task, = objective.tasks(SEARCH)
+    (task,) = objective.tasks(SEARCH)
     out = []
     for workers in worker_counts:
         orders = random_orders(designs, 1000 + workers)
@@ -124,8 +151,13 @@ def main(argv=None) -> int:
     parser.add_argument("--random-orders", type=int, default=2, help="random orders beside the sequential one")
     parser.add_argument("--rounds", type=int, default=3, help="interleaved timing rounds (the fastest counts)")
     parser.add_argument("--seed", type=int, default=2024, help="seed of the random orders")
-    parser.add_argument("--workers", nargs="+", type=int, default=None,
-                        help=f"worker counts of the throughput measurement (default 1 .. {os.cpu_count()})")
+    parser.add_argument(
+        "--workers",
+        nargs="+",
+        type=int,
+        default=None,
+        help=f"worker counts of the throughput measurement (default 1 .. {os.cpu_count()})",
+    )
     parser.add_argument("--designs", type=int, default=2000, help="designs per worker count")
     args = parser.parse_args(argv)
     if args.quick:
@@ -140,20 +172,34 @@ def main(argv=None) -> int:
 
     size_rows = tuple(
         (f"{t['rows']} x {t['cols']}", t["rows"] * t["cols"], t["evaluation"], "failed", "", "", "", "")
-        if t["failed"] else
-        (f"{t['rows']} x {t['cols']}", t["masses"], t["evaluation"], f"{t['ms']:.2f}",
-         f"{t['ms_range'][0]:.2f}-{t['ms_range'][1]:.2f}", f"{t['rhs']:.0f}", f"{t['us_per_rhs']:.2f}",
-         f"{t['last_contact']:.2f}") for t in table)
-    fit_rows = tuple((series, evaluation, f"N^{p:.2f}", f"N^{r:.2f}", f"N^{u:.2f}")
-                     for (series, evaluation), (p, r, u) in fits.items())
+        if t["failed"]
+        else (
+            f"{t['rows']} x {t['cols']}",
+            t["masses"],
+            t["evaluation"],
+            f"{t['ms']:.2f}",
+            f"{t['ms_range'][0]:.2f}-{t['ms_range'][1]:.2f}",
+            f"{t['rhs']:.0f}",
+            f"{t['us_per_rhs']:.2f}",
+            f"{t['last_contact']:.2f}",
+        )
+        for t in table
+    )
+    fit_rows = tuple(
+        (series, evaluation, f"N^{p:.2f}", f"N^{r:.2f}", f"N^{u:.2f}")
+        for (series, evaluation), (p, r, u) in fits.items()
+    )
     base = throughput[0][1]
     worker_rows = tuple((w, f"{rate:.0f}", f"{rate / base:.2f}", f"{inside:.2f}") for w, rate, inside in throughput)
     square = fits.get(("R x R", "search"))
-    headline = (f"a search evaluation's CPU grows as N^{square[0]:.2f} over square lattices; "
-                if square else "") + (f"{throughput[-1][0]} workers evaluate {throughput[-1][1]:.0f} designs per "
-                                      f"second, {throughput[-1][1] / base:.2f}x one worker")
+    headline = (f"a search evaluation's CPU grows as N^{square[0]:.2f} over square lattices; " if square else "") + (
+        f"{throughput[-1][0]} workers evaluate {throughput[-1][1]:.0f} designs per "
+        f"second, {throughput[-1][1] / base:.2f}x one worker"
+    )
     page = Page(
-        name=run.name, title="Scaling with the lattice and with workers", headline=headline,
+        name=run.name,
+        title="Scaling with the lattice and with workers",
+        headline=headline,
         summary=(
             f"Lattice size: square lattices and 11 x C for sizes {', '.join(map(str, args.sizes))}, the sequential "
             f"order and {args.random_orders} random order(s) each, the fastest of {args.rounds} interleaved rounds; "
@@ -163,14 +209,34 @@ def main(argv=None) -> int:
             f"From the size at which the last contact comes after {SEARCH_HORIZON:g} s the searches re-run a design "
             f"over the full horizon. Workers: {args.designs} random designs at the search fidelity through the "
             "Evaluator on a process pool, wall time after each worker opened its FMU; the machine has "
-            f"{os.cpu_count()} cores and is shared."),
-        tables=(Table(("lattice", "masses N", "evaluation", "CPU ms (median)", "range over orders",
-                       "right-hand sides", "us per right-hand side", "last contact (s)"), size_rows,
-                      caption="**Cost per evaluation against the lattice:**"),
-                Table(("series", "evaluation", "CPU", "right-hand sides", "us per right-hand side"), fit_rows,
-                      caption="**Growth laws** (least squares in log-log over the medians):"),
-                Table(("workers", "designs per second", "against 1 worker", "ms per design inside its worker"),
-                      worker_rows, caption="**Search throughput against workers:**")),
+            f"{os.cpu_count()} cores and is shared."
+        ),
+        tables=(
+            Table(
+                (
+                    "lattice",
+                    "masses N",
+                    "evaluation",
+                    "CPU ms (median)",
+                    "range over orders",
+                    "right-hand sides",
+                    "us per right-hand side",
+                    "last contact (s)",
+                ),
+                size_rows,
+                caption="**Cost per evaluation against the lattice:**",
+            ),
+            Table(
+                ("series", "evaluation", "CPU", "right-hand sides", "us per right-hand side"),
+                fit_rows,
+                caption="**Growth laws** (least squares in log-log over the medians):",
+            ),
+            Table(
+                ("workers", "designs per second", "against 1 worker", "ms per design inside its worker"),
+                worker_rows,
+                caption="**Search throughput against workers:**",
+            ),
+        ),
     )
     write_page(run, page)
     return 0

@@ -11,6 +11,7 @@ fidelity, force limits on) with a fresh Evaluator per run on one process pool, s
 run's best design is then evaluated at full fidelity (the 8 s scene at the FMU's default accuracy), the value
 that is compared with the study's published results.
 """
+
 from __future__ import annotations
 
 import statistics
@@ -55,39 +56,65 @@ def main(argv=None) -> int:
             for method in args.methods:
                 bests, curves, found, walls, reached = [], [], [], [], 0
                 for seed in range(args.seeds):
-                    result = run_search(make_search(method, 11, seed, budget=args.budget), objective, args.budget,
-                                        Evaluator(executor), method_name=method, seed=seed)
+                    result = run_search(
+                        make_search(method, 11, seed, budget=args.budget),
+                        objective,
+                        args.budget,
+                        Evaluator(executor),
+                        method_name=method,
+                        seed=seed,
+                    )
                     full = objective.evaluate([result.best_order], Evaluator(executor), FULL)[0]
                     if not full.ok:
-                        raise SystemExit(f"{method} seed {seed}: its best design failed at full fidelity: "
-                                         f"{full.message}")
+                        raise SystemExit(
+                            f"{method} seed {seed}: its best design failed at full fidelity: {full.message}"
+                        )
                     bests.append(full.value)
                     curves.append(result.best_so_far())
                     found.append(result.best_index)
                     walls.append(result.wall_seconds)
                     reached += any(e.order == BEST_KNOWN for e in result.evaluations)
-                    print(f"{method:7s} seed {seed}: {full.value:.3f} N {list(result.best_order)} "
-                          f"(found at {result.best_index}, {result.wall_seconds:.2f} s)", flush=True)
+                    print(
+                        f"{method:7s} seed {seed}: {full.value:.3f} N {list(result.best_order)} "
+                        f"(found at {result.best_index}, {result.wall_seconds:.2f} s)",
+                        flush=True,
+                    )
                 all_bests += [(value, method) for value in bests]
                 q1, median, q3 = quartiles(bests)
-                at = [statistics.median(c[k - 1] for c in curves if len(c) >= k and c[k - 1] is not None)
-                      for k in checkpoints]
-                rows.append((method, f"{median:.1f}", f"{q1:.1f}-{q3:.1f}", f"{min(bests):.1f}-{max(bests):.1f}",
-                             f"{sum(b < STUDY_BEST.peak for b in bests)} of {len(bests)}",
-                             f"{sum(b < STUDY_PARTICLE_SWARM.peak for b in bests)} of {len(bests)}",
-                             f"{reached} of {len(bests)}", f"{statistics.median(found):.0f}",
-                             *(f"{v:.1f}" for v in at), f"{statistics.median(walls):.2f}"))
+                at = [
+                    statistics.median(c[k - 1] for c in curves if len(c) >= k and c[k - 1] is not None)
+                    for k in checkpoints
+                ]
+                rows.append(
+                    (
+                        method,
+                        f"{median:.1f}",
+                        f"{q1:.1f}-{q3:.1f}",
+                        f"{min(bests):.1f}-{max(bests):.1f}",
+                        f"{sum(b < STUDY_BEST.peak for b in bests)} of {len(bests)}",
+                        f"{sum(b < STUDY_PARTICLE_SWARM.peak for b in bests)} of {len(bests)}",
+                        f"{reached} of {len(bests)}",
+                        f"{statistics.median(found):.0f}",
+                        *(f"{v:.1f}" for v in at),
+                        f"{statistics.median(walls):.2f}",
+                    )
+                )
     optimisers = [(v, m) for v, m in all_bests if m != "random"]
     medians = {row[0]: float(row[1]) for row in rows}
     best_method = min((m for m in medians if m != "random"), key=medians.get, default=None)
-    headline = (f"at {args.budget} designs every one of the {len(optimisers)} optimiser runs ends below the study's "
-                f"best ({STUDY_BEST.peak:.2f} N)" if optimisers and all(v < STUDY_BEST.peak for v, _ in optimisers)
-                else f"at {args.budget} designs {sum(v < STUDY_BEST.peak for v, _ in optimisers)} of "
-                     f"{len(optimisers)} optimiser runs end below the study's best ({STUDY_BEST.peak:.2f} N)")
+    headline = (
+        f"at {args.budget} designs every one of the {len(optimisers)} optimiser runs ends below the study's "
+        f"best ({STUDY_BEST.peak:.2f} N)"
+        if optimisers and all(v < STUDY_BEST.peak for v, _ in optimisers)
+        else f"at {args.budget} designs {sum(v < STUDY_BEST.peak for v, _ in optimisers)} of "
+        f"{len(optimisers)} optimiser runs end below the study's best ({STUDY_BEST.peak:.2f} N)"
+    )
     if best_method:
         headline += f"; the lowest median is {best_method}'s, {medians[best_method]:.1f} N"
     page = Page(
-        name=run.name, title="Search quality and convergence over seeds", headline=headline,
+        name=run.name,
+        title="Search quality and convergence over seeds",
+        headline=headline,
         summary=(
             f"{len(args.methods)} methods x {args.seeds} seeds (0-{args.seeds - 1}) x {args.budget} distinct designs "
             f"on the study's 11 x 11 scene (receiver rule), searching at the search fidelity ({setting}, the full "
@@ -97,11 +124,25 @@ def main(argv=None) -> int:
             f"{STUDY_PARTICLE_SWARM.peak:.2f} N for its particle swarm and {STUDY_SIMULATED_ANNEALING.peak:.2f} N "
             f"for its simulated annealing after about 100 evaluations each; the sequential order gives "
             f"{STUDY_SEQUENTIAL.peak:.2f} N. Best so far: the median over seeds of the best search-fidelity value "
-            f"after k evaluations. The best known order is {list(BEST_KNOWN)}."),
-        tables=(Table(("method", "median best (N)", "quartiles", "range", f"below {STUDY_BEST.peak:.2f} N",
-                       f"below {STUDY_PARTICLE_SWARM.peak:.2f} N", "evaluated the best known order",
-                       "found at evaluation (median)", *(f"best so far at {k}" for k in checkpoints),
-                       "wall s per run (median)"), tuple(rows)),),
+            f"after k evaluations. The best known order is {list(BEST_KNOWN)}."
+        ),
+        tables=(
+            Table(
+                (
+                    "method",
+                    "median best (N)",
+                    "quartiles",
+                    "range",
+                    f"below {STUDY_BEST.peak:.2f} N",
+                    f"below {STUDY_PARTICLE_SWARM.peak:.2f} N",
+                    "evaluated the best known order",
+                    "found at evaluation (median)",
+                    *(f"best so far at {k}" for k in checkpoints),
+                    "wall s per run (median)",
+                ),
+                tuple(rows),
+            ),
+        ),
     )
     write_page(run, page)
     return 0

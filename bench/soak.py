@@ -27,6 +27,7 @@ Criterion: the resident memory after the warm-up (the first fifth of the cycles)
 median of the last quarter of the samples after the warm-up minus the median of the first quarter, so that the
 allocator's noise does not count; the least-squares slope is shown beside it.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -57,6 +58,7 @@ from .measurements import Page, Run, Table, write_page
 
 # ---------------------------------------------------------------- the page
 
+
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
     parser = run.parser(__doc__, quick="20,000 FMU cycles per configuration, 1,000 evaluations, 2,000 refusals")
@@ -69,8 +71,9 @@ def main(argv=None) -> int:
         args.cycles, args.evaluations, args.refusals = 20_000, 1_000, 2_000
     for option in ("cycles", "evaluations", "refusals", "workers"):
         if getattr(args, option) < (1 if option == "workers" else 100):
-            parser.error(f"--{option}: a whole number >= {1 if option == 'workers' else 100}, "
-                         f"got {getattr(args, option)}")
+            parser.error(
+                f"--{option}: a whole number >= {1 if option == 'workers' else 100}, got {getattr(args, option)}"
+            )
 
     from builder.build import build_fmu
 
@@ -79,23 +82,32 @@ def main(argv=None) -> int:
         folder = Path(folder_text)
         wine = shutil.which("wine") is not None and shutil.which("x86_64-w64-mingw32-gcc") is not None
         platforms = "x86_64-linux,x86_64-windows" if wine else None
-        fmus = {version: build_fmu(output=folder / f"Lattice3x3-fmi{version}.fmu", rows=ROWS, cols=COLS,
-                                   fmi_version=version, platforms=platforms, reference_results=False)
-                for version in (2, 3)}
+        fmus = {
+            version: build_fmu(
+                output=folder / f"Lattice3x3-fmi{version}.fmu",
+                rows=ROWS,
+                cols=COLS,
+                fmi_version=version,
+                platforms=platforms,
+                reference_results=False,
+            )
+            for version in (2, 3)
+        }
         unpacked = {version: unpack(path, folder / f"fmi{version}") for version, path in fmus.items()}
         environment = dict(os.environ, WINEDEBUG="-all", WINEPREFIX=str(folder / "wine"))
         for windows in (False, True):
             driver = compile_driver(folder, windows) if (wine or not windows) else "wine or mingw-w64 not found"
             for version, model_exchange in itertools.product((2, 3), (False, True)):
-                name = (f"FMI {version} {'Model Exchange' if model_exchange else 'Co-Simulation'}, "
-                        f"{'Windows DLL under Wine' if windows else 'Linux'}")
+                name = (
+                    f"FMI {version} {'Model Exchange' if model_exchange else 'Co-Simulation'}, "
+                    f"{'Windows DLL under Wine' if windows else 'Linux'}"
+                )
                 if isinstance(driver, str):
                     results.append(NotRun(name, driver))
                     continue
                 if windows and version == 2 and not model_exchange:
                     run_driver(driver, unpacked[version], False, True, 100, environment)  # Wine sets up its prefix
-                results.append(run_driver(driver, unpacked[version], model_exchange, windows, args.cycles,
-                                          environment))
+                results.append(run_driver(driver, unpacked[version], model_exchange, windows, args.cycles, environment))
                 print(results[-1])
         results.append(simulate_soak(fmus[2], args.cycles))
         print(results[-1])
@@ -108,18 +120,30 @@ def main(argv=None) -> int:
     measured = [r for r in results if isinstance(r, SoakResult)]
     flat = all(r.growth.flat and not r.failures for r in measured)
     rows = tuple(
-        (r.configuration, f"{r.cycles:,}", f"{r.per_second:,.0f}", f"{r.growth.warm_bytes / 2**20:.1f}",
-         f"{r.growth.growth_bytes / 2**10:+.0f}", f"{r.growth.slope_bytes_per_million / 2**10:+.0f}",
-         str(r.failures), "yes" if r.growth.flat and not r.failures else "NO")
-        if isinstance(r, SoakResult) else (r.configuration, "not run", r.reason, "", "", "", "", "")
-        for r in results)
+        (
+            r.configuration,
+            f"{r.cycles:,}",
+            f"{r.per_second:,.0f}",
+            f"{r.growth.warm_bytes / 2**20:.1f}",
+            f"{r.growth.growth_bytes / 2**10:+.0f}",
+            f"{r.growth.slope_bytes_per_million / 2**10:+.0f}",
+            str(r.failures),
+            "yes" if r.growth.flat and not r.failures else "NO",
+        )
+        if isinstance(r, SoakResult)
+        else (r.configuration, "not run", r.reason, "", "", "", "", "")
+        for r in results
+    )
     worst = max(measured, key=lambda r: r.growth.growth_bytes)
     page = Page(
-        name=run.name, title="Soak: a million runs, flat",
-        headline=(f"{'flat' if flat else 'NOT flat'}: resident growth after warm-up at most "
-                  f"{worst.growth.growth_bytes / 2**10:+.0f} KB over {args.cycles:,} FMU cycles per configuration "
-                  f"(criterion < 1 MB); {min(r.per_second for r in measured[:4]):,.0f}-"
-                  f"{max(r.per_second for r in measured[:4]):,.0f} cycles/s natively"),
+        name=run.name,
+        title="Soak: a million runs, flat",
+        headline=(
+            f"{'flat' if flat else 'NOT flat'}: resident growth after warm-up at most "
+            f"{worst.growth.growth_bytes / 2**10:+.0f} KB over {args.cycles:,} FMU cycles per configuration "
+            f"(criterion < 1 MB); {min(r.per_second for r in measured[:4]):,.0f}-"
+            f"{max(r.per_second for r in measured[:4]):,.0f} cycles/s natively"
+        ),
         summary=(
             f"Cycles of the FMU's life (reset, set an order, initialise, advance {HORIZON * 1e3:g} ms, read every "
             f"real output) on a {ROWS} x {COLS} lattice: the lifecycle, not the physics, is what could leak, so "
@@ -131,17 +155,39 @@ def main(argv=None) -> int:
             f"quarter; the slope is a least-squares fit over the same samples. Model Exchange cycles take "
             f"{ME_STEPS} explicit Euler steps over the horizon in the driver. Evaluator rows count the memory of "
             f"this process and all its workers, with a fresh Evaluator for each batch of {BATCH} orders "
-            f"(so its cache does not answer them); runs per second include the executor's dispatch."),
-        tables=(Table(("configuration", "cycles", "per second", "resident after warm-up (MB)", "growth (KB)",
-                       "slope (KB per 10^6)", "failures", "< 1 MB"), rows),),
-        notes=(("The driver (orchestrator/soak_driver.c) calls the FMI functions of the binary directly, so no "
+            f"(so its cache does not answer them); runs per second include the executor's dispatch."
+        ),
+        tables=(
+            Table(
+                (
+                    "configuration",
+                    "cycles",
+                    "per second",
+                    "resident after warm-up (MB)",
+                    "growth (KB)",
+                    "slope (KB per 10^6)",
+                    "failures",
+                    "< 1 MB",
+                ),
+                rows,
+            ),
+        ),
+        notes=(
+            (
+                "The driver (orchestrator/soak_driver.c) calls the FMI functions of the binary directly, so no "
                 "importer library's own memory is counted; under Wine the working set is Wine's report for the "
-                "process."),
-               ("Failures are FMI calls that returned an error (driver), evaluations that failed (Evaluator), or "
-                "bad inputs that were not refused (refusals)."),
-               ("Dask: no container of the scheduler, the client, the workers or their actors was found to grow "
+                "process."
+            ),
+            (
+                "Failures are FMI calls that returned an error (driver), evaluations that failed (Evaluator), or "
+                "bad inputs that were not refused (refusals)."
+            ),
+            (
+                "Dask: no container of the scheduler, the client, the workers or their actors was found to grow "
                 "with the evaluations (their lengths compared between two points of a soak); the resident growth "
-                "of the Dask row is not explained or fixed yet, so that row does not meet the criterion.")),
+                "of the Dask row is not explained or fixed yet, so that row does not meet the criterion."
+            ),
+        ),
     )
     write_page(run, page)
     return 0 if flat else 1

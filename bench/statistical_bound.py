@@ -11,6 +11,7 @@ samplings of random designs (uniform, with replacement, drawn from the swept val
 the interval held that optimum (its coverage) beside its nominal confidence, how wide it was and how many
 designs it needed. A statistical estimate, never a certificate.
 """
+
 from __future__ import annotations
 
 import statistics
@@ -27,8 +28,9 @@ from .measurements import Page, Run, Table, write_page
 RULES = ("receiver", "mean")
 
 
-def validate(values: np.ndarray, optimum: float, groups: int, group_size: int, samples: int, confidence: float,
-             seed: int) -> tuple:
+def validate(
+    values: np.ndarray, optimum: float, groups: int, group_size: int, samples: int, confidence: float, seed: int
+) -> tuple:
     """One table row: designs, coverage, median interval width, median estimate error, median gap of the best
     seen (over ``samples`` independent samplings)."""
     held, widths, errors, gaps = 0, [], [], []
@@ -59,10 +61,14 @@ def main(argv=None) -> int:
         sizes = tuple(int(s) for s in args.group_sizes.split(","))
     except ValueError:
         parser.error(f"--group-sizes: a comma list of whole numbers >= 1, got {args.group_sizes!r}")
-    if args.samples < 20 or args.groups < 5 or min(sizes) < 1 or not 3 <= args.columns <= 9 \
-            or not 0 < args.confidence < 1:
-        parser.error("--samples >= 20, --groups >= 5, --group-sizes >= 1, 3 <= --columns <= 9, "
-                     "0 < --confidence < 1")
+    if (
+        args.samples < 20
+        or args.groups < 5
+        or min(sizes) < 1
+        or not 3 <= args.columns <= 9
+        or not 0 < args.confidence < 1
+    ):
+        parser.error("--samples >= 20, --groups >= 5, --group-sizes >= 1, 3 <= --columns <= 9, 0 < --confidence < 1")
     space = DesignSpace.permutations(args.columns)
     rows, sweep_seconds = [], 0.0
     with narrow_lattice(args.columns) as (_, fmu):
@@ -75,17 +81,36 @@ def main(argv=None) -> int:
                 raise SystemExit(f"{space.size - len(values)} designs failed in the {rule} sweep")
             optimum = float(values.min())
             for index, size in enumerate(sizes):
-                held, width, error, gap = validate(values, optimum, args.groups, size, args.samples,
-                                                   args.confidence, seed=1000 * RULES.index(rule) + index)
-                rows.append((f"11 x {args.columns}, {rule}", f"{optimum:.3f}", f"{args.groups * size:,}",
-                             f"{held}/{args.samples} = {held / args.samples:.0%}", f"{args.confidence:.0%}",
-                             f"{width:.2f}", f"{error:+.2f}", f"{gap:.2f}"))
+                held, width, error, gap = validate(
+                    values,
+                    optimum,
+                    args.groups,
+                    size,
+                    args.samples,
+                    args.confidence,
+                    seed=1000 * RULES.index(rule) + index,
+                )
+                rows.append(
+                    (
+                        f"11 x {args.columns}, {rule}",
+                        f"{optimum:.3f}",
+                        f"{args.groups * size:,}",
+                        f"{held}/{args.samples} = {held / args.samples:.0%}",
+                        f"{args.confidence:.0%}",
+                        f"{width:.2f}",
+                        f"{error:+.2f}",
+                        f"{gap:.2f}",
+                    )
+                )
     coverages = [int(r[3].split("/")[0]) / args.samples for r in rows]
     page = Page(
-        name=run.name, title="Statistical bound: coverage where the optimum is known",
-        headline=(f"the {args.confidence:.0%} interval held the swept optimum in {min(coverages):.0%}-"
-                  f"{max(coverages):.0%} of {args.samples} samplings per case: a statistical estimate, not a "
-                  "certificate"),
+        name=run.name,
+        title="Statistical bound: coverage where the optimum is known",
+        headline=(
+            f"the {args.confidence:.0%} interval held the swept optimum in {min(coverages):.0%}-"
+            f"{max(coverages):.0%} of {args.samples} samplings per case: a statistical estimate, not a "
+            "certificate"
+        ),
         summary=(
             f"Every order of the 11 x {args.columns} lattice ({space.size:,}) evaluated at the search fidelity "
             f"under each diagonal rule (the sweep's screening, every value kept, through the Evaluator on "
@@ -94,12 +119,30 @@ def main(argv=None) -> int:
             f"those values and fits `orchestrator.statistical_bound.weibull_bound`: a three-parameter Weibull to "
             f"the group minima; its location is the estimate, and [best seen - b (ln(1/alpha)/n)^(1/c), best "
             f"seen] the interval of nominal confidence 1 - alpha. Coverage: how many of {args.samples} "
-            f"independent samplings' intervals held the optimum. The bound is a {KIND}."),
-        tables=(Table(("case", "optimum (N)", "designs per sampling", "coverage", "nominal", "median width (N)",
-                       "median estimate - optimum (N)", "median best seen - optimum (N)"), tuple(rows)),),
-        notes=(("Coverage below the nominal confidence means the fitted shape and scale make the interval too "
+            f"independent samplings' intervals held the optimum. The bound is a {KIND}."
+        ),
+        tables=(
+            Table(
+                (
+                    "case",
+                    "optimum (N)",
+                    "designs per sampling",
+                    "coverage",
+                    "nominal",
+                    "median width (N)",
+                    "median estimate - optimum (N)",
+                    "median best seen - optimum (N)",
+                ),
+                tuple(rows),
+            ),
+        ),
+        notes=(
+            (
+                "Coverage below the nominal confidence means the fitted shape and scale make the interval too "
                 "narrow at that many designs: quote the interval with the coverage measured here, not the "
-                "nominal figure."),),
+                "nominal figure."
+            ),
+        ),
     )
     write_page(run, page)
     return 0

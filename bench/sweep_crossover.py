@@ -17,6 +17,7 @@ evaluations the default searches would make. Then the default study itself (ever
 searches it ran before and as it runs now, wall time. Case: the study's first 8 materials over an 11 x 5 lattice
 (a catalogue of 6,720 arrangements), both diagonal rules, through ``run_in_folder`` (the command line's path).
 """
+
 from __future__ import annotations
 
 import math
@@ -53,8 +54,12 @@ def study(folder: Path, table: Path, methods: tuple[str, ...], workers: int, sen
     configs = {Searches: SearchesConfig(methods=methods)}
     if not sensitivity:
         configs[Sensitivity] = SensitivityConfig(enabled=False)
-    outcome = run_in_folder(RunConfig(out=str(folder), workers=workers, progress=False),
-                            CaseConfig(materials=str(table), cols=COLUMNS), configs, STEPS)
+    outcome = run_in_folder(
+        RunConfig(out=str(folder), workers=workers, progress=False),
+        CaseConfig(materials=str(table), cols=COLUMNS),
+        configs,
+        STEPS,
+    )
     return outcome, time.perf_counter() - started, core_seconds() - cpu
 
 
@@ -65,8 +70,10 @@ def fastest(folder: Path, table: Path, methods, workers: int, repeats: int, name
 
 
 def answer_text(outcome) -> str:
-    return "; ".join(f"{a.diagonal_rule}: {order_text(a.order)} {a.peak:.4f} N, "
-                     f"{a.evidence.status.replace('_', ' ')}" for a in outcome.study.result(Answers).answers)
+    return "; ".join(
+        f"{a.diagonal_rule}: {order_text(a.order)} {a.peak:.4f} N, {a.evidence.status.replace('_', ' ')}"
+        for a in outcome.study.result(Answers).answers
+    )
 
 
 def main(argv=None) -> int:
@@ -80,8 +87,9 @@ def main(argv=None) -> int:
         folder = Path(folder)
         table = write_materials_csv(study_materials(MATERIALS), folder / "catalogue.csv")
         resolve(CaseConfig(materials=str(table), cols=COLUMNS))  # its FMU built first
-        searched, searched_wall, searched_cpu = fastest(folder, table, SINGLE_DEFAULT, args.workers, repeats,
-                                                        "searched", False)
+        searched, searched_wall, searched_cpu = fastest(
+            folder, table, SINGLE_DEFAULT, args.workers, repeats, "searched", False
+        )
         swept, swept_wall, swept_cpu = fastest(folder, table, (SWEEP_METHOD,), args.workers, repeats, "swept", False)
         before, before_wall, _ = fastest(folder, table, SINGLE_DEFAULT, args.workers, repeats, "before", True)
         now, now_wall, _ = fastest(folder, table, (), args.workers, repeats, "now", True)
@@ -96,39 +104,85 @@ def main(argv=None) -> int:
     space = math.perm(MATERIALS, COLUMNS)
     holds = SWEEP_DESIGNS_PER_SEARCH_EVALUATION <= ratio
     certified = all(a.evidence.status == "certified" for a in now.study.result(Answers).answers)
-    headline = (f"a sweep screens {ratio:.1f} designs in the core-time of one search evaluation (constant "
-                f"{SWEEP_DESIGNS_PER_SEARCH_EVALUATION}: spaces up to {threshold:,} designs are swept by default); "
-                f"the {space:,}-design catalogue's default study: {now_wall:.0f} s "
-                f"({'certified' if certified else 'not certified'}), "
-                f"{before_wall:.0f} s with the searches")
+    headline = (
+        f"a sweep screens {ratio:.1f} designs in the core-time of one search evaluation (constant "
+        f"{SWEEP_DESIGNS_PER_SEARCH_EVALUATION}: spaces up to {threshold:,} designs are swept by default); "
+        f"the {space:,}-design catalogue's default study: {now_wall:.0f} s "
+        f"({'certified' if certified else 'not certified'}), "
+        f"{before_wall:.0f} s with the searches"
+    )
     crossover_rows = (
-        ("the default searches (" + " ".join(SINGLE_DEFAULT) + ")", f"{evaluations:,} evaluations",
-         f"{searched_cpu:.1f}", f"{search_rate:,.0f} evaluations", f"{searched_wall:.1f}", answer_text(searched)),
-        ("the exhaustive sweep", f"{sweep_designs:,} designs", f"{swept_cpu:.1f}", f"{sweep_rate:,.0f} designs",
-         f"{swept_wall:.1f}", answer_text(swept)))
+        (
+            "the default searches (" + " ".join(SINGLE_DEFAULT) + ")",
+            f"{evaluations:,} evaluations",
+            f"{searched_cpu:.1f}",
+            f"{search_rate:,.0f} evaluations",
+            f"{searched_wall:.1f}",
+            answer_text(searched),
+        ),
+        (
+            "the exhaustive sweep",
+            f"{sweep_designs:,} designs",
+            f"{swept_cpu:.1f}",
+            f"{sweep_rate:,.0f} designs",
+            f"{swept_wall:.1f}",
+            answer_text(swept),
+        ),
+    )
     default_rows = (
         ("with the default searches (" + " ".join(SINGLE_DEFAULT) + ")", f"{before_wall:.1f}", answer_text(before)),
-        ("as the default study runs now (no --method)",
-         f"{now_wall:.1f}", answer_text(now)))
+        ("as the default study runs now (no --method)", f"{now_wall:.1f}", answer_text(now)),
+    )
     page = Page(
-        name=run.name, title="Sweep or search: the crossover", headline=headline,
-        summary=(f"The study's first {MATERIALS} materials over an 11 x {COLUMNS} lattice ({space:,} arrangements), "
-                 f"both diagonal rules, budget {config.budget}, {config.repeats} seeds, {args.workers} worker "
-                 f"process(es); of {repeats} run(s) of each study, the one of least core-time. Core-seconds: CPU "
-                 "time of the client and its worker processes over the whole study."),
-        tables=(Table(("study (sensitivity off)", "work", "core-seconds", "per core-second", "wall s", "answers"),
-                      crossover_rows, caption="**The crossover, measured:**"),
-                Table(("measured ratio (sweep designs per search evaluation)", "constant in the orchestrator",
-                       "the constant at or below the ratio", "default searches' evaluations per rule",
-                       "spaces swept by default"),
-                      ((f"{ratio:.2f}", SWEEP_DESIGNS_PER_SEARCH_EVALUATION, "yes" if holds else "NO",
-                        f"{per_rule:,}", f"up to {threshold:,} designs"),),
-                      caption="**The threshold:**"),
-                Table(("default study (every step at its default)", "wall s", "answers"), default_rows,
-                      caption="**The catalogue's default study:**")),
-        notes=(("The constant holds: a space at the threshold costs a sweep no more core-time than the default "
-                "searches." if holds else "The constant is above the measured ratio: lower "
-                "SWEEP_DESIGNS_PER_SEARCH_EVALUATION in orchestrator/steps/exhaustive.py."),),
+        name=run.name,
+        title="Sweep or search: the crossover",
+        headline=headline,
+        summary=(
+            f"The study's first {MATERIALS} materials over an 11 x {COLUMNS} lattice ({space:,} arrangements), "
+            f"both diagonal rules, budget {config.budget}, {config.repeats} seeds, {args.workers} worker "
+            f"process(es); of {repeats} run(s) of each study, the one of least core-time. Core-seconds: CPU "
+            "time of the client and its worker processes over the whole study."
+        ),
+        tables=(
+            Table(
+                ("study (sensitivity off)", "work", "core-seconds", "per core-second", "wall s", "answers"),
+                crossover_rows,
+                caption="**The crossover, measured:**",
+            ),
+            Table(
+                (
+                    "measured ratio (sweep designs per search evaluation)",
+                    "constant in the orchestrator",
+                    "the constant at or below the ratio",
+                    "default searches' evaluations per rule",
+                    "spaces swept by default",
+                ),
+                (
+                    (
+                        f"{ratio:.2f}",
+                        SWEEP_DESIGNS_PER_SEARCH_EVALUATION,
+                        "yes" if holds else "NO",
+                        f"{per_rule:,}",
+                        f"up to {threshold:,} designs",
+                    ),
+                ),
+                caption="**The threshold:**",
+            ),
+            Table(
+                ("default study (every step at its default)", "wall s", "answers"),
+                default_rows,
+                caption="**The catalogue's default study:**",
+            ),
+        ),
+        notes=(
+            (
+                "The constant holds: a space at the threshold costs a sweep no more core-time than the default "
+                "searches."
+                if holds
+                else "The constant is above the measured ratio: lower "
+                "SWEEP_DESIGNS_PER_SEARCH_EVALUATION in orchestrator/steps/exhaustive.py."
+            ),
+        ),
     )
     write_page(run, page)
     return 0

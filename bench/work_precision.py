@@ -14,6 +14,7 @@ the mean count of right-hand sides per run (the FMU's own count) and the CPU tim
 (``time.process_time``, the fastest of the passes, the settings interleaved within each pass). That tight
 reference is itself checked against scipy over the numpy model (``reference/``) at rtol 1e-11.
 """
+
 from __future__ import annotations
 
 import math
@@ -24,9 +25,20 @@ from orchestrator.simulation import LatticeFMU, SimulationError
 from reference import Scene
 from reference.simulate import simulate
 
-from .common import (BEST_KNOWN, FULL_HORIZON, REVERSED, SEQUENTIAL, STUDY_BEST, add_fmu_option, default_setting,
-                     lattice_fmu, setting_text,
-                     random_orders, relative, search_parameters)
+from .common import (
+    BEST_KNOWN,
+    FULL_HORIZON,
+    REVERSED,
+    SEQUENTIAL,
+    STUDY_BEST,
+    add_fmu_option,
+    default_setting,
+    lattice_fmu,
+    setting_text,
+    random_orders,
+    relative,
+    search_parameters,
+)
 from .measurements import Page, Run, Table, write_page
 
 SEARCH_TARGET = 3e-5  # worst relative error the search ranking tolerates (bench.horizon_study measures the gaps)
@@ -36,18 +48,22 @@ OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "rhs_evalu
 ADAPTIVE = ("dop853", "tsit5", "dopri5", "rkn5")
 RTOLS = (1e-3, 1e-4, 3e-5, 2e-5, 1e-5, 8e-6, 5e-6, 1e-6, 1e-7, 1e-8, 1e-9)
 QUICK_RTOLS = (1e-4, 1e-5, 8e-6, 1e-6, 1e-7, 1e-8)
-FIXED = {"rk4": (1e-4, 5e-4, 1e-3, 2.5e-3, 5e-3, 0.01, 0.02, 0.025, 0.03, 0.04),
-         "semi_implicit_euler": (1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 0.01, 0.015, 0.02, 0.03)}
+FIXED = {
+    "rk4": (1e-4, 5e-4, 1e-3, 2.5e-3, 5e-3, 0.01, 0.02, 0.025, 0.03, 0.04),
+    "semi_implicit_euler": (1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 0.01, 0.015, 0.02, 0.03),
+}
 QUICK_FIXED = {"rk4": (1e-3, 5e-3, 0.02, 0.03), "semi_implicit_euler": (1e-4, 1e-3, 0.01, 0.02)}
 HORIZONS = {"search evaluation": SEARCH_HORIZON, "scene": FULL_HORIZON}
 
 
 def settings(quick: bool) -> list[tuple[str, str, dict]]:
     rtols, fixed = (QUICK_RTOLS, QUICK_FIXED) if quick else (RTOLS, FIXED)
-    out = [(solver, f"rtol {r:g}", {"solver": solver, "rtol": r, "atol": r * 1e-2}) for solver in ADAPTIVE
-           for r in rtols]
-    out += [(solver, f"h {h:g} s", {"solver": solver, "fixed_step": h}) for solver, steps in fixed.items()
-            for h in steps]
+    out = [
+        (solver, f"rtol {r:g}", {"solver": solver, "rtol": r, "atol": r * 1e-2}) for solver in ADAPTIVE for r in rtols
+    ]
+    out += [
+        (solver, f"h {h:g} s", {"solver": solver, "fixed_step": h}) for solver, steps in fixed.items() for h in steps
+    ]
     return out
 
 
@@ -93,8 +109,13 @@ def main(argv=None) -> int:
         default = default_setting(path)
         label = f"rtol {default['rtol']:g}"
         if (default["solver"], label) not in {(solver, text) for solver, text, _ in plan}:  # the default is measured
-            plan.append((default["solver"], label, {"solver": default["solver"], "rtol": default["rtol"],
-                                                    "atol": default["atol"]}))
+            plan.append(
+                (
+                    default["solver"],
+                    label,
+                    {"solver": default["solver"], "rtol": default["rtol"], "atol": default["atol"]},
+                )
+            )
         for horizon_name, horizon in HORIZONS.items():
             truths = [fmu.simulate(order, horizon=horizon, parameters=TIGHT, outputs=OUTPUTS) for order in orders]
             checked = orders[:1] if args.quick else orders[:2]
@@ -102,8 +123,15 @@ def main(argv=None) -> int:
                 scipy = simulate(Scene(order=order), horizon=horizon, rtol=1e-11, atol=1e-13)
                 sampled = relative(scipy.peak_backplate_force, truth["peak_backplate_force"])
                 continuous = relative(scipy.peak_backplate_force_continuous, truth["peak_backplate_force_continuous"])
-                check_rows.append((horizon_name, str(list(order)), f"{truth['peak_backplate_force']:.9f}",
-                                   f"{sampled:.1e}", f"{continuous:.1e}"))
+                check_rows.append(
+                    (
+                        horizon_name,
+                        str(list(order)),
+                        f"{truth['peak_backplate_force']:.9f}",
+                        f"{sampled:.1e}",
+                        f"{continuous:.1e}",
+                    )
+                )
             measured = measure(fmu, orders, horizon, plan, args.passes)
             rows = []
             summary = {}
@@ -111,40 +139,98 @@ def main(argv=None) -> int:
                 results = entry["results"]
                 failures = [r for r in results if isinstance(r, str)]
                 good = [(r, t) for r, t in zip(results, truths) if not isinstance(r, str)]
-                worst = max((max(relative(r["peak_backplate_force"], t["peak_backplate_force"]),
-                                 relative(r["peak_backplate_force_continuous"], t["peak_backplate_force_continuous"]))
-                             for r, t in good), default=math.nan)
-                sampled = max((relative(r["peak_backplate_force"], t["peak_backplate_force"]) for r, t in good),
-                              default=math.nan)
+                worst = max(
+                    (
+                        max(
+                            relative(r["peak_backplate_force"], t["peak_backplate_force"]),
+                            relative(r["peak_backplate_force_continuous"], t["peak_backplate_force_continuous"]),
+                        )
+                        for r, t in good
+                    ),
+                    default=math.nan,
+                )
+                sampled = max(
+                    (relative(r["peak_backplate_force"], t["peak_backplate_force"]) for r, t in good), default=math.nan
+                )
                 rhs = sum(r["rhs_evaluations"] for r, _ in good) / len(good) if good else math.nan
-                status = (f"{len(failures)} of {len(orders)} failed: {failure_kind(failures[0])}" if failures
-                          else "ok")
-                summary[(solver, label)] = {"sampled": sampled, "worst": worst, "rhs": rhs, "failed": len(failures),
-                                            "ms": entry["seconds"] * 1e3}
-                rows.append((solver, label, "" if failures else f"{sampled:.1e}", "" if failures else f"{worst:.1e}",
-                             "" if failures else f"{rhs:.0f}", f"{entry['seconds'] * 1e3:.2f}", status))
-            tables.append(Table(("solver", "setting", "worst error, sampled peak", "worst error, sampled and "
-                                 "continuous", "mean right-hand sides", "CPU ms per run", "status"), tuple(rows),
-                                caption=f"**{horizon_name.capitalize()} ({horizon:g} s)**, {len(orders)} orders:"))
+                status = f"{len(failures)} of {len(orders)} failed: {failure_kind(failures[0])}" if failures else "ok"
+                summary[(solver, label)] = {
+                    "sampled": sampled,
+                    "worst": worst,
+                    "rhs": rhs,
+                    "failed": len(failures),
+                    "ms": entry["seconds"] * 1e3,
+                }
+                rows.append(
+                    (
+                        solver,
+                        label,
+                        "" if failures else f"{sampled:.1e}",
+                        "" if failures else f"{worst:.1e}",
+                        "" if failures else f"{rhs:.0f}",
+                        f"{entry['seconds'] * 1e3:.2f}",
+                        status,
+                    )
+                )
+            tables.append(
+                Table(
+                    (
+                        "solver",
+                        "setting",
+                        "worst error, sampled peak",
+                        "worst error, sampled and continuous",
+                        "mean right-hand sides",
+                        "CPU ms per run",
+                        "status",
+                    ),
+                    tuple(rows),
+                    caption=f"**{horizon_name.capitalize()} ({horizon:g} s)**, {len(orders)} orders:",
+                )
+            )
             target = SEARCH_TARGET if horizon == SEARCH_HORIZON else FULL_TARGET
             for solver in ADAPTIVE + tuple(FIXED):
-                good = [(label, s) for (name, label), s in summary.items() if name == solver and s["failed"] == 0
-                        and s["sampled"] <= target]
+                good = [
+                    (label, s)
+                    for (name, label), s in summary.items()
+                    if name == solver and s["failed"] == 0 and s["sampled"] <= target
+                ]
                 if good:
                     label, s = min(good, key=lambda item: item[1]["rhs"])
-                    best_rows.append((horizon_name, f"{target:g}", solver, label, f"{s['sampled']:.1e}",
-                                      f"{s['rhs']:.0f}", f"{s['ms']:.2f}"))
+                    best_rows.append(
+                        (
+                            horizon_name,
+                            f"{target:g}",
+                            solver,
+                            label,
+                            f"{s['sampled']:.1e}",
+                            f"{s['rhs']:.0f}",
+                            f"{s['ms']:.2f}",
+                        )
+                    )
                 else:
                     best_rows.append((horizon_name, f"{target:g}", solver, "none of the grid", "", "", ""))
             for solver in FIXED:
-                stable = [float(label.split()[1]) for (name, label), s in summary.items() if name == solver
-                          and s["failed"] == 0]
-                failed = [float(label.split()[1]) for (name, label), s in summary.items() if name == solver
-                          and s["failed"] > 0]
-                notes.append(f"{solver}, {horizon_name}: the largest step that ran on every order is "
-                             f"{max(stable):g} s" + (f"; from {min(failed):g} s on a run ends with an FMI error "
-                                                     "naming the divergence" if failed else "") if stable else
-                             f"{solver}, {horizon_name}: no step of the grid ran on every order")
+                stable = [
+                    float(label.split()[1])
+                    for (name, label), s in summary.items()
+                    if name == solver and s["failed"] == 0
+                ]
+                failed = [
+                    float(label.split()[1])
+                    for (name, label), s in summary.items()
+                    if name == solver and s["failed"] > 0
+                ]
+                notes.append(
+                    f"{solver}, {horizon_name}: the largest step that ran on every order is "
+                    f"{max(stable):g} s"
+                    + (
+                        f"; from {min(failed):g} s on a run ends with an FMI error naming the divergence"
+                        if failed
+                        else ""
+                    )
+                    if stable
+                    else f"{solver}, {horizon_name}: no step of the grid ran on every order"
+                )
             findings[horizon_name] = summary
     search_key = (search["solver"], f"rtol {search['rtol']:g}")
     default_key = (default["solver"], f"rtol {default['rtol']:g}")
@@ -152,13 +238,16 @@ def main(argv=None) -> int:
     default_found = findings["scene"].get(default_key)
     headline = []
     if searched:
-        headline.append(f"the searches' setting ({search['solver']}, rtol {search['rtol']:g}, 1 s) errs by at most "
-                        f"{searched['sampled']:.1e} with {searched['rhs']:.0f} right-hand sides")
+        headline.append(
+            f"the searches' setting ({search['solver']}, rtol {search['rtol']:g}, 1 s) errs by at most "
+            f"{searched['sampled']:.1e} with {searched['rhs']:.0f} right-hand sides"
+        )
     if default_found:
         headline.append(f"the FMU's default ({setting_text(default)}) by {default_found['worst']:.1e} over 8 s")
     agreement = max(max(float(r[3]), float(r[4])) for r in check_rows)
     page = Page(
-        name=run.name, title="Work against precision of the FMU's solvers",
+        name=run.name,
+        title="Work against precision of the FMU's solvers",
         headline="; ".join(headline),
         summary=(
             f"Every solver setting on {len(orders)} orders (the sequential order, the study's best, the best known "
@@ -168,15 +257,36 @@ def main(argv=None) -> int:
             "same order and horizon. Work: the mean count of right-hand sides per run (the FMU's counter) and "
             f"the CPU time per run (the fastest of {args.passes} pass(es)). The tight reference agrees with scipy "
             f"over the numpy model at rtol 1e-11 to {agreement:.1e} (table at the end). Adaptive settings use atol "
-            "= rtol / 100."),
-        tables=(Table(("evaluation", "target", "solver", "cheapest setting within it", "worst error",
-                       "mean right-hand sides", "CPU ms per run"), tuple(best_rows),
-                      caption="**The cheapest setting of each solver** (fewest right-hand sides) whose worst "
-                              "sampled-peak error is within the target:"),
-                *tables,
-                Table(("evaluation", "order", "FMU at rtol 1e-13: peak (N)", "scipy over numpy, rtol 1e-11: "
-                       "sampled peak, rel. difference", "continuous peak, rel. difference"), tuple(check_rows),
-                      caption="**The tight reference against scipy over the numpy model:**")),
+            "= rtol / 100."
+        ),
+        tables=(
+            Table(
+                (
+                    "evaluation",
+                    "target",
+                    "solver",
+                    "cheapest setting within it",
+                    "worst error",
+                    "mean right-hand sides",
+                    "CPU ms per run",
+                ),
+                tuple(best_rows),
+                caption="**The cheapest setting of each solver** (fewest right-hand sides) whose worst "
+                "sampled-peak error is within the target:",
+            ),
+            *tables,
+            Table(
+                (
+                    "evaluation",
+                    "order",
+                    "FMU at rtol 1e-13: peak (N)",
+                    "scipy over numpy, rtol 1e-11: sampled peak, rel. difference",
+                    "continuous peak, rel. difference",
+                ),
+                tuple(check_rows),
+                caption="**The tight reference against scipy over the numpy model:**",
+            ),
+        ),
         notes=tuple(notes),
     )
     write_page(run, page)

@@ -10,6 +10,7 @@ numbers, rendered without simulating anything).
 
 `build_fmu()` builds an FMU, `build_core_library()` the physics core alone; `build_fmu.py` is the command line.
 """
+
 from __future__ import annotations
 
 import functools
@@ -34,8 +35,17 @@ from builder.reference_results import carries_reference_results, extra_files
 from builder.sources import DEFAULT_MODEL_DIR, FMU_SOURCE_DIR, SourceTree
 from fmu_src.materials import FIELDS as MATERIAL_FIELDS
 from fmu_src.materials import MaterialTable
-from fmu_src.variables import (DERIVATIVE, INDICATOR, REAL, STATE, Interface, c_literal, enumerations,
-                               plotted_mass_index, plotted_masses)
+from fmu_src.variables import (
+    DERIVATIVE,
+    INDICATOR,
+    REAL,
+    STATE,
+    Interface,
+    c_literal,
+    enumerations,
+    plotted_mass_index,
+    plotted_masses,
+)
 from scenes import Scene, check_identifier
 from scenes import resolve_scene as resolve_scenes_scene
 
@@ -50,9 +60,21 @@ WARNING_FLAGS = ["-Wall", "-Wextra", "-pedantic"]
 # instruction, not a call that may set errno) nor -fno-trapping-math (selects may be computed as blends)
 # changes a result. Any C99 compiler builds the sources without them (fmpy compile does), only slower.
 OPTIMISATION_FLAGS = ["-O3", "-fno-math-errno", "-fno-trapping-math"]
-__all__ = ["DEFAULT_MODEL_DIR", "MODELS_DIR", "SOURCE_DIR", "build_core_library", "build_fmu", "compile_shared_library",
-           "generate_header", "generate_table_header", "model_guid", "package_fmu", "platform_folder",
-           "resolve_scene", "source_guid"]
+__all__ = [
+    "DEFAULT_MODEL_DIR",
+    "MODELS_DIR",
+    "SOURCE_DIR",
+    "build_core_library",
+    "build_fmu",
+    "compile_shared_library",
+    "generate_header",
+    "generate_table_header",
+    "model_guid",
+    "package_fmu",
+    "platform_folder",
+    "resolve_scene",
+    "source_guid",
+]
 
 
 def platform_folder() -> tuple[str, str]:
@@ -82,8 +104,9 @@ def source_guid(tree: SourceTree, identifier: str, *generated: str) -> str:
 def model_guid(interface: Interface, identifier: str, model_dir: str | os.PathLike = DEFAULT_MODEL_DIR) -> str:
     """The lattice FMU's GUID: changes whenever the variables or the C sources (FMI 2 glue and model folder)
     change, and only then."""
-    return source_guid(SourceTree(Path(model_dir), 2), identifier, generate_header(interface, ""),
-                       generate_table_header())
+    return source_guid(
+        SourceTree(Path(model_dir), 2), identifier, generate_header(interface, ""), generate_table_header()
+    )
 
 
 def generate_header(interface: Interface, guid: str) -> str:
@@ -127,8 +150,9 @@ def generate_header(interface: Interface, guid: str) -> str:
     indicator_offset = 0
     for variable in interface.exposed:
         type_code = "MODEL_TYPE_REAL" if variable.type == REAL else "MODEL_TYPE_INTEGER"
-        causality = {"output": "CAUSALITY_OUTPUT", "parameter": "CAUSALITY_PARAMETER",
-                     "input": "CAUSALITY_INPUT"}.get(variable.causality, "CAUSALITY_LOCAL")
+        causality = {"output": "CAUSALITY_OUTPUT", "parameter": "CAUSALITY_PARAMETER", "input": "CAUSALITY_INPUT"}.get(
+            variable.causality, "CAUSALITY_LOCAL"
+        )
         state = state_offsets[variable.name] if variable.role == STATE else -1
         derivative = state_offsets[variable.derivative_of] if variable.role == DERIVATIVE else -1
         indicator = indicator_offset if variable.role == INDICATOR else -1
@@ -138,9 +162,11 @@ def generate_header(interface: Interface, guid: str) -> str:
         for index, (name, start) in enumerate(zip(variable.element_names(), variable.element_starts())):
             start_text = "0.0" if start is None else repr(float(start))
             indexes = ", ".join(str(base + index if base >= 0 else -1) for base in (state, derivative, indicator))
-            rows.append(f'    {{"{name}", {type_code}, {causality}, {start_text}, {low}, {high}, '
-                        f'{int(variable.minimum_exclusive)}, '
-                        f'"{variable.allowed_text()}", {indexes}, {int(variable.enumeration is not None)}}}')
+            rows.append(
+                f'    {{"{name}", {type_code}, {causality}, {start_text}, {low}, {high}, '
+                f"{int(variable.minimum_exclusive)}, "
+                f'"{variable.allowed_text()}", {indexes}, {int(variable.enumeration is not None)}}}'
+            )
     lines.append("/* The variable table and the compiled-in arrays: in the file that defines MODEL_VARIABLE_TABLES. */")
     lines.append("#ifdef MODEL_VARIABLE_TABLES")
     lines.append("static const VariableInfo VARIABLES[N_VALUE_REFERENCES] = {")
@@ -185,15 +211,22 @@ def generate_table_header() -> str:
     a C enum per enumeration parameter, tagged with its FMI enumeration type's name, one constant per item
     (DIAGONAL_RULE_RECEIVER = 0, ...), and ColumnConstants, one material's fields (fmu_src/materials.py). It
     depends on no scene, so the core and the solvers compile alike for every FMU."""
-    lines = ["/* Generated by builder/build.py from fmu_src/variables.py and fmu_src/materials.py: do not edit. */",
-             "#ifndef MODEL_TABLE_H", "#define MODEL_TABLE_H", ""]
+    lines = [
+        "/* Generated by builder/build.py from fmu_src/variables.py and fmu_src/materials.py: do not edit. */",
+        "#ifndef MODEL_TABLE_H",
+        "#define MODEL_TABLE_H",
+        "",
+    ]
     for variable in enumerations():
         lines += [f"/* the values of {variable.name} */", f"enum {variable.enumeration} {{"]
-        lines += [f"    {variable.c_name}_{label.upper()} = {value},"
-                  for value, (label, _) in enumerate(variable.items)]
+        lines += [
+            f"    {variable.c_name}_{label.upper()} = {value}," for value, (label, _) in enumerate(variable.items)
+        ]
         lines += ["};", ""]
-    lines += ["/* The constants of one column: its material's row of the material table (docs/model.md section 2). */",
-              "typedef struct {"]
+    lines += [
+        "/* The constants of one column: its material's row of the material table (docs/model.md section 2). */",
+        "typedef struct {",
+    ]
     lines += [f"    double {column.name}; /* {column.unit}: {column.description} */" for column in MATERIAL_FIELDS]
     lines += ["} ColumnConstants;", "", "#endif", ""]
     return "\n".join(lines)
@@ -209,8 +242,9 @@ def compiler_command() -> list[str]:
 BUILD_CACHE_VARIABLE = "LATTICE_BUILD_CACHE"
 
 
-def compile_shared_library(sources: list[Path], output: Path, include_dirs: list[Path], werror: bool,
-                           target: TargetPlatform | None = None) -> None:
+def compile_shared_library(
+    sources: list[Path], output: Path, include_dirs: list[Path], werror: bool, target: TargetPlatform | None = None
+) -> None:
     """Compiles C99 sources into a shared library, each source into its own object (side by side on the
     machine's cores), then links them; with werror any warning fails the build. `target` (builder.platforms)
     builds for that platform with its compiler; None, for this machine with $CC or cc."""
@@ -225,8 +259,12 @@ def compile_shared_library(sources: list[Path], output: Path, include_dirs: list
     with tempfile.TemporaryDirectory(prefix="compile_") as folder:
         objects = [Path(folder) / f"{index}_{source.stem}.o" for index, source in enumerate(sources)]
         with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
-            warnings = list(pool.map(lambda pair: _compile_object(compiler, pair[0], pair[1], flags, werror, cache),
-                                     zip(sources, objects)))
+            warnings = list(
+                pool.map(
+                    lambda pair: _compile_object(compiler, pair[0], pair[1], flags, werror, cache),
+                    zip(sources, objects),
+                )
+            )
         link = compiler + ["-shared", *[str(o) for o in objects], "-o", str(output), "-lm"]
         link += list(target.link_flags) if target is not None else []
         warnings.append(_run_compiler(link, werror))
@@ -234,8 +272,9 @@ def compile_shared_library(sources: list[Path], output: Path, include_dirs: list
         print(warning, file=sys.stderr)
 
 
-def _compile_object(compiler: list[str], source: Path, output: Path, flags: list[str], werror: bool,
-                    cache: str | None) -> str:
+def _compile_object(
+    compiler: list[str], source: Path, output: Path, flags: list[str], werror: bool, cache: str | None
+) -> str:
     """Compiles one source (or copies its object from the cache); returns what the compiler warned."""
     command = compiler + flags + ["-c", str(source), "-o", str(output)]
     cached = Path(cache) / object_key(flags, source, compiler) if cache else None
@@ -286,21 +325,34 @@ def object_key(flags: list[str], source: Path, compiler: list[str] | None = None
     return digest.hexdigest() + ".o"
 
 
-def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, cols: int | None = None,
-                  output: str | os.PathLike | None = None,
-                  materials: MaterialTable | str | os.PathLike | None = None, depth: int | None = None,
-                  load_patch: int | None = None) -> Scene:
+def resolve_scene(
+    scene: Scene | str | None = None,
+    rows: int | None = None,
+    cols: int | None = None,
+    output: str | os.PathLike | None = None,
+    materials: MaterialTable | str | os.PathLike | None = None,
+    depth: int | None = None,
+    load_patch: int | None = None,
+) -> Scene:
     """The scene an FMU is built for (``scenes.resolve_scene``, the one owner of a scene's variants): a scene
     changed here gets its own model identifier unless the output file is named."""
     return resolve_scenes_scene(scene, rows, cols, materials, depth, load_patch, own_identifier=output is None)
 
 
-def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None = None,
-              rows: int | None = None, cols: int | None = None, werror: bool = False, fmi_version: int = 2,
-              materials: MaterialTable | str | os.PathLike | None = None,
-              platforms: str | None = None, reference_results: bool = True,
-              model_dir: str | os.PathLike = DEFAULT_MODEL_DIR, depth: int | None = None,
-              load_patch: int | None = None) -> Path:
+def build_fmu(
+    scene: Scene | str | None = None,
+    output: str | os.PathLike | None = None,
+    rows: int | None = None,
+    cols: int | None = None,
+    werror: bool = False,
+    fmi_version: int = 2,
+    materials: MaterialTable | str | os.PathLike | None = None,
+    platforms: str | None = None,
+    reference_results: bool = True,
+    model_dir: str | os.PathLike = DEFAULT_MODEL_DIR,
+    depth: int | None = None,
+    load_patch: int | None = None,
+) -> Path:
     """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0),
     from the C model in `model_dir` (its model.h: the model API of fmu_src/common/model_api.h) and the shared FMI
     glue;
@@ -326,15 +378,23 @@ def build_fmu(scene: Scene | str | None = None, output: str | os.PathLike | None
         description = fmi2.generate_model_description(interface, identifier, guid, scene, tree.source_names())
     extra = extra_files(identifier) if reference_results and carries_reference_results(scene) else {}
     extra["documentation/index.html"] = documentation_html(fmi_version, interface, identifier, scene).encode()
-    generated = {"model_variables.h": generate_header(interface, guid),
-                 TABLE_HEADER: generate_table_header()}
-    return package_fmu(tree, identifier, description, output, generated=generated, extra_files=extra,
-                       targets=targets, werror=werror)
+    generated = {"model_variables.h": generate_header(interface, guid), TABLE_HEADER: generate_table_header()}
+    return package_fmu(
+        tree, identifier, description, output, generated=generated, extra_files=extra, targets=targets, werror=werror
+    )
 
 
-def package_fmu(tree: SourceTree, identifier: str, description: str, output: str | os.PathLike, *,
-                generated: dict[str, str] | None = None, extra_files: dict[str, bytes] | None = None,
-                targets: list[TargetPlatform] | None = None, werror: bool = False) -> Path:
+def package_fmu(
+    tree: SourceTree,
+    identifier: str,
+    description: str,
+    output: str | os.PathLike,
+    *,
+    generated: dict[str, str] | None = None,
+    extra_files: dict[str, bytes] | None = None,
+    targets: list[TargetPlatform] | None = None,
+    werror: bool = False,
+) -> Path:
     """Zips an FMU of the model folder and glue of `tree`: its modelDescription.xml (`description`), its sources
     flat in sources/ with the `generated` headers beside them (FMI 3: and buildDescription.xml), the
     `extra_files` (path in the FMU: bytes), and the binary compiled for each of `targets` (None: this
@@ -351,7 +411,8 @@ def package_fmu(tree: SourceTree, identifier: str, description: str, output: str
             (sources / name).write_text(text)
         if fmi_version == 3:
             (sources / "buildDescription.xml").write_text(
-                fmi3.generate_build_description(identifier, tree.source_names()))
+                fmi3.generate_build_description(identifier, tree.source_names())
+            )
         (staging / "modelDescription.xml").write_text(description)
         for name, content in (extra_files or {}).items():
             (staging / name).parent.mkdir(parents=True, exist_ok=True)
@@ -359,8 +420,9 @@ def package_fmu(tree: SourceTree, identifier: str, description: str, output: str
         c_sources = [sources / name for name in tree.source_names()]
         if targets is None:
             folder, suffix = fmi3.platform_folder() if fmi_version == 3 else platform_folder()
-            compile_shared_library(c_sources, staging / "binaries" / folder / f"{identifier}{suffix}", [sources],
-                                   werror)
+            compile_shared_library(
+                c_sources, staging / "binaries" / folder / f"{identifier}{suffix}", [sources], werror
+            )
         for target in targets or ():
             binary = staging / "binaries" / target.folder(fmi_version) / f"{identifier}{target.suffix}"
             compile_shared_library(c_sources, binary, [sources], werror, target)
@@ -379,6 +441,7 @@ def build_core_library(output_dir: str | os.PathLike, werror: bool = False) -> P
     output = Path(output_dir) / f"lattice_core{platform_folder()[1]}"
     with tempfile.TemporaryDirectory(prefix="core_headers_") as generated:
         (Path(generated) / TABLE_HEADER).write_text(generate_table_header())
-        compile_shared_library([DEFAULT_MODEL_DIR / name for name in CORE_SOURCES], output,
-                               [DEFAULT_MODEL_DIR, Path(generated)], werror)
+        compile_shared_library(
+            [DEFAULT_MODEL_DIR / name for name in CORE_SOURCES], output, [DEFAULT_MODEL_DIR, Path(generated)], werror
+        )
     return output

@@ -24,6 +24,7 @@ machine), named after the row's key (``row_file_name``), with exactly these fiel
 Why written here rather than taken from a library: the FMI Cross-Check's repository layout and FMPy's validator
 of it are retired with it, and no library renders a tool-by-tool compatibility table.
 """
+
 from __future__ import annotations
 
 import json
@@ -41,8 +42,11 @@ RESULTS = ROOT / "tests" / "compatibility_results"
 PAGE = ROOT / "docs" / "compatibility.md"
 
 FMI_VERSIONS = ("2.0", "3.0")
-INTERFACES = {"CS": "Co-Simulation", "ME": "Model Exchange",
-              "SSP": "Co-Simulation of the armour system (ArmourSystem.ssp: projectile, lattice, hull)"}
+INTERFACES = {
+    "CS": "Co-Simulation",
+    "ME": "Model Exchange",
+    "SSP": "Co-Simulation of the armour system (ArmourSystem.ssp: projectile, lattice, hull)",
+}
 STATUSES = ("pass", "fail")
 
 
@@ -116,16 +120,28 @@ def parse_row(data, where: str) -> CompatibilityRow:
     unknown = sorted(set(data) - set(FIELDS))
     missing = [name for name in REQUIRED if name not in data]
     if unknown or missing:
-        raise RowError(f"{where}: " + "; ".join(filter(None, [
-            f"unknown field(s) {', '.join(unknown)}" if unknown else "",
-            f"missing field(s) {', '.join(missing)}" if missing else ""])) + f"; the fields are {', '.join(FIELDS)}")
+        raise RowError(
+            f"{where}: "
+            + "; ".join(
+                filter(
+                    None,
+                    [
+                        f"unknown field(s) {', '.join(unknown)}" if unknown else "",
+                        f"missing field(s) {', '.join(missing)}" if missing else "",
+                    ],
+                )
+            )
+            + f"; the fields are {', '.join(FIELDS)}"
+        )
     result = data["result"]
     if not isinstance(result, dict) or set(result) != {"status", "message"}:
-        raise RowError(f"{where}: field 'result' must be {{\"status\": \"pass\" or \"fail\", \"message\": \"...\"}}, "
-                       f"got {result!r}")
+        raise RowError(
+            f'{where}: field \'result\' must be {{"status": "pass" or "fail", "message": "..."}}, got {result!r}'
+        )
     error = data["worst_error"]
-    if error is not None and (isinstance(error, bool) or not isinstance(error, (int, float))
-                              or not math.isfinite(error) or error < 0):
+    if error is not None and (
+        isinstance(error, bool) or not isinstance(error, (int, float)) or not math.isfinite(error) or error < 0
+    ):
         raise RowError(f"{where}: field 'worst_error' must be a finite relative error >= 0 or null, got {error!r}")
     note = data.get("note")
     return CompatibilityRow(
@@ -134,13 +150,15 @@ def parse_row(data, where: str) -> CompatibilityRow:
         platform=_text(data, "platform", where, pattern=r"[a-z0-9_]+-[a-z0-9_]+"),
         fmi_version=_text(data, "fmi_version", where, allowed=FMI_VERSIONS),
         interface=_text(data, "interface", where, allowed=tuple(INTERFACES)),
-        result=Result(_text(result, "status", f"{where}: result", allowed=STATUSES),
-                      _text(result, "message", f"{where}: result")),
+        result=Result(
+            _text(result, "status", f"{where}: result", allowed=STATUSES), _text(result, "message", f"{where}: result")
+        ),
         worst_error=None if error is None else float(error),
         date=_text(data, "date", where, pattern=r"\d{4}-\d{2}-\d{2}"),
         commit=_text(data, "commit", where, pattern=r"[0-9a-f]{7,40}"),
         command=_text(data, "command", where),
-        note=None if note is None else _text(data, "note", where))
+        note=None if note is None else _text(data, "note", where),
+    )
 
 
 def load_rows(folder: Path = RESULTS) -> list[CompatibilityRow]:
@@ -186,8 +204,13 @@ def render(rows: list[CompatibilityRow]) -> str:
     platforms = sorted({r.platform for r in rows})
     published = [(list(order), peak) for order, peak in sorted(PUBLISHED_PEAKS.items(), key=lambda item: item[1])]
     return environment.get_template("compatibility.md.j2").render(
-        rows=rows, interfaces=INTERFACES, importers=importers, platforms=platforms, published=published,
-        passed=sum(r.result.passed for r in rows))
+        rows=rows,
+        interfaces=INTERFACES,
+        importers=importers,
+        platforms=platforms,
+        published=published,
+        passed=sum(r.result.passed for r in rows),
+    )
 
 
 def git_output(*arguments: str, folder: Path = ROOT) -> str | None:
@@ -200,5 +223,19 @@ def git_output(*arguments: str, folder: Path = ROOT) -> str | None:
     return done.stdout.strip() if done.returncode == 0 else None
 
 
-__all__ = ["CompatibilityRow", "FIELDS", "INTERFACES", "PAGE", "RESULTS", "ROOT", "Result", "RowError", "git_output",
-           "load_rows", "parse_row", "render", "row_file_name", "write_row"]
+__all__ = [
+    "CompatibilityRow",
+    "FIELDS",
+    "INTERFACES",
+    "PAGE",
+    "RESULTS",
+    "ROOT",
+    "Result",
+    "RowError",
+    "git_output",
+    "load_rows",
+    "parse_row",
+    "render",
+    "row_file_name",
+    "write_row",
+]

@@ -6,6 +6,7 @@ builder/fmi3_description.py), and builder.build.package_fmu compiles and zips it
     build_component_fmu("hull")                      # models/Hull.fmu
     build_component_fmu("projectile", fmi_version=3) # models/Projectile-fmi3.fmu
 """
+
 from __future__ import annotations
 
 import os
@@ -65,10 +66,21 @@ def generate_component_header(table: ComponentTable, guid: str) -> str:
         start = "0.0" if variable.start is None else repr(float(variable.start))
         state = states[variable.name] if variable.role == STATE else -1
         derivative = states[variable.derivative_of] if variable.role == DERIVATIVE else -1
-        rows.append(f'    {{"{variable.name}", CAUSALITY_{variable.causality.upper()}, {start}, {low}, {high}, '
-                    f'{int(variable.minimum_exclusive)}, "{variable.allowed_text()}", {state}, {derivative}}}')
-    lines += ["", "#ifdef MODEL_VARIABLE_TABLES", "static const VariableInfo VARIABLES[N_VALUE_REFERENCES] = {",
-              ",\n".join(rows), "};", "#endif", "", "#endif", ""]
+        rows.append(
+            f'    {{"{variable.name}", CAUSALITY_{variable.causality.upper()}, {start}, {low}, {high}, '
+            f'{int(variable.minimum_exclusive)}, "{variable.allowed_text()}", {state}, {derivative}}}'
+        )
+    lines += [
+        "",
+        "#ifdef MODEL_VARIABLE_TABLES",
+        "static const VariableInfo VARIABLES[N_VALUE_REFERENCES] = {",
+        ",\n".join(rows),
+        "};",
+        "#endif",
+        "",
+        "#endif",
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -77,8 +89,13 @@ def component_guid(table: ComponentTable, tree: SourceTree) -> str:
     return source_guid(SourceTree(tree.model_dir, 2), table.identifier, generate_component_header(table, ""))
 
 
-def build_component_fmu(model: str, output: str | os.PathLike | None = None, fmi_version: int = 2,
-                        platforms: str | None = None, werror: bool = False) -> Path:
+def build_component_fmu(
+    model: str,
+    output: str | os.PathLike | None = None,
+    fmi_version: int = 2,
+    platforms: str | None = None,
+    werror: bool = False,
+) -> Path:
     """Builds the FMU of fmu_src/<model>/ (FMI 2.0 or 3.0, Co-Simulation and Model Exchange) and returns its path
     (default models/<identifier>.fmu, FMI 3: models/<identifier>-fmi3.fmu)."""
     table = component_table(model)
@@ -92,6 +109,12 @@ def build_component_fmu(model: str, output: str | os.PathLike | None = None, fmi
         description = fmi3.generate_model_description(table, table.identifier, guid, table)
     else:
         description = fmi2.generate_model_description(table, table.identifier, guid, table, tree.source_names())
-    return package_fmu(tree, table.identifier, description, output,
-                       generated={"model_variables.h": generate_component_header(table, guid)},
-                       targets=targets, werror=werror)
+    return package_fmu(
+        tree,
+        table.identifier,
+        description,
+        output,
+        generated={"model_variables.h": generate_component_header(table, guid)},
+        targets=targets,
+        werror=werror,
+    )

@@ -19,6 +19,7 @@ The reference is the FMU's own Co-Simulation solver at its default parameters, d
 cross-check's horizon; the importing tool is FMPy (Co-Simulation in the reference's steps, Model Exchange
 with its CVode at the _ref.opt's tolerance). This module simulates; building the FMU never does.
 """
+
 from __future__ import annotations
 
 import importlib.metadata
@@ -40,9 +41,23 @@ EXTRA = "extra/org.fmi-standard.fmi-ls-ref"
 MAX_SIGNALS = 10  # the cross-check rules' recommendation for a _ref.csv
 # The reference's outputs, in the order they are chosen; an output that stays constant over the run, or
 # repeats one already chosen, is left out.
-SIGNALS = ("backplate_force", "peak_backplate_force", "kinetic_energy", "potential_energy", "external_work",
-           "dissipated_energy", "nonreciprocal_work", "ux_left_edge", "ux_centre", "ux_right_edge", "ux_corner",
-           "uy_corner", "uy_left_edge", "uy_centre", "uy_right_edge")
+SIGNALS = (
+    "backplate_force",
+    "peak_backplate_force",
+    "kinetic_energy",
+    "potential_energy",
+    "external_work",
+    "dissipated_energy",
+    "nonreciprocal_work",
+    "ux_left_edge",
+    "ux_centre",
+    "ux_right_edge",
+    "ux_corner",
+    "uy_corner",
+    "uy_left_edge",
+    "uy_centre",
+    "uy_right_edge",
+)
 # A Model Exchange importer's relative tolerance (its solver's, not the FMU's own).
 RELATIVE_TOLERANCE = 1e-6
 INTERFACES = {"cs": ("CoSimulation", "Co-Simulation"), "me": ("ModelExchange", "Model Exchange")}
@@ -57,8 +72,11 @@ class CrossCheckScene:
 
 
 # The 11 x 11 armour over its peak and last contact (both before 1 s), the free 5 x 5 lattice, the two masses.
-CROSS_CHECK_SCENES = (CrossCheckScene("armour_11x11", 1.0), CrossCheckScene("free_5x5", 2.0),
-                      CrossCheckScene("two_masses_exponential", 2.0))
+CROSS_CHECK_SCENES = (
+    CrossCheckScene("armour_11x11", 1.0),
+    CrossCheckScene("free_5x5", 2.0),
+    CrossCheckScene("two_masses_exponential", 2.0),
+)
 FMI_VERSIONS = ("2.0", "3.0")
 
 
@@ -116,10 +134,19 @@ def reference_result(fmu: Path, stop_time: float, step_size: float) -> tuple[np.
     """The FMU's Co-Simulation outputs every step_size from 0 to stop_time, and the signals chosen of them."""
     from fmpy import read_model_description, simulate_fmu
 
-    outputs = [v.name for v in read_model_description(str(fmu)).modelVariables
-               if v.causality == "output" and v.type in ("Real", "Float64")]
-    result = simulate_fmu(str(fmu), fmi_type="CoSimulation", stop_time=stop_time, step_size=step_size,
-                          output_interval=step_size, output=outputs)
+    outputs = [
+        v.name
+        for v in read_model_description(str(fmu)).modelVariables
+        if v.causality == "output" and v.type in ("Real", "Float64")
+    ]
+    result = simulate_fmu(
+        str(fmu),
+        fmi_type="CoSimulation",
+        stop_time=stop_time,
+        step_size=step_size,
+        output_interval=step_size,
+        output=outputs,
+    )
     return result, chosen_signals(result, outputs)
 
 
@@ -127,11 +154,19 @@ def with_reference(fmu: Path, target: Path, reference_csv: Path, stop_time: floa
     """A copy of ``fmu`` at ``target`` with the reference result and its FMI-LS-REF manifest in extra/."""
     from builder.reference_results import LS_DESCRIPTION, LS_NAME, LS_VERSION
 
-    description = (f"Outputs from 0 to {stop_time!r} s every {step_size!r} s, by the FMU's Co-Simulation at its "
-                   "default parameters")
-    manifest = environment().get_template("fmi_ls_ref_manifest.xml").render(
-        ls_name=LS_NAME, ls_version=LS_VERSION, ls_description=LS_DESCRIPTION,
-        related=[{"source": reference_csv.name, "description": description}])
+    description = (
+        f"Outputs from 0 to {stop_time!r} s every {step_size!r} s, by the FMU's Co-Simulation at its default parameters"
+    )
+    manifest = (
+        environment()
+        .get_template("fmi_ls_ref_manifest.xml")
+        .render(
+            ls_name=LS_NAME,
+            ls_version=LS_VERSION,
+            ls_description=LS_DESCRIPTION,
+            related=[{"source": reference_csv.name, "description": description}],
+        )
+    )
     partial = target.with_name(target.name + ".partial")
     with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as archive:
         for item in source.infolist():
@@ -155,13 +190,23 @@ def import_with_fmpy(fmu: Path, fmi_type: str, stop_time: float, step_size: floa
 
 
 def variable_rows(description) -> list[dict]:
-    return [{"name": v.name, "causality": v.causality, "type": v.type, "start": v.start, "unit": v.unit,
-             "description": v.description} for v in description.modelVariables
-            if v.causality in ("parameter", "output", "input")]
+    return [
+        {
+            "name": v.name,
+            "causality": v.causality,
+            "type": v.type,
+            "start": v.start,
+            "unit": v.unit,
+            "description": v.description,
+        }
+        for v in description.modelVariables
+        if v.causality in ("parameter", "output", "input")
+    ]
 
 
-def write_model(out_dir: Path, fmu: Path, fmi_version: str, stop_time: float, step_size: float,
-                platform: str) -> list[CrossCheckResult]:
+def write_model(
+    out_dir: Path, fmu: Path, fmi_version: str, stop_time: float, step_size: float, platform: str
+) -> list[CrossCheckResult]:
     """The fmus/ and results/ folders of one FMU, for each interface it has."""
     from fmpy import __version__ as fmpy_version
     from fmpy import read_model_description
@@ -170,8 +215,12 @@ def write_model(out_dir: Path, fmu: Path, fmi_version: str, stop_time: float, st
     description = read_model_description(str(fmu))
     model = description.coSimulation.modelIdentifier
     version = tool_version()
-    options = {"StartTime": 0.0, "StopTime": float(stop_time), "StepSize": float(step_size),
-               "RelTol": RELATIVE_TOLERANCE}
+    options = {
+        "StartTime": 0.0,
+        "StopTime": float(stop_time),
+        "StepSize": float(step_size),
+        "RelTol": RELATIVE_TOLERANCE,
+    }
     results = []
     with tempfile.TemporaryDirectory(prefix="cross_check_") as staging_name:
         staging = Path(staging_name)
@@ -190,37 +239,77 @@ def write_model(out_dir: Path, fmu: Path, fmi_version: str, stop_time: float, st
             shutil.copy2(carried, folder / carried.name)
             shutil.copy2(reference_csv, folder / reference_csv.name)
             (folder / f"{model}_ref.opt").write_text("".join(f"{key}, {value!r}\n" for key, value in options.items()))
-            (folder / "ReadMe.md").write_text(environment().get_template("cross_check_fmu_readme.md").render(
-                model=model, description=description.description, fmi_version=fmi_version,
-                fmi_type_name=type_name, platform=platform, tool=TOOL, tool_version=version, signals=signals,
-                stop_time=stop_time, step_size=step_size, fmpy_version=fmpy_version,
-                options=[f"{key} {value!r}" for key, value in options.items()],
-                variables=variable_rows(description)))
+            (folder / "ReadMe.md").write_text(
+                environment()
+                .get_template("cross_check_fmu_readme.md")
+                .render(
+                    model=model,
+                    description=description.description,
+                    fmi_version=fmi_version,
+                    fmi_type_name=type_name,
+                    platform=platform,
+                    tool=TOOL,
+                    tool_version=version,
+                    signals=signals,
+                    stop_time=stop_time,
+                    step_size=step_size,
+                    fmpy_version=fmpy_version,
+                    options=[f"{key} {value!r}" for key, value in options.items()],
+                    variables=variable_rows(description),
+                )
+            )
             try:
                 result, settings = import_with_fmpy(folder / carried.name, fmi_type, stop_time, step_size)
                 out_csv = staging / f"{model}_out.csv"
                 write_csv(out_csv, result, signals)
-                problem = validate_result(result=read_csv(out_csv), reference=reference, t_start=0.0,
-                                          t_stop=float(stop_time))
+                problem = validate_result(
+                    result=read_csv(out_csv), reference=reference, t_start=0.0, t_stop=float(stop_time)
+                )
             except Exception as error:  # the importer's failure is the result to report, in one line
                 result, settings, problem = None, "", f"{type(error).__name__}: {str(error).splitlines()[0]}"
-            verdict_folder = (out_dir / "results" / fmi_version / fmi_type / platform / IMPORTER / fmpy_version /
-                              TOOL / version / model)
+            verdict_folder = (
+                out_dir
+                / "results"
+                / fmi_version
+                / fmi_type
+                / platform
+                / IMPORTER
+                / fmpy_version
+                / TOOL
+                / version
+                / model
+            )
             shutil.rmtree(verdict_folder, ignore_errors=True)
             verdict_folder.mkdir(parents=True)
             entry = CrossCheckResult(model, fmi_version, fmi_type, folder / carried.name, signals, problem)
             (verdict_folder / entry.verdict).write_text("")
             if result is not None:
                 shutil.copy2(out_csv, verdict_folder / out_csv.name)
-            (verdict_folder / "ReadMe.md").write_text(environment().get_template("cross_check_result_readme.md").render(
-                model=model, verdict=entry.verdict, fmpy_version=fmpy_version, fmi_type_name=INTERFACES[fmi_type][0],
-                stop_time=stop_time, settings=settings, problem=problem))
+            (verdict_folder / "ReadMe.md").write_text(
+                environment()
+                .get_template("cross_check_result_readme.md")
+                .render(
+                    model=model,
+                    verdict=entry.verdict,
+                    fmpy_version=fmpy_version,
+                    fmi_type_name=INTERFACES[fmi_type][0],
+                    stop_time=stop_time,
+                    settings=settings,
+                    problem=problem,
+                )
+            )
             results.append(entry)
     return results
 
 
-def write_cross_check(out_dir: str | Path, scenes=CROSS_CHECK_SCENES, fmi_versions=FMI_VERSIONS, *,
-                      werror: bool = False, fmus: dict | None = None) -> list[CrossCheckResult]:
+def write_cross_check(
+    out_dir: str | Path,
+    scenes=CROSS_CHECK_SCENES,
+    fmi_versions=FMI_VERSIONS,
+    *,
+    werror: bool = False,
+    fmus: dict | None = None,
+) -> list[CrossCheckResult]:
     """Builds each scene's FMU for each FMI version (or takes ``fmus[(scene, fmi_version)]``, an FMU already
     built from that scene) and writes its cross-check folders into ``out_dir``."""
     from scenes import Scene
@@ -237,14 +326,18 @@ def write_cross_check(out_dir: str | Path, scenes=CROSS_CHECK_SCENES, fmi_versio
                 raise ValueError(f"fmi_version {fmi_version!r} is not allowed: allowed values are {FMI_VERSIONS}")
             given = (fmus or {}).get((entry.scene, fmi_version))
             if given is not None:
-                results += write_model(out_dir, Path(given), fmi_version, entry.stop_time, scene.communication_step,
-                                       platform)
+                results += write_model(
+                    out_dir, Path(given), fmi_version, entry.stop_time, scene.communication_step, platform
+                )
                 continue
             with tempfile.TemporaryDirectory(prefix="cross_check_build_") as build_dir:
-                fmu = build_fmu(Scene.load(entry.scene), Path(build_dir) / f"{scene.model_identifier}.fmu",
-                                          werror=werror, fmi_version=int(fmi_version[0]))
-                results += write_model(out_dir, fmu, fmi_version, entry.stop_time, scene.communication_step,
-                                       platform)
+                fmu = build_fmu(
+                    Scene.load(entry.scene),
+                    Path(build_dir) / f"{scene.model_identifier}.fmu",
+                    werror=werror,
+                    fmi_version=int(fmi_version[0]),
+                )
+                results += write_model(out_dir, fmu, fmi_version, entry.stop_time, scene.communication_step, platform)
     return results
 
 
@@ -252,10 +345,14 @@ def main(out_dir: str, werror: bool = False) -> int:
     """The CLI of `build_fmu.py --cross-check DIR`: one line per FMU and interface; exit 1 if any failed."""
     results = write_cross_check(out_dir, werror=werror)
     for entry in results:
-        print(f"{entry.verdict:6s} {entry.fmi_version} {entry.fmi_type} {entry.model}"
-              + (f": {entry.problem}" if entry.problem else ""))
-    print(f"{sum(e.problem is None for e in results)} of {len(results)} passed; folder {Path(out_dir).resolve()}",
-          file=sys.stderr)
+        print(
+            f"{entry.verdict:6s} {entry.fmi_version} {entry.fmi_type} {entry.model}"
+            + (f": {entry.problem}" if entry.problem else "")
+        )
+    print(
+        f"{sum(e.problem is None for e in results)} of {len(results)} passed; folder {Path(out_dir).resolve()}",
+        file=sys.stderr,
+    )
     return 0 if all(e.problem is None for e in results) else 1
 
 

@@ -5,6 +5,7 @@ flattened into FMI 2 scalars (an array `k` of size C becomes `k[1]` ... `k[C]`, 
 with their 1-based ScalarVariable indices, which <ModelStructure> refers to. An enumeration parameter
 (diagonal_rule, solver) is an Integer with an Enumeration alias that names its items (`_elements`).
 """
+
 from __future__ import annotations
 
 from builder.rendering import default_experiment, model_summary, render
@@ -60,11 +61,17 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[
     for index, (variable, offset, name, start, alias) in enumerate(elements, start=1):
         vr = interface.value_references[variable.name] + offset
         if alias:
-            scalars.append({"name": name, "value_reference": vr,
-                            "attributes": [("causality", "local"), ("variability", "fixed"), ("initial", "calculated")],
-                            "description": f"{variable.element_names()[offset]} as the enumeration "
-                                           f"{variable.enumeration}: the same value, with its items' names",
-                            "type": "Enumeration", "type_attributes": [("declaredType", variable.enumeration)]})
+            scalars.append(
+                {
+                    "name": name,
+                    "value_reference": vr,
+                    "attributes": [("causality", "local"), ("variability", "fixed"), ("initial", "calculated")],
+                    "description": f"{variable.element_names()[offset]} as the enumeration "
+                    f"{variable.enumeration}: the same value, with its items' names",
+                    "type": "Enumeration",
+                    "type_attributes": [("declaredType", variable.enumeration)],
+                }
+            )
             continue
         if variable.causality == "parameter":
             attributes = [("causality", "parameter"), ("variability", "fixed")]
@@ -76,29 +83,40 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[
             if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
                 initial_unknowns.append(index)
         if variable.causality == "output":
-            outputs.append((index, " ".join(str(first_index[name]) for name in sorted(
-                variable.depends_on, key=first_index.get))))
+            outputs.append(
+                (index, " ".join(str(first_index[name]) for name in sorted(variable.depends_on, key=first_index.get)))
+            )
         type_attributes = []
         if variable.causality in ("parameter", "input"):
-            type_attributes.append(("start", c_literal(variable, start) if variable.type == INTEGER
-                                    else repr(float(start))))
+            type_attributes.append(
+                ("start", c_literal(variable, start) if variable.type == INTEGER else repr(float(start)))
+            )
         if variable.unit:
             type_attributes.append(("unit", variable.unit))
         type_attributes += range_attributes(variable)
         if variable.role == DERIVATIVE:
             type_attributes.append(("derivative", str(first_index[variable.derivative_of] + offset)))
             derivatives.append((state_offsets[variable.derivative_of] + offset, index))
-        scalars.append({"name": name, "value_reference": vr, "attributes": attributes,
-                        "description": variable.description, "type": variable.type,
-                        "type_attributes": type_attributes})
+        scalars.append(
+            {
+                "name": name,
+                "value_reference": vr,
+                "attributes": attributes,
+                "description": variable.description,
+                "type": variable.type,
+                "type_attributes": type_attributes,
+            }
+        )
     return scalars, outputs, [i for _, i in sorted(derivatives)], sorted(initial_unknowns)
 
 
 def enumeration_types(interface: Interface) -> list[dict]:
     """The enumeration types the exposed variables declare: name and items (name, value, description)."""
-    return [{"name": v.enumeration,
-             "items": [(name, value, text) for value, (name, text) in enumerate(v.items)]}
-            for v in interface.exposed if v.enumeration]
+    return [
+        {"name": v.enumeration, "items": [(name, value, text) for value, (name, text) in enumerate(v.items)]}
+        for v in interface.exposed
+        if v.enumeration
+    ]
 
 
 def lattice_size(interface) -> tuple[int, int, int] | None:
@@ -117,16 +135,29 @@ def co_simulation_capabilities(interface: Interface) -> list[tuple[str, str]]:
     return [("canInterpolateInputs", "true"), ("maxOutputDerivativeOrder", "1")]
 
 
-def generate_model_description(interface: Interface, identifier: str, guid: str, scene,
-                               sources: list[str] | None = None) -> str:
+def generate_model_description(
+    interface: Interface, identifier: str, guid: str, scene, sources: list[str] | None = None
+) -> str:
     """modelDescription.xml (FMI 2.0, Model Exchange and Co-Simulation) from the same table as the C header;
     `sources` are the C files in the FMU's sources/ (<SourceFiles>; default: the lattice's)."""
     scalars, outputs, derivatives, initial_unknowns = scalar_variables(interface)
     sources = sources if sources is not None else SourceTree(fmi_version=2).source_names()
-    return render("fmi2_model_description.xml", identifier=identifier, guid=guid,
-                  description=model_summary(interface, scene), event_indicators=interface.event_indicator_count(),
-                  sources=sources, units=UNITS, enumerations=enumeration_types(interface),
-                  log_categories=LOG_CATEGORIES, experiment=default_experiment(scene), variables=scalars,
-                  outputs=outputs, derivatives=derivatives, initial_unknowns=initial_unknowns,
-                  co_simulation_capabilities=co_simulation_capabilities(interface),
-                  annotation_tool=SIZE_ANNOTATION, lattice_size=lattice_size(interface))
+    return render(
+        "fmi2_model_description.xml",
+        identifier=identifier,
+        guid=guid,
+        description=model_summary(interface, scene),
+        event_indicators=interface.event_indicator_count(),
+        sources=sources,
+        units=UNITS,
+        enumerations=enumeration_types(interface),
+        log_categories=LOG_CATEGORIES,
+        experiment=default_experiment(scene),
+        variables=scalars,
+        outputs=outputs,
+        derivatives=derivatives,
+        initial_unknowns=initial_unknowns,
+        co_simulation_capabilities=co_simulation_capabilities(interface),
+        annotation_tool=SIZE_ANNOTATION,
+        lattice_size=lattice_size(interface),
+    )

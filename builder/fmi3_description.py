@@ -15,6 +15,7 @@ the model's C code, compiling, zipping) is shared with FMI 2. The differences fr
 - the sources are listed in sources/buildDescription.xml, not in modelDescription.xml.
 - binaries go to `binaries/<architecture>-<system>/` (e.g. x86_64-linux).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -42,10 +43,13 @@ def platform_folder() -> tuple[str, str]:
     machine = platform.machine().lower()
     architecture = {"amd64": "x86_64", "x86_64": "x86_64", "arm64": "aarch64", "aarch64": "aarch64"}.get(machine)
     system = {"Linux": ("linux", ".so"), "Darwin": ("darwin", ".dylib"), "Windows": ("windows", ".dll")}.get(
-        platform.system())
+        platform.system()
+    )
     if architecture is None or system is None:
-        raise RuntimeError(f"unsupported platform {platform.system()} {platform.machine()}: build from the FMU's "
-                           f"sources with `fmpy compile`")
+        raise RuntimeError(
+            f"unsupported platform {platform.system()} {platform.machine()}: build from the FMU's "
+            f"sources with `fmpy compile`"
+        )
     return f"{architecture}-{system[0]}", system[1]
 
 
@@ -71,15 +75,24 @@ def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, i
             vr = first + offset
             attributes = [("name", name), ("valueReference", str(vr))]
             if variable.causality == "parameter":
-                attributes += [("causality", "parameter"), ("variability", "fixed"),
-                               ("start", c_literal(variable, start))]
+                attributes += [
+                    ("causality", "parameter"),
+                    ("variability", "fixed"),
+                    ("start", c_literal(variable, start)),
+                ]
             elif variable.causality == "input":
-                attributes += [("causality", "input"), ("variability", "continuous"),
-                               ("start", c_literal(variable, start))]
+                attributes += [
+                    ("causality", "input"),
+                    ("variability", "continuous"),
+                    ("start", c_literal(variable, start)),
+                ]
             else:
                 variability = "continuous" if variable.type == REAL else "discrete"
-                attributes += [("causality", variable.causality), ("variability", variability),
-                               ("initial", "calculated")]
+                attributes += [
+                    ("causality", variable.causality),
+                    ("variability", variability),
+                    ("initial", "calculated"),
+                ]
             if variable.role == DERIVATIVE:
                 attributes.append(("derivative", str(references[variable.derivative_of] + VR_OFFSET + offset)))
                 derivatives.append((state_offsets[variable.derivative_of] + offset, vr))
@@ -89,23 +102,43 @@ def model_variables(interface: Interface) -> tuple[list[dict], list[tuple[str, i
             if variable.enumeration:
                 attributes.append(("declaredType", variable.enumeration))
             attributes += range_attributes(variable)
-            variables.append({"tag": "Enumeration" if variable.enumeration else TYPE_NAMES[variable.type],
-                              "attributes": attributes})
+            variables.append(
+                {"tag": "Enumeration" if variable.enumeration else TYPE_NAMES[variable.type], "attributes": attributes}
+            )
             if variable.causality == "output":
-                outputs.append((vr, " ".join(str(references[name] + VR_OFFSET) for name in sorted(
-                    variable.depends_on, key=references.get))))
+                outputs.append(
+                    (
+                        vr,
+                        " ".join(
+                            str(references[name] + VR_OFFSET)
+                            for name in sorted(variable.depends_on, key=references.get)
+                        ),
+                    )
+                )
             if variable.causality == "output" or variable.role in (STATE, DERIVATIVE):
                 initial_unknowns.append(vr)
             if variable.role == INDICATOR:
                 indicators.append(vr)
     time_vr = len(variables) + VR_OFFSET
-    variables.append({"tag": "Float64", "attributes": [
-        ("name", "time"), ("valueReference", str(time_vr)), ("causality", "independent"),
-        ("variability", "continuous"), ("declaredType", "s"), ("description", "Simulation time")]})
-    structure = ([("Output", vr, dependencies) for vr, dependencies in outputs]
-                 + [("ContinuousStateDerivative", vr, None) for _, vr in sorted(derivatives)]
-                 + [("InitialUnknown", vr, None) for vr in initial_unknowns]
-                 + [("EventIndicator", vr, None) for vr in indicators])
+    variables.append(
+        {
+            "tag": "Float64",
+            "attributes": [
+                ("name", "time"),
+                ("valueReference", str(time_vr)),
+                ("causality", "independent"),
+                ("variability", "continuous"),
+                ("declaredType", "s"),
+                ("description", "Simulation time"),
+            ],
+        }
+    )
+    structure = (
+        [("Output", vr, dependencies) for vr, dependencies in outputs]
+        + [("ContinuousStateDerivative", vr, None) for _, vr in sorted(derivatives)]
+        + [("InitialUnknown", vr, None) for vr in initial_unknowns]
+        + [("EventIndicator", vr, None) for vr in indicators]
+    )
     return variables, structure
 
 
@@ -114,11 +147,21 @@ def generate_model_description(interface: Interface, identifier: str, token: str
     FMI 2 XML."""
     variables, structure = model_variables(interface)
     used = [unit for unit in UNITS if unit == "s" or any(v.unit == unit and v.type == REAL for v in interface.exposed)]
-    return render("fmi3_model_description.xml", identifier=identifier, token=token,
-                  description=model_summary(interface, scene), units=UNITS, unit_types=used,
-                  enumerations=enumeration_types(interface), log_categories=LOG_CATEGORIES,
-                  experiment=default_experiment(scene), variables=variables, structure=structure,
-                  annotation_tool=SIZE_ANNOTATION, lattice_size=lattice_size(interface))
+    return render(
+        "fmi3_model_description.xml",
+        identifier=identifier,
+        token=token,
+        description=model_summary(interface, scene),
+        units=UNITS,
+        unit_types=used,
+        enumerations=enumeration_types(interface),
+        log_categories=LOG_CATEGORIES,
+        experiment=default_experiment(scene),
+        variables=variables,
+        structure=structure,
+        annotation_tool=SIZE_ANNOTATION,
+        lattice_size=lattice_size(interface),
+    )
 
 
 def generate_build_description(identifier: str, sources: list[str] | None = None) -> str:

@@ -18,6 +18,7 @@ reassociation); exp is the library's own (lattice_exp). x86-64 Linux gets the AV
 one baseline (SSE2) build of the same sources: the clones compute the same bits as the baseline, so the
 Windows numbers are the same, only slower. aarch64 gets one build (its vector unit, NEON, is its baseline).
 """
+
 from __future__ import annotations
 
 import os
@@ -34,12 +35,12 @@ PORTABLE_FLAGS = ("-ffp-contract=off",)
 class TargetPlatform:
     """A platform the FMU can carry a binary for, and how to build it."""
 
-    name: str                   # the FMI 3 platform tuple, also the name given to --platforms
+    name: str  # the FMI 3 platform tuple, also the name given to --platforms
     fmi2_folder: str
-    suffix: str                 # the shared library's
-    cross_compiler: str         # the compiler's usual name where this machine is another platform
-    debian_package: str         # the package that installs cross_compiler
-    machine: str                # what library_machine() reads in a library built for it
+    suffix: str  # the shared library's
+    cross_compiler: str  # the compiler's usual name where this machine is another platform
+    debian_package: str  # the package that installs cross_compiler
+    machine: str  # what library_machine() reads in a library built for it
     link_flags: tuple[str, ...] = ()
 
     @property
@@ -52,13 +53,22 @@ class TargetPlatform:
 
 
 PLATFORMS = {
-    "x86_64-linux": TargetPlatform("x86_64-linux", "linux64", ".so", "x86_64-linux-gnu-gcc", "gcc-x86-64-linux-gnu",
-                                   "x86_64"),
+    "x86_64-linux": TargetPlatform(
+        "x86_64-linux", "linux64", ".so", "x86_64-linux-gnu-gcc", "gcc-x86-64-linux-gnu", "x86_64"
+    ),
     # -static-libgcc: the DLL needs no libgcc_s_seh-1.dll beside it (the Reference FMUs link the same way).
-    "x86_64-windows": TargetPlatform("x86_64-windows", "win64", ".dll", "x86_64-w64-mingw32-gcc",
-                                     "gcc-mingw-w64-x86-64", "x86_64", ("-static-libgcc",)),
-    "aarch64-linux": TargetPlatform("aarch64-linux", "linux64", ".so", "aarch64-linux-gnu-gcc", "gcc-aarch64-linux-gnu",
-                                    "aarch64"),
+    "x86_64-windows": TargetPlatform(
+        "x86_64-windows",
+        "win64",
+        ".dll",
+        "x86_64-w64-mingw32-gcc",
+        "gcc-mingw-w64-x86-64",
+        "x86_64",
+        ("-static-libgcc",),
+    ),
+    "aarch64-linux": TargetPlatform(
+        "aarch64-linux", "linux64", ".so", "aarch64-linux-gnu-gcc", "gcc-aarch64-linux-gnu", "aarch64"
+    ),
 }
 # What --platforms all builds, per FMI version: the platforms one FMU of that version can hold together.
 ALL_PLATFORMS = {2: ("x86_64-linux", "x86_64-windows"), 3: ("x86_64-linux", "x86_64-windows", "aarch64-linux")}
@@ -67,7 +77,8 @@ ALL_PLATFORMS = {2: ("x86_64-linux", "x86_64-windows"), 3: ("x86_64-linux", "x86
 def native_platform() -> str | None:
     """This machine's platform tuple, if it is one of PLATFORMS."""
     machine = {"amd64": "x86_64", "x86_64": "x86_64", "arm64": "aarch64", "aarch64": "aarch64"}.get(
-        platform.machine().lower())
+        platform.machine().lower()
+    )
     system = {"Linux": "linux", "Windows": "windows"}.get(platform.system())
     name = f"{machine}-{system}"
     return name if name in PLATFORMS else None
@@ -76,20 +87,24 @@ def native_platform() -> str | None:
 def parse_platforms(text: str, fmi_version: int) -> tuple[TargetPlatform, ...]:
     """`all` or a comma list of PLATFORMS' names; ValueError (one line) for an unknown name, or for two
     platforms that would share one FMI 2 folder."""
-    names = ALL_PLATFORMS[fmi_version] if text.strip() == "all" else tuple(
-        dict.fromkeys(part.strip() for part in text.split(",") if part.strip()))
+    names = (
+        ALL_PLATFORMS[fmi_version]
+        if text.strip() == "all"
+        else tuple(dict.fromkeys(part.strip() for part in text.split(",") if part.strip()))
+    )
     unknown = [name for name in names if name not in PLATFORMS]
     if unknown or not names:
-        raise ValueError(f"--platforms {text!r}: allowed values are 'all' or a comma list of "
-                         f"{', '.join(PLATFORMS)}")
+        raise ValueError(f"--platforms {text!r}: allowed values are 'all' or a comma list of {', '.join(PLATFORMS)}")
     chosen = tuple(PLATFORMS[name] for name in names)
     folders: dict[str, str] = {}
     for target in chosen:
         other = folders.setdefault(target.folder(fmi_version), target.name)
         if other != target.name:
-            raise ValueError(f"--platforms {text!r}: FMI {fmi_version} has one folder, binaries/"
-                             f"{target.folder(fmi_version)}, for {other} and {target.name} (FMPy and fmusim load it on "
-                             f"both): build {target.name} into its own FMI 2 FMU, or use --fmi-version 3")
+            raise ValueError(
+                f"--platforms {text!r}: FMI {fmi_version} has one folder, binaries/"
+                f"{target.folder(fmi_version)}, for {other} and {target.name} (FMPy and fmusim load it on "
+                f"both): build {target.name} into its own FMI 2 FMU, or use --fmi-version 3"
+            )
     return chosen
 
 
@@ -104,9 +119,11 @@ def compiler_for(target: TargetPlatform) -> list[str]:
     else:
         command = [target.cross_compiler]
     if shutil.which(command[0]) is None:
-        raise RuntimeError(f"platform {target.name} needs the C compiler {command[0]}, which is not installed: "
-                           f"apt-get install {target.debian_package} (Debian/Ubuntu), or set "
-                           f"{target.compiler_variable} to another compiler for {target.name}")
+        raise RuntimeError(
+            f"platform {target.name} needs the C compiler {command[0]}, which is not installed: "
+            f"apt-get install {target.debian_package} (Debian/Ubuntu), or set "
+            f"{target.compiler_variable} to another compiler for {target.name}"
+        )
     return command
 
 
@@ -132,12 +149,21 @@ def header_machine(data: bytes, what: str = "the file") -> tuple[str, str]:
         return "ELF", _ELF_MACHINES.get(machine, f"unknown machine {machine:#x}")
     if data[:2] == b"MZ":
         (offset,) = struct.unpack_from("<I", data, 0x3C)
-        if data[offset:offset + 4] != b"PE\0\0":
+        if data[offset : offset + 4] != b"PE\0\0":
             raise ValueError(f"{what}: an MZ file without a PE header")
         (machine,) = struct.unpack_from("<H", data, offset + 4)
         return "PE", _PE_MACHINES.get(machine, f"unknown machine {machine:#x}")
     raise ValueError(f"{what}: neither an ELF nor a PE file")
 
 
-__all__ = ["ALL_PLATFORMS", "PLATFORMS", "PORTABLE_FLAGS", "TargetPlatform", "compiler_for", "header_machine",
-           "library_machine", "native_platform", "parse_platforms"]
+__all__ = [
+    "ALL_PLATFORMS",
+    "PLATFORMS",
+    "PORTABLE_FLAGS",
+    "TargetPlatform",
+    "compiler_for",
+    "header_machine",
+    "library_machine",
+    "native_platform",
+    "parse_platforms",
+]

@@ -18,6 +18,7 @@ FMUs keep their <Model>_out.csv in their source tree); the build copies them.
 tests/test_reference_results.py checks that today's FMU still gives them and that the manifest is what
 FMI-LS-REF and FMI 3's layered-standard manifest schema ask for.
 """
+
 from __future__ import annotations
 
 import sys
@@ -35,8 +36,18 @@ LS_NAME = "org.fmi-standard.fmi-ls-ref"
 LS_VERSION = "1.0.0-alpha.1"  # the version the Reference FMUs' manifests declare
 LS_DESCRIPTION = "Layered standard providing information on related files included in an FMU"
 # The outputs recorded, in this order (time first); all change over the default experiment.
-SIGNALS = ("backplate_force", "peak_backplate_force", "peak_backplate_force_continuous", "kinetic_energy",
-           "potential_energy", "external_work", "dissipated_energy", "ux_left_edge", "ux_centre", "ux_right_edge")
+SIGNALS = (
+    "backplate_force",
+    "peak_backplate_force",
+    "peak_backplate_force_continuous",
+    "kinetic_energy",
+    "potential_energy",
+    "external_work",
+    "dissipated_energy",
+    "ux_left_edge",
+    "ux_centre",
+    "ux_right_edge",
+)
 
 
 @dataclass(frozen=True)
@@ -52,12 +63,16 @@ class ReferenceResult:
 
     def description(self) -> str:
         order = " ".join(map(str, self.order))
-        return (f"Outputs of the default experiment with material = {order} ({self.label}; other parameters at "
-                f"their defaults); its final peak_backplate_force is the published {PUBLISHED_PEAKS[self.order]!r} N")
+        return (
+            f"Outputs of the default experiment with material = {order} ({self.label}; other parameters at "
+            f"their defaults); its final peak_backplate_force is the published {PUBLISHED_PEAKS[self.order]!r} N"
+        )
 
 
-REFERENCE_RESULTS = (ReferenceResult("the sequential order, the FMU's default", SEQUENTIAL_ORDER, "_out"),
-                     ReferenceResult("the study's best order", STUDY_BEST_ORDER, "_study_best_out"))
+REFERENCE_RESULTS = (
+    ReferenceResult("the sequential order, the FMU's default", SEQUENTIAL_ORDER, "_out"),
+    ReferenceResult("the study's best order", STUDY_BEST_ORDER, "_study_best_out"),
+)
 
 
 def carries_reference_results(scene) -> bool:
@@ -68,9 +83,16 @@ def carries_reference_results(scene) -> bool:
 
 
 def manifest_xml(identifier: str) -> str:
-    return environment().get_template("fmi_ls_ref_manifest.xml").render(
-        ls_name=LS_NAME, ls_version=LS_VERSION, ls_description=LS_DESCRIPTION,
-        related=[{"source": r.file_name(identifier), "description": r.description()} for r in REFERENCE_RESULTS])
+    return (
+        environment()
+        .get_template("fmi_ls_ref_manifest.xml")
+        .render(
+            ls_name=LS_NAME,
+            ls_version=LS_VERSION,
+            ls_description=LS_DESCRIPTION,
+            related=[{"source": r.file_name(identifier), "description": r.description()} for r in REFERENCE_RESULTS],
+        )
+    )
 
 
 def extra_files(identifier: str) -> dict[str, bytes]:
@@ -80,8 +102,9 @@ def extra_files(identifier: str) -> dict[str, bytes]:
     for result in REFERENCE_RESULTS:
         recorded = RESULTS_DIR / result.file_name(identifier)
         if not recorded.is_file():
-            raise FileNotFoundError(f"reference result {recorded} is missing: python -m builder.reference_results "
-                                    f"records it")
+            raise FileNotFoundError(
+                f"reference result {recorded} is missing: python -m builder.reference_results records it"
+            )
         files[f"{EXTRA}/{recorded.name}"] = recorded.read_bytes()
     return files
 

@@ -9,6 +9,7 @@ and Markdown are not. An XML attribute is written `name={{ value | quoted }}`: t
 xml.sax.saxutils.quoteattr does (double quotes unless the value holds one); a Markdown table's cell is written
 `{{ value | cell }}`.
 """
+
 from __future__ import annotations
 
 import functools
@@ -41,8 +42,14 @@ def _loader() -> jinja2.BaseLoader:
 
 @functools.cache
 def environment() -> jinja2.Environment:
-    env = jinja2.Environment(loader=_loader(), autoescape=_escaped, undefined=jinja2.StrictUndefined,
-                             trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True)
+    env = jinja2.Environment(
+        loader=_loader(),
+        autoescape=_escaped,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+    )
     env.filters.update(quoted=quoted, cell=cell)
     return env
 
@@ -70,5 +77,4 @@ def default_experiment(scene) -> dict[str, str]:
     return {"startTime": "0", "stopTime": repr(scene.horizon), "stepSize": repr(scene.communication_step)}
 
 
-__all__ = ["ESCAPED", "add_templates", "cell", "default_experiment", "environment", "model_summary", "quoted",
-           "render"]
+__all__ = ["ESCAPED", "add_templates", "cell", "default_experiment", "environment", "model_summary", "quoted", "render"]

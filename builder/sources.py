@@ -6,6 +6,7 @@ the glue finds model.h through the include path, as the Reference FMUs' CMake pa
 An FMU carries every file flat in sources/, as the Reference FMUs' do: FMI 2 has no way to name an include
 directory, and fmpy compile passes sources/ alone, so the one folder is the include path everywhere.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -19,8 +20,10 @@ DEFAULT_MODEL_DIR = FMU_SOURCE_DIR / "lattice"
 COMMON_SOURCES = ("common/instance.c",)
 COMMON_HEADERS = ("common/instance.h", "common/model_api.h", "common/state_masks.h")
 GLUE_SOURCES = {2: ("fmi2/fmi2_glue.c",), 3: ("fmi3/fmi3_glue.c",)}
-GLUE_HEADERS = {2: ("include/fmi2Functions.h", "include/fmi2FunctionTypes.h", "include/fmi2TypesPlatform.h"),
-                3: ("include/fmi3Functions.h", "include/fmi3FunctionTypes.h", "include/fmi3PlatformTypes.h")}
+GLUE_HEADERS = {
+    2: ("include/fmi2Functions.h", "include/fmi2FunctionTypes.h", "include/fmi2TypesPlatform.h"),
+    3: ("include/fmi3Functions.h", "include/fmi3FunctionTypes.h", "include/fmi3PlatformTypes.h"),
+}
 
 
 @dataclass(frozen=True)
@@ -44,8 +47,10 @@ class SourceTree:
         names = [path.name for path in files]
         clashes = sorted({name for name in names if names.count(name) > 1})
         if clashes:
-            raise ValueError(f"model folder {self.model_dir}: {', '.join(clashes)} clash with the FMI glue's files "
-                             f"of the same name; rename them in the model folder")
+            raise ValueError(
+                f"model folder {self.model_dir}: {', '.join(clashes)} clash with the FMI glue's files "
+                f"of the same name; rename them in the model folder"
+            )
         return files
 
     def source_names(self) -> list[str]:

@@ -13,6 +13,7 @@ bonds for its ECCO algorithm. It runs in libcosim (`CosimExecution.from_ssp_file
 `CosimExecution.from_osp_config_file("OspSystemStructure.xml")` under ECCO) and in FMPy's `simulate_ssp` (which
 applies no parameter binding: pass the lattice's set as `parameter_set`, named `lattice.` + each name).
 """
+
 from __future__ import annotations
 
 import math
@@ -36,8 +37,12 @@ LATTICE_PARAMETER_SET = "resources/lattice.ssv"
 STOP_TIME = 2.0
 # How far below the smallest predicted stability limit the default step stays.
 STEP_MARGIN = 4.0
-OMS = {"type": "org.openmodelica", "master": "oms-ma", "relative_tolerance": "0.0001",
-       "namespace": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"}
+OMS = {
+    "type": "org.openmodelica",
+    "master": "oms-ma",
+    "relative_tolerance": "0.0001",
+    "namespace": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd",
+}
 OSP = {"type": "com.opensimulationplatform", "namespace": "https://opensimulationplatform.com/SSP/1.0"}
 
 
@@ -65,16 +70,33 @@ OSP_NAME = "OspSystemStructure.xml"  # libcosim's own system structure, for its 
 # ECCO's settings in OSP_NAME: its step starts at the system's step and may go ECCO_STEP_RANGE times shorter or
 # longer; the others are libcosim's own defaults (libcosimpy's EccoParams).
 ECCO_STEP_RANGE = 10.0
-ECCO_DEFAULTS = (("SafetyFactor", 0.8), ("MinimumChangeRate", 0.01), ("MaximumChangeRate", 0.2),
-                 ("ProportionalGain", 0.2), ("IntegralGain", 0.15), ("RelativeTolerance", 1e-4),
-                 ("AbsoluteTolerance", 1e-4))
+ECCO_DEFAULTS = (
+    ("SafetyFactor", 0.8),
+    ("MinimumChangeRate", 0.01),
+    ("MaximumChangeRate", 0.2),
+    ("ProportionalGain", 0.2),
+    ("IntegralGain", 0.15),
+    ("RelativeTolerance", 1e-4),
+    ("AbsoluteTolerance", 1e-4),
+)
 COMPONENTS = ("projectile", "lattice", "hull")
 # Each component's outputs declared as connectors (the connected ones and those a master records: FMPy's
 # simulate_ssp returns the connectors' values only), for the peaks and the system's energy balance.
-RECORDED_OUTPUTS = {"projectile": ("contact_force", "projectile_position", "projectile_velocity", "face_work"),
-                    "lattice": ("backplate_force", "peak_backplate_force", "x_front", "v_front", "external_work",
-                                "kinetic_energy", "potential_energy", "dissipated_energy", "nonreciprocal_work"),
-                    "hull": ("x", "v", "dissipated_energy")}
+RECORDED_OUTPUTS = {
+    "projectile": ("contact_force", "projectile_position", "projectile_velocity", "face_work"),
+    "lattice": (
+        "backplate_force",
+        "peak_backplate_force",
+        "x_front",
+        "v_front",
+        "external_work",
+        "kinetic_energy",
+        "potential_energy",
+        "dissipated_energy",
+        "nonreciprocal_work",
+    ),
+    "hull": ("x", "v", "dissipated_energy"),
+}
 
 
 @dataclass(frozen=True)
@@ -91,8 +113,10 @@ class PortLimit:
     @property
     def limit(self) -> float:
         """min(2c/k, 2m/c) in s (infinite where neither bounds it)."""
-        bounds = [2.0 * self.damping / self.stiffness if self.stiffness > 0 else math.inf,
-                  2.0 * self.mass / self.damping if self.damping > 0 else math.inf]
+        bounds = [
+            2.0 * self.damping / self.stiffness if self.stiffness > 0 else math.inf,
+            2.0 * self.mass / self.damping if self.damping > 0 else math.inf,
+        ]
         return min(bounds)
 
 
@@ -129,12 +153,23 @@ def port_limits(hull_mass: float | None = None, scene: str = DEFAULT_SCENE) -> t
     mass = component_table("hull").variable("m").start if hull_mass is None else hull_mass
     projectile = {v.name: v.start for v in component_table("projectile").variables}
     k_c, n = projectile["contact_stiffness"], projectile["contact_exponent"]
-    delta = ((n + 1) * projectile["projectile_mass"] * projectile["projectile_speed"] ** 2 / (2 * k_c)) ** (
-        1 / (n + 1))
-    return (PortLimit("front", "the loaded face's port mass on the linearised contact", front_port_mass(scene),
-                      n * k_c * delta ** (n - 1), projectile["contact_damping"] * k_c * delta ** n),
-            PortLimit("back", f"hull mass on the backplate's {face} springs and dampers", float(mass),
-                      face * float(starts["k_wall"]), face * float(starts["c_wall"])))
+    delta = ((n + 1) * projectile["projectile_mass"] * projectile["projectile_speed"] ** 2 / (2 * k_c)) ** (1 / (n + 1))
+    return (
+        PortLimit(
+            "front",
+            "the loaded face's port mass on the linearised contact",
+            front_port_mass(scene),
+            n * k_c * delta ** (n - 1),
+            projectile["contact_damping"] * k_c * delta**n,
+        ),
+        PortLimit(
+            "back",
+            f"hull mass on the backplate's {face} springs and dampers",
+            float(mass),
+            face * float(starts["k_wall"]),
+            face * float(starts["c_wall"]),
+        ),
+    )
 
 
 def default_step(limits: tuple[PortLimit, ...]) -> float:
@@ -161,49 +196,78 @@ class SystemParameter:
 def lattice_parameters() -> tuple[SystemParameter, ...]:
     """The lattice's parameter set in the system: driven through its front port (load_mode input, an Integer
     code, which every FMI 2 importer sets)."""
-    return (SystemParameter("load_mode", "Integer", enumeration_values("load_mode")["input"],
-                            "input: the front port's F_front pushes the face (the projectile's contact force)"),)
+    return (
+        SystemParameter(
+            "load_mode",
+            "Integer",
+            enumeration_values("load_mode")["input"],
+            "input: the front port's F_front pushes the face (the projectile's contact force)",
+        ),
+    )
 
 
 def _components(sources: dict[str, str]) -> list[dict]:
     components = []
     for name in COMPONENTS:
         inputs = [c.target_variable for c in CONNECTIONS if c.target_component == name]
-        outputs = [c.source_variable for c in CONNECTIONS if c.source_component == name] + list(
-            RECORDED_OUTPUTS[name])
-        connectors = [{"name": n, "kind": "input"} for n in inputs] + [{"name": n, "kind": "output"} for n in
-                                                                       dict.fromkeys(outputs)]
-        components.append({"name": name, "source": sources[name], "connectors": connectors,
-                           "parameter_set": LATTICE_PARAMETER_SET if name == "lattice" else None})
+        outputs = [c.source_variable for c in CONNECTIONS if c.source_component == name] + list(RECORDED_OUTPUTS[name])
+        connectors = [{"name": n, "kind": "input"} for n in inputs] + [
+            {"name": n, "kind": "output"} for n in dict.fromkeys(outputs)
+        ]
+        components.append(
+            {
+                "name": name,
+                "source": sources[name],
+                "connectors": connectors,
+                "parameter_set": LATTICE_PARAMETER_SET if name == "lattice" else None,
+            }
+        )
     return components
 
 
-def build_system(output: str | os.PathLike | None = None, werror: bool = False,
-                 lattice_fmu: str | os.PathLike | None = None) -> Path:
+def build_system(
+    output: str | os.PathLike | None = None, werror: bool = False, lattice_fmu: str | os.PathLike | None = None
+) -> Path:
     """Builds the three FMUs (FMI 2; `lattice_fmu`: an already built lattice FMU of the default scene instead)
     and writes the system archive (default models/ArmourSystem.ssp); returns its path."""
     output = Path(output) if output else MODELS_DIR / f"{SYSTEM}.ssp"
     step = default_step(port_limits())
     with tempfile.TemporaryDirectory(prefix="armour_system_") as folder:
-        fmus = {"projectile": build_component_fmu("projectile", Path(folder) / "Projectile.fmu", werror=werror),
-                "hull": build_component_fmu("hull", Path(folder) / "Hull.fmu", werror=werror),
-                "lattice": Path(lattice_fmu) if lattice_fmu else build_fmu(
-                    DEFAULT_SCENE, Path(folder) / "MassSpringLattice.fmu", werror=werror)}
+        fmus = {
+            "projectile": build_component_fmu("projectile", Path(folder) / "Projectile.fmu", werror=werror),
+            "hull": build_component_fmu("hull", Path(folder) / "Hull.fmu", werror=werror),
+            "lattice": Path(lattice_fmu)
+            if lattice_fmu
+            else build_fmu(DEFAULT_SCENE, Path(folder) / "MassSpringLattice.fmu", werror=werror),
+        }
         sources = {name: f"resources/{path.name}" for name, path in fmus.items()}
-        ssd = render("armour_system_ssd.xml", system=SYSTEM,
-                     description="A projectile strikes the lattice, the lattice pushes the hull (docs/model.md "
-                                 "section 11)",
-                     components=_components(sources), connections=CONNECTIONS, oms=OMS, osp=OSP,
-                     step_size=repr(step), stop_time=repr(STOP_TIME))
+        ssd = render(
+            "armour_system_ssd.xml",
+            system=SYSTEM,
+            description="A projectile strikes the lattice, the lattice pushes the hull (docs/model.md section 11)",
+            components=_components(sources),
+            connections=CONNECTIONS,
+            oms=OMS,
+            osp=OSP,
+            step_size=repr(step),
+            stop_time=repr(STOP_TIME),
+        )
         ssv = render("armour_system_ssv.xml", name="lattice", parameters=lattice_parameters())
-        osp = render("armour_system_osp.xml", step_size=repr(step),
-                     components=[{"name": name, "source": sources[name],
-                                  "parameters": lattice_parameters() if name == "lattice" else ()}
-                                 for name in COMPONENTS],
-                     connections=sorted(CONNECTIONS, key=lambda c: (c.bond is None, c.bond or "")),
-                     ecco=(("StepSize", repr(step)), ("MinimumStepSize", repr(step / ECCO_STEP_RANGE)),
-                           ("MaximumStepSize", repr(step * ECCO_STEP_RANGE)),
-                           *((name, repr(value)) for name, value in ECCO_DEFAULTS)))
+        osp = render(
+            "armour_system_osp.xml",
+            step_size=repr(step),
+            components=[
+                {"name": name, "source": sources[name], "parameters": lattice_parameters() if name == "lattice" else ()}
+                for name in COMPONENTS
+            ],
+            connections=sorted(CONNECTIONS, key=lambda c: (c.bond is None, c.bond or "")),
+            ecco=(
+                ("StepSize", repr(step)),
+                ("MinimumStepSize", repr(step / ECCO_STEP_RANGE)),
+                ("MaximumStepSize", repr(step * ECCO_STEP_RANGE)),
+                *((name, repr(value)) for name, value in ECCO_DEFAULTS),
+            ),
+        )
         output.parent.mkdir(parents=True, exist_ok=True)
         partial = output.with_suffix(".ssp.partial")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as archive:

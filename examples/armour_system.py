@@ -18,6 +18,7 @@ algorithm, which adapts the step to the energy the two power bonds exchange (its
 
 Writes a PNG (contact force and backplate force; the hull's displacement) and prints the peaks.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -31,15 +32,27 @@ import numpy as np
 from lxml import etree
 
 from builder.build import MODELS_DIR
-from builder.system import (COMPONENTS, CONNECTIONS, ECCO_STEP_RANGE, LATTICE_PARAMETER_SET, OSP_NAME,
-                            RECORDED_OUTPUTS, SSD_NAME, SYSTEM, build_system, port_limits)
+from builder.system import (
+    COMPONENTS,
+    CONNECTIONS,
+    ECCO_STEP_RANGE,
+    LATTICE_PARAMETER_SET,
+    OSP_NAME,
+    RECORDED_OUTPUTS,
+    SSD_NAME,
+    SYSTEM,
+    build_system,
+    port_limits,
+)
 
 NANOSECONDS = 1_000_000_000
 SCHEMES = ("jacobi", "gauss-seidel")  # this example's own master loop (run_loop)
 MASTERS = ("libcosim", "fmpy", "libcosim-ecco", *SCHEMES)
 # ECCO's power bonds: (component, its output, its input) at either end, velocity against force.
-POWER_BONDS = ((("lattice", "v_front", "F_front"), ("projectile", "contact_force", "v_front")),
-               (("lattice", "backplate_force", "v_back"), ("hull", "v", "F")))
+POWER_BONDS = (
+    (("lattice", "v_front", "F_front"), ("projectile", "contact_force", "v_front")),
+    (("lattice", "backplate_force", "v_back"), ("hull", "v", "F")),
+)
 HULL_PARAMETERS = ("m", "k", "c")
 OBSERVED = RECORDED_OUTPUTS
 
@@ -69,8 +82,9 @@ def system_step(ssp: str | Path) -> float:
     return float(algorithm.get("baseStepSize"))
 
 
-def run_libcosim(ssp: str | Path, horizon: float, step: float | None = None,
-                 hull: dict[str, float] | None = None) -> SystemRun:
+def run_libcosim(
+    ssp: str | Path, horizon: float, step: float | None = None, hull: dict[str, float] | None = None
+) -> SystemRun:
     """The system in libcosim (its fixed-step master, from the SSP); `step` None: the system file's."""
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
@@ -82,8 +96,10 @@ def run_libcosim(ssp: str | Path, horizon: float, step: float | None = None,
     observer = CosimObserver.create_last_value()
     execution.add_observer(observer)
     indices = {name: execution.slave_index_from_instance_name(name) for name in OBSERVED}
-    references = {name: {v.name.decode(): v.reference for v in execution.slave_variables(index)}
-                  for name, index in indices.items()}
+    references = {
+        name: {v.name.decode(): v.reference for v in execution.slave_variables(index)}
+        for name, index in indices.items()
+    }
     for name, value in (hull or {}).items():
         execution.real_initial_value(indices["hull"], references["hull"][name], float(value))
     rows = []
@@ -97,8 +113,9 @@ def run_libcosim(ssp: str | Path, horizon: float, step: float | None = None,
     return _run("libcosim", step, rows)
 
 
-def run_fmpy(ssp: str | Path, horizon: float, step: float | None = None,
-             hull: dict[str, float] | None = None) -> SystemRun:
+def run_fmpy(
+    ssp: str | Path, horizon: float, step: float | None = None, hull: dict[str, float] | None = None
+) -> SystemRun:
     """The system in FMPy's simulate_ssp, which applies no parameter binding: the lattice's parameter set (and
     the hull's parameters) go in as its parameter_set, named from the system."""
     from fmpy.ssp.simulation import simulate_ssp
@@ -114,13 +131,16 @@ def run_fmpy(ssp: str | Path, horizon: float, step: float | None = None,
         parameters.parameters.append(parameter)
     result = simulate_ssp(str(ssp), stop_time=horizon + step / 2, step_size=step, parameter_set=parameters)
     # simulate_ssp records each step's outputs (its connectors' values) at the step's start time
-    missing = [f"{name}.{o}" for name, outputs in OBSERVED.items() for o in outputs
-               if f"{name}.{o}" not in result.dtype.names]
+    missing = [
+        f"{name}.{o}" for name, outputs in OBSERVED.items() for o in outputs if f"{name}.{o}" not in result.dtype.names
+    ]
     if missing:
         raise ValueError(f"the system file declares no connector for {', '.join(missing)}")
-    rows = [[record["time"] + step] + [record[f"{name}.{o}"] for name, outputs in OBSERVED.items() for o in outputs]
-            for record in result]
-    return _run("fmpy", step, rows[:round(horizon / step)])
+    rows = [
+        [record["time"] + step] + [record[f"{name}.{o}"] for name, outputs in OBSERVED.items() for o in outputs]
+        for record in result
+    ]
+    return _run("fmpy", step, rows[: round(horizon / step)])
 
 
 def _parameter_values(ssp: str | Path, hull: dict[str, float] | None) -> dict[str, dict[str, float]]:
@@ -131,8 +151,13 @@ def _parameter_values(ssp: str | Path, hull: dict[str, float] | None) -> dict[st
     return {"lattice": lattice, "hull": dict(hull or {}), "projectile": {}}
 
 
-def run_loop(ssp: str | Path, horizon: float, step: float | None = None, hull: dict[str, float] | None = None,
-             scheme: str = "jacobi") -> SystemRun:
+def run_loop(
+    ssp: str | Path,
+    horizon: float,
+    step: float | None = None,
+    hull: dict[str, float] | None = None,
+    scheme: str = "jacobi",
+) -> SystemRun:
     """The system under a master loop of this example's over FMPy's FMI 2 Co-Simulation layer, with the values
     exchanged once after initialisation: Jacobi (every FMU steps on the others' values of the last
     communication point, as libcosim and simulate_ssp do) or Gauss-Seidel (projectile, lattice, hull in turn,
@@ -154,9 +179,12 @@ def run_loop(ssp: str | Path, horizon: float, step: float | None = None, hull: d
             for component in system.elements:
                 fmu = str(Path(folder) / component.source)
                 description = read_model_description(fmu)
-                slave = FMU2Slave(guid=description.guid, modelIdentifier=description.coSimulation.modelIdentifier,
-                                  unzipDirectory=extract(fmu, str(Path(folder) / component.name)),
-                                  instanceName=component.name)
+                slave = FMU2Slave(
+                    guid=description.guid,
+                    modelIdentifier=description.coSimulation.modelIdentifier,
+                    unzipDirectory=extract(fmu, str(Path(folder) / component.name)),
+                    instanceName=component.name,
+                )
                 slave.instantiate()
                 slaves[component.name] = slave
                 variables = {v.name: v for v in description.modelVariables}
@@ -176,17 +204,22 @@ def run_loop(ssp: str | Path, horizon: float, step: float | None = None, hull: d
             def feed(name):
                 for c in CONNECTIONS:
                     if c.target_component == name:
-                        slaves[name].setReal([references[name][c.target_variable]],
-                                             [get(c.source_component, c.source_variable)])
+                        slaves[name].setReal(
+                            [references[name][c.target_variable]], [get(c.source_component, c.source_variable)]
+                        )
 
             rows = []
             for i in range(round(horizon / step)):
                 if scheme == "jacobi":
-                    values = {(c.source_component, c.source_variable): get(c.source_component, c.source_variable)
-                              for c in CONNECTIONS}
+                    values = {
+                        (c.source_component, c.source_variable): get(c.source_component, c.source_variable)
+                        for c in CONNECTIONS
+                    }
                     for c in CONNECTIONS:
-                        slaves[c.target_component].setReal([references[c.target_component][c.target_variable]],
-                                                            [values[c.source_component, c.source_variable]])
+                        slaves[c.target_component].setReal(
+                            [references[c.target_component][c.target_variable]],
+                            [values[c.source_component, c.source_variable]],
+                        )
                     for name in COMPONENTS:
                         slaves[name].doStep(i * step, step)
                 else:
@@ -201,8 +234,9 @@ def run_loop(ssp: str | Path, horizon: float, step: float | None = None, hull: d
     return _run(scheme, step, rows)
 
 
-def run_libcosim_ecco(ssp: str | Path, horizon: float, step: float | None = None,
-                      hull: dict[str, float] | None = None) -> SystemRun:
+def run_libcosim_ecco(
+    ssp: str | Path, horizon: float, step: float | None = None, hull: dict[str, float] | None = None
+) -> SystemRun:
     """The system in libcosim under its ECCO algorithm (energy-conservation-based step control over the two
     power bonds: the front port's F_front and v_front, the back port's backplate force and v_back), built here
     as the system file's OspSystemStructure.xml sets it up, starting from `step` (None: the system's); the
@@ -221,15 +255,18 @@ def run_libcosim_ecco(ssp: str | Path, horizon: float, step: float | None = None
     with tempfile.TemporaryDirectory(prefix="armour_system_") as folder:
         with zipfile.ZipFile(ssp) as archive:
             archive.extractall(folder)
-        algorithm = CosimAlgorithm.create_ecco_algorithm(EccoParams(
-            step_size=step, min_step_size=step / ECCO_STEP_RANGE, max_step_size=step * ECCO_STEP_RANGE))
+        algorithm = CosimAlgorithm.create_ecco_algorithm(
+            EccoParams(step_size=step, min_step_size=step / ECCO_STEP_RANGE, max_step_size=step * ECCO_STEP_RANGE)
+        )
         execution = CosimExecution.from_algorithm(algorithm)
         indices, references = {}, {}
         for component in system.elements:
-            indices[component.name] = execution.add_local_slave(CosimLocalSlave(
-                fmu_path=str(Path(folder) / component.source), instance_name=component.name))
-            references[component.name] = {v.name.decode(): v.reference
-                                          for v in execution.slave_variables(indices[component.name])}
+            indices[component.name] = execution.add_local_slave(
+                CosimLocalSlave(fmu_path=str(Path(folder) / component.source), instance_name=component.name)
+            )
+            references[component.name] = {
+                v.name.decode(): v.reference for v in execution.slave_variables(indices[component.name])
+            }
         for name, values in parameters.items():
             for variable, value in values.items():
                 if name == "lattice":
@@ -237,13 +274,21 @@ def run_libcosim_ecco(ssp: str | Path, horizon: float, step: float | None = None
                 else:
                     execution.real_initial_value(indices[name], references[name][variable], float(value))
         for c in CONNECTIONS:
-            execution.connect_real_variables(indices[c.source_component],
-                                             references[c.source_component][c.source_variable],
-                                             indices[c.target_component],
-                                             references[c.target_component][c.target_variable])
+            execution.connect_real_variables(
+                indices[c.source_component],
+                references[c.source_component][c.source_variable],
+                indices[c.target_component],
+                references[c.target_component][c.target_variable],
+            )
         for (a, a_out, a_in), (b, b_out, b_in) in POWER_BONDS:
-            algorithm.add_power_bond(indices[a], references[a][a_out], references[a][a_in],
-                                     indices[b], references[b][b_out], references[b][b_in])
+            algorithm.add_power_bond(
+                indices[a],
+                references[a][a_out],
+                references[a][a_in],
+                indices[b],
+                references[b][b_out],
+                references[b][b_in],
+            )
         observer = CosimObserver.create_last_value()
         execution.add_observer(observer)
         if not execution.simulate_until(target_time=round(horizon * NANOSECONDS)):
@@ -269,8 +314,10 @@ def run_libcosim_ecco_from_osp(ssp: str | Path, horizon: float, hull: dict[str, 
             archive.extractall(folder)
         execution = CosimExecution.from_osp_config_file(str(Path(folder) / OSP_NAME))
         indices = {name: execution.slave_index_from_instance_name(name) for name in OBSERVED}
-        references = {name: {v.name.decode(): v.reference for v in execution.slave_variables(index)}
-                      for name, index in indices.items()}
+        references = {
+            name: {v.name.decode(): v.reference for v in execution.slave_variables(index)}
+            for name, index in indices.items()
+        }
         for name, value in (hull or {}).items():
             execution.real_initial_value(indices["hull"], references["hull"][name], float(value))
         observer = CosimObserver.create_last_value()
@@ -298,8 +345,9 @@ def plot(run: SystemRun, output: str | Path, title: str) -> Path:
     output = Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)
     figure, (forces, motion) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
-    forces.plot(run.time, run["projectile", "contact_force"], label="contact force on the face (projectile FMU)",
-                lw=1.4)
+    forces.plot(
+        run.time, run["projectile", "contact_force"], label="contact force on the face (projectile FMU)", lw=1.4
+    )
     forces.plot(run.time, run["lattice", "backplate_force"], label="force on the backplate (lattice FMU)", lw=1.4)
     forces.set_ylabel("force (N)")
     forces.legend(loc="upper right", fontsize=9)
@@ -317,23 +365,33 @@ def plot(run: SystemRun, output: str | Path, title: str) -> Path:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--ssp", default=str(MODELS_DIR / f"{SYSTEM}.ssp"),
-                        help="the system file (built with build_fmu.py --system when missing)")
+    parser.add_argument(
+        "--ssp",
+        default=str(MODELS_DIR / f"{SYSTEM}.ssp"),
+        help="the system file (built with build_fmu.py --system when missing)",
+    )
     parser.add_argument("--master", choices=MASTERS, default="libcosim", help="the co-simulation master")
     parser.add_argument("--horizon", type=float, default=1.0, help="seconds to simulate (default 1)")
     parser.add_argument("--step", type=float, help="communication step in s (default: the system file's)")
     parser.add_argument("--hull-mass", type=float, help="hull mass m in kg (default: the hull FMU's)")
     parser.add_argument("--hull-stiffness", type=float, help="hull stiffness k in N/m (default: the hull FMU's)")
     parser.add_argument("--hull-damping", type=float, help="hull damping c in N s/m (default: the hull FMU's)")
-    parser.add_argument("-o", "--output", default=str(Path("results") / "armour_system.png"),
-                        help="where to write the picture (default results/armour_system.png)")
+    parser.add_argument(
+        "-o",
+        "--output",
+        default=str(Path("results") / "armour_system.png"),
+        help="where to write the picture (default results/armour_system.png)",
+    )
     args = parser.parse_args(argv)
     if not args.horizon > 0:
         parser.error(f"--horizon {args.horizon}: allowed a number of seconds > 0")
     if args.step is not None and not 0 < args.step <= args.horizon:
         parser.error(f"--step {args.step}: allowed 0 < step <= horizon ({args.horizon:g} s)")
-    hull = {name: value for name, value in zip(HULL_PARAMETERS, (args.hull_mass, args.hull_stiffness,
-                                                                  args.hull_damping)) if value is not None}
+    hull = {
+        name: value
+        for name, value in zip(HULL_PARAMETERS, (args.hull_mass, args.hull_stiffness, args.hull_damping))
+        if value is not None
+    }
     ssp = Path(args.ssp)
     if not ssp.is_file():
         print(f"{ssp} not found: building it", file=sys.stderr)
@@ -341,20 +399,25 @@ def main(argv: list[str] | None = None) -> int:
     step = system_step(ssp) if args.step is None else args.step
     for limit in port_limits(hull.get("m")):
         verdict = "stable" if step < limit.limit else "UNSTABLE"
-        print(f"{limit.port} port ({limit.what}): predicted limit min(2c/k, 2m/c) = {limit.limit:.3g} s; "
-              f"step {step:g} s: {verdict}")
+        print(
+            f"{limit.port} port ({limit.what}): predicted limit min(2c/k, 2m/c) = {limit.limit:.3g} s; "
+            f"step {step:g} s: {verdict}"
+        )
     if args.master in SCHEMES:
         run = run_loop(ssp, args.horizon, step, hull, scheme=args.master)
     else:
         runner = {"libcosim": run_libcosim, "fmpy": run_fmpy, "libcosim-ecco": run_libcosim_ecco}[args.master]
         run = runner(ssp, args.horizon, step, hull)
-    print(f"peak force on the backplate:   {run['lattice', 'peak_backplate_force'][-1]:.3f} N "
-          f"(the lattice's sampled peak)")
+    print(
+        f"peak force on the backplate:   {run['lattice', 'peak_backplate_force'][-1]:.3f} N "
+        f"(the lattice's sampled peak)"
+    )
     if len(run.time) < 2:
         print("libcosim's ECCO chooses its own steps: no time series, no picture")
         return 0
-    title = (f"projectile -> lattice -> hull ({SYSTEM}.ssp); master: {args.master}, {step:g} s steps"
-             + (f"; hull {', '.join(f'{k} = {v:g}' for k, v in hull.items())}" if hull else ""))
+    title = f"projectile -> lattice -> hull ({SYSTEM}.ssp); master: {args.master}, {step:g} s steps" + (
+        f"; hull {', '.join(f'{k} = {v:g}' for k, v in hull.items())}" if hull else ""
+    )
     picture = plot(run, args.output, title)
     print(f"peak contact force:            {run['projectile', 'contact_force'].max():.3f} N")
     print(f"peak hull displacement:        {1000 * np.abs(run['hull', 'x']).max():.3f} mm")

@@ -7,6 +7,7 @@ A table answers what builder/fmi2_description.py and builder/fmi3_description.py
 (description, horizon, communication_step), so the lattice's generators write its model descriptions too. The
 lattice's table is sized by a scene; a component's is fixed, so it is one module-level ComponentTable.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -39,8 +40,9 @@ class ComponentTable:
             inputs = {v.name for v in self.variables if v.causality == "input"}
             unknown = set(variable.depends_on) - inputs
             if unknown:
-                raise ValueError(f"{self.identifier}: {variable.name} depends on {sorted(unknown)}, which are not "
-                                 f"inputs")
+                raise ValueError(
+                    f"{self.identifier}: {variable.name} depends on {sorted(unknown)}, which are not inputs"
+                )
 
     @property
     def exposed(self) -> list[Variable]:
@@ -68,8 +70,9 @@ class ComponentTable:
         for variable in self.variables:
             if variable.name == name:
                 return variable
-        raise KeyError(f"{self.identifier} has no variable {name!r}; its variables: "
-                       f"{', '.join(v.name for v in self.variables)}")
+        raise KeyError(
+            f"{self.identifier} has no variable {name!r}; its variables: {', '.join(v.name for v in self.variables)}"
+        )
 
 
 def component_table(model: str) -> ComponentTable:

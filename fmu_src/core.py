@@ -2,6 +2,7 @@
 
 `LatticeParams` mirrors the C struct in fmu_src/lattice/lattice.h field for field: change both together.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -19,21 +20,35 @@ SPRING_LAWS = {"exponential": 0, "linear": 1}
 
 class ColumnConstants(ctypes.Structure):
     """One material's fields, as the generated C struct lays them out (builder/build.py, model_table.h)."""
+
     _fields_ = [(name, ctypes.c_double) for name in FIELD_NAMES]
 
 
 class LatticeParams(ctypes.Structure):
-    _fields_ = [("rows", ctypes.c_int), ("cols", ctypes.c_int),
-                ("k_horizontal", ctypes.c_double), ("alpha_horizontal", ctypes.c_double),
-                ("c_horizontal", ctypes.c_double), ("column", ColumnConstants * MAX_COLS),
-                ("diagonal_rule", ctypes.c_int), ("spring_law", ctypes.c_int),
-                ("load_total", ctypes.c_double), ("load_angle_deg", ctypes.c_double),
-                ("load_duration", ctypes.c_double), ("has_backplate", ctypes.c_int),
-                ("k_wall", ctypes.c_double), ("c_wall", ctypes.c_double), ("backplate_gap", ctypes.c_double),
-                ("depth", ctypes.c_int), ("load_patch", ctypes.c_int),
-                # the ports (docs/model.md section 11); zero: the pulse and the rigid wall
-                ("load_mode", ctypes.c_int), ("front_force", ctypes.c_double), ("back_position", ctypes.c_double),
-                ("back_velocity", ctypes.c_double)]
+    _fields_ = [
+        ("rows", ctypes.c_int),
+        ("cols", ctypes.c_int),
+        ("k_horizontal", ctypes.c_double),
+        ("alpha_horizontal", ctypes.c_double),
+        ("c_horizontal", ctypes.c_double),
+        ("column", ColumnConstants * MAX_COLS),
+        ("diagonal_rule", ctypes.c_int),
+        ("spring_law", ctypes.c_int),
+        ("load_total", ctypes.c_double),
+        ("load_angle_deg", ctypes.c_double),
+        ("load_duration", ctypes.c_double),
+        ("has_backplate", ctypes.c_int),
+        ("k_wall", ctypes.c_double),
+        ("c_wall", ctypes.c_double),
+        ("backplate_gap", ctypes.c_double),
+        ("depth", ctypes.c_int),
+        ("load_patch", ctypes.c_int),
+        # the ports (docs/model.md section 11); zero: the pulse and the rigid wall
+        ("load_mode", ctypes.c_int),
+        ("front_force", ctypes.c_double),
+        ("back_position", ctypes.c_double),
+        ("back_velocity", ctypes.c_double),
+    ]
 
 
 def components(params: LatticeParams) -> int:
@@ -93,13 +108,24 @@ class Core:
     def __init__(self, library_path: str | Path):
         self.library = ctypes.CDLL(str(library_path))
         double_p = ctypes.POINTER(ctypes.c_double)
-        self.library.lattice_rhs.argtypes = [ctypes.POINTER(LatticeParams), ctypes.c_int, ctypes.c_char_p,
-                                             double_p, double_p]
+        self.library.lattice_rhs.argtypes = [
+            ctypes.POINTER(LatticeParams),
+            ctypes.c_int,
+            ctypes.c_char_p,
+            double_p,
+            double_p,
+        ]
         self.library.lattice_backplate_force.argtypes = [ctypes.POINTER(LatticeParams), double_p]
         self.library.lattice_backplate_force.restype = ctypes.c_double
         self.library.lattice_energies.argtypes = [ctypes.POINTER(LatticeParams), double_p, double_p, double_p]
-        self.library.lattice_rhs_along_x.argtypes = [ctypes.POINTER(LatticeParams), ctypes.c_int, ctypes.c_int,
-                                                     ctypes.c_char_p, double_p, double_p]
+        self.library.lattice_rhs_along_x.argtypes = [
+            ctypes.POINTER(LatticeParams),
+            ctypes.c_int,
+            ctypes.c_int,
+            ctypes.c_char_p,
+            double_p,
+            double_p,
+        ]
         self.library.lattice_along_x.argtypes = [ctypes.POINTER(LatticeParams)]
         self.library.lattice_along_x.restype = ctypes.c_int
         self.library.lattice_mirror_rows.argtypes = [ctypes.POINTER(LatticeParams)]
@@ -108,8 +134,12 @@ class Core:
         self.library.lattice_mirror_layers.restype = ctypes.c_int
         self.library.lattice_params_error.argtypes = [ctypes.POINTER(LatticeParams), ctypes.c_char_p, ctypes.c_int]
         self.library.lattice_params_error.restype = ctypes.c_char_p
-        self.library.lattice_backplate_force_mirrored.argtypes = [ctypes.POINTER(LatticeParams), double_p, double_p,
-                                                                  ctypes.c_int]
+        self.library.lattice_backplate_force_mirrored.argtypes = [
+            ctypes.POINTER(LatticeParams),
+            double_p,
+            double_p,
+            ctypes.c_int,
+        ]
         self.library.lattice_backplate_force_mirrored.restype = ctypes.c_double
 
     def params_error(self, params: LatticeParams) -> str | None:
@@ -137,9 +167,13 @@ class Core:
         from wall_mode (one per column-C mass, f = k*R + i)."""
         y = self._augmented(params, y)
         dydt = np.empty_like(y)
-        self.library.lattice_rhs(ctypes.byref(params), int(load_on), self._modes(wall_mode),
-                                 y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
-                                 dydt.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+        self.library.lattice_rhs(
+            ctypes.byref(params),
+            int(load_on),
+            self._modes(wall_mode),
+            y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+            dydt.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+        )
         return dydt[:-3], dydt[-3:]
 
     def mirror_rows(self, params: LatticeParams) -> int:
@@ -160,23 +194,31 @@ class Core:
         """Whether the lattice moves along x alone (lattice.h: its state without uy and vy carries it)."""
         return bool(self.library.lattice_along_x(ctypes.byref(params)))
 
-    def rhs_along_x(self, params: LatticeParams, y_x, load_on: bool, mirrored: bool = False,
-                    wall_mode=None) -> tuple[np.ndarray, np.ndarray]:
+    def rhs_along_x(
+        self, params: LatticeParams, y_x, load_on: bool, mirrored: bool = False, wall_mode=None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """As rhs over the layout [ux, vx, W_ext, D, W_nr] of all masses or (mirrored) of the part that carries
         a mirror-symmetric lattice's solution (mirrored_extent)."""
         symmetric = self.mirror_rows(params) or self.mirror_layers(params)
         if not self.along_x(params) or (mirrored and not symmetric):
-            raise ValueError("params: the lattice does not move along x alone (load_angle 0), or is not "
-                             "mirror-symmetric (odd rows >= 3 or odd depth >= 3, a centred load)")
+            raise ValueError(
+                "params: the lattice does not move along x alone (load_angle 0), or is not "
+                "mirror-symmetric (odd rows >= 3 or odd depth >= 3, a centred load)"
+            )
         rows, layers = self.mirrored_extent(params) if mirrored else (params.rows, params.depth)
         n = 2 * rows * params.cols * layers
         y = np.ascontiguousarray(y_x, dtype=float)
         if y.shape != (n + 3,):
             raise ValueError(f"state: expected {n + 3} values, got {y.shape}")
         dydt = np.empty_like(y)
-        self.library.lattice_rhs_along_x(ctypes.byref(params), int(mirrored), int(load_on), self._modes(wall_mode),
-                                         y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
-                                         dydt.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+        self.library.lattice_rhs_along_x(
+            ctypes.byref(params),
+            int(mirrored),
+            int(load_on),
+            self._modes(wall_mode),
+            y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+            dydt.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+        )
         return dydt[:-3], dydt[-3:]
 
     def backplate_force_mirrored(self, params: LatticeParams, y_half) -> float:
@@ -186,17 +228,25 @@ class Core:
         y = np.ascontiguousarray(y_half, dtype=float)
         n = rows * cols * layers
         return self.library.lattice_backplate_force_mirrored(
-            ctypes.byref(params), y[cols - 1:].ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
-            y[n + cols - 1:].ctypes.data_as(ctypes.POINTER(ctypes.c_double)), cols)
+            ctypes.byref(params),
+            y[cols - 1 :].ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+            y[n + cols - 1 :].ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+            cols,
+        )
 
     def backplate_force(self, params: LatticeParams, y) -> float:
         y = self._augmented(params, y)
-        return self.library.lattice_backplate_force(ctypes.byref(params),
-                                                    y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+        return self.library.lattice_backplate_force(
+            ctypes.byref(params), y.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        )
 
     def energies(self, params: LatticeParams, y) -> tuple[float, float]:
         y = self._augmented(params, y)
         kinetic, potential = ctypes.c_double(), ctypes.c_double()
-        self.library.lattice_energies(ctypes.byref(params), y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
-                                      ctypes.byref(kinetic), ctypes.byref(potential))
+        self.library.lattice_energies(
+            ctypes.byref(params),
+            y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+            ctypes.byref(kinetic),
+            ctypes.byref(potential),
+        )
         return kinetic.value, potential.value

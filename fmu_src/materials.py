@@ -14,6 +14,7 @@ Python's ``**`` by an ulp, depending on the CPU's instruction set).
     study_materials(11)                  # the study's eleven materials
     load_materials("my_materials.csv")   # a designer's table (.csv, .toml or .json)
 """
+
 from __future__ import annotations
 
 import csv
@@ -72,8 +73,9 @@ class Material:
     alpha_diag: float = _column("1/m", "diagonal spring exponent", positive=True)
     # docs/model.md section 12; a table without these columns is the study's 1 kg masses and linear dampers
     mass: float = _column("kg", "node mass (every node of a column holding it)", positive=True, default=1.0)
-    damping_exponent: float = _column(None, "exponent n of the dampers inside a column (F = -c |dv|^(n-1) dv)",
-                                      positive=True, default=1.0)
+    damping_exponent: float = _column(
+        None, "exponent n of the dampers inside a column (F = -c |dv|^(n-1) dv)", positive=True, default=1.0
+    )
 
 
 FIELDS = tuple(Field(f.name, **f.metadata) for f in fields(Material) if f.metadata)
@@ -126,8 +128,7 @@ class MaterialTable:
         """A fingerprint of the table's names and values (exact float bits), for journals and file names. A
         column with a default that every row leaves at it is not part of it, so a table keeps its fingerprint
         whether or not its file spells such a column out."""
-        names = [f.name for f in FIELDS
-                 if f.required or any(getattr(m, f.name) != f.default for m in self.materials)]
+        names = [f.name for f in FIELDS if f.required or any(getattr(m, f.name) != f.default for m in self.materials)]
         text = json.dumps([[m.name] + [float(getattr(m, f)).hex() for f in names] for m in self.materials])
         return hashlib.sha256(text.encode()).hexdigest()
 
@@ -135,17 +136,25 @@ class MaterialTable:
     def from_rows(cls, rows: Iterable[dict[str, Any]], source: str = "materials") -> "MaterialTable":
         rows = list(rows)
         check_rows(rows, source)
-        return cls(tuple(Material(str(r["name"]).strip(), **{f.name: float(r[f.name]) for f in FIELDS
-                                                             if _given(r.get(f.name)) or f.required})
-                         for r in rows))
+        return cls(
+            tuple(
+                Material(
+                    str(r["name"]).strip(),
+                    **{f.name: float(r[f.name]) for f in FIELDS if _given(r.get(f.name)) or f.required},
+                )
+                for r in rows
+            )
+        )
 
 
 def study_materials(count: int = STUDY_MATERIAL_COUNT) -> MaterialTable:
     """docs/model.md section 3: material m has scale s = (2/3)^(m-1): k = 100 s, k_diag = 50 s, c = 5 s, alpha = 10; the
     first ``count`` of the study's eleven (never more: a twelfth would be invented, not the study's)."""
     if isinstance(count, bool) or int(count) != count or not 1 <= count <= STUDY_MATERIAL_COUNT:
-        raise ValueError(f"count must be an integer in [1, {STUDY_MATERIAL_COUNT}] (the study's table has "
-                         f"{STUDY_MATERIAL_COUNT} materials), got {count!r}")
+        raise ValueError(
+            f"count must be an integer in [1, {STUDY_MATERIAL_COUNT}] (the study's table has "
+            f"{STUDY_MATERIAL_COUNT} materials), got {count!r}"
+        )
     materials = []
     for m in range(1, int(count) + 1):
         scale = (2.0 / 3.0) ** (m - 1)
@@ -162,8 +171,9 @@ def check_rows(rows: list[dict[str, Any]], source: str) -> None:
     """Every row has a unique non-empty name and every field in its range (an optional field may be left out);
     else one line naming row and field."""
     if not rows:
-        raise MaterialTableError(f"{source}: no materials (expected a header {','.join(HEADER)} and one row per "
-                                 "material)")
+        raise MaterialTableError(
+            f"{source}: no materials (expected a header {','.join(HEADER)} and one row per material)"
+        )
     if len(rows) > MAX_MATERIALS:
         raise MaterialTableError(f"{source}: {len(rows)} materials; at most {MAX_MATERIALS} are allowed")
     seen: dict[str, int] = {}
@@ -172,15 +182,18 @@ def check_rows(rows: list[dict[str, Any]], source: str) -> None:
             raise MaterialTableError(f"{source}: row {number}: expected the fields {', '.join(HEADER)}")
         unknown = sorted(set(row) - set(HEADER))
         if unknown:
-            raise MaterialTableError(f"{source}: row {number}: unknown field {unknown[0]!r}; allowed: "
-                                     f"{', '.join(HEADER)}")
+            raise MaterialTableError(
+                f"{source}: row {number}: unknown field {unknown[0]!r}; allowed: {', '.join(HEADER)}"
+            )
         name = row.get("name")
         if not isinstance(name, str) or not name.strip():
             raise MaterialTableError(f"{source}: row {number}, field name: missing (every material needs a name)")
         name = name.strip()
         if name in seen:
-            raise MaterialTableError(f"{source}: row {number}, field name: {name!r} is also the name of row "
-                                     f"{seen[name]}; names must be unique")
+            raise MaterialTableError(
+                f"{source}: row {number}, field name: {name!r} is also the name of row "
+                f"{seen[name]}; names must be unique"
+            )
         seen[name] = number
         for field in FIELDS:
             value = row.get(field.name)
@@ -194,8 +207,9 @@ def check_rows(rows: list[dict[str, Any]], source: str) -> None:
             try:
                 number_value = float(value)
             except (TypeError, ValueError):
-                raise MaterialTableError(f"{label}: {value!r} is not a number; allowed: "
-                                         f"{field.allowed_in_unit()}") from None
+                raise MaterialTableError(
+                    f"{label}: {value!r} is not a number; allowed: {field.allowed_in_unit()}"
+                ) from None
             if not math.isfinite(number_value) or number_value < 0 or (field.positive and number_value == 0):
                 raise MaterialTableError(f"{label}: {value!r} is not allowed; allowed: {field.allowed_in_unit()}")
 
@@ -220,8 +234,7 @@ def load_materials(path: str | Path) -> MaterialTable:
             raise MaterialTableError(f"{source}: not valid TOML ({exc})") from None
         rows = data.get("material")
         if not isinstance(rows, list) or set(data) - {"material"}:
-            raise MaterialTableError(f"{source}: expected only [[material]] tables with the fields "
-                                     f"{', '.join(HEADER)}")
+            raise MaterialTableError(f"{source}: expected only [[material]] tables with the fields {', '.join(HEADER)}")
     elif suffix == ".json":
         try:
             data = json.loads(text)
@@ -231,8 +244,9 @@ def load_materials(path: str | Path) -> MaterialTable:
         if not isinstance(rows, list):
             raise MaterialTableError(f'{source}: expected a list of materials or {{"materials": [...]}}')
     else:
-        raise MaterialTableError(f"{source}: unknown file type {path.suffix or '(none)'!r}; allowed: .csv, .toml, "
-                                 ".json")
+        raise MaterialTableError(
+            f"{source}: unknown file type {path.suffix or '(none)'!r}; allowed: .csv, .toml, .json"
+        )
     return MaterialTable.from_rows(rows, source)
 
 
@@ -246,8 +260,10 @@ def _csv_rows(text: str, source: str) -> list[dict[str, Any]]:
     missing = [h for h in REQUIRED_HEADER if h not in header]
     if missing or len(set(header)) != len(header):
         optional = [h for h in HEADER if h not in REQUIRED_HEADER]
-        raise MaterialTableError(f"{source}: the header must name each of {','.join(REQUIRED_HEADER)} once, and "
-                                 f"may name {','.join(optional)} (got {','.join(header)})")
+        raise MaterialTableError(
+            f"{source}: the header must name each of {','.join(REQUIRED_HEADER)} once, and "
+            f"may name {','.join(optional)} (got {','.join(header)})"
+        )
     rows = []
     for number, cells in enumerate(reader, start=1):
         if len(cells) != len(header):
@@ -267,5 +283,17 @@ def write_materials_csv(table: MaterialTable, path: str | Path) -> Path:
     return path
 
 
-__all__ = ["FIELDS", "FIELD_NAMES", "HEADER", "MAX_MATERIALS", "Material", "MaterialTable", "MaterialTableError",
-           "REQUIRED_HEADER", "STUDY_MATERIAL_COUNT", "load_materials", "study_materials", "write_materials_csv"]
+__all__ = [
+    "FIELDS",
+    "FIELD_NAMES",
+    "HEADER",
+    "MAX_MATERIALS",
+    "Material",
+    "MaterialTable",
+    "MaterialTableError",
+    "REQUIRED_HEADER",
+    "STUDY_MATERIAL_COUNT",
+    "load_materials",
+    "study_materials",
+    "write_materials_csv",
+]

@@ -4,6 +4,7 @@ The one table code, tests, the FMU's documentation and the examples import (docs
 peaks are the study's own numbers for the 11 x 11 armour scene at the conditions of `PUBLISHED_CONDITIONS`;
 the FMU's defaults reproduce them. They are reference points to draw and compare with, never results.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -17,8 +18,7 @@ PUBLISHED_PEAKS = {SEQUENTIAL_ORDER: 1747.779979851872, STUDY_BEST_ORDER: 1497.8
 # The conditions the published peaks hold at (the armour scene's defaults), by FMU parameter name; the horizon
 # in s.
 PUBLISHED_HORIZON = 8.0
-PUBLISHED_CONDITIONS = {"peak_sample_interval": 0.01, "diagonal_rule": "receiver", "load_angle": 0.0,
-                        "F_total": 1200.0}
+PUBLISHED_CONDITIONS = {"peak_sample_interval": 0.01, "diagonal_rule": "receiver", "load_angle": 0.0, "F_total": 1200.0}
 
 
 @dataclass(frozen=True)
@@ -37,6 +37,16 @@ STUDY_SIMULATED_ANNEALING = ReferencePoint("study simulated annealing", 2912.76)
 STUDY_SEQUENTIAL = ReferencePoint("sequential order", PUBLISHED_PEAKS[SEQUENTIAL_ORDER])
 REFERENCE_POINTS = (STUDY_BEST, STUDY_PARTICLE_SWARM, STUDY_SIMULATED_ANNEALING, STUDY_SEQUENTIAL)
 
-__all__ = ["PUBLISHED_CONDITIONS", "PUBLISHED_HORIZON", "PUBLISHED_PEAKS", "REFERENCE_POINTS", "ReferencePoint",
-           "SEQUENTIAL_ORDER", "STUDY_BEST", "STUDY_BEST_ORDER", "STUDY_PARTICLE_SWARM", "STUDY_SEQUENTIAL",
-           "STUDY_SIMULATED_ANNEALING"]
+__all__ = [
+    "PUBLISHED_CONDITIONS",
+    "PUBLISHED_HORIZON",
+    "PUBLISHED_PEAKS",
+    "REFERENCE_POINTS",
+    "ReferencePoint",
+    "SEQUENTIAL_ORDER",
+    "STUDY_BEST",
+    "STUDY_BEST_ORDER",
+    "STUDY_PARTICLE_SWARM",
+    "STUDY_SEQUENTIAL",
+    "STUDY_SIMULATED_ANNEALING",
+]

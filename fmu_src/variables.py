@@ -4,6 +4,7 @@
 cannot drift. A scene (see `scenes/`) decides which parameters a particular FMU exposes; a parameter it
 does not expose is compiled in as a constant with the scene's value ("model no more than a scene needs").
 """
+
 from __future__ import annotations
 
 import math
@@ -18,9 +19,11 @@ INTEGER = "Integer"
 # Every unit a variable may carry, declared in both model descriptions' <UnitDefinitions>.
 UNITS = ("N", "N.s", "N.s/m", "N/m", "1/m", "kg", "m", "s", "J", "deg", "m/s", "m/s2", "W", "s/m")
 # The categories the FMI glue logs under (fmi2/, fmi3/), declared in both model descriptions.
-LOG_CATEGORIES = (("logStatusError", "Why a call failed"),
-                  ("logStatusWarning", "Model Exchange: a backplate switch the importer did not handle as an event"),
-                  ("logStatusDiscard", "Why a step stopped early (peak_force_limit)"))
+LOG_CATEGORIES = (
+    ("logStatusError", "Why a call failed"),
+    ("logStatusWarning", "Model Exchange: a backplate switch the importer did not handle as an event"),
+    ("logStatusDiscard", "Why a step stopped early (peak_force_limit)"),
+)
 
 # Roles in the continuous-time contract (fmu_src/lattice/model.h), what Model Exchange declares as its
 # states, their derivatives and its event indicators.
@@ -28,8 +31,19 @@ STATE, DERIVATIVE, INDICATOR = "state", "derivative", "indicator"
 # The continuous state vector in lattice.h's layout: displacements, velocities, the three energy integrals (a
 # plate of one layer has no uz and vz).
 # projectile mode's rigid body last (docs/model.md section 11).
-STATE_ORDER = ("ux", "uy", "uz", "vx", "vy", "vz", "external_work", "dissipated_energy", "nonreciprocal_work",
-               "projectile_position", "projectile_velocity")
+STATE_ORDER = (
+    "ux",
+    "uy",
+    "uz",
+    "vx",
+    "vy",
+    "vz",
+    "external_work",
+    "dissipated_energy",
+    "nonreciprocal_work",
+    "projectile_position",
+    "projectile_velocity",
+)
 
 
 @dataclass(frozen=True)
@@ -68,11 +82,16 @@ class Variable:
         if self.size is None:
             return [self.name]
         if self.shape and len(self.shape) == 2:  # row-major, as lattice.h lays out the masses
-            subscripts = [f"[{row},{col}]" for row in range(1, self.shape[0] + 1)
-                          for col in range(1, self.shape[1] + 1)]
+            subscripts = [
+                f"[{row},{col}]" for row in range(1, self.shape[0] + 1) for col in range(1, self.shape[1] + 1)
+            ]
         elif self.shape and len(self.shape) == 3:  # (layer, row, column), row-major as lattice.h lays out a plate
-            subscripts = [f"[{layer},{row},{col}]" for layer in range(1, self.shape[0] + 1)
-                          for row in range(1, self.shape[1] + 1) for col in range(1, self.shape[2] + 1)]
+            subscripts = [
+                f"[{layer},{row},{col}]"
+                for layer in range(1, self.shape[0] + 1)
+                for row in range(1, self.shape[1] + 1)
+                for col in range(1, self.shape[2] + 1)
+            ]
         else:
             subscripts = [f"[{index}]" for index in range(1, self.size + 1)]
         if self.derivative_of:  # der(ux[1,1]), as FMI's structured naming convention writes a derivative
@@ -167,13 +186,22 @@ def load_patch_allowed(rows: int, depth: int, load_patch) -> bool:
     odd number of rows and an odd depth, so that the patch leaves as many on either side."""
     if load_patch == WHOLE_FACE and not isinstance(load_patch, bool):
         return True
-    return (isinstance(load_patch, int) and not isinstance(load_patch, bool) and load_patch > 0
-            and load_patch % 2 == 1 and load_patch <= min(rows, depth) and rows % 2 == 1 and depth % 2 == 1)
+    return (
+        isinstance(load_patch, int)
+        and not isinstance(load_patch, bool)
+        and load_patch > 0
+        and load_patch % 2 == 1
+        and load_patch <= min(rows, depth)
+        and rows % 2 == 1
+        and depth % 2 == 1
+    )
 
 
 def load_patch_refusal(rows: int, depth: int, load_patch) -> str:
-    return (f"load_patch = {load_patch!r} is not allowed for {rows} rows and depth {depth}: allowed 0 (the whole "
-            f"face) or an odd P <= min(rows, depth) = {min(rows, depth)}, with an odd number of rows and an odd depth")
+    return (
+        f"load_patch = {load_patch!r} is not allowed for {rows} rows and depth {depth}: allowed 0 (the whole "
+        f"face) or an odd P <= min(rows, depth) = {min(rows, depth)}, with an odd number of rows and an odd depth"
+    )
 
 
 def loaded_face(rows: int, depth: int, load_patch: int) -> LoadedFace:
@@ -201,214 +229,518 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
     count = len(table)
     values = table.parameters()
     variables = [
-        Variable("material", INTEGER, "parameter",
-                 "Material number of each column: a row of the material table (1..M); each material in at most "
-                 "one column unless repeat_materials = 1",
-                 start=default_order(cols, count), minimum=1, maximum=count, size=cols,
-                 allowed=f"each an integer in [1, {count}]"),
-        Variable("repeat_materials", INTEGER, "parameter",
-                 "0 = each material in at most one column (an arrangement; with M = C a permutation, the study's "
-                 "design space), 1 = any material in any number of columns",
-                 start=0 if count >= cols else 1, minimum=0, maximum=1,
-                 allowed="0 (each material at most once) or 1 (any)"),
+        Variable(
+            "material",
+            INTEGER,
+            "parameter",
+            "Material number of each column: a row of the material table (1..M); each material in at most "
+            "one column unless repeat_materials = 1",
+            start=default_order(cols, count),
+            minimum=1,
+            maximum=count,
+            size=cols,
+            allowed=f"each an integer in [1, {count}]",
+        ),
+        Variable(
+            "repeat_materials",
+            INTEGER,
+            "parameter",
+            "0 = each material in at most one column (an arrangement; with M = C a permutation, the study's "
+            "design space), 1 = any material in any number of columns",
+            start=0 if count >= cols else 1,
+            minimum=0,
+            maximum=1,
+            allowed="0 (each material at most once) or 1 (any)",
+        ),
         # the material table's columns, one array each (fmu_src/materials.py spells them)
-        *(Variable(column.name, REAL, "parameter", f"{column.description.capitalize()} of each material",
-                   start=values[column.name], unit=column.unit, minimum=0.0, minimum_exclusive=column.positive,
-                   size=count) for column in MATERIAL_FIELDS),
-        Variable("k_horizontal", REAL, "parameter", "Horizontal spring constant k0", start=100.0, unit="N",
-                 minimum=0.0),
-        Variable("alpha_horizontal", REAL, "parameter", "Horizontal spring exponent alpha0", start=10.0,
-                 unit="1/m", minimum=0.0, minimum_exclusive=True),
+        *(
+            Variable(
+                column.name,
+                REAL,
+                "parameter",
+                f"{column.description.capitalize()} of each material",
+                start=values[column.name],
+                unit=column.unit,
+                minimum=0.0,
+                minimum_exclusive=column.positive,
+                size=count,
+            )
+            for column in MATERIAL_FIELDS
+        ),
+        Variable(
+            "k_horizontal", REAL, "parameter", "Horizontal spring constant k0", start=100.0, unit="N", minimum=0.0
+        ),
+        Variable(
+            "alpha_horizontal",
+            REAL,
+            "parameter",
+            "Horizontal spring exponent alpha0",
+            start=10.0,
+            unit="1/m",
+            minimum=0.0,
+            minimum_exclusive=True,
+        ),
         Variable("c_horizontal", REAL, "parameter", "Horizontal damping c0", start=5.0, unit="N.s/m", minimum=0.0),
         # a magnitude (load_angle gives the direction); the maximum is far beyond any armour load, where the
         # exponential springs stiffen until the adaptive solver's step collapses (tests/test_stability.py)
-        Variable("F_total", REAL, "parameter", "Total load on column 1 (its direction is load_angle)", start=1200.0,
-                 unit="N", minimum=0.0, maximum=1e7),
-        Variable("load_angle", REAL, "parameter", "Direction of the load (0 = +x)", start=0.0, unit="deg",
-                 minimum=-360.0, maximum=360.0),
-        Variable("t_active", REAL, "parameter", "The load acts for 0 <= t <= t_active", start=0.15, unit="s",
-                 minimum=0.0),
+        Variable(
+            "F_total",
+            REAL,
+            "parameter",
+            "Total load on column 1 (its direction is load_angle)",
+            start=1200.0,
+            unit="N",
+            minimum=0.0,
+            maximum=1e7,
+        ),
+        Variable(
+            "load_angle",
+            REAL,
+            "parameter",
+            "Direction of the load (0 = +x)",
+            start=0.0,
+            unit="deg",
+            minimum=-360.0,
+            maximum=360.0,
+        ),
+        Variable(
+            "t_active", REAL, "parameter", "The load acts for 0 <= t <= t_active", start=0.15, unit="s", minimum=0.0
+        ),
         Variable("k_wall", REAL, "parameter", "Backplate stiffness", start=1e4, unit="N/m", minimum=0.0),
-        Variable("c_wall", REAL, "parameter", "Backplate damping (while approaching)", start=10.0, unit="N.s/m",
-                 minimum=0.0),
-        Variable("backplate_gap", REAL, "parameter", "Gap between column C and the backplate", start=1e-3,
-                 unit="m"),
-        Variable("peak_sample_interval", REAL, "parameter",
-                 "Interval of the samples peak_backplate_force is taken over (0.01 s reproduces the study)",
-                 start=0.01, unit="s", minimum=0.0, minimum_exclusive=True),
-        Variable("peak_force_limit", REAL, "parameter",
-                 "Co-Simulation: stop the run (fmi2Discard, terminated) as soon as peak_backplate_force exceeds "
-                 "this; 0 = no limit. Model Exchange does not stop at it",
-                 start=0.0, unit="N", minimum=0.0, allowed="a finite number >= 0 (0: no limit)"),
+        Variable(
+            "c_wall", REAL, "parameter", "Backplate damping (while approaching)", start=10.0, unit="N.s/m", minimum=0.0
+        ),
+        Variable("backplate_gap", REAL, "parameter", "Gap between column C and the backplate", start=1e-3, unit="m"),
+        Variable(
+            "peak_sample_interval",
+            REAL,
+            "parameter",
+            "Interval of the samples peak_backplate_force is taken over (0.01 s reproduces the study)",
+            start=0.01,
+            unit="s",
+            minimum=0.0,
+            minimum_exclusive=True,
+        ),
+        Variable(
+            "peak_force_limit",
+            REAL,
+            "parameter",
+            "Co-Simulation: stop the run (fmi2Discard, terminated) as soon as peak_backplate_force exceeds "
+            "this; 0 = no limit. Model Exchange does not stop at it",
+            start=0.0,
+            unit="N",
+            minimum=0.0,
+            allowed="a finite number >= 0 (0: no limit)",
+        ),
         # 5e-8: the energy balance closes to 1e-6 of the work input with a margin (tests/test_fmu.py, every 0.01 s)
-        Variable("rtol", REAL, "parameter", "Relative tolerance of the adaptive solver", start=5e-8,
-                 minimum=1e-14, maximum=0.1),
-        Variable("atol", REAL, "parameter", "Absolute tolerance of the adaptive solver", start=1e-9,
-                 minimum=0.0, minimum_exclusive=True, maximum=1.0),
-        Variable("fixed_step", REAL, "parameter", "Step of the fixed-step solvers", start=1e-4, unit="s",
-                 minimum=0.0, minimum_exclusive=True, maximum=1.0),
-        Variable("diagonal_rule", INTEGER, "parameter",
-                 "Where a diagonal spring takes its constants from: receiver (0, the receiving mass's column, as "
-                 "the study computed its published numbers; the two ends' forces differ) or mean (1, both ends "
-                 "the mean of the two columns: reciprocal)",
-                 start=0, minimum=0, maximum=1, allowed="0 (receiver) or 1 (mean)", enumeration="DiagonalRule",
-                 items=(("receiver", "The receiving mass's column (as the study computed; not reciprocal)"),
-                        ("mean", "The mean of the two columns (reciprocal)"))),
-        Variable("solver", INTEGER, "parameter",
-                 "Co-Simulation's solver: DOP853 (0, adaptive), RK4 (1, fixed step), semi-implicit Euler (2, "
-                 "fixed step), Tsit5 (3, adaptive), DOPRI5 (4, adaptive) or Fine's Runge-Kutta-Nystrom 5(4) (5, "
-                 "adaptive); Model Exchange uses the importer's",
-                 start=0, minimum=0, maximum=5,
-                 allowed="0 (adaptive DOP853), 1 (RK4), 2 (semi-implicit Euler), 3 (adaptive Tsit5), 4 (adaptive "
-                         "DOPRI5) or 5 (adaptive Fine RKN 5(4))",
-                 enumeration="Solver",
-                 items=(("dop853", "DOP853: adaptive Dormand-Prince 8(5,3) with 7th-order dense output (rtol, atol)"),
-                        ("rk4", "RK4: fixed-step classical Runge-Kutta (fixed_step)"),
-                        ("semi_implicit_euler",
-                         "Semi-implicit Euler: fixed-step semi-implicit (symplectic) Euler (fixed_step)"),
-                        ("tsit5", "Tsit5: adaptive Tsitouras 5(4) pair (rtol, atol)"),
-                        ("dopri5", "DOPRI5: adaptive Dormand-Prince 5(4) pair (rtol, atol)"),
-                        ("rkn5", "Fine RKN 5(4): adaptive general Runge-Kutta-Nystrom 5(4) pair of Fine (rtol, "
-                                 "atol): cheapest at the searches' accuracy"))),
-        Variable("spring_law", INTEGER, "parameter",
-                 "0 = exponential springs (the study's law), 1 = linear springs F = k r",
-                 start=0, minimum=0, maximum=1, allowed="0 (exponential) or 1 (linear)"),
-        Variable("has_backplate", INTEGER, "parameter", "1 = the backplate is there, 0 = a free lattice",
-                 start=1, minimum=0, maximum=1, allowed="0 or 1"),
-        Variable("use_symmetry", INTEGER, "parameter",
-                 "Co-Simulation: 1 = when the lattice is mirror-symmetric about its middle row (an odd number of "
-                 "rows, load_angle 0) integrate only its upper half, the same solution at about half the cost, "
-                 "and of a plate also about its middle slice in depth (a quarter); 0 = always the whole lattice. Model "
-                 "Exchange always hands the importer the whole lattice",
-                 start=1, minimum=0, maximum=1, allowed="0 or 1"),
+        Variable(
+            "rtol",
+            REAL,
+            "parameter",
+            "Relative tolerance of the adaptive solver",
+            start=5e-8,
+            minimum=1e-14,
+            maximum=0.1,
+        ),
+        Variable(
+            "atol",
+            REAL,
+            "parameter",
+            "Absolute tolerance of the adaptive solver",
+            start=1e-9,
+            minimum=0.0,
+            minimum_exclusive=True,
+            maximum=1.0,
+        ),
+        Variable(
+            "fixed_step",
+            REAL,
+            "parameter",
+            "Step of the fixed-step solvers",
+            start=1e-4,
+            unit="s",
+            minimum=0.0,
+            minimum_exclusive=True,
+            maximum=1.0,
+        ),
+        Variable(
+            "diagonal_rule",
+            INTEGER,
+            "parameter",
+            "Where a diagonal spring takes its constants from: receiver (0, the receiving mass's column, as "
+            "the study computed its published numbers; the two ends' forces differ) or mean (1, both ends "
+            "the mean of the two columns: reciprocal)",
+            start=0,
+            minimum=0,
+            maximum=1,
+            allowed="0 (receiver) or 1 (mean)",
+            enumeration="DiagonalRule",
+            items=(
+                ("receiver", "The receiving mass's column (as the study computed; not reciprocal)"),
+                ("mean", "The mean of the two columns (reciprocal)"),
+            ),
+        ),
+        Variable(
+            "solver",
+            INTEGER,
+            "parameter",
+            "Co-Simulation's solver: DOP853 (0, adaptive), RK4 (1, fixed step), semi-implicit Euler (2, "
+            "fixed step), Tsit5 (3, adaptive), DOPRI5 (4, adaptive) or Fine's Runge-Kutta-Nystrom 5(4) (5, "
+            "adaptive); Model Exchange uses the importer's",
+            start=0,
+            minimum=0,
+            maximum=5,
+            allowed="0 (adaptive DOP853), 1 (RK4), 2 (semi-implicit Euler), 3 (adaptive Tsit5), 4 (adaptive "
+            "DOPRI5) or 5 (adaptive Fine RKN 5(4))",
+            enumeration="Solver",
+            items=(
+                ("dop853", "DOP853: adaptive Dormand-Prince 8(5,3) with 7th-order dense output (rtol, atol)"),
+                ("rk4", "RK4: fixed-step classical Runge-Kutta (fixed_step)"),
+                (
+                    "semi_implicit_euler",
+                    "Semi-implicit Euler: fixed-step semi-implicit (symplectic) Euler (fixed_step)",
+                ),
+                ("tsit5", "Tsit5: adaptive Tsitouras 5(4) pair (rtol, atol)"),
+                ("dopri5", "DOPRI5: adaptive Dormand-Prince 5(4) pair (rtol, atol)"),
+                (
+                    "rkn5",
+                    "Fine RKN 5(4): adaptive general Runge-Kutta-Nystrom 5(4) pair of Fine (rtol, "
+                    "atol): cheapest at the searches' accuracy",
+                ),
+            ),
+        ),
+        Variable(
+            "spring_law",
+            INTEGER,
+            "parameter",
+            "0 = exponential springs (the study's law), 1 = linear springs F = k r",
+            start=0,
+            minimum=0,
+            maximum=1,
+            allowed="0 (exponential) or 1 (linear)",
+        ),
+        Variable(
+            "has_backplate",
+            INTEGER,
+            "parameter",
+            "1 = the backplate is there, 0 = a free lattice",
+            start=1,
+            minimum=0,
+            maximum=1,
+            allowed="0 or 1",
+        ),
+        Variable(
+            "use_symmetry",
+            INTEGER,
+            "parameter",
+            "Co-Simulation: 1 = when the lattice is mirror-symmetric about its middle row (an odd number of "
+            "rows, load_angle 0) integrate only its upper half, the same solution at about half the cost, "
+            "and of a plate also about its middle slice in depth (a quarter); 0 = always the whole lattice. Model "
+            "Exchange always hands the importer the whole lattice",
+            start=1,
+            minimum=0,
+            maximum=1,
+            allowed="0 or 1",
+        ),
         # odd and centred: the core refuses the rest at initialisation (lattice_params_error), in one line
-        Variable("load_patch", INTEGER, "parameter",
-                 "Where column 1 is loaded: 0 = over its whole face (each mass's share the product of its row's "
-                 "and its depth slice's weights, half at an edge), or an odd P = the centred P x P patch of its "
-                 "rows x depth masses, each of those masses an equal share",
-                 start=0, minimum=0, maximum=min(rows, depth),
-                 allowed=f"0 (the whole face) or an odd P, 1 <= P <= min(rows, depth) = {min(rows, depth)}, with "
-                         f"an odd number of rows and an odd depth"),
-        Variable("load_mode", INTEGER, "parameter",
-                 "What pushes column 1: pulse (0, F_total for 0 <= t <= t_active, the "
-                 "study's load), input (1, the input F_front, spread over the face as the pulse is) or projectile "
-                 "(2, a rigid body striking the face through a Hunt-Crossley contact, integrated with the lattice)",
-                 start=0, minimum=0, maximum=2, allowed="0 (pulse), 1 (input) or 2 (projectile)",
-                 enumeration="LoadMode",
-                 items=(("pulse", "F_total at load_angle for 0 <= t <= t_active (the study's load)"),
-                        ("input", "The input F_front along +x, spread over the face with the pulse's weights"),
-                        ("projectile", ("A rigid body of projectile_mass striking the face at projectile_speed: "
-                                        "its contact force pushes the face as F_front would")))),
+        Variable(
+            "load_patch",
+            INTEGER,
+            "parameter",
+            "Where column 1 is loaded: 0 = over its whole face (each mass's share the product of its row's "
+            "and its depth slice's weights, half at an edge), or an odd P = the centred P x P patch of its "
+            "rows x depth masses, each of those masses an equal share",
+            start=0,
+            minimum=0,
+            maximum=min(rows, depth),
+            allowed=f"0 (the whole face) or an odd P, 1 <= P <= min(rows, depth) = {min(rows, depth)}, with "
+            f"an odd number of rows and an odd depth",
+        ),
+        Variable(
+            "load_mode",
+            INTEGER,
+            "parameter",
+            "What pushes column 1: pulse (0, F_total for 0 <= t <= t_active, the "
+            "study's load), input (1, the input F_front, spread over the face as the pulse is) or projectile "
+            "(2, a rigid body striking the face through a Hunt-Crossley contact, integrated with the lattice)",
+            start=0,
+            minimum=0,
+            maximum=2,
+            allowed="0 (pulse), 1 (input) or 2 (projectile)",
+            enumeration="LoadMode",
+            items=(
+                ("pulse", "F_total at load_angle for 0 <= t <= t_active (the study's load)"),
+                ("input", "The input F_front along +x, spread over the face with the pulse's weights"),
+                (
+                    "projectile",
+                    (
+                        "A rigid body of projectile_mass striking the face at projectile_speed: "
+                        "its contact force pushes the face as F_front would"
+                    ),
+                ),
+            ),
+        ),
         # projectile mode (docs/model.md section 11): the default body carries the pulse's momentum, F_total x
         # t_active (tests/test_ports.py checks it), as a blunt impactor
-        Variable("projectile_mass", REAL, "parameter",
-                 "Projectile mode: the striking body's mass (with projectile_speed, by default the pulse's "
-                 "momentum F_total x t_active, as a blunt impactor)", start=50.0, unit="kg", minimum=0.0,
-                 minimum_exclusive=True),
-        Variable("projectile_speed", REAL, "parameter",
-                 "Projectile mode: the body's speed along +x at t = 0, when it touches the face",
-                 start=3.6, unit="m/s", minimum=0.0),
-        Variable("contact_stiffness", REAL, "parameter",
-                 "Projectile mode: k_c of the Hunt-Crossley contact F_c = k_c d^n (1 + lambda d'), in "
-                 "N/m^contact_exponent (d the overlap of body and face); the default makes the default body's "
-                 "contact force about the pulse's in size and duration", start=PROJECTILE_CONTACT_STIFFNESS,
-                 minimum=0.0, minimum_exclusive=True),
-        Variable("contact_exponent", REAL, "parameter",
-                 "Projectile mode: n of the contact (1.5: Hertz's, a blunt body's curved nose on a flat face)",
-                 start=1.5, minimum=1.0, maximum=3.0),
-        Variable("contact_damping", REAL, "parameter",
-                 "Projectile mode: lambda of the Hunt-Crossley contact (the contact's coefficient of "
-                 "restitution is about 1 - 2 lambda v / 3 at impact speed v: the default gives about 0.76 at "
-                 "3.6 m/s)", start=0.1, unit="s/m", minimum=0.0),
+        Variable(
+            "projectile_mass",
+            REAL,
+            "parameter",
+            "Projectile mode: the striking body's mass (with projectile_speed, by default the pulse's "
+            "momentum F_total x t_active, as a blunt impactor)",
+            start=50.0,
+            unit="kg",
+            minimum=0.0,
+            minimum_exclusive=True,
+        ),
+        Variable(
+            "projectile_speed",
+            REAL,
+            "parameter",
+            "Projectile mode: the body's speed along +x at t = 0, when it touches the face",
+            start=3.6,
+            unit="m/s",
+            minimum=0.0,
+        ),
+        Variable(
+            "contact_stiffness",
+            REAL,
+            "parameter",
+            "Projectile mode: k_c of the Hunt-Crossley contact F_c = k_c d^n (1 + lambda d'), in "
+            "N/m^contact_exponent (d the overlap of body and face); the default makes the default body's "
+            "contact force about the pulse's in size and duration",
+            start=PROJECTILE_CONTACT_STIFFNESS,
+            minimum=0.0,
+            minimum_exclusive=True,
+        ),
+        Variable(
+            "contact_exponent",
+            REAL,
+            "parameter",
+            "Projectile mode: n of the contact (1.5: Hertz's, a blunt body's curved nose on a flat face)",
+            start=1.5,
+            minimum=1.0,
+            maximum=3.0,
+        ),
+        Variable(
+            "contact_damping",
+            REAL,
+            "parameter",
+            "Projectile mode: lambda of the Hunt-Crossley contact (the contact's coefficient of "
+            "restitution is about 1 - 2 lambda v / 3 at impact speed v: the default gives about 0.76 at "
+            "3.6 m/s)",
+            start=0.1,
+            unit="s/m",
+            minimum=0.0,
+        ),
         # inputs: the ports (docs/model.md section 11)
-        Variable("F_front", REAL, "input",
-                 "Front port: the force along +x on column 1's face in load_mode input, each loaded mass its "
-                 "share of it (the pulse's weights, normalised to 1); F_front v_front is the power the port takes "
-                 "in. Co-Simulation holds it over a step, or extrapolates it with the derivative a master gives "
-                 "(fmi2SetRealInputDerivatives)", start=0.0, unit="N"),
-        Variable("x_back", REAL, "input",
-                 "Back port: the backplate's displacement along +x (0: the rigid wall of section 5). "
-                 "Co-Simulation moves the backplate from it with v_back over a step", start=0.0, unit="m"),
-        Variable("v_back", REAL, "input",
-                 "Back port: the backplate's velocity along +x; the backplate's damper acts on vx - v_back",
-                 start=0.0, unit="m/s"),
+        Variable(
+            "F_front",
+            REAL,
+            "input",
+            "Front port: the force along +x on column 1's face in load_mode input, each loaded mass its "
+            "share of it (the pulse's weights, normalised to 1); F_front v_front is the power the port takes "
+            "in. Co-Simulation holds it over a step, or extrapolates it with the derivative a master gives "
+            "(fmi2SetRealInputDerivatives)",
+            start=0.0,
+            unit="N",
+        ),
+        Variable(
+            "x_back",
+            REAL,
+            "input",
+            "Back port: the backplate's displacement along +x (0: the rigid wall of section 5). "
+            "Co-Simulation moves the backplate from it with v_back over a step",
+            start=0.0,
+            unit="m",
+        ),
+        Variable(
+            "v_back",
+            REAL,
+            "input",
+            "Back port: the backplate's velocity along +x; the backplate's damper acts on vx - v_back",
+            start=0.0,
+            unit="m/s",
+        ),
         # outputs
-        Variable("backplate_force", REAL, "output", "Force on the backplate", unit="N",
-                 depends_on=BACK_PORT),
-        Variable("stack_mass", REAL, "output",
-                 "Total mass of the lattice: rows x depth x the sum over the columns of their materials' mass",
-                 unit="kg"),
-        Variable("peak_backplate_force", REAL, "output",
-                 "Maximum backplate force over the samples every peak_sample_interval so far. Model Exchange: "
-                 "over the sample times at which the importer completed a step or handled an event (the FMU "
-                 "sees no other points; an importer that stops on the sample grid, as fmpy does on its output "
-                 "grid, gives the study's sampled peak to its own accuracy)", unit="N", depends_on=BACK_PORT),
-        Variable("peak_backplate_force_continuous", REAL, "output",
-                 "Maximum backplate force over the continuous solution so far. Model Exchange: over every point "
-                 "at which the importer completed a step or handled an event, which can miss the maximum "
-                 "between them", unit="N", depends_on=BACK_PORT),
-        Variable("peak_time", REAL, "output", "Time of peak_backplate_force_continuous", unit="s",
-                 depends_on=BACK_PORT),
-        Variable("last_contact_time", REAL, "output",
-                 "Latest time any column-C mass touched the backplate (0 if none has): a search over a short "
-                 "horizon is safe only if this is well before the horizon. Model Exchange: over the points the "
-                 "importer completed, contact ends located as events", unit="s", depends_on=BACK_PORT),
-        Variable("max_compression", REAL, "output",
-                 "Largest shortening of the lattice along the load so far: the mean x displacement of column 1 "
-                 "minus that of column C, over the same samples as peak_backplate_force", unit="m"),
-        Variable("transmitted_impulse", REAL, "output",
-                 "Impulse transmitted to the backplate so far: the time integral of the backplate force, by the "
-                 "trapezoidal rule over the same samples as peak_backplate_force", unit="N.s", depends_on=BACK_PORT),
+        Variable("backplate_force", REAL, "output", "Force on the backplate", unit="N", depends_on=BACK_PORT),
+        Variable(
+            "stack_mass",
+            REAL,
+            "output",
+            "Total mass of the lattice: rows x depth x the sum over the columns of their materials' mass",
+            unit="kg",
+        ),
+        Variable(
+            "peak_backplate_force",
+            REAL,
+            "output",
+            "Maximum backplate force over the samples every peak_sample_interval so far. Model Exchange: "
+            "over the sample times at which the importer completed a step or handled an event (the FMU "
+            "sees no other points; an importer that stops on the sample grid, as fmpy does on its output "
+            "grid, gives the study's sampled peak to its own accuracy)",
+            unit="N",
+            depends_on=BACK_PORT,
+        ),
+        Variable(
+            "peak_backplate_force_continuous",
+            REAL,
+            "output",
+            "Maximum backplate force over the continuous solution so far. Model Exchange: over every point "
+            "at which the importer completed a step or handled an event, which can miss the maximum "
+            "between them",
+            unit="N",
+            depends_on=BACK_PORT,
+        ),
+        Variable(
+            "peak_time", REAL, "output", "Time of peak_backplate_force_continuous", unit="s", depends_on=BACK_PORT
+        ),
+        Variable(
+            "last_contact_time",
+            REAL,
+            "output",
+            "Latest time any column-C mass touched the backplate (0 if none has): a search over a short "
+            "horizon is safe only if this is well before the horizon. Model Exchange: over the points the "
+            "importer completed, contact ends located as events",
+            unit="s",
+            depends_on=BACK_PORT,
+        ),
+        Variable(
+            "max_compression",
+            REAL,
+            "output",
+            "Largest shortening of the lattice along the load so far: the mean x displacement of column 1 "
+            "minus that of column C, over the same samples as peak_backplate_force",
+            unit="m",
+        ),
+        Variable(
+            "transmitted_impulse",
+            REAL,
+            "output",
+            "Impulse transmitted to the backplate so far: the time integral of the backplate force, by the "
+            "trapezoidal rule over the same samples as peak_backplate_force",
+            unit="N.s",
+            depends_on=BACK_PORT,
+        ),
         Variable("kinetic_energy", REAL, "output", "Kinetic energy (projectile mode: with the body's)", unit="J"),
-        Variable("potential_energy", REAL, "output",
-                 "Potential energy of the springs and the backplate (projectile mode: and of the contact, "
-                 "k_c d^(n+1) / (n+1))",
-                 unit="J", depends_on=BACK_PORT),
-        Variable("external_work", REAL, "output",
-                 "Work done on the lattice from outside: by the load (pulse) or the front port, minus the work "
-                 "it does on a moving backplate (projectile mode: the contact's work stays inside the model, "
-                 "whose energy holds the body's; a continuous state: Model Exchange integrates it with the "
-                 "lattice)",
-                 unit="J", role=STATE),
-        Variable("dissipated_energy", REAL, "output",
-                 "Energy taken out by the dampers (projectile mode: and by the contact; a continuous state)",
-                 unit="J", role=STATE),
-        Variable("nonreciprocal_work", REAL, "output",
-                 "Work of the unequal part of diagonal pairs (receiver rule; a continuous state)", unit="J",
-                 role=STATE),
-        Variable("energy_balance_error", REAL, "output",
-                 "external_work + nonreciprocal_work - kinetic - potential - dissipated (+ the start state's "
-                 "energy: the projectile's kinetic energy)", unit="J",
-                 depends_on=BACK_PORT),
-        Variable("x_front", REAL, "output",
-                 "Front port: the loaded face's displacement along +x, sum of w_a ux_a over its loaded masses "
-                 "with the load's weights w_a (summing to 1)", unit="m"),
-        Variable("v_front", REAL, "output",
-                 "Front port: the loaded face's velocity along +x, sum of w_a vx_a (F_front v_front is the power "
-                 "the port takes in)", unit="m/s"),
-        Variable("contact_force", REAL, "output",
-                 "Projectile mode: the contact force between the body and the face, max(k_c d^n (1 + lambda d'), "
-                 "0) while d = projectile_position - x_front > 0, else 0; 0 in the other modes", unit="N"),
-        Variable("projectile_position", REAL, "output",
-                 "Projectile mode: the body's displacement along +x from where it touches the face at t = 0 (a "
-                 "continuous state)", unit="m", role=STATE),
-        Variable("projectile_velocity", REAL, "output",
-                 "Projectile mode: the body's velocity along +x (a continuous state)", unit="m/s", role=STATE),
+        Variable(
+            "potential_energy",
+            REAL,
+            "output",
+            "Potential energy of the springs and the backplate (projectile mode: and of the contact, "
+            "k_c d^(n+1) / (n+1))",
+            unit="J",
+            depends_on=BACK_PORT,
+        ),
+        Variable(
+            "external_work",
+            REAL,
+            "output",
+            "Work done on the lattice from outside: by the load (pulse) or the front port, minus the work "
+            "it does on a moving backplate (projectile mode: the contact's work stays inside the model, "
+            "whose energy holds the body's; a continuous state: Model Exchange integrates it with the "
+            "lattice)",
+            unit="J",
+            role=STATE,
+        ),
+        Variable(
+            "dissipated_energy",
+            REAL,
+            "output",
+            "Energy taken out by the dampers (projectile mode: and by the contact; a continuous state)",
+            unit="J",
+            role=STATE,
+        ),
+        Variable(
+            "nonreciprocal_work",
+            REAL,
+            "output",
+            "Work of the unequal part of diagonal pairs (receiver rule; a continuous state)",
+            unit="J",
+            role=STATE,
+        ),
+        Variable(
+            "energy_balance_error",
+            REAL,
+            "output",
+            "external_work + nonreciprocal_work - kinetic - potential - dissipated (+ the start state's "
+            "energy: the projectile's kinetic energy)",
+            unit="J",
+            depends_on=BACK_PORT,
+        ),
+        Variable(
+            "x_front",
+            REAL,
+            "output",
+            "Front port: the loaded face's displacement along +x, sum of w_a ux_a over its loaded masses "
+            "with the load's weights w_a (summing to 1)",
+            unit="m",
+        ),
+        Variable(
+            "v_front",
+            REAL,
+            "output",
+            "Front port: the loaded face's velocity along +x, sum of w_a vx_a (F_front v_front is the power "
+            "the port takes in)",
+            unit="m/s",
+        ),
+        Variable(
+            "contact_force",
+            REAL,
+            "output",
+            "Projectile mode: the contact force between the body and the face, max(k_c d^n (1 + lambda d'), "
+            "0) while d = projectile_position - x_front > 0, else 0; 0 in the other modes",
+            unit="N",
+        ),
+        Variable(
+            "projectile_position",
+            REAL,
+            "output",
+            "Projectile mode: the body's displacement along +x from where it touches the face at t = 0 (a "
+            "continuous state)",
+            unit="m",
+            role=STATE,
+        ),
+        Variable(
+            "projectile_velocity",
+            REAL,
+            "output",
+            "Projectile mode: the body's velocity along +x (a continuous state)",
+            unit="m/s",
+            role=STATE,
+        ),
     ]
     where = f" of layer {plotted_layer(depth)}" if depth > 1 else ""
     for place, (row, col) in plotted_masses(rows, cols).items():
         for axis in ("x", "y"):
-            variables.append(Variable(f"u{axis}_{place}", REAL, "output",
-                                      f"Displacement {axis} of the mass at row {row}, column {col}{where}",
-                                      unit="m"))
+            variables.append(
+                Variable(
+                    f"u{axis}_{place}",
+                    REAL,
+                    "output",
+                    f"Displacement {axis} of the mass at row {row}, column {col}{where}",
+                    unit="m",
+                )
+            )
     variables += [
-        Variable("rhs_evaluations", INTEGER, "output",
-                 "Right-hand-side evaluations so far (Model Exchange: derivative evaluations the importer asked "
-                 "for)"),
-        Variable("steps_accepted", INTEGER, "output",
-                 "Accepted solver steps so far (Model Exchange: the importer's completed steps and events)"),
-        Variable("steps_rejected", INTEGER, "output",
-                 "Rejected solver steps so far (Model Exchange: the importer does not tell the FMU, stays 0)"),
+        Variable(
+            "rhs_evaluations",
+            INTEGER,
+            "output",
+            "Right-hand-side evaluations so far (Model Exchange: derivative evaluations the importer asked for)",
+        ),
+        Variable(
+            "steps_accepted",
+            INTEGER,
+            "output",
+            "Accepted solver steps so far (Model Exchange: the importer's completed steps and events)",
+        ),
+        Variable(
+            "steps_rejected",
+            INTEGER,
+            "output",
+            "Rejected solver steps so far (Model Exchange: the importer does not tell the FMU, stays 0)",
+        ),
     ]
     return variables + continuous_time_variables(rows, cols, depth)
 
@@ -425,34 +757,78 @@ def continuous_time_variables(rows: int, cols: int, depth: int = 1) -> list[Vari
     axes = ("x", "y") if depth == 1 else ("x", "y", "z")
     face = "row's" if depth == 1 else "face mass's (layer by layer)"
     variables = []
-    for name, what, unit in ([(f"u{a}", f"Displacement {a}", "m") for a in axes]
-                             + [(f"v{a}", f"Velocity {a}", "m/s") for a in axes]):
-        variables.append(Variable(name, REAL, "local", f"{what} of each mass {index} (a continuous state)",
-                                  unit=unit, size=masses, shape=shape, role=STATE))
-    for name, what, unit in ([(f"u{a}", f"Velocity {a}", "m/s") for a in axes]
-                             + [(f"v{a}", f"Acceleration {a}", "m/s2") for a in axes]):
-        variables.append(Variable(f"der({name})", REAL, "local", f"{what} of each mass {index}", unit=unit,
-                                  size=masses, shape=shape, role=DERIVATIVE, derivative_of=name))
-    for name, what in (("external_work", "Power of the load"), ("dissipated_energy", "Power of the dampers"),
-                       ("nonreciprocal_work", "Power of the unequal part of diagonal pairs")):
-        variables.append(Variable(f"der({name})", REAL, "local", what, unit="W", role=DERIVATIVE,
-                                  derivative_of=name))
-    for name, what, unit in (("projectile_position", "Velocity of the projectile", "m/s"),
-                             ("projectile_velocity", "Acceleration of the projectile", "m/s2")):
-        variables.append(Variable(f"der({name})", REAL, "local", what, unit=unit, role=DERIVATIVE,
-                                  derivative_of=name))
+    for name, what, unit in [(f"u{a}", f"Displacement {a}", "m") for a in axes] + [
+        (f"v{a}", f"Velocity {a}", "m/s") for a in axes
+    ]:
+        variables.append(
+            Variable(
+                name,
+                REAL,
+                "local",
+                f"{what} of each mass {index} (a continuous state)",
+                unit=unit,
+                size=masses,
+                shape=shape,
+                role=STATE,
+            )
+        )
+    for name, what, unit in [(f"u{a}", f"Velocity {a}", "m/s") for a in axes] + [
+        (f"v{a}", f"Acceleration {a}", "m/s2") for a in axes
+    ]:
+        variables.append(
+            Variable(
+                f"der({name})",
+                REAL,
+                "local",
+                f"{what} of each mass {index}",
+                unit=unit,
+                size=masses,
+                shape=shape,
+                role=DERIVATIVE,
+                derivative_of=name,
+            )
+        )
+    for name, what in (
+        ("external_work", "Power of the load"),
+        ("dissipated_energy", "Power of the dampers"),
+        ("nonreciprocal_work", "Power of the unequal part of diagonal pairs"),
+    ):
+        variables.append(Variable(f"der({name})", REAL, "local", what, unit="W", role=DERIVATIVE, derivative_of=name))
+    for name, what, unit in (
+        ("projectile_position", "Velocity of the projectile", "m/s"),
+        ("projectile_velocity", "Acceleration of the projectile", "m/s2"),
+    ):
+        variables.append(Variable(f"der({name})", REAL, "local", what, unit=unit, role=DERIVATIVE, derivative_of=name))
     variables += [
-        Variable("contact_indicator", REAL, "local",
-                 f"Event indicator of each {face} column-C mass touching the backplate: ux - backplate_gap - "
-                 "x_back (> 0 in contact)", unit="m", size=rows * depth, role=INDICATOR),
-        Variable("damping_indicator", REAL, "local",
-                 f"Event indicator of each {face} backplate damper: vx - v_back while in contact (> 0: "
-                 "approaching, the damper acts); off the plate the damper cannot switch and this repeats "
-                 "contact_indicator",
-                 size=rows * depth, role=INDICATOR),
-        Variable(IMPACT_INDICATOR, REAL, "local",
-                 "Event indicator of the projectile's contact: projectile_position - x_front (> 0 in contact); "
-                 "1 outside projectile mode", unit="m", role=INDICATOR),
+        Variable(
+            "contact_indicator",
+            REAL,
+            "local",
+            f"Event indicator of each {face} column-C mass touching the backplate: ux - backplate_gap - "
+            "x_back (> 0 in contact)",
+            unit="m",
+            size=rows * depth,
+            role=INDICATOR,
+        ),
+        Variable(
+            "damping_indicator",
+            REAL,
+            "local",
+            f"Event indicator of each {face} backplate damper: vx - v_back while in contact (> 0: "
+            "approaching, the damper acts); off the plate the damper cannot switch and this repeats "
+            "contact_indicator",
+            size=rows * depth,
+            role=INDICATOR,
+        ),
+        Variable(
+            IMPACT_INDICATOR,
+            REAL,
+            "local",
+            "Event indicator of the projectile's contact: projectile_position - x_front (> 0 in contact); "
+            "1 outside projectile mode",
+            unit="m",
+            role=INDICATOR,
+        ),
     ]
     return variables
 
@@ -485,8 +861,9 @@ class Interface:
 TABLE_PARAMETERS = tuple(column.name for column in MATERIAL_FIELDS)  # the material table's columns
 
 
-def with_node_mass(parameters: dict | None, materials: MaterialTable | None,
-                   cols: int) -> tuple[dict, MaterialTable | None]:
+def with_node_mass(
+    parameters: dict | None, materials: MaterialTable | None, cols: int
+) -> tuple[dict, MaterialTable | None]:
     """A scene's parameters and table with a scalar ``mass`` among the parameters (the one mass of every node,
     as scenes gave it before docs/model.md section 12 gave each material its own ``mass[m]``) read as every
     material's mass: the table with that mass column, the parameters without it. A table that sets masses of
@@ -496,23 +873,37 @@ def with_node_mass(parameters: dict | None, materials: MaterialTable | None,
         return parameters, materials
     node_mass = parameters.pop("mass")
     table = materials or study_materials(min(cols, STUDY_MATERIAL_COUNT))
-    if isinstance(node_mass, bool) or not isinstance(node_mass, (int, float)) or not (
-            math.isfinite(node_mass) and node_mass > 0):
-        raise ValueError(f"parameter mass = {node_mass!r} is not allowed: allowed a finite number > 0 (kg, every "
-                         f"material's mass)")
+    if (
+        isinstance(node_mass, bool)
+        or not isinstance(node_mass, (int, float))
+        or not (math.isfinite(node_mass) and node_mass > 0)
+    ):
+        raise ValueError(
+            f"parameter mass = {node_mass!r} is not allowed: allowed a finite number > 0 (kg, every material's mass)"
+        )
     if any(m.mass != 1.0 for m in table.materials):
-        raise ValueError(f"parameter mass = {node_mass!r} and the material table's mass column both set the "
-                         f"masses: give the masses in the table only")
+        raise ValueError(
+            f"parameter mass = {node_mass!r} and the material table's mass column both set the "
+            f"masses: give the masses in the table only"
+        )
     return parameters, MaterialTable(tuple(replace(m, mass=float(node_mass)) for m in table.materials))
 
 
-def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden: tuple[str, ...] = (),
-                   materials: MaterialTable | None = None, depth: int = 1) -> Interface:
+def make_interface(
+    rows: int,
+    cols: int,
+    parameters: dict | None = None,
+    hidden: tuple[str, ...] = (),
+    materials: MaterialTable | None = None,
+    depth: int = 1,
+) -> Interface:
     """Variables for a rows x cols x depth lattice with the material table `materials` (default: the study's, up
     to one material per column); `parameters` overrides starts, `hidden` compiles them in."""
     if rows < 1 or cols < 1 or cols > 64 or depth < 1 or rows * cols * depth > 100000:
-        raise ValueError(f"rows, cols and depth: allowed 1 <= rows, 1 <= cols <= 64, 1 <= depth, at most 100000 "
-                         f"masses (got rows={rows}, cols={cols}, depth={depth})")
+        raise ValueError(
+            f"rows, cols and depth: allowed 1 <= rows, 1 <= cols <= 64, 1 <= depth, at most 100000 "
+            f"masses (got rows={rows}, cols={cols}, depth={depth})"
+        )
     parameters, materials = with_node_mass(parameters, materials, cols)
     variables = all_variables(rows, cols, materials, depth)
     known = {v.name for v in variables}
@@ -521,8 +912,10 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden:
         raise ValueError(f"unknown parameter(s) {sorted(unknown)}; known: {sorted(known)}")
     in_table = sorted(set(parameters or {}) & set(TABLE_PARAMETERS))
     if in_table:
-        raise ValueError(f"parameters {in_table} are the material table's: give the table itself (a scene's "
-                         f"materials, build_fmu.py --materials FILE)")
+        raise ValueError(
+            f"parameters {in_table} are the material table's: give the table itself (a scene's "
+            f"materials, build_fmu.py --materials FILE)"
+        )
     exposed, fixed = [], []
     patch = (parameters or {}).get("load_patch", WHOLE_FACE)
     if not load_patch_allowed(rows, depth, patch):
@@ -535,8 +928,7 @@ def make_interface(rows: int, cols: int, parameters: dict | None = None, hidden:
                 raise ValueError(f"parameter {variable.name}: expected {variable.size} values")
         (fixed if variable.name in hidden else exposed).append(variable)
     if not _has_backplate(exposed + fixed):  # no backplate: no backplate switches, only the projectile's contact
-        exposed = [variable for variable in exposed
-                   if variable.role != INDICATOR or variable.name == IMPACT_INDICATOR]
+        exposed = [variable for variable in exposed if variable.role != INDICATOR or variable.name == IMPACT_INDICATOR]
     value_references, next_vr = {}, 0
     for variable in exposed:  # reals and integers share one numbering: unique across types, as FMI 3 needs
         value_references[variable.name] = next_vr

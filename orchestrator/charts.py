@@ -1,5 +1,6 @@
 """The charts every step draws from a study's typed results (nothing here simulates): matplotlib set up once,
 the methods' names and colours, the figure title and the PNG writer."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -11,14 +12,31 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 
-METHOD_NAMES = {"cmaes": "CMA-ES", "pso": "particle swarm", "sa": "simulated annealing", "ga": "genetic algorithm",
-                "de": "differential evolution", "random": "random search", "local": "iterated local search",
-                "sequential": "baseline order", "nsga2": "NSGA-II"}
+METHOD_NAMES = {
+    "cmaes": "CMA-ES",
+    "pso": "particle swarm",
+    "sa": "simulated annealing",
+    "ga": "genetic algorithm",
+    "de": "differential evolution",
+    "random": "random search",
+    "local": "iterated local search",
+    "sequential": "baseline order",
+    "nsga2": "NSGA-II",
+}
 # The one palette of every chart and page (the PNGs and explore.html): a method has one colour everywhere,
 # and no two methods share one. Hex, so that the browser and matplotlib read the same value.
-COLOURS = {"cmaes": "#1f77b4", "pso": "#ff7f0e", "sa": "#2ca02c", "ga": "#9467bd", "de": "#8c564b",
-           "random": "#7f7f7f", "local": "#bcbd22", "sequential": "#000000", "nsga2": "#17becf",
-           "finalists": "#e377c2"}
+COLOURS = {
+    "cmaes": "#1f77b4",
+    "pso": "#ff7f0e",
+    "sa": "#2ca02c",
+    "ga": "#9467bd",
+    "de": "#8c564b",
+    "random": "#7f7f7f",
+    "local": "#bcbd22",
+    "sequential": "#000000",
+    "nsga2": "#17becf",
+    "finalists": "#e377c2",
+}
 OTHER_COLOURS = ("#d62728", "#e377c2", "#17becf", "#8c564b")  # methods the palette does not name, in turn
 RULE_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")  # the diagonal rules' answers and fronts, in turn
 MIN_TEXT_PX = 8.0  # the smallest text a chart may show, in screen pixels, as report.html displays it at 1280 px
@@ -71,13 +89,21 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
         chosen = None
         for avoid_lines in (True, False):  # off every line where there is room, else off the markers alone
             for ring in LABEL_RINGS:
-                for dx, dy in ((ring, 0.4 * ring), (ring, -ring - 0.6 * height), (-ring - width, 0.4 * ring),
-                               (-ring - width, -ring - 0.6 * height), (-width / 2, ring + 2),
-                               (-width / 2, -ring - height - 2)):
+                for dx, dy in (
+                    (ring, 0.4 * ring),
+                    (ring, -ring - 0.6 * height),
+                    (-ring - width, 0.4 * ring),
+                    (-ring - width, -ring - 0.6 * height),
+                    (-width / 2, ring + 2),
+                    (-width / 2, -ring - height - 2),
+                ):
                     label.xyann = (dx, dy)
                     box = label.get_window_extent(renderer).padded(pad)
-                    if inside(box, frame) and not any(box.overlaps(other) for other in obstacles) \
-                            and not (avoid_lines and crosses(box, lines)):
+                    if (
+                        inside(box, frame)
+                        and not any(box.overlaps(other) for other in obstacles)
+                        and not (avoid_lines and crosses(box, lines))
+                    ):
                         chosen = (ring, dx, dy)
                         break
                 if chosen:
@@ -87,8 +113,13 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
         if chosen is None:
             label.xyann = first  # nowhere clear: where it was asked
         elif chosen[0] > LABEL_RINGS[1]:  # a leader from the label's corner to its point
-            label.axes.annotate("", xy=label.xy, xytext=label.xyann, textcoords="offset points",
-                                arrowprops=dict(arrowstyle="-", lw=0.4, color="0.45", shrinkA=0, shrinkB=2))
+            label.axes.annotate(
+                "",
+                xy=label.xy,
+                xytext=label.xyann,
+                textcoords="offset points",
+                arrowprops=dict(arrowstyle="-", lw=0.4, color="0.45", shrinkA=0, shrinkB=2),
+            )
         placed.append(label.get_window_extent(renderer))
 
 
@@ -108,8 +139,9 @@ def line_points(axis, step: float = 2.0) -> np.ndarray:
 
 
 def crosses(box, points: np.ndarray) -> bool:
-    return bool(((points[:, 0] > box.x0) & (points[:, 0] < box.x1)
-                 & (points[:, 1] > box.y0) & (points[:, 1] < box.y1)).any())
+    return bool(
+        ((points[:, 0] > box.x0) & (points[:, 0] < box.x1) & (points[:, 1] > box.y0) & (points[:, 1] < box.y1)).any()
+    )
 
 
 def inside(box, frame) -> bool:
@@ -136,8 +168,7 @@ def marker_boxes(axis, exclude=None) -> list:
 def legend_below(axis, fontsize: float = 7, columns: int = 1):
     """The axis's legend under its x label, where it hides no data (a legend inside the axes covers whatever
     lies under it, and long labels cover most of the width)."""
-    return axis.legend(fontsize=fontsize, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=columns,
-                       frameon=False)
+    return axis.legend(fontsize=fontsize, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=columns, frameon=False)
 
 
 def figure_title(figure, text: str, fontsize: float = 9) -> None:
@@ -154,9 +185,9 @@ def best_so_far_matrix(runs) -> np.ndarray:
     matrix = np.full((len(runs), length), np.nan)
     for row, run in enumerate(runs):
         curve = [np.nan if v is None else v for v in run.best_so_far()]
-        matrix[row, :len(curve)] = curve
+        matrix[row, : len(curve)] = curve
         if curve:
-            matrix[row, len(curve):] = curve[-1]
+            matrix[row, len(curve) :] = curve[-1]
     return matrix
 
 
@@ -167,5 +198,18 @@ def wrapped(text: str, width: int = 150) -> str:
     return "\n".join(textwrap.wrap(text, width))
 
 
-__all__ = ["COLOURS", "METHOD_NAMES", "MIN_TEXT_PX", "RULE_COLOURS", "best_so_far_matrix", "figure_title",
-           "legend_below", "marker_boxes", "method_colour", "plt", "save", "spread_labels", "wrapped"]
+__all__ = [
+    "COLOURS",
+    "METHOD_NAMES",
+    "MIN_TEXT_PX",
+    "RULE_COLOURS",
+    "best_so_far_matrix",
+    "figure_title",
+    "legend_below",
+    "marker_boxes",
+    "method_colour",
+    "plt",
+    "save",
+    "spread_labels",
+    "wrapped",
+]

@@ -13,6 +13,7 @@ nothing simulated twice.
 The settings are command-line options (``--cluster slurm --jobs N --walltime HH:MM:SS``) and the study file's
 ``[cluster]`` section (queue, account, cores and memory per job, the job's environment set-up lines).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -54,28 +55,60 @@ def worker_lifetime(walltime: int) -> tuple[int, int]:
 class ClusterConfig:
     """Where Dask's workers come from with ``--executor dask`` (none of it changes a result)."""
 
-    cluster: str = option("none", "where Dask's workers run: none (a local cluster, or --scheduler's), slurm "
-                          "(batch jobs of a SLURM cluster; with --executor dask)", choices=CLUSTERS,
-                          study=NO_NUMBER)
-    jobs: int = option(2, "SLURM jobs kept queued or running; a job that ends (its walltime, scancel) is replaced",
-                       type=integer("--jobs", 1, 10**5), study=NO_NUMBER)
-    walltime: str = option("01:00:00", "each job's time limit, HH:MM:SS; its workers leave before it, staggered",
-                           metavar="HH:MM:SS", study=NO_NUMBER)
-    queue: str | None = option(None, "the SLURM partition jobs are submitted to", show_default="the cluster's "
-                               "default partition", study=NO_NUMBER)
-    account: str | None = option(None, "the SLURM account jobs are charged to", show_default="yours",
-                                 study=NO_NUMBER)
-    job_cores: int = option(1, "cores per job: one single-threaded Dask worker each",
-                            type=integer("--job-cores", 1, 4096), study=NO_NUMBER)
-    job_memory: str = option("2GB", "memory per job (e.g. 2GB, 500MB), shared by its workers",
-                             metavar="SIZE", study=NO_NUMBER)
-    job_setup: tuple[str, ...] = option((), "a shell line each job runs before its workers start (e.g. module "
-                                        "load python; source venv/bin/activate); repeat for several",
-                                        action="append", metavar="LINE", study=NO_NUMBER)
-    job_start: float = option(3600.0, "seconds to wait for the first job to start (the queue) before giving up",
-                              type=number("--job-start", 0), metavar="S", study=NO_NUMBER)
-    job_directory: str | None = option(None, "each worker's scratch folder on its node (the FMU's copy goes there)",
-                                       show_default="the node's temporary folder", metavar="DIR", study=NOT_KEPT)
+    cluster: str = option(
+        "none",
+        "where Dask's workers run: none (a local cluster, or --scheduler's), slurm "
+        "(batch jobs of a SLURM cluster; with --executor dask)",
+        choices=CLUSTERS,
+        study=NO_NUMBER,
+    )
+    jobs: int = option(
+        2,
+        "SLURM jobs kept queued or running; a job that ends (its walltime, scancel) is replaced",
+        type=integer("--jobs", 1, 10**5),
+        study=NO_NUMBER,
+    )
+    walltime: str = option(
+        "01:00:00",
+        "each job's time limit, HH:MM:SS; its workers leave before it, staggered",
+        metavar="HH:MM:SS",
+        study=NO_NUMBER,
+    )
+    queue: str | None = option(
+        None,
+        "the SLURM partition jobs are submitted to",
+        show_default="the cluster's default partition",
+        study=NO_NUMBER,
+    )
+    account: str | None = option(None, "the SLURM account jobs are charged to", show_default="yours", study=NO_NUMBER)
+    job_cores: int = option(
+        1, "cores per job: one single-threaded Dask worker each", type=integer("--job-cores", 1, 4096), study=NO_NUMBER
+    )
+    job_memory: str = option(
+        "2GB", "memory per job (e.g. 2GB, 500MB), shared by its workers", metavar="SIZE", study=NO_NUMBER
+    )
+    job_setup: tuple[str, ...] = option(
+        (),
+        "a shell line each job runs before its workers start (e.g. module "
+        "load python; source venv/bin/activate); repeat for several",
+        action="append",
+        metavar="LINE",
+        study=NO_NUMBER,
+    )
+    job_start: float = option(
+        3600.0,
+        "seconds to wait for the first job to start (the queue) before giving up",
+        type=number("--job-start", 0),
+        metavar="S",
+        study=NO_NUMBER,
+    )
+    job_directory: str | None = option(
+        None,
+        "each worker's scratch folder on its node (the FMU's copy goes there)",
+        show_default="the node's temporary folder",
+        metavar="DIR",
+        study=NOT_KEPT,
+    )
 
     def __post_init__(self):
         object.__setattr__(self, "job_setup", tuple(self.job_setup))
@@ -103,14 +136,17 @@ def check_cluster(cluster: ClusterConfig, executor: str, scheduler: str | None) 
     if executor != "dask":
         raise ValueError("--cluster slurm: only with --executor dask (the workers are Dask workers in SLURM jobs)")
     if scheduler is not None:
-        raise ValueError("--cluster slurm and --scheduler: give one of them (the jobs' workers join a scheduler "
-                         "this run starts)")
+        raise ValueError(
+            "--cluster slurm and --scheduler: give one of them (the jobs' workers join a scheduler this run starts)"
+        )
     if shutil.which("sbatch") is None:
-        raise ValueError("--cluster slurm: sbatch not found on PATH (run on a SLURM cluster's login node, or "
-                         "load its module)")
+        raise ValueError(
+            "--cluster slurm: sbatch not found on PATH (run on a SLURM cluster's login node, or load its module)"
+        )
     if find_spec("dask_jobqueue") is None:
-        raise ValueError("--cluster slurm needs dask-jobqueue: install the project's dask extra "
-                         "(python -m pip install '.[dask]')")
+        raise ValueError(
+            "--cluster slurm needs dask-jobqueue: install the project's dask extra (python -m pip install '.[dask]')"
+        )
 
 
 @dataclass(frozen=True)
@@ -141,8 +177,11 @@ class SlurmJobs:
         level = distributed_log.level
         distributed_log.setLevel(logging.CRITICAL)
         try:
-            cluster = SLURMCluster(**self.job_options(), silence_logs=logging.ERROR,
-                                   scheduler_options={"dashboard": False, "dashboard_address": ":0"})
+            cluster = SLURMCluster(
+                **self.job_options(),
+                silence_logs=logging.ERROR,
+                scheduler_options={"dashboard": False, "dashboard_address": ":0"},
+            )
             try:
                 cluster.adapt(minimum_jobs=self.config.jobs, maximum_jobs=self.config.jobs)
                 yield cluster
@@ -156,19 +195,29 @@ class SlurmJobs:
         the walltime."""
         config = self.config
         lifetime, stagger = worker_lifetime(walltime_seconds(config.walltime))
-        return dict(cores=config.job_cores, processes=config.job_cores, memory=config.job_memory,
-                    walltime=config.walltime, queue=config.queue, account=config.account,
-                    job_script_prologue=list(config.job_setup), log_directory=self.log_directory,
-                    local_directory=config.job_directory, job_name=JOB_NAME,
-                    worker_extra_args=["--lifetime", f"{lifetime}s", "--lifetime-stagger", f"{stagger}s"])
+        return dict(
+            cores=config.job_cores,
+            processes=config.job_cores,
+            memory=config.job_memory,
+            walltime=config.walltime,
+            queue=config.queue,
+            account=config.account,
+            job_script_prologue=list(config.job_setup),
+            log_directory=self.log_directory,
+            local_directory=config.job_directory,
+            job_name=JOB_NAME,
+            worker_extra_args=["--lifetime", f"{lifetime}s", "--lifetime-stagger", f"{stagger}s"],
+        )
 
     def wait(self, client) -> None:
         """Until the first worker joined (the queue may hold the jobs a while); refused past ``job_start``."""
         try:
             client.wait_for_workers(1, timeout=self.config.job_start)
         except TimeoutError:
-            raise RuntimeError(f"--cluster slurm: no job started within {self.config.job_start:g} s (--job-start); "
-                               "squeue shows why they wait") from None
+            raise RuntimeError(
+                f"--cluster slurm: no job started within {self.config.job_start:g} s (--job-start); "
+                "squeue shows why they wait"
+            ) from None
 
 
 __all__ = ["CLUSTERS", "ClusterConfig", "SlurmJobs", "check_cluster", "walltime_seconds", "worker_lifetime"]

@@ -11,6 +11,7 @@ client, and a worker that joins later fails every task with that reason.
 A module of its own so that importing the orchestrator never imports Dask (an optional extra, slow to import);
 workers import it to unpickle the plugins.
 """
+
 from __future__ import annotations
 
 import hashlib

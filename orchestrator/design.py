@@ -12,6 +12,7 @@ baseline a designer already has, random designs, the neighbourhoods of the local
 continuous optimisers (CMA-ES, particle swarm, differential evolution) and lexicographic ranks (the sweep's
 chunks are ranges of ranks).
 """
+
 from __future__ import annotations
 
 import math
@@ -46,8 +47,10 @@ class DesignSpace:
             if isinstance(value, bool) or int(value) != value or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if not self.repeat and self.materials < self.columns:
-            raise ValueError(f"{self.materials} materials cannot fill {self.columns} columns with each material at "
-                             f"most once; give at least {self.columns} materials or allow repeats")
+            raise ValueError(
+                f"{self.materials} materials cannot fill {self.columns} columns with each material at "
+                f"most once; give at least {self.columns} materials or allow repeats"
+            )
 
     @classmethod
     def permutations(cls, columns: int) -> "DesignSpace":
@@ -62,14 +65,13 @@ class DesignSpace:
     @property
     def size(self) -> int:
         """How many designs the space holds."""
-        return self.materials ** self.columns if self.repeat else math.perm(self.materials, self.columns)
+        return self.materials**self.columns if self.repeat else math.perm(self.materials, self.columns)
 
     def describe(self) -> str:
         if self.kind == PERMUTATION:
             return f"every order of {self.materials} materials over {self.columns} columns ({self.size:,} orders)"
         if self.kind == ARRANGEMENT:
-            return (f"{self.columns} of {self.materials} materials, each at most once ({self.size:,} "
-                    "arrangements)")
+            return f"{self.columns} of {self.materials} materials, each at most once ({self.size:,} arrangements)"
         return f"any of {self.materials} materials in each of {self.columns} columns ({self.size:,} designs)"
 
     # ---------------------------------------------------------------------------------------- membership
@@ -96,8 +98,10 @@ class DesignSpace:
         """``design`` as a tuple, or a ValueError saying why it is not in this space."""
         problem = self.problem(design)
         if problem is not None:
-            raise ValueError(f"{what} {list(design) if isinstance(design, (list, tuple)) else design}: {problem} "
-                             f"(allowed: {self.describe()})")
+            raise ValueError(
+                f"{what} {list(design) if isinstance(design, (list, tuple)) else design}: {problem} "
+                f"(allowed: {self.describe()})"
+            )
         return as_design(design)
 
     # ---------------------------------------------------------------------------------------- baselines
@@ -110,7 +114,7 @@ class DesignSpace:
     def random(self, rng: np.random.Generator) -> Design:
         if self.repeat:
             return tuple(int(m) + 1 for m in rng.integers(0, self.materials, self.columns))
-        return tuple(int(m) + 1 for m in rng.permutation(self.materials)[:self.columns])
+        return tuple(int(m) + 1 for m in rng.permutation(self.materials)[: self.columns])
 
     # ---------------------------------------------------------------------------------------- random keys
     @property
@@ -123,18 +127,20 @@ class DesignSpace:
         (the first C of them: ``argsort(keys) + 1`` for a permutation); with repetition key j in [0, 1] picks
         column j's material, ``floor(key * M) + 1``. A stable sort keeps ties (keys clipped to a bound)
         deterministic."""
-        keys = np.asarray(keys, dtype=float)[:self.key_dimension]
+        keys = np.asarray(keys, dtype=float)[: self.key_dimension]
         if self.repeat:
-            return tuple(int(min(self.materials - 1, max(0, math.floor(k * self.materials)))) + 1
-                         for k in np.nan_to_num(keys, nan=0.5))
-        return tuple(int(i) + 1 for i in np.argsort(keys, kind="stable")[:self.columns])
+            return tuple(
+                int(min(self.materials - 1, max(0, math.floor(k * self.materials)))) + 1
+                for k in np.nan_to_num(keys, nan=0.5)
+            )
+        return tuple(int(i) + 1 for i in np.argsort(keys, kind="stable")[: self.columns])
 
     def to_keys(self, design: Sequence[int], dimension: int | None = None) -> np.ndarray:
         """Evenly spaced keys in [0, 1] that ``from_keys`` decodes to ``design``; extra dimensions get 0.5."""
         design = self.check(design)
         keys = np.full(max(dimension or self.key_dimension, self.key_dimension), 0.5)
         if self.repeat:
-            keys[:self.columns] = [(m - 0.5) / self.materials for m in design]
+            keys[: self.columns] = [(m - 0.5) / self.materials for m in design]
             return keys
         spacing = max(self.materials - 1, 1)
         unused = [m for m in range(1, self.materials + 1) if m not in design]
@@ -255,7 +261,7 @@ class DesignSpace:
             for i in range(n - 1, -1, -1):
                 if p[i] < m:
                     p[i] += 1
-                    p[i + 1:] = [1] * (n - 1 - i)
+                    p[i + 1 :] = [1] * (n - 1 - i)
                     return True
             return False
         if m == n:  # a permutation: Knuth's algorithm L
@@ -268,7 +274,7 @@ class DesignSpace:
             while p[j] <= p[i]:
                 j -= 1
             p[i], p[j] = p[j], p[i]
-            p[i + 1:] = reversed(p[i + 1:])
+            p[i + 1 :] = reversed(p[i + 1 :])
             return True
         for i in range(n - 1, -1, -1):  # an arrangement: raise the rightmost column that can be raised
             used = set(p[:i])
@@ -276,7 +282,7 @@ class DesignSpace:
             if larger:
                 p[i] = larger[0]
                 free = [v for v in range(1, m + 1) if v not in used and v != p[i]]
-                p[i + 1:] = free[:n - 1 - i]
+                p[i + 1 :] = free[: n - 1 - i]
                 return True
         return False
 

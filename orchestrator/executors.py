@@ -8,6 +8,7 @@ order).
     with make_executor("process", workers=2) as executor:
         run = run_search(search, objective, budget, executor, ...)
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -69,9 +70,14 @@ class SerialExecutor(Executor):
         self._shutdown = True
 
 
-def make_executor(kind: str, workers: int | None = None, scheduler: str | None = None,
-                  temp_root: str | None = None, fmus: tuple = (),
-                  cluster=None) -> contextlib.AbstractContextManager[Executor]:
+def make_executor(
+    kind: str,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    temp_root: str | None = None,
+    fmus: tuple = (),
+    cluster=None,
+) -> contextlib.AbstractContextManager[Executor]:
     """Context manager yielding an Executor; everything is shut down on exit.
 
     kind:
@@ -105,8 +111,9 @@ def pool_start_method() -> str | None:
         return None
     allowed = multiprocessing.get_all_start_methods()
     if method not in allowed:
-        raise ValueError(f"{START_METHOD_VARIABLE}={method!r} is not a start method of this platform; "
-                         f"allowed: {', '.join(allowed)}")
+        raise ValueError(
+            f"{START_METHOD_VARIABLE}={method!r} is not a start method of this platform; allowed: {', '.join(allowed)}"
+        )
     return method
 
 
@@ -181,12 +188,19 @@ class ResilientProcessPool(Executor):
         self._live_tokens: set[int] = set()
         self._lock = threading.Lock()
         self._starts_open = True
-        self._reader = threading.Thread(target=self._read_starts,
-                                        args=(self._starts_in, self._starts, self._live_tokens),
-                                        name="lattice-pool-starts", daemon=True)
+        self._reader = threading.Thread(
+            target=self._read_starts,
+            args=(self._starts_in, self._starts, self._live_tokens),
+            name="lattice-pool-starts",
+            daemon=True,
+        )
         self._reader.start()
-        return ProcessPoolExecutor(max_workers=self.slots, initializer=_worker_start,
-                                   initargs=(self.temp_root, os.getpid(), starts_out), mp_context=context)
+        return ProcessPoolExecutor(
+            max_workers=self.slots,
+            initializer=_worker_start,
+            initargs=(self.temp_root, os.getpid(), starts_out),
+            mp_context=context,
+        )
 
     def _read_starts(self, connection, starts: dict[int, float], live: set[int]) -> None:
         while True:
@@ -261,8 +275,9 @@ class ResilientProcessPool(Executor):
 
 
 @contextlib.contextmanager
-def _executor(kind: str, workers: int | None, scheduler: str | None,
-              temp_root: str | None = None, fmus: tuple = (), cluster=None) -> Iterator[Executor]:
+def _executor(
+    kind: str, workers: int | None, scheduler: str | None, temp_root: str | None = None, fmus: tuple = (), cluster=None
+) -> Iterator[Executor]:
     if kind == "serial":
         executor = SerialExecutor()
         try:
@@ -293,13 +308,15 @@ def _executor(kind: str, workers: int | None, scheduler: str | None,
                 shutil.rmtree(root, ignore_errors=True)
 
 
-def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmus: tuple = (),
-          jobs=None) -> Iterator[Executor]:
+def _dask(
+    workers: int | None, scheduler: str | None, temp_root: str | None, fmus: tuple = (), jobs=None
+) -> Iterator[Executor]:
     try:
         from distributed import Client, LocalCluster  # imported lazily: dask is slow to import
     except ImportError:
-        raise RuntimeError("executor 'dask' needs Dask: install the project's dask extra "
-                           "(python -m pip install '.[dask]')") from None
+        raise RuntimeError(
+            "executor 'dask' needs Dask: install the project's dask extra (python -m pip install '.[dask]')"
+        ) from None
 
     with contextlib.ExitStack() as stack:
         if scheduler:
@@ -309,15 +326,24 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmu
             jobs.wait(client)
         else:
             count = int(workers or os.cpu_count() or 1)
-            cluster = stack.enter_context(LocalCluster(
-                n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
-                silence_logs=logging.ERROR, local_directory=temp_root))
+            cluster = stack.enter_context(
+                LocalCluster(
+                    n_workers=count,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    silence_logs=logging.ERROR,
+                    local_directory=temp_root,
+                )
+            )
             client = stack.enter_context(Client(cluster))
             try:  # every worker, or none: a cluster half started would run the study at a fraction of its speed
                 client.wait_for_workers(count, timeout=LOCAL_CLUSTER_START)
             except TimeoutError:
-                raise RuntimeError(f"the local Dask cluster did not start its {count} workers within "
-                                   f"{LOCAL_CLUSTER_START:g} s; give fewer --workers") from None
+                raise RuntimeError(
+                    f"the local Dask cluster did not start its {count} workers within "
+                    f"{LOCAL_CLUSTER_START:g} s; give fewer --workers"
+                ) from None
         from .dask_plugin import CloseFMUs, ShipFMU
 
         client.register_plugin(CloseFMUs(), name="lattice-close-fmus")
@@ -327,8 +353,13 @@ def _dask(workers: int | None, scheduler: str | None, temp_root: str | None, fmu
         if jobs is None:
             executor = DaskActors(client, dask_batch_size())
         else:  # workers leave with their jobs: a call waits for a worker, and runs again while workers leave
-            executor = DaskActors(client, dask_batch_size(), worker_wait=jobs.job_start, attempts=JOB_ATTEMPTS,
-                                  planned_workers=jobs.workers)
+            executor = DaskActors(
+                client,
+                dask_batch_size(),
+                worker_wait=jobs.job_start,
+                attempts=JOB_ATTEMPTS,
+                planned_workers=jobs.workers,
+            )
         try:
             yield executor
         except BaseException:
@@ -349,8 +380,9 @@ class DaskActors(Executor):
     (every ``WORKERS_REFRESH`` s).
     """
 
-    def __init__(self, client, batch_size: int = 1, worker_wait: float = 0.0, attempts: int = 2,
-                 planned_workers: int = 0) -> None:
+    def __init__(
+        self, client, batch_size: int = 1, worker_wait: float = 0.0, attempts: int = 2, planned_workers: int = 0
+    ) -> None:
         """``worker_wait``: seconds a call waits for a worker while the cluster has none (its workers' jobs
         left, others are queued); ``attempts``: on how many workers a call may run before its failure is
         delivered (a worker that could not be reached counts); ``planned_workers``: the workers the cluster
@@ -441,8 +473,9 @@ class DaskActors(Executor):
             return
         self._client.loop.add_callback(self._call, future, address, actor, function, args, kwargs, attempt)
 
-    async def _call(self, future: Future, address: str, actor, function, args: tuple, kwargs: dict,
-                    first_attempt: int = 1) -> None:
+    async def _call(
+        self, future: Future, address: str, actor, function, args: tuple, kwargs: dict, first_attempt: int = 1
+    ) -> None:
         """On the client's event loop: the call, its result into ``future`` (no thread waits for it)."""
         for attempt in range(first_attempt, self._attempts + 1):
             try:
@@ -457,8 +490,12 @@ class DaskActors(Executor):
                     future.set_exception(exc)
                     return
                 if not self._actors and self._worker_wait > 0:
-                    threading.Thread(target=self._call_elsewhere, name="lattice-dask-wait", daemon=True,
-                                     args=(future, address, function, args, kwargs, attempt + 1)).start()
+                    threading.Thread(
+                        target=self._call_elsewhere,
+                        name="lattice-dask-wait",
+                        daemon=True,
+                        args=(future, address, function, args, kwargs, attempt + 1),
+                    ).start()
                     return
                 if not self._actors:
                     future.set_exception(exc)

@@ -20,6 +20,7 @@ the sweep gives the optimum with a certificate:
   verified design), the optimum and the runner-up re-evaluated by a second integrator at a tight tolerance,
   and the gap between them larger than the integration error.
 """
+
 from __future__ import annotations
 
 import math
@@ -46,7 +47,7 @@ def histogram_bin(value: float, resolution: float = HISTOGRAM_RESOLUTION) -> int
     chunks share their bins without knowing each other's range, and a relative width resolves the small
     gaps between good designs whatever the scene's force scale."""
     if value <= 0:
-        return -10**9
+        return -(10**9)
     return int(math.floor(math.log(value) / math.log1p(resolution)))
 
 
@@ -113,16 +114,25 @@ def not_strongly_dominated(values, screening_error: float):
     factor = (1 - screening_error) / (1 + screening_error)
     keep = np.ones(len(F), dtype=bool)
     for start in range(0, len(F), 512):  # blocks: the comparison matrix stays small
-        block = F[start:start + 512]
+        block = F[start : start + 512]
         beaten = np.all(F[None, :, :] <= block[:, None, :] * factor, axis=2)
         strictly = np.any(F[None, :, :] < block[:, None, :] * factor, axis=2)
-        keep[start:start + 512] = ~np.any(beaten & strictly, axis=1)
+        keep[start : start + 512] = ~np.any(beaten & strictly, axis=1)
     return keep
 
 
-def evaluate_chunk(objective: Callable[[Order], Any], space: DesignSpace, start: int, stop: int, *, keep: int,
-                   screening_error: float, limit: float | None = None, all_values: bool = False,
-                   objectives: int = 1) -> ChunkResult:
+def evaluate_chunk(
+    objective: Callable[[Order], Any],
+    space: DesignSpace,
+    start: int,
+    stop: int,
+    *,
+    keep: int,
+    screening_error: float,
+    limit: float | None = None,
+    all_values: bool = False,
+    objectives: int = 1,
+) -> ChunkResult:
     """Every design of ranks [start, stop) through ``objective`` (an ``FMURun``, or any ``design ->
     Evaluation`` function; with ``limit``, one that has ``with_limit``). With several ``objectives`` the chunk's
     candidates are the designs no other design of the chunk beats on every objective by more than the
@@ -181,14 +191,24 @@ def evaluate_chunk(objective: Callable[[Order], Any], space: DesignSpace, start:
         bound = screening_threshold(chunk_best, screening_error) if math.isfinite(chunk_best) else math.inf
         within = [Scored(space.unrank(r), v) for v, r in sorted(g for g in good if g[0] <= bound)]
     return ChunkResult(
-        start=start, stop=stop, status="ok", message="",
+        start=start,
+        stop=stop,
+        status="ok",
+        message="",
         best=tuple(Scored(space.unrank(r), v) for v, r in best),
-        within=tuple(within[:MAX_KEPT_PER_CHUNK]), within_truncated=len(within) > MAX_KEPT_PER_CHUNK,
+        within=tuple(within[:MAX_KEPT_PER_CHUNK]),
+        within_truncated=len(within) > MAX_KEPT_PER_CHUNK,
         failures=tuple(Failure(space.unrank(r), m) for r, m in failures[:MAX_KEPT_PER_CHUNK]),
-        failed=len(failures), censored=censored, start_limit=limit, final_limit=current_limit,
-        histogram=tuple(sorted(histogram.items())), seconds=time.perf_counter() - wall,
-        cpu_seconds=time.process_time() - cpu, evaluation_seconds=evaluated_seconds,
-        values=tuple(values) if all_values else ())
+        failed=len(failures),
+        censored=censored,
+        start_limit=limit,
+        final_limit=current_limit,
+        histogram=tuple(sorted(histogram.items())),
+        seconds=time.perf_counter() - wall,
+        cpu_seconds=time.process_time() - cpu,
+        evaluation_seconds=evaluated_seconds,
+        values=tuple(values) if all_values else (),
+    )
 
 
 @dataclass(frozen=True)
@@ -208,18 +228,44 @@ class ScreenChunk:
 
     @property
     def key(self) -> str:
-        return (f"chunk|{function_key(self.screening)}|{self.space.key}|{self.start}:{self.stop}|"
-                f"best={self.best_count}|error={self.screening_error!r}|values={self.all_values}|"
-                f"objectives={self.objectives}")
+        return (
+            f"chunk|{function_key(self.screening)}|{self.space.key}|{self.start}:{self.stop}|"
+            f"best={self.best_count}|error={self.screening_error!r}|values={self.all_values}|"
+            f"objectives={self.objectives}"
+        )
 
     def __call__(self) -> ChunkResult:
-        return evaluate_chunk(self.screening, self.space, self.start, self.stop, keep=self.best_count,
-                              screening_error=self.screening_error, limit=self.limit, all_values=self.all_values,
-                              objectives=self.objectives)
+        return evaluate_chunk(
+            self.screening,
+            self.space,
+            self.start,
+            self.stop,
+            keep=self.best_count,
+            screening_error=self.screening_error,
+            limit=self.limit,
+            all_values=self.all_values,
+            objectives=self.objectives,
+        )
 
     def failure(self, message: str, seconds: float) -> ChunkResult:
-        return ChunkResult(self.start, self.stop, "failed", message, (), (), False, (), 0, 0, self.limit, self.limit,
-                           (), seconds, 0.0, 0.0)
+        return ChunkResult(
+            self.start,
+            self.stop,
+            "failed",
+            message,
+            (),
+            (),
+            False,
+            (),
+            0,
+            0,
+            self.limit,
+            self.limit,
+            (),
+            seconds,
+            0.0,
+            0.0,
+        )
 
     def keep(self, result: ChunkResult) -> bool:
         return result.ok
@@ -255,12 +301,28 @@ def projected_cost(chunk: "ChunkResult", space: DesignSpace) -> tuple[float, flo
     if not chunk.ok:
         raise ValueError(f"exhaustive: the chunk timed to project the cost failed ({chunk.message})")
     if chunk.failed == chunk.designs:
-        raise ValueError(f"exhaustive: the objective failed on every one of the {chunk.designs} designs timed "
-                         f"(first: {chunk.failures[0].message if chunk.failures else 'no message'})")
+        raise ValueError(
+            f"exhaustive: the objective failed on every one of the {chunk.designs} designs timed "
+            f"(first: {chunk.failures[0].message if chunk.failures else 'no message'})"
+        )
     rate = chunk.designs / max(chunk.cpu_seconds, 1e-9)
     return rate, space.size / rate / 3600
 
 
-__all__ = ["ChunkResult", "Failure", "HISTOGRAM_RESOLUTION", "MAX_LOCAL_DESIGNS", "SWEEP_METHOD", "ScreenChunk",
-           "Scored", "calibration_range", "chunk_ranges", "coverage", "evaluate_chunk", "histogram_bin",
-           "not_strongly_dominated", "projected_cost", "screening_threshold"]
+__all__ = [
+    "ChunkResult",
+    "Failure",
+    "HISTOGRAM_RESOLUTION",
+    "MAX_LOCAL_DESIGNS",
+    "SWEEP_METHOD",
+    "ScreenChunk",
+    "Scored",
+    "calibration_range",
+    "chunk_ranges",
+    "coverage",
+    "evaluate_chunk",
+    "histogram_bin",
+    "not_strongly_dominated",
+    "projected_cost",
+    "screening_threshold",
+]

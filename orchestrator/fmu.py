@@ -10,6 +10,7 @@ FMU is refused at once with its own log message, not after a whole study. The st
 ``PreparedFMU``: the file, its hash (how journals and checkpoints identify it, wherever it lies) and what its
 model description says (columns, materials, parameters with their types, ranges and enumeration items).
 """
+
 from __future__ import annotations
 
 import os
@@ -21,8 +22,15 @@ from pathlib import Path
 from typing import Any
 
 from .journal import file_sha256
-from .simulation import (LatticeFMU, Parameter, SimulationError, declared_lattice_size, declared_parameters,
-                         material_columns, model_description)
+from .simulation import (
+    LatticeFMU,
+    Parameter,
+    SimulationError,
+    declared_lattice_size,
+    declared_parameters,
+    material_columns,
+    model_description,
+)
 
 
 class FMUError(ValueError):
@@ -73,13 +81,21 @@ def describe(path: Path, rows: int) -> PreparedFMU:
         raise FMUError(f"--fmu {path}: not a readable FMU ({type(exc).__name__}: {exc})") from None
     if description.coSimulation is None:
         raise FMUError(f"--fmu {path}: it has no Co-Simulation interface; the study runs Co-Simulation FMUs")
-    parameters = {name: parameter for name, parameter in declared_parameters(description).items()
-                  if "[" not in name}
+    parameters = {name: parameter for name, parameter in declared_parameters(description).items() if "[" not in name}
     outputs = tuple(v.name for v in description.modelVariables if v.causality == "output")
     materials = sum(1 for v in description.modelVariables if v.name.startswith("k["))
     columns = material_columns(description)
-    return PreparedFMU(path, file_sha256(path), description.coSimulation.modelIdentifier, description.guid, rows,
-                       columns, materials or columns, parameters, outputs)
+    return PreparedFMU(
+        path,
+        file_sha256(path),
+        description.coSimulation.modelIdentifier,
+        description.guid,
+        rows,
+        columns,
+        materials or columns,
+        parameters,
+        outputs,
+    )
 
 
 def instantiate_once(path: Path) -> None:
@@ -110,23 +126,30 @@ def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
             raise FMUError(f"--fmu {fmu}: no such file (build one with `python build_fmu.py`)")
         prepared = describe(path, scene.rows)
         if prepared.columns < 2:
-            raise FMUError(f"--fmu {fmu}: {prepared.columns} column(s) with a material parameter: there is no "
-                           "material order to search (give a scene with a material per column)")
+            raise FMUError(
+                f"--fmu {fmu}: {prepared.columns} column(s) with a material parameter: there is no "
+                "material order to search (give a scene with a material per column)"
+            )
         shape = declared_lattice_size(path)
         if shape and shape != scene.size():
             rows, columns, depth = shape
-            raise FMUError(f"--fmu {fmu}: its lattice is {size_text(*shape)}, scene {scene.name}'s "
-                           f"{size_text(scene.rows, scene.cols, scene.depth)}; give the FMU's --scene"
-                           + (f" or --cols {columns} --depth {depth}" if rows == scene.rows else
-                              f" (a scene of {rows} rows)"))
+            raise FMUError(
+                f"--fmu {fmu}: its lattice is {size_text(*shape)}, scene {scene.name}'s "
+                f"{size_text(scene.rows, scene.cols, scene.depth)}; give the FMU's --scene"
+                + (f" or --cols {columns} --depth {depth}" if rows == scene.rows else f" (a scene of {rows} rows)")
+            )
         if prepared.columns != scene.cols:
-            raise FMUError(f"--fmu {fmu}: its lattice has {prepared.columns} columns, scene {scene.name} "
-                           f"{scene.cols}; give the FMU's --scene or --cols {prepared.columns}")
+            raise FMUError(
+                f"--fmu {fmu}: its lattice has {prepared.columns} columns, scene {scene.name} "
+                f"{scene.cols}; give the FMU's --scene or --cols {prepared.columns}"
+            )
         states, expected = len(prepared.description.derivatives), scene_state_count(scene)
         if states and states != expected:
-            raise FMUError(f"--fmu {fmu}: it has {states} continuous states, scene {scene.name}'s {scene.rows} x "
-                           f"{scene.cols} x {scene.depth} lattice {expected}; give the FMU's --scene, --cols or "
-                           f"--depth")
+            raise FMUError(
+                f"--fmu {fmu}: it has {states} continuous states, scene {scene.name}'s {scene.rows} x "
+                f"{scene.cols} x {scene.depth} lattice {expected}; give the FMU's --scene, --cols or "
+                f"--depth"
+            )
         try:
             instantiate_once(path)
         except FMUError as exc:
@@ -146,8 +169,13 @@ def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
     try:
         instantiate_once(path)
     except FMUError as exc:
-        _build_or_copy_prebuilt(scene, path, expected,
-                                f"rebuilding {path}: its binary cannot be instantiated here ({exc})", foreign=str(exc))
+        _build_or_copy_prebuilt(
+            scene,
+            path,
+            expected,
+            f"rebuilding {path}: its binary cannot be instantiated here ({exc})",
+            foreign=str(exc),
+        )
         try:
             instantiate_once(path)
         except FMUError as again:
@@ -188,18 +216,23 @@ def _build_or_copy_prebuilt(scene, path: Path, expected: str, reason: str, forei
     prebuilt = PREBUILT_DIR / path.name
     usable = prebuilt.is_file() and _guid(prebuilt) == expected
     if usable and not (foreign is not None and _same_file(prebuilt, path)):
-        print(f"no C compiler ({compiler}) found: using the prebuilt {path.name} this installation carries",
-              file=sys.stderr)
+        print(
+            f"no C compiler ({compiler}) found: using the prebuilt {path.name} this installation carries",
+            file=sys.stderr,
+        )
         path.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(prebuilt, path)
         return
     if foreign is not None:
         what = f"{path} cannot be instantiated on this machine ({platform.system()} {platform.machine()}: {foreign})"
     else:
-        what = (f"{path.name} (scene {scene.name}, {scene.rows} x {scene.cols}, with its material table) must be "
-                "built from C, no prebuilt FMU matches it")
-    raise FMUError(f"{what}, and no C compiler was found (CC={compiler}): {compiler_hint()}; or give a built FMU "
-                   "with --fmu")
+        what = (
+            f"{path.name} (scene {scene.name}, {scene.rows} x {scene.cols}, with its material table) must be "
+            "built from C, no prebuilt FMU matches it"
+        )
+    raise FMUError(
+        f"{what}, and no C compiler was found (CC={compiler}): {compiler_hint()}; or give a built FMU with --fmu"
+    )
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -213,5 +246,14 @@ def _guid(path: Path) -> str | None:
         return None
 
 
-__all__ = ["FMUError", "PREBUILT_DIR", "Parameter", "PreparedFMU", "compiler_found", "compiler_hint", "describe",
-           "instantiate_once", "prepare_fmu"]
+__all__ = [
+    "FMUError",
+    "PREBUILT_DIR",
+    "Parameter",
+    "PreparedFMU",
+    "compiler_found",
+    "compiler_hint",
+    "describe",
+    "instantiate_once",
+    "prepare_fmu",
+]

@@ -11,6 +11,7 @@ line and the run's id: a line changed outside this program, or copied from anoth
 number. A last line cut off by a kill or a full disk is removed before anything is appended, so the journal
 stays readable for every later resume.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -98,8 +99,14 @@ class Journal:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self.run_id = uuid.uuid4().hex[:16]
             self._handle = self.path.open("x", encoding="utf-8")
-            self._write({"format": FORMAT, "run": self.run_id, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                         "settings": self.settings})
+            self._write(
+                {
+                    "format": FORMAT,
+                    "run": self.run_id,
+                    "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                    "settings": self.settings,
+                }
+            )
 
     # ------------------------------------------------------------------------------------------ reading
     @staticmethod
@@ -129,8 +136,9 @@ class Journal:
             except json.JSONDecodeError:
                 pass
         entries = sum(1 for line in lines[1:] if '"key"' in line)
-        return JournalState(path, header["run"], header.get("created", ""), header.get("settings", {}), entries,
-                            finished)
+        return JournalState(
+            path, header["run"], header.get("created", ""), header.get("settings", {}), entries, finished
+        )
 
     @staticmethod
     def _header(path: Path, lines: list[str]) -> dict:
@@ -155,14 +163,16 @@ class Journal:
         run_id = header["run"]
         why = difference(header.get("settings", {}), self.settings)
         if why:
-            raise JournalError(f"the run in {self.path.parent} has other settings ({why}); resume with the same "
-                               "settings or start anew")
+            raise JournalError(
+                f"the run in {self.path.parent} has other settings ({why}); resume with the same settings or start anew"
+            )
         for number, line in enumerate(lines[1:], start=2):
             try:
                 entry = json.loads(line)
             except json.JSONDecodeError:
-                raise JournalError(f"{self.path} line {number} is not readable (changed outside this program)") \
-                    from None
+                raise JournalError(
+                    f"{self.path} line {number} is not readable (changed outside this program)"
+                ) from None
             if not isinstance(entry, dict) or entry.get("sum") != _sum({k: v for k, v in entry.items() if k != "sum"}):
                 raise JournalError(f"{self.path} line {number} fails its checksum (changed outside this program)")
             if entry.get("run") != run_id:

@@ -5,6 +5,7 @@ A known optimum holds only for the case it was found on: the study's materials a
 and depth), the study's scene's defaults (its load over the whole face, backplate, sampling), the sampled peak
 over the scene's horizon, one diagonal rule and no other parameter or load case.
 """
+
 from __future__ import annotations
 
 import json
@@ -44,11 +45,24 @@ def known_optima(table: Path | None = None) -> tuple[KnownOptimum, ...]:
 @lru_cache(maxsize=4)
 def _read(path: Path) -> tuple[KnownOptimum, ...]:
     table = json.loads(path.read_text())
-    return tuple(KnownOptimum(e["rows"], e["columns"], e["objective"], e["diagonal_rule"], float(e["horizon"]),
-                              tuple(e["order"]), float(e["peak"]), bool(e["certified"]), e["source"], e["command"],
-                              tuple(e["runner_up"]["order"]) if "runner_up" in e else None,
-                              float(e["runner_up"]["peak"]) if "runner_up" in e else None, int(e.get("depth", 1)))
-                 for e in table["optima"])
+    return tuple(
+        KnownOptimum(
+            e["rows"],
+            e["columns"],
+            e["objective"],
+            e["diagonal_rule"],
+            float(e["horizon"]),
+            tuple(e["order"]),
+            float(e["peak"]),
+            bool(e["certified"]),
+            e["source"],
+            e["command"],
+            tuple(e["runner_up"]["order"]) if "runner_up" in e else None,
+            float(e["runner_up"]["peak"]) if "runner_up" in e else None,
+            int(e.get("depth", 1)),
+        )
+        for e in table["optima"]
+    )
 
 
 def known_optimum(case, rule: str) -> KnownOptimum | None:
@@ -62,12 +76,28 @@ def known_optimum(case, rule: str) -> KnownOptimum | None:
 def known_optimum_of(case, rule: str, output: str) -> KnownOptimum | None:
     """The known optimum of one of the case's objectives, ``output``, alone: for a case of several objectives,
     the design at that end of the true Pareto front (what a front must never report a point dominated by)."""
-    if (output not in case.outputs or case.parameters or case.case_lists or case.departures
-            or case.space.kind != "permutation" or case.materials != study_materials(case.space.materials)):
+    if (
+        output not in case.outputs
+        or case.parameters
+        or case.case_lists
+        or case.departures
+        or case.space.kind != "permutation"
+        or case.materials != study_materials(case.space.materials)
+    ):
         return None
-    return next((k for k in known_optima() if k.rows == case.rows and k.columns == case.columns
-                 and k.depth == case.depth
-                 and k.objective == output and k.diagonal_rule == rule and k.horizon == case.horizon), None)
+    return next(
+        (
+            k
+            for k in known_optima()
+            if k.rows == case.rows
+            and k.columns == case.columns
+            and k.depth == case.depth
+            and k.objective == output
+            and k.diagonal_rule == rule
+            and k.horizon == case.horizon
+        ),
+        None,
+    )
 
 
 def known_ends(case, rule: str) -> tuple[KnownOptimum, ...]:

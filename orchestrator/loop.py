@@ -24,6 +24,7 @@ design) through one Executor and guards them:
 ``run_search`` drives an ask/tell search within a budget of distinct designs, processing results in ask order,
 so a run is identical whatever the executor and the number of workers.
 """
+
 from __future__ import annotations
 
 import math
@@ -112,8 +113,12 @@ class Evaluator:
         self._completions: list[float] = []
 
     # ------------------------------------------------------------------------------------------ public
-    def run(self, tasks: Iterable[Task], progress: Callable[[int], Any] | None = None,
-            on_result: Callable[[int, Any], Any] | None = None) -> list[Any]:
+    def run(
+        self,
+        tasks: Iterable[Task],
+        progress: Callable[[int], Any] | None = None,
+        on_result: Callable[[int, Any], Any] | None = None,
+    ) -> list[Any]:
         """The result of every task, in the given order. ``tasks`` is pulled lazily, one when a worker can
         take it, so a task may be built from the results so far (``on_result(index, result)`` is called as
         each becomes known, cache hits at once); ``progress(done)`` counts finished tasks."""
@@ -148,8 +153,11 @@ class Evaluator:
         def submit(flight: _Flight) -> None:
             future = self._submit(flight)
             if future is None:
-                finish(flight, flight.task.failure("executor: could not submit (the executor is shut down)", 0.0),
-                       journal=False)
+                finish(
+                    flight,
+                    flight.task.failure("executor: could not submit (the executor is shut down)", 0.0),
+                    journal=False,
+                )
             else:
                 flights[future] = flight
 
@@ -157,7 +165,7 @@ class Evaluator:
             """The pulled designs as batches: as many as the workers (up to ``batch_size`` designs each)."""
             size = min(self._batch, -(-len(pending) // self._slots))
             for start in range(0, len(pending), size):
-                members = tuple(pending[start:start + size])
+                members = tuple(pending[start : start + size])
                 if len(members) == 1:
                     submit(members[0])
                 else:
@@ -165,8 +173,12 @@ class Evaluator:
 
         while True:
             pending: list[_Flight] = []  # designs pulled for batches: up to batch_size per submission
-            while (not exhausted and not alone and len(flights) < 2 * self._slots
-                   and len(pending) < 2 * self._slots * self._batch):
+            while (
+                not exhausted
+                and not alone
+                and len(flights) < 2 * self._slots
+                and len(pending) < 2 * self._slots * self._batch
+            ):
                 try:
                     index, task = next(source)
                 except StopIteration:
@@ -218,14 +230,18 @@ class Evaluator:
                 for flight in self._expire(flights):
                     finish(flight, flight.task.failure(self._timeout_message(), self.time_limit), journal=False)
             if broken:  # every other task in flight died with the pool: each runs again, alone
-                alone += [member for f in sorted(flights.values(), key=lambda f: f.sequence)
-                          for member in (f.members or [f])]
+                alone += [
+                    member for f in sorted(flights.values(), key=lambda f: f.sequence) for member in (f.members or [f])
+                ]
                 flights.clear()
                 self._renew()
         return [results[i] for i in range(count)]
 
-    def evaluate(self, pairs: Sequence[tuple[Callable[[Order], Any], Sequence[int]]],
-                 progress: Callable[[int], Any] | None = None) -> list[Evaluation]:
+    def evaluate(
+        self,
+        pairs: Sequence[tuple[Callable[[Order], Any], Sequence[int]]],
+        progress: Callable[[int], Any] | None = None,
+    ) -> list[Evaluation]:
         """Every (function, design) pair's Evaluation, in order."""
         return self.run([EvaluateDesign(function, as_design(order)) for function, order in pairs], progress)
 
@@ -240,8 +256,16 @@ class Evaluator:
 
     def state(self) -> EvaluatorState:
         causes = tuple(sorted(self._causes.values(), key=lambda item: (-item[1], item[0]))[:3])
-        return EvaluatorState(self.simulated, self.cache_hits, self.resumed, self.pool_renewals, self.timeouts,
-                              bool(getattr(self.journal, "repaired", False)), self.failed, causes)
+        return EvaluatorState(
+            self.simulated,
+            self.cache_hits,
+            self.resumed,
+            self.pool_renewals,
+            self.timeouts,
+            bool(getattr(self.journal, "repaired", False)),
+            self.failed,
+            causes,
+        )
 
     def _tally(self, result: Any) -> None:
         """Counts failed evaluations by cause: messages that differ only in their numbers (the time a solution
@@ -305,8 +329,10 @@ class Evaluator:
         return max(0.0, min(ends) - now)
 
     def _timeout_message(self) -> str:
-        return (f"exceeded the time limit of {self.time_limit:g} s of its own run time (--time-limit; it runs "
-                "again on --resume)")
+        return (
+            f"exceeded the time limit of {self.time_limit:g} s of its own run time (--time-limit; it runs "
+            "again on --resume)"
+        )
 
     def _expire(self, flights: dict[Future, _Flight]) -> list[_Flight]:
         """The tasks past their time limit, taken out of ``flights``; on a process pool (a hung process is
@@ -435,9 +461,19 @@ def search_space(search) -> DesignSpace:
     return space if space is not None else DesignSpace.permutations(search.n)
 
 
-def run_search(search, objective, budget: int, evaluator, *, method_name: str, seed: int, label: str = "",
-               progress: Callable[[int], Any] | None = None, fidelity: str = "search",
-               stall_batches: int = STALL_BATCHES) -> SearchRun:
+def run_search(
+    search,
+    objective,
+    budget: int,
+    evaluator,
+    *,
+    method_name: str,
+    seed: int,
+    label: str = "",
+    progress: Callable[[int], Any] | None = None,
+    fidelity: str = "search",
+    stall_batches: int = STALL_BATCHES,
+) -> SearchRun:
     """Drive ``search`` until the budget, its stop, exhaustion of the space or a stall.
 
     Each batch: dedupe the asked designs, evaluate the ones this run has not seen through the objective and
@@ -488,13 +524,20 @@ def run_search(search, objective, budget: int, evaluator, *, method_name: str, s
         if truncated:
             new = fresh[:remaining]
         else:
-            new = [o for o in unique if o not in seen
-                   or (asked_limits is not None and _censored_below(seen[o], limit_of.get(o)))]
+            new = [
+                o
+                for o in unique
+                if o not in seen or (asked_limits is not None and _censored_below(seen[o], limit_of.get(o)))
+            ]
         cache_hits += len(asked) - len(new)
         done = len(evaluations)
-        results = objective.evaluate(new, evaluator, fidelity,
-                                     progress=None if progress is None else (lambda k, d=done: progress(d + k)),
-                                     limits=[limit_of.get(o) for o in new] if limit_of else None)
+        results = objective.evaluate(
+            new,
+            evaluator,
+            fidelity,
+            progress=None if progress is None else (lambda k, d=done: progress(d + k)),
+            limits=[limit_of.get(o) for o in new] if limit_of else None,
+        )
         for order, evaluation in zip(new, results):
             n_reevaluated += order in seen
             seen[order] = evaluation
@@ -507,21 +550,41 @@ def run_search(search, objective, budget: int, evaluator, *, method_name: str, s
                 best_order, best_value, best_index = order, evaluation.value, len(evaluations)
         batches += 1
         if truncated:
-            stop_reason = (f"budget of {budget} designs used inside a batch: its first {len(new)} new designs were "
-                           "evaluated, the search was not told them")
+            stop_reason = (
+                f"budget of {budget} designs used inside a batch: its first {len(new)} new designs were "
+                "evaluated, the search was not told them"
+            )
             break
         search.tell(asked, [told_value(seen[o], objectives) for o in asked])
         no_new = 0 if fresh else no_new + 1
         if no_new >= stall_batches:
             stalled = True
-            stop_reason = (f"stalled: {stall_batches} batches in a row asked only designs already evaluated "
-                           f"({len(seen)} distinct so far)")
+            stop_reason = (
+                f"stalled: {stall_batches} batches in a row asked only designs already evaluated "
+                f"({len(seen)} distinct so far)"
+            )
             break
-    return SearchRun(method=method_name, seed=int(seed), budget=budget, label=label, evaluations=tuple(evaluations),
-                     best_order=best_order, best_value=best_value, best_index=best_index, failed=n_failed,
-                     censored=n_censored, reevaluated=n_reevaluated, distinct=len(seen), stalled=stalled,
-                     truncated=truncated, stop_reason=stop_reason, wall_seconds=time.perf_counter() - start,
-                     batches=batches, cache_hits=cache_hits, diagnostics=_jsonable(search.state()))
+    return SearchRun(
+        method=method_name,
+        seed=int(seed),
+        budget=budget,
+        label=label,
+        evaluations=tuple(evaluations),
+        best_order=best_order,
+        best_value=best_value,
+        best_index=best_index,
+        failed=n_failed,
+        censored=n_censored,
+        reevaluated=n_reevaluated,
+        distinct=len(seen),
+        stalled=stalled,
+        truncated=truncated,
+        stop_reason=stop_reason,
+        wall_seconds=time.perf_counter() - start,
+        batches=batches,
+        cache_hits=cache_hits,
+        diagnostics=_jsonable(search.state()),
+    )
 
 
 def _jsonable(value: Any) -> Any:

@@ -14,6 +14,7 @@ An objective turns a design into tasks (one FMU run per load case) that the one 
 journals, and combines their results. The outputs that can be minimised are the FMU's maxima over the run
 (``RUN_MAXIMA``).
 """
+
 from __future__ import annotations
 
 import atexit
@@ -51,14 +52,32 @@ class Quantity:
     short: str = ""  # a few words for a table's row or a chart's axis
 
 
-RUN_MAXIMA = {q.output: q for q in (
-    Quantity("peak_backplate_force", "peak backplate force over the samples every peak_sample_interval "
-             "(the study's sampled peak)", "N", True, "peak backplate force (sampled)"),
-    Quantity("peak_backplate_force_continuous", "peak backplate force over the continuous solution", "N", True,
-             "peak backplate force (continuous)"),
-    Quantity("max_compression", "largest compression of the stack along the load (mean x-displacement of "
-             "column 1 minus that of column C)", "m", False, "largest compression"),
-)}
+RUN_MAXIMA = {
+    q.output: q
+    for q in (
+        Quantity(
+            "peak_backplate_force",
+            "peak backplate force over the samples every peak_sample_interval (the study's sampled peak)",
+            "N",
+            True,
+            "peak backplate force (sampled)",
+        ),
+        Quantity(
+            "peak_backplate_force_continuous",
+            "peak backplate force over the continuous solution",
+            "N",
+            True,
+            "peak backplate force (continuous)",
+        ),
+        Quantity(
+            "max_compression",
+            "largest compression of the stack along the load (mean x-displacement of column 1 minus that of column C)",
+            "m",
+            False,
+            "largest compression",
+        ),
+    )
+}
 ALIASES = {"sampled": "peak_backplate_force", "continuous": "peak_backplate_force_continuous"}
 
 _INSTANCES: dict[str, LatticeFMU] = {}  # one open FMU per file and process
@@ -105,8 +124,10 @@ def missing_output(fmu_path: str | Path, names: Sequence[str]) -> str | None:
     missing = next((name for name in names if name not in declared), None)
     if missing is None:
         return None
-    return (f"{missing}: {Path(fmu_path).name} has no such output (its outputs: {', '.join(declared)}; rebuild it "
-            "from these sources)")
+    return (
+        f"{missing}: {Path(fmu_path).name} has no such output (its outputs: {', '.join(declared)}; rebuild it "
+        "from these sources)"
+    )
 
 
 def output_names(text: str | Sequence[str]) -> tuple[str, ...]:
@@ -116,8 +137,10 @@ def output_names(text: str | Sequence[str]) -> tuple[str, ...]:
     for name in names:
         name = ALIASES.get(name, name)
         if name not in RUN_MAXIMA:
-            raise ValueError(f"objective {name!r}: allowed values are {', '.join(list(ALIASES) + list(RUN_MAXIMA))} "
-                             "(one, or two or three separated by commas)")
+            raise ValueError(
+                f"objective {name!r}: allowed values are {', '.join(list(ALIASES) + list(RUN_MAXIMA))} "
+                "(one, or two or three separated by commas)"
+            )
         result.append(name)
     if not 1 <= len(result) <= 3 or len(set(result)) != len(result):
         raise ValueError(f"objective {','.join(names)}: give one output, or two or three different ones")
@@ -151,9 +174,11 @@ class FMURun:
 
     @property
     def key(self) -> str:
-        return (f"{','.join(self.outputs)}|{self.horizon!r}|{self.fallback_horizon!r}|"
-                + ",".join(f"{k}={v!r}" for k, v in self.parameters)
-                + ("" if self.force_limit is None else f"|limit={self.force_limit!r}"))
+        return (
+            f"{','.join(self.outputs)}|{self.horizon!r}|{self.fallback_horizon!r}|"
+            + ",".join(f"{k}={v!r}" for k, v in self.parameters)
+            + ("" if self.force_limit is None else f"|limit={self.force_limit!r}")
+        )
 
     def with_limit(self, limit: float | None) -> "FMURun":
         return replace(self, force_limit=None if limit is None else float(limit))
@@ -174,8 +199,13 @@ class FMURun:
         try:
             result = self._simulate(order, horizon)
             if result.stopped_early:
-                return censored(order, self.force_limit, result.stop_time, time.perf_counter() - start,
-                                work=int(result["rhs_evaluations"]))
+                return censored(
+                    order,
+                    self.force_limit,
+                    result.stop_time,
+                    time.perf_counter() - start,
+                    work=int(result["rhs_evaluations"]),
+                )
             work = 0
             if self.fallback_horizon and result["last_contact_time"] >= (1.0 - CONTACT_GUARD) * horizon:
                 horizon = max(self.fallback_horizon, horizon)
@@ -185,8 +215,16 @@ class FMURun:
         except (SimulationError, ValueError, UnknownOutput) as exc:
             return failed(order, str(exc), time.perf_counter() - start)
         outputs = RunOutputs(result.values, horizon)
-        return Evaluation(as_design(order), values[0], OK, "", time.perf_counter() - start, outputs,
-                          values if len(values) > 1 else (), work=work + int(result["rhs_evaluations"]))
+        return Evaluation(
+            as_design(order),
+            values[0],
+            OK,
+            "",
+            time.perf_counter() - start,
+            outputs,
+            values if len(values) > 1 else (),
+            work=work + int(result["rhs_evaluations"]),
+        )
 
 
 @dataclass(frozen=True)
@@ -220,21 +258,34 @@ class RecordRun:
 
     @property
     def key(self) -> str:
-        return (f"record|{','.join(self.outputs)}|{self.horizon!r}|{self.step!r}|"
-                + ",".join(f"{k}={v!r}" for k, v in self.parameters) + "#" + ",".join(map(str, self.order)))
+        return (
+            f"record|{','.join(self.outputs)}|{self.horizon!r}|{self.step!r}|"
+            + ",".join(f"{k}={v!r}" for k, v in self.parameters)
+            + "#"
+            + ",".join(map(str, self.order))
+        )
 
     def __call__(self) -> Trajectory:
         start = time.perf_counter()
         try:
-            result = fmu_instance(self.fmu_path, self.fmu_sha256).simulate(self.order, horizon=self.horizon,
-                                                          parameters=dict(self.parameters),
-                                                          communication_step=self.step, record=self.outputs)
+            result = fmu_instance(self.fmu_path, self.fmu_sha256).simulate(
+                self.order,
+                horizon=self.horizon,
+                parameters=dict(self.parameters),
+                communication_step=self.step,
+                record=self.outputs,
+            )
         except (SimulationError, ValueError) as exc:
             return self.failure(str(exc), time.perf_counter() - start)
         trajectory = result.trajectory
-        return Trajectory(self.order, OK, "", tuple(float(t) for t in trajectory.time),
-                          {name: tuple(float(v) for v in trajectory.values[name]) for name in self.outputs},
-                          time.perf_counter() - start)
+        return Trajectory(
+            self.order,
+            OK,
+            "",
+            tuple(float(t) for t in trajectory.time),
+            {name: tuple(float(v) for v in trajectory.values[name]) for name in self.outputs},
+            time.perf_counter() - start,
+        )
 
     def failure(self, message: str, seconds: float) -> Trajectory:
         return Trajectory(self.order, "failed", message, (), {}, seconds)
@@ -266,9 +317,14 @@ class Objective:
     def combine(self, order: Order, evaluations: Sequence[Evaluation]) -> Evaluation:
         return evaluations[0]
 
-    def evaluate(self, orders: Sequence[Sequence[int]], evaluator, fidelity: str = SEARCH,
-                 progress: Callable[[int], Any] | None = None,
-                 limits: Sequence[float | None] | None = None) -> list[Evaluation]:
+    def evaluate(
+        self,
+        orders: Sequence[Sequence[int]],
+        evaluator,
+        fidelity: str = SEARCH,
+        progress: Callable[[int], Any] | None = None,
+        limits: Sequence[float | None] | None = None,
+    ) -> list[Evaluation]:
         """Every design's evaluation at ``fidelity`` through ``evaluator`` (failures stay failures).
 
         ``limits``: per design, a value above which only "above" matters (the search fidelity, and only where
@@ -295,8 +351,9 @@ class Objective:
             if done_tasks // per_design > reported[0]:
                 reported[0] = done_tasks // per_design
                 progress(reported[0])
+
         results = evaluator.run(items, progress=ticks if progress is not None else None)
-        return [self.combine(order, results[i * per_design:(i + 1) * per_design]) for i, order in enumerate(orders)]
+        return [self.combine(order, results[i * per_design : (i + 1) * per_design]) for i, order in enumerate(orders)]
 
 
 class CallableObjective(Objective):
@@ -305,8 +362,11 @@ class CallableObjective(Objective):
 
     def __init__(self, function: Callable[[Order], Any], n_var: int | None = None, space: DesignSpace | None = None):
         self.function = function
-        self.space = space or getattr(function, "space", None) or DesignSpace.permutations(
-            n_var if n_var is not None else getattr(function, "n", 1))
+        self.space = (
+            space
+            or getattr(function, "space", None)
+            or DesignSpace.permutations(n_var if n_var is not None else getattr(function, "n", 1))
+        )
         self.n_objectives = int(getattr(function, "n_objectives", 1))
 
     def tasks(self, fidelity: str) -> list[Callable[[Order], Evaluation]]:
@@ -388,8 +448,13 @@ class LatticeObjective(Objective):
     def supports_limits(self) -> bool:
         """A limit on the sampled peak bounds a single peak objective from below (the continuous peak is at least
         the sampled one, the worst case at least each case) when the FMU has ``peak_force_limit``."""
-        return (self.use_limits and self.has_force_limit and self.n_objectives == 1
-                and RUN_MAXIMA[self.outputs[0]].limits and (self.aggregate == "worst" or len(self.cases) == 1))
+        return (
+            self.use_limits
+            and self.has_force_limit
+            and self.n_objectives == 1
+            and RUN_MAXIMA[self.outputs[0]].limits
+            and (self.aggregate == "worst" or len(self.cases) == 1)
+        )
 
     @property
     def diagonal_rule(self) -> str:
@@ -414,8 +479,12 @@ class LatticeObjective(Objective):
         """The FMU parameters of one case's run at ``fidelity``."""
         parameters = {**self.parameters, **case}
         if fidelity == SEARCH and self.search_rtol is not None:  # what the user set stays theirs
-            parameters = {"solver": SEARCH_SOLVER, "rtol": self.search_rtol, "atol": self.search_rtol * 1e-2,
-                          **parameters}
+            parameters = {
+                "solver": SEARCH_SOLVER,
+                "rtol": self.search_rtol,
+                "atol": self.search_rtol * 1e-2,
+                **parameters,
+            }
         return parameters
 
     def tasks(self, fidelity: str) -> list[FMURun]:
@@ -423,19 +492,27 @@ class LatticeObjective(Objective):
         for case in self.cases:
             parameters = tuple(sorted(self.run_parameters(case, fidelity).items()))
             if fidelity == SEARCH:
-                runs.append(FMURun(self.fmu_path, self.search_horizon, parameters, self.outputs,
-                                   fallback_horizon=self.horizon, fmu_sha256=self.fmu_sha256))
+                runs.append(
+                    FMURun(
+                        self.fmu_path,
+                        self.search_horizon,
+                        parameters,
+                        self.outputs,
+                        fallback_horizon=self.horizon,
+                        fmu_sha256=self.fmu_sha256,
+                    )
+                )
             else:
-                runs.append(FMURun(self.fmu_path, self.horizon, parameters, self.outputs,
-                                   fmu_sha256=self.fmu_sha256))
+                runs.append(FMURun(self.fmu_path, self.horizon, parameters, self.outputs, fmu_sha256=self.fmu_sha256))
         return runs
 
     def combine(self, order: Order, evaluations: Sequence[Evaluation]) -> Evaluation:
         if len(self.cases) == 1:
             return evaluations[0]
         seconds = sum(e.seconds for e in evaluations)
-        cases = tuple(CaseValue(case, e.value, e.status, "" if e.ok else e.message)
-                      for case, e in zip(self.cases, evaluations))
+        cases = tuple(
+            CaseValue(case, e.value, e.status, "" if e.ok else e.message) for case, e in zip(self.cases, evaluations)
+        )
         bad = next((e for e in evaluations if not e.ok and not e.censored), None)
         if bad is not None:
             case = self.cases[evaluations.index(bad)]
@@ -450,17 +527,33 @@ class LatticeObjective(Objective):
             values = tuple(sum(column[i] for column in columns) / len(columns) for i in range(self.n_objectives))
         worst = max(evaluations, key=lambda e: e.value)
         work = sum(e.work or 0 for e in evaluations)
-        return Evaluation(as_design(order), values[0], OK, "", seconds, worst.outputs,
-                          values if self.n_objectives > 1 else (), cases=cases, work=work)
+        return Evaluation(
+            as_design(order),
+            values[0],
+            OK,
+            "",
+            seconds,
+            worst.outputs,
+            values if self.n_objectives > 1 else (),
+            cases=cases,
+            work=work,
+        )
 
     def describe(self) -> ObjectiveDescription:
         return ObjectiveDescription(
-            outputs=self.outputs, labels=tuple(RUN_MAXIMA[o].label for o in self.outputs),
+            outputs=self.outputs,
+            labels=tuple(RUN_MAXIMA[o].label for o in self.outputs),
             short_labels=tuple(RUN_MAXIMA[o].short for o in self.outputs),
-            units=tuple(RUN_MAXIMA[o].unit for o in self.outputs), diagonal_rule=self.diagonal_rule,
-            parameters=dict(self.parameters), cases=self.cases if self.cases != ({},) else (),
-            aggregate=self.aggregate if self.cases != ({},) else None, horizon=self.horizon,
-            search_horizon=self.search_horizon, search_rtol=self.search_rtol, search_solver=SEARCH_SOLVER)
+            units=tuple(RUN_MAXIMA[o].unit for o in self.outputs),
+            diagonal_rule=self.diagonal_rule,
+            parameters=dict(self.parameters),
+            cases=self.cases if self.cases != ({},) else (),
+            aggregate=self.aggregate if self.cases != ({},) else None,
+            horizon=self.horizon,
+            search_horizon=self.search_horizon,
+            search_rtol=self.search_rtol,
+            search_solver=SEARCH_SOLVER,
+        )
 
 
 def expand_cases(case_lists: dict[str, Sequence[Any]]) -> list[dict]:
@@ -475,7 +568,31 @@ def count_cases(case_lists: dict[str, Sequence[Any]]) -> int:
     return math.prod(len(v) for v in case_lists.values()) if case_lists else 1
 
 
-__all__ = ["AGGREGATES", "ALIASES", "CONTACT_GUARD", "CallableObjective", "FIDELITIES", "FMURun", "FULL",
-           "LatticeObjective", "Objective", "ObjectiveDescription", "Quantity", "RUN_MAXIMA", "RecordRun", "SEARCH",
-           "SEARCH_HORIZON", "SEARCH_RTOL", "SEARCH_SOLVER", "as_objective", "close_instances", "count_cases",
-           "expand_cases", "fmu_instance", "missing_output", "output_names", "register_shipped_fmu", "Trajectory"]
+__all__ = [
+    "AGGREGATES",
+    "ALIASES",
+    "CONTACT_GUARD",
+    "CallableObjective",
+    "FIDELITIES",
+    "FMURun",
+    "FULL",
+    "LatticeObjective",
+    "Objective",
+    "ObjectiveDescription",
+    "Quantity",
+    "RUN_MAXIMA",
+    "RecordRun",
+    "SEARCH",
+    "SEARCH_HORIZON",
+    "SEARCH_RTOL",
+    "SEARCH_SOLVER",
+    "as_objective",
+    "close_instances",
+    "count_cases",
+    "expand_cases",
+    "fmu_instance",
+    "missing_output",
+    "output_names",
+    "register_shipped_fmu",
+    "Trajectory",
+]

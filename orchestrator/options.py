@@ -5,6 +5,7 @@ argument group per config from those declarations (in the spirit of PythonFMU's 
 every real default in ``--help``, and builds the config from what was given. ``given(config)`` says which
 options the user spelled out, so that an option that means nothing in a run is refused, not ignored.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -24,10 +25,21 @@ class Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
 
 
-def option(default: Any, help: str, *, flag: str | None = None, type: Callable[[str], Any] | None = None,
-           choices: Any = None, nargs: str | int | None = None, metavar: str | None = None,
-           action: str | None = None, show_default: str | None = None, study: str = KEPT, path: bool = False,
-           short: str | None = None):
+def option(
+    default: Any,
+    help: str,
+    *,
+    flag: str | None = None,
+    type: Callable[[str], Any] | None = None,
+    choices: Any = None,
+    nargs: str | int | None = None,
+    metavar: str | None = None,
+    action: str | None = None,
+    show_default: str | None = None,
+    study: str = KEPT,
+    path: bool = False,
+    short: str | None = None,
+):
     """A dataclass field that is also a command-line option (``--name-with-dashes`` unless ``flag``).
 
     ``show_default`` replaces the shown default (e.g. "the scene's, 1200 N"); ``action`` "store_true" or
@@ -37,8 +49,19 @@ def option(default: Any, help: str, *, flag: str | None = None, type: Callable[[
     study file writes it relative to itself); ``short``: a one-letter spelling beside the long one (``-o``)."""
     if study not in (KEPT, NO_NUMBER, NOT_KEPT):
         raise ValueError(f"study must be one of {KEPT}, {NO_NUMBER}, {NOT_KEPT}, got {study!r}")
-    metadata = {"help": help, "flag": flag, "type": type, "choices": choices, "nargs": nargs, "metavar": metavar,
-                "action": action, "show_default": show_default, "study": study, "path": path, "short": short}
+    metadata = {
+        "help": help,
+        "flag": flag,
+        "type": type,
+        "choices": choices,
+        "nargs": nargs,
+        "metavar": metavar,
+        "action": action,
+        "show_default": show_default,
+        "study": study,
+        "path": path,
+        "short": short,
+    }
     if isinstance(default, (list, dict, set)):
         raise TypeError("option defaults must be immutable (use a tuple)")
     return dataclasses.field(default=default, metadata={"option": metadata})
@@ -69,8 +92,11 @@ def add_options(parser: argparse.ArgumentParser, config_type: type, title: str, 
         help_text = meta["help"]
         if meta["action"] not in ("store_true", "store_false"):
             help_text += f" (default: {shown})"
-        kwargs: dict[str, Any] = {"dest": f"{config_type.__name__}.{f.name}", "default": argparse.SUPPRESS,
-                                  "help": help_text}
+        kwargs: dict[str, Any] = {
+            "dest": f"{config_type.__name__}.{f.name}",
+            "default": argparse.SUPPRESS,
+            "help": help_text,
+        }
         if meta["action"] == "append":
             kwargs["action"] = "append"
             kwargs["metavar"] = meta["metavar"] or f.name.upper()
@@ -90,7 +116,7 @@ def config_from(config_type: type, namespace: argparse.Namespace, **extra: Any):
     """``config_type`` built from the options given (the rest at their defaults); ``given(config)`` tells
     which were given. A ValueError from the config's own checks reaches the caller as it is."""
     prefix = f"{config_type.__name__}."
-    values = {key[len(prefix):]: value for key, value in vars(namespace).items() if key.startswith(prefix)}
+    values = {key[len(prefix) :]: value for key, value in vars(namespace).items() if key.startswith(prefix)}
     for name, value in values.items():
         meta = next(f for f in dataclasses.fields(config_type) if f.name == name).metadata["option"]
         if meta["nargs"] in ("+", "*") or isinstance(meta["nargs"], int):
@@ -121,7 +147,7 @@ def check_options(config: Any) -> None:
         if value is None:
             continue
         several = meta["action"] == "append" or meta["nargs"] in ("+", "*") or isinstance(meta["nargs"], int)
-        for item in (value if several and isinstance(value, (tuple, list)) else (value,)):
+        for item in value if several and isinstance(value, (tuple, list)) else (value,):
             _check_value(flag, meta, item)
 
 
@@ -139,10 +165,17 @@ def _check_value(flag: str, meta: dict, value: Any) -> None:
 
 
 # ---------------------------------------------------------------------------------------------- value types
-def number(flag: str, low: float | None = None, high: float | None = None, *, low_inclusive: bool = False,
-           allow_zero: bool = False) -> Callable[[str], float]:
+def number(
+    flag: str,
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    low_inclusive: bool = False,
+    allow_zero: bool = False,
+) -> Callable[[str], float]:
     """An argparse type: a finite number in (low, high] ([low, high] with ``low_inclusive``), or 0 when
     ``allow_zero`` (meaning: none)."""
+
     def parse(text: str) -> float:
         try:
             value = float(text)
@@ -159,9 +192,12 @@ def number(flag: str, low: float | None = None, high: float | None = None, *, lo
                 bounds = f">= {low:g}" if low_inclusive else f"> {low:g}"
             else:
                 bounds = ""
-            raise argparse.ArgumentTypeError(f"{flag} must be a finite number{' ' + bounds if bounds else ''}"
-                                             f"{' (or 0: none)' if allow_zero else ''}, got {text!r}")
+            raise argparse.ArgumentTypeError(
+                f"{flag} must be a finite number{' ' + bounds if bounds else ''}"
+                f"{' (or 0: none)' if allow_zero else ''}, got {text!r}"
+            )
         return value
+
     parse.expects = "a number"
     return parse
 
@@ -176,9 +212,23 @@ def integer(flag: str, low: int, high: int | None = None) -> Callable[[str], int
             upper = f" and at most {high}" if high is not None else ""
             raise argparse.ArgumentTypeError(f"{flag} must be at least {low}{upper}, got {value}")
         return value
+
     parse.expects = "an integer"
     return parse
 
 
-__all__ = ["EXIT_USAGE", "KEPT", "NOT_KEPT", "NO_NUMBER", "Parser", "add_options", "check_options", "config_from",
-           "flag_of", "given", "integer", "number", "option"]
+__all__ = [
+    "EXIT_USAGE",
+    "KEPT",
+    "NOT_KEPT",
+    "NO_NUMBER",
+    "Parser",
+    "add_options",
+    "check_options",
+    "config_from",
+    "flag_of",
+    "given",
+    "integer",
+    "number",
+    "option",
+]

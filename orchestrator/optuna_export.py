@@ -14,6 +14,7 @@ study has thousands of evaluations, so the trials of an RDB storage are inserted
 (a progress bar per study), as rows of Optuna's own tables; ``tests/test_optuna_export.py`` reads them back
 through Optuna's public API.
 """
+
 from __future__ import annotations
 
 import json
@@ -25,7 +26,7 @@ from typing import Any
 from .design import Design
 from .progress import Progress
 
-EXTRA = "pip install -e \".[optuna]\""
+EXTRA = 'pip install -e ".[optuna]"'
 
 
 def _optuna(flag: str):
@@ -46,8 +47,10 @@ def check_storage(url: str, flag: str = "--export-optuna") -> None:
     try:
         make_url(url)
     except ArgumentError:
-        raise ValueError(f"{flag} {url}: not a database URL; give an Optuna RDB storage such as "
-                         "sqlite:///study.db or postgresql://user@host/db") from None
+        raise ValueError(
+            f"{flag} {url}: not a database URL; give an Optuna RDB storage such as "
+            "sqlite:///study.db or postgresql://user@host/db"
+        ) from None
 
 
 BATCH_TRIALS = 1000  # trials a progress step inserts: one executemany per table
@@ -86,10 +89,18 @@ def _insert_trials(optuna, storage, target, trials: list[TrialRow], distribution
         from optuna.trial import create_trial
 
         for start in range(0, len(trials), BATCH_TRIALS):
-            target.add_trials([create_trial(
-                state=t.state, values=None if t.values is None else list(t.values), user_attrs=t.user_attrs,
-                params=t.params, distributions={name: distribution for name in t.params})
-                for t in trials[start:start + BATCH_TRIALS]])
+            target.add_trials(
+                [
+                    create_trial(
+                        state=t.state,
+                        values=None if t.values is None else list(t.values),
+                        user_attrs=t.user_attrs,
+                        params=t.params,
+                        distributions={name: distribution for name in t.params},
+                    )
+                    for t in trials[start : start + BATCH_TRIALS]
+                ]
+            )
             advance(min(start + BATCH_TRIALS, len(trials)))
         return
     from optuna.distributions import distribution_to_json
@@ -103,24 +114,47 @@ def _insert_trials(optuna, storage, target, trials: list[TrialRow], distribution
         models.StudyModel.find_or_raise_by_id(study_id, session, for_update=True)
         number = session.query(models.TrialModel).filter(models.TrialModel.study_id == study_id).count()
         for start in range(0, len(trials), BATCH_TRIALS):
-            batch = trials[start:start + BATCH_TRIALS]
-            ids = session.execute(
-                sqlalchemy.insert(trial_table).returning(trial_table.c.trial_id, sort_by_parameter_order=True),
-                [{"study_id": study_id, "number": number + start + offset, "state": trial.state,
-                  "datetime_start": moment, "datetime_complete": moment}
-                 for offset, trial in enumerate(batch)]).scalars().all()
+            batch = trials[start : start + BATCH_TRIALS]
+            ids = (
+                session.execute(
+                    sqlalchemy.insert(trial_table).returning(trial_table.c.trial_id, sort_by_parameter_order=True),
+                    [
+                        {
+                            "study_id": study_id,
+                            "number": number + start + offset,
+                            "state": trial.state,
+                            "datetime_start": moment,
+                            "datetime_complete": moment,
+                        }
+                        for offset, trial in enumerate(batch)
+                    ],
+                )
+                .scalars()
+                .all()
+            )
             params, values, attributes = [], [], []
             for trial_id, trial in zip(ids, batch):
-                params.extend({"trial_id": trial_id, "param_name": name,
-                               "param_value": distribution.to_internal_repr(value),
-                               "distribution_json": distribution_json} for name, value in trial.params.items())
+                params.extend(
+                    {
+                        "trial_id": trial_id,
+                        "param_name": name,
+                        "param_value": distribution.to_internal_repr(value),
+                        "distribution_json": distribution_json,
+                    }
+                    for name, value in trial.params.items()
+                )
                 for objective, value in enumerate(trial.values or ()):
                     stored, kind = models.TrialValueModel.value_to_stored_repr(value)
                     values.append({"trial_id": trial_id, "objective": objective, "value": stored, "value_type": kind})
-                attributes.extend({"trial_id": trial_id, "key": key, "value_json": json.dumps(value)}
-                                  for key, value in trial.user_attrs.items())
-            for model, rows in ((models.TrialParamModel, params), (models.TrialValueModel, values),
-                                (models.TrialUserAttributeModel, attributes)):
+                attributes.extend(
+                    {"trial_id": trial_id, "key": key, "value_json": json.dumps(value)}
+                    for key, value in trial.user_attrs.items()
+                )
+            for model, rows in (
+                (models.TrialParamModel, params),
+                (models.TrialValueModel, values),
+                (models.TrialUserAttributeModel, attributes),
+            ):
                 if rows:
                     session.execute(sqlalchemy.insert(model.__table__), rows)
             advance(start + len(batch))
@@ -137,8 +171,17 @@ class ExportedStudy:
     trials: int
 
 
-def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials: list[str], case_line: str,
-           run_id: str, fmu_sha256: str, progress: Progress | None = None) -> tuple[ExportedStudy, ...]:
+def export(
+    storage: str,
+    runs,
+    outputs: tuple[str, ...],
+    columns: int,
+    materials: list[str],
+    case_line: str,
+    run_id: str,
+    fmu_sha256: str,
+    progress: Progress | None = None,
+) -> tuple[ExportedStudy, ...]:
     """Every evaluation of the search ``runs`` into ``storage``, one Optuna study per diagonal rule, named
     "<run_id> <rule>" (ValueError, one line: a study of that name is there already)."""
     optuna = _optuna("--export-optuna")
@@ -155,13 +198,19 @@ def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials
         try:
             target = optuna.create_study(storage=rdb, study_name=name, directions=["minimize"] * len(outputs))
         except DuplicatedStudyError:
-            raise ValueError(f"--export-optuna {storage}: it holds a study named {name!r} already (this run was "
-                             "exported before); give another storage") from None
+            raise ValueError(
+                f"--export-optuna {storage}: it holds a study named {name!r} already (this run was "
+                "exported before); give another storage"
+            ) from None
         with warnings.catch_warnings():  # set_metric_names is "experimental" since Optuna 3.2, and kept since
             warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
             target.set_metric_names(list(outputs))
-        for key, value in (("case", case_line), ("diagonal_rule", rule), ("fmu_sha256", fmu_sha256),
-                           ("materials", list(materials))):
+        for key, value in (
+            ("case", case_line),
+            ("diagonal_rule", rule),
+            ("fmu_sha256", fmu_sha256),
+            ("materials", list(materials)),
+        ):
             target.set_user_attr(key, value)
         trials = []
         for run in runs:
@@ -169,9 +218,15 @@ def export(storage: str, runs, outputs: tuple[str, ...], columns: int, materials
                 continue
             for index, evaluation in enumerate(run.evaluations, start=1):
                 attributes: dict[str, Any] = {
-                    "method": run.method, "seed": run.seed, "index": index, "order": list(evaluation.order),
-                    "materials": [materials[m - 1] for m in evaluation.order], "status": evaluation.status,
-                    "fidelity": "search", "seconds": evaluation.seconds}
+                    "method": run.method,
+                    "seed": run.seed,
+                    "index": index,
+                    "order": list(evaluation.order),
+                    "materials": [materials[m - 1] for m in evaluation.order],
+                    "status": evaluation.status,
+                    "fidelity": "search",
+                    "seconds": evaluation.seconds,
+                }
                 if evaluation.ok:
                     state = TrialState.COMPLETE
                     values = tuple(evaluation.values) if len(outputs) > 1 else (evaluation.value,)
@@ -192,9 +247,10 @@ def designs_from_storage(url: str) -> list[Design]:
     """Starting designs from an Optuna storage: the best trial of each of its studies (for several objectives,
     each study's Pareto front), read from the ``column_NN`` parameters this module writes."""
     optuna = _optuna("--start-file")
-    if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
-        raise ValueError(f"--start-file {url}: no such file {url[len('sqlite:///'):]} (an Optuna storage "
-                         "--export-optuna wrote)")
+    if url.startswith("sqlite:///") and not Path(url[len("sqlite:///") :]).is_file():
+        raise ValueError(
+            f"--start-file {url}: no such file {url[len('sqlite:///') :]} (an Optuna storage --export-optuna wrote)"
+        )
     try:
         names = optuna.get_all_study_names(storage=url)
     except Exception as exc:  # noqa: BLE001 - any storage error is one line
@@ -209,12 +265,15 @@ def designs_from_storage(url: str) -> list[Design]:
         for trial in best:
             columns = sorted(k for k in trial.params if k.startswith("column_"))
             if not columns:
-                raise ValueError(f"--start-file {url}: study {name!r} has no column_NN parameters (the material of "
-                                 "each column, as --export-optuna writes them)")
+                raise ValueError(
+                    f"--start-file {url}: study {name!r} has no column_NN parameters (the material of "
+                    "each column, as --export-optuna writes them)"
+                )
             designs.append(tuple(int(trial.params[k]) for k in columns))
     if not designs:
-        raise ValueError(f"--start-file {url}: no complete trial in the storage's studies "
-                         f"({', '.join(names) or 'none'})")
+        raise ValueError(
+            f"--start-file {url}: no complete trial in the storage's studies ({', '.join(names) or 'none'})"
+        )
     return list(dict.fromkeys(designs))
 
 

@@ -10,6 +10,7 @@ its front edge show. Why drawn on flat axes rather than with mplot3d: mplot3d or
 depth, which misorders thin slabs beside larger ones; boxes that do not intersect, drawn from the backplate to
 the load, are ordered exactly, and text and the colour bar stay where matplotlib puts them on flat axes.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -64,9 +65,11 @@ def layer_x(column: int, pitch: float = 1.0) -> float:
 def box_faces(x: tuple[float, float], y: tuple[float, float], z: tuple[float, float]) -> list[np.ndarray]:
     """The three faces of a box the view shows: the one facing the load (-x), the top (+y), the front (-z)."""
     (x0, x1), (y0, y1), (z0, z1) = x, y, z
-    return [project([x0, x0, x0, x0], [y0, y1, y1, y0], [z0, z0, z1, z1]),
-            project([x0, x1, x1, x0], [y1, y1, y1, y1], [z0, z0, z1, z1]),
-            project([x0, x1, x1, x0], [y0, y0, y1, y1], [z0, z0, z0, z0])]
+    return [
+        project([x0, x0, x0, x0], [y0, y1, y1, y0], [z0, z0, z1, z1]),
+        project([x0, x1, x1, x0], [y1, y1, y1, y1], [z0, z0, z1, z1]),
+        project([x0, x1, x1, x0], [y0, y0, y1, y1], [z0, z0, z0, z0]),
+    ]
 
 
 def shaded(colour, amount: float) -> tuple[float, float, float]:
@@ -76,11 +79,17 @@ def shaded(colour, amount: float) -> tuple[float, float, float]:
     return tuple(rgb + abs(amount) * (target - rgb))
 
 
-def draw_slab(axis, x: tuple[float, float], y: tuple[float, float], z: tuple[float, float], colour,
-              gid: str) -> PolyCollection:
+def draw_slab(
+    axis, x: tuple[float, float], y: tuple[float, float], z: tuple[float, float], colour, gid: str
+) -> PolyCollection:
     faces = box_faces(x, y, z)
-    slab = PolyCollection(faces, facecolors=[colour, shaded(colour, 0.35), shaded(colour, -0.3)],
-                          edgecolors="0.15", linewidths=0.4, gid=gid)
+    slab = PolyCollection(
+        faces,
+        facecolors=[colour, shaded(colour, 0.35), shaded(colour, -0.3)],
+        edgecolors="0.15",
+        linewidths=0.4,
+        gid=gid,
+    )
     axis.add_collection(slab)
     return slab
 
@@ -90,8 +99,11 @@ def plate_bounds(rows: int, columns: int, depth: int) -> tuple[np.ndarray, np.nd
     slabs, the backplate, the arrow's tail and the layer numbers above, with a margin."""
     pitch = layer_pitch(rows, depth)
     last = layer_x(columns - 1, pitch) + (SLAB_THICKNESS + BACKPLATE_GAP + BACKPLATE_THICKNESS) * pitch
-    corners = project([layer_x(0, pitch), last] * 4, [-1.0, -1.0, rows, rows] * 2,
-                      [-1.0, -1.0, -1.0, -1.0, depth, depth, depth, depth])
+    corners = project(
+        [layer_x(0, pitch), last] * 4,
+        [-1.0, -1.0, rows, rows] * 2,
+        [-1.0, -1.0, -1.0, -1.0, depth, depth, depth, depth],
+    )
     tail = project(layer_x(0, pitch) - ARROW_LENGTH * pitch, (rows - 1) / 2, (depth - 1) / 2)
     points = np.vstack([corners, tail])
     return points.min(axis=0) - 0.3, points.max(axis=0) + np.array([0.3, 1.2])
@@ -104,8 +116,16 @@ def face_outline(face: LoadedFace, x: float) -> np.ndarray:
     return project([x] * 4, [y0, y1, y1, y0], [z0, z0, z1, z1])
 
 
-def draw_plate(axis, rows: int, depth: int, colours: Sequence, names: Sequence[str],
-               faces: Sequence[LoadedFace], label_size: float = 7, numbered: bool = True) -> None:
+def draw_plate(
+    axis,
+    rows: int,
+    depth: int,
+    colours: Sequence,
+    names: Sequence[str],
+    faces: Sequence[LoadedFace],
+    label_size: float = 7,
+    numbered: bool = True,
+) -> None:
     """The plate on ``axis``: a slab per column (layer), coloured ``colours[j]``, named ``names[j]`` under it and
     numbered over it (``numbered``), the masses of column 1's face as dots (up to MAX_DOTS_SIDE a side), those
     the load pushes (the union of ``faces``) in the load's colour with each loaded region outlined, the load's
@@ -114,8 +134,14 @@ def draw_plate(axis, rows: int, depth: int, colours: Sequence, names: Sequence[s
     thickness = SLAB_THICKNESS * pitch
     y_span, z_span = (-0.5, rows - 0.5), (-0.5, depth - 0.5)
     last = layer_x(columns - 1, pitch) + thickness + BACKPLATE_GAP * pitch
-    draw_slab(axis, (last, last + BACKPLATE_THICKNESS * pitch), (-1.0, rows - 0.5), (-1.0, depth - 0.5),
-              BACKPLATE_COLOUR, BACKPLATE_GID)
+    draw_slab(
+        axis,
+        (last, last + BACKPLATE_THICKNESS * pitch),
+        (-1.0, rows - 0.5),
+        (-1.0, depth - 0.5),
+        BACKPLATE_COLOUR,
+        BACKPLATE_GID,
+    )
     for column in reversed(range(columns)):  # from the backplate to the load: the nearer slab drawn over
         x0 = layer_x(column, pitch)
         draw_slab(axis, (x0, x0 + thickness), y_span, z_span, colours[column], LAYER_GID.format(column + 1))
@@ -127,25 +153,54 @@ def draw_plate(axis, rows: int, depth: int, colours: Sequence, names: Sequence[s
         pushed = np.array([(a, b) in loaded for a, b in zip(i.ravel(), k.ravel())])
         dots = project(front, i.ravel(), k.ravel())
         size = float(np.clip(260.0 / max(rows, depth), 6.0, 40.0))
-        axis.scatter(dots[~pushed, 0], dots[~pushed, 1], s=size, c="white", edgecolors="0.2", linewidths=0.3,
-                     zorder=3)
-        axis.scatter(dots[pushed, 0], dots[pushed, 1], s=size, c=LOAD_COLOUR, edgecolors="0.2", linewidths=0.3,
-                     zorder=3)
+        axis.scatter(dots[~pushed, 0], dots[~pushed, 1], s=size, c="white", edgecolors="0.2", linewidths=0.3, zorder=3)
+        axis.scatter(
+            dots[pushed, 0], dots[pushed, 1], s=size, c=LOAD_COLOUR, edgecolors="0.2", linewidths=0.3, zorder=3
+        )
     for face in sorted(faces, key=lambda f: -len(f.masses())):
-        axis.add_patch(Polygon(face_outline(face, front), closed=True, edgecolor=LOAD_COLOUR, lw=1.6, zorder=4,
-                               facecolor="none" if dotted else (0.86, 0.08, 0.24, 0.35), gid=LOAD_GID))
+        axis.add_patch(
+            Polygon(
+                face_outline(face, front),
+                closed=True,
+                edgecolor=LOAD_COLOUR,
+                lw=1.6,
+                zorder=4,
+                facecolor="none" if dotted else (0.86, 0.08, 0.24, 0.35),
+                gid=LOAD_GID,
+            )
+        )
     centre = ((rows - 1) / 2, (depth - 1) / 2)
     tip, tail = project(front - 0.1, *centre), project(front - ARROW_LENGTH * pitch, *centre)
-    axis.annotate("", xy=tip, xytext=tail, zorder=5,
-                  arrowprops=dict(arrowstyle="-|>", lw=2.2, color=LOAD_COLOUR, mutation_scale=14))
+    axis.annotate(
+        "",
+        xy=tip,
+        xytext=tail,
+        zorder=5,
+        arrowprops=dict(arrowstyle="-|>", lw=2.2, color=LOAD_COLOUR, mutation_scale=14),
+    )
     for column, name in enumerate(names):
         foot = project(layer_x(column, pitch) + thickness / 2, -0.5, -0.5)
-        axis.text(foot[0], foot[1] - 0.35, name, rotation=60, ha="right", va="top", fontsize=label_size,
-                  rotation_mode="anchor")
+        axis.text(
+            foot[0],
+            foot[1] - 0.35,
+            name,
+            rotation=60,
+            ha="right",
+            va="top",
+            fontsize=label_size,
+            rotation_mode="anchor",
+        )
     for column in range(columns if numbered else 0):  # each layer's number over its far top edge
         top = project(layer_x(column, pitch) + thickness / 2, rows - 0.5, depth - 0.5)
-        axis.text(top[0], top[1] + 0.25, f"layer {column + 1}" if column == 0 else str(column + 1),
-                  ha="right" if column == 0 else "center", va="bottom", fontsize=label_size - 0.5, color="0.3")
+        axis.text(
+            top[0],
+            top[1] + 0.25,
+            f"layer {column + 1}" if column == 0 else str(column + 1),
+            ha="right" if column == 0 else "center",
+            va="bottom",
+            fontsize=label_size - 0.5,
+            color="0.3",
+        )
     low, high = plate_bounds(rows, columns, depth)
     axis.set_xlim(low[0], high[0])
     axis.set_ylim(low[1], high[1])  # the names hang below, saved with the whole figure (charts.save's fit)
@@ -155,9 +210,11 @@ def draw_plate(axis, rows: int, depth: int, colours: Sequence, names: Sequence[s
 
 def where_loaded(faces: Sequence[LoadedFace]) -> str:
     """The loaded regions in words, for a title."""
+
     def one(face: LoadedFace) -> str:
         side = len(face.row_range)
         return "its whole face" if face.whole_face else f"a centred {side} x {side} patch"
+
     return " or ".join(one(face) for face in faces)
 
 
@@ -171,8 +228,13 @@ def draw_plate_answers(case, designs, colour_map, norm, path: Path) -> str:
     low, high = plate_bounds(case.rows, case.columns, case.depth)
     height = 4.4  # inches of a panel's drawing; its width as the plate's
     width = height * (high[0] - low[0]) / (high[1] - low[1])
-    figure, axes = plt.subplots(1, len(designs), figsize=(max(width, 2.6) * len(designs) + 1.4, height + 1.0),
-                                squeeze=False, layout="constrained")
+    figure, axes = plt.subplots(
+        1,
+        len(designs),
+        figsize=(max(width, 2.6) * len(designs) + 1.4, height + 1.0),
+        squeeze=False,
+        layout="constrained",
+    )
     for axis, (label, order) in zip(axes[0], designs):
         colours = [colour_map(norm(materials[m - 1]["k"])) for m in order]
         draw_plate(axis, case.rows, case.depth, colours, [materials[m - 1]["name"] for m in order], faces)
@@ -181,9 +243,12 @@ def draw_plate_answers(case, designs, colour_map, norm, path: Path) -> str:
 
     bar = figure.colorbar(ScalarMappable(norm=norm, cmap=colour_map), ax=axes[0].tolist(), shrink=0.8)
     bar.set_label("spring constant k of the layer's material, along y and z (N)")
-    figure_title(figure, f"{case.rows} x {case.columns} x {case.depth} plate: {case.columns} layers along x, "
-                         f"each {case.rows} x {case.depth} masses (y x z); the load (arrow) on layer 1 over "
-                         f"{where_loaded(faces)} (red), the backplate (grey) behind layer {case.columns}")
+    figure_title(
+        figure,
+        f"{case.rows} x {case.columns} x {case.depth} plate: {case.columns} layers along x, "
+        f"each {case.rows} x {case.depth} masses (y x z); the load (arrow) on layer 1 over "
+        f"{where_loaded(faces)} (red), the backplate (grey) behind layer {case.columns}",
+    )
     return save(figure, path, tight=False, fit=True)
 
 
@@ -192,8 +257,11 @@ def draw_plate_answers(case, designs, colour_map, norm, path: Path) -> str:
 SPRING_KINDS = (  # (what joins the mass to a neighbour, its colour, its line style)
     ("along x, between columns: k0, α0, c0", "tab:blue", "-"),
     ("along y and z, inside the column: its material's k, α, c", "tab:green", "-"),
-    ("face diagonals of the xy and xz planes, between columns: k_diag, α_diag by the diagonal rule",
-     "tab:orange", "--"),
+    (
+        "face diagonals of the xy and xz planes, between columns: k_diag, α_diag by the diagonal rule",
+        "tab:orange",
+        "--",
+    ),
     ("face diagonals of the yz plane, inside the column: its material's k_diag, α_diag", "tab:purple", "--"),
 )
 
@@ -214,8 +282,9 @@ def draw_springs(axis) -> None:
     the 8 corners of the body diagonals; the planes of the columns j - 1, j, j + 1 outlined."""
     for dx, name in ((1, "j + 1"), (0, "j"), (-1, "j - 1")):  # each column's plane, faint: the springs show through
         plane = project([dx] * 4, [-1.4, 1.4, 1.4, -1.4], [-1.4, -1.4, 1.4, 1.4])
-        axis.add_patch(Polygon(plane, closed=True, facecolor=(0.5, 0.5, 0.5, 0.08), edgecolor="0.6", lw=0.7,
-                               gid=f"column {name}"))
+        axis.add_patch(
+            Polygon(plane, closed=True, facecolor=(0.5, 0.5, 0.5, 0.08), edgecolor="0.6", lw=0.7, gid=f"column {name}")
+        )
         foot = project(dx, -1.4, -1.4)
         axis.text(foot[0], foot[1] - 0.15, f"column {name}", ha="center", va="top", fontsize=8)
     offsets = [(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1) if (dx, dy, dz) != (0, 0, 0)]
@@ -230,13 +299,29 @@ def draw_springs(axis) -> None:
         axis.plot([centre[0], end[0]], [centre[1], end[1]], color=colour, linestyle=style, lw=2.0, zorder=3)
         axis.scatter(*end, s=34, c="0.3", zorder=4)
     axis.scatter(*centre, s=90, c="black", zorder=5)
-    axis.annotate("mass (i, j, k)", xy=centre, xytext=(0.45, 2.2), fontsize=8, zorder=6,
-                  arrowprops=dict(arrowstyle="-", lw=0.6, color="0.3", shrinkB=5))
+    axis.annotate(
+        "mass (i, j, k)",
+        xy=centre,
+        xytext=(0.45, 2.2),
+        fontsize=8,
+        zorder=6,
+        arrowprops=dict(arrowstyle="-", lw=0.6, color="0.3", shrinkB=5),
+    )
     draw_axes_key(axis, (-2.7, -2.0, 0.0), length=0.7)
-    handles = [Line2D([], [], color=colour, linestyle=style, lw=2.0, label=label)
-               for label, colour, style in SPRING_KINDS]
-    handles.append(Line2D([], [], linestyle="", marker="o", markerfacecolor="white", markeredgecolor="0.45",
-                          label="body diagonals (the cube's corners): no spring"))
+    handles = [
+        Line2D([], [], color=colour, linestyle=style, lw=2.0, label=label) for label, colour, style in SPRING_KINDS
+    ]
+    handles.append(
+        Line2D(
+            [],
+            [],
+            linestyle="",
+            marker="o",
+            markerfacecolor="white",
+            markeredgecolor="0.45",
+            label="body diagonals (the cube's corners): no spring",
+        )
+    )
     axis.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.02), fontsize=7.5, frameon=False)
     corners = project([-1.6, 1.6] * 4, [-1.6, -1.6, 1.6, 1.6] * 2, [-1.6] * 4 + [1.6] * 4)
     low, high = corners.min(axis=0), corners.max(axis=0)
@@ -252,8 +337,14 @@ def draw_axes_key(axis, origin, length: float = 1.6) -> None:
     for step, name in (((1, 0, 0), "x"), ((0, 1, 0), "y"), ((0, 0, 1), "z")):
         end = project(*(np.array(origin) + length * np.array(step)))
         axis.annotate("", xy=end, xytext=start, arrowprops=dict(arrowstyle="-|>", lw=1.2, color="0.2"))
-        axis.text(*(end + 0.25 * (end - start) / np.linalg.norm(end - start)), name, fontsize=9, ha="center",
-                  va="center", style="italic")
+        axis.text(
+            *(end + 0.25 * (end - start) / np.linalg.norm(end - start)),
+            name,
+            fontsize=9,
+            ha="center",
+            va="center",
+            style="italic",
+        )
 
 
 MODEL_ROWS, MODEL_COLUMNS, MODEL_DEPTH, MODEL_PATCH = 5, 4, 5, 3  # the plate the figure draws
@@ -274,25 +365,38 @@ def draw_model_figure(path: Path) -> str:
     tip = project(layer_x(0, pitch) - ARROW_LENGTH * pitch, (MODEL_ROWS - 1) / 2, (MODEL_DEPTH - 1) / 2)
     left.text(tip[0], tip[1] + 0.35, "load F_total", color=LOAD_COLOUR, fontsize=8.5, ha="left", va="bottom")
     corner = project(layer_x(0, pitch), MODEL_ROWS - 0.5, MODEL_DEPTH - 0.5)
-    left.text(corner[0] - 0.2, corner[1] + 0.3, f"centred P x P patch (P = {MODEL_PATCH}) on column 1's face",
-              color=LOAD_COLOUR, fontsize=8.5, ha="left", va="bottom")
-    back = project(layer_x(MODEL_COLUMNS - 1, pitch) + (SLAB_THICKNESS + BACKPLATE_GAP) * pitch, MODEL_ROWS - 0.5,
-                   -1.0)
+    left.text(
+        corner[0] - 0.2,
+        corner[1] + 0.3,
+        f"centred P x P patch (P = {MODEL_PATCH}) on column 1's face",
+        color=LOAD_COLOUR,
+        fontsize=8.5,
+        ha="left",
+        va="bottom",
+    )
+    back = project(layer_x(MODEL_COLUMNS - 1, pitch) + (SLAB_THICKNESS + BACKPLATE_GAP) * pitch, MODEL_ROWS - 0.5, -1.0)
     left.text(back[0] + 0.5, back[1] - 0.5, "backplate\nbehind\ncolumn C", fontsize=8.5, ha="left", va="top")
     left.set_title("The plate: an R x C x D grid, one material per column (a layer of R x D masses)", fontsize=9.5)
     left.set_xlim(left.get_xlim()[0], left.get_xlim()[1] + 2.2)
-    figure.text(0.02, 0.02, "x: columns j = 1..C, the load's direction, through the thickness\n"
-                "y: rows i = 1..R        z: depth k = 1..D", fontsize=8.5, va="bottom")
+    figure.text(
+        0.02,
+        0.02,
+        "x: columns j = 1..C, the load's direction, through the thickness\ny: rows i = 1..R        z: depth k = 1..D",
+        fontsize=8.5,
+        va="bottom",
+    )
     draw_springs(right)
     right.set_title("The springs of one mass: 6 nearest neighbours and 12 face diagonals", fontsize=9.5)
     return save(figure, path, tight=True, fit=True)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m orchestrator.plate_picture",
-                                     description="Draws docs/model.md section 10's figure of the plate.")
-    parser.add_argument("--write", required=True, metavar="PNG", type=Path,
-                        help="the image to write, e.g. docs/images/plate-model.png")
+    parser = argparse.ArgumentParser(
+        prog="python -m orchestrator.plate_picture", description="Draws docs/model.md section 10's figure of the plate."
+    )
+    parser.add_argument(
+        "--write", required=True, metavar="PNG", type=Path, help="the image to write, e.g. docs/images/plate-model.png"
+    )
     args = parser.parse_args(argv)
     if not args.write.parent.is_dir():
         print(f"--write {args.write}: its folder {args.write.parent} does not exist", file=sys.stderr)

@@ -1,4 +1,5 @@
 """Progress bars on stderr (tqdm), or nothing: progress never affects a result."""
+
 from __future__ import annotations
 
 import contextlib
@@ -43,8 +44,9 @@ class Progress:
         if self.enabled and total > 0:
             from tqdm import tqdm
 
-            tqdm_bar = tqdm(total=total, unit=unit, desc=description, file=sys.stderr, mininterval=0.5,
-                            disable=None, leave=False)
+            tqdm_bar = tqdm(
+                total=total, unit=unit, desc=description, file=sys.stderr, mininterval=0.5, disable=None, leave=False
+            )
         try:
             yield Bar(tqdm_bar)
         finally:

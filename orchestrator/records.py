@@ -6,6 +6,7 @@ written (floats round-trip exactly through ``repr``). Non-finite floats become N
 whose fields are not its record's keys (outputs by the FMU's names) gives its own record: an ``as_record``
 method and a ``read_record`` class method.
 """
+
 from __future__ import annotations
 
 import dataclasses

@@ -13,6 +13,7 @@ Errors are one line on stderr with exit code 2 (a traceback only with --debug); 
 exits 3; an interrupted run exits 130 (Ctrl-C) or 143 (SIGTERM) and keeps every finished evaluation in
 OUT.partial/journal.jsonl for --resume.
 """
+
 from __future__ import annotations
 
 import os
@@ -39,17 +40,24 @@ def build_parser():
     from orchestrator.steps import STEPS
     from orchestrator.study import CaseConfig
 
-    parser = Parser(description=__doc__.split("\n\n")[0],
-                    formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = Parser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     add_options(parser, CaseConfig, "the case")
     for step in STEPS:
         if step.Config.__dataclass_fields__:
             add_options(parser, step.Config, step.title.lower())
     add_options(parser, RunConfig, "the run")
-    add_options(parser, ClusterConfig, "the cluster", "Dask's workers as SLURM batch jobs (--executor dask "
-                "--cluster slurm); every option also a key of a study file's [cluster] section")
-    parser.add_argument("--study", metavar="FILE", help="run the study file FILE (every run writes one: "
-                        "OUT/study.toml); options given here override the file's")
+    add_options(
+        parser,
+        ClusterConfig,
+        "the cluster",
+        "Dask's workers as SLURM batch jobs (--executor dask "
+        "--cluster slurm); every option also a key of a study file's [cluster] section",
+    )
+    parser.add_argument(
+        "--study",
+        metavar="FILE",
+        help="run the study file FILE (every run writes one: OUT/study.toml); options given here override the file's",
+    )
     return parser
 
 
@@ -87,8 +95,11 @@ def main(argv=None) -> int:
     try:
         outcome = run_in_folder(run, case, configs, STEPS, study_file=study_file, cluster=cluster)
     except (KeyboardInterrupt, Interrupted) as exc:
-        print(f"interrupted: the finished evaluations are kept in {run.out}.partial/journal.jsonl; continue with "
-              "the same options and --resume", file=sys.stderr)
+        print(
+            f"interrupted: the finished evaluations are kept in {run.out}.partial/journal.jsonl; continue with "
+            "the same options and --resume",
+            file=sys.stderr,
+        )
         return 143 if isinstance(exc, Interrupted) else 130
     except NoResult as exc:
         print(f"{parser.prog}: no answer: {exc}; report: {run.out}/report.html", file=sys.stderr)
@@ -111,8 +122,10 @@ def one_line(exc: BaseException) -> str:
     if isinstance(exc, MemoryError):
         return "out of memory (free memory, or run with fewer --workers)"
     if isinstance(exc, OSError) and exc.errno == 28:
-        return f"no space left on the device of {exc.filename or 'the report or temporary folder'} (free space, or " \
-               "set TMPDIR or --out elsewhere)"
+        return (
+            f"no space left on the device of {exc.filename or 'the report or temporary folder'} (free space, or "
+            "set TMPDIR or --out elsewhere)"
+        )
     text = str(exc).strip()
     return text.splitlines()[0] if text else type(exc).__name__
 
@@ -121,8 +134,9 @@ def front_sureness_line(sureness) -> str:
     """How sure a front is, in a few words: exact, or how many runs reached it and what would settle it."""
     if sureness.exact:
         return "exact: every design of the space swept"
-    ends = "".join(f"; the known optimum of {k.output} alone {'is' if k.on_front else 'is NOT'} on it"
-                   for k in sureness.known_ends)
+    ends = "".join(
+        f"; the known optimum of {k.output} alone {'is' if k.on_front else 'is NOT'} on it" for k in sureness.known_ends
+    )
     return f"best found{ends}; {sureness.settle}"
 
 
@@ -132,10 +146,17 @@ def parameters_line(answer, study) -> str:
 
     note = rule_default_note(study, answer)
     cases = study.case.cases
-    each = (f", with each load case of {', '.join(f'{name} = {values}' for name, values in cases.items())} "
-            f"(the value is the {study.case.aggregate} of their runs)") if cases else ""
-    return (f"in any FMI tool: {answer.start_values_text()}{each}, stop time {study.case.horizon:g} s"
-            + (f" ({note})" if note else ""))
+    each = (
+        (
+            f", with each load case of {', '.join(f'{name} = {values}' for name, values in cases.items())} "
+            f"(the value is the {study.case.aggregate} of their runs)"
+        )
+        if cases
+        else ""
+    )
+    return f"in any FMI tool: {answer.start_values_text()}{each}, stop time {study.case.horizon:g} s" + (
+        f" ({note})" if note else ""
+    )
 
 
 def print_answer(outcome) -> None:
@@ -147,23 +168,30 @@ def print_answer(outcome) -> None:
     print(case_line(study))
     answers = study.result(Answers)
     unit = study.case.objective.units[0]
-    for answer in (answers.answers if answers else ()):
-        other = "".join(f", {v:.2f} {unit} under the {r} rule" for r, v in answer.values_by_rule.items()
-                        if r != answer.diagonal_rule and v is not None)
+    for answer in answers.answers if answers else ():
+        other = "".join(
+            f", {v:.2f} {unit} under the {r} rule"
+            for r, v in answer.values_by_rule.items()
+            if r != answer.diagonal_rule and v is not None
+        )
         evidence = answer.evidence
         role = f" ({'; '.join(answer.roles)})" if answer.roles else ""
         status = evidence.status.replace("_", " ")
         if evidence.status != "best_found" and evidence.covers:
             status += f" for {evidence.covers}"
-        print(f"{answer.diagonal_rule} rule{role}: build {list(answer.order)}: {answer.peak:.2f} {unit}{other}; "
-              f"{status}, {evidence.origin()}, {evidence.local_text()}; {answer.design_file}")
+        print(
+            f"{answer.diagonal_rule} rule{role}: build {list(answer.order)}: {answer.peak:.2f} {unit}{other}; "
+            f"{status}, {evidence.origin()}, {evidence.local_text()}; {answer.design_file}"
+        )
         print(f"  {parameters_line(answer, study)}")
         if evidence.settlement is not None:
             print(f"  {evidence.settlement.line()}")
         same = answer.equivalence
         if same is not None and same.equivalent:
-            print(f"  equivalent for practical purposes to the runner-up {list(answer.runner_up)} "
-                  f"({answer.runner_up_peak:.2f} {unit}): {same.reason(unit)}")
+            print(
+                f"  equivalent for practical purposes to the runner-up {list(answer.runner_up)} "
+                f"({answer.runner_up_peak:.2f} {unit}): {same.reason(unit)}"
+            )
     starts = study.result(Starts)
     if starts is not None:
         from orchestrator.steps.starts import comparison_line
@@ -171,10 +199,12 @@ def print_answer(outcome) -> None:
         for comparison in starts.comparisons:
             print(comparison_line(comparison, unit))
     pareto = study.result(Pareto)
-    for front in (pareto.fronts if pareto else ()):
-        print(f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front "
-              f"({front_sureness_line(front.sureness)}); "
-              + "; ".join(f"{c.label} {list(c.order)} ({c.design_file})" for c in front.chosen))
+    for front in pareto.fronts if pareto else ():
+        print(
+            f"{front.diagonal_rule} rule: {len(front.points)} designs on the Pareto front "
+            f"({front_sureness_line(front.sureness)}); "
+            + "; ".join(f"{c.label} {list(c.order)} ({c.design_file})" for c in front.chosen)
+        )
     from orchestrator.steps.pareto import BEST_DESIGN_FILE, best_design
 
     best = best_design(study)
@@ -182,8 +212,11 @@ def print_answer(outcome) -> None:
         print(f"{BEST_DESIGN_FILE}: the knee of the {best.diagonal_rule} rule's front, {list(best.order)}")
     exported = study.result(OptunaExport)
     if exported is not None and exported.error is None:
-        print(f"optuna: {sum(s.trials for s in exported.studies)} trials in {exported.storage} (studies "
-              + ", ".join(repr(s.name) for s in exported.studies) + f"): optuna-dashboard {exported.storage}")
+        print(
+            f"optuna: {sum(s.trials for s in exported.studies)} trials in {exported.storage} (studies "
+            + ", ".join(repr(s.name) for s in exported.studies)
+            + f"): optuna-dashboard {exported.storage}"
+        )
     for line in cost_lines(study):
         print(line)
     print(f"report: {outcome.report}")
@@ -200,11 +233,16 @@ def cost_lines(study) -> list[str]:
     total = sum(cost.simulated for cost in study.costs)
     swept = any(cost.step == Exhaustive.name and cost.simulated for cost in study.costs)
     unit = "tasks (an FMU run each, a sweep's chunk one)" if swept else "FMU runs"
-    lines = [f"simulated: {total:,} {unit}: " + ", ".join(
-        f"{cost.step.replace('_', ' ')} {cost.simulated:,}" for cost in study.costs if cost.simulated)]
-    lines += [f"  {cost.step.replace('_', ' ')}: {cost.simulated:,} {'tasks' if swept else 'FMU runs'}, more than "
-              f"the searches' {searches.simulated:,} (--budget): {cost.note}"
-              for cost in study.costs if cost is not searches and cost.simulated > searches.simulated and cost.note]
+    lines = [
+        f"simulated: {total:,} {unit}: "
+        + ", ".join(f"{cost.step.replace('_', ' ')} {cost.simulated:,}" for cost in study.costs if cost.simulated)
+    ]
+    lines += [
+        f"  {cost.step.replace('_', ' ')}: {cost.simulated:,} {'tasks' if swept else 'FMU runs'}, more than "
+        f"the searches' {searches.simulated:,} (--budget): {cost.note}"
+        for cost in study.costs
+        if cost is not searches and cost.simulated > searches.simulated and cost.note
+    ]
     return lines
 
 

@@ -16,6 +16,7 @@
 - Each run has a temporary folder (``lattice-run-<pid>-*`` in TMPDIR) removed when it ends; a run also
   removes those of dead predecessors (a SIGKILL leaves one behind).
 """
+
 from __future__ import annotations
 
 import errno
@@ -79,15 +80,18 @@ class RunFolder:
                 self.out.parent.mkdir(parents=True, exist_ok=True)
                 handle = open(self.lock_path, "a+")
             except OSError as exc:
-                raise FolderError(f"{_option(self.out)}: cannot write in {self.out.parent} "
-                                  f"({exc.strerror or exc})") from None
+                raise FolderError(
+                    f"{_option(self.out)}: cannot write in {self.out.parent} ({exc.strerror or exc})"
+                ) from None
             try:
                 portalocker.lock(handle, portalocker.LOCK_EX | portalocker.LOCK_NB)
             except (portalocker.exceptions.LockException, OSError):
                 holder = _holder(handle)
                 handle.close()
-                raise FolderError(f"{_option(self.out)} is in use by a running run ({holder}); wait for it to end "
-                                  "or give another --out") from None
+                raise FolderError(
+                    f"{_option(self.out)} is in use by a running run ({holder}); wait for it to end "
+                    "or give another --out"
+                ) from None
             if self._still_at_path(handle):
                 break
             handle.close()  # the run that held it removed it as we opened it: lock the file now at the path
@@ -137,7 +141,8 @@ class RunFolder:
                 raise FolderError(
                     f"{_option(self.out)}: {self.partial} holds an unfinished run ({pending.entries} results, "
                     f"started {pending.created}); continue it with --resume, or start anew with --overwrite "
-                    f"(which keeps its journal as journal-{pending.run_id}.jsonl)")
+                    f"(which keeps its journal as journal-{pending.run_id}.jsonl)"
+                )
             pending.path.rename(self.partial / f"journal-{pending.run_id}.jsonl")
             return
         started = self.partial.exists()
@@ -145,12 +150,16 @@ class RunFolder:
             shutil.rmtree(self.partial)  # a run stopped before its journal was written: nothing to keep
         finished = self._finished_run()
         if resume and finished is None and started:
-            print(f"nothing to resume in {self.partial} (the run stopped before its first result): starting it",
-                  file=sys.stderr)
+            print(
+                f"nothing to resume in {self.partial} (the run stopped before its first result): starting it",
+                file=sys.stderr,
+            )
             resume = False
         if resume and finished is None:
-            raise FolderError(f"{_option(self.out)}: there is no run to resume (no journal in {self.out} or "
-                              f"{self.partial}); start the run without --resume")
+            raise FolderError(
+                f"{_option(self.out)}: there is no run to resume (no journal in {self.out} or "
+                f"{self.partial}); start the run without --resume"
+            )
         self.partial.mkdir(parents=True)
         if resume:  # a finished run: replayed from its journal, the report written again
             self.previous = finished
@@ -167,8 +176,9 @@ class RunFolder:
             raise FolderError(f"{_option(self.out)}: {exc}; give another --out") from None
         if state is None:
             if any(self.out.iterdir()):
-                raise FolderError(f"{_option(self.out)} holds files that are not a run of this program; give an "
-                                  "empty or new folder")
+                raise FolderError(
+                    f"{_option(self.out)} holds files that are not a run of this program; give an empty or new folder"
+                )
             return None
         return state
 
@@ -223,15 +233,17 @@ def make_temp_root() -> str:
     try:
         return tempfile.mkdtemp(prefix=f"{TEMP_PREFIX}{os.getpid()}-")
     except OSError as exc:
-        raise FolderError(f"cannot create a temporary folder in {tempfile.gettempdir()} ({exc.strerror or exc}); "
-                          "free space there or set TMPDIR to another folder") from None
+        raise FolderError(
+            f"cannot create a temporary folder in {tempfile.gettempdir()} ({exc.strerror or exc}); "
+            "free space there or set TMPDIR to another folder"
+        ) from None
 
 
 def remove_dead_temp_roots() -> int:
     """Removes the temporary folders of runs whose process is gone; returns how many."""
     removed = 0
     for path in Path(tempfile.gettempdir()).glob(f"{TEMP_PREFIX}*"):
-        pid_text = path.name[len(TEMP_PREFIX):].split("-", 1)[0]
+        pid_text = path.name[len(TEMP_PREFIX) :].split("-", 1)[0]
         if not pid_text.isdigit() or not path.is_dir():
             continue
         pid = int(pid_text)

@@ -5,6 +5,7 @@ the scene, its table and its FMU, resolves the case, refuses (before any simulat
 in this run and work beyond a stated bound, opens the journal and the executor, runs the study's steps, renders
 the report and swaps the finished folder in (``orchestrator.runfolder``).
 """
+
 from __future__ import annotations
 
 import logging
@@ -44,24 +45,53 @@ MAX_WORKERS_PER_CORE = 4
 class RunConfig:
     """Where and how a study runs (none of it changes a result)."""
 
-    out: str = option("results", "report folder; while the run works it writes OUT.partial, swapped in as a whole "
-                      "when the run finishes", metavar="DIR", study=NOT_KEPT, path=True)
-    resume: bool = option(False, "continue the run of --out from its journal (same settings), simulating nothing "
-                          "it finished", action="store_true", study=NOT_KEPT)
-    overwrite: bool = option(False, "start anew although --out holds an unfinished run (its journal is kept as "
-                             "journal-RUNID.jsonl)", action="store_true", study=NOT_KEPT)
+    out: str = option(
+        "results",
+        "report folder; while the run works it writes OUT.partial, swapped in as a whole when the run finishes",
+        metavar="DIR",
+        study=NOT_KEPT,
+        path=True,
+    )
+    resume: bool = option(
+        False,
+        "continue the run of --out from its journal (same settings), simulating nothing it finished",
+        action="store_true",
+        study=NOT_KEPT,
+    )
+    overwrite: bool = option(
+        False,
+        "start anew although --out holds an unfinished run (its journal is kept as journal-RUNID.jsonl)",
+        action="store_true",
+        study=NOT_KEPT,
+    )
     executor: str = option("process", "where evaluations run", choices=EXECUTORS, study=NO_NUMBER)
-    workers: int | None = option(None, "worker processes", type=integer("--workers", 1, 10**6),
-                                 show_default=f"all cores ({os.cpu_count()})", study=NO_NUMBER)
-    scheduler: str | None = option(None, "address of a Dask scheduler (only with --executor dask)",
-                                   show_default="a local Dask cluster of --workers processes", metavar="ADDRESS",
-                                   study=NO_NUMBER)
-    time_limit: float = option(120.0, "seconds one evaluation may run (its own run time, not its time in a queue) "
-                               "before it is failed; it runs again on --resume", type=number("--time-limit", 0),
-                               metavar="S")
-    confirm_cost: bool = option(False, "run work beyond the stated bounds (an exhaustive sweep beyond 10! designs "
-                                "on Dask, more than 1000 FMU runs per design, more workers than 4 per core)",
-                                action="store_true")
+    workers: int | None = option(
+        None,
+        "worker processes",
+        type=integer("--workers", 1, 10**6),
+        show_default=f"all cores ({os.cpu_count()})",
+        study=NO_NUMBER,
+    )
+    scheduler: str | None = option(
+        None,
+        "address of a Dask scheduler (only with --executor dask)",
+        show_default="a local Dask cluster of --workers processes",
+        metavar="ADDRESS",
+        study=NO_NUMBER,
+    )
+    time_limit: float = option(
+        120.0,
+        "seconds one evaluation may run (its own run time, not its time in a queue) "
+        "before it is failed; it runs again on --resume",
+        type=number("--time-limit", 0),
+        metavar="S",
+    )
+    confirm_cost: bool = option(
+        False,
+        "run work beyond the stated bounds (an exhaustive sweep beyond 10! designs "
+        "on Dask, more than 1000 FMU runs per design, more workers than 4 per core)",
+        action="store_true",
+    )
     progress: bool = option(True, "no progress bars", flag="--no-progress", action="store_false", study=NOT_KEPT)
     debug: bool = option(False, "tracebacks instead of one-line errors", action="store_true", study=NOT_KEPT)
 
@@ -93,9 +123,11 @@ def check_same_fmu(run: RunConfig, folder: RunFolder, fmu: PreparedFMU) -> None:
     previous = folder.previous
     if not run.resume or previous is None or previous.settings.get("fmu_sha256") in (None, fmu.sha256):
         return
-    raise ValueError(f"--resume: {fmu.path} is another build than the FMU the run in {run.out} started with (it was "
-                     "rebuilt since, or another file was given): a run resumes only with the FMU it started with; "
-                     "start anew with --overwrite, or resume with that FMU (--fmu FILE)")
+    raise ValueError(
+        f"--resume: {fmu.path} is another build than the FMU the run in {run.out} started with (it was "
+        "rebuilt since, or another file was given): a run resumes only with the FMU it started with; "
+        "start anew with --overwrite, or resume with that FMU (--fmu FILE)"
+    )
 
 
 def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
@@ -106,17 +138,21 @@ def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
     if run.scheduler is None and workers > MAX_WORKERS_PER_CORE * cores:
         beyond.append("workers")
         if not run.confirm_cost:
-            raise ValueError(f"--workers {workers}: more than {MAX_WORKERS_PER_CORE} per core ({cores} cores here) "
-                             f"would slow every evaluation down; give at most {MAX_WORKERS_PER_CORE * cores}, or "
-                             "confirm with --confirm-cost")
+            raise ValueError(
+                f"--workers {workers}: more than {MAX_WORKERS_PER_CORE} per core ({cores} cores here) "
+                f"would slow every evaluation down; give at most {MAX_WORKERS_PER_CORE * cores}, or "
+                "confirm with --confirm-cost"
+            )
     runs = count_cases(case.case_lists)
     if runs > MAX_RUNS_PER_DESIGN:
         beyond.append("case")
         if not run.confirm_cost:
             budget = SearchesConfig.budget  # the default searches' designs per run
-            raise ValueError(f"--case: {runs:,} FMU runs per design (the product of the lists) is beyond "
-                             f"{MAX_RUNS_PER_DESIGN:,}; a search of {budget} designs would run {budget * runs:,}; "
-                             "give shorter lists, or confirm with --confirm-cost")
+            raise ValueError(
+                f"--case: {runs:,} FMU runs per design (the product of the lists) is beyond "
+                f"{MAX_RUNS_PER_DESIGN:,}; a search of {budget} designs would run {budget * runs:,}; "
+                "give shorter lists, or confirm with --confirm-cost"
+            )
 
 
 def check_confirmation(run: RunConfig, beyond: list[str]) -> None:
@@ -128,9 +164,11 @@ def check_confirmation(run: RunConfig, beyond: list[str]) -> None:
 def nothing_to_confirm() -> str:
     from .exhaustive import MAX_LOCAL_DESIGNS
 
-    return ("--confirm-cost: nothing in this run is beyond a bound (an exhaustive sweep beyond "
-            f"{MAX_LOCAL_DESIGNS:,} designs, more than {MAX_RUNS_PER_DESIGN} FMU runs per design, more "
-            f"than {MAX_WORKERS_PER_CORE} workers per core); leave it out")
+    return (
+        "--confirm-cost: nothing in this run is beyond a bound (an exhaustive sweep beyond "
+        f"{MAX_LOCAL_DESIGNS:,} designs, more than {MAX_RUNS_PER_DESIGN} FMU runs per design, more "
+        f"than {MAX_WORKERS_PER_CORE} workers per core); leave it out"
+    )
 
 
 def could_be_beyond(run: RunConfig, case_config: CaseConfig, scene, materials, step_configs: dict) -> bool:
@@ -161,12 +199,22 @@ def could_be_beyond(run: RunConfig, case_config: CaseConfig, scene, materials, s
 
 def settings(case, fmu: PreparedFMU, steps) -> dict:
     """What decides the results, by value (a resumed run must match it): the FMU by its hash, never its path."""
-    return {"format": SETTINGS_FORMAT, "fmu_sha256": fmu.sha256, "case": to_record(case),
-            "steps": {step.name: to_record(step.config) for step in steps}}
+    return {
+        "format": SETTINGS_FORMAT,
+        "fmu_sha256": fmu.sha256,
+        "case": to_record(case),
+        "steps": {step.name: to_record(step.config) for step in steps},
+    }
 
 
-def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, step_types,
-                  study_file=None, cluster: ClusterConfig | None = None) -> Outcome:
+def run_in_folder(
+    run: RunConfig,
+    case_config: CaseConfig,
+    step_configs: dict,
+    step_types,
+    study_file=None,
+    cluster: ClusterConfig | None = None,
+) -> Outcome:
     """``study_file``: the ``orchestrator.studyfile.StudyFile`` the options came from, if any; ``cluster``:
     where Dask's workers run (a local cluster without it)."""
     cluster = cluster or ClusterConfig()
@@ -192,24 +240,43 @@ def run_in_folder(run: RunConfig, case_config: CaseConfig, step_configs: dict, s
             study_file.check_materials(table)
         case = resolve_case(case_config, resolved)
         steps = [step_type(step_configs.get(step_type)) for step_type in step_types]
-        context = StudyContext(fmu=fmu, case=case, evaluator=Evaluator(SerialExecutor()), steps=steps,
-                               progress=Progress(run.progress), executor_kind=run.executor,
-                               confirm_cost=run.confirm_cost)
+        context = StudyContext(
+            fmu=fmu,
+            case=case,
+            evaluator=Evaluator(SerialExecutor()),
+            steps=steps,
+            progress=Progress(run.progress),
+            executor_kind=run.executor,
+            confirm_cost=run.confirm_cost,
+        )
         check_bounds(run, case, context.beyond_bounds)
         for step in steps:
             step.check(context)
         check_confirmation(run, context.beyond_bounds)
         jobs = SlurmJobs(cluster, str(folder.partial / JOB_LOGS)) if cluster.slurm else None
-        write_study_file(folder.partial, {RunConfig: run, CaseConfig: case_config, ClusterConfig: cluster,
-                                          **{type(step).Config: step.config for step in steps}},
-                         table.sha256(), fmu.sha256)
-        with Journal(folder.partial, settings(case, fmu, steps), RESULT_KINDS,
-                     resume=folder.previous is not None) as journal, \
-                make_executor(run.executor, run.workers, run.scheduler, temp_root, (fmu.path,), jobs) as executor:
+        write_study_file(
+            folder.partial,
+            {
+                RunConfig: run,
+                CaseConfig: case_config,
+                ClusterConfig: cluster,
+                **{type(step).Config: step.config for step in steps},
+            },
+            table.sha256(),
+            fmu.sha256,
+        )
+        with (
+            Journal(
+                folder.partial, settings(case, fmu, steps), RESULT_KINDS, resume=folder.previous is not None
+            ) as journal,
+            make_executor(run.executor, run.workers, run.scheduler, temp_root, (fmu.path,), jobs) as executor,
+        ):
             context.evaluator = Evaluator(executor, journal, run.time_limit)
             if journal.repaired:
-                print(f"{journal.path}: its last line was cut off (the run was killed); that task runs again",
-                      file=sys.stderr)
+                print(
+                    f"{journal.path}: its last line was cut off (the run was killed); that task runs again",
+                    file=sys.stderr,
+                )
             study = run_study(context, journal.run_id)
             report = write(study, folder.partial, steps, table)
             journal.finish()

@@ -6,6 +6,7 @@ patch and table are applied by ``scenes.resolve_scene`` (which the builder asks 
 own is checked against the scene by the size its model description declares (``orchestrator.fmu``). A new
 scene is a JSON file in ``scenes/``; nothing here changes for it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -39,11 +40,15 @@ def resolve(case: "CaseConfig") -> ResolvedScene:
     scene = resolve_scene(case, materials)
     fmu = prepare_fmu(scene, case.fmu)
     if materials is not None and len(materials) != fmu.materials:
-        raise ValueError(f"--materials {case.materials}: {len(materials)} materials, but {fmu.path.name} has a "
-                         f"table of {fmu.materials}")
+        raise ValueError(
+            f"--materials {case.materials}: {len(materials)} materials, but {fmu.path.name} has a "
+            f"table of {fmu.materials}"
+        )
     if materials is None and scene.material_table() is None and fmu.materials > STUDY_MATERIAL_COUNT:
-        raise ValueError(f"{fmu.path.name} has a table of {fmu.materials} materials, the study's has "
-                         f"{STUDY_MATERIAL_COUNT}: give the FMU's own table with --materials FILE")
+        raise ValueError(
+            f"{fmu.path.name} has a table of {fmu.materials} materials, the study's has "
+            f"{STUDY_MATERIAL_COUNT}: give the FMU's own table with --materials FILE"
+        )
     table = materials or scene.material_table() or study_materials(fmu.materials)
     return ResolvedScene(scene, table, fmu, departures_from_the_study(fmu))
 
@@ -65,16 +70,23 @@ def narrowed_table_note(case: "CaseConfig") -> str | None:
     the eleven as a table of M would give; None when that is not the case."""
     from .design import DesignSpace
 
-    if case.cols is None or case.materials or case.fmu or case.cols >= STUDY_MATERIAL_COUNT \
-            or Scene.load(case.scene).material_table() is not None:
+    if (
+        case.cols is None
+        or case.materials
+        or case.fmu
+        or case.cols >= STUDY_MATERIAL_COUNT
+        or Scene.load(case.scene).material_table() is not None
+    ):
         return None
     columns = case.cols
     own = DesignSpace(columns, columns, case.repeat).size
     chosen = DesignSpace(columns, STUDY_MATERIAL_COUNT, case.repeat).size
-    return (f"note: --cols {columns} without --materials takes the first {columns} of the study's "
-            f"{STUDY_MATERIAL_COUNT} materials (m1..m{columns}: {own:,} designs), as the study's narrower lattices and "
-            f"their known optima do; to choose {columns} of the {STUDY_MATERIAL_COUNT} ({chosen:,} designs), give "
-            "the study's table as --materials FILE (its values: docs/model.md section 3)")
+    return (
+        f"note: --cols {columns} without --materials takes the first {columns} of the study's "
+        f"{STUDY_MATERIAL_COUNT} materials (m1..m{columns}: {own:,} designs), as the study's narrower lattices and "
+        f"their known optima do; to choose {columns} of the {STUDY_MATERIAL_COUNT} ({chosen:,} designs), give "
+        "the study's table as --materials FILE (its values: docs/model.md section 3)"
+    )
 
 
 def check_table_size(case: "CaseConfig", scene: Scene, materials: MaterialTable | None) -> None:
@@ -91,9 +103,11 @@ def check_table_size(case: "CaseConfig", scene: Scene, materials: MaterialTable 
         table = f"scene {scene.name}'s table has" if own is not None else "the study's table has"
     if columns > count:
         flag = f"--cols {columns}" if case.cols else f"scene {scene.name} ({columns} columns)"
-        raise ValueError(f"{flag}: {table} {count} materials and each fills at most one column; give --cols 2.."
-                         f"{count}, --repeat (a material may fill several columns) or --materials FILE with at "
-                         f"least {columns} materials")
+        raise ValueError(
+            f"{flag}: {table} {count} materials and each fills at most one column; give --cols 2.."
+            f"{count}, --repeat (a material may fill several columns) or --materials FILE with at "
+            f"least {columns} materials"
+        )
 
 
 def check_load_patch(option_name: str, scene: Scene, value: int) -> None:
@@ -122,5 +136,12 @@ def departures_from_the_study(fmu: PreparedFMU) -> tuple[str, ...]:
     return tuple(departures)
 
 
-__all__ = ["ResolvedScene", "check_load_patch", "check_table_size", "departures_from_the_study",
-           "narrowed_table_note", "resolve", "resolve_scene"]
+__all__ = [
+    "ResolvedScene",
+    "check_load_patch",
+    "check_table_size",
+    "departures_from_the_study",
+    "narrowed_table_note",
+    "resolve",
+    "resolve_scene",
+]

@@ -4,6 +4,7 @@ This is the only place the orchestrator touches FMI. A failed FMI call becomes a
 carries the FMU's own log message (the parameter it refused, the reason a solution diverged), never a
 number.
 """
+
 from __future__ import annotations
 
 import functools
@@ -25,15 +26,31 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi1 import printLogMessage
-from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Discard, fmi2LastSuccessfulTime,
-                       fmi2Terminated, fmi2Warning, free)
+from fmpy.fmi2 import (
+    FMU2Slave,
+    calloc,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+    fmi2Discard,
+    fmi2LastSuccessfulTime,
+    fmi2Terminated,
+    fmi2Warning,
+    free,
+)
 
 from .types import NamedOutputs
 
 PEAK_OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "peak_time")
-ENERGY_OUTPUTS = ("kinetic_energy", "potential_energy", "external_work", "dissipated_energy",
-                  "nonreciprocal_work", "energy_balance_error")
+ENERGY_OUTPUTS = (
+    "kinetic_energy",
+    "potential_energy",
+    "external_work",
+    "dissipated_energy",
+    "nonreciprocal_work",
+    "energy_balance_error",
+)
 COUNTER_OUTPUTS = ("rhs_evaluations", "steps_accepted", "steps_rejected")
 
 
@@ -85,8 +102,9 @@ def enumeration_items(description, name: str) -> dict[str, int]:
     variables = description.modelVariables
     variable = next((v for v in variables if v.name == name), None)
     if variable is not None and variable.type != "Enumeration":
-        variable = next((v for v in variables if v.type == "Enumeration" and v.valueReference ==
-                         variable.valueReference), None)
+        variable = next(
+            (v for v in variables if v.type == "Enumeration" and v.valueReference == variable.valueReference), None
+        )
     declared = getattr(variable, "declaredType", None)
     return {item.name: int(item.value) for item in (getattr(declared, "items", None) or [])}
 
@@ -115,8 +133,10 @@ def _declared_size(fmu_path: str, mtime_ns: int, size: int) -> tuple[int, int, i
 
     with zipfile.ZipFile(fmu_path) as archive:
         root = ElementTree.fromstring(archive.read("modelDescription.xml"))
-    for holder in (*root.findall(f"VendorAnnotations/Tool[@name='{SIZE_ANNOTATION}']"),
-                   *root.findall(f"Annotations/Annotation[@type='{SIZE_ANNOTATION}']")):
+    for holder in (
+        *root.findall(f"VendorAnnotations/Tool[@name='{SIZE_ANNOTATION}']"),
+        *root.findall(f"Annotations/Annotation[@type='{SIZE_ANNOTATION}']"),
+    ):
         lattice = holder.find("Lattice")
         if lattice is not None:
             try:
@@ -127,8 +147,19 @@ def _declared_size(fmu_path: str, mtime_ns: int, size: int) -> tuple[int, int, i
 
 
 REAL_TYPES = ("Real", "Float64", "Float32")
-WHOLE_NUMBER_TYPES = ("Integer", "Enumeration", "Boolean", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32",
-                      "Int64", "UInt64")
+WHOLE_NUMBER_TYPES = (
+    "Integer",
+    "Enumeration",
+    "Boolean",
+    "Int8",
+    "UInt8",
+    "Int16",
+    "UInt16",
+    "Int32",
+    "UInt32",
+    "Int64",
+    "UInt64",
+)
 
 
 @dataclass(frozen=True)
@@ -176,8 +207,10 @@ class Parameter:
             low = None if self.minimum is None else int(self.minimum)
             high = None if self.maximum is None else int(self.maximum)
             if (low is not None and number < low) or (high is not None and number > high):
-                raise ValueError(f"{name} = {number} is outside its range [{'-inf' if low is None else low}, "
-                                 f"{'inf' if high is None else high}]")
+                raise ValueError(
+                    f"{name} = {number} is outside its range [{'-inf' if low is None else low}, "
+                    f"{'inf' if high is None else high}]"
+                )
             return number
         number = _real_number(given)
         if number is None:
@@ -186,8 +219,10 @@ class Parameter:
             raise ValueError(f"{name} = {given!r} is not allowed: give {self.allowed()}")
         low, high = self.minimum, self.maximum
         if (low is not None and number < low) or (high is not None and number > high):
-            raise ValueError(f"{name} = {number!r} is outside its range [{'-inf' if low is None else repr(low)}, "
-                             f"{'inf' if high is None else repr(high)}]")
+            raise ValueError(
+                f"{name} = {number!r} is outside its range [{'-inf' if low is None else repr(low)}, "
+                f"{'inf' if high is None else repr(high)}]"
+            )
         return number
 
     def convert(self, text: Any, option: str) -> Any:
@@ -247,9 +282,16 @@ def declared_parameters(description) -> Mapping[str, Parameter]:
             start = float(start)
         elif variable.type in ("Integer", "Boolean") and start is not None:
             start = int(start) if variable.type == "Integer" else int(str(start).lower() in ("1", "true"))
-        parameters[variable.name] = Parameter(variable.name, variable.type, start, _bound(variable, "min"),
-                                              _bound(variable, "max"), getattr(variable, "unit", None),
-                                              variable.description or "", items)
+        parameters[variable.name] = Parameter(
+            variable.name,
+            variable.type,
+            start,
+            _bound(variable, "min"),
+            _bound(variable, "max"),
+            getattr(variable, "unit", None),
+            variable.description or "",
+            items,
+        )
     return MappingProxyType(parameters)
 
 
@@ -307,9 +349,12 @@ class LatticeFMU:
         _MESSAGES[self._name] = self._messages
         self._slave = None
         try:
-            self._slave = FMU2Slave(guid=self.model_description.guid, unzipDirectory=self._unzip_dir,
-                                    modelIdentifier=self.model_description.coSimulation.modelIdentifier,
-                                    instanceName=self._name)
+            self._slave = FMU2Slave(
+                guid=self.model_description.guid,
+                unzipDirectory=self._unzip_dir,
+                modelIdentifier=self.model_description.coSimulation.modelIdentifier,
+                instanceName=self._name,
+            )
             self._slave.instantiate(callbacks=_CALLBACKS, loggingOn=True)  # pythonfmu logs nothing without it
         except Exception as exc:  # noqa: BLE001 - the FMU's own reason, in one line
             reason = "; ".join(self._messages) or str(exc) or type(exc).__name__
@@ -331,9 +376,11 @@ class LatticeFMU:
         variable = self.variables.get(name)
         if variable is None or variable.causality != "parameter":
             known = sorted(n for n, v in self.variables.items() if v.causality == "parameter" and "[" not in n)
-            raise ValueError(f"unknown parameter {name!r}; the FMU's parameters are {known} "
-                             f"and the arrays material[j], k[m], k_diag[m], c[m], alpha[m], alpha_diag[m], mass[m], "
-                             f"damping_exponent[m]")
+            raise ValueError(
+                f"unknown parameter {name!r}; the FMU's parameters are {known} "
+                f"and the arrays material[j], k[m], k_diag[m], c[m], alpha[m], alpha_diag[m], mass[m], "
+                f"damping_exponent[m]"
+            )
         return variable
 
     def _setter(self, with_order: bool, names: tuple) -> "_Setter":
@@ -365,9 +412,16 @@ class LatticeFMU:
     def _read(self, names) -> dict:
         return self._reader(tuple(names)).read(self._api)
 
-    def simulate(self, order=None, horizon: float = 8.0, parameters: dict | None = None,
-                 communication_step: float | None = None, outputs=None, record=None,
-                 peak_force_limit: float | None = None) -> SimulationResult:
+    def simulate(
+        self,
+        order=None,
+        horizon: float = 8.0,
+        parameters: dict | None = None,
+        communication_step: float | None = None,
+        outputs=None,
+        record=None,
+        peak_force_limit: float | None = None,
+    ) -> SimulationResult:
         """One run from t = 0 to the horizon: the outputs at its end (``outputs``: these names; None: every
         output the model description declares), and the trajectory of the ``record`` outputs if asked.
 
@@ -427,8 +481,9 @@ class LatticeFMU:
         except FMICallException as exc:
             detail = "; ".join(self._messages) or "the FMU logged no reason"
             raise SimulationError(f"{exc.function} failed: {detail}") from None
-        return SimulationResult(values, float(horizon) if stopped_at is None else stopped_at, stopped_at is not None,
-                                trajectory)
+        return SimulationResult(
+            values, float(horizon) if stopped_at is None else stopped_at, stopped_at is not None, trajectory
+        )
 
     def close(self) -> None:
         if self._slave is not None:
@@ -500,8 +555,9 @@ class _DirectCalls:
 class _Setter:
     """Sets an order and parameters: one fmi2SetInteger and one fmi2SetReal, over arrays made once."""
 
-    def __init__(self, material_references: list[int], integers: list[tuple[int, int, str]],
-                 reals: list[tuple[int, int]]):
+    def __init__(
+        self, material_references: list[int], integers: list[tuple[int, int, str]], reals: list[tuple[int, int]]
+    ):
         self.materials = len(material_references)
         self.integer_positions = [(index, name) for index, _, name in integers]
         self.real_positions = [index for index, _ in reals]
@@ -513,8 +569,9 @@ class _Setter:
 
     def apply(self, api: _DirectCalls, order, values: list) -> None:
         if len(self.integer_references):
-            integers = (list(order) if self.materials else []) + [_int32(name, values[i])
-                                                                  for i, name in self.integer_positions]
+            integers = (list(order) if self.materials else []) + [
+                _int32(name, values[i]) for i, name in self.integer_positions
+            ]
             self.integer_values[:] = integers
             api.call("fmi2SetInteger", self.integer_references, len(self.integer_references), self.integer_values)
         if len(self.real_references):
@@ -549,6 +606,6 @@ def _int32(name: str, value) -> int:
     """What fmi2SetInteger carries: a whole number that fits in 32 bits (ctypes would wrap a wider one silently).
     Whether the FMU allows it is the FMU's to say (its own message, as a SimulationError)."""
     number = int(value)
-    if number != value or not -2 ** 31 <= number < 2 ** 31:
+    if number != value or not -(2**31) <= number < 2**31:
         raise ValueError(f"{name} = {value!r} is not allowed: FMI integers are whole numbers in [-2**31, 2**31 - 1]")
     return number

@@ -9,6 +9,7 @@ Growth is counted after the warm-up (the first fifth of the cycles): the median 
 samples after it minus the median of the first quarter, so that the allocator's noise does not count; the
 least-squares slope is kept beside it.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -91,6 +92,7 @@ class NotRun:
 
 # ---------------------------------------------------------------- the native driver (Linux and Wine)
 
+
 @dataclass(frozen=True)
 class UnpackedFMU:
     folder: Path
@@ -115,11 +117,20 @@ def unpack(fmu: Path, folder: Path) -> UnpackedFMU:
         archive.extractall(folder)
     (folder / "resources").mkdir(exist_ok=True)
     materials = tuple(v.valueReference for v in description.modelVariables if v.name.startswith("material["))
-    outputs = tuple(v.valueReference for v in description.modelVariables
-                    if v.causality == "output" and v.type in ("Real", "Float64"))
-    return UnpackedFMU(folder, int(description.fmiVersion[0]), description.guid,
-                       description.numberOfContinuousStates, description.numberOfEventIndicators,
-                       materials, outputs)
+    outputs = tuple(
+        v.valueReference
+        for v in description.modelVariables
+        if v.causality == "output" and v.type in ("Real", "Float64")
+    )
+    return UnpackedFMU(
+        folder,
+        int(description.fmiVersion[0]),
+        description.guid,
+        description.numberOfContinuousStates,
+        description.numberOfEventIndicators,
+        materials,
+        outputs,
+    )
 
 
 def compile_driver(folder: Path, windows: bool) -> Path | str:
@@ -129,13 +140,18 @@ def compile_driver(folder: Path, windows: bool) -> Path | str:
         return f"{compiler} not found"
     output = folder / ("soak_driver.exe" if windows else "soak_driver")
     libraries = ["-lpsapi"] if windows else ["-ldl"]
-    done = subprocess.run([compiler, "-std=gnu11", "-O2", f"-I{INCLUDE}", str(DRIVER_SOURCE), "-o", str(output),
-                           *libraries], check=False, capture_output=True, text=True)
+    done = subprocess.run(
+        [compiler, "-std=gnu11", "-O2", f"-I{INCLUDE}", str(DRIVER_SOURCE), "-o", str(output), *libraries],
+        check=False,
+        capture_output=True,
+        text=True,
+    )
     return output if done.returncode == 0 else f"{compiler} failed: {done.stderr.strip().splitlines()[-1:]}"
 
 
-def run_driver(driver: Path, fmu: UnpackedFMU, model_exchange: bool, windows: bool, cycles: int,
-               environment: dict) -> SoakResult:
+def run_driver(
+    driver: Path, fmu: UnpackedFMU, model_exchange: bool, windows: bool, cycles: int, environment: dict
+) -> SoakResult:
     binary = fmu.binary(windows)
     if fmu.fmi_version == 2:
         resources = fmu.folder.joinpath("resources").as_uri()
@@ -148,10 +164,22 @@ def run_driver(driver: Path, fmu: UnpackedFMU, model_exchange: bool, windows: bo
     else:
         binary_text = str(binary)
         launcher = [str(driver)]
-    command = [*launcher, str(fmu.fmi_version), "me" if model_exchange else "cs", binary_text,
-               fmu.token, resources, str(fmu.states), str(fmu.indicators), str(cycles),
-                str(max(1, cycles // SAMPLES)), repr(HORIZON), str(ME_STEPS),
-                ",".join(map(str, fmu.material_references)), ",".join(map(str, fmu.output_references))]
+    command = [
+        *launcher,
+        str(fmu.fmi_version),
+        "me" if model_exchange else "cs",
+        binary_text,
+        fmu.token,
+        resources,
+        str(fmu.states),
+        str(fmu.indicators),
+        str(cycles),
+        str(max(1, cycles // SAMPLES)),
+        repr(HORIZON),
+        str(ME_STEPS),
+        ",".join(map(str, fmu.material_references)),
+        ",".join(map(str, fmu.output_references)),
+    ]
     start = time.perf_counter()
     done = subprocess.run(command, check=False, capture_output=True, text=True, env=environment)
     seconds = time.perf_counter() - start
@@ -162,14 +190,17 @@ def run_driver(driver: Path, fmu: UnpackedFMU, model_exchange: bool, windows: bo
             samples.append((int(words[1]), float(words[2])))
         elif words[:1] == ["done"]:
             failures = int(words[2])
-    name = (f"FMI {fmu.fmi_version} {'Model Exchange' if model_exchange else 'Co-Simulation'}, "
-            f"{'Windows DLL under Wine' if windows else 'Linux'}")
+    name = (
+        f"FMI {fmu.fmi_version} {'Model Exchange' if model_exchange else 'Co-Simulation'}, "
+        f"{'Windows DLL under Wine' if windows else 'Linux'}"
+    )
     if failures is None:
         raise SystemExit(f"{name}: the driver stopped (exit {done.returncode}): {done.stderr.strip()[-300:]}")
     return SoakResult(name, cycles, seconds, growth_after_warm_up(samples), failures)
 
 
 # ---------------------------------------------------------------- through the orchestrator
+
 
 def tree_rss() -> float:
     """Resident bytes of this process and every process it started (pool workers, Dask's nannies and workers)."""
@@ -183,8 +214,9 @@ def tree_rss() -> float:
     return float(total)
 
 
-def soak_loop(name: str, count: int, batch: int, run_batch: Callable[[int], int],
-              rss: Callable[[], float]) -> SoakResult:
+def soak_loop(
+    name: str, count: int, batch: int, run_batch: Callable[[int], int], rss: Callable[[], float]
+) -> SoakResult:
     """Runs ``run_batch(size)`` (it returns its failures) until ``count`` cycles ran, sampling ``rss``."""
     every = max(batch, count // SAMPLES)
     samples, failures, done, next_sample = [], 0, 0, 0
@@ -205,8 +237,9 @@ BATCH = 6  # evaluations per Evaluator
 
 def first_orders(fmu: Path, count: int) -> tuple[tuple[int, ...], ...]:
     """The first ``count`` orders (lexicographic) of the FMU's columns."""
-    return tuple(itertools.islice(itertools.permutations(range(1, material_columns(model_description(fmu)) + 1)),
-                                  count))
+    return tuple(
+        itertools.islice(itertools.permutations(range(1, material_columns(model_description(fmu)) + 1)), count)
+    )
 
 
 def evaluator_soak(fmu: Path, kind: str, count: int, workers: int) -> SoakResult:
@@ -215,21 +248,30 @@ def evaluator_soak(fmu: Path, kind: str, count: int, workers: int) -> SoakResult
     task = FMURun(str(fmu), HORIZON)
     orders = first_orders(fmu, BATCH)
     with make_executor(kind, workers) as executor:
+
         def run_batch(size: int) -> int:
             results = Evaluator(executor).evaluate([(task, order) for order in orders[:size]])
             return sum(1 for result in results if not getattr(result, "ok", True))
+
         Evaluator(executor).evaluate([(task, order) for order in orders])  # workers started before sampling
-        return soak_loop(f"Evaluator, {'process pool' if kind == 'process' else 'Dask local cluster'} "
-                         f"of {workers} workers", count, len(orders), run_batch, tree_rss)
+        return soak_loop(
+            f"Evaluator, {'process pool' if kind == 'process' else 'Dask local cluster'} of {workers} workers",
+            count,
+            len(orders),
+            run_batch,
+            tree_rss,
+        )
 
 
 def bad_inputs(columns: int) -> tuple[tuple[str, tuple[int, ...], dict], ...]:
     """One bad input of each kind for a lattice of ``columns`` columns: (kind, order, parameters)."""
     order = tuple(range(1, columns + 1))
-    return (("a material out of range", (0, *order[1:]), {}),
-            ("a repeated material", (1, *order[:-1]), {}),
-            ("too few columns", order[:-1], {}),
-            ("a parameter out of range", order, {"rtol": -1.0}))
+    return (
+        ("a material out of range", (0, *order[1:]), {}),
+        ("a repeated material", (1, *order[:-1]), {}),
+        ("too few columns", order[:-1], {}),
+        ("a parameter out of range", order, {"rtol": -1.0}),
+    )
 
 
 def refusal_soak(fmu: Path, count: int) -> SoakResult:
@@ -247,8 +289,14 @@ def refusal_soak(fmu: Path, count: int) -> SoakResult:
                 except (ValueError, RuntimeError):
                     pass
             return accepted
-        return soak_loop(f"refused bad inputs ({', '.join(kind for kind, _, _ in inputs)})", count,
-                         len(inputs), run_batch, lambda: float(process.memory_info().rss))
+
+        return soak_loop(
+            f"refused bad inputs ({', '.join(kind for kind, _, _ in inputs)})",
+            count,
+            len(inputs),
+            run_batch,
+            lambda: float(process.memory_info().rss),
+        )
 
 
 def simulate_soak(fmu: Path, count: int) -> SoakResult:
@@ -262,5 +310,11 @@ def simulate_soak(fmu: Path, count: int) -> SoakResult:
             for order in orders[:size]:
                 lattice.simulate(order, horizon=HORIZON)
             return 0
-        return soak_loop("LatticeFMU.simulate (the orchestrator's FMI 2 Co-Simulation path), Linux", count,
-                         len(orders), run_batch, lambda: float(process.memory_info().rss))
+
+        return soak_loop(
+            "LatticeFMU.simulate (the orchestrator's FMI 2 Co-Simulation path), Linux",
+            count,
+            len(orders),
+            run_batch,
+            lambda: float(process.memory_info().rss),
+        )

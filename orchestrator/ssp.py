@@ -20,6 +20,7 @@ enumeration's items), that the order is complete and a design of the FMU's desig
 arrangement, or any assignment when repeat_materials = 1), and refuse with one line naming the parameter.
 The writer also refuses a design that a tool named above would silently run differently.
 """
+
 from __future__ import annotations
 
 import math
@@ -47,16 +48,21 @@ MATERIAL_FIELDS = FIELD_NAMES  # the FMU's parameters per material
 # OMSimulator imports a system only with its own annotation: a weakly coupled system ("oms-ma", the fixed-step
 # master) with the communication step. The fixed-step master does not use the tolerance; OMSimulator writes
 # its default there.
-OMS = {"type": "org.openmodelica", "master": "oms-ma", "relative_tolerance": "0.0001",
-       "namespace": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"}
+OMS = {
+    "type": "org.openmodelica",
+    "master": "oms-ma",
+    "relative_tolerance": "0.0001",
+    "namespace": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd",
+}
 # libcosim reads its fixed step from this annotation of the default experiment (without it the caller of
 # from_ssp_file must give one); other tools ignore it.
 OSP = {"type": "com.opensimulationplatform", "namespace": "https://opensimulationplatform.com/SSP/1.0"}
-NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
-      "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues"}
+NS = {
+    "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+    "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+}
 SSV_TYPES = ("Real", "Integer", "Boolean", "String", "Enumeration", "Binary")
-INTEGER_TYPES = ("Integer", "Enumeration", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64",
-                 "UInt64")
+INTEGER_TYPES = ("Integer", "Enumeration", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")
 
 
 @dataclass(frozen=True)
@@ -86,8 +92,7 @@ def _unknown(name: str, description, source: str) -> ValueError:
         else:
             scalars.append(known)
     listed = ", ".join(sorted(scalars) + [f"{base}[1..{count}]" for base, count in arrays.items()])
-    return ValueError(f"{source}: {name!r} is not a parameter of {description.modelName}; its parameters are "
-                      f"{listed}")
+    return ValueError(f"{source}: {name!r} is not a parameter of {description.modelName}; its parameters are {listed}")
 
 
 def _checked_value(variable, description, kind: str, value, source: str) -> float | int:
@@ -104,8 +109,9 @@ def _checked_value(variable, description, kind: str, value, source: str) -> floa
     if variable.type not in INTEGER_TYPES:
         raise ValueError(f"{source}: {name} is a {variable.type} parameter, which design files do not set")
     if kind == "Enumeration":  # libcosim aborts the process on an ssv:Enumeration
-        raise ValueError(f"{source}: {name} is given as an ssv:Enumeration, which libcosim cannot read: give its "
-                         "code as ssv:Integer")
+        raise ValueError(
+            f"{source}: {name} is given as an ssv:Enumeration, which libcosim cannot read: give its code as ssv:Integer"
+        )
     if kind not in ("Integer", "item"):
         raise ValueError(f"{source}: {name} is an integer parameter of the FMU, but is given as {kind}")
     if kind == "Integer" and isinstance(value, str):  # an ssv:Integer's text: decimal digits only
@@ -143,8 +149,10 @@ def _check_design(description, values: Mapping[str, float | int], source: str) -
         first_column = {}
         for j, material in enumerate(order, 1):
             if material in first_column:
-                raise ValueError(f"{source}: material[{j}] = {material} repeats material[{first_column[material]}]: "
-                                 f"each material at most once ({REPEAT_PARAMETER} = 0)")
+                raise ValueError(
+                    f"{source}: material[{j}] = {material} repeats material[{first_column[material]}]: "
+                    f"each material at most once ({REPEAT_PARAMETER} = 0)"
+                )
             first_column[material] = j
     try:
         space.check(order, "the order")
@@ -161,9 +169,11 @@ def _tool_problem(description, entries: Sequence[DesignParameter]) -> str | None
             default = int(variable.start)
             if entry.value != default:
                 items = {code: item for item, code in enumeration_items(description, entry.name).items()}
-                return (f"{entry.name} = {items.get(entry.value, entry.value)}: libcosim ignores FMI 2 Enumeration "
-                        f"parameters and would run {entry.name} = {items.get(default, default)}; this FMU cannot carry "
-                        f"that design to libcosim (rebuild it with {entry.name} settable as an Integer)")
+                return (
+                    f"{entry.name} = {items.get(entry.value, entry.value)}: libcosim ignores FMI 2 Enumeration "
+                    f"parameters and would run {entry.name} = {items.get(default, default)}; this FMU cannot carry "
+                    f"that design to libcosim (rebuild it with {entry.name} settable as an Integer)"
+                )
     return None
 
 
@@ -188,13 +198,16 @@ def _check_table(description, materials: MaterialTable, values: Mapping[str, flo
         for m, (table_value, start) in enumerate(zip(materials.column(field), starts), 1):
             used = float(values.get(f"{field}[{m}]", start))
             if not math.isclose(table_value, used, rel_tol=1e-12, abs_tol=0.0):
-                raise ValueError(f"materials: {field} of material {m} ({materials.name_of(m)!r}) is {table_value!r} "
-                                 f"in the table, but {field}[{m}] = {used!r} in the design: the names would "
-                                 "describe another table")
+                raise ValueError(
+                    f"materials: {field} of material {m} ({materials.name_of(m)!r}) is {table_value!r} "
+                    f"in the table, but {field}[{m}] = {used!r} in the design: the names would "
+                    "describe another table"
+                )
 
 
-def design_parameters(fmu_path: str | Path, parameters: Mapping,
-                      materials: MaterialTable | None = None) -> list[DesignParameter]:
+def design_parameters(
+    fmu_path: str | Path, parameters: Mapping, materials: MaterialTable | None = None
+) -> list[DesignParameter]:
     """The parameter set of a design, each value checked against the FMU: a sequence expands to name[1..n]
     (``material`` is the order), an enumeration may be given by item name ("mean") or code. With ``materials``
     (the MaterialTable the FMU was built with) each material[j] says the name of the material it holds."""
@@ -214,8 +227,9 @@ def design_parameters(fmu_path: str | Path, parameters: Mapping,
         if name in values:
             raise ValueError(f"parameters: {name} is given twice")
         if isinstance(value, str) and not enumeration_items(description, name):  # text is for item names only
-            raise ValueError(f"parameters: {name} = {value!r} is not a "
-                             f"{'number' if variable.type in REAL_TYPES else 'integer'}")
+            raise ValueError(
+                f"parameters: {name} = {value!r} is not a {'number' if variable.type in REAL_TYPES else 'integer'}"
+            )
         kind = "Real" if variable.type in REAL_TYPES else "item" if isinstance(value, str) else "Integer"
         values[name] = _checked_value(variable, description, kind, value, "parameters")
     _check_design(description, values, "parameters")
@@ -228,7 +242,7 @@ def design_parameters(fmu_path: str | Path, parameters: Mapping,
         if items:
             note = f"{name} = {items[value]}"
         elif materials is not None and name.startswith("material["):
-            note = f"column {name[len('material['):-1]}: material {value} ({materials.name_of(int(value))})"
+            note = f"column {name[len('material[') : -1]}: material {value} ({materials.name_of(int(value))})"
         result.append(DesignParameter(name, "Real" if known[name].type in REAL_TYPES else "Integer", value, note))
     return result
 
@@ -244,8 +258,15 @@ def design_refusal(fmu_path: str | Path, parameters: Mapping, materials: Materia
     return _tool_problem(read_model_description(str(fmu_path)), entries)
 
 
-def write_best_design_ssp(fmu_path: str | Path, parameters: Mapping, out_path: str | Path, *, stop_time: float,
-                          step_size: float = 0.01, materials: MaterialTable | None = None) -> Path:
+def write_best_design_ssp(
+    fmu_path: str | Path,
+    parameters: Mapping,
+    out_path: str | Path,
+    *,
+    stop_time: float,
+    step_size: float = 0.01,
+    materials: MaterialTable | None = None,
+) -> Path:
     """Writes `out_path` (.ssp): the FMU, `parameters` as an .ssv bound to it in the .ssd, the experiment.
     Refuses (ValueError, one line) a value the FMU does not allow, an incomplete or invalid order, and a
     parameter a tool named in this module's docstring would silently not apply."""
@@ -259,14 +280,27 @@ def write_best_design_ssp(fmu_path: str | Path, parameters: Mapping, out_path: s
     if problem is not None:
         raise ValueError(problem)
     fmu_member = f"resources/{fmu_path.name}"
-    connectors = [{"name": v.name, "kind": "Real" if v.type in REAL_TYPES else "Integer"}
-                  for v in description.modelVariables
-                  if v.causality == "output" and v.type in REAL_TYPES + INTEGER_TYPES
-                  and not getattr(v, "dimensions", None)]
-    ssd = add_templates("orchestrator").get_template("ssp_system_structure.ssd").render(
-        system=SYSTEM, component=COMPONENT, fmu_member=fmu_member, connectors=connectors, parameter_set=SSV_NAME,
-        description="A material order found by the lattice study, as a parameter set of the lattice FMU",
-        stop_time=repr(float(stop_time)), step_size=repr(float(step_size)), oms=OMS, osp=OSP)
+    connectors = [
+        {"name": v.name, "kind": "Real" if v.type in REAL_TYPES else "Integer"}
+        for v in description.modelVariables
+        if v.causality == "output" and v.type in REAL_TYPES + INTEGER_TYPES and not getattr(v, "dimensions", None)
+    ]
+    ssd = (
+        add_templates("orchestrator")
+        .get_template("ssp_system_structure.ssd")
+        .render(
+            system=SYSTEM,
+            component=COMPONENT,
+            fmu_member=fmu_member,
+            connectors=connectors,
+            parameter_set=SSV_NAME,
+            description="A material order found by the lattice study, as a parameter set of the lattice FMU",
+            stop_time=repr(float(stop_time)),
+            step_size=repr(float(step_size)),
+            oms=OMS,
+            osp=OSP,
+        )
+    )
     ssv = add_templates("orchestrator").get_template("ssp_parameter_set.ssv").render(name=SYSTEM, parameters=entries)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     partial = out_path.with_name(out_path.name + ".partial")
@@ -331,8 +365,9 @@ def read_design_parameters(ssp_path: str | Path) -> dict[str, float | int]:
             with archive.open(member) as fmu:
                 description = read_model_description(fmu)
         except KeyError:
-            raise ValueError(f"{source}: component {component.get('name')!r} names {member!r}, which is not in "
-                             "the archive") from None
+            raise ValueError(
+                f"{source}: component {component.get('name')!r} names {member!r}, which is not in the archive"
+            ) from None
         except Exception as error:  # fmpy's reader raises bare Exceptions
             raise ValueError(f"{source}: {member} is not an FMU ({str(error).splitlines()[0]})") from None
         known = _parameters_of(description)
@@ -342,7 +377,7 @@ def read_design_parameters(ssp_path: str | Path) -> dict[str, float | int]:
             name = parameter.get("name") or ""
             if not name.startswith(prefix):
                 raise ValueError(f"{where}: {name!r} does not start with the binding's prefix {prefix!r}")
-            name = name[len(prefix):]
+            name = name[len(prefix) :]
             if name not in known:
                 raise _unknown(name, description, where)
             typed = [child for child in parameter if etree.QName(child).localname in SSV_TYPES]
@@ -363,5 +398,14 @@ def read_design_parameters(ssp_path: str | Path) -> dict[str, float | int]:
     return values
 
 
-__all__ = ["COMPONENT", "DesignParameter", "SSD_NAME", "SSV_NAME", "SYSTEM", "design_parameters", "design_refusal",
-           "read_design_parameters", "write_best_design_ssp"]
+__all__ = [
+    "COMPONENT",
+    "DesignParameter",
+    "SSD_NAME",
+    "SSV_NAME",
+    "SYSTEM",
+    "design_parameters",
+    "design_refusal",
+    "read_design_parameters",
+    "write_best_design_ssp",
+]

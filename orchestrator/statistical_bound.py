@@ -13,6 +13,7 @@ This is a STATISTICAL ESTIMATE, never a certificate: it assumes the fitted law a
 often its interval really holds the optimum is measured by ``python -m bench.statistical_bound`` where the
 optimum is certified.
 """
+
 from __future__ import annotations
 
 import math
@@ -63,7 +64,7 @@ def group_minima(values: Sequence[float], group_size: int) -> np.ndarray:
     if not np.all(np.isfinite(data)):
         raise ValueError("values must be finite numbers (drop failed evaluations first)")
     groups = len(data) // group_size
-    return data[:groups * group_size].reshape(groups, group_size).min(axis=1)
+    return data[: groups * group_size].reshape(groups, group_size).min(axis=1)
 
 
 def weibull_bound(values: Sequence[float], group_size: int, confidence: float = 0.95) -> StatisticalBound:
@@ -89,12 +90,27 @@ def weibull_bound(values: Sequence[float], group_size: int, confidence: float = 
         shape, location, scale = stats.weibull_min.fit(minima, floc=location)
     alpha = 1.0 - confidence
     reach = scale * (math.log(1.0 / alpha) / len(minima)) ** (1.0 / shape)
-    return StatisticalBound(float(min(location, best)), float(best - reach), best, confidence, len(minima),
-                            int(group_size), float(shape), float(scale))
+    return StatisticalBound(
+        float(min(location, best)),
+        float(best - reach),
+        best,
+        confidence,
+        len(minima),
+        int(group_size),
+        float(shape),
+        float(scale),
+    )
 
 
-def estimate_optimum(evaluator: Any, function: Callable, space: Any, groups: int, group_size: int,
-                     rng: np.random.Generator, confidence: float = 0.95) -> StatisticalBound:
+def estimate_optimum(
+    evaluator: Any,
+    function: Callable,
+    space: Any,
+    groups: int,
+    group_size: int,
+    rng: np.random.Generator,
+    confidence: float = 0.95,
+) -> StatisticalBound:
     """Evaluates ``groups * group_size`` random designs of ``space`` through ``evaluator`` (the run's one
     Evaluator) and fits the bound to their values. Failed evaluations are drawn again, so every group is full."""
     wanted = groups * group_size

@@ -9,6 +9,7 @@ study has an answer when, asked in order, a step's ``verdict`` holds one before 
 by the objective's search fidelity; every number reported as a result is at full fidelity (the whole scene at
 the FMU's default accuracy).
 """
+
 from __future__ import annotations
 
 import time
@@ -23,29 +24,47 @@ from scenes import DEFAULT_SCENE, PROJECTILE_SCENE, Scene
 from .design import DesignSpace
 from .fmu import PreparedFMU
 from .loop import Evaluator, EvaluatorState
-from .objective import (AGGREGATES, SEARCH_HORIZON, SEARCH_RTOL, LatticeObjective, ObjectiveDescription,
-                        expand_cases)
+from .objective import AGGREGATES, SEARCH_HORIZON, SEARCH_RTOL, LatticeObjective, ObjectiveDescription, expand_cases
 from .options import check_options, given, integer, number, option
 from .progress import Progress
 from .scene import ResolvedScene, check_load_patch
 
 MAX_HORIZON = 3600.0  # s: a longer horizon is refused (one evaluation must end)
 MAX_RUNS_PER_DESIGN = 1000  # FMU runs per design (the product of --case) beyond which --confirm-cost is needed
-SCENE_OPTIONS = {"F_total": "--load", "load_angle": "--load-angle", "load_patch": "--load-patch",
-                 "load_mode": "--load-mode", "projectile_mass": "--projectile-mass",
-                 "projectile_speed": "--projectile-speed", "contact_stiffness": "--contact-stiffness",
-                 "contact_exponent": "--contact-exponent", "contact_damping": "--contact-damping"}
+SCENE_OPTIONS = {
+    "F_total": "--load",
+    "load_angle": "--load-angle",
+    "load_patch": "--load-patch",
+    "load_mode": "--load-mode",
+    "projectile_mass": "--projectile-mass",
+    "projectile_speed": "--projectile-speed",
+    "contact_stiffness": "--contact-stiffness",
+    "contact_exponent": "--contact-exponent",
+    "contact_damping": "--contact-damping",
+}
 # The CaseConfig field of each of SCENE_OPTIONS' parameters.
-SCENE_OPTION_FIELDS = {"F_total": "load", "load_angle": "load_angle", "load_patch": "load_patch",
-                       "load_mode": "load_mode", "projectile_mass": "projectile_mass",
-                       "projectile_speed": "projectile_speed", "contact_stiffness": "contact_stiffness",
-                       "contact_exponent": "contact_exponent", "contact_damping": "contact_damping"}
+SCENE_OPTION_FIELDS = {
+    "F_total": "load",
+    "load_angle": "load_angle",
+    "load_patch": "load_patch",
+    "load_mode": "load_mode",
+    "projectile_mass": "projectile_mass",
+    "projectile_speed": "projectile_speed",
+    "contact_stiffness": "contact_stiffness",
+    "contact_exponent": "contact_exponent",
+    "contact_damping": "contact_damping",
+}
 # What loads column 1 (docs/model.md section 11), by the FMU's load_mode items.
 LOAD_MODES = tuple(enumeration_values("load_mode"))
 PULSE, INPUT, PROJECTILE = "pulse", "input", "projectile"
 # The parameters of the projectile and its contact: they act only under a projectile.
-PROJECTILE_PARAMETERS = ("projectile_mass", "projectile_speed", "contact_stiffness", "contact_exponent",
-                         "contact_damping")
+PROJECTILE_PARAMETERS = (
+    "projectile_mass",
+    "projectile_speed",
+    "contact_stiffness",
+    "contact_exponent",
+    "contact_damping",
+)
 # The parameters of the prescribed pulse: a projectile brings its own momentum, so they act only under a pulse.
 PULSE_PARAMETERS = ("F_total", "load_angle", "t_active")
 # The rule whose answer is the design file by default: the reciprocal one (Newton's third law holds on every
@@ -80,8 +99,10 @@ def search_fidelity(mode: str, scene: Scene | None = None) -> SearchFidelity:
     own = scene is not None and scene.parameter_values().get("load_mode", 0) == enumeration_values("load_mode")[mode]
     carrier = scene if own else Scene.load(LOAD_MODE_SCENES[mode])
     reference = Scene.load(LOAD_MODE_SCENES[mode])
-    return SearchFidelity(carrier.search_horizon or reference.search_horizon or SEARCH_HORIZON,
-                          carrier.search_rtol or reference.search_rtol or SEARCH_RTOL)
+    return SearchFidelity(
+        carrier.search_horizon or reference.search_horizon or SEARCH_HORIZON,
+        carrier.search_rtol or reference.search_rtol or SEARCH_RTOL,
+    )
 
 
 _PROJECTILE = Scene.load(PROJECTILE_SCENE).parameter_values()  # the default projectile, as --help shows it
@@ -93,81 +114,159 @@ class CaseConfig:
     """The case the user asks about: scene, lattice and materials, objective, diagonal rules, load."""
 
     scene: str = option(DEFAULT_SCENE, "scene name from scenes/ or the path of a scene .json file", path=True)
-    fmu: str | None = option(None, "the FMU to use (never rebuilt)", show_default="the scene's FMU in models/, "
-                             "built or rebuilt as needed", path=True)
-    materials: str | None = option(None, "material table: a .csv with the header name,k,k_diag,c,alpha,alpha_diag "
-                                   "(units as docs/model.md section 3), or .toml / .json with the same fields",
-                                   show_default=f"the study's {STUDY_MATERIAL_COUNT} materials", path=True)
-    cols: int | None = option(None, "columns of the lattice (materials per design)", show_default="the scene's",
-                              type=integer("--cols", 2, MAX_COLS))
-    depth: int | None = option(None, "masses through the plate's depth, z (docs/model.md section 10: each layer, one "
-                               "column of one material, is a sheet of rows x depth masses; 1: the 2-D lattice), "
-                               "fixed when its FMU is built", show_default="the scene's", type=integer("--depth", 1))
-    repeat: bool = option(False, "a material may fill several columns (M^C designs; default: each material at "
-                          "most once)", action="store_true")
-    objective: str = option("sampled", "FMU output(s) to minimise, one or two or three separated by commas: sampled "
-                            "(peak_backplate_force over the 0.01 s samples, the study's), continuous "
-                            "(peak_backplate_force_continuous), max_compression", metavar="OUTPUT[,OUTPUT]")
+    fmu: str | None = option(
+        None,
+        "the FMU to use (never rebuilt)",
+        show_default="the scene's FMU in models/, built or rebuilt as needed",
+        path=True,
+    )
+    materials: str | None = option(
+        None,
+        "material table: a .csv with the header name,k,k_diag,c,alpha,alpha_diag "
+        "(units as docs/model.md section 3), or .toml / .json with the same fields",
+        show_default=f"the study's {STUDY_MATERIAL_COUNT} materials",
+        path=True,
+    )
+    cols: int | None = option(
+        None,
+        "columns of the lattice (materials per design)",
+        show_default="the scene's",
+        type=integer("--cols", 2, MAX_COLS),
+    )
+    depth: int | None = option(
+        None,
+        "masses through the plate's depth, z (docs/model.md section 10: each layer, one "
+        "column of one material, is a sheet of rows x depth masses; 1: the 2-D lattice), "
+        "fixed when its FMU is built",
+        show_default="the scene's",
+        type=integer("--depth", 1),
+    )
+    repeat: bool = option(
+        False,
+        "a material may fill several columns (M^C designs; default: each material at most once)",
+        action="store_true",
+    )
+    objective: str = option(
+        "sampled",
+        "FMU output(s) to minimise, one or two or three separated by commas: sampled "
+        "(peak_backplate_force over the 0.01 s samples, the study's), continuous "
+        "(peak_backplate_force_continuous), max_compression",
+        metavar="OUTPUT[,OUTPUT]",
+    )
     diagonal_rules: tuple[str, ...] = option(
-        (), "diagonal rules to search under, each with equal weight; the first is the design you build "
-        "(best_design.ssp)", flag="--diagonal-rule", nargs="+", metavar="RULE",
-        show_default=f"every rule of the FMU, the reciprocal {DESIGN_RULE} rule first: mean receiver")
-    load: float | None = option(None, "total load F_total in N", show_default=f"the scene's, {_LOAD:g} N",
-                                metavar="N", type=number("--load"))
-    load_angle: float | None = option(None, "load angle in degrees (0: along +x)",
-                                      show_default=f"the scene's, {_LOAD_ANGLE:g}", metavar="DEG",
-                                      type=number("--load-angle"))
-    load_patch: int | None = option(None, "where column 1 is loaded: 0 over its whole face, an odd P over the "
-                                    "centred P x P patch of its rows x depth masses", show_default="the scene's",
-                                    metavar="P", type=integer("--load-patch", 0))
-    load_mode: str | None = option(None, "what strikes column 1 (docs/model.md section 11): pulse, the force --load "
-                                   "for t_active (the study's); projectile, a rigid body of --projectile-mass at "
-                                   "--projectile-speed whose contact force answers the lattice; input (F_front set "
-                                   "by another FMU) needs a co-simulation master and is refused here",
-                                   choices=LOAD_MODES, show_default="the scene's, pulse")
-    projectile_mass: float | None = option(None, "the projectile's mass in kg (only under a projectile)",
-                                           show_default=f"the FMU's, {_PROJECTILE['projectile_mass']:g} kg",
-                                           metavar="KG", type=number("--projectile-mass", 0))
-    projectile_speed: float | None = option(None, "the projectile's speed along +x in m/s as it touches the face at "
-                                            "t = 0 (only under a projectile)",
-                                            show_default=f"the FMU's, {_PROJECTILE['projectile_speed']:g} m/s",
-                                            metavar="M/S", type=number("--projectile-speed", 0))
-    contact_stiffness: float | None = option(None, "k_c of the Hunt-Crossley contact k_c d^n (1 + lambda d') in "
-                                             "N/m^n (only under a projectile)",
-                                             show_default=f"the FMU's, {_PROJECTILE['contact_stiffness']:g}",
-                                             metavar="K", type=number("--contact-stiffness", 0))
-    contact_exponent: float | None = option(None, "n of the contact (only under a projectile)",
-                                            show_default=f"the FMU's, {_PROJECTILE['contact_exponent']:g}",
-                                            metavar="N", type=number("--contact-exponent", 0))
-    contact_damping: float | None = option(None, "lambda of the contact in s/m (only under a projectile)",
-                                           show_default=f"the FMU's, {_PROJECTILE['contact_damping']:g} s/m",
-                                           metavar="S/M", type=number("--contact-damping", 0, low_inclusive=True))
-    horizon: float | None = option(None, f"simulated time of the full scene in s, at most {MAX_HORIZON:g}",
-                                   show_default=f"the scene's, {_HORIZON:g} s", metavar="S",
-                                   type=number("--horizon", 0, MAX_HORIZON))
-    search_horizon: float | None = option(None, "horizon of the searches' cheaper objective in s (every reported "
-                                          "number is re-evaluated over the full horizon); 0: the full horizon",
-                                          show_default=f"the scene's for its load: {_PULSE_SEARCH.horizon:g} s under "
-                                          f"the study's pulse, {_PROJECTILE_SEARCH.horizon:g} s under a projectile",
-                                          metavar="S", type=number("--search-horizon", 0, MAX_HORIZON,
-                                                                   allow_zero=True))
-    search_rtol: float | None = option(None, "solver tolerance of the searches' cheaper objective; 0: the FMU's "
-                                       "default", show_default=f"the scene's for its load: {_PULSE_SEARCH.rtol:g} "
-                                       f"under the study's pulse, {_PROJECTILE_SEARCH.rtol:g} under a projectile",
-                                       metavar="RTOL", type=number("--search-rtol", 1e-13, 1e-2, allow_zero=True))
-    case: tuple[str, ...] = option((), "load cases: NAME=V1,V2,... (repeatable; the cases are the product of the "
-                                   "lists), NAME a scalar parameter of the FMU", action="append",
-                                   metavar="NAME=V1,V2")
-    aggregate: str | None = option(None, "how the load cases make one value (only with --case)",
-                                   choices=AGGREGATES, show_default="worst")
+        (),
+        "diagonal rules to search under, each with equal weight; the first is the design you build (best_design.ssp)",
+        flag="--diagonal-rule",
+        nargs="+",
+        metavar="RULE",
+        show_default=f"every rule of the FMU, the reciprocal {DESIGN_RULE} rule first: mean receiver",
+    )
+    load: float | None = option(
+        None, "total load F_total in N", show_default=f"the scene's, {_LOAD:g} N", metavar="N", type=number("--load")
+    )
+    load_angle: float | None = option(
+        None,
+        "load angle in degrees (0: along +x)",
+        show_default=f"the scene's, {_LOAD_ANGLE:g}",
+        metavar="DEG",
+        type=number("--load-angle"),
+    )
+    load_patch: int | None = option(
+        None,
+        "where column 1 is loaded: 0 over its whole face, an odd P over the "
+        "centred P x P patch of its rows x depth masses",
+        show_default="the scene's",
+        metavar="P",
+        type=integer("--load-patch", 0),
+    )
+    load_mode: str | None = option(
+        None,
+        "what strikes column 1 (docs/model.md section 11): pulse, the force --load "
+        "for t_active (the study's); projectile, a rigid body of --projectile-mass at "
+        "--projectile-speed whose contact force answers the lattice; input (F_front set "
+        "by another FMU) needs a co-simulation master and is refused here",
+        choices=LOAD_MODES,
+        show_default="the scene's, pulse",
+    )
+    projectile_mass: float | None = option(
+        None,
+        "the projectile's mass in kg (only under a projectile)",
+        show_default=f"the FMU's, {_PROJECTILE['projectile_mass']:g} kg",
+        metavar="KG",
+        type=number("--projectile-mass", 0),
+    )
+    projectile_speed: float | None = option(
+        None,
+        "the projectile's speed along +x in m/s as it touches the face at t = 0 (only under a projectile)",
+        show_default=f"the FMU's, {_PROJECTILE['projectile_speed']:g} m/s",
+        metavar="M/S",
+        type=number("--projectile-speed", 0),
+    )
+    contact_stiffness: float | None = option(
+        None,
+        "k_c of the Hunt-Crossley contact k_c d^n (1 + lambda d') in N/m^n (only under a projectile)",
+        show_default=f"the FMU's, {_PROJECTILE['contact_stiffness']:g}",
+        metavar="K",
+        type=number("--contact-stiffness", 0),
+    )
+    contact_exponent: float | None = option(
+        None,
+        "n of the contact (only under a projectile)",
+        show_default=f"the FMU's, {_PROJECTILE['contact_exponent']:g}",
+        metavar="N",
+        type=number("--contact-exponent", 0),
+    )
+    contact_damping: float | None = option(
+        None,
+        "lambda of the contact in s/m (only under a projectile)",
+        show_default=f"the FMU's, {_PROJECTILE['contact_damping']:g} s/m",
+        metavar="S/M",
+        type=number("--contact-damping", 0, low_inclusive=True),
+    )
+    horizon: float | None = option(
+        None,
+        f"simulated time of the full scene in s, at most {MAX_HORIZON:g}",
+        show_default=f"the scene's, {_HORIZON:g} s",
+        metavar="S",
+        type=number("--horizon", 0, MAX_HORIZON),
+    )
+    search_horizon: float | None = option(
+        None,
+        "horizon of the searches' cheaper objective in s (every reported "
+        "number is re-evaluated over the full horizon); 0: the full horizon",
+        show_default=f"the scene's for its load: {_PULSE_SEARCH.horizon:g} s under "
+        f"the study's pulse, {_PROJECTILE_SEARCH.horizon:g} s under a projectile",
+        metavar="S",
+        type=number("--search-horizon", 0, MAX_HORIZON, allow_zero=True),
+    )
+    search_rtol: float | None = option(
+        None,
+        "solver tolerance of the searches' cheaper objective; 0: the FMU's default",
+        show_default=f"the scene's for its load: {_PULSE_SEARCH.rtol:g} "
+        f"under the study's pulse, {_PROJECTILE_SEARCH.rtol:g} under a projectile",
+        metavar="RTOL",
+        type=number("--search-rtol", 1e-13, 1e-2, allow_zero=True),
+    )
+    case: tuple[str, ...] = option(
+        (),
+        "load cases: NAME=V1,V2,... (repeatable; the cases are the product of the "
+        "lists), NAME a scalar parameter of the FMU",
+        action="append",
+        metavar="NAME=V1,V2",
+    )
+    aggregate: str | None = option(
+        None, "how the load cases make one value (only with --case)", choices=AGGREGATES, show_default="worst"
+    )
 
     def __post_init__(self):
         check_options(self)
         if self.aggregate is not None and not self.case:
             raise ValueError("--aggregate: only with --case (there is one case to aggregate)")
         if self.load_mode == INPUT:
-            raise ValueError(f"--load-mode {INPUT}: input mode needs a co-simulation master to set F_front (another "
-                             f"FMU pushing the lattice), which a search is not; allowed here: {PULSE}, {PROJECTILE}")
+            raise ValueError(
+                f"--load-mode {INPUT}: input mode needs a co-simulation master to set F_front (another "
+                f"FMU pushing the lattice), which a search is not; allowed here: {PULSE}, {PROJECTILE}"
+            )
 
 
 @dataclass(frozen=True)
@@ -208,25 +307,49 @@ class Case:
         parameters = dict(self.parameters)
         if rule is not None and rule != self.rule_default:
             parameters["diagonal_rule"] = rule
-        return LatticeObjective(fmu.path, self.space, self.horizon, self.outputs, parameters, self.cases,
-                                self.aggregate, self.search_horizon, self.search_rtol,
-                                has_force_limit=fmu.has_force_limit, default_rule=rule or self.rule_default,
-                                fmu_sha256=fmu.sha256)
+        return LatticeObjective(
+            fmu.path,
+            self.space,
+            self.horizon,
+            self.outputs,
+            parameters,
+            self.cases,
+            self.aggregate,
+            self.search_horizon,
+            self.search_rtol,
+            has_force_limit=fmu.has_force_limit,
+            default_rule=rule or self.rule_default,
+            fmu_sha256=fmu.sha256,
+        )
 
     def describe(self, fmu: PreparedFMU) -> "CaseDescription":
         objective = self.objective(fmu, self.rules[0] if self.rules else None).describe()
-        names = (("load_mode",) + PROJECTILE_PARAMETERS if self.load_mode == PROJECTILE else PULSE_PARAMETERS)
-        shown = {name: self.parameters.get(name, fmu.start(name))
-                 for name in names + ("load_patch",) if name in fmu.parameters}
+        names = ("load_mode",) + PROJECTILE_PARAMETERS if self.load_mode == PROJECTILE else PULSE_PARAMETERS
+        shown = {
+            name: self.parameters.get(name, fmu.start(name))
+            for name in names + ("load_patch",)
+            if name in fmu.parameters
+        }
         rule_parameter = fmu.parameters.get("diagonal_rule")
-        return CaseDescription(scene=self.scene, rows=self.rows, columns=self.columns, space=self.space.describe(),
-                               design_kind=self.space.kind, design_count=self.space.size,
-                               materials=tuple(self.materials.rows()), rules=self.rules, objective=objective,
-                               load=shown, parameters=dict(self.parameters),
-                               cases={k: list(v) for k, v in self.case_lists.items()},
-                               aggregate=self.aggregate if self.case_lists else None, horizon=self.horizon,
-                               depth=self.depth, rule_default=self.rule_default,
-                               rule_codes=dict(rule_parameter.items) if rule_parameter else {})
+        return CaseDescription(
+            scene=self.scene,
+            rows=self.rows,
+            columns=self.columns,
+            space=self.space.describe(),
+            design_kind=self.space.kind,
+            design_count=self.space.size,
+            materials=tuple(self.materials.rows()),
+            rules=self.rules,
+            objective=objective,
+            load=shown,
+            parameters=dict(self.parameters),
+            cases={k: list(v) for k, v in self.case_lists.items()},
+            aggregate=self.aggregate if self.case_lists else None,
+            horizon=self.horizon,
+            depth=self.depth,
+            rule_default=self.rule_default,
+            rule_codes=dict(rule_parameter.items) if rule_parameter else {},
+        )
 
 
 @dataclass(frozen=True)
@@ -262,21 +385,29 @@ class CaseDescription:
     def line(self) -> str:
         """The case in one line: what the first screen and every chart state."""
         load = self.load
-        lattice = (f"{self.rows} x {self.columns} lattice" if self.depth == 1 else
-                   f"{self.rows} x {self.columns} x {self.depth} plate ({self.columns} layers of {self.rows} x "
-                   f"{self.depth} masses)")
+        lattice = (
+            f"{self.rows} x {self.columns} lattice"
+            if self.depth == 1
+            else f"{self.rows} x {self.columns} x {self.depth} plate ({self.columns} layers of {self.rows} x "
+            f"{self.depth} masses)"
+        )
         parts = [lattice, f"{len(self.materials)} materials ({self.design_kind}: {self.design_count:,} designs)"]
         patch = int(load.get("load_patch") or 0)
-        spread = (f" over a centred {patch} x {patch} patch" if patch else
-                  " over the whole face" if self.depth > 1 else "")
+        spread = (
+            f" over a centred {patch} x {patch} patch" if patch else " over the whole face" if self.depth > 1 else ""
+        )
         if load.get("load_mode") == PROJECTILE:
-            parts.append(f"struck{spread} by a {load['projectile_mass']:g} kg projectile at "
-                         f"{load['projectile_speed']:g} m/s (Hunt-Crossley contact k_c {load['contact_stiffness']:g} "
-                         f"N/m^{load['contact_exponent']:g}, n {load['contact_exponent']:g}, lambda "
-                         f"{load['contact_damping']:g} s/m)")
+            parts.append(
+                f"struck{spread} by a {load['projectile_mass']:g} kg projectile at "
+                f"{load['projectile_speed']:g} m/s (Hunt-Crossley contact k_c {load['contact_stiffness']:g} "
+                f"N/m^{load['contact_exponent']:g}, n {load['contact_exponent']:g}, lambda "
+                f"{load['contact_damping']:g} s/m)"
+            )
         elif "F_total" in load:
-            parts.append(f"load {load['F_total']:g} N at {load.get('load_angle', 0):g} deg{spread} for "
-                         f"{load.get('t_active', 0):g} s")
+            parts.append(
+                f"load {load['F_total']:g} N at {load.get('load_angle', 0):g} deg{spread} for "
+                f"{load.get('t_active', 0):g} s"
+            )
         parts.append(f"minimising {', '.join(self.objective.outputs)} over {self.horizon:g} s")
         if self.rules:
             parts.append(f"diagonal rule{'s' if len(self.rules) > 1 else ''} {' and '.join(self.rules)}")
@@ -290,14 +421,18 @@ def parse_case_option(text: str) -> tuple[str, list[str]]:
     name = name.strip()
     items = [v.strip() for v in values.split(",")] if sep else []
     if not name or not sep or not items or any(not v for v in items):
-        raise ValueError(f"--case {text!r}: expected NAME=V1,V2,... (a scalar parameter of the FMU and a "
-                         "comma-separated list of values)")
+        raise ValueError(
+            f"--case {text!r}: expected NAME=V1,V2,... (a scalar parameter of the FMU and a "
+            "comma-separated list of values)"
+        )
     return name, items
 
 
 # Parameters a --case may not set: the order is the design, and the searches set their own force limits.
-NOT_CASE_PARAMETERS = {"peak_force_limit": "the searches set it (their force limits)",
-                       "repeat_materials": "it is the design space (--repeat)"}
+NOT_CASE_PARAMETERS = {
+    "peak_force_limit": "the searches set it (their force limits)",
+    "repeat_materials": "it is the design space (--repeat)",
+}
 
 
 def resolve_case(config: CaseConfig, resolved: ResolvedScene) -> Case:
@@ -305,8 +440,10 @@ def resolve_case(config: CaseConfig, resolved: ResolvedScene) -> Case:
     against the model description."""
     scene, fmu, materials = resolved.scene, resolved.fmu, resolved.table
     if fmu.columns < 2:
-        raise ValueError(f"{fmu.path.name} has {fmu.columns} column(s) with a material parameter: there is no "
-                         "material order to search (give a scene with a material per column)")
+        raise ValueError(
+            f"{fmu.path.name} has {fmu.columns} column(s) with a material parameter: there is no "
+            "material order to search (give a scene with a material per column)"
+        )
     parameters: dict[str, Any] = {}
     for name, option_name in SCENE_OPTIONS.items():
         value = getattr(config, SCENE_OPTION_FIELDS[name])
@@ -341,8 +478,10 @@ def resolve_case(config: CaseConfig, resolved: ResolvedScene) -> Case:
     elif config.diagonal_rules:
         for rule in config.diagonal_rules:
             if rule not in rule_names:
-                raise ValueError(f"--diagonal-rule {rule}: allowed values are {', '.join(rule_names) or 'none'} "
-                                 f"(the rules {fmu.path.name} declares)")
+                raise ValueError(
+                    f"--diagonal-rule {rule}: allowed values are {', '.join(rule_names) or 'none'} "
+                    f"(the rules {fmu.path.name} declares)"
+                )
         rules = tuple(dict.fromkeys(config.diagonal_rules))
     else:
         first = (DESIGN_RULE,) if DESIGN_RULE in rule_names else ()
@@ -361,16 +500,30 @@ def resolve_case(config: CaseConfig, resolved: ResolvedScene) -> Case:
     parameters = {k: v for k, v in parameters.items() if not fmu.is_default(k, v)}
     if config.repeat:
         parameters["repeat_materials"] = 1
-    return Case(scene=scene.name, rows=scene.rows, columns=fmu.columns, materials=materials, space=space,
-                departures=resolved.departures,
-                outputs=outputs, rules=rules, rule_default=rule_default, parameters=parameters,
-                case_lists=case_lists, aggregate=config.aggregate or "worst", horizon=horizon,
-                search_horizon=fidelity.horizon or None, search_rtol=fidelity.rtol or None, depth=scene.depth,
-                load_mode=load_mode)
+    return Case(
+        scene=scene.name,
+        rows=scene.rows,
+        columns=fmu.columns,
+        materials=materials,
+        space=space,
+        departures=resolved.departures,
+        outputs=outputs,
+        rules=rules,
+        rule_default=rule_default,
+        parameters=parameters,
+        case_lists=case_lists,
+        aggregate=config.aggregate or "worst",
+        horizon=horizon,
+        search_horizon=fidelity.horizon or None,
+        search_rtol=fidelity.rtol or None,
+        depth=scene.depth,
+        load_mode=load_mode,
+    )
 
 
-def check_load_mode(config: CaseConfig, fmu: PreparedFMU, parameters: dict[str, Any],
-                    case_lists: dict[str, tuple[Any, ...]]) -> str:
+def check_load_mode(
+    config: CaseConfig, fmu: PreparedFMU, parameters: dict[str, Any], case_lists: dict[str, tuple[Any, ...]]
+) -> str:
     """The run's load mode (the first case's with --case load_mode=...); refuses input mode (no master sets
     F_front in a search) and options of the other mode's load: a projectile brings its own momentum, so the
     pulse's F_total, load_angle and t_active do nothing under it, and the projectile's parameters nothing under
@@ -379,10 +532,11 @@ def check_load_mode(config: CaseConfig, fmu: PreparedFMU, parameters: dict[str, 
         return PULSE
     modes = case_lists.get("load_mode") or (parameters.get("load_mode", fmu.start("load_mode")),)
     if INPUT in modes:
-        where = ("--case load_mode" if "load_mode" in case_lists else
-                 f"{fmu.path.name}'s load_mode (its default)")
-        raise ValueError(f"{where} {INPUT}: input mode needs a co-simulation master to set F_front, which a search "
-                         f"is not; give --load-mode {PULSE} or {PROJECTILE}")
+        where = "--case load_mode" if "load_mode" in case_lists else f"{fmu.path.name}'s load_mode (its default)"
+        raise ValueError(
+            f"{where} {INPUT}: input mode needs a co-simulation master to set F_front, which a search "
+            f"is not; give --load-mode {PULSE} or {PROJECTILE}"
+        )
     how = f"--load-mode {PROJECTILE} or --scene {PROJECTILE_SCENE}"
     for name in PROJECTILE_PARAMETERS if PROJECTILE not in modes else PULSE_PARAMETERS if PULSE not in modes else ():
         option_name = SCENE_OPTIONS.get(name)
@@ -390,19 +544,23 @@ def check_load_mode(config: CaseConfig, fmu: PreparedFMU, parameters: dict[str, 
             given_as = option_name if name in parameters else f"--case {name}"
             if name in PROJECTILE_PARAMETERS:
                 raise ValueError(f"{given_as}: only under a projectile ({how}); this run's load is the pulse")
-            raise ValueError(f"{given_as}: the pulse's {name} does nothing under a projectile (it brings its own "
-                             f"momentum); give {', '.join(SCENE_OPTIONS[p] for p in PROJECTILE_PARAMETERS)}")
+            raise ValueError(
+                f"{given_as}: the pulse's {name} does nothing under a projectile (it brings its own "
+                f"momentum); give {', '.join(SCENE_OPTIONS[p] for p in PROJECTILE_PARAMETERS)}"
+            )
     return modes[0]
 
 
-def search_fidelity_of(config: CaseConfig, scene, load_mode: str,
-                       case_lists: dict[str, tuple[Any, ...]]) -> SearchFidelity:
+def search_fidelity_of(
+    config: CaseConfig, scene, load_mode: str, case_lists: dict[str, tuple[Any, ...]]
+) -> SearchFidelity:
     """The searches' horizon and tolerance (0: the full horizon, the FMU's tolerance): the ones given, else the
     load mode's (the longest horizon and the tightest tolerance of the load cases' modes)."""
     modes = [search_fidelity(mode, scene) for mode in (case_lists.get("load_mode") or (load_mode,))]
     return SearchFidelity(
         config.search_horizon if config.search_horizon is not None else max(m.horizon for m in modes),
-        config.search_rtol if config.search_rtol is not None else min(m.rtol for m in modes))
+        config.search_rtol if config.search_rtol is not None else min(m.rtol for m in modes),
+    )
 
 
 # ---------------------------------------------------------------------------------------------- steps
@@ -552,8 +710,10 @@ class StudyResult:
         if not state.failed:
             return "no evaluation ran"
         cause, count = state.failure_causes[0]
-        return (f"{state.failed:,} evaluation{'s' if state.failed > 1 else ''} failed; "
-                f"{'every one' if count == state.failed else f'{count:,} of them'}: {cause}")
+        return (
+            f"{state.failed:,} evaluation{'s' if state.failed > 1 else ''} failed; "
+            f"{'every one' if count == state.failed else f'{count:,} of them'}: {cause}"
+        )
 
     def results_by_name(self) -> dict[str, Any]:
         """Each result under its step's name: the keys of results.json's ``steps``, and nothing else."""
@@ -573,12 +733,41 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
         result = step.run(context)
         context.results[type(step)] = result
         results[type(step)] = result
-        costs.append(StepCost(step.name, step.title, context.evaluator.state().simulated - simulated,
-                              step.cost_note(context)))
-    return StudyResult(context.case.describe(context.fmu), str(context.fmu.path), context.fmu.sha256, results,
-                       context.evaluator.state(), time.perf_counter() - start, run_id, tuple(costs))
+        costs.append(
+            StepCost(step.name, step.title, context.evaluator.state().simulated - simulated, step.cost_note(context))
+        )
+    return StudyResult(
+        context.case.describe(context.fmu),
+        str(context.fmu.path),
+        context.fmu.sha256,
+        results,
+        context.evaluator.state(),
+        time.perf_counter() - start,
+        run_id,
+        tuple(costs),
+    )
 
 
-__all__ = ["Case", "CaseConfig", "CaseDescription", "DESIGN_RULE", "INPUT", "LOAD_MODES", "MAX_HORIZON",
-           "MAX_RUNS_PER_DESIGN", "NoOptions", "PROJECTILE", "PULSE", "SILENT", "Step", "StepCost", "StudyContext",
-           "StudyResult", "SearchFidelity", "Verdict", "resolve_case", "run_study", "search_fidelity"]
+__all__ = [
+    "Case",
+    "CaseConfig",
+    "CaseDescription",
+    "DESIGN_RULE",
+    "INPUT",
+    "LOAD_MODES",
+    "MAX_HORIZON",
+    "MAX_RUNS_PER_DESIGN",
+    "NoOptions",
+    "PROJECTILE",
+    "PULSE",
+    "SILENT",
+    "Step",
+    "StepCost",
+    "StudyContext",
+    "StudyResult",
+    "SearchFidelity",
+    "Verdict",
+    "resolve_case",
+    "run_study",
+    "search_fidelity",
+]

@@ -16,6 +16,7 @@ Why a template and not a TOML writer: the file carries comments (each option's m
 options left at the scene's or the model's value), which the TOML writers drop. tomllib reads it back, and the
 tests read back every file they write.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -56,8 +57,11 @@ def sections() -> list[tuple[str, type]]:
 
 def _options(config_type: type) -> list[tuple[str, dataclasses.Field, dict]]:
     """(key, field, option metadata) of each option of ``config_type``: the key is the flag without dashes."""
-    return [(flag_of(config_type, f.name)[2:], f, f.metadata["option"]) for f in dataclasses.fields(config_type)
-            if "option" in f.metadata]
+    return [
+        (flag_of(config_type, f.name)[2:], f, f.metadata["option"])
+        for f in dataclasses.fields(config_type)
+        if "option" in f.metadata
+    ]
 
 
 class StudyFileError(ValueError):
@@ -121,18 +125,26 @@ def study_lines(configs: dict[type, Any], folder: Path) -> list[tuple[str, str, 
             help_text = meta["help"]
             if value is None or value == () or value == []:
                 shown = meta["show_default"] if meta["show_default"] is not None else "none"
-                lines.append(Line(key, None, _comment(f"{key}: {help_text}; left to its default: {shown}"),
-                                  active=False))
+                lines.append(
+                    Line(key, None, _comment(f"{key}: {help_text}; left to its default: {shown}"), active=False)
+                )
                 continue
             text = _toml(_file_value(value, meta, folder))
             if meta["study"] == NO_NUMBER:
-                lines.append(Line(key, text, _comment(f"{key}: {help_text}; changes no number (give it on the "
-                                                      "command line)"), active=False))
+                lines.append(
+                    Line(
+                        key,
+                        text,
+                        _comment(f"{key}: {help_text}; changes no number (give it on the command line)"),
+                        active=False,
+                    )
+                )
             else:
                 lines.append(Line(key, text, _comment(f"{key}: {help_text}")))
-        comment = {"run": "how the run ran: none of it changes a number but time-limit (which evaluations fail)",
-                   "cluster": "where Dask's workers ran (with --executor dask): none of it changes a number"
-                   }.get(section, "")
+        comment = {
+            "run": "how the run ran: none of it changes a number but time-limit (which evaluations fail)",
+            "cluster": "where Dask's workers ran (with --executor dask): none of it changes a number",
+        }.get(section, "")
         out.append((section, comment, lines))
     return out
 
@@ -185,23 +197,38 @@ def file_hashes(configs: dict[type, Any]) -> list[tuple[str, str]]:
         config = configs.get(config_type) or config_type()
         for key, field, meta in _options(config_type):
             value = getattr(config, field.name)
-            if meta["path"] and meta["study"] != NOT_KEPT and key not in FILE_CHECKED and isinstance(value, str) \
-                    and Path(value).is_file():
+            if (
+                meta["path"]
+                and meta["study"] != NOT_KEPT
+                and key not in FILE_CHECKED
+                and isinstance(value, str)
+                and Path(value).is_file()
+            ):
                 found.append((f"{key}-sha256", _toml(_file_sha256(value))))
     return found
 
 
 def render_study_file(configs: dict[type, Any], folder: Path, materials_sha256: str, fmu_sha256: str) -> str:
-    return environment().from_string(TEMPLATE).render(
-        format=FORMAT, name=STUDY_FILE, sections=study_lines(configs, folder), recorded=RECORDED,
-        materials_sha256=_toml(materials_sha256), fmu_sha256=_toml(fmu_sha256), file_hashes=file_hashes(configs))
+    return (
+        environment()
+        .from_string(TEMPLATE)
+        .render(
+            format=FORMAT,
+            name=STUDY_FILE,
+            sections=study_lines(configs, folder),
+            recorded=RECORDED,
+            materials_sha256=_toml(materials_sha256),
+            fmu_sha256=_toml(fmu_sha256),
+            file_hashes=file_hashes(configs),
+        )
+    )
 
 
 def write_study_file(folder: Path, configs: dict[type, Any], materials_sha256: str, fmu_sha256: str) -> Path:
     """``folder/study.toml`` for a run of ``configs``; paths in it are relative to ``folder``'s final name
     (a run writes into OUT.partial, a sibling of OUT)."""
     folder = Path(folder)
-    final = folder.with_name(folder.name[:-len(".partial")]) if folder.name.endswith(".partial") else folder
+    final = folder.with_name(folder.name[: -len(".partial")]) if folder.name.endswith(".partial") else folder
     path = folder / STUDY_FILE
     path.write_text(render_study_file(configs, final, materials_sha256, fmu_sha256))
     return path
@@ -231,13 +258,16 @@ class StudyFile:
                 f"{self.path}:{_line_of(self.path.read_text(), RECORDED, 'materials-sha256')}: [{RECORDED}] "
                 f"materials-sha256: the material table this run reads has content {table.sha256()[:16]}..., the "
                 f"study was run on {self.materials_sha256[:16]}...: give the same table (or delete this line to "
-                "run the study on the new one)")
+                "run the study on the new one)"
+            )
 
     def fmu_note(self, fmu_sha256: str) -> str | None:
         if self.fmu_sha256 is None or fmu_sha256 == self.fmu_sha256:
             return None
-        return (f"note: the FMU ({fmu_sha256[:16]}...) is another build than the one {self.path} was written "
-                f"against ({self.fmu_sha256[:16]}...): its numbers may differ in the last digits")
+        return (
+            f"note: the FMU ({fmu_sha256[:16]}...) is another build than the one {self.path} was written "
+            f"against ({self.fmu_sha256[:16]}...): its numbers may differ in the last digits"
+        )
 
 
 _HEADER = re.compile(r"^\s*\[\s*([A-Za-z0-9_-]+)\s*\]")
@@ -271,10 +301,9 @@ def _parse(meta: dict, key: str, value: Any) -> Any:
         return (not value) if action == "store_false" else value
     if action == "append" or meta["nargs"] in ("+", "*") or isinstance(meta["nargs"], int):
         one = meta["nargs"] in ("+", "*", 1) or action == "append"  # a single value stands for a list of one
-        items = value if isinstance(value, list) else [value] if one and not isinstance(value, (dict, bool)) \
-            else None
+        items = value if isinstance(value, list) else [value] if one and not isinstance(value, (dict, bool)) else None
         if items is None or (meta["nargs"] == "+" and not items):
-            raise ValueError(f"must be a list of values, e.g. [\"a\", \"b\"], got {_toml_or_repr(value)}")
+            raise ValueError(f'must be a list of values, e.g. ["a", "b"], got {_toml_or_repr(value)}')
         parsed = [_scalar(meta, flag, item) for item in items]
         return tuple(parsed) if action != "append" else parsed
     return _scalar(meta, flag, value)
@@ -334,13 +363,16 @@ def read_study_file(path: str | os.PathLike) -> StudyFile:
     for section, table in data.items():
         where = f"{path}:{_line_of(text, section)}"
         if not isinstance(table, dict):
-            raise StudyFileError(f"{where}: {section}: every key belongs to a section; allowed sections: "
-                                 f"{allowed_sections}")
+            raise StudyFileError(
+                f"{where}: {section}: every key belongs to a section; allowed sections: {allowed_sections}"
+            )
         if section == RECORDED:
             for key, value in table.items():
                 if key not in recorded or not isinstance(value, str):
-                    raise StudyFileError(f"{path}:{_line_of(text, section, key)}: [{RECORDED}] {key}: allowed keys "
-                                         f"are {', '.join(recorded)}, each a string")
+                    raise StudyFileError(
+                        f"{path}:{_line_of(text, section, key)}: [{RECORDED}] {key}: allowed keys "
+                        f"are {', '.join(recorded)}, each a string"
+                    )
                 recorded[key] = value
             continue
         if section not in known:
@@ -350,11 +382,14 @@ def read_study_file(path: str | os.PathLike) -> StudyFile:
         for key, value in table.items():
             where = f"{path}:{_line_of(text, section, key)}"
             if key not in options:
-                owner = next((other for other, other_type in known.items()
-                              if any(k == key for k, _, _ in _options(other_type))), None)
+                owner = next(
+                    (other for other, other_type in known.items() if any(k == key for k, _, _ in _options(other_type))),
+                    None,
+                )
                 moved = f" (an option of [{owner}])" if owner else ""
-                raise StudyFileError(f"{where}: [{section}] {key}: not an option of [{section}]{moved}; allowed: "
-                                     f"{', '.join(options)}")
+                raise StudyFileError(
+                    f"{where}: [{section}] {key}: not an option of [{section}]{moved}; allowed: {', '.join(options)}"
+                )
             field, meta = options[key]
             try:
                 parsed = _parse(meta, key, value)
@@ -373,12 +408,21 @@ def read_study_file(path: str | os.PathLike) -> StudyFile:
         named = _resolve_path(data[section][key], path.parent)
         actual = _file_sha256(named) if isinstance(named, str) and Path(named).is_file() else None
         if actual is not None and actual != expected:
-            raise StudyFileError(f"{path}:{_line_of(text, RECORDED, hash_key)}: [{RECORDED}] {hash_key}: {named} has "
-                                 f"changed since the study was run (sha256 {actual[:16]}..., the study's "
-                                 f"{expected[:16]}...): give the same file (or delete this line to run the study on "
-                                 "the new one)")
+            raise StudyFileError(
+                f"{path}:{_line_of(text, RECORDED, hash_key)}: [{RECORDED}] {hash_key}: {named} has "
+                f"changed since the study was run (sha256 {actual[:16]}..., the study's "
+                f"{expected[:16]}...): give the same file (or delete this line to run the study on "
+                "the new one)"
+            )
     return StudyFile(path, values, recorded["materials-sha256"], recorded["fmu-sha256"])
 
 
-__all__ = ["STUDY_FILE", "StudyFile", "StudyFileError", "read_study_file", "render_study_file", "sections",
-           "write_study_file"]
+__all__ = [
+    "STUDY_FILE",
+    "StudyFile",
+    "StudyFileError",
+    "read_study_file",
+    "render_study_file",
+    "sections",
+    "write_study_file",
+]

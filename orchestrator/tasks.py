@@ -6,6 +6,7 @@ computes it in a worker, ``failure(message, seconds)`` (its result when it could
 tasks; a new kind of work is a new task, never a new loop. This module imports nothing that runs them, so an
 objective can build tasks without knowing the Evaluator.
 """
+
 from __future__ import annotations
 
 import time

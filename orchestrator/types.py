@@ -5,6 +5,7 @@ An evaluation is what one design is worth under an objective: its value (the obj
 outputs that explain it, or why there is no number (failed) or only a bound (censored). A failure is never a
 number, so it can never be mistaken for a good or a bad value.
 """
+
 from __future__ import annotations
 
 import math
@@ -153,8 +154,16 @@ def failed(order: Any, message: str, seconds: float = 0.0, **fields: Any) -> Eva
 def censored(order: Any, limit: float, stopped_at: float | None, seconds: float = 0.0, **fields: Any) -> Evaluation:
     """An evaluation stopped once its value passed ``limit`` (at ``stopped_at`` s)."""
     at = "" if stopped_at is None else f", reached at t = {stopped_at:.6g} s"
-    return Evaluation(as_design(order), None, CENSORED, f"value above {limit:g}{at}", float(seconds),
-                      limit=float(limit), stopped_at=stopped_at, **fields)
+    return Evaluation(
+        as_design(order),
+        None,
+        CENSORED,
+        f"value above {limit:g}{at}",
+        float(seconds),
+        limit=float(limit),
+        stopped_at=stopped_at,
+        **fields,
+    )
 
 
 def check_evaluation(result: Any, order: Any) -> Evaluation:
@@ -170,8 +179,9 @@ def check_evaluation(result: Any, order: Any) -> Evaluation:
     if not isinstance(result, Evaluation):
         return failed(order, f"objective returned {type(result).__name__}, not an Evaluation")
     if as_design(result.order) != order:
-        return failed(order, f"objective returned an evaluation for {list(result.order)}, asked {list(order)}",
-                      result.seconds)
+        return failed(
+            order, f"objective returned an evaluation for {list(result.order)}, asked {list(order)}", result.seconds
+        )
     if result.status not in STATUSES:
         return failed(order, f"unknown status {result.status!r}: {result.message}", result.seconds)
     if result.status == FAILED:
@@ -206,8 +216,9 @@ def safe_call(objective: Callable[[Order], Any], order: Any) -> Evaluation:
     try:
         result = objective(order)
     except MemoryError:
-        return failed(order, "out of memory in the evaluation (free memory or use fewer --workers)",
-                      time.perf_counter() - start)
+        return failed(
+            order, "out of memory in the evaluation (free memory or use fewer --workers)", time.perf_counter() - start
+        )
     except Exception as exc:  # noqa: BLE001 - the point is to catch everything
         return failed(order, f"{type(exc).__name__}: {exc}", time.perf_counter() - start)
     elapsed = time.perf_counter() - start
@@ -217,5 +228,20 @@ def safe_call(objective: Callable[[Order], Any], order: Any) -> Evaluation:
     return evaluation
 
 
-__all__ = ["Above", "CENSORED", "CaseValue", "Evaluation", "FAILED", "NamedOutputs", "OK", "Order", "RunOutputs",
-           "STATUSES", "UnknownOutput", "censored", "check_evaluation", "failed", "safe_call"]
+__all__ = [
+    "Above",
+    "CENSORED",
+    "CaseValue",
+    "Evaluation",
+    "FAILED",
+    "NamedOutputs",
+    "OK",
+    "Order",
+    "RunOutputs",
+    "STATUSES",
+    "UnknownOutput",
+    "censored",
+    "check_evaluation",
+    "failed",
+    "safe_call",
+]

@@ -119,13 +119,9 @@ class Scene:
             set_(name, int(v))
 
         if self.diagonal_rule not in DIAGONAL_RULES:
-            raise ValueError(
-                f"Scene.diagonal_rule must be one of {DIAGONAL_RULES}, got {self.diagonal_rule!r}"
-            )
+            raise ValueError(f"Scene.diagonal_rule must be one of {DIAGONAL_RULES}, got {self.diagonal_rule!r}")
         if self.spring_law not in SPRING_LAWS:
-            raise ValueError(
-                f"Scene.spring_law must be one of {SPRING_LAWS}, got {self.spring_law!r}"
-            )
+            raise ValueError(f"Scene.spring_law must be one of {SPRING_LAWS}, got {self.spring_law!r}")
         if not isinstance(self.wall, (bool, np.bool_)):
             raise ValueError(f"Scene.wall must be True or False, got {self.wall!r}")
         set_("wall", bool(self.wall))
@@ -135,12 +131,9 @@ class Scene:
         if any(given) and not all(given):
             missing = [f for f, g in zip(MATERIAL_FIELDS, given) if not g]
             raise ValueError(
-                "Scene material table: give all of k, k_diag, c, alpha, alpha_diag or none; "
-                f"missing {missing}"
+                f"Scene material table: give all of k, k_diag, c, alpha, alpha_diag or none; missing {missing}"
             )
-        table = default_material_table(self.cols) if not any(given) else {
-            f: getattr(self, f) for f in MATERIAL_FIELDS
-        }
+        table = default_material_table(self.cols) if not any(given) else {f: getattr(self, f) for f in MATERIAL_FIELDS}
         count = None
         for f in MATERIAL_FIELDS:
             try:
@@ -156,30 +149,25 @@ class Scene:
             if not np.all(np.isfinite(a)) or np.any(a < 0):
                 raise ValueError(f"Scene.{f} must be finite and >= 0, got {a.tolist()}")
             if f.startswith("alpha") and self.spring_law == "exponential" and np.any(a <= 0):
-                raise ValueError(
-                    f"Scene.{f} must be > 0 for spring_law='exponential', got {a.tolist()}"
-                )
+                raise ValueError(f"Scene.{f} must be > 0 for spring_law='exponential', got {a.tolist()}")
             set_(f, _frozen_array(a))
 
         # order: a material number (a row of the table, 1..M) per column; repeats are allowed here (the FMU's
         # repeat_materials decides whether a design may repeat one)
         if self.order is None:
             if count < self.cols:
-                raise ValueError(f"Scene.order must be given: the table has {count} materials for "
-                                 f"{self.cols} columns")
+                raise ValueError(f"Scene.order must be given: the table has {count} materials for {self.cols} columns")
             set_("order", tuple(range(1, self.cols + 1)))
         else:
             try:
                 raw = list(self.order)
             except TypeError:
                 raise ValueError(
-                    f"Scene.order must be a sequence of {self.cols} material numbers in 1..{count}; "
-                    f"got {self.order!r}"
+                    f"Scene.order must be a sequence of {self.cols} material numbers in 1..{count}; got {self.order!r}"
                 ) from None
 
             def _as_int(p):
-                if isinstance(p, (bool, np.bool_)) or not isinstance(
-                        p, (int, np.integer, float, np.floating)):
+                if isinstance(p, (bool, np.bool_)) or not isinstance(p, (int, np.integer, float, np.floating)):
                     return None
                 if not math.isfinite(p) or float(p) != int(p):
                     return None
@@ -231,16 +219,27 @@ class Scene:
         v = description.parameter_values()
         masses = set(v["mass"])  # the FMU's mass[m] of each material (docs/model.md section 12)
         if len(masses) != 1:
-            raise ValueError(f"scene {description.name}: its materials weigh {sorted(masses)} kg; this oracle has "
-                             f"one mass for every node")
+            raise ValueError(
+                f"scene {description.name}: its materials weigh {sorted(masses)} kg; this oracle has "
+                f"one mass for every node"
+            )
         return cls(
-            rows=description.rows, cols=description.cols,
+            rows=description.rows,
+            cols=description.cols,
             order=tuple(order) if order is not None else v["material"],
             **{f: v[f] for f in MATERIAL_FIELDS},
-            k0=v["k_horizontal"], alpha0=v["alpha_horizontal"], c0=v["c_horizontal"], mass=masses.pop(),
-            F_total=v["F_total"], load_angle=v["load_angle"], t_active=v["t_active"],
-            wall=bool(v["has_backplate"]), k_wall=v["k_wall"], c_wall=v["c_wall"],
-            backplate_gap=v["backplate_gap"], diagonal_rule=DIAGONAL_RULES[int(v["diagonal_rule"])],
+            k0=v["k_horizontal"],
+            alpha0=v["alpha_horizontal"],
+            c0=v["c_horizontal"],
+            mass=masses.pop(),
+            F_total=v["F_total"],
+            load_angle=v["load_angle"],
+            t_active=v["t_active"],
+            wall=bool(v["has_backplate"]),
+            k_wall=v["k_wall"],
+            c_wall=v["c_wall"],
+            backplate_gap=v["backplate_gap"],
+            diagonal_rule=DIAGONAL_RULES[int(v["diagonal_rule"])],
             spring_law=SPRING_LAWS[int(v["spring_law"])],
         )
 
@@ -330,10 +329,8 @@ class _Model:
         add(n[:-1, :], n[1:, :], sc.k[mv], sc.alpha[mv], sc.k[mv], sc.alpha[mv], sc.c[mv])
         # diagonals (i, j) - (i+1, j+1) and (i, j+1) - (i+1, j); no damping
         ml, mr = mat[col[:-1, :-1]], mat[col[:-1, 1:]]
-        add(n[:-1, :-1], n[1:, 1:], sc.k_diag[ml], sc.alpha_diag[ml],
-            sc.k_diag[mr], sc.alpha_diag[mr], 0.0)
-        add(n[:-1, 1:], n[1:, :-1], sc.k_diag[mr], sc.alpha_diag[mr],
-            sc.k_diag[ml], sc.alpha_diag[ml], 0.0)
+        add(n[:-1, :-1], n[1:, 1:], sc.k_diag[ml], sc.alpha_diag[ml], sc.k_diag[mr], sc.alpha_diag[mr], 0.0)
+        add(n[:-1, 1:], n[1:, :-1], sc.k_diag[mr], sc.alpha_diag[mr], sc.k_diag[ml], sc.alpha_diag[ml], 0.0)
         n_diag = ml.size * 2
 
         cat = lambda lst: np.concatenate(lst) if lst else np.zeros(0)  # noqa: E731
@@ -343,7 +340,7 @@ class _Model:
         E = self.ea.size
         self.n_springs = E
         self.is_diagonal = np.zeros(E, bool)
-        self.is_diagonal[E - n_diag:] = True
+        self.is_diagonal[E - n_diag :] = True
         if sc.diagonal_rule == "mean":
             km, am = 0.5 * (ka + kb), 0.5 * (aa + ab)
             ka = kb = km
@@ -461,10 +458,10 @@ class _Model:
                 p_ext = float(self.load_fx @ y[2 * N + li] + self.load_fy @ y[3 * N + li])
 
         dydt = np.empty(4 * N)
-        dydt[:2 * N] = y[2 * N:4 * N]
-        dydt[2 * N:] = f
+        dydt[: 2 * N] = y[2 * N : 4 * N]
+        dydt[2 * N :] = f
         if sc.mass != 1.0:
-            dydt[2 * N:] /= sc.mass
+            dydt[2 * N :] /= sc.mass
         if not with_powers:
             return dydt
 
@@ -521,7 +518,7 @@ def energies(scene: Scene, y) -> Tuple[float, float]:
     contacts of ``k_w p^2 / 2``."""
     m = scene.model
     y = _check_state(scene, y)
-    v = y[2 * m.N:]
+    v = y[2 * m.N :]
     ke = 0.5 * scene.mass * float(v @ v)
     r, d, _, _, _ = m.spring_terms(y)
     law = scene.spring_law
@@ -567,8 +564,7 @@ def wall_forces(scene: Scene, y) -> np.ndarray:
     out = np.zeros((m.N, 2))
     if scene.wall:
         p, contact, vxw = m.wall_terms(y)
-        out[m.wall_idx, 0] = np.where(
-            contact, -scene.k_wall * p - scene.c_wall * np.maximum(vxw, 0.0), 0.0)
+        out[m.wall_idx, 0] = np.where(contact, -scene.k_wall * p - scene.c_wall * np.maximum(vxw, 0.0), 0.0)
     return out
 
 

@@ -28,6 +28,7 @@ then a bounded scalar refinement of the best candidates).
 writes the reference results the C model's three-dimensional lattice is checked against (see
 :func:`reference_cases`).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -129,8 +130,9 @@ class PlateScene:
         given = [getattr(self, f) is not None for f in MATERIAL_FIELDS]
         if any(given) and not all(given):
             missing = [f for f, g in zip(MATERIAL_FIELDS, given) if not g]
-            raise ValueError(f"PlateScene material table: give all of {', '.join(MATERIAL_FIELDS)} or none; "
-                             f"missing {missing}")
+            raise ValueError(
+                f"PlateScene material table: give all of {', '.join(MATERIAL_FIELDS)} or none; missing {missing}"
+            )
         if not any(given):
             table = study_materials(min(self.cols, 11))
             values = {f: table.column(f) for f in MATERIAL_FIELDS}
@@ -143,12 +145,15 @@ class PlateScene:
             except (TypeError, ValueError):
                 raise ValueError(f"PlateScene.{f} must be a sequence of numbers, got {values[f]!r}") from None
             if not column or (count is not None and len(column) != count):
-                raise ValueError(f"PlateScene.{f} must have one entry per material, as many as the other fields "
-                                 f"({count}); got {len(column)}")
+                raise ValueError(
+                    f"PlateScene.{f} must have one entry per material, as many as the other fields "
+                    f"({count}); got {len(column)}"
+                )
             positive = f.startswith("alpha") and self.spring_law == "exponential"
             if not all(math.isfinite(v) and (v > 0 if positive else v >= 0) for v in column):
-                raise ValueError(f"PlateScene.{f} must be finite and {'> 0' if positive else '>= 0'}, "
-                                 f"got {list(column)}")
+                raise ValueError(
+                    f"PlateScene.{f} must be finite and {'> 0' if positive else '>= 0'}, got {list(column)}"
+                )
             count = len(column)
             put(f, column)
 
@@ -157,11 +162,15 @@ class PlateScene:
             order = tuple(order)
         except TypeError:
             order = None
-        if (order is None or len(order) != self.cols
-                or not all(isinstance(p, (int, np.integer)) and not isinstance(p, bool) and 1 <= p <= count
-                           for p in order)):
-            raise ValueError(f"PlateScene.order must be {self.cols} material numbers (one per column), each in "
-                             f"1..{count}, got {self.order!r}")
+        if (
+            order is None
+            or len(order) != self.cols
+            or not all(isinstance(p, (int, np.integer)) and not isinstance(p, bool) and 1 <= p <= count for p in order)
+        ):
+            raise ValueError(
+                f"PlateScene.order must be {self.cols} material numbers (one per column), each in "
+                f"1..{count}, got {self.order!r}"
+            )
         put("order", tuple(int(p) for p in order))
 
         put("k0", _finite("k0", self.k0, 0.0))
@@ -177,15 +186,21 @@ class PlateScene:
 
         patch = self.load_patch
         if isinstance(patch, bool) or not isinstance(patch, (int, np.integer)) or patch < 0:
-            raise ValueError(f"PlateScene.load_patch must be 0 (the whole face) or an odd P <= min(rows, depth) = "
-                             f"{min(self.rows, self.depth)}, got {patch!r}")
+            raise ValueError(
+                f"PlateScene.load_patch must be 0 (the whole face) or an odd P <= min(rows, depth) = "
+                f"{min(self.rows, self.depth)}, got {patch!r}"
+            )
         if patch:
             if patch % 2 == 0 or patch > min(self.rows, self.depth):
-                raise ValueError(f"PlateScene.load_patch must be 0 (the whole face) or an odd P <= min(rows, depth) "
-                                 f"= {min(self.rows, self.depth)}, got {patch!r}")
+                raise ValueError(
+                    f"PlateScene.load_patch must be 0 (the whole face) or an odd P <= min(rows, depth) "
+                    f"= {min(self.rows, self.depth)}, got {patch!r}"
+                )
             if self.rows % 2 == 0 or self.depth % 2 == 0:
-                raise ValueError(f"PlateScene.load_patch: a centred odd patch needs an odd number of rows and of "
-                                 f"layers, got rows = {self.rows}, depth = {self.depth}")
+                raise ValueError(
+                    f"PlateScene.load_patch: a centred odd patch needs an odd number of rows and of "
+                    f"layers, got rows = {self.rows}, depth = {self.depth}"
+                )
         put("load_patch", int(patch))
 
     @property
@@ -214,7 +229,7 @@ def load_weights(rows: int, depth: int, patch: int) -> np.ndarray:
     if patch:
         w = np.zeros((depth, rows))
         first_row, first_layer = (rows - patch) // 2, (depth - patch) // 2
-        w[first_layer:first_layer + patch, first_row:first_row + patch] = 1.0
+        w[first_layer : first_layer + patch, first_row : first_row + patch] = 1.0
     else:
         edge = lambda n: np.array([0.5 if q in (0, n - 1) else 1.0 for q in range(n)])  # noqa: E731
         w = np.outer(edge(depth), edge(rows))
@@ -320,7 +335,7 @@ class PlateModel:
         """d/dt of the state augmented with ``[external work, dissipated energy, non-reciprocal work]``, under
         the backplate modes ``contact`` and ``damper_on`` (one flag per column-C mass)."""
         sc, N = self.scene, self.N
-        y = z[:6 * N]
+        y = z[: 6 * N]
         r, d, sa, sb = self.spring_state(y)
         dv = y[self.dv_b] - y[self.dv_a]
         cdv = self.damping3 * dv
@@ -343,8 +358,8 @@ class PlateModel:
             external_power = float(self.load_fx @ y[3 * N + li] + self.load_fy @ y[4 * N + li])
 
         out = np.empty(6 * N + 3)
-        out[:3 * N] = y[3 * N:]
-        out[3 * N:6 * N] = force / sc.mass
+        out[: 3 * N] = y[3 * N :]
+        out[3 * N : 6 * N] = force / sc.mass
         out[6 * N] = external_power
         out[6 * N + 1] = float(cdv @ dv) + wall_power
         # section 7: g = (f(r; k_a) - f(r; k_b)) / 2 on each pair, its power g . (v_a + v_b)
@@ -355,7 +370,7 @@ class PlateModel:
         """``(kinetic, potential)``: the potential sums U over the springs (a non-reciprocal pair the mean of its
         two ends' U) and ½ k_w p² over the masses in contact."""
         sc, N = self.scene, self.N
-        v = y[3 * N:6 * N]
+        v = y[3 * N : 6 * N]
         kinetic = 0.5 * sc.mass * float(v @ v)
         _, d, _, _ = self.spring_state(y)
         potential = float(np.sum(0.5 * (self._potential(d, self.ka, self.aa) + self._potential(d, self.kb, self.ab))))
@@ -434,8 +449,15 @@ class _PeakSearch:
         value = float(values[q])
         if value > self.best[0]:
             self.best = (value, float(grid[q]))
-        item = (value, self.counter, float(grid[max(q - 1, 0)]), float(grid[min(q + 1, FINE_POINTS)]),
-                interpolant, contact.copy(), damper_on.copy())
+        item = (
+            value,
+            self.counter,
+            float(grid[max(q - 1, 0)]),
+            float(grid[min(q + 1, FINE_POINTS)]),
+            interpolant,
+            contact.copy(),
+            damper_on.copy(),
+        )
         self.counter += 1
         if len(self.candidates) < CANDIDATES:
             heapq.heappush(self.candidates, item)
@@ -447,8 +469,12 @@ class _PeakSearch:
         for _, _, lo, hi, interpolant, contact, damper_on in self.candidates:
             if hi <= lo:
                 continue
-            found = minimize_scalar(lambda t: -float(self.model.backplate_force(interpolant(t), contact, damper_on)),
-                                    bounds=(lo, hi), method="bounded", options={"xatol": 1e-13 * max(1.0, hi)})
+            found = minimize_scalar(
+                lambda t: -float(self.model.backplate_force(interpolant(t), contact, damper_on)),
+                bounds=(lo, hi),
+                method="bounded",
+                options={"xatol": 1e-13 * max(1.0, hi)},
+            )
             if -found.fun > value:
                 value, at = float(-found.fun), float(found.x)
         return value, at
@@ -459,8 +485,10 @@ def _switches(y_old, y_new, interpolant, t_old, t_new, ux_wall, vx_wall, gap, co
     every indicator (``p`` for the contact, ``vx`` for the damper of a mass in contact) whose sign at the step's
     end disagrees with its mode, located on the step's dense output. One already on the far side at the
     step's start (a mirror-image twin of a switch just made, within rounding) switches at ``t_old``."""
-    indicators = ((y_new[ux_wall] - gap > 0) != contact, ux_wall, gap, "contact"), \
-        (contact & ((y_new[vx_wall] > 0) != damper_on), vx_wall, 0.0, "damper")
+    indicators = (
+        ((y_new[ux_wall] - gap > 0) != contact, ux_wall, gap, "contact"),
+        (contact & ((y_new[vx_wall] > 0) != damper_on), vx_wall, 0.0, "damper"),
+    )
     roots = []
     for wrong, rows, shift, kind in indicators:
         for w in np.flatnonzero(wrong):
@@ -469,13 +497,21 @@ def _switches(y_old, y_new, interpolant, t_old, t_new, ux_wall, vx_wall, gap, co
             if start == 0.0 or np.sign(start) == np.sign(end):
                 roots.append((t_old, w, kind))
             else:
-                roots.append((brentq(lambda s: interpolant(s)[q] - shift, t_old, t_new, xtol=1e-16,
-                                     rtol=4 * np.finfo(float).eps), w, kind))
+                roots.append(
+                    (
+                        brentq(
+                            lambda s: interpolant(s)[q] - shift, t_old, t_new, xtol=1e-16, rtol=4 * np.finfo(float).eps
+                        ),
+                        w,
+                        kind,
+                    )
+                )
     return roots
 
 
-def simulate_plate(scene: PlateScene, horizon: float = 8.0, sample_interval: float = 0.01, rtol: float = 1e-12,
-                   atol: float = 1e-14) -> PlateResult:
+def simulate_plate(
+    scene: PlateScene, horizon: float = 8.0, sample_interval: float = 0.01, rtol: float = 1e-12, atol: float = 1e-14
+) -> PlateResult:
     """Integrate ``scene`` from rest to ``horizon`` (module docstring: DOP853, every backplate switch an event)."""
     if not isinstance(scene, PlateScene):
         raise ValueError(f"simulate_plate: scene must be a PlateScene, got {type(scene).__name__}")
@@ -496,8 +532,8 @@ def simulate_plate(scene: PlateScene, horizon: float = 8.0, sample_interval: flo
     times = sample_times(horizon, sample_interval)
     force_samples = np.full(times.size, np.nan)
     compression_samples = np.full(times.size, np.nan)
-    force_samples[0] = model.backplate_force(z[:6 * N], contact, damper_on)
-    compression_samples[0] = model.compression(z[:6 * N])
+    force_samples[0] = model.backplate_force(z[: 6 * N], contact, damper_on)
+    compression_samples[0] = model.compression(z[: 6 * N])
     peaks = _PeakSearch(model)
     n_rhs = n_steps = n_switches = 0
 
@@ -505,10 +541,10 @@ def simulate_plate(scene: PlateScene, horizon: float = 8.0, sample_interval: flo
         """Samples in (t0, t1] and the continuous peak over [t0, t1], under the current modes."""
         chosen = np.flatnonzero((times > t0) & (times <= t1))
         if chosen.size:
-            states = interpolant(times[chosen])[:6 * N]
+            states = interpolant(times[chosen])[: 6 * N]
             force_samples[chosen] = model.backplate_force(states, contact, damper_on)
             compression_samples[chosen] = model.compression(states)
-        peaks.add(t0, t1, lambda t: interpolant(t)[:6 * N], contact, damper_on)
+        peaks.add(t0, t1, lambda t: interpolant(t)[: 6 * N], contact, damper_on)
 
     phases = [(0.0, min(scene.t_active, horizon), True)] if scene.t_active > 0 else []
     if scene.t_active < horizon:
@@ -518,10 +554,15 @@ def simulate_plate(scene: PlateScene, horizon: float = 8.0, sample_interval: flo
         t = t_start
         at_one_instant = 0
         while t < t_end:
-            solver = DOP853(lambda _t, zz, _on=load_on, _c=contact.copy(), _d=damper_on.copy():
-                            model.derivative(zz, _on, _c, _d),
-                            t, z, t_end, rtol=rtol, atol=atol,
-                            first_step=None if first_step is None else min(first_step, t_end - t))
+            solver = DOP853(
+                lambda _t, zz, _on=load_on, _c=contact.copy(), _d=damper_on.copy(): model.derivative(zz, _on, _c, _d),
+                t,
+                z,
+                t_end,
+                rtol=rtol,
+                atol=atol,
+                first_step=None if first_step is None else min(first_step, t_end - t),
+            )
             switched = False
             while solver.status == "running":
                 message = solver.step()
@@ -530,8 +571,13 @@ def simulate_plate(scene: PlateScene, horizon: float = 8.0, sample_interval: flo
                 n_steps += 1
                 t_old, t_new = solver.t_old, solver.t
                 interpolant = solver.dense_output()
-                roots = _switches(solver.y_old, solver.y, interpolant, t_old, t_new, ux_wall, vx_wall, gap,
-                                  contact, damper_on) if scene.has_backplate else []
+                roots = (
+                    _switches(
+                        solver.y_old, solver.y, interpolant, t_old, t_new, ux_wall, vx_wall, gap, contact, damper_on
+                    )
+                    if scene.has_backplate
+                    else []
+                )
                 if not roots:
                     record(t_old, t_new, interpolant)
                     first_step = solver.h_abs
@@ -568,17 +614,34 @@ def simulate_plate(scene: PlateScene, horizon: float = 8.0, sample_interval: flo
     continuous, peak_time = peaks.result()
     if peak > continuous:
         continuous, peak_time = peak, float(times[peak_index])
-    y_end = z[:6 * N].copy()
+    y_end = z[: 6 * N].copy()
     kinetic, potential = model.energies(y_end, contact)
-    external, dissipated, nonreciprocal = (float(x) for x in z[6 * N:])
+    external, dissipated, nonreciprocal = (float(x) for x in z[6 * N :])
     return PlateResult(
-        scene=scene, rtol=rtol, atol=atol, horizon=horizon, sample_interval=sample_interval, times=times,
-        backplate_force=force_samples, peak_backplate_force=peak, peak_sample_time=float(times[peak_index]),
-        max_compression=float(np.max(compression_samples)), peak_backplate_force_continuous=continuous,
-        peak_time=peak_time, kinetic_energy=kinetic, potential_energy=potential, external_work=external,
-        dissipated_energy=dissipated, nonreciprocal_work=nonreciprocal,
-        energy_balance_error=external + nonreciprocal - kinetic - potential - dissipated, final_state=y_end,
-        n_rhs=n_rhs, n_steps=n_steps, n_switches=n_switches, wall_time=time.perf_counter() - started)
+        scene=scene,
+        rtol=rtol,
+        atol=atol,
+        horizon=horizon,
+        sample_interval=sample_interval,
+        times=times,
+        backplate_force=force_samples,
+        peak_backplate_force=peak,
+        peak_sample_time=float(times[peak_index]),
+        max_compression=float(np.max(compression_samples)),
+        peak_backplate_force_continuous=continuous,
+        peak_time=peak_time,
+        kinetic_energy=kinetic,
+        potential_energy=potential,
+        external_work=external,
+        dissipated_energy=dissipated,
+        nonreciprocal_work=nonreciprocal,
+        energy_balance_error=external + nonreciprocal - kinetic - potential - dissipated,
+        final_state=y_end,
+        n_rhs=n_rhs,
+        n_steps=n_steps,
+        n_switches=n_switches,
+        wall_time=time.perf_counter() - started,
+    )
 
 
 # ---------------------------------------------------------------------------------------------- reference data
@@ -591,9 +654,19 @@ REFERENCE_RTOL, REFERENCE_ATOL = 1e-12, 1e-14
 REFERENCE_FILE = Path(__file__).resolve().parent / "plate_5x5x5_reference.json"
 COMMAND = "python -m reference.lattice3d --write reference/plate_5x5x5_reference.json"
 #: the figures of a case, by PlateResult field
-CASE_FIGURES = ("peak_backplate_force", "peak_sample_time", "peak_backplate_force_continuous", "peak_time",
-                "max_compression", "kinetic_energy", "potential_energy", "external_work", "dissipated_energy",
-                "nonreciprocal_work", "energy_balance_error")
+CASE_FIGURES = (
+    "peak_backplate_force",
+    "peak_sample_time",
+    "peak_backplate_force_continuous",
+    "peak_time",
+    "max_compression",
+    "kinetic_energy",
+    "potential_energy",
+    "external_work",
+    "dissipated_energy",
+    "nonreciprocal_work",
+    "energy_balance_error",
+)
 
 
 def reference_cases() -> tuple[tuple[str, PlateScene], ...]:
@@ -609,19 +682,25 @@ def reference_cases() -> tuple[tuple[str, PlateScene], ...]:
 
 def case_record(name: str, result: PlateResult) -> dict:
     """One case of the reference file: its scene, every field by name, and its figures."""
-    return {"name": name, "scene": result.scene.describe(),
-            **{figure: getattr(result, figure) for figure in CASE_FIGURES}}
+    return {
+        "name": name,
+        "scene": result.scene.describe(),
+        **{figure: getattr(result, figure) for figure in CASE_FIGURES},
+    }
 
 
 def reference_document(records: list[dict]) -> dict:
     return {
         "description": "Reference results of the three-dimensional lattice, computed by the independent numpy/scipy "
-                       "reference (reference/lattice3d.py), for the C model to be checked against",
+        "reference (reference/lattice3d.py), for the C model to be checked against",
         "specification": "docs/model.md section 10 (with sections 2 to 7 and 9 it extends)",
         "command": COMMAND,
-        "integration": {"method": "scipy DOP853, every backplate switch (contact, damper) located as an event, "
-                                  "the load's end a phase boundary",
-                        "rtol": REFERENCE_RTOL, "atol": REFERENCE_ATOL},
+        "integration": {
+            "method": "scipy DOP853, every backplate switch (contact, damper) located as an event, "
+            "the load's end a phase boundary",
+            "rtol": REFERENCE_RTOL,
+            "atol": REFERENCE_ATOL,
+        },
         "horizon": REFERENCE_HORIZON,
         "sample_interval": REFERENCE_SAMPLE_INTERVAL,
         "libraries": {"numpy": np.__version__, "scipy": scipy.__version__},
@@ -633,9 +712,14 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m reference.lattice3d",
         description="Compute the three-dimensional reference results (docs/model.md section 10): a 5 x 5 x 5 plate, "
-                    "two orders, both diagonal rules, the whole face and a centred 3 x 3 patch.")
-    parser.add_argument("--write", metavar="PATH", type=Path,
-                        help=f"write the results as JSON to PATH (the repository's file: {COMMAND.split()[-1]})")
+        "two orders, both diagonal rules, the whole face and a centred 3 x 3 patch.",
+    )
+    parser.add_argument(
+        "--write",
+        metavar="PATH",
+        type=Path,
+        help=f"write the results as JSON to PATH (the repository's file: {COMMAND.split()[-1]})",
+    )
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
     args = parser.parse_args(argv)
     if args.write is not None and not args.write.parent.is_dir():
@@ -646,10 +730,12 @@ def main(argv=None) -> int:
         for name, scene in reference_cases():
             result = simulate_plate(scene, REFERENCE_HORIZON, REFERENCE_SAMPLE_INTERVAL, REFERENCE_RTOL, REFERENCE_ATOL)
             records.append(case_record(name, result))
-            print(f"{name:24s} peak {result.peak_backplate_force:.12g} N  continuous "
-                  f"{result.peak_backplate_force_continuous:.12g} N  external work {result.external_work:.12g} J  "
-                  f"balance {result.energy_balance_error / result.external_work:.1e}  ({result.wall_time:.1f} s)",
-                  flush=True)
+            print(
+                f"{name:24s} peak {result.peak_backplate_force:.12g} N  continuous "
+                f"{result.peak_backplate_force_continuous:.12g} N  external work {result.external_work:.12g} J  "
+                f"balance {result.energy_balance_error / result.external_work:.1e}  ({result.wall_time:.1f} s)",
+                flush=True,
+            )
         if args.write is not None:
             partial = args.write.with_name(args.write.name + ".partial")
             partial.write_text(json.dumps(reference_document(records), indent=1) + "\n")

@@ -184,6 +184,7 @@ def simulate(
     fs[0] = bp(z)  # t = 0 (the state given, before any step)
     squeeze[0] = compression(z)
     for t0, t1, load_on in phases:
+
         def fun(t, zz, _on=load_on):
             dydt, (pe, pd, pn) = model.evaluate(zz[:n], _on, True)
             out = np.empty(n + 3)
@@ -200,14 +201,21 @@ def simulate(
         if t_eval.size == 0 or t_eval[-1] < t1:
             t_eval = np.append(t_eval, t1)
         sol = scipy.integrate.solve_ivp(
-            fun, (t0, t1), z, method=cls, t_eval=t_eval, dense_output=continuous_peak,
-            rtol=rtol, atol=atol, max_step=max_step,
+            fun,
+            (t0, t1),
+            z,
+            method=cls,
+            t_eval=t_eval,
+            dense_output=continuous_peak,
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
         )
         if sol.status != 0:
             raise RuntimeError(f"simulate: {method_name} failed on [{t0}, {t1}]: {sol.message}")
         n_rhs += sol.nfev
-        fs[sel] = bp(sol.y[:, :sel.size])
-        squeeze[sel] = compression(sol.y[:, :sel.size])
+        fs[sel] = bp(sol.y[:, : sel.size])
+        squeeze[sel] = compression(sol.y[:, : sel.size])
         z = sol.y[:, -1].copy()
 
         if continuous_peak:
@@ -223,8 +231,7 @@ def simulate(
                 if v > grid_best[0]:
                     grid_best = (v, float(tg[i]))
                 if v > 0:
-                    item = (v, counter, float(tg[max(i - 1, 0)]),
-                            float(tg[min(i + 1, fine_points)]), interp)
+                    item = (v, counter, float(tg[max(i - 1, 0)]), float(tg[min(i + 1, fine_points)]), interp)
                     counter += 1
                     if len(cands) < n_keep:
                         heapq.heappush(cands, item)
@@ -245,8 +252,12 @@ def simulate(
         for v, _, a, b, interp in cands:
             if b <= a:
                 continue
-            res = minimize_scalar(lambda t, f=interp: -float(bp(f(t))), bounds=(a, b),
-                                  method="bounded", options={"xatol": 1e-13 * max(1.0, b)})
+            res = minimize_scalar(
+                lambda t, f=interp: -float(bp(f(t))),
+                bounds=(a, b),
+                method="bounded",
+                options={"xatol": 1e-13 * max(1.0, b)},
+            )
             if -res.fun > best_v:
                 best_v, best_t = float(-res.fun), float(res.x)
         peak_c, peak_t = best_v, best_t

@@ -32,6 +32,7 @@ integrated with the state.
     result = simulate_system(scene, horizon=1.0)
     result.peak_backplate_force, result.energy.system_error, result.contact_force
 """
+
 from __future__ import annotations
 
 import heapq
@@ -114,12 +115,15 @@ class Projectile:
     def __post_init__(self):
         object.__setattr__(self, "mass", _number("Projectile", "mass", self.mass, 0.0, strict=True))
         object.__setattr__(self, "speed", _number("Projectile", "speed", self.speed, 0.0))
-        object.__setattr__(self, "contact_stiffness",
-                           _number("Projectile", "contact_stiffness", self.contact_stiffness, 0.0, strict=True))
-        object.__setattr__(self, "contact_exponent",
-                           _number("Projectile", "contact_exponent", self.contact_exponent, 1.0))
-        object.__setattr__(self, "contact_damping",
-                           _number("Projectile", "contact_damping", self.contact_damping, 0.0))
+        object.__setattr__(
+            self,
+            "contact_stiffness",
+            _number("Projectile", "contact_stiffness", self.contact_stiffness, 0.0, strict=True),
+        )
+        object.__setattr__(
+            self, "contact_exponent", _number("Projectile", "contact_exponent", self.contact_exponent, 1.0)
+        )
+        object.__setattr__(self, "contact_damping", _number("Projectile", "contact_damping", self.contact_damping, 0.0))
 
 
 @dataclass(frozen=True)
@@ -174,8 +178,10 @@ class SystemScene:
         if (self.hull is not None or self.back_position is not None) and not self.lattice.has_backplate:
             raise ValueError("SystemScene: a moving back port needs lattice.has_backplate = True")
         count = len(self.lattice.k)
-        for name, default, minimum, strict in (("material_mass", self.lattice.mass, 0.0, True),
-                                               ("damping_exponent", 1.0, 0.0, True)):
+        for name, default, minimum, strict in (
+            ("material_mass", self.lattice.mass, 0.0, True),
+            ("damping_exponent", 1.0, 0.0, True),
+        ):
             value = getattr(self, name)
             if value is None:
                 value = (default,) * count
@@ -223,8 +229,15 @@ class SystemModel:
     projectile touches.
     """
 
-    INTEGRALS = ("front_work", "back_work", "lattice_dissipation", "nonreciprocal_work", "contact_dissipation",
-                 "hull_dissipation", "backplate_impulse")
+    INTEGRALS = (
+        "front_work",
+        "back_work",
+        "lattice_dissipation",
+        "nonreciprocal_work",
+        "contact_dissipation",
+        "hull_dissipation",
+        "backplate_impulse",
+    )
 
     def __init__(self, scene: SystemScene):
         self.scene = scene
@@ -294,7 +307,7 @@ class SystemModel:
         p = z[self.wall_index] - sc.backplate_gap - x_back
         relative = z[3 * self.N + self.wall_index] - v_back
         on = modes[:W] if np.ndim(z) == 1 else modes[:W, None]
-        damper = (modes[:W] & modes[W:2 * W]) if np.ndim(z) == 1 else (modes[:W] & modes[W:2 * W])[:, None]
+        damper = (modes[:W] & modes[W : 2 * W]) if np.ndim(z) == 1 else (modes[:W] & modes[W : 2 * W])[:, None]
         return on * sc.k_wall * p, damper * sc.c_wall * relative, relative, p
 
     def backplate_force(self, t, z, modes, phase):
@@ -311,7 +324,7 @@ class SystemModel:
         out = np.empty(self.n_modes)
         W = self.W
         out[:W] = z[self.wall_index] - sc.backplate_gap - x_back
-        out[W:2 * W] = z[3 * self.N + self.wall_index] - v_back
+        out[W : 2 * W] = z[3 * self.N + self.wall_index] - v_back
         pr = self.scene.projectile
         if pr is not None:
             x_front, v_front = self.front(z)
@@ -327,7 +340,7 @@ class SystemModel:
         out = np.zeros(self.n_modes, bool)
         if self.scene.lattice.has_backplate:
             out[:W] = True
-            out[W:2 * W] = modes[:W]
+            out[W : 2 * W] = modes[:W]
         if self.scene.projectile is not None:
             out[self.touch] = True
             out[self.push] = modes[self.touch]
@@ -337,7 +350,7 @@ class SystemModel:
         """d/dt of the state (and of the integrals) under frozen modes: a smooth function, so that DOP853's error
         control means what it says between two switches."""
         sc, N, plate = self.scene.lattice, self.N, self.plate
-        y = z[:6 * N]
+        y = z[: 6 * N]
         r, _, sa, sb = plate.spring_state(y)
         dv = y[plate.dv_b] - y[plate.dv_a]
         if self.linear_dampers:
@@ -349,8 +362,9 @@ class SystemModel:
             powered = np.power(speed, n - 1.0, out=np.zeros_like(speed), where=speed > 0)
             cdv = np.tile(self.damper_c * np.where(n == 1.0, 1.0, powered), 3) * dv
         on_a, on_b = (r * sa).ravel(), (r * sb).ravel()
-        force = np.asarray(np.bincount(plate.scatter, np.concatenate([on_a, -on_b, cdv, -cdv]), minlength=3 * N),
-                           dtype=float)  # a lattice without springs counts in integers
+        force = np.asarray(
+            np.bincount(plate.scatter, np.concatenate([on_a, -on_b, cdv, -cdv]), minlength=3 * N), dtype=float
+        )  # a lattice without springs counts in integers
 
         out = np.zeros(self.size)
         wall_power = backplate = 0.0
@@ -392,8 +406,8 @@ class SystemModel:
             out[self.H + 1] = (backplate - hull.stiffness * x - hull.damping * v) / hull.mass
             out[self.I + 5] = hull.damping * v * v
 
-        out[:3 * N] = y[3 * N:]
-        out[3 * N:6 * N] = force / self.mass3
+        out[: 3 * N] = y[3 * N :]
+        out[3 * N : 6 * N] = force / self.mass3
         out[self.I] = front_power
         out[self.I + 1] = backplate * x_back_rate
         out[self.I + 2] = float(cdv @ dv) + wall_power
@@ -406,9 +420,9 @@ class SystemModel:
         """``(lattice kinetic, lattice potential, projectile kinetic, contact potential, hull kinetic, hull
         potential)``."""
         sc, N = self.scene.lattice, self.N
-        v = z[3 * N:6 * N]
+        v = z[3 * N : 6 * N]
         kinetic = 0.5 * float(self.mass3 @ (v * v))
-        _, potential = self.plate.energies(z[:6 * N], np.zeros(self.W, bool))  # the springs only
+        _, potential = self.plate.energies(z[: 6 * N], np.zeros(self.W, bool))  # the springs only
         if sc.has_backplate:
             spring, _, _, p = self.wall(t, z, modes, phase)
             potential += float(0.5 * spring @ p)
@@ -418,8 +432,9 @@ class SystemModel:
             projectile_kinetic = 0.5 * pr.mass * z[self.P + 1] ** 2
             _, _, delta, _ = self.contact(z, modes)
             if modes[self.touch] and delta > 0:
-                contact_potential = (pr.contact_stiffness * delta ** (pr.contact_exponent + 1)
-                                     / (pr.contact_exponent + 1))
+                contact_potential = (
+                    pr.contact_stiffness * delta ** (pr.contact_exponent + 1) / (pr.contact_exponent + 1)
+                )
         hull = self.scene.hull
         if hull is not None:
             hull_kinetic = 0.5 * hull.mass * z[self.H + 1] ** 2
@@ -462,8 +477,15 @@ class EnergyTerms:
     @property
     def lattice_error(self) -> float:
         """Section 11's balance of the lattice alone (J)."""
-        return (self.lattice_initial_potential + self.front_work - self.back_work + self.nonreciprocal_work
-                - self.lattice_kinetic - self.lattice_potential - self.lattice_dissipation)
+        return (
+            self.lattice_initial_potential
+            + self.front_work
+            - self.back_work
+            + self.nonreciprocal_work
+            - self.lattice_kinetic
+            - self.lattice_potential
+            - self.lattice_dissipation
+        )
 
     @property
     def energy_in(self) -> float:
@@ -477,8 +499,14 @@ class EnergyTerms:
     @property
     def system_error(self) -> float:
         """The whole system's balance (J): energy in minus everything stored and dissipated."""
-        held = (self.lattice_kinetic + self.lattice_potential + self.lattice_dissipation + self.projectile_kinetic
-                + self.contact_potential + self.contact_dissipation)
+        held = (
+            self.lattice_kinetic
+            + self.lattice_potential
+            + self.lattice_dissipation
+            + self.projectile_kinetic
+            + self.contact_potential
+            + self.contact_dissipation
+        )
         if self.with_hull:
             held += self.hull_kinetic + self.hull_potential + self.hull_dissipation
         return self.energy_in - held
@@ -553,9 +581,12 @@ class _PeakSearch:
         for _, _, lo, hi, signal in self.candidates:
             if hi <= lo:
                 continue
-            found = minimize_scalar(lambda s, _signal=signal: -float(_signal(np.array([s]))[0]), bounds=(lo, hi),
-                                    method="bounded",
-                                    options={"xatol": 1e-13 * max(1.0, hi)})
+            found = minimize_scalar(
+                lambda s, _signal=signal: -float(_signal(np.array([s]))[0]),
+                bounds=(lo, hi),
+                method="bounded",
+                options={"xatol": 1e-13 * max(1.0, hi)},
+            )
             if -found.fun > value:
                 value, at = float(-found.fun), float(found.x)
         return value, at
@@ -574,14 +605,24 @@ def _phases(scene: SystemScene, horizon: float) -> list:
     for t0, t1 in zip(cuts, cuts[1:]):
         middle = 0.5 * (t0 + t1)
         pick = lambda s, _at=middle: None if s is None else s.piece_at(_at)  # noqa: E731
-        phases.append((t0, t1, Phase(load_on=middle <= scene.lattice.t_active, front_force=pick(scene.front_force),
-                                      back_position=pick(scene.back_position),
-                                      back_velocity=pick(scene.back_velocity))))
+        phases.append(
+            (
+                t0,
+                t1,
+                Phase(
+                    load_on=middle <= scene.lattice.t_active,
+                    front_force=pick(scene.front_force),
+                    back_position=pick(scene.back_position),
+                    back_velocity=pick(scene.back_velocity),
+                ),
+            )
+        )
     return phases
 
 
-def simulate_system(scene: SystemScene, horizon: float = 8.0, sample_interval: float = 0.01, rtol: float = 1e-12,
-                    atol: float = 1e-14) -> SystemResult:
+def simulate_system(
+    scene: SystemScene, horizon: float = 8.0, sample_interval: float = 0.01, rtol: float = 1e-12, atol: float = 1e-14
+) -> SystemResult:
     """Integrate ``scene`` from rest (the projectile touching the face at its speed) to ``horizon`` as one ODE
     (module docstring: DOP853, every switch an event)."""
     if not isinstance(scene, SystemScene):
@@ -603,12 +644,14 @@ def simulate_system(scene: SystemScene, horizon: float = 8.0, sample_interval: f
     modes = values > 0
     if pr is not None and values[model.touch] == 0.0:
         modes[model.touch] = pr.speed > 0
-    modes[W:2 * W] &= modes[:W]
+    modes[W : 2 * W] &= modes[:W]
     initial_potential = model.stored_energies(0.0, z, modes, phases[0][2])[1]
 
     times = sample_times(horizon, sample_interval)
-    series = {name: np.full(times.size, np.nan) for name in
-              ("backplate", "contact", "x_front", "v_front", "hull_x", "hull_v", "proj_x", "proj_v")}
+    series = {
+        name: np.full(times.size, np.nan)
+        for name in ("backplate", "contact", "x_front", "v_front", "hull_x", "hull_v", "proj_x", "proj_v")
+    }
 
     def signals(t, states, frozen, phase):
         bp = model.backplate_force(t, states, frozen, phase)
@@ -630,8 +673,7 @@ def simulate_system(scene: SystemScene, horizon: float = 8.0, sample_interval: f
         chosen = np.flatnonzero((times > t0) & (times <= t1))
         if chosen.size:
             record_samples(chosen, interpolant(times[chosen]), frozen, phase)
-        backplate_peaks.add(t0, t1, lambda s: np.atleast_1d(
-            model.backplate_force(s, interpolant(s), frozen, phase)))
+        backplate_peaks.add(t0, t1, lambda s: np.atleast_1d(model.backplate_force(s, interpolant(s), frozen, phase)))
         if pr is not None:
             contact_peaks.add(t0, t1, lambda s: np.atleast_1d(model.contact(interpolant(s), frozen)[0]))
 
@@ -642,8 +684,15 @@ def simulate_system(scene: SystemScene, horizon: float = 8.0, sample_interval: f
         at_one_instant = 0
         while t < t_end:
             frozen = modes.copy()
-            solver = DOP853(lambda s, zz, _m=frozen, _p=phase: model.derivative(s, zz, _m, _p), t, z, t_end,
-                            rtol=rtol, atol=atol, first_step=None if first_step is None else min(first_step, t_end - t))
+            solver = DOP853(
+                lambda s, zz, _m=frozen, _p=phase: model.derivative(s, zz, _m, _p),
+                t,
+                z,
+                t_end,
+                rtol=rtol,
+                atol=atol,
+                first_step=None if first_step is None else min(first_step, t_end - t),
+            )
             switched = False
             while solver.status == "running":
                 message = solver.step()
@@ -666,8 +715,10 @@ def simulate_system(scene: SystemScene, horizon: float = 8.0, sample_interval: f
                     if start == 0.0 or np.sign(start) == np.sign(end):
                         roots.append((t_old, q))
                     else:
+
                         def crossing(s, _q=q, _f=interpolant, _p=phase):
                             return model.indicators(s, _f(s), _p)[_q]
+
                         roots.append((brentq(crossing, t_old, t_new, xtol=1e-16, rtol=4 * np.finfo(float).eps), q))
                 t_switch = min(root[0] for root in roots)
                 if t_switch > t_old:
@@ -707,21 +758,51 @@ def simulate_system(scene: SystemScene, horizon: float = 8.0, sample_interval: f
     contact_peak, contact_time = contact_peaks.result() if pr is not None else (0.0, math.nan)
 
     stored = model.stored_energies(horizon, z, modes, phase)
-    integral = dict(zip(SystemModel.INTEGRALS, (float(x) for x in z[model.I:])))
+    integral = dict(zip(SystemModel.INTEGRALS, (float(x) for x in z[model.I :])))
     energy = EnergyTerms(
-        lattice_initial_potential=initial_potential, lattice_kinetic=stored[0], lattice_potential=stored[1],
-        lattice_dissipation=integral["lattice_dissipation"], nonreciprocal_work=integral["nonreciprocal_work"],
-        front_work=integral["front_work"], back_work=integral["back_work"],
-        projectile_initial_kinetic=0.5 * pr.mass * pr.speed ** 2 if pr is not None else 0.0,
-        projectile_kinetic=stored[2], contact_potential=stored[3], contact_dissipation=integral["contact_dissipation"],
-        hull_kinetic=stored[4], hull_potential=stored[5], hull_dissipation=integral["hull_dissipation"],
-        with_hull=scene.hull is not None, with_projectile=pr is not None)
+        lattice_initial_potential=initial_potential,
+        lattice_kinetic=stored[0],
+        lattice_potential=stored[1],
+        lattice_dissipation=integral["lattice_dissipation"],
+        nonreciprocal_work=integral["nonreciprocal_work"],
+        front_work=integral["front_work"],
+        back_work=integral["back_work"],
+        projectile_initial_kinetic=0.5 * pr.mass * pr.speed**2 if pr is not None else 0.0,
+        projectile_kinetic=stored[2],
+        contact_potential=stored[3],
+        contact_dissipation=integral["contact_dissipation"],
+        hull_kinetic=stored[4],
+        hull_potential=stored[5],
+        hull_dissipation=integral["hull_dissipation"],
+        with_hull=scene.hull is not None,
+        with_projectile=pr is not None,
+    )
     return SystemResult(
-        scene=scene, rtol=rtol, atol=atol, horizon=horizon, sample_interval=sample_interval, times=times,
-        backplate_force=bp, contact_force=series["contact"], x_front=series["x_front"], v_front=series["v_front"],
-        hull_position=series["hull_x"], hull_velocity=series["hull_v"], projectile_position=series["proj_x"],
-        projectile_velocity=series["proj_v"], peak_backplate_force=peak, peak_sample_time=float(times[peak_index]),
-        peak_backplate_force_continuous=continuous, peak_time=peak_time,
-        peak_contact_force_continuous=float(contact_peak), peak_contact_time=float(contact_time),
-        backplate_impulse=integral["backplate_impulse"], energy=energy, final_state=z.copy(), n_rhs=n_rhs,
-        n_steps=n_steps, n_switches=n_switches, wall_time=time.perf_counter() - started)
+        scene=scene,
+        rtol=rtol,
+        atol=atol,
+        horizon=horizon,
+        sample_interval=sample_interval,
+        times=times,
+        backplate_force=bp,
+        contact_force=series["contact"],
+        x_front=series["x_front"],
+        v_front=series["v_front"],
+        hull_position=series["hull_x"],
+        hull_velocity=series["hull_v"],
+        projectile_position=series["proj_x"],
+        projectile_velocity=series["proj_v"],
+        peak_backplate_force=peak,
+        peak_sample_time=float(times[peak_index]),
+        peak_backplate_force_continuous=continuous,
+        peak_time=peak_time,
+        peak_contact_force_continuous=float(contact_peak),
+        peak_contact_time=float(contact_time),
+        backplate_impulse=integral["backplate_impulse"],
+        energy=energy,
+        final_state=z.copy(),
+        n_rhs=n_rhs,
+        n_steps=n_steps,
+        n_switches=n_switches,
+        wall_time=time.perf_counter() - started,
+    )

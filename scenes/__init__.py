@@ -9,6 +9,7 @@ Names and model identifiers must be identifiers (`[A-Za-z_][A-Za-z0-9_]*`): a mo
 FMU's binary and its file (`models/<identifier>.fmu`), and a scene name a file in this folder, so neither
 may carry a path.
 """
+
 from __future__ import annotations
 
 import json
@@ -76,12 +77,20 @@ class Scene:
             if isinstance(value, bool) or not isinstance(value, int) or value < 1 or (high and value > high):
                 allowed = f"an integer from 1 to {high}" if high else "an integer of at least 1"
                 raise ValueError(f"scene {self.name}: {key} must be {allowed}, got {value!r}")
-        if self.search_horizon is not None and (isinstance(self.search_horizon, bool) or not isinstance(
-                self.search_horizon, (int, float)) or not 0 < self.search_horizon <= self.horizon):
-            raise ValueError(f"scene {self.name}: search_horizon must be a number of seconds in (0, horizon = "
-                             f"{self.horizon:g}], got {self.search_horizon!r}")
-        if self.search_rtol is not None and (isinstance(self.search_rtol, bool) or not isinstance(
-                self.search_rtol, (int, float)) or not 0 < self.search_rtol < 1):
+        if self.search_horizon is not None and (
+            isinstance(self.search_horizon, bool)
+            or not isinstance(self.search_horizon, (int, float))
+            or not 0 < self.search_horizon <= self.horizon
+        ):
+            raise ValueError(
+                f"scene {self.name}: search_horizon must be a number of seconds in (0, horizon = "
+                f"{self.horizon:g}], got {self.search_horizon!r}"
+            )
+        if self.search_rtol is not None and (
+            isinstance(self.search_rtol, bool)
+            or not isinstance(self.search_rtol, (int, float))
+            or not 0 < self.search_rtol < 1
+        ):
             raise ValueError(f"scene {self.name}: search_rtol must be a number in (0, 1), got {self.search_rtol!r}")
 
     def material_table(self) -> MaterialTable | None:
@@ -92,8 +101,10 @@ class Scene:
             return load_materials(self.materials)
         if isinstance(self.materials, list):
             return MaterialTable.from_rows(self.materials, f"scene {self.name}: materials")
-        raise ValueError(f"scene {self.name}: materials must be a list of rows or the path of a table file, got "
-                         f"{type(self.materials).__name__}")
+        raise ValueError(
+            f"scene {self.name}: materials must be a list of rows or the path of a table file, got "
+            f"{type(self.materials).__name__}"
+        )
 
     @classmethod
     def load(cls, name_or_path: str | os.PathLike) -> "Scene":
@@ -103,8 +114,9 @@ class Scene:
             path = Path(text)
         else:
             if not IDENTIFIER.fullmatch(text):
-                raise ValueError(f"scene {text!r} is not allowed: give one of {scene_names()} or a path to a "
-                                 f".json file")
+                raise ValueError(
+                    f"scene {text!r} is not allowed: give one of {scene_names()} or a path to a .json file"
+                )
             path = SCENE_DIR / f"{text}.json"
         if not path.is_file():
             raise ValueError(f"scene {text!r} not found: give one of {scene_names()} or a path to a .json file")
@@ -126,8 +138,9 @@ class Scene:
 
     def interface(self) -> Interface:
         """The FMU's variables for this scene: exposed ones with value references, hidden ones compiled in."""
-        return make_interface(self.rows, self.cols, self.parameters, tuple(self.hidden), self.material_table(),
-                              self.depth)
+        return make_interface(
+            self.rows, self.cols, self.parameters, tuple(self.hidden), self.material_table(), self.depth
+        )
 
     def parameter_values(self) -> dict:
         """Every parameter's value in this scene (the scene's own, else the FMU's default), by FMU name;
@@ -141,15 +154,20 @@ class Scene:
             values[variable.name] = tuple(value) if isinstance(value, (list, tuple)) else value
         return values
 
-
     def size(self) -> tuple[int, int, int]:
         """(rows, columns, depth): what an FMU of this scene declares as its lattice's size."""
         return self.rows, self.cols, self.depth
 
 
-def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, cols: int | None = None,
-                  materials: MaterialTable | str | os.PathLike | None = None, depth: int | None = None,
-                  load_patch: int | None = None, own_identifier: bool = True) -> Scene:
+def resolve_scene(
+    scene: Scene | str | None = None,
+    rows: int | None = None,
+    cols: int | None = None,
+    materials: MaterialTable | str | os.PathLike | None = None,
+    depth: int | None = None,
+    load_patch: int | None = None,
+    own_identifier: bool = True,
+) -> Scene:
     """The scene an FMU is built and run for: a Scene, a scene name or path (default: the study's), with rows,
     cols or depth overridden (a resized scene keeps its scalar parameters only), load_patch as the start of that
     parameter, and `materials` (a MaterialTable or the path of a table file) as its material table. With
@@ -159,8 +177,13 @@ def resolve_scene(scene: Scene | str | None = None, rows: int | None = None, col
         scene = Scene.load(scene or DEFAULT_SCENE)
     resized = scene
     if rows is not None or cols is not None or depth is not None:
-        resized = replace(scene, rows=rows or scene.rows, cols=cols or scene.cols, depth=depth or scene.depth,
-                          parameters={k: v for k, v in scene.parameters.items() if not isinstance(v, (list, tuple))})
+        resized = replace(
+            scene,
+            rows=rows or scene.rows,
+            cols=cols or scene.cols,
+            depth=depth or scene.depth,
+            parameters={k: v for k, v in scene.parameters.items() if not isinstance(v, (list, tuple))},
+        )
     if load_patch is not None:
         resized = replace(resized, parameters={**resized.parameters, "load_patch": load_patch})
     if materials is not None:
@@ -195,5 +218,16 @@ def is_study_scene(scene: Scene) -> bool:
     return scene == _study_scene()
 
 
-__all__ = ["DEFAULT_SCENE", "IDENTIFIER", "PROJECTILE_SCENE", "SCENE_DIR", "SIZE_ANNOTATION", "Scene",
-           "check_identifier", "is_study_scene", "resolve_scene", "scene_names", "study_parameter_values"]
+__all__ = [
+    "DEFAULT_SCENE",
+    "IDENTIFIER",
+    "PROJECTILE_SCENE",
+    "SCENE_DIR",
+    "SIZE_ANNOTATION",
+    "Scene",
+    "check_identifier",
+    "is_study_scene",
+    "resolve_scene",
+    "scene_names",
+    "study_parameter_values",
+]

@@ -12,6 +12,7 @@ tests/compatibility_results/: "pass" with ``checked`` as its message when the bl
 first line of the error when a check fails (and the test still fails). A skipped test writes nothing.
 Recording is refused while the code differs from its commit, since a row names the commit it ran at.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -31,9 +32,12 @@ NOT_CODE = (":(exclude)tests/compatibility_results", ":(exclude)docs", ":(exclud
 
 
 def add_option(parser) -> None:
-    parser.addoption(RECORD_OPTION, action="store_true",
-                     help="write each importer test's row to tests/compatibility_results/ (the compatibility page's "
-                          "source; then run python -m bench.compatibility)")
+    parser.addoption(
+        RECORD_OPTION,
+        action="store_true",
+        help="write each importer test's row to tests/compatibility_results/ (the compatibility page's "
+        "source; then run python -m bench.compatibility)",
+    )
 
 
 def check_recording(config) -> None:
@@ -44,8 +48,10 @@ def check_recording(config) -> None:
     if status is None:
         raise pytest.UsageError(f"{RECORD_OPTION}: this is not a git checkout; a row names the commit it ran at")
     if status:
-        raise pytest.UsageError(f"{RECORD_OPTION}: the code differs from its commit ({status.splitlines()[0].strip()}"
-                                " ...); commit first, since a row names the commit it ran at")
+        raise pytest.UsageError(
+            f"{RECORD_OPTION}: the code differs from its commit ({status.splitlines()[0].strip()}"
+            " ...); commit first, since a row names the commit it ran at"
+        )
 
 
 @dataclass
@@ -68,9 +74,18 @@ class RowRecorder:
 
 
 @contextlib.contextmanager
-def compatibility_row(request, importer: str, importer_version: str, *, fmi_version: str, interface: str,
-                      checked: str, note: str | None = None, platform: str | None = None,
-                      environment: tuple[str, ...] = ()):
+def compatibility_row(
+    request,
+    importer: str,
+    importer_version: str,
+    *,
+    fmi_version: str,
+    interface: str,
+    checked: str,
+    note: str | None = None,
+    platform: str | None = None,
+    environment: tuple[str, ...] = (),
+):
     """``platform``: where the importer ran (default: this machine's); ``environment``: the ``NAME=value``
     settings the reproducing command needs before it (an importer found through an environment variable)."""
     recorder = RowRecorder()
@@ -82,12 +97,32 @@ def compatibility_row(request, importer: str, importer_version: str, *, fmi_vers
     except BaseException as exc:
         if record:
             message = (str(exc).strip().splitlines() or [type(exc).__name__])[0][:300]
-            _write(request, importer, importer_version, fmi_version, interface, Result("fail", message), recorder,
-                   note, platform, environment)
+            _write(
+                request,
+                importer,
+                importer_version,
+                fmi_version,
+                interface,
+                Result("fail", message),
+                recorder,
+                note,
+                platform,
+                environment,
+            )
         raise
     if record:
-        _write(request, importer, importer_version, fmi_version, interface, Result("pass", checked), recorder, note,
-               platform, environment)
+        _write(
+            request,
+            importer,
+            importer_version,
+            fmi_version,
+            interface,
+            Result("pass", checked),
+            recorder,
+            note,
+            platform,
+            environment,
+        )
 
 
 # The markers the default run leaves out (pyproject's addopts): a test carrying one runs only when -m names it.
@@ -101,14 +136,20 @@ def reproducing_command(request, environment: tuple[str, ...] = ()) -> str:
     return " ".join([*environment, f"python -m pytest{selection} {shlex.quote(request.node.nodeid)}"])
 
 
-def _write(request, importer, importer_version, fmi_version, interface, result, recorder, note, platform,
-           environment) -> None:
+def _write(
+    request, importer, importer_version, fmi_version, interface, result, recorder, note, platform, environment
+) -> None:
     row = CompatibilityRow(
-        importer=importer, importer_version=importer_version, platform=platform or platform_folder()[0],
-        fmi_version=fmi_version, interface=interface, result=result,
+        importer=importer,
+        importer_version=importer_version,
+        platform=platform or platform_folder()[0],
+        fmi_version=fmi_version,
+        interface=interface,
+        result=result,
         worst_error=max(recorder.errors) if recorder.errors else None,
         date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d"),
-        commit=git_output("rev-parse", "HEAD") or "unknown", command=reproducing_command(request, environment),
-        note=note)
+        commit=git_output("rev-parse", "HEAD") or "unknown",
+        command=reproducing_command(request, environment),
+        note=note,
+    )
     write_row(row, RESULTS)
-

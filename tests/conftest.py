@@ -11,6 +11,7 @@ The session compiles each distinct set of C sources once (builder.build's LATTIC
 folder removed when the session ends, inherited by the command lines the tests start): the many FMUs the tests
 build alike differ only in their paths, and every build still generates, zips and checks its own FMU.
 """
+
 import os
 import shutil
 import tempfile
@@ -43,8 +44,9 @@ def pytest_configure(config):
     if build_fmu.BUILD_CACHE_VARIABLE not in os.environ:
         folder = tempfile.mkdtemp(prefix="lattice_build_cache_")
         os.environ[build_fmu.BUILD_CACHE_VARIABLE] = folder
-        config.add_cleanup(lambda: (shutil.rmtree(folder, ignore_errors=True),
-                                    os.environ.pop(build_fmu.BUILD_CACHE_VARIABLE, None)))
+        config.add_cleanup(
+            lambda: (shutil.rmtree(folder, ignore_errors=True), os.environ.pop(build_fmu.BUILD_CACHE_VARIABLE, None))
+        )
 
 
 def _restore_tmpdir(variable, module) -> None:
@@ -74,8 +76,9 @@ def fmu_path(tmp_path_factory):
 @pytest.fixture(scope="session")
 def fmu3_path(tmp_path_factory):
     """The same armour FMU as FMI 3.0 co-simulation (fmu_src/fmi3/), built with -Werror."""
-    return build_fmu.build_fmu(output=tmp_path_factory.mktemp("fmu3") / "MassSpringLattice-fmi3.fmu", werror=True,
-                               fmi_version=3)
+    return build_fmu.build_fmu(
+        output=tmp_path_factory.mktemp("fmu3") / "MassSpringLattice-fmi3.fmu", werror=True, fmi_version=3
+    )
 
 
 @pytest.fixture(scope="session")
@@ -98,7 +101,9 @@ def armour_fmu_of_width(tmp_path_factory):
 
     def fmu(columns):
         if columns not in built:
-            built[columns] = build_fmu.build_fmu("armour_11x11", tmp_path_factory.mktemp(f"fmu{columns}")
-                                                 / "lattice.fmu", cols=columns, werror=True)
+            built[columns] = build_fmu.build_fmu(
+                "armour_11x11", tmp_path_factory.mktemp(f"fmu{columns}") / "lattice.fmu", cols=columns, werror=True
+            )
         return built[columns]
+
     return fmu

@@ -5,14 +5,27 @@ failure tests/test_stability.py guards against); a test that drives such setting
 those runs go through :class:`IsolatedFMU`, which kills and restarts its worker when a run takes longer than a
 timeout.
 """
+
 from __future__ import annotations
 
 import multiprocessing
 import time
 
-ALL_OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "peak_time", "last_contact_time",
-               "kinetic_energy", "potential_energy", "external_work", "dissipated_energy", "nonreciprocal_work",
-               "energy_balance_error", "rhs_evaluations", "steps_accepted", "steps_rejected")
+ALL_OUTPUTS = (
+    "peak_backplate_force",
+    "peak_backplate_force_continuous",
+    "peak_time",
+    "last_contact_time",
+    "kinetic_energy",
+    "potential_energy",
+    "external_work",
+    "dissipated_energy",
+    "nonreciprocal_work",
+    "energy_balance_error",
+    "rhs_evaluations",
+    "steps_accepted",
+    "steps_rejected",
+)
 
 
 def _worker(connection, fmu_path: str) -> None:
@@ -59,14 +72,28 @@ class IsolatedFMU:
         self._process.start()
         self._connection = parent
 
-    def run(self, order, horizon: float, parameters: dict | None = None, outputs=ALL_OUTPUTS,
-            timeout: float | None = None, **options):
+    def run(
+        self,
+        order,
+        horizon: float,
+        parameters: dict | None = None,
+        outputs=ALL_OUTPUTS,
+        timeout: float | None = None,
+        **options,
+    ):
         """options: LatticeFMU.simulate's communication_step and record (a Trajectory comes back in the result)."""
         if self._process is None or not self._process.is_alive():
             self._start()
         limit = self.timeout if timeout is None else timeout
-        self._connection.send((tuple(order) if order is not None else None, float(horizon), dict(parameters or {}),
-                               tuple(outputs), options))
+        self._connection.send(
+            (
+                tuple(order) if order is not None else None,
+                float(horizon),
+                dict(parameters or {}),
+                tuple(outputs),
+                options,
+            )
+        )
         if self._connection.poll(limit):
             return self._connection.recv()
         self.kill()

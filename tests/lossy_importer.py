@@ -12,6 +12,7 @@ does, and restarts the integrator after every event and grid point. Optionally i
 
 `drop_root` makes it lose one located root entirely (the sign change is seen and ignored), the harshest case.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -56,8 +57,12 @@ class _Instance:
         self.unzip_dir = extract(str(fmu_path))
         self.name, self.messages = name, []
         _MESSAGES[name] = self.messages
-        self.fmu = FMU2Model(guid=self.description.guid, unzipDirectory=self.unzip_dir,
-                             modelIdentifier=self.description.modelExchange.modelIdentifier, instanceName=name)
+        self.fmu = FMU2Model(
+            guid=self.description.guid,
+            unzipDirectory=self.unzip_dir,
+            modelIdentifier=self.description.modelExchange.modelIdentifier,
+            instanceName=name,
+        )
         self.fmu.instantiate(callbacks=_CALLBACKS, loggingOn=True)
         self.nx = self.description.numberOfContinuousStates
         self.nz = self.description.numberOfEventIndicators
@@ -87,9 +92,19 @@ class _Instance:
         shutil.rmtree(self.unzip_dir, ignore_errors=True)
 
 
-def simulate_lossy(fmu_path, order, horizon=1.0, rtol=1e-9, atol=1e-11, output_interval=0.01,
-                   zero_restart=True, honour_enter_event_mode=False, snap=1e-12, drop_root=None,
-                   name="lossy-importer") -> LossyRun:
+def simulate_lossy(
+    fmu_path,
+    order,
+    horizon=1.0,
+    rtol=1e-9,
+    atol=1e-11,
+    output_interval=0.01,
+    zero_restart=True,
+    honour_enter_event_mode=False,
+    snap=1e-12,
+    drop_root=None,
+    name="lossy-importer",
+) -> LossyRun:
     """Model Exchange of the FMU at `fmu_path` with `order` (FMI 2), through this importer; `drop_root` is the
     number (1-based) of a located root to ignore."""
     me = _Instance(fmu_path, name)
@@ -148,8 +163,10 @@ def simulate_lossy(fmu_path, order, horizon=1.0, rtol=1e-9, atol=1e-11, output_i
                         dense = solver.dense_output()
                         crossings = []
                         for k in np.flatnonzero(changed):
+
                             def g(s, k=k):
                                 return me.indicators(s, dense(s))[k]
+
                             low, high = solver.t_old, solver.t
                             if (g(low) > 0) == (z_new[k] > 0):
                                 continue  # not a crossing inside this step (the mode it depends on switched)
@@ -194,7 +211,8 @@ def simulate_lossy(fmu_path, order, horizon=1.0, rtol=1e-9, atol=1e-11, output_i
         outputs = [v for v in me.description.modelVariables if v.causality == "output"]
         reals = [v for v in outputs if v.type == "Real"]
         values = dict(zip((v.name for v in reals), me.fmu.getReal([v.valueReference for v in reals])))
-        return LossyRun(np.array(times), np.array(forces), values, events, zeroed, requests, ignored,
-                        tuple(me.messages))
+        return LossyRun(
+            np.array(times), np.array(forces), values, events, zeroed, requests, ignored, tuple(me.messages)
+        )
     finally:
         me.close()

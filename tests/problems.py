@@ -7,6 +7,7 @@ it on a process pool or a Dask cluster: a worker imports this module as ``proble
 alone, ``values(designs)`` many at once; ``brute_force`` and ``exact_front`` give the known optimum and
 Pareto front of a small space by enumerating it.
 """
+
 from __future__ import annotations
 
 import os
@@ -48,8 +49,7 @@ class WeightedDistance:
 
     def __init__(self, target: Sequence[int], weights: Sequence[float] | None = None) -> None:
         self.target = np.asarray(as_design(target), dtype=float)
-        self.weights = (np.ones(len(self.target)) if weights is None
-                        else np.asarray(weights, dtype=float))
+        self.weights = np.ones(len(self.target)) if weights is None else np.asarray(weights, dtype=float)
         if np.any(self.weights <= 0):
             raise ValueError("weights must be positive for a unique optimum")
         self.optimum = as_design(target)
@@ -83,8 +83,9 @@ class QuadraticAssignment:
     def __init__(self, flow: np.ndarray, distance: np.ndarray, linear: np.ndarray | None = None) -> None:
         self.flow = np.asarray(flow, dtype=float)
         self.distance = np.asarray(distance, dtype=float)
-        self.linear = (np.zeros((len(self.flow), len(self.distance))) if linear is None
-                       else np.asarray(linear, dtype=float))
+        self.linear = (
+            np.zeros((len(self.flow), len(self.distance))) if linear is None else np.asarray(linear, dtype=float)
+        )
 
     @classmethod
     def random(cls, space: DesignSpace | int, seed: int) -> "QuadraticAssignment":
@@ -110,8 +111,7 @@ class QuadraticAssignment:
 
     def value(self, design: Sequence[int]) -> float:
         m = np.asarray(design, dtype=int) - 1
-        return float(np.sum(self.flow[np.ix_(m, m)] * self.distance)
-                     + np.sum(self.linear[m, np.arange(len(m))]))
+        return float(np.sum(self.flow[np.ix_(m, m)] * self.distance) + np.sum(self.linear[m, np.arange(len(m))]))
 
     def __call__(self, design: Sequence[int]) -> Evaluation:
         return Evaluation(as_design(design), self.value(design), "ok")
@@ -172,8 +172,9 @@ class Flaky:
     only on the design, so results do not depend on the executor.
     """
 
-    def __init__(self, base: Callable[[Design], Any], period: int = 4, mode: str = "raise",
-                 never: Sequence[Sequence[int]] = ()) -> None:
+    def __init__(
+        self, base: Callable[[Design], Any], period: int = 4, mode: str = "raise", never: Sequence[Sequence[int]] = ()
+    ) -> None:
         if mode not in ("raise", "nan", "inf", "failed"):
             raise ValueError(f"mode must be raise, nan, inf or failed, got {mode!r}")
         self.base, self.period, self.mode = base, int(period), mode
@@ -240,10 +241,10 @@ def search_run(search, problem: Callable[[Design], Any], budget: int, *, honour_
     from orchestrator.loop import Evaluator, run_search
     from orchestrator.objective import CallableObjective
 
-    objective = (LimitedObjective.of(problem, search.space) if honour_limits
-                 else CallableObjective(problem, space=search.space))
-    return run_search(search, objective, budget, Evaluator(SerialExecutor()), method_name=search.name,
-                      seed=search.seed)
+    objective = (
+        LimitedObjective.of(problem, search.space) if honour_limits else CallableObjective(problem, space=search.space)
+    )
+    return run_search(search, objective, budget, Evaluator(SerialExecutor()), method_name=search.name, seed=search.seed)
 
 
 def designs_of(run) -> list[Design]:

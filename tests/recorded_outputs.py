@@ -13,6 +13,7 @@ variant where FMA and AVX2 are usable, else FMA4 or SSE2, unless GLIBC_TUNABLES 
 between versions. So the bits are the recorded ones only where the C library, its variant and the machine are
 the recording's (`libm_identity`); elsewhere the outputs are compared to the FMU's accuracy.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -58,8 +59,13 @@ def libm_identity() -> dict:
         variant = "fma" if {"fma", "avx2"} <= flags else "fma4" if "fma4" in flags else "sse2"
     library, version = platform.libc_ver()
     # glibc's tunables can mask CPU features from its own selection (glibc.cpu.hwcaps=-AVX2,-FMA)
-    return {"machine": machine, "system": platform.system(), "libc": f"{library} {version}".strip(),
-            "libm_variant": variant, "glibc_tunables": os.environ.get("GLIBC_TUNABLES")}
+    return {
+        "machine": machine,
+        "system": platform.system(),
+        "libc": f"{library} {version}".strip(),
+        "libm_variant": variant,
+        "glibc_tunables": os.environ.get("GLIBC_TUNABLES"),
+    }
 
 
 def encode(value) -> str | int:
@@ -73,12 +79,18 @@ def decode(value) -> float | int:
 def co_simulation_run(fmu, setting: str, order, rule: str, symmetry: int) -> dict:
     """One Co-Simulation run of the record on a LatticeFMU: all the FMU's outputs at its end, by name."""
     horizon, parameters = SETTINGS[setting]
-    return fmu.simulate(order, horizon=horizon,
-                        parameters={**parameters, "diagonal_rule": rule, "use_symmetry": symmetry}).values
+    return fmu.simulate(
+        order, horizon=horizon, parameters={**parameters, "diagonal_rule": rule, "use_symmetry": symmetry}
+    ).values
 
 
-CO_SIMULATION_CASES = [(setting, order, rule, symmetry) for setting in SETTINGS for order in ORDERS
-                       for rule in RULES for symmetry in (0, 1)]
+CO_SIMULATION_CASES = [
+    (setting, order, rule, symmetry)
+    for setting in SETTINGS
+    for order in ORDERS
+    for rule in RULES
+    for symmetry in (0, 1)
+]
 MODEL_EXCHANGE_CASES = [(order, rule) for order in ORDERS for rule in RULES]
 
 
@@ -86,11 +98,20 @@ def co_simulation_runs(fmu_path) -> list[dict]:
     from orchestrator.simulation import LatticeFMU
 
     with LatticeFMU(fmu_path) as fmu:
-        return [{"interface": "co-simulation", "setting": setting, "order": list(order), "diagonal_rule": rule,
-                 "use_symmetry": symmetry,
-                 "outputs": {name: encode(value)
-                             for name, value in co_simulation_run(fmu, setting, order, rule, symmetry).items()}}
-                for setting, order, rule, symmetry in CO_SIMULATION_CASES]
+        return [
+            {
+                "interface": "co-simulation",
+                "setting": setting,
+                "order": list(order),
+                "diagonal_rule": rule,
+                "use_symmetry": symmetry,
+                "outputs": {
+                    name: encode(value)
+                    for name, value in co_simulation_run(fmu, setting, order, rule, symmetry).items()
+                },
+            }
+            for setting, order, rule, symmetry in CO_SIMULATION_CASES
+        ]
 
 
 def _pointer(array):
@@ -107,8 +128,12 @@ def fixed_step_exchange(fmu_path, order, rule, horizon=EXCHANGE_HORIZON, step=EX
     description = read_model_description(str(fmu_path))
     variables = {v.name: v for v in description.modelVariables}
     unzip_dir = extract(str(fmu_path))
-    model = FMU2Model(guid=description.guid, unzipDirectory=unzip_dir,
-                      modelIdentifier=description.modelExchange.modelIdentifier, instanceName="fixed-step")
+    model = FMU2Model(
+        guid=description.guid,
+        unzipDirectory=unzip_dir,
+        modelIdentifier=description.modelExchange.modelIdentifier,
+        instanceName="fixed-step",
+    )
     nx, nz = description.numberOfContinuousStates, description.numberOfEventIndicators
     x, dx, k = np.zeros(nx), np.zeros(nx), [np.zeros(nx) for _ in range(4)]
     z, z_before = np.zeros(nz), np.zeros(nz)
@@ -116,8 +141,7 @@ def fixed_step_exchange(fmu_path, order, rule, horizon=EXCHANGE_HORIZON, step=EX
         model.instantiate()
         model.setupExperiment(startTime=0.0)
         model.enterInitializationMode()
-        model.setInteger([variables[f"material[{j}]"].valueReference for j in range(1, len(order) + 1)],
-                         list(order))
+        model.setInteger([variables[f"material[{j}]"].valueReference for j in range(1, len(order) + 1)], list(order))
         model.setInteger([variables["diagonal_rule"].valueReference], [RULES.index(rule)])
         model.exitInitializationMode()
         event = model.newDiscreteStates()
@@ -159,9 +183,16 @@ def fixed_step_exchange(fmu_path, order, rule, horizon=EXCHANGE_HORIZON, step=EX
 
 
 def model_exchange_runs(fmu_path) -> list[dict]:
-    return [{"interface": "model-exchange", "setting": EXCHANGE_SETTING, "order": list(order), "diagonal_rule": rule,
-             "outputs": {name: encode(value) for name, value in fixed_step_exchange(fmu_path, order, rule).items()}}
-            for order, rule in MODEL_EXCHANGE_CASES]
+    return [
+        {
+            "interface": "model-exchange",
+            "setting": EXCHANGE_SETTING,
+            "order": list(order),
+            "diagonal_rule": rule,
+            "outputs": {name: encode(value) for name, value in fixed_step_exchange(fmu_path, order, rule).items()},
+        }
+        for order, rule in MODEL_EXCHANGE_CASES
+    ]
 
 
 def record(fmu_path) -> dict:

@@ -1,5 +1,6 @@
 """The annealing's force limit: each move is asked with its Metropolis threshold (the uniform drawn first), and
 a censored value is a rejection, never a number."""
+
 from __future__ import annotations
 
 import math
@@ -82,8 +83,13 @@ def test_every_decision_is_the_metropolis_decision_on_the_true_value(monkeypatch
 def test_a_limit_below_the_threshold_is_caught(monkeypatch):
     """The check above must fail if limits() gave less than the Metropolis threshold: a move whose value lies
     between that limit and the threshold comes back censored and is not accepted as it should be."""
-    monkeypatch.setattr(Annealing, "_limit", lambda self, c, threshold: (
-        None if not math.isfinite(threshold) else threshold - 0.05 * (threshold - self.current_value[c])))
+    monkeypatch.setattr(
+        Annealing,
+        "_limit",
+        lambda self, c, threshold: (
+            None if not math.isfinite(threshold) else threshold - 0.05 * (threshold - self.current_value[c])
+        ),
+    )
     steps = record_steps(monkeypatch)
     result = anneal(HONOURING, 5, polish=0.0)
     with pytest.raises(AssertionError):
@@ -108,8 +114,10 @@ def test_each_asked_limit_is_at_least_the_threshold_of_its_proposal():
                 assert limit >= current - proposal.temperature * math.log(proposal.u)
             if proposal.order in search.above and (limit is None or limit > search.above[proposal.order]):
                 asked_again += 1  # the loop evaluates it again (a limit at or below the bound: answered as known)
-        search.tell(orders, [Above(limit) if limit is not None and value(o) > limit else value(o)
-                             for o, limit in zip(orders, limits)])
+        search.tell(
+            orders,
+            [Above(limit) if limit is not None and value(o) > limit else value(o) for o, limit in zip(orders, limits)],
+        )
     assert asked_again > 0 and search.n_censored > 50 and search.undecided == 0
 
 
@@ -120,8 +128,9 @@ def test_metropolis_threshold():
         threshold = metropolis_threshold(current, temperature, u)
         for delta in (0.5, 3.0, 20.0):
             # the rule it replaces: accept a worsening move iff u < exp(-delta / T)
-            assert (current + delta < threshold) == (u < math.exp(-delta / temperature)) or \
-                abs(u - math.exp(-delta / temperature)) < 1e-12
+            assert (current + delta < threshold) == (u < math.exp(-delta / temperature)) or abs(
+                u - math.exp(-delta / temperature)
+            ) < 1e-12
     assert metropolis_threshold(current, temperature, 0.0) == math.inf  # -ln 0: every value accepted
     assert metropolis_threshold(current, 0.0, 0.5) == current  # T = 0: greedy
     assert metropolis_threshold(current, None, None) == current  # calibrating: greedy
@@ -227,13 +236,20 @@ def test_on_the_fmu_the_limit_saves_right_hand_sides_and_changes_no_decision(fmu
     from orchestrator.objective import LatticeObjective
 
     runs = {}
-    for name, objective_limits, search_limits in (("limited", True, True), ("full", False, True),
-                                                   ("polish only", True, False)):
+    for name, objective_limits, search_limits in (
+        ("limited", True, True),
+        ("full", False, True),
+        ("polish only", True, False),
+    ):
         with make_executor("serial") as executor:
-            runs[name] = run_search(make_search("sa", 11, 0, budget=100, use_limits=search_limits),
-                                    LatticeObjective(fmu_path, DesignSpace(11, 11), 8.0, use_limits=objective_limits),
-                                    100, executor,
-                                    method_name="sa", seed=0)
+            runs[name] = run_search(
+                make_search("sa", 11, 0, budget=100, use_limits=search_limits),
+                LatticeObjective(fmu_path, DesignSpace(11, 11), 8.0, use_limits=objective_limits),
+                100,
+                executor,
+                method_name="sa",
+                seed=0,
+            )
     limited, full = runs["limited"], runs["full"]
     assert limited.censored > runs["polish only"].censored > 0 == full.censored
     assert limited.failed == full.failed == 0

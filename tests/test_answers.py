@@ -1,6 +1,7 @@
 """The answers a designer takes away: the mean rule's design first (the file to build), the receiver rule's beside
 it as the study's model; known optima looked up per rule; what a certificate covers; a runner-up equivalent
 within sampling; what would settle an answer few runs reached; a small space swept and certified by default."""
+
 from __future__ import annotations
 
 import json
@@ -24,17 +25,28 @@ COMMON = ["--no-sensitivity", "--no-progress", "--executor", "serial"]
 def brute_force(fmu, columns, rule):
     """Every order's sampled peak at full fidelity under ``rule``, best first."""
     with LatticeFMU(fmu) as lattice:
-        values = {o: lattice.simulate(o, 8.0, {"diagonal_rule": rule})["peak_backplate_force"]
-                  for o in permutations(range(1, columns + 1))}
+        values = {
+            o: lattice.simulate(o, 8.0, {"diagonal_rule": rule})["peak_backplate_force"]
+            for o in permutations(range(1, columns + 1))
+        }
     return sorted(values.items(), key=lambda item: item[1])
 
 
 def entry(columns, rule, ranked, source):
     (order, peak), (runner, runner_peak) = ranked[:2]
-    return {"rows": 11, "columns": columns, "objective": "peak_backplate_force", "diagonal_rule": rule,
-            "horizon": 8.0, "order": list(order), "peak": peak, "certified": True,
-            "runner_up": {"order": list(runner), "peak": runner_peak}, "source": source,
-            "command": f"python orchestrator/run.py --method exhaustive --cols {columns} --diagonal-rule {rule}"}
+    return {
+        "rows": 11,
+        "columns": columns,
+        "objective": "peak_backplate_force",
+        "diagonal_rule": rule,
+        "horizon": 8.0,
+        "order": list(order),
+        "peak": peak,
+        "certified": True,
+        "runner_up": {"order": list(runner), "peak": runner_peak},
+        "source": source,
+        "command": f"python orchestrator/run.py --method exhaustive --cols {columns} --diagonal-rule {rule}",
+    }
 
 
 def main(*argv):
@@ -45,9 +57,18 @@ def main(*argv):
 
 
 def test_a_known_optimum_is_looked_up_per_rule(tmp_path, monkeypatch):
-    case = SimpleNamespace(outputs=("peak_backplate_force",), parameters={}, case_lists={}, rows=11, columns=4,
-                           horizon=8.0, space=DesignSpace.permutations(4), materials=study_materials(4), depth=1,
-                           departures=())
+    case = SimpleNamespace(
+        outputs=("peak_backplate_force",),
+        parameters={},
+        case_lists={},
+        rows=11,
+        columns=4,
+        horizon=8.0,
+        space=DesignSpace.permutations(4),
+        materials=study_materials(4),
+        depth=1,
+        departures=(),
+    )
     mean = entry(4, "mean", [((1, 2, 3, 4), 2.0), ((2, 1, 3, 4), 3.0)], "mean sweep")
     receiver = entry(4, "receiver", [((4, 3, 2, 1), 1.0), ((3, 4, 2, 1), 1.5)], "receiver sweep")
     table = tmp_path / "known.json"
@@ -62,8 +83,9 @@ def test_a_known_optimum_is_looked_up_per_rule(tmp_path, monkeypatch):
     assert known_optimum(SimpleNamespace(**{**case.__dict__, "departures": ("load_patch",)}), "mean") is None
 
 
-def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(armour_fmu_of_width, tmp_path,
-                                                                            monkeypatch, capfd):
+def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(
+    armour_fmu_of_width, tmp_path, monkeypatch, capfd
+):
     """A recorded mean-rule optimum (the brute force of a small case, as the 11 x 11 one will be recorded) makes
     the mean answer certified although the searches are too short to reach it; the receiver rule, with no
     entry, is the study's model beside it, best found, with what would settle it."""
@@ -73,8 +95,9 @@ def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(arm
     table.write_text(json.dumps({"optima": [entry(4, "mean", ranked, "the test's brute force of 24 orders")]}))
     monkeypatch.setattr(known_optima_module, "TABLE", table)
     out = tmp_path / "out"
-    assert main("--fmu", fmu, "--cols", 4, "--out", out, "--method", "cmaes", "--budget", 1, "--repeats", 4,
-                *COMMON) == 0
+    assert (
+        main("--fmu", fmu, "--cols", 4, "--out", out, "--method", "cmaes", "--budget", 1, "--repeats", 4, *COMMON) == 0
+    )
     printed = capfd.readouterr().out
     results = json.loads((out / "results.json").read_text())
     mean, receiver = results["answers"]
@@ -103,7 +126,7 @@ def test_the_mean_rule_is_the_design_file_and_a_mean_certificate_is_honoured(arm
     assert settle["sweep"]["designs_per_core_second"] > 0
     assert "to settle it: `--budget 10`" in printed and "`--method exhaustive`" in printed
     html = (out / "report.html").read_text()
-    first_screen = html[:html.index("</table>")]
+    first_screen = html[: html.index("</table>")]
     assert first_screen.index("mean rule (your design file)") < first_screen.index("receiver rule (the study")
     assert "--diagonal-rule receiver</code> makes its order the design file" in first_screen
 
@@ -119,23 +142,45 @@ def test_a_small_space_is_swept_and_certified_by_default(armour_fmu_of_width, tm
         assert answer["evidence"]["runs"] == 0
     assert printed.count("certified for the sampled peak") == 2 and "every design swept" in printed
     certificate = json.loads((out / "exhaustive" / "certificate.json").read_text())
-    assert certificate["certified"] and certificate["objective"] == ("the sampled peak (0.01 s samples) over 8 s "
-                                                                     "under the mean rule")
+    assert certificate["certified"] and certificate["objective"] == (
+        "the sampled peak (0.01 s samples) over 8 s under the mean rule"
+    )
     html = (out / "report.html").read_text()
     assert "distinct designs per seed" not in html and "best found" not in html
 
 
 def test_an_explicit_sweep_alone_runs_no_search(armour_fmu_of_width, tmp_path, capfd):
     out = tmp_path / "out"
-    assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, "--method", "exhaustive", "--diagonal-rule",
-                "receiver", *COMMON) == 0, capfd.readouterr().err
+    assert (
+        main(
+            "--fmu",
+            armour_fmu_of_width(3),
+            "--cols",
+            3,
+            "--out",
+            out,
+            "--method",
+            "exhaustive",
+            "--diagonal-rule",
+            "receiver",
+            *COMMON,
+        )
+        == 0
+    ), capfd.readouterr().err
     results = json.loads((out / "results.json").read_text())
     assert "searches" not in results["steps"] and results["answers"][0]["evidence"]["status"] == "certified"
 
 
 def outputs(sampled, continuous):
-    return RunOutputs({"peak_backplate_force": sampled, "peak_backplate_force_continuous": continuous,
-                       "peak_time": 0.3, "last_contact_time": 1.0}, 8.0)
+    return RunOutputs(
+        {
+            "peak_backplate_force": sampled,
+            "peak_backplate_force_continuous": continuous,
+            "peak_time": 0.3,
+            "last_contact_time": 1.0,
+        },
+        8.0,
+    )
 
 
 @pytest.mark.quick
@@ -157,8 +202,9 @@ def test_the_evidence_says_where_an_answer_came_from_before_counting_the_runs():
     descended = Evidence(0, 9, True, "certified", "", found_by=FOUND_BY_DESCENT).origin()
     assert descended == "found by the final descent from the runs' best; 0 of 9 runs reached it on their own"
     known = Evidence(1, 9, True, "best_found", "", found_by=FOUND_BY_KNOWN).origin()
-    assert known.startswith("found by the recorded known optimum") and "only 1 of 9 runs reached it on their own" \
-        in known
+    assert (
+        known.startswith("found by the recorded known optimum") and "only 1 of 9 runs reached it on their own" in known
+    )
     assert Evidence(3, 9, True, "best_found", "").origin() == "only 3 of 9 runs reached it"
     assert Evidence(0, 0, None, "certified", "", swept=True).origin() == "every design swept"
     capped = Evidence(0, 3, None, "best_found", "", local_unchecked="the local check stopped at its cap")
@@ -179,12 +225,16 @@ def test_a_refused_sweep_projects_its_cost_from_the_censored_rate_it_will_meet(f
     the force limit at an incumbent's threshold, so most of the timed designs are censored, as in the sweep."""
     import re
 
-    code = main("--fmu", fmu_path, "--out", tmp_path / "out", "--method", "exhaustive", "--diagonal-rule",
-                "receiver", *COMMON)
+    code = main(
+        "--fmu", fmu_path, "--out", tmp_path / "out", "--method", "exhaustive", "--diagonal-rule", "receiver", *COMMON
+    )
     err = [line for line in capfd.readouterr().err.splitlines() if line.strip()]
     assert code == 2 and len(err) == 1, err
-    found = re.search(r"projected ([\d,.]+) core-hours at ([\d,]+) designs per core-second \(measured here on "
-                      r"(\d+) designs, (\d+) stopped at the force limit", err[0])
+    found = re.search(
+        r"projected ([\d,.]+) core-hours at ([\d,]+) designs per core-second \(measured here on "
+        r"(\d+) designs, (\d+) stopped at the force limit",
+        err[0],
+    )
     assert found and "--executor dask" in err[0], err[0]
     timed, censored = int(found[3]), int(found[4])
     assert timed == 200 and censored > timed // 2
@@ -198,8 +248,10 @@ def verdict_steps(*verdicts):
     """Steps of their own types, each giving one verdict, and a study holding a result for each."""
     from orchestrator.study import Step
 
-    steps = [type(f"Step{k}", (Step,), {"name": f"step{k}", "title": "", "verdict":
-                                          lambda self, result, study, v=v: v})() for k, v in enumerate(verdicts)]
+    steps = [
+        type(f"Step{k}", (Step,), {"name": f"step{k}", "title": "", "verdict": lambda self, result, study, v=v: v})()
+        for k, v in enumerate(verdicts)
+    ]
     return steps, SimpleNamespace(result=lambda step_type: object())
 
 
@@ -224,8 +276,9 @@ def copied_study(armour_fmu_of_width, tmp_path_factory):
 
     out = tmp_path_factory.mktemp("copied") / "out"
     assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, *COMMON) == 0
-    fmu3 = build_fmu.build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu3_3") / "lattice3.fmu", cols=3,
-                               fmi_version=3)
+    fmu3 = build_fmu.build_fmu(
+        "armour_11x11", tmp_path_factory.mktemp("fmu3_3") / "lattice3.fmu", cols=3, fmi_version=3
+    )
     return out, {2: armour_fmu_of_width(3), 3: fmu3}
 
 
@@ -243,13 +296,21 @@ def test_the_answer_copied_from_results_json_into_fmpy_gives_the_reports_number(
     for rule, answer in answers.items():
         assert answer["parameters"]["diagonal_rule"] == results["case"]["rule_codes"][rule]
         assert [answer["parameters"][f"material[{j}]"] for j in range(1, 4)] == answer["order"]
-        copied = simulate_fmu(str(fmus[fmi_version]), stop_time=results["case"]["horizon"],
-                              start_values=answer["parameters"], output=["peak_backplate_force"])
+        copied = simulate_fmu(
+            str(fmus[fmi_version]),
+            stop_time=results["case"]["horizon"],
+            start_values=answer["parameters"],
+            output=["peak_backplate_force"],
+        )
         assert copied["peak_backplate_force"][-1] == pytest.approx(answer["peak"], rel=1e-6), rule
     mean = answers["mean"]
     materials_only = {k: v for k, v in mean["parameters"].items() if k != "diagonal_rule"}
-    default_rule = simulate_fmu(str(fmus[fmi_version]), stop_time=results["case"]["horizon"],
-                                start_values=materials_only, output=["peak_backplate_force"])
+    default_rule = simulate_fmu(
+        str(fmus[fmi_version]),
+        stop_time=results["case"]["horizon"],
+        start_values=materials_only,
+        output=["peak_backplate_force"],
+    )
     assert abs(default_rule["peak_backplate_force"][-1] - mean["peak"]) > 1.0
 
 
@@ -260,21 +321,22 @@ def test_the_answer_is_shown_as_its_start_values_with_the_rule_code(copied_study
     out, _ = copied_study
     results = json.loads((out / "results.json").read_text())
     html = unescape((out / "report.html").read_text())
-    first_screen = html[:html.index("</table>")]
+    first_screen = html[: html.index("</table>")]
     for answer in results["answers"]:
         typed = " ".join(f"{name}={value}" for name, value in answer["parameters"].items())
         assert f"<code>{typed}</code>" in first_screen
-    assert "without it the FMU runs its default, 0 = receiver, which reproduces the study's published table" \
+    assert (
+        "without it the FMU runs its default, 0 = receiver, which reproduces the study's published table"
         in first_screen
+    )
     assert "diagonal_rule 0 = receiver is also the FMU's default" in first_screen
 
 
 def test_the_console_gives_each_answer_as_its_start_values(armour_fmu_of_width, tmp_path, capfd):
     out = tmp_path / "out"
-    assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, "--diagonal-rule", "mean",
-                *COMMON) == 0
+    assert main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", out, "--diagonal-rule", "mean", *COMMON) == 0
     printed = capfd.readouterr().out.splitlines()
-    answer, = json.loads((out / "results.json").read_text())["answers"]
+    (answer,) = json.loads((out / "results.json").read_text())["answers"]
     line = next(line for line in printed if "in any FMI tool:" in line)
     assert line.strip().startswith(f"in any FMI tool: material[1]={answer['order'][0]} ")
     assert "diagonal_rule=1, stop time 8 s" in line and "its default, 0 = receiver" in line
@@ -282,19 +344,41 @@ def test_the_console_gives_each_answer_as_its_start_values(armour_fmu_of_width, 
 
 # ---------------------------------------------------------------- a budget that bounds every step
 def test_the_budget_bounds_the_sensitivity_and_the_local_check_and_the_console_says_which_exceeds_it(
-        armour_fmu_of_width, tmp_path, capfd):
+    armour_fmu_of_width, tmp_path, capfd
+):
     """With --budget small, the sensitivity's short searches together evaluate no more designs than the searches
     did, the local check no more than the searches or one neighbourhood, and the console names the step that
     simulated more than the searches, why, and the option that bounds it."""
     out = tmp_path / "out"
-    assert main("--fmu", armour_fmu_of_width(5), "--cols", 5, "--out", out, "--method", "cmaes", "sa", "--budget", 4,
-                "--repeats", 1, "--diagonal-rule", "mean", "--no-progress", "--executor", "serial") == 0
+    assert (
+        main(
+            "--fmu",
+            armour_fmu_of_width(5),
+            "--cols",
+            5,
+            "--out",
+            out,
+            "--method",
+            "cmaes",
+            "sa",
+            "--budget",
+            4,
+            "--repeats",
+            1,
+            "--diagonal-rule",
+            "mean",
+            "--no-progress",
+            "--executor",
+            "serial",
+        )
+        == 0
+    )
     printed = capfd.readouterr().out
     results = json.loads((out / "results.json").read_text())
     searched = sum(run["distinct"] for run in results["steps"]["searches"]["runs"])
     sensitivity = results["steps"]["sensitivity"]
     assert sensitivity["budget"] == max(1, searched // (2 * len(sensitivity["variations"]))) < 100
-    check, = results["steps"]["final_descent"]["rules"]
+    (check,) = results["steps"]["final_descent"]["rules"]
     neighbourhood = sum(check["neighbours"].values())
     assert check["evaluations"] <= max(searched, neighbourhood + 1)
     costs = {cost["step"]: cost["simulated"] for cost in results["costs"]}
@@ -302,9 +386,10 @@ def test_the_budget_bounds_the_sensitivity_and_the_local_check_and_the_console_s
     assert sum(costs.values()) == results["evaluator"]["simulated"]
     assert f"simulated: {sum(costs.values()):,} FMU runs: searches {costs['searches']}," in printed
     assert costs["final_descent"] > searched  # one neighbourhood is more than 8 designs
-    assert (f"final descent: {costs['final_descent']:,} FMU runs, more than the searches' {costs['searches']} "
-            f"(--budget): a local optimum is known only once each of its {neighbourhood} neighbours is evaluated") \
-        in printed
+    assert (
+        f"final descent: {costs['final_descent']:,} FMU runs, more than the searches' {costs['searches']} "
+        f"(--budget): a local optimum is known only once each of its {neighbourhood} neighbours is evaluated"
+    ) in printed
     assert "--no-local-check skips it" in printed
 
 

@@ -1,5 +1,6 @@
 """The armour system (builder/system.py, `python build_fmu.py --system`): three FMUs in one SSP archive, run in
 libcosim and in FMPy's simulate_ssp (docs/model.md section 11)."""
+
 from __future__ import annotations
 
 import importlib.metadata
@@ -11,8 +12,15 @@ import numpy as np
 import pytest
 from fmpy.ssp.ssd import read_ssd, read_ssv
 
-from builder.system import (CONNECTIONS, LATTICE_PARAMETER_SET, OSP_NAME, STEP_MARGIN, build_system, default_step,
-                            port_limits)
+from builder.system import (
+    CONNECTIONS,
+    LATTICE_PARAMETER_SET,
+    OSP_NAME,
+    STEP_MARGIN,
+    build_system,
+    default_step,
+    port_limits,
+)
 from fmu_src.component_table import component_table
 from fmu_src.variables import enumeration_values
 from compatibility import compatibility_row
@@ -45,11 +53,18 @@ def reference():
 
     projectile, hull = component_table("projectile"), component_table("hull")
     start = {v.name: v.start for table in (projectile, hull) for v in table.variables}
-    scene = SystemScene(PlateScene(rows=11, cols=11, depth=1), load_mode="projectile",
-                        projectile=Projectile(start["projectile_mass"], start["projectile_speed"],
-                                              start["contact_stiffness"], start["contact_exponent"],
-                                              start["contact_damping"]),
-                        hull=Hull(start["m"], start["k"], start["c"]))
+    scene = SystemScene(
+        PlateScene(rows=11, cols=11, depth=1),
+        load_mode="projectile",
+        projectile=Projectile(
+            start["projectile_mass"],
+            start["projectile_speed"],
+            start["contact_stiffness"],
+            start["contact_exponent"],
+            start["contact_damping"],
+        ),
+        hull=Hull(start["m"], start["k"], start["c"]),
+    )
     return simulate_system(scene, horizon=HORIZON, rtol=1e-10, atol=1e-12)
 
 
@@ -60,12 +75,14 @@ def test_the_system_file_holds_the_three_fmus_and_the_connections_of_section_11(
         for component in system.elements:
             assert archive.getinfo(component.source).file_size > 0
     connected = {(c.startElement, c.startConnector, c.endElement, c.endConnector) for c in system.connections}
-    assert connected == {("projectile", "contact_force", "lattice", "F_front"),
-                         ("lattice", "x_front", "projectile", "x_front"),
-                         ("lattice", "v_front", "projectile", "v_front"),
-                         ("lattice", "backplate_force", "hull", "F"),
-                         ("hull", "x", "lattice", "x_back"),
-                         ("hull", "v", "lattice", "v_back")}
+    assert connected == {
+        ("projectile", "contact_force", "lattice", "F_front"),
+        ("lattice", "x_front", "projectile", "x_front"),
+        ("lattice", "v_front", "projectile", "v_front"),
+        ("lattice", "backplate_force", "hull", "F"),
+        ("hull", "x", "lattice", "x_back"),
+        ("hull", "v", "lattice", "v_back"),
+    }
     assert len(CONNECTIONS) == len(connected)
     values = {p.name: p.value for p in read_ssv(str(system_ssp), resource=LATTICE_PARAMETER_SET).parameters}
     assert int(values["load_mode"]) == enumeration_values("load_mode")["input"]
@@ -85,16 +102,25 @@ def test_the_system_file_carries_libcosim_s_own_structure_with_both_ports_as_pow
     assert set(sources) == {"projectile", "lattice", "hull"} and set(sources.values()) <= names
     bonds = {}
     for connection in root.iterfind("osp:Connections/osp:VariableConnection", namespace):
-        ends = tuple((v.get("simulator"), v.get("name"), v.get("causality"))
-                     for v in connection.iterfind("osp:Variable", namespace))
+        ends = tuple(
+            (v.get("simulator"), v.get("name"), v.get("causality"))
+            for v in connection.iterfind("osp:Variable", namespace)
+        )
         bonds.setdefault(connection.get("powerBond"), set()).add(ends)
-    assert bonds["front"] == {(("projectile", "contact_force", "output"), ("lattice", "F_front", "input")),
-                              (("lattice", "v_front", "output"), ("projectile", "v_front", "input"))}
-    assert bonds["back"] == {(("lattice", "backplate_force", "output"), ("hull", "F", "input")),
-                             (("hull", "v", "output"), ("lattice", "v_back", "input"))}
+    assert bonds["front"] == {
+        (("projectile", "contact_force", "output"), ("lattice", "F_front", "input")),
+        (("lattice", "v_front", "output"), ("projectile", "v_front", "input")),
+    }
+    assert bonds["back"] == {
+        (("lattice", "backplate_force", "output"), ("hull", "F", "input")),
+        (("hull", "v", "output"), ("lattice", "v_back", "input")),
+    }
     assert len(bonds[None]) == 2  # the positions: x_front and x_back
-    (load_mode,) = [v for v in root.iterfind("osp:Simulators/osp:Simulator/osp:InitialValues/osp:InitialValue",
-                                             namespace) if v.get("variable") == "load_mode"]
+    (load_mode,) = [
+        v
+        for v in root.iterfind("osp:Simulators/osp:Simulator/osp:InitialValues/osp:InitialValue", namespace)
+        if v.get("variable") == "load_mode"
+    ]
     assert int(load_mode[0].get("value")) == enumeration_values("load_mode")["input"]
 
 
@@ -120,13 +146,17 @@ def test_libcosim_runs_the_system_from_its_file(request, libcosim_run, reference
     run = libcosim_run
     mass = component_table("projectile").variable("projectile_mass").start
     speed = component_table("projectile").variable("projectile_speed").start
-    with compatibility_row(request, "libcosim (libcosimpy)", importlib.metadata.version("libcosimpy"),
-                           fmi_version="2.0", interface="SSP",
-                           checked="the armour system from ArmourSystem.ssp at its default step: the sampled "
-                                   "peak within 1 % of the one-model reference's, the projectile's momentum "
-                                   "handed on, the hull pushed") as row:
-        assert row.reached_reference(run["lattice", "peak_backplate_force"][-1],
-                                     reference.peak_backplate_force) < 0.01
+    with compatibility_row(
+        request,
+        "libcosim (libcosimpy)",
+        importlib.metadata.version("libcosimpy"),
+        fmi_version="2.0",
+        interface="SSP",
+        checked="the armour system from ArmourSystem.ssp at its default step: the sampled "
+        "peak within 1 % of the one-model reference's, the projectile's momentum "
+        "handed on, the hull pushed",
+    ) as row:
+        assert row.reached_reference(run["lattice", "peak_backplate_force"][-1], reference.peak_backplate_force) < 0.01
         impulse = float(np.sum(run["projectile", "contact_force"]) * run.step)
         lost = mass * (speed - run["projectile", "projectile_velocity"][-1])
         assert impulse > 0.5 * mass * speed
@@ -139,14 +169,18 @@ def test_libcosim_runs_the_system_from_its_file(request, libcosim_run, reference
 def test_fmpy_runs_the_system_as_libcosim_does(request, system_ssp, libcosim_run, reference):
     """Both masters step the three FMUs side by side and exchange after each step (Jacobi), from the same
     values at the start: every output at every communication point the same to rounding."""
-    with compatibility_row(request, "FMPy", importlib.metadata.version("fmpy"), fmi_version="2.0",
-                           interface="SSP",
-                           checked="the armour system from ArmourSystem.ssp (simulate_ssp with the lattice's "
-                                   "parameter set): the sampled peak within 1 % of the one-model reference's, "
-                                   "every output at every communication point as libcosim's to 1e-9") as row:
+    with compatibility_row(
+        request,
+        "FMPy",
+        importlib.metadata.version("fmpy"),
+        fmi_version="2.0",
+        interface="SSP",
+        checked="the armour system from ArmourSystem.ssp (simulate_ssp with the lattice's "
+        "parameter set): the sampled peak within 1 % of the one-model reference's, "
+        "every output at every communication point as libcosim's to 1e-9",
+    ) as row:
         run = armour_system.run_fmpy(system_ssp, HORIZON)
-        assert row.reached_reference(run["lattice", "peak_backplate_force"][-1],
-                                     reference.peak_backplate_force) < 0.01
+        assert row.reached_reference(run["lattice", "peak_backplate_force"][-1], reference.peak_backplate_force) < 0.01
         assert len(run.time) == len(libcosim_run.time)
         np.testing.assert_allclose(run.time, libcosim_run.time, rtol=1e-12)
         for key in libcosim_run.outputs:
@@ -160,7 +194,8 @@ def test_fmpy_s_sampled_peak_is_libcosim_s(system_ssp, libcosim_run):
     time: the same peak as at the communication points."""
     run = armour_system.run_fmpy(system_ssp, HORIZON)
     assert run["lattice", "peak_backplate_force"][-1] == pytest.approx(
-        libcosim_run["lattice", "peak_backplate_force"][-1], rel=1e-9)
+        libcosim_run["lattice", "peak_backplate_force"][-1], rel=1e-9
+    )
 
 
 def test_the_example_s_own_jacobi_loop_is_libcosim_s_scheme(system_ssp, libcosim_run):
@@ -174,19 +209,26 @@ def test_gauss_seidel_and_ecco_couple_the_same_physics(system_ssp, libcosim_run)
     """Gauss-Seidel and libcosim's ECCO at the default step: the same peak as Jacobi's to a fraction of a per
     cent, the projectile at the same speed."""
     reference = libcosim_run["lattice", "peak_backplate_force"][-1]
-    for run in (armour_system.run_loop(system_ssp, HORIZON, scheme="gauss-seidel"),
-                armour_system.run_libcosim_ecco(system_ssp, HORIZON)):
+    for run in (
+        armour_system.run_loop(system_ssp, HORIZON, scheme="gauss-seidel"),
+        armour_system.run_libcosim_ecco(system_ssp, HORIZON),
+    ):
         assert run["lattice", "peak_backplate_force"][-1] == pytest.approx(reference, rel=5e-3), run.master
         assert run["projectile", "projectile_velocity"][-1] == pytest.approx(
-            libcosim_run["projectile", "projectile_velocity"][-1], abs=0.01 * 3.6), run.master
+            libcosim_run["projectile", "projectile_velocity"][-1], abs=0.01 * 3.6
+        ), run.master
     with pytest.raises(ValueError, match="scheme 'newton': allowed jacobi, gauss-seidel"):
         armour_system.run_loop(system_ssp, HORIZON, scheme="newton")
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="libcosimpy 0.0.6's OSP parser refuses two power bonds (its bond count is checked inside "
-                          "its loop over the bonds); the system file's OspSystemStructure.xml names both ports'")
+@pytest.mark.xfail(
+    strict=True,
+    raises=AssertionError,
+    reason="libcosimpy 0.0.6's OSP parser refuses two power bonds (its bond count is checked inside "
+    "its loop over the bonds); the system file's OspSystemStructure.xml names both ports'",
+)
 def test_libcosim_reads_the_ecco_system_from_its_own_system_structure(system_ssp, libcosim_run):
     run = armour_system.run_libcosim_ecco_from_osp(system_ssp, HORIZON)
     assert run["lattice", "peak_backplate_force"][-1] == pytest.approx(
-        libcosim_run["lattice", "peak_backplate_force"][-1], rel=5e-3)
+        libcosim_run["lattice", "peak_backplate_force"][-1], rel=5e-3
+    )

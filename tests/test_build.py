@@ -1,4 +1,5 @@
 """The build library (builder.build): it renders, compiles and zips, never simulates; same sources, same GUID."""
+
 from __future__ import annotations
 
 import re
@@ -46,11 +47,14 @@ def test_the_same_sources_give_the_same_guid_and_description(fmu_path):
     scene = Scene.load("armour_11x11")
     interface = scene.interface()
     guid = read_model_description(str(fmu_path)).guid
-    assert guid == build.model_guid(interface, scene.model_identifier) == build.model_guid(scene.interface(),
-                                                                                            scene.model_identifier)
-    assert _read(fmu_path, "modelDescription.xml") == fmi2.generate_model_description(interface,
-                                                                                       scene.model_identifier, guid,
-                                                                                       scene)
+    assert (
+        guid
+        == build.model_guid(interface, scene.model_identifier)
+        == build.model_guid(scene.interface(), scene.model_identifier)
+    )
+    assert _read(fmu_path, "modelDescription.xml") == fmi2.generate_model_description(
+        interface, scene.model_identifier, guid, scene
+    )
     changed = replace(scene, parameters={**scene.parameters, "F_total": 50.0})  # another start value
     assert build.model_guid(changed.interface(), changed.model_identifier) != guid
 
@@ -82,13 +86,16 @@ def test_a_resized_build_leaves_the_callers_scene_alone(tmp_path):
     assert (scene.rows, scene.cols, scene.model_identifier) == (11, 11, "MassSpringLattice")
 
 
-@pytest.mark.parametrize("scene_name, change, identifier", [
-    ("plate_11x11x11", dict(cols=7), "MassSpringPlate11x7x11"),
-    ("plate_11x11x11", dict(load_patch=0), "MassSpringPlate_patch0"),
-    ("plate_11x11x11", dict(load_patch=3), "MassSpringPlate"),
-    ("plate_11x11x11", dict(cols=11, depth=11), "MassSpringPlate"),
-    ("armour_11x11", dict(depth=3, load_patch=3), "MassSpringLattice11x11x3_patch3"),
-])
+@pytest.mark.parametrize(
+    "scene_name, change, identifier",
+    [
+        ("plate_11x11x11", dict(cols=7), "MassSpringPlate11x7x11"),
+        ("plate_11x11x11", dict(load_patch=0), "MassSpringPlate_patch0"),
+        ("plate_11x11x11", dict(load_patch=3), "MassSpringPlate"),
+        ("plate_11x11x11", dict(cols=11, depth=11), "MassSpringPlate"),
+        ("armour_11x11", dict(depth=3, load_patch=3), "MassSpringLattice11x11x3_patch3"),
+    ],
+)
 def test_a_changed_scene_builds_under_its_own_name_so_variants_never_share_a_file(scene_name, change, identifier):
     assert build.resolve_scene(scene_name, **change).model_identifier == identifier
 
@@ -116,6 +123,7 @@ def test_the_build_cache_compiles_each_set_of_sources_once_and_a_changed_file_ag
         if "-c" in command:
             compiled.append(command)
         return run(command, *args, **kwargs)
+
     monkeypatch.setattr(build.subprocess, "run", counted)
 
     def library(name):
@@ -153,14 +161,20 @@ def test_the_c_enumerations_and_material_fields_are_the_tables(fmu_path):
     for variable in enumerations():
         declared = re.search(rf"enum {variable.enumeration} {{(.*?)}};", header, re.S).group(1)
         constants = dict(re.findall(r"(\w+) = (\d+),", declared))
-        assert constants == {f"{variable.c_name}_{label.upper()}": str(value)
-                             for label, value in enumeration_values(variable.name).items()}
+        assert constants == {
+            f"{variable.c_name}_{label.upper()}": str(value)
+            for label, value in enumeration_values(variable.name).items()
+        }
         for path in build.DEFAULT_MODEL_DIR.glob("*.[ch]"):
             assert not re.search(rf"\b({'|'.join(constants)})\s*=", path.read_text()), path.name
     assert DIAGONAL_RULES == {"receiver": 0, "mean": 1} == enumeration_values("diagonal_rule")
     struct = re.search(r"typedef struct {(.*?)} ColumnConstants;", header, re.S).group(1)
-    assert tuple(re.findall(r"double (\w+);", struct)) == FIELD_NAMES == TABLE_PARAMETERS == tuple(
-        name for name, _ in ColumnConstants._fields_)
+    assert (
+        tuple(re.findall(r"double (\w+);", struct))
+        == FIELD_NAMES
+        == TABLE_PARAMETERS
+        == tuple(name for name, _ in ColumnConstants._fields_)
+    )
     assert not any("ColumnConstants;" in path.read_text() for path in build.DEFAULT_MODEL_DIR.glob("*.h"))
 
 
@@ -171,11 +185,16 @@ def test_the_documentation_says_to_set_the_rule_by_its_code_with_the_materials(f
     assert "<code>material[1]</code> ...\n<code>material[11]</code>" in page
 
 
-@pytest.mark.parametrize("argv, says", [(["--cols", "0"], "--cols must be at least 1"),
-                                        (["--rows", "0", "--cols", "0", "--depth", "0"], "--rows must be at least 1"),
-                                        (["--depth", "0"], "--depth must be at least 1"),
-                                        (["--load-patch", "-1"], "--load-patch must be at least 0"),
-                                        (["--fmi-version", "4"], "--fmi-version: invalid choice")])
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["--cols", "0"], "--cols must be at least 1"),
+        (["--rows", "0", "--cols", "0", "--depth", "0"], "--rows must be at least 1"),
+        (["--depth", "0"], "--depth must be at least 1"),
+        (["--load-patch", "-1"], "--load-patch must be at least 0"),
+        (["--fmi-version", "4"], "--fmi-version: invalid choice"),
+    ],
+)
 def test_the_build_refuses_a_value_it_would_not_build_in_one_line(argv, says, tmp_path, capsys):
     """build_fmu.py's options follow the study's option rules: a size of 0 is refused, not read as the scene's."""
     with pytest.raises(SystemExit) as exit_code:

@@ -1,4 +1,5 @@
 """Censored evaluations (stopped above a force limit) are never a number, anywhere."""
+
 from __future__ import annotations
 
 import json
@@ -42,12 +43,11 @@ def test_the_descent_with_limits_finds_the_same_optimum_for_less_and_no_consumer
     _, optimum = brute_force(QAP, 7)
     with make_executor("serial") as executor, Journal(tmp_path, {"test": 1}, KINDS) as journal:
         evaluator = Evaluator(executor, journal)
-        run = run_search(make_search("local", 7, 1, kicks=3), objective, 400, evaluator, method_name="local",
-                         seed=1)
+        run = run_search(make_search("local", 7, 1, kicks=3), objective, 400, evaluator, method_name="local", seed=1)
         full = run_search(make_search("local", 7, 1, kicks=3), QAP, 400, executor, method_name="local", seed=1)
     assert run.censored > run.n_evaluations / 2 and run.failed == 0
     assert run.best_value == pytest.approx(optimum) == full.best_value
-    assert all(value is not None for value in run.best_so_far()[run.best_index - 1:])
+    assert all(value is not None for value in run.best_so_far()[run.best_index - 1 :])
     assert run.best_value == min(e.value for e in run.evaluations if e.ok)
     assert all(e.value is None for e in run.evaluations if e.censored)
     lines = [json.loads(line) for line in (tmp_path / "journal.jsonl").read_text().splitlines()[1:]]

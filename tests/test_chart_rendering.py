@@ -6,6 +6,7 @@ matplotlib's renderer, ``get_window_extent``, once the figure is saved; in explo
 text may be shown smaller than ``MIN_TEXT_PX`` screen pixels, a legend must show whole without scrolling, a log
 axis must read as numbers that grow, and report.html must hold its images (one file that can be mailed).
 """
+
 from __future__ import annotations
 
 import itertools
@@ -31,8 +32,10 @@ class Box:
     y1: float
 
     def overlaps(self, other: Box) -> bool:
-        return (min(self.x1, other.x1) - max(self.x0, other.x0) > OVERLAP_PX
-                and min(self.y1, other.y1) - max(self.y0, other.y0) > OVERLAP_PX)
+        return (
+            min(self.x1, other.x1) - max(self.x0, other.x0) > OVERLAP_PX
+            and min(self.y1, other.y1) - max(self.y0, other.y0) > OVERLAP_PX
+        )
 
     def holds(self, x: float, y: float) -> bool:
         return self.x0 < x < self.x1 and self.y0 < y < self.y1
@@ -112,20 +115,31 @@ def layout_of(figure, file: str) -> ChartLayout:
     renderer = figure.canvas.get_renderer()
     legends = [artist for artist in figure.findobj(Legend) if artist.get_visible()]
     owner = {id(text): index for index, legend in enumerate(legends) for text in legend.findobj(Text)}
-    shown = tuple(ChartText(text.get_text(), box_of(text.get_window_extent(renderer)),
-                            text.get_fontsize() * SAVE_DPI / 72.0, owner.get(id(text))) for text in texts)
+    shown = tuple(
+        ChartText(
+            text.get_text(),
+            box_of(text.get_window_extent(renderer)),
+            text.get_fontsize() * SAVE_DPI / 72.0,
+            owner.get(id(text)),
+        )
+        for text in texts
+    )
     data = []
     for axis in figure.axes:
         frame = axis.bbox
         paths = [axis.transData.transform(line.get_xydata()) for line in axis.lines if line.get_visible()]
-        paths += [axis.transData.transform(path.vertices) for collection in axis.collections
-                  if isinstance(collection, PolyCollection) and collection.get_visible()
-                  for path in collection.get_paths()]
+        paths += [
+            axis.transData.transform(path.vertices)
+            for collection in axis.collections
+            if isinstance(collection, PolyCollection) and collection.get_visible()
+            for path in collection.get_paths()
+        ]
         for points in paths:
             points = sampled(points[np.isfinite(points).all(axis=1)])
             data.append(points[[frame.contains(x, y) for x, y in points]] if len(points) else points)
-    return ChartLayout(file, shown, tuple(box_of(legend.get_window_extent(renderer)) for legend in legends),
-                       tuple(data))
+    return ChartLayout(
+        file, shown, tuple(box_of(legend.get_window_extent(renderer)) for legend in legends), tuple(data)
+    )
 
 
 @pytest.fixture(scope="module")
@@ -144,8 +158,23 @@ def study(fmu_path, tmp_path_factory):
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(Figure, "savefig", recording_savefig)
         out = tmp_path_factory.mktemp("charts") / "results"
-        assert main("--fmu", fmu_path, "--out", out, "--budget", "30", "--repeats", "2", "--no-sensitivity",
-                    "--no-progress", "--executor", "serial") == 0
+        assert (
+            main(
+                "--fmu",
+                fmu_path,
+                "--out",
+                out,
+                "--budget",
+                "30",
+                "--repeats",
+                "2",
+                "--no-sensitivity",
+                "--no-progress",
+                "--executor",
+                "serial",
+            )
+            == 0
+        )
     return out, layouts
 
 
@@ -158,7 +187,8 @@ def test_no_chart_has_overlapping_text_or_a_legend_over_labels_or_data(study):
 
 needs_browser = pytest.mark.skipif(
     CHROMIUM is None or CHROMEDRIVER is None,
-    reason="needs Debian's chromium and chromium-driver (apt-get install chromium chromium-driver)")
+    reason="needs Debian's chromium and chromium-driver (apt-get install chromium chromium-driver)",
+)
 
 
 @needs_browser
@@ -169,7 +199,8 @@ def test_report_html_holds_its_charts_and_shows_their_text_readable_at_1280_px(s
     driver.get((out / "report.html").resolve().as_uri())
     images = driver.execute_script(
         "return [...document.images].map(i => [i.getAttribute('src').slice(0, 22), i.dataset.chart || '', "
-        "i.naturalWidth, i.clientWidth])")
+        "i.naturalWidth, i.clientWidth])"
+    )
     assert images and all(source == "data:image/png;base64," for source, *_ in images), images
     shown = {chart: (natural, client) for _, chart, natural, client in images}
     assert set(shown) == set(layouts)
@@ -207,16 +238,19 @@ def test_explore_html_at_1280_px_shows_whole_legends_growing_log_axes_and_no_ove
     driver.execute_script("window.dispatchEvent(new Event('resize'))")
     scrollbars = driver.execute_script(
         "return [...document.querySelectorAll('.legend .scrollbar')].map(s => s.getBBox().height)"
-        ".filter(h => h > 0).length")
+        ".filter(h => h > 0).length"
+    )
     assert scrollbars == 0, "a legend needs scrolling"
     ticks = driver.execute_script(
         "return [...document.querySelectorAll('#convergence .js-plotly-plot')].map(p => "
-        "[...p.querySelectorAll('.xtick text')].map(t => t.textContent))")
+        "[...p.querySelectorAll('.xtick text')].map(t => t.textContent))"
+    )
     assert ticks and all(ticks)
     for labels in ticks:
         values = [float(label.replace("\u2212", "-").replace(",", "")) for label in labels]
         assert values == sorted(values) and len(set(values)) == len(values), labels
     boxes = driver.execute_script(PLOT_TEXTS)
-    overlapping = [(a[1], b[1]) for a, b in itertools.combinations(boxes, 2)
-                   if a[0] == b[0] and Box(*a[2:]).overlaps(Box(*b[2:]))]
+    overlapping = [
+        (a[1], b[1]) for a, b in itertools.combinations(boxes, 2) if a[0] == b[0] and Box(*a[2:]).overlaps(Box(*b[2:]))
+    ]
     assert overlapping == []

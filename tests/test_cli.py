@@ -1,4 +1,5 @@
 """The command line end to end on the real FMU: the answer, refusals in one line, nothing lost at the edges."""
+
 from __future__ import annotations
 
 import json
@@ -16,8 +17,19 @@ import pytest
 from orchestrator import run as cli
 
 ROOT = Path(__file__).resolve().parents[1]
-QUICK = ["--budget", "12", "--repeats", "1", "--method", "cmaes", "sequential", "--no-sensitivity",
-         "--no-progress", "--executor", "serial"]
+QUICK = [
+    "--budget",
+    "12",
+    "--repeats",
+    "1",
+    "--method",
+    "cmaes",
+    "sequential",
+    "--no-sensitivity",
+    "--no-progress",
+    "--executor",
+    "serial",
+]
 
 
 def main(*argv):
@@ -75,14 +87,23 @@ def refusals(fmu_path, tmp_path):
         "scheduler without dask": (["--scheduler", "tcp://127.0.0.1:8786"], "--scheduler"),
         "confirmation of nothing": (["--confirm-cost"], "--confirm-cost"),
         "too many workers": (["--workers", "1000", "--executor", "process"], "--workers 1000"),
-        "case product too large": (["--case", "F_total=" + ",".join(str(600 + k) for k in range(40)),
-                                    "--case", "t_active=" + ",".join(f"0.{k + 10}" for k in range(30))], "--case"),
+        "case product too large": (
+            [
+                "--case",
+                "F_total=" + ",".join(str(600 + k) for k in range(40)),
+                "--case",
+                "t_active=" + ",".join(f"0.{k + 10}" for k in range(30)),
+            ],
+            "--case",
+        ),
         "sweep beyond the local limit": (["--method", "exhaustive"], "--executor dask"),
         "columns beyond the study's table": (["--cols", "12", "--scene", "armour_11x11"], "the study's table has 11"),
         "resume and overwrite": (["--resume", "--overwrite"], "--resume and --overwrite"),
         "resume without a run": (["--resume", "--out", tmp_path / "empty"], "no run to resume"),
-        "sensitivity budget without sensitivity": (["--sensitivity-budget", "5", "--no-sensitivity"],
-                                                   "--sensitivity-budget"),
+        "sensitivity budget without sensitivity": (
+            ["--sensitivity-budget", "5", "--no-sensitivity"],
+            "--sensitivity-budget",
+        ),
     }
 
 
@@ -145,16 +166,46 @@ def test_a_confirmation_of_nothing_is_refused_before_the_fmu_is_built(tmp_path, 
     monkeypatch.setattr(orchestrator.scene, "prepare_fmu", no_build)
     assert main("--confirm-cost", "--out", tmp_path / "out", "--no-progress") == 2
     assert "error: --confirm-cost: nothing in this run is beyond a bound" in one_line(capfd)
-    assert main("--confirm-cost", "--method", "cmaes", "--case", "F_total=600,1200", "--workers", "2",
-                "--out", tmp_path / "out", "--no-progress") == 2
+    assert (
+        main(
+            "--confirm-cost",
+            "--method",
+            "cmaes",
+            "--case",
+            "F_total=600,1200",
+            "--workers",
+            "2",
+            "--out",
+            tmp_path / "out",
+            "--no-progress",
+        )
+        == 2
+    )
     assert "error: --confirm-cost: nothing in this run is beyond a bound" in one_line(capfd)
     assert not (tmp_path / "out").exists()
 
 
 def test_the_default_study_answers_under_both_rules_with_their_evidence(fmu_path, tmp_path, capfd):
     out = tmp_path / "results"
-    code = main("--fmu", fmu_path, "--out", out, "--budget", "25", "--repeats", "2", "--method", "cmaes", "sa",
-                "sequential", "--sensitivity-budget", "6", "--no-progress", "--executor", "serial")
+    code = main(
+        "--fmu",
+        fmu_path,
+        "--out",
+        out,
+        "--budget",
+        "25",
+        "--repeats",
+        "2",
+        "--method",
+        "cmaes",
+        "sa",
+        "sequential",
+        "--sensitivity-budget",
+        "6",
+        "--no-progress",
+        "--executor",
+        "serial",
+    )
     printed = capfd.readouterr()
     assert code == 0, printed.err
     results = json.loads((out / "results.json").read_text())
@@ -177,11 +228,18 @@ def test_the_default_study_answers_under_both_rules_with_their_evidence(fmu_path
             peak = fmu.simulate(answer["order"], 8.0, {"diagonal_rule": rule})["peak_backplate_force"]
             assert peak == pytest.approx(answer["peak"], rel=1e-6)
             assert (out / answer["design_file"]).is_file()
-    for name in ("report.html", "evaluations.csv", "journal.jsonl", "convergence.png", "force_energy.png",
-                 "lattice.png", "work_precision.png"):
+    for name in (
+        "report.html",
+        "evaluations.csv",
+        "journal.jsonl",
+        "convergence.png",
+        "force_energy.png",
+        "lattice.png",
+        "work_precision.png",
+    ):
         assert (out / name).is_file(), name
     html = (out / "report.html").read_text()
-    first = html[:html.index("</table>")]
+    first = html[: html.index("</table>")]
     for answer in answers.values():
         assert str(answer["order"]) in first.replace("&#39;", "'")
     assert "receiver rule" in printed.out and "mean rule" in printed.out and "report:" in printed.out
@@ -194,10 +252,24 @@ def test_the_default_study_answers_under_both_rules_with_their_evidence(fmu_path
 
 def test_the_first_screen_names_the_case_it_answers(fmu_path, tmp_path, capfd):
     out = tmp_path / "results"
-    assert main("--fmu", fmu_path, "--out", out, "--load", "2400", "--load-angle", "20", "--diagonal-rule",
-                "receiver", *QUICK) == 0, capfd.readouterr().err
+    assert (
+        main(
+            "--fmu",
+            fmu_path,
+            "--out",
+            out,
+            "--load",
+            "2400",
+            "--load-angle",
+            "20",
+            "--diagonal-rule",
+            "receiver",
+            *QUICK,
+        )
+        == 0
+    ), capfd.readouterr().err
     html = (out / "report.html").read_text()
-    first = html[:html.index("</table>")]
+    first = html[: html.index("</table>")]
     assert "2400 N" in first and "20 deg" in first
     results = json.loads((out / "results.json").read_text())
     assert results["case"]["load"]["F_total"] == 2400.0 and results["case"]["load"]["load_angle"] == 20.0
@@ -205,8 +277,19 @@ def test_the_first_screen_names_the_case_it_answers(fmu_path, tmp_path, capfd):
 
 
 def test_a_study_where_every_evaluation_fails_exits_3_with_the_reason(fmu_path, tmp_path, capfd):
-    code = main("--fmu", fmu_path, "--out", tmp_path / "r", "--case", "solver=rk4", "--case", "fixed_step=0.05",
-                "--diagonal-rule", "receiver", *QUICK)
+    code = main(
+        "--fmu",
+        fmu_path,
+        "--out",
+        tmp_path / "r",
+        "--case",
+        "solver=rk4",
+        "--case",
+        "fixed_step=0.05",
+        "--diagonal-rule",
+        "receiver",
+        *QUICK,
+    )
     line = one_line(capfd)
     assert code == 3 and "no design was evaluated successfully" in line and "diverged" in line, line
     assert re.search(r": \d+ evaluations failed; every one: ", line), line
@@ -214,21 +297,35 @@ def test_a_study_where_every_evaluation_fails_exits_3_with_the_reason(fmu_path, 
 
 
 def test_a_study_where_nothing_touches_the_plate_says_so_and_exits_3(fmu_path, tmp_path, capfd):
-    code = main("--fmu", fmu_path, "--out", tmp_path / "r", "--load", "5", "--load-angle", "180", "--diagonal-rule",
-                "receiver", *QUICK)
+    code = main(
+        "--fmu",
+        fmu_path,
+        "--out",
+        tmp_path / "r",
+        "--load",
+        "5",
+        "--load-angle",
+        "180",
+        "--diagonal-rule",
+        "receiver",
+        *QUICK,
+    )
     line = one_line(capfd)
     assert code == 3 and "no design touches the backplate" in line, line
 
 
 def journal_keys(folder: Path) -> list[str]:
-    return [json.loads(line)["key"] for line in (folder / "journal.jsonl").read_text().splitlines()[1:]
-            if '"key"' in line]
+    return [
+        json.loads(line)["key"] for line in (folder / "journal.jsonl").read_text().splitlines()[1:] if '"key"' in line
+    ]
 
 
 def essence(folder: Path):
     results = json.loads((folder / "results.json").read_text())
-    runs = [(r["method"], r["seed"], r["label"], r["best_order"], r["best_value"], len(r["evaluations"]))
-            for r in results["steps"]["searches"]["runs"]]
+    runs = [
+        (r["method"], r["seed"], r["label"], r["best_order"], r["best_value"], len(r["evaluations"]))
+        for r in results["steps"]["searches"]["runs"]
+    ]
     return [(a["diagonal_rule"], a["order"], a["peak"]) for a in results["answers"]], runs
 
 
@@ -281,9 +378,26 @@ def test_resume_after_a_kill_before_the_first_result_starts_the_run(fmu_path, tm
 def test_the_test_run_leaves_nothing_in_tmpdir(fmu_path, tmp_path):
     temp = tmp_path / "tmp"
     temp.mkdir()
-    command = [sys.executable, str(ROOT / "orchestrator" / "run.py"), "--fmu", str(fmu_path), "--out",
-               str(tmp_path / "out"), "--diagonal-rule", "receiver", "--budget", "8", "--repeats", "1", "--method",
-               "sa", "--workers", "2", "--no-sensitivity", "--no-progress"]
+    command = [
+        sys.executable,
+        str(ROOT / "orchestrator" / "run.py"),
+        "--fmu",
+        str(fmu_path),
+        "--out",
+        str(tmp_path / "out"),
+        "--diagonal-rule",
+        "receiver",
+        "--budget",
+        "8",
+        "--repeats",
+        "1",
+        "--method",
+        "sa",
+        "--workers",
+        "2",
+        "--no-sensitivity",
+        "--no-progress",
+    ]
     done = subprocess.run(command, capture_output=True, text=True, timeout=600, env={**os.environ, "TMPDIR": str(temp)})
     assert done.returncode == 0, done.stderr
     assert list(temp.iterdir()) == []
@@ -306,8 +420,21 @@ def _alive(pid: int) -> bool:
         return False
 
 
-LONG = ["--method", "sa", "cmaes", "--budget", "250", "--repeats", "2", "--workers", "2", "--no-progress",
-        "--diagonal-rule", "receiver", "--no-sensitivity"]
+LONG = [
+    "--method",
+    "sa",
+    "cmaes",
+    "--budget",
+    "250",
+    "--repeats",
+    "2",
+    "--workers",
+    "2",
+    "--no-progress",
+    "--diagonal-rule",
+    "receiver",
+    "--no-sensitivity",
+]
 
 
 def wait_for_journal(path: Path, lines: int, process, seconds: float = 120) -> None:
@@ -322,8 +449,13 @@ def wait_for_journal(path: Path, lines: int, process, seconds: float = 120) -> N
 def test_sigint_keeps_the_journal_and_resume_finishes_the_same_run(fmu_path, tmp_path):
     out = tmp_path / "interrupted"
     command = [sys.executable, str(ROOT / "orchestrator" / "run.py"), "--fmu", str(fmu_path), "--out", str(out), *LONG]
-    process = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    process = subprocess.Popen(
+        command,
+        stderr=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     journal = tmp_path / "interrupted.partial" / "journal.jsonl"
     wait_for_journal(journal, 80, process)
     workers = _children(process.pid)
@@ -362,8 +494,15 @@ def test_two_runs_on_one_folder_the_second_is_refused(fmu_path, tmp_path):
 
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads child processes from /proc")
 def test_process_pool_workers_die_with_a_killed_main_process(fmu_path, tmp_path):
-    command = [sys.executable, str(ROOT / "orchestrator" / "run.py"), "--fmu", str(fmu_path), "--out",
-               str(tmp_path / "r"), *LONG]
+    command = [
+        sys.executable,
+        str(ROOT / "orchestrator" / "run.py"),
+        "--fmu",
+        str(fmu_path),
+        "--out",
+        str(tmp_path / "r"),
+        *LONG,
+    ]
     process = subprocess.Popen(command, stderr=subprocess.DEVNULL, stdout=subprocess.DEVNULL)
     deadline = time.monotonic() + 120
     workers: set[int] = set()
@@ -383,12 +522,31 @@ def test_sigint_in_the_report_phase_and_resume_simulate_nothing_twice(fmu_path, 
     """The report's simulations (trajectories, solver sweep) are journalled tasks too: interrupted among them,
     --resume runs only what was not finished."""
     out = tmp_path / "r"
-    argv = ["--method", "sequential", "random", "--budget", "10", "--repeats", "1", "--no-sensitivity",
-            "--diagonal-rule", "receiver", "--horizon", "20", "--no-progress", "--workers", "2"]
-    command = [sys.executable, str(ROOT / "orchestrator" / "run.py"), "--fmu", str(fmu_path), "--out", str(out),
-               *argv]
-    process = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    argv = [
+        "--method",
+        "sequential",
+        "random",
+        "--budget",
+        "10",
+        "--repeats",
+        "1",
+        "--no-sensitivity",
+        "--diagonal-rule",
+        "receiver",
+        "--horizon",
+        "20",
+        "--no-progress",
+        "--workers",
+        "2",
+    ]
+    command = [sys.executable, str(ROOT / "orchestrator" / "run.py"), "--fmu", str(fmu_path), "--out", str(out), *argv]
+    process = subprocess.Popen(
+        command,
+        stderr=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     journal = tmp_path / "r.partial" / "journal.jsonl"
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and process.poll() is None:

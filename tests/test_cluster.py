@@ -7,6 +7,7 @@ The recipe is run as the README writes it, with only what a test must add: the s
 prints, and the client's study is a small one (a 5-column FMU, 120 designs): ``--confirm-cost`` is left out
 because such a sweep is within every bound (the command refuses a confirmation with nothing to confirm).
 """
+
 from __future__ import annotations
 
 import json
@@ -29,8 +30,18 @@ from orchestrator.types import Evaluation, failed
 
 pytest.importorskip("distributed")
 ROOT = Path(__file__).resolve().parents[1]
-SMALL = ["--cols", "5", "--diagonal-rule", "receiver", "--budget", "20", "--repeats", "1", "--no-sensitivity",
-         "--no-progress"]
+SMALL = [
+    "--cols",
+    "5",
+    "--diagonal-rule",
+    "receiver",
+    "--budget",
+    "20",
+    "--repeats",
+    "1",
+    "--no-sensitivity",
+    "--no-progress",
+]
 
 
 def readme_recipe() -> list[str]:
@@ -47,8 +58,9 @@ def can_hide_folders() -> bool:
     """Whether this machine lets a process see other mounts than ours (a mount namespace, as root)."""
     if not shutil.which("unshare") or os.geteuid() != 0:
         return False
-    return subprocess.run(["unshare", "--mount", "--propagation", "private", "true"],
-                          capture_output=True).returncode == 0
+    return (
+        subprocess.run(["unshare", "--mount", "--propagation", "private", "true"], capture_output=True).returncode == 0
+    )
 
 
 def repository_folders_but_the_interpreters() -> list[Path]:
@@ -57,20 +69,25 @@ def repository_folders_but_the_interpreters() -> list[Path]:
     prefix = Path(sys.prefix).resolve()
     if not prefix.is_relative_to(ROOT.resolve()):
         return [ROOT]
-    return sorted(folder for folder in ROOT.iterdir()
-                  if folder.is_dir() and not prefix.is_relative_to(folder.resolve()))
+    return sorted(
+        folder for folder in ROOT.iterdir() if folder.is_dir() and not prefix.is_relative_to(folder.resolve())
+    )
 
 
 @pytest.fixture(scope="module")
 def fmu5(tmp_path_factory):
-    return build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu5") / "MassSpringLattice11x5.fmu", cols=5,
-                     werror=True)
+    return build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu5") / "MassSpringLattice11x5.fmu", cols=5, werror=True)
 
 
 def start_scheduler(command: str, folder: Path, env: dict) -> tuple[subprocess.Popen, str]:
     log = (folder / "scheduler.log").open("w")
-    process = subprocess.Popen(command.split() + ["--host", "127.0.0.1", "--port", "0", "--no-dashboard"],
-                               cwd=folder, env=env, stdout=log, stderr=subprocess.STDOUT)
+    process = subprocess.Popen(
+        command.split() + ["--host", "127.0.0.1", "--port", "0", "--no-dashboard"],
+        cwd=folder,
+        env=env,
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
         found = re.search(r"tcp://127\.0\.0\.1:\d+", (folder / "scheduler.log").read_text())
@@ -110,35 +127,71 @@ def test_the_readme_dask_recipe_needs_no_shared_folder(fmu5, tmp_path):
     worker_argv = worker_command.replace("tcp://HOST:8786", address).split()
     if can_hide_folders():  # the client's folder and the repository's code are empty folders for the worker
         hidden = [client, *repository_folders_but_the_interpreters()]
-        worker_argv = ["unshare", "--mount", "--propagation", "private", "sh", "-c",
-                       'n=$1; shift; while [ "$n" -gt 0 ]; do mount -t tmpfs tmpfs "$1" || exit 1; shift; '
-                       'n=$((n - 1)); done; exec "$@"', "sh", str(len(hidden)), *map(str, hidden)] + worker_argv
+        worker_argv = [
+            "unshare",
+            "--mount",
+            "--propagation",
+            "private",
+            "sh",
+            "-c",
+            'n=$1; shift; while [ "$n" -gt 0 ]; do mount -t tmpfs tmpfs "$1" || exit 1; shift; '
+            'n=$((n - 1)); done; exec "$@"',
+            "sh",
+            str(len(hidden)),
+            *map(str, hidden),
+        ] + worker_argv
     worker_log = (worker_home / "worker.log").open("w")
-    worker = subprocess.Popen(worker_argv, cwd=worker_home, env=worker_env, stdout=worker_log,
-                              stderr=subprocess.STDOUT)
+    worker = subprocess.Popen(worker_argv, cwd=worker_home, env=worker_env, stdout=worker_log, stderr=subprocess.STDOUT)
     try:
         argv = client_command.replace("tcp://HOST:8786", address).split()
         assert argv[:2] == ["python", "orchestrator/run.py"] and "--confirm-cost" in argv
         argv = [sys.executable, str(ROOT / "orchestrator" / "run.py")] + [a for a in argv[2:] if a != "--confirm-cost"]
-        dask = subprocess.Popen(argv + ["--fmu", "model.fmu", "--out", "dask", *SMALL], cwd=client, env=env,
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        dask = subprocess.Popen(
+            argv + ["--fmu", "model.fmu", "--out", "dask", *SMALL],
+            cwd=client,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         deadline = time.monotonic() + 600
         while dask.poll() is None and worker.poll() is None and time.monotonic() < deadline:
             time.sleep(0.5)
         if dask.poll() is None:  # a dead worker leaves the client waiting for one: say why, at once
             dask.kill()
             _, stderr = dask.communicate()
-            raise AssertionError(f"the worker {'ended' if worker.poll() is not None else 'hung'}: "
-                                 + (worker_home / "worker.log").read_text())
+            raise AssertionError(
+                f"the worker {'ended' if worker.poll() is not None else 'hung'}: "
+                + (worker_home / "worker.log").read_text()
+            )
         _, stderr = dask.communicate()
         assert dask.returncode == 0, stderr + (worker_home / "worker.log").read_text()
     finally:
         stop(worker)
         stop(scheduler)
         worker_log.close()
-    pool = subprocess.run([sys.executable, str(ROOT / "orchestrator" / "run.py"), "--method", "exhaustive",
-                           "--executor", "process", "--workers", "2", "--fmu", "model.fmu", "--out", "pool", *SMALL],
-                          cwd=client, env=env, capture_output=True, text=True, timeout=600)
+    pool = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "orchestrator" / "run.py"),
+            "--method",
+            "exhaustive",
+            "--executor",
+            "process",
+            "--workers",
+            "2",
+            "--fmu",
+            "model.fmu",
+            "--out",
+            "pool",
+            *SMALL,
+        ],
+        cwd=client,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert pool.returncode == 0, pool.stderr
     by_dask = json.loads((client / "dask" / "results.json").read_text())["answers"][0]
     by_pool = json.loads((client / "pool" / "results.json").read_text())["answers"][0]
@@ -172,7 +225,7 @@ def test_a_shipped_fmu_runs_from_the_workers_copy(fmu5, tmp_path):
     client.unlink()
     try:
         plugin.setup(FakeWorker(tmp_path / "worker"))
-        copy, = (tmp_path / "worker" / "lattice-fmus" / plugin.sha256).glob("*.fmu")
+        (copy,) = (tmp_path / "worker" / "lattice-fmus" / plugin.sha256).glob("*.fmu")
         evaluation = FMURun(str(client), 8.0, fmu_sha256=plugin.sha256)((1, 2, 3, 4, 5))
         assert evaluation.ok and evaluation.value > 0
         plugin.setup(FakeWorker(tmp_path / "worker"))  # a second time: the copy is kept

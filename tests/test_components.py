@@ -1,5 +1,6 @@
 """The projectile and hull FMUs (fmu_src/projectile/, fmu_src/hull/): model folders on the shared FMI glue, built
 from their own variable tables (docs/model.md section 11)."""
+
 from __future__ import annotations
 
 import zipfile
@@ -21,9 +22,11 @@ from fmu_src.component_table import COMPONENT_MODELS, component_table
 def component_fmus(tmp_path_factory):
     """{(model, FMI version): path} of every component FMU."""
     folder = tmp_path_factory.mktemp("components")
-    return {(model, version): build_component_fmu(model, folder / f"{model}{version}.fmu", fmi_version=version,
-                                                  werror=True)
-            for model in COMPONENT_MODELS for version in (2, 3)}
+    return {
+        (model, version): build_component_fmu(model, folder / f"{model}{version}.fmu", fmi_version=version, werror=True)
+        for model in COMPONENT_MODELS
+        for version in (2, 3)
+    }
 
 
 @pytest.mark.parametrize("version", [2, 3])
@@ -46,20 +49,30 @@ def test_a_component_is_a_model_folder_of_the_shared_glue(component_fmus, model)
 def test_the_model_structure_declares_each_output_s_dependencies(component_fmus, version):
     """contact_force depends directly on the face's inputs; the hull's outputs and the projectile's other
     outputs are states, depending on no input (no algebraic loop through either port)."""
+
     def depends(model):
         description = read_model_description(str(component_fmus[model, version]))
-        return {unknown.variable.name: sorted(v.name for v in unknown.dependencies)
-                for unknown in description.outputs}
+        return {unknown.variable.name: sorted(v.name for v in unknown.dependencies) for unknown in description.outputs}
 
-    assert depends("projectile") == {"contact_force": ["v_front", "x_front"], "projectile_position": [],
-                                     "projectile_velocity": [], "face_work": []}
+    assert depends("projectile") == {
+        "contact_force": ["v_front", "x_front"],
+        "projectile_position": [],
+        "projectile_velocity": [],
+        "face_work": [],
+    }
     assert depends("hull") == {"x": [], "v": [], "dissipated_energy": []}
 
 
 def _projectile_on_a_rigid_face(fmu, step, stop_time=0.3, fmi_type="CoSimulation", **parameters):
-    return simulate_fmu(str(fmu), stop_time=stop_time, step_size=step, output_interval=step, fmi_type=fmi_type,
-                        start_values=parameters, output=["contact_force", "projectile_velocity",
-                                                         "projectile_position"])
+    return simulate_fmu(
+        str(fmu),
+        stop_time=stop_time,
+        step_size=step,
+        output_interval=step,
+        fmi_type=fmi_type,
+        start_values=parameters,
+        output=["contact_force", "projectile_velocity", "projectile_position"],
+    )
 
 
 @pytest.mark.parametrize("step", [1e-4, 1e-3, 1e-2])
@@ -103,8 +116,15 @@ def test_the_hull_answers_a_held_force_exactly(component_fmus, version):
     times = np.arange(0.0, 0.5 + step / 2, step)
     forces = 1000.0 * np.sin(7.0 * times)
     inputs = np.array(list(zip(times, forces)), dtype=[("time", np.float64), ("F", np.float64)])
-    result = simulate_fmu(str(component_fmus["hull", version]), stop_time=0.5, step_size=step, output_interval=step,
-                          start_values={"m": m, "k": k, "c": c}, input=inputs, output=["x", "v"])
+    result = simulate_fmu(
+        str(component_fmus["hull", version]),
+        stop_time=0.5,
+        step_size=step,
+        output_interval=step,
+        start_values={"m": m, "k": k, "c": c},
+        input=inputs,
+        output=["x", "v"],
+    )
     a = np.array([[0.0, 1.0], [-k / m, -c / m]])
     phi = expm(a * step)
     gamma = np.linalg.solve(a, (phi - np.eye(2)) @ np.array([0.0, 1.0 / m]))
@@ -125,8 +145,12 @@ def test_a_component_refuses_a_parameter_after_initialisation_and_a_bad_value(co
     fmu = component_fmus["hull", 2]
     description = read_model_description(str(fmu))
     references = {v.name: v.valueReference for v in description.modelVariables}
-    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(fmu), str(tmp_path / "unzipped")),
-                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName="hull")
+    slave = FMU2Slave(
+        guid=description.guid,
+        unzipDirectory=extract(str(fmu), str(tmp_path / "unzipped")),
+        modelIdentifier=description.coSimulation.modelIdentifier,
+        instanceName="hull",
+    )
     slave.instantiate(loggingOn=True)
     with pytest.raises(FMICallException):
         slave.setReal([references["m"]], [-1.0])
@@ -157,9 +181,15 @@ def test_the_hull_s_energy_balance_closes(component_fmus, fmi_type):
     """A constant push F does work F x; the hull holds it as kinetic and spring energy and its damper's
     dissipated_energy."""
     m, k, c, force = 20.0, 2.0e4, 200.0, 1000.0
-    result = simulate_fmu(str(component_fmus["hull", 2]), stop_time=0.3, output_interval=1e-3, fmi_type=fmi_type,
-                          start_values={"m": m, "k": k, "c": c, "F": force}, output=["x", "v", "dissipated_energy"],
-                          relative_tolerance=1e-10)
+    result = simulate_fmu(
+        str(component_fmus["hull", 2]),
+        stop_time=0.3,
+        output_interval=1e-3,
+        fmi_type=fmi_type,
+        start_values={"m": m, "k": k, "c": c, "F": force},
+        output=["x", "v", "dissipated_energy"],
+        relative_tolerance=1e-10,
+    )
     work = force * result["x"]
     stored = 0.5 * m * result["v"] ** 2 + 0.5 * k * result["x"] ** 2 + result["dissipated_energy"]
     assert result["dissipated_energy"][-1] > 0.1 * work[-1]
@@ -189,14 +219,22 @@ def test_the_projectile_s_lost_energy_is_its_work_on_the_face(component_fmus):
     table = component_table("projectile")
     mass, speed, face_speed = table.variable("projectile_mass").start, table.variable("projectile_speed").start, 1.0
     times = np.linspace(0.0, 0.5, 501)
-    inputs = np.array(list(zip(times, face_speed * times, np.full_like(times, face_speed))),
-                      dtype=[("time", np.float64), ("x_front", np.float64), ("v_front", np.float64)])
-    result = simulate_fmu(str(component_fmus["projectile", 2]), stop_time=0.5, step_size=1e-3, output_interval=1e-3,
-                          input=inputs, start_values={"contact_damping": 0.0},
-                          output=["projectile_velocity", "face_work", "contact_force"])
+    inputs = np.array(
+        list(zip(times, face_speed * times, np.full_like(times, face_speed))),
+        dtype=[("time", np.float64), ("x_front", np.float64), ("v_front", np.float64)],
+    )
+    result = simulate_fmu(
+        str(component_fmus["projectile", 2]),
+        stop_time=0.5,
+        step_size=1e-3,
+        output_interval=1e-3,
+        input=inputs,
+        start_values={"contact_damping": 0.0},
+        output=["projectile_velocity", "face_work", "contact_force"],
+    )
     assert result["contact_force"][-1] == 0.0  # it has left the face
     assert result["projectile_velocity"][-1] == pytest.approx(2 * face_speed - speed, rel=1e-4)
-    lost = 0.5 * mass * (speed ** 2 - result["projectile_velocity"][-1] ** 2)
+    lost = 0.5 * mass * (speed**2 - result["projectile_velocity"][-1] ** 2)
     assert result["face_work"][-1] == pytest.approx(lost, rel=1e-6)
 
 
@@ -205,8 +243,12 @@ def _slave(fmu, folder, name):
     from fmpy.fmi2 import FMU2Slave
 
     description = read_model_description(str(fmu))
-    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(fmu), str(folder / name)),
-                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName=name)
+    slave = FMU2Slave(
+        guid=description.guid,
+        unzipDirectory=extract(str(fmu), str(folder / name)),
+        modelIdentifier=description.coSimulation.modelIdentifier,
+        instanceName=name,
+    )
     slave.instantiate()
     slave.setupExperiment(startTime=0.0)
     slave.enterInitializationMode()

@@ -6,6 +6,7 @@ springs are reciprocal, forces that are minus the gradient of the potential, the
 that carry the whole plate's solution, and an energy balance that closes. Depth 1 is the lattice the other
 core tests check against the two-dimensional reference.
 """
+
 import dataclasses
 
 import numpy as np
@@ -29,6 +30,7 @@ def mass_index(scene, depth, i, j, k):
 
 # ---------------------------------------------------------------- states
 
+
 def random_plate_state(scene, depth, rng, scale=0.05):
     """Displacements of a few cm, velocities of about 1 m/s, column-C masses straddling the 1 mm gap."""
     n = scene.rows * scene.cols * depth
@@ -49,19 +51,28 @@ def with_order(scene, rng):
 # ---------------------------------------------------------------- the right-hand side against the reference
 
 REFERENCE_PLATES = [
-    dict(rows=5, cols=5, depth=5), dict(rows=5, cols=5, depth=5, load_patch=3, diagonal_rule="mean"),
-    dict(rows=3, cols=4, depth=2, load_angle=30.0), dict(rows=4, cols=3, depth=3, spring_law="linear"),
-    dict(rows=5, cols=4, depth=1, load_angle=15.0), dict(rows=3, cols=5, depth=1, load_patch=1, mass=2.0),
+    dict(rows=5, cols=5, depth=5),
+    dict(rows=5, cols=5, depth=5, load_patch=3, diagonal_rule="mean"),
+    dict(rows=3, cols=4, depth=2, load_angle=30.0),
+    dict(rows=4, cols=3, depth=3, spring_law="linear"),
+    dict(rows=5, cols=4, depth=1, load_angle=15.0),
+    dict(rows=3, cols=5, depth=1, load_patch=1, mass=2.0),
     dict(rows=3, cols=3, depth=3, has_backplate=False, diagonal_rule="mean", load_angle=-40.0),
-    dict(rows=1, cols=4, depth=3), dict(rows=5, cols=6, depth=3, load_patch=1, load_angle=30.0),
+    dict(rows=1, cols=4, depth=3),
+    dict(rows=5, cols=6, depth=3, load_patch=1, load_angle=30.0),
 ]
 
 
 def own_alphas(cols, rng):
     """The study's table with each material's alpha_diag its own: a diagonal's two ends then differ in alpha."""
     table = Scene(cols=cols)
-    return dict(k=tuple(table.k), k_diag=tuple(table.k_diag), c=tuple(table.c), alpha=tuple(table.alpha),
-                alpha_diag=tuple(rng.uniform(5.0, 15.0, cols)))
+    return dict(
+        k=tuple(table.k),
+        k_diag=tuple(table.k_diag),
+        c=tuple(table.c),
+        alpha=tuple(table.alpha),
+        alpha_diag=tuple(rng.uniform(5.0, 15.0, cols)),
+    )
 
 
 @pytest.mark.parametrize("settings", REFERENCE_PLATES, ids=lambda s: ",".join(f"{k}={v}" for k, v in s.items()))
@@ -72,22 +83,21 @@ def test_plate_right_hand_side_matches_the_numpy_reference(core, settings, load_
     rng = np.random.default_rng(97 + load_on + len(str(settings)))
     for trial in range(4):
         table = own_alphas(settings["cols"], rng) if trial == 3 else {}
-        reference = PlateScene(order=tuple(int(m) for m in rng.permutation(settings["cols"]) + 1), **settings,
-                               **table)
+        reference = PlateScene(order=tuple(int(m) for m in rng.permutation(settings["cols"]) + 1), **settings, **table)
         params = params_from_plate(reference)
         assert core.params_error(params) is None
         model, n = PlateModel(reference), reference.n_masses
         y = random_plate_state(reference, reference.depth, rng)
         if reference.depth == 1:
-            y[2 * n:3 * n] = y[5 * n:] = 0.0  # no z motion to drop
+            y[2 * n : 3 * n] = y[5 * n :] = 0.0  # no z motion to drop
         penetration, vx = y[model.wall_index] - reference.backplate_gap, y[3 * n + model.wall_index]
         contact, damper_on = penetration > 0, (penetration > 0) & (vx > 0)
         expected = model.derivative(np.concatenate([y, np.zeros(3)]), load_on, contact, damper_on)
         kinetic, potential = model.energies(y, contact)
         wall = model.backplate_force(y, contact, damper_on)
         if reference.depth == 1:
-            y = np.delete(y, np.r_[2 * n:3 * n, 5 * n:6 * n])
-            expected = np.delete(expected, np.r_[2 * n:3 * n, 5 * n:6 * n])
+            y = np.delete(y, np.r_[2 * n : 3 * n, 5 * n : 6 * n])
+            expected = np.delete(expected, np.r_[2 * n : 3 * n, 5 * n : 6 * n])
         got, got_powers = core.rhs(params, y, load_on)
         scale = np.max(np.abs(expected[:-3]))
         np.testing.assert_allclose(got, expected[:-3], rtol=0, atol=1e-12 * scale)
@@ -119,6 +129,7 @@ def test_frozen_wall_modes_are_one_per_column_c_mass(core):
 
 # ---------------------------------------------------------------- physics
 
+
 def springs_only(scene):
     """No damping, no wall: the forces are the springs' alone."""
     return dataclasses.replace(scene, wall=False, c0=0.0, c=np.zeros(len(scene.c)))
@@ -135,7 +146,7 @@ def test_mean_rule_conserves_momentum_and_receiver_rule_breaks_it_on_diagonals_o
 
     def total_force(s):
         dydt, _ = core.rhs(plate(s, depth, patch), y, True)
-        return scene.mass * dydt[3 * n:].reshape(3, n).sum(axis=1)
+        return scene.mass * dydt[3 * n :].reshape(3, n).sum(axis=1)
 
     mean = total_force(dataclasses.replace(scene, diagonal_rule="mean"))
     np.testing.assert_allclose(mean, load, rtol=0, atol=1e-9 * scene.F_total)
@@ -162,19 +173,20 @@ def test_forces_are_minus_the_gradient_of_the_potential(core, spring_law):
         up[component] += h
         down[component] -= h
         gradient[component] = (core.energies(params, up)[1] - core.energies(params, down)[1]) / (2 * h)
-    force = scene.mass * dydt[3 * n:]
+    force = scene.mass * dydt[3 * n :]
     np.testing.assert_allclose(force, -gradient, rtol=0, atol=1e-6 * np.max(np.abs(force)))
 
 
 # ---------------------------------------------------------------- the along-x and mirrored layouts
 
+
 def along_x_plate_state(scene, depth, rng):
     """A random plate state with every y and z part 0, whole and in the along-x layout [ux, vx, 0, 0, 0]."""
     n = scene.rows * scene.cols * depth
     y = random_plate_state(scene, depth, rng)
-    y[n:3 * n] = 0.0
-    y[4 * n:] = 0.0
-    return y, np.concatenate([y[:n], y[3 * n:4 * n], np.zeros(3)])
+    y[n : 3 * n] = 0.0
+    y[4 * n :] = 0.0
+    return y, np.concatenate([y[:n], y[3 * n : 4 * n], np.zeros(3)])
 
 
 def mirror_symmetric_x(scene, depth, rng):
@@ -205,9 +217,14 @@ def plate_id(case):
     return ",".join([f"{k}={v}" for k, v in settings.items()] + [f"depth={depth}", f"patch={patch}"])
 
 
-MIRRORED = [(dict(rows=5, cols=5), 5, WHOLE_FACE), (dict(rows=5, cols=4, diagonal_rule="mean"), 3, 3),
-            (dict(rows=4, cols=5), 3, WHOLE_FACE), (dict(rows=3, cols=6, spring_law="linear"), 2, WHOLE_FACE),
-            (dict(rows=7, cols=5, wall=False, mass=2.0), 5, 1), (dict(rows=3, cols=3), 1, WHOLE_FACE)]
+MIRRORED = [
+    (dict(rows=5, cols=5), 5, WHOLE_FACE),
+    (dict(rows=5, cols=4, diagonal_rule="mean"), 3, 3),
+    (dict(rows=4, cols=5), 3, WHOLE_FACE),
+    (dict(rows=3, cols=6, spring_law="linear"), 2, WHOLE_FACE),
+    (dict(rows=7, cols=5, wall=False, mass=2.0), 5, 1),
+    (dict(rows=3, cols=3), 1, WHOLE_FACE),
+]
 
 
 @pytest.mark.parametrize("case", PLATES + MIRRORED[:2], ids=plate_id)
@@ -223,9 +240,9 @@ def test_the_along_x_layout_is_the_x_part_of_the_whole_plate(core, case, load_on
         assert core.along_x(params)
         y, along = along_x_plate_state(scene, depth, rng)
         whole, whole_powers = core.rhs(params, y, load_on)
-        assert np.all(whole[3 * n + n:] == 0.0)  # nothing pushes in y or z
+        assert np.all(whole[3 * n + n :] == 0.0)  # nothing pushes in y or z
         got, got_powers = core.rhs_along_x(params, along, load_on)
-        expected = np.concatenate([whole[:n], whole[3 * n:4 * n]])
+        expected = np.concatenate([whole[:n], whole[3 * n : 4 * n]])
         scale = np.max(np.abs(whole))
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * scale)
         np.testing.assert_allclose(got_powers, whole_powers, rtol=1e-11, atol=1e-11 * scale)
@@ -247,35 +264,56 @@ def test_the_mirrored_part_carries_the_whole_plate(core, case, load_on):
         whole_x = np.concatenate([ux.reshape(-1), vx.reshape(-1), np.zeros(3)])
         part = np.concatenate([ux[:layers, :rows].reshape(-1), vx[:layers, :rows].reshape(-1), np.zeros(3)])
         face = np.concatenate([ux[:, :, -1].reshape(-1) - scene.backplate_gap, vx[:, :, -1].reshape(-1)])
-        modes = np.where(face[:depth * scene.rows] > 0, np.where(face[depth * scene.rows:] > 0, 2, 1), 0)
+        modes = np.where(face[: depth * scene.rows] > 0, np.where(face[depth * scene.rows :] > 0, 2, 1), 0)
         for wall_mode in (None, modes):
             whole, whole_powers = core.rhs_along_x(params, whole_x, load_on, wall_mode=wall_mode)
             got, got_powers = core.rhs_along_x(params, part, load_on, mirrored=True, wall_mode=wall_mode)
-            expected = np.concatenate([block.reshape(depth, scene.rows, scene.cols)[:layers, :rows].reshape(-1)
-                                       for block in np.split(whole, 2)])
+            expected = np.concatenate(
+                [
+                    block.reshape(depth, scene.rows, scene.cols)[:layers, :rows].reshape(-1)
+                    for block in np.split(whole, 2)
+                ]
+            )
             scale = np.max(np.abs(whole))
             np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * scale)
             np.testing.assert_allclose(got_powers, whole_powers, rtol=1e-11, atol=1e-11 * scale)
         others = np.zeros((2 if depth > 1 else 1) * ux.size)  # the y (and z) parts of the whole state
         whole_state = np.concatenate([ux.reshape(-1), others, vx.reshape(-1), others])
-        assert core.backplate_force_mirrored(params, part) == pytest.approx(core.backplate_force(params, whole_state),
-                                                                            rel=1e-13, abs=1e-12)
+        assert core.backplate_force_mirrored(params, part) == pytest.approx(
+            core.backplate_force(params, whole_state), rel=1e-13, abs=1e-12
+        )
 
 
-@pytest.mark.parametrize("settings,depth,patch,rows,layers", [
-    (dict(rows=5, cols=3), 5, WHOLE_FACE, 3, 3), (dict(rows=4, cols=3), 5, WHOLE_FACE, 0, 3),
-    (dict(rows=5, cols=3), 4, WHOLE_FACE, 3, 0), (dict(rows=5, cols=3, load_angle=30.0), 5, WHOLE_FACE, 0, 0),
-    (dict(rows=5, cols=3), 5, 3, 3, 3), (dict(rows=5, cols=3), 1, WHOLE_FACE, 3, 0)])
+@pytest.mark.parametrize(
+    "settings,depth,patch,rows,layers",
+    [
+        (dict(rows=5, cols=3), 5, WHOLE_FACE, 3, 3),
+        (dict(rows=4, cols=3), 5, WHOLE_FACE, 0, 3),
+        (dict(rows=5, cols=3), 4, WHOLE_FACE, 3, 0),
+        (dict(rows=5, cols=3, load_angle=30.0), 5, WHOLE_FACE, 0, 0),
+        (dict(rows=5, cols=3), 5, 3, 3, 3),
+        (dict(rows=5, cols=3), 1, WHOLE_FACE, 3, 0),
+    ],
+)
 def test_which_plates_are_mirror_symmetric(core, settings, depth, patch, rows, layers):
     params = plate(Scene(**settings), depth, patch)
     assert (core.mirror_rows(params), core.mirror_layers(params)) == (rows, layers)
 
 
-@pytest.mark.parametrize("rows,depth,patch,message", [
-    (5, 5, 2, r"load_patch = 2: allowed 0 \(the whole face\) or an odd side P .* min\(rows, depth\) = 5"),
-    (5, 3, 5, r"load_patch = 5: .*min\(rows, depth\) = 3"),
-    (4, 5, 3, r"load_patch = 3: a centred patch needs an odd number of rows and an odd depth \(rows = 4, depth = 5\)"),
-    (5, 0, WHOLE_FACE, r"depth = 0: the lattice needs at least 1 layer")])
+@pytest.mark.parametrize(
+    "rows,depth,patch,message",
+    [
+        (5, 5, 2, r"load_patch = 2: allowed 0 \(the whole face\) or an odd side P .* min\(rows, depth\) = 5"),
+        (5, 3, 5, r"load_patch = 5: .*min\(rows, depth\) = 3"),
+        (
+            4,
+            5,
+            3,
+            r"load_patch = 3: a centred patch needs an odd number of rows and an odd depth \(rows = 4, depth = 5\)",
+        ),
+        (5, 0, WHOLE_FACE, r"depth = 0: the lattice needs at least 1 layer"),
+    ],
+)
 def test_a_plate_the_core_does_not_compute_is_refused_in_one_line(core, rows, depth, patch, message):
     error = core.params_error(plate(Scene(rows=rows, cols=3), depth, patch))
     assert error is not None and "\n" not in error
@@ -283,6 +321,7 @@ def test_a_plate_the_core_does_not_compute_is_refused_in_one_line(core, rows, de
 
 
 # ---------------------------------------------------------------- the energy balance over an integration
+
 
 @pytest.mark.parametrize("diagonal_rule,patch", [("receiver", WHOLE_FACE), ("mean", 3)])
 def test_energy_balance_of_a_5x5x5_plate_closes(core, diagonal_rule, patch):
@@ -296,6 +335,7 @@ def test_energy_balance_of_a_5x5x5_plate_closes(core, diagonal_rule, patch):
         def f(_t, y):
             dydt, powers = core.rhs(params, y, load_on)
             return np.concatenate([dydt, powers])
+
         return f
 
     loaded = solve_ivp(rhs(True), (0.0, scene.t_active), y0, method="DOP853", rtol=1e-10, atol=1e-12)

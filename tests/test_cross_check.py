@@ -3,6 +3,7 @@
 The fast tests write the armour's folders from the session's FMUs (FMI 2.0 and 3.0, cs and me); the slow one
 runs `python build_fmu.py --cross-check DIR` as a user does: every scene built, imported and validated.
 """
+
 from __future__ import annotations
 
 import os
@@ -29,8 +30,10 @@ pytestmark = pytest.mark.filterwarnings("ignore:Please import:DeprecationWarning
 
 def model_folders(out: Path, kind: str) -> list[Path]:
     """The FMU folders (kind "fmus") or the importer's result folders ("results") of a cross-check tree."""
-    marker = {"fmus": lambda files: any(f.endswith(".fmu") for f in files),
-              "results": lambda files: "passed" in files or "failed" in files}[kind]
+    marker = {
+        "fmus": lambda files: any(f.endswith(".fmu") for f in files),
+        "results": lambda files: "passed" in files or "failed" in files,
+    }[kind]
     return sorted(Path(root) for root, _, files in os.walk(out / kind) if marker(files))
 
 
@@ -47,20 +50,26 @@ def assert_valid(out: Path, expected: int) -> None:
 @pytest.fixture(scope="module")
 def armour_folder(fmu_path, fmu3_path, tmp_path_factory):
     out = tmp_path_factory.mktemp("cross_check")
-    results = write_cross_check(out, (ARMOUR,),
-                                fmus={(ARMOUR.scene, "2.0"): fmu_path, (ARMOUR.scene, "3.0"): fmu3_path})
+    results = write_cross_check(
+        out, (ARMOUR,), fmus={(ARMOUR.scene, "2.0"): fmu_path, (ARMOUR.scene, "3.0"): fmu3_path}
+    )
     return out, results
 
 
 def test_fmpys_validator_finds_no_problem(armour_folder):
     out, results = armour_folder
-    assert sorted((r.fmi_version, r.fmi_type) for r in results) == [("2.0", "cs"), ("2.0", "me"), ("3.0", "cs"),
-                                                                     ("3.0", "me")]
+    assert sorted((r.fmi_version, r.fmi_type) for r in results) == [
+        ("2.0", "cs"),
+        ("2.0", "me"),
+        ("3.0", "cs"),
+        ("3.0", "me"),
+    ]
     assert all(r.problem is None for r in results), [r.problem for r in results]
     assert_valid(out, 4)
     platform = platform_folder()[0]
     assert {f.relative_to(out).parts[:4] for f in model_folders(out, "fmus")} == {
-        ("fmus", version, kind, platform) for version in ("2.0", "3.0") for kind in ("cs", "me")}
+        ("fmus", version, kind, platform) for version in ("2.0", "3.0") for kind in ("cs", "me")
+    }
 
 
 def test_each_fmu_carries_its_reference_and_manifest(armour_folder):
@@ -103,8 +112,11 @@ def test_an_import_that_leaves_the_band_is_written_as_failed(fmu_path, tmp_path,
         return result, settings
 
     monkeypatch.setattr(cross_check, "import_with_fmpy", doubled_force)
-    (result,) = [r for r in write_cross_check(tmp_path, (ARMOUR,), ("2.0",), fmus={(ARMOUR.scene, "2.0"): fmu_path})
-                 if r.fmi_type == "cs"]
+    (result,) = [
+        r
+        for r in write_cross_check(tmp_path, (ARMOUR,), ("2.0",), fmus={(ARMOUR.scene, "2.0"): fmu_path})
+        if r.fmi_type == "cs"
+    ]
     assert result.verdict == "failed" and "backplate_force" in result.problem
     (folder,) = [f for f in model_folders(tmp_path, "results") if "/cs/" in f.as_posix()]
     assert (folder / "failed").is_file() and not (folder / "passed").exists()
@@ -125,8 +137,13 @@ def test_cross_check_refuses_options_it_would_ignore(tmp_path, capsys):
 @pytest.mark.slow
 def test_the_cross_check_command_writes_every_scene_and_version(tmp_path):
     """About 3 minutes on 2 shared cores: six FMU builds, twelve FMPy imports."""
-    result = subprocess.run([sys.executable, "build_fmu.py", "--cross-check", str(tmp_path / "xc"), "--werror"],
-                            cwd=ROOT, capture_output=True, text=True, timeout=1800)
+    result = subprocess.run(
+        [sys.executable, "build_fmu.py", "--cross-check", str(tmp_path / "xc"), "--werror"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=1800,
+    )
     assert result.returncode == 0, result.stdout + result.stderr
     expected = len(CROSS_CHECK_SCENES) * 4
     assert result.stdout.count("passed") == expected, result.stdout

@@ -1,4 +1,5 @@
 """The design space: membership, ranks, keys and moves, checked against brute-force enumeration."""
+
 import itertools
 import math
 
@@ -9,8 +10,14 @@ from orchestrator.design import ARRANGEMENT, PERMUTATION, REPETITION, DesignSpac
 
 pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
 
-SPACES = [DesignSpace(4, 4), DesignSpace(3, 5), DesignSpace(4, 3, repeat=True), DesignSpace(2, 4, repeat=True),
-          DesignSpace(1, 1), DesignSpace(1, 3)]
+SPACES = [
+    DesignSpace(4, 4),
+    DesignSpace(3, 5),
+    DesignSpace(4, 3, repeat=True),
+    DesignSpace(2, 4, repeat=True),
+    DesignSpace(1, 1),
+    DesignSpace(1, 3),
+]
 
 
 def brute_force(space):
@@ -68,6 +75,7 @@ def test_neighbours_are_every_design_one_move_away(space):
     if space.columns == space.materials == 11:
         assert len(moves["swap"]) == 55 and len(found) == 145  # 55 swaps + 100 insertions - 10 adjacent swaps
         return
+
     # brute force: every design of the space at one swap, insertion or single-column change
     def one_move(a, b):
         if sum(x != y for x, y in zip(a, b)) == 1:
@@ -83,6 +91,7 @@ def test_neighbours_are_every_design_one_move_away(space):
                 if tuple(q) == b:
                     return True
         return False
+
     assert set(found) == {d for d in brute_force(space) if d != design and one_move(design, d)}
 
 

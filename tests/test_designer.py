@@ -1,5 +1,6 @@
 """The designer's own problem end to end: their materials, a catalogue larger than the stack, repetition and a
 second objective, each answer checked against a brute force over the whole (small) space."""
+
 from __future__ import annotations
 
 import itertools
@@ -41,10 +42,11 @@ def brute_force(fmu, designs, parameters=None):
 
 
 def test_a_catalogue_sweep_equals_the_brute_force_and_names_the_materials(workspace, monkeypatch, capfd):
-    assert run(workspace, monkeypatch, "catalogue", "--method", "exhaustive", "random", "--budget", "10") == 0, \
+    assert run(workspace, monkeypatch, "catalogue", "--method", "exhaustive", "random", "--budget", "10") == 0, (
         capfd.readouterr().err
+    )
     results = json.loads((workspace / "catalogue" / "results.json").read_text())
-    answer, = results["answers"]
+    (answer,) = results["answers"]
     values = brute_force(results["fmu"]["path"], list(itertools.permutations(range(1, 6), 3)))
     best = min(values, key=values.get)
     assert tuple(answer["order"]) == best and answer["peak"] == pytest.approx(values[best], rel=1e-6)
@@ -58,10 +60,11 @@ def test_a_catalogue_sweep_equals_the_brute_force_and_names_the_materials(worksp
 
 
 def test_repetition_searches_every_assignment(workspace, monkeypatch, capfd):
-    assert run(workspace, monkeypatch, "repeat", "--repeat", "--method", "exhaustive", "random",
-               "--budget", "10") == 0, capfd.readouterr().err
+    assert (
+        run(workspace, monkeypatch, "repeat", "--repeat", "--method", "exhaustive", "random", "--budget", "10") == 0
+    ), capfd.readouterr().err
     results = json.loads((workspace / "repeat" / "results.json").read_text())
-    answer, = results["answers"]
+    (answer,) = results["answers"]
     designs = list(itertools.product(range(1, 6), repeat=3))
     values = brute_force(results["fmu"]["path"], designs, {"repeat_materials": 1})
     best = min(values, key=values.get)
@@ -70,8 +73,21 @@ def test_repetition_searches_every_assignment(workspace, monkeypatch, capfd):
 
 
 def test_two_objectives_give_the_exact_front(workspace, monkeypatch, capfd):
-    assert run(workspace, monkeypatch, "front", "--objective", "sampled,max_compression", "--method", "exhaustive",
-               "nsga2", "--budget", "40") == 0, capfd.readouterr().err
+    assert (
+        run(
+            workspace,
+            monkeypatch,
+            "front",
+            "--objective",
+            "sampled,max_compression",
+            "--method",
+            "exhaustive",
+            "nsga2",
+            "--budget",
+            "40",
+        )
+        == 0
+    ), capfd.readouterr().err
     results = json.loads((workspace / "front" / "results.json").read_text())
     fmu = results["fmu"]["path"]
     designs = list(itertools.permutations(range(1, 6), 3))

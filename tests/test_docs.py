@@ -4,6 +4,7 @@ The build catches a broken link, a missing page or a nav entry without its file 
 reference page is generated from fmu_src/variables.py at build time (docs/hooks.py), and this checks it
 against the model description of an FMU actually built, so neither can drift from the other.
 """
+
 from __future__ import annotations
 
 import os
@@ -16,7 +17,7 @@ from pathlib import Path
 import pytest
 from fmpy import read_model_description
 
-pytest.importorskip("mkdocs", reason="the docs extra is not installed (pip install -e \".[docs]\")")
+pytest.importorskip("mkdocs", reason='the docs extra is not installed (pip install -e ".[docs]")')
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -25,17 +26,42 @@ ROOT = Path(__file__).resolve().parents[1]
 def site():
     """The site built into a temporary folder (removed afterwards): {page path: html}."""
     with tempfile.TemporaryDirectory(prefix="lattice_docs_") as folder:
-        done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--config-file",
-                               str(ROOT / "mkdocs.yml"), "--site-dir", folder], cwd=ROOT, capture_output=True,
-                              text=True, timeout=600, env={**os.environ, "NO_MKDOCS_2_WARNING": "1"})
+        done = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "mkdocs",
+                "build",
+                "--strict",
+                "--config-file",
+                str(ROOT / "mkdocs.yml"),
+                "--site-dir",
+                folder,
+            ],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=600,
+            env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
+        )
         assert done.returncode == 0, done.stderr[-4000:]
         yield {str(p.relative_to(folder)): p.read_text(encoding="utf-8") for p in Path(folder).rglob("*.html")}
 
 
 def test_the_site_builds_strict_with_every_page(site):
-    for page in ("index.html", "tutorial/index.html", "model/index.html", "fmu-reference/index.html",
-                 "optimisers/index.html", "exhaustive/index.html", "reliability/index.html",
-                 "other-tools/index.html", "design/index.html", "measurements/index.html", "changelog/index.html"):
+    for page in (
+        "index.html",
+        "tutorial/index.html",
+        "model/index.html",
+        "fmu-reference/index.html",
+        "optimisers/index.html",
+        "exhaustive/index.html",
+        "reliability/index.html",
+        "other-tools/index.html",
+        "design/index.html",
+        "measurements/index.html",
+        "changelog/index.html",
+    ):
         assert page in site, sorted(site)
 
 
@@ -65,7 +91,7 @@ def test_the_fmu_reference_gives_every_enumerations_codes_read_from_the_built_fm
     from html import unescape
 
     html = unescape(site["fmu-reference/index.html"])
-    codes = html[html.index('id="codes"'):html.index('id="parameters"')]
+    codes = html[html.index('id="codes"') : html.index('id="parameters"')]
     description = read_model_description(str(fmu3_path))
     enumerations = {t.name: t for t in description.typeDefinitions if t.type == "Enumeration"}
     listed = 0
@@ -91,9 +117,12 @@ def test_the_fmu_reference_lists_every_variable_of_each_component_fmu_with_its_u
     sections = html.split("<h3 id=")[1:]  # the part before the first is the navigation
     for model in COMPONENT_MODELS:
         table = component_table(model)
-        section, = [s for s in sections if f"--model {model}</code>" in s.split("</h3>")[0]]
-        rows = {re.search(r"<td><code>([^<]+)</code></td>", row).group(1): row
-                for row in section.split("<tr>") if row.startswith("\n<td><code>") or row.startswith("<td><code>")}
+        (section,) = [s for s in sections if f"--model {model}</code>" in s.split("</h3>")[0]]
+        rows = {
+            re.search(r"<td><code>([^<]+)</code></td>", row).group(1): row
+            for row in section.split("<tr>")
+            if row.startswith("\n<td><code>") or row.startswith("<td><code>")
+        }
         listed = [v for v in table.variables if v.causality in ("parameter", "input", "output")]
         assert sorted(rows) == sorted(v.name for v in listed), model
         for variable in listed:

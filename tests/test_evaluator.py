@@ -1,4 +1,5 @@
 """The one Evaluator: cache, journal, time limits on an evaluation's own run time, dead workers, lazy tasks."""
+
 from __future__ import annotations
 
 import os
@@ -67,8 +68,7 @@ def test_a_time_out_fails_the_evaluation_is_not_journalled_and_runs_again_on_res
         slow, quick = evaluator.run(tasks(Sleep(1.0), [(1, 2)]) + tasks(Sleep(0.0), [(2, 1)]))
     assert slow.status == "failed" and "time limit of 0.3 s of its own run time" in slow.message
     assert quick.ok and evaluator.timeouts == 1
-    with make_executor("process", workers=1) as executor, \
-            Journal(tmp_path, settings, KINDS, resume=True) as journal:
+    with make_executor("process", workers=1) as executor, Journal(tmp_path, settings, KINDS, resume=True) as journal:
         evaluator = Evaluator(executor, journal, time_limit=5.0)  # a larger limit: the time-out runs again
         assert evaluator.resumed == 1
         slow, quick = evaluator.run(tasks(Sleep(1.0), [(1, 2)]) + tasks(Sleep(0.0), [(2, 1)]))
@@ -128,7 +128,7 @@ def test_a_task_that_raises_is_its_own_failure_and_the_run_goes_on():
             raise RuntimeError("the FMU refused")
 
     with make_executor("serial") as executor:
-        result, = Evaluator(executor).run(tasks(Raises(), [(1, 2)]))
+        (result,) = Evaluator(executor).run(tasks(Raises(), [(1, 2)]))
     assert result == failed((1, 2), "RuntimeError: the FMU refused", result.seconds)
 
 

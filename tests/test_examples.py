@@ -1,5 +1,6 @@
 """examples/armour_system.py: the armour system of three FMUs (projectile, lattice, hull) under libcosim, on a
 short horizon."""
+
 from __future__ import annotations
 
 import sys
@@ -21,8 +22,7 @@ def system_ssp(fmu_path, tmp_path_factory):
     return build_system(tmp_path_factory.mktemp("system") / "ArmourSystem.ssp", werror=True, lattice_fmu=fmu_path)
 
 
-def test_the_example_prints_each_port_s_limit_beside_the_step_and_writes_the_picture(system_ssp, tmp_path,
-                                                                                    capsys):
+def test_the_example_prints_each_port_s_limit_beside_the_step_and_writes_the_picture(system_ssp, tmp_path, capsys):
     picture = tmp_path / "system.png"
     assert armour_system.main(["--ssp", str(system_ssp), "--horizon", "0.05", "-o", str(picture)]) == 0
     assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

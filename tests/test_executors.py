@@ -1,4 +1,5 @@
 """Executors: one seam, identical results whatever runs the work."""
+
 from __future__ import annotations
 
 import os
@@ -18,14 +19,23 @@ OBJECTIVE = Flaky(QuadraticAssignment.random(7, 11), period=6, mode="raise")
 
 
 def runs_with(executor, budget=40, seed=1):
-    return {m: run_search(make_search(m, 7, seed, budget=budget), OBJECTIVE, budget, executor,
-                          method_name=m, seed=seed)
-            for m in METHODS}
+    return {
+        m: run_search(make_search(m, 7, seed, budget=budget), OBJECTIVE, budget, executor, method_name=m, seed=seed)
+        for m in METHODS
+    }
 
 
 def outcomes(runs):
-    return {m: ([(e.order, e.value, e.status, e.message) for e in r.evaluations], r.best_order, r.best_value,
-                r.failed, r.stop_reason) for m, r in runs.items()}
+    return {
+        m: (
+            [(e.order, e.value, e.status, e.message) for e in r.evaluations],
+            r.best_order,
+            r.best_value,
+            r.failed,
+            r.stop_reason,
+        )
+        for m, r in runs.items()
+    }
 
 
 @pytest.fixture(scope="module")
@@ -130,7 +140,8 @@ def test_batches_are_spread_over_the_workers_and_each_design_is_cached_and_journ
     with make_executor("serial") as serial:
         alone = Evaluator(serial).evaluate([(OBJECTIVE, o) for o in orders])
     assert [(e.order, e.value, e.status, e.message) for e in both] == [
-        (e.order, e.value, e.status, e.message) for e in alone]
+        (e.order, e.value, e.status, e.message) for e in alone
+    ]
     executor.submitted.clear()
     evaluator.evaluate([(OBJECTIVE, tuple(reversed(o))) for o in orders] * 3)
     assert executor.submitted == [4, 3]  # duplicates run once; at most batch_size designs a submission
@@ -146,8 +157,7 @@ def exit_on_identity(order):
 
 def test_dead_worker_is_a_failed_evaluation():
     with make_executor("process", workers=2) as ex:
-        run = run_search(make_search("sequential", 5, 0), exit_on_identity, 10, ex,
-                         method_name="sequential", seed=0)
+        run = run_search(make_search("sequential", 5, 0), exit_on_identity, 10, ex, method_name="sequential", seed=0)
     assert run.failed == 1 and run.evaluations[0].status == "failed"
     assert "the worker died" in run.evaluations[0].message
 
@@ -157,8 +167,9 @@ def test_a_dead_worker_costs_only_its_order_and_the_pool_is_replaced():
     worker fails, and the run spends its whole budget."""
     with make_executor("process", workers=2) as ex:
         evaluator = Evaluator(ex)
-        run = run_search(make_search("random", 5, 0, batch=120), exit_on_identity, 120, evaluator,
-                         method_name="random", seed=0)
+        run = run_search(
+            make_search("random", 5, 0, batch=120), exit_on_identity, 120, evaluator, method_name="random", seed=0
+        )
     assert run.n_evaluations == 120 and run.failed == 1, run.stop_reason
     failed = next(e for e in run.evaluations if not e.ok)
     assert failed.order == (1, 2, 3, 4, 5) and "died" in failed.message
@@ -178,8 +189,9 @@ def sleep_on_identity(order):
 def test_a_hung_evaluation_is_failed_at_the_time_limit_and_the_run_goes_on():
     with make_executor("process", workers=2) as ex:
         evaluator = Evaluator(ex, time_limit=1.0)
-        run = run_search(make_search("random", 4, 0, batch=24), sleep_on_identity, 24, evaluator,
-                         method_name="random", seed=0)
+        run = run_search(
+            make_search("random", 4, 0, batch=24), sleep_on_identity, 24, evaluator, method_name="random", seed=0
+        )
     assert run.n_evaluations == 24 and run.failed == 1
     failed = next(e for e in run.evaluations if not e.ok)
     assert failed.order == (1, 2, 3, 4) and "time limit of 1 s of its own run time" in failed.message

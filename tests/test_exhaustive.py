@@ -1,4 +1,5 @@
 """The exhaustive sweep: chunks, force limits, the certificate, and the sweep as a step of a study."""
+
 from __future__ import annotations
 
 import itertools
@@ -94,19 +95,33 @@ def test_coverage_finds_gaps_and_overlaps():
 # ---------------------------------------------------------------------------------------------- on the FMU
 @pytest.fixture(scope="module")
 def fmu6(tmp_path_factory):
-    return build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu6") / "MassSpringLattice11x6.fmu", cols=6,
-                     werror=True)
+    return build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu6") / "MassSpringLattice11x6.fmu", cols=6, werror=True)
 
 
-SWEEP = ["--cols", "6", "--method", "exhaustive", "random", "--budget", "30", "--repeats", "1",
-         "--diagonal-rule", "receiver", "--no-sensitivity", "--no-progress", "--chunk-size", "60"]
+SWEEP = [
+    "--cols",
+    "6",
+    "--method",
+    "exhaustive",
+    "random",
+    "--budget",
+    "30",
+    "--repeats",
+    "1",
+    "--diagonal-rule",
+    "receiver",
+    "--no-sensitivity",
+    "--no-progress",
+    "--chunk-size",
+    "60",
+]
 
 
 def test_the_sweep_certifies_the_brute_force_optimum_and_resumes_without_simulating(fmu6, tmp_path, capfd):
     out = tmp_path / "sweep"
     assert cli.main(["--fmu", str(fmu6), "--out", str(out), *SWEEP]) == 0, capfd.readouterr().err
     results = json.loads((out / "results.json").read_text())
-    sweep, = results["steps"]["exhaustive"]["sweeps"]
+    (sweep,) = results["steps"]["exhaustive"]["sweeps"]
     certificate = json.loads((out / "exhaustive" / "certificate.json").read_text())
     assert certificate == sweep["certificate"]
     assert certificate["certified"], certificate["reasons"]
@@ -124,7 +139,7 @@ def test_the_sweep_certifies_the_brute_force_optimum_and_resumes_without_simulat
     best = min(values, key=lambda e: e.value)
     assert certificate["optimum"]["order"] == list(best.order)
     assert certificate["optimum"]["full"] == pytest.approx(best.value, rel=1e-12)
-    answer, = results["answers"]
+    (answer,) = results["answers"]
     assert answer["order"] == list(best.order) and answer["evidence"]["status"] == "certified"
 
     moved = tmp_path / "copied"

@@ -1,6 +1,7 @@
 """explore.html: one self-contained page that opens offline, in a real browser (Debian's chromium and
 chromium-driver through Selenium): no console error with the network cut off, its table holds every evaluation
 of evaluations.csv, a click on a row or on a point of the Pareto front shows that design."""
+
 from __future__ import annotations
 
 import csv
@@ -36,8 +37,22 @@ def one_objective(fmu_path, tmp_path_factory):
 @pytest.fixture(scope="module")
 def two_objectives(fmu_path, tmp_path_factory):
     out = tmp_path_factory.mktemp("explore2") / "results"
-    assert main("--fmu", fmu_path, "--out", out, "--objective", "sampled,max_compression", "--budget", "30",
-                "--diagonal-rule", "mean", *QUICK) == 0
+    assert (
+        main(
+            "--fmu",
+            fmu_path,
+            "--out",
+            out,
+            "--objective",
+            "sampled,max_compression",
+            "--budget",
+            "30",
+            "--diagonal-rule",
+            "mean",
+            *QUICK,
+        )
+        == 0
+    )
     return out
 
 
@@ -64,8 +79,14 @@ def test_the_page_is_self_contained_and_holds_every_evaluation(which, request):
     rows = csv_rows(folder)
     assert len(searched) == len(rows)
     for e, row in zip(searched, rows):
-        assert (e["rule"], e["method"], str(e["seed"]), str(e["index"]), " ".join(map(str, e["order"])), e["status"]) \
-            == (row["diagonal_rule"], row["method"], row["seed"], row["index"], row["order"], row["status"])
+        assert (
+            e["rule"],
+            e["method"],
+            str(e["seed"]),
+            str(e["index"]),
+            " ".join(map(str, e["order"])),
+            e["status"],
+        ) == (row["diagonal_rule"], row["method"], row["seed"], row["index"], row["order"], row["status"])
         assert (e["value"] is None and row["value"] == "") or e["value"] == float(row["value"])
     record = json.loads((folder / "results.json").read_text())
     for front in data["fronts"]:  # every front point has its design file in the folder
@@ -75,7 +96,8 @@ def test_the_page_is_self_contained_and_holds_every_evaluation(which, request):
 
 needs_browser = pytest.mark.skipif(
     CHROMIUM is None or CHROMEDRIVER is None,
-    reason="needs Debian's chromium and chromium-driver (apt-get install chromium chromium-driver)")
+    reason="needs Debian's chromium and chromium-driver (apt-get install chromium chromium-driver)",
+)
 
 
 @pytest.fixture()
@@ -86,8 +108,15 @@ def browser():
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
     # the network is cut off: every request would go to a proxy where nothing listens
-    for argument in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                     "--proxy-server=127.0.0.1:9", "--proxy-bypass-list=<-loopback>", "--window-size=1300,1800"):
+    for argument in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-dev-shm-usage",
+        "--proxy-server=127.0.0.1:9",
+        "--proxy-bypass-list=<-loopback>",
+        "--window-size=1300,1800",
+    ):
         options.add_argument(argument)
     options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
@@ -100,8 +129,9 @@ def browser():
 def open_page(driver, folder: Path) -> None:
     driver.get((folder / "explore.html").resolve().as_uri())
     for _ in range(100):
-        if driver.execute_script("return document.readyState") == "complete" and \
-                driver.execute_script("return document.querySelectorAll('#evaluations tbody tr').length"):
+        if driver.execute_script("return document.readyState") == "complete" and driver.execute_script(
+            "return document.querySelectorAll('#evaluations tbody tr').length"
+        ):
             return
         time.sleep(0.1)
 
@@ -138,16 +168,19 @@ def check_page(browser, folder: Path, front: bool) -> None:
     rows = csv_rows(folder)
     table = browser.execute_script(
         "return [...document.querySelectorAll('#evaluations tbody tr[data-fidelity=search]')]"
-        ".map(tr => [...tr.children].slice(0, 5).map(td => td.textContent))")
+        ".map(tr => [...tr.children].slice(0, 5).map(td => td.textContent))"
+    )
     assert table == [[r["diagonal_rule"], r["method"], r["seed"], r["index"], r["order"]] for r in rows]
     runs = {(r["diagonal_rule"], r["method"], r["seed"]) for r in rows}
     assert browser.execute_script(
-        "return document.querySelectorAll('#convergence .scatterlayer .trace').length") == len(runs)
+        "return document.querySelectorAll('#convergence .scatterlayer .trace').length"
+    ) == len(runs)
     # sorting by value puts the lowest first; a filter keeps only what matches
     value_header = browser.find_element("css selector", "#evaluations th[data-column=value]")
     value_header.click()
-    values = browser.execute_script("return [...document.querySelectorAll('#evaluations tbody tr')]"
-                                    ".map(tr => tr.children[6].textContent)")
+    values = browser.execute_script(
+        "return [...document.querySelectorAll('#evaluations tbody tr')].map(tr => tr.children[6].textContent)"
+    )
     numbers = [float(v.replace(",", "")) for v in values if v not in ("n/a",) and not v.startswith(">")]
     assert numbers == sorted(numbers)
     # a click on a row shows that design

@@ -5,6 +5,7 @@ Checked through fmpy: validation, the model description derived from the same ta
 `derivative` read as an index finds its state), bit-identical peaks and outputs to the FMI 2 FMU, the error
 handling of fmi3/fmi3_glue.c, and FMU states. fmi-sim runs it in tests/test_importers.py.
 """
+
 from __future__ import annotations
 
 import shutil
@@ -30,8 +31,12 @@ class Instance:
         self.variables = {v.name: v for v in self.description.modelVariables}
         self.messages: list[str] = []
         self.unzip_dir = extract(str(fmu3_path))
-        self.slave = FMU3Slave(guid=self.description.guid, unzipDirectory=self.unzip_dir,
-                               modelIdentifier=self.description.coSimulation.modelIdentifier, instanceName=name)
+        self.slave = FMU3Slave(
+            guid=self.description.guid,
+            unzipDirectory=self.unzip_dir,
+            modelIdentifier=self.description.coSimulation.modelIdentifier,
+            instanceName=name,
+        )
         self._callback = fmi3LogMessageCallback(self._log)
         self.slave.instantiate(logMessage=self._callback)
 
@@ -101,16 +106,26 @@ def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path
     assert [int(v.start) for v in material] == list(range(1, 12))
     assert float(fmi3["k[2]"].start) == float(fmi2["k[2]"].start)
     units = {name: fmi3[name].declaredType.unit for name in ("k[1]", "c[1]", "F_total", "peak_backplate_force", "time")}
-    assert units == {"k[1]": fmi2["k[1]"].unit, "c[1]": fmi2["c[1]"].unit, "F_total": fmi2["F_total"].unit,
-                     "peak_backplate_force": fmi2["peak_backplate_force"].unit, "time": "s"}  # via declared types
+    assert units == {
+        "k[1]": fmi2["k[1]"].unit,
+        "c[1]": fmi2["c[1]"].unit,
+        "F_total": fmi2["F_total"].unit,
+        "peak_backplate_force": fmi2["peak_backplate_force"].unit,
+        "time": "s",
+    }  # via declared types
     for name, variable in fmi3.items():
         if name == "time":
             assert variable.causality == "independent" and variable.type == "Float64"
             continue
-        fmi2_type = "Enumeration" if any(a.type == "Enumeration" and a.valueReference == fmi2[name].valueReference
-                                         for a in fmi2.values()) else fmi2[name].type
+        fmi2_type = (
+            "Enumeration"
+            if any(a.type == "Enumeration" and a.valueReference == fmi2[name].valueReference for a in fmi2.values())
+            else fmi2[name].type
+        )
         assert (variable.type, variable.causality) == (
-            {"Real": "Float64", "Integer": "Int32", "Enumeration": "Enumeration"}[fmi2_type], fmi2[name].causality)
+            {"Real": "Float64", "Integer": "Int32", "Enumeration": "Enumeration"}[fmi2_type],
+            fmi2[name].causality,
+        )
         assert variable.valueReference == fmi2[name].valueReference + 1
 
     with zipfile.ZipFile(fmu3_path) as archive:
@@ -137,8 +152,10 @@ def test_a_derivative_read_as_an_index_finds_its_state(fmu3_path):
 @pytest.fixture(scope="module")
 def fmi2_results(fmu_path):
     with LatticeFMU(fmu_path) as fmu:
-        return {order: fmu.simulate(order, horizon=HORIZON, communication_step=STEP).values
-                for order in (PUBLISHED_BEST, PUBLISHED_SEQUENTIAL)}
+        return {
+            order: fmu.simulate(order, horizon=HORIZON, communication_step=STEP).values
+            for order in (PUBLISHED_BEST, PUBLISHED_SEQUENTIAL)
+        }
 
 
 @pytest.mark.parametrize("order", [PUBLISHED_BEST, PUBLISHED_SEQUENTIAL], ids=["published_best", "sequential"])
@@ -149,9 +166,13 @@ def test_same_numbers_as_fmi2_to_the_last_bit(instance, fmi2_results, order):
 
 
 def test_fmpy_simulate_fmu_sets_the_order_by_its_scalars(fmu3_path, fmi2_results):
-    result = simulate_fmu(str(fmu3_path), stop_time=HORIZON, output_interval=STEP,
-                          start_values={f"material[{j}]": m for j, m in enumerate(PUBLISHED_BEST, 1)},
-                          output=["peak_backplate_force"])
+    result = simulate_fmu(
+        str(fmu3_path),
+        stop_time=HORIZON,
+        output_interval=STEP,
+        start_values={f"material[{j}]": m for j, m in enumerate(PUBLISHED_BEST, 1)},
+        output=["peak_backplate_force"],
+    )
     assert result["peak_backplate_force"][-1] == fmi2_results[PUBLISHED_BEST]["peak_backplate_force"]
 
 
@@ -168,16 +189,19 @@ def test_scalars_are_read_and_written_several_at_a_time(instance):
     assert instance.slave.getFloat64(k) == [50.0] * 11
 
 
-@pytest.mark.parametrize("call, expected", [
-    (lambda f: f.slave.getInt32([0]), "not an Int32 variable of this FMU"),  # before the first variable
-    (lambda f: f.slave.getInt32([f.vr("time") + 1]), "not an Int32 variable of this FMU"),  # after time
-    (lambda f: f.slave.getInt32([f.vr("material[1]")], 5), "nValues"),
-    (lambda f: f.slave.getFloat64([f.vr("material[1]")]), "not a Float64"),
-    (lambda f: f.slave.getInt32([f.vr("time")]), "is time"),
-    (lambda f: f.slave.setFloat64([f.vr("peak_backplate_force")], [1.0]), "output"),
-    (lambda f: f.slave.setFloat64([f.vr("time")], [1.0]), "independent"),
-    (lambda f: f.slave.getBoolean([0]), "no Boolean"),
-])
+@pytest.mark.parametrize(
+    "call, expected",
+    [
+        (lambda f: f.slave.getInt32([0]), "not an Int32 variable of this FMU"),  # before the first variable
+        (lambda f: f.slave.getInt32([f.vr("time") + 1]), "not an Int32 variable of this FMU"),  # after time
+        (lambda f: f.slave.getInt32([f.vr("material[1]")], 5), "nValues"),
+        (lambda f: f.slave.getFloat64([f.vr("material[1]")]), "not a Float64"),
+        (lambda f: f.slave.getInt32([f.vr("time")]), "is time"),
+        (lambda f: f.slave.setFloat64([f.vr("peak_backplate_force")], [1.0]), "output"),
+        (lambda f: f.slave.setFloat64([f.vr("time")], [1.0]), "independent"),
+        (lambda f: f.slave.getBoolean([0]), "no Boolean"),
+    ],
+)
 def test_wrong_calls_are_refused_with_a_reason(instance, call, expected):
     with pytest.raises(FMICallException):
         call(instance)
@@ -202,9 +226,12 @@ def test_an_instantiation_token_of_another_build_is_refused(fmu3_path, tmp_path)
     description = read_model_description(str(fmu3_path))
     messages = []
     callback = fmi3LogMessageCallback(lambda environment, status, category, message: messages.append(message.decode()))
-    slave = FMU3Slave(guid="{00000000-0000-0000-0000-000000000000}",
-                      unzipDirectory=extract(str(fmu3_path), str(tmp_path / "unzipped")),
-                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName="stranger")
+    slave = FMU3Slave(
+        guid="{00000000-0000-0000-0000-000000000000}",
+        unzipDirectory=extract(str(fmu3_path), str(tmp_path / "unzipped")),
+        modelIdentifier=description.coSimulation.modelIdentifier,
+        instanceName="stranger",
+    )
     with pytest.raises(Exception, match="Failed to instantiate"):  # fmpy's words for a NULL instance
         slave.instantiate(logMessage=callback)
     assert any("instantiation token" in m and "different builds" in m for m in messages), messages

@@ -1,4 +1,5 @@
 """The FMU through fmpy: validation, published numbers, step independence, energy, errors, FMI states."""
+
 import math
 
 import pytest
@@ -12,9 +13,22 @@ from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import COUNTER_OUTPUTS, ENERGY_OUTPUTS, PEAK_OUTPUTS, SimulationError
 
-ALL_OUTPUTS = PEAK_OUTPUTS + ENERGY_OUTPUTS + COUNTER_OUTPUTS + (
-    "backplate_force", "ux_corner", "uy_corner", "ux_left_edge", "uy_left_edge", "ux_centre", "uy_centre",
-    "ux_right_edge", "uy_right_edge")
+ALL_OUTPUTS = (
+    PEAK_OUTPUTS
+    + ENERGY_OUTPUTS
+    + COUNTER_OUTPUTS
+    + (
+        "backplate_force",
+        "ux_corner",
+        "uy_corner",
+        "ux_left_edge",
+        "uy_left_edge",
+        "ux_centre",
+        "uy_centre",
+        "ux_right_edge",
+        "uy_right_edge",
+    )
+)
 
 
 def test_fmpy_validation_finds_no_problem(fmu_path):
@@ -25,9 +39,25 @@ def test_model_description_carries_sources_and_public_names(fmu_path):
     description = read_model_description(str(fmu_path))
     names = {v.name for v in description.modelVariables}
     assert {f"material[{j}]" for j in range(1, 12)} <= names
-    for name in ("k[1]", "k_diag[11]", "c[5]", "alpha[3]", "alpha_diag[7]", "F_total", "load_angle", "t_active",
-                 "k_wall", "c_wall", "backplate_gap", "peak_sample_interval", "rtol", "atol", "fixed_step",
-                 "diagonal_rule", "solver") + ALL_OUTPUTS:
+    for name in (
+        "k[1]",
+        "k_diag[11]",
+        "c[5]",
+        "alpha[3]",
+        "alpha_diag[7]",
+        "F_total",
+        "load_angle",
+        "t_active",
+        "k_wall",
+        "c_wall",
+        "backplate_gap",
+        "peak_sample_interval",
+        "rtol",
+        "atol",
+        "fixed_step",
+        "diagonal_rule",
+        "solver",
+    ) + ALL_OUTPUTS:
         assert name in names, name
     starts = {v.name: v.start for v in description.modelVariables}
     assert [int(starts[f"material[{j}]"]) for j in range(1, 12)] == list(range(1, 12))
@@ -82,24 +112,42 @@ BALANCE_OUTPUTS = ("kinetic_energy", "potential_energy", "external_work", "dissi
 
 
 @pytest.mark.parametrize("rule", ["receiver", "mean"])
-@pytest.mark.parametrize("order", [PUBLISHED_SEQUENTIAL, PUBLISHED_BEST, ADVERSARIAL_ORDER],
-                         ids=["sequential", "published_best", "adversarial"])
+@pytest.mark.parametrize(
+    "order",
+    [PUBLISHED_SEQUENTIAL, PUBLISHED_BEST, ADVERSARIAL_ORDER],
+    ids=["sequential", "published_best", "adversarial"],
+)
 def test_the_balance_of_the_outputs_closes_at_every_communication_point(lattice, order, rule):
     """docs/model.md §7 from the outputs alone, every 0.01 s over 2 s (through contact and release), at the
     defaults."""
-    result = lattice.simulate(order, horizon=2.0, communication_step=0.01, record=BALANCE_OUTPUTS,
-                              outputs=BALANCE_OUTPUTS, parameters={"diagonal_rule": rule})
+    result = lattice.simulate(
+        order,
+        horizon=2.0,
+        communication_step=0.01,
+        record=BALANCE_OUTPUTS,
+        outputs=BALANCE_OUTPUTS,
+        parameters={"diagonal_rule": rule},
+    )
     v = result.trajectory.values
-    balance = (v["external_work"] + v["nonreciprocal_work"] - v["kinetic_energy"] - v["potential_energy"]
-               - v["dissipated_energy"])
+    balance = (
+        v["external_work"]
+        + v["nonreciprocal_work"]
+        - v["kinetic_energy"]
+        - v["potential_energy"]
+        - v["dissipated_energy"]
+    )
     assert max(abs(balance)) <= 1e-6 * v["external_work"][-1]
 
 
 def test_a_plate_pressed_from_the_start_counts_its_energy_in_the_balance(lattice):
     """A negative backplate_gap stores wall energy at t = 0: the balance counts it as energy put in."""
-    result = lattice.simulate(PUBLISHED_BEST, horizon=1.0, parameters={"backplate_gap": -1e-3},
-                              outputs=("energy_balance_error", "external_work", "potential_energy"))
-    stored = 0.5 * 1e4 * 1e-3 ** 2 * 11  # every column-C mass 1 mm into the plate (docs/model.md section 5)
+    result = lattice.simulate(
+        PUBLISHED_BEST,
+        horizon=1.0,
+        parameters={"backplate_gap": -1e-3},
+        outputs=("energy_balance_error", "external_work", "potential_energy"),
+    )
+    stored = 0.5 * 1e4 * 1e-3**2 * 11  # every column-C mass 1 mm into the plate (docs/model.md section 5)
     assert stored > 1e3 * abs(result["energy_balance_error"])
     assert abs(result["energy_balance_error"]) <= 1e-6 * (result["external_work"] + stored)
 
@@ -111,17 +159,20 @@ def test_mean_rule_changes_the_ranking_as_spec_says(lattice):
     assert sequential == pytest.approx(2911, rel=0.01)
 
 
-@pytest.mark.parametrize("parameters, order, expected", [
-    ({}, (1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11), "permutation of 1..11"),
-    ({}, (0, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11), "material[1]"),
-    ({"rtol": 0.0}, None, "rtol"),
-    ({"rtol": 0.5}, None, "rtol"),
-    ({"diagonal_rule": 2}, None, "0 (receiver) or 1 (mean)"),
-    ({"solver": 7}, None, "solver"),
-    ({"alpha[3]": 0.0}, None, "alpha[3]"),
-    ({"peak_sample_interval": -0.01}, None, "peak_sample_interval"),
-    ({"F_total": float("nan")}, None, "F_total"),
-])
+@pytest.mark.parametrize(
+    "parameters, order, expected",
+    [
+        ({}, (1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11), "permutation of 1..11"),
+        ({}, (0, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11), "material[1]"),
+        ({"rtol": 0.0}, None, "rtol"),
+        ({"rtol": 0.5}, None, "rtol"),
+        ({"diagonal_rule": 2}, None, "0 (receiver) or 1 (mean)"),
+        ({"solver": 7}, None, "solver"),
+        ({"alpha[3]": 0.0}, None, "alpha[3]"),
+        ({"peak_sample_interval": -0.01}, None, "peak_sample_interval"),
+        ({"F_total": float("nan")}, None, "F_total"),
+    ],
+)
 def test_bad_parameters_are_refused_with_a_clear_message(lattice, parameters, order, expected):
     with pytest.raises(SimulationError) as error:
         lattice.simulate(order, horizon=0.1, parameters=parameters)
@@ -174,8 +225,12 @@ def unzipped(fmu_path, tmp_path_factory):
 
 def _slave(fmu_path, unzip_dir, name="instance"):
     description = read_model_description(str(fmu_path))
-    slave = FMU2Slave(guid=description.guid, unzipDirectory=unzip_dir,
-                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName=name)
+    slave = FMU2Slave(
+        guid=description.guid,
+        unzipDirectory=unzip_dir,
+        modelIdentifier=description.coSimulation.modelIdentifier,
+        instanceName=name,
+    )
     slave.instantiate()
     return description, slave
 
@@ -292,18 +347,24 @@ def test_the_upper_half_gives_the_whole_lattice(lattice, order):
 
 def test_the_upper_half_reproduces_the_published_peaks_over_8_s(lattice):
     for order in (PUBLISHED_SEQUENTIAL, PUBLISHED_BEST):
-        result = lattice.simulate(order, horizon=8.0, parameters={"use_symmetry": 1},
-                                  outputs=("peak_backplate_force", "energy_balance_error", "external_work"))
+        result = lattice.simulate(
+            order,
+            horizon=8.0,
+            parameters={"use_symmetry": 1},
+            outputs=("peak_backplate_force", "energy_balance_error", "external_work"),
+        )
         assert result["peak_backplate_force"] == pytest.approx(PUBLISHED_PEAKS[order], rel=1e-7)
         assert abs(result["energy_balance_error"]) <= 1e-6 * result["external_work"]
 
 
 def test_an_asymmetric_load_integrates_the_whole_lattice(lattice):
     parameters = {**SEARCH_SETTINGS, "load_angle": 30.0}
-    with_symmetry = lattice.simulate(PUBLISHED_BEST, horizon=0.5, parameters={**parameters, "use_symmetry": 1},
-                                     outputs=ALL_OUTPUTS)
-    without = lattice.simulate(PUBLISHED_BEST, horizon=0.5, parameters={**parameters, "use_symmetry": 0},
-                               outputs=ALL_OUTPUTS)
+    with_symmetry = lattice.simulate(
+        PUBLISHED_BEST, horizon=0.5, parameters={**parameters, "use_symmetry": 1}, outputs=ALL_OUTPUTS
+    )
+    without = lattice.simulate(
+        PUBLISHED_BEST, horizon=0.5, parameters={**parameters, "use_symmetry": 0}, outputs=ALL_OUTPUTS
+    )
     assert with_symmetry == without  # bit for bit: nothing to mirror
     assert with_symmetry["uy_centre"] != 0.0
 

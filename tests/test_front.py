@@ -1,5 +1,6 @@
 """A Pareto front that is a front: it starts from the known optima of each objective and never reports a point
 that a design the study evaluated, or a known optimum, dominates; and it says how sure it is."""
+
 from __future__ import annotations
 
 import json
@@ -33,8 +34,7 @@ def test_the_reported_set_never_holds_a_point_an_evaluated_design_dominates():
     def evaluation(order, values):
         return Evaluation(order, values[0], OK, values=values)
 
-    found = [evaluation((1, 2, 3), (10.0, 1.0)), evaluation((2, 1, 3), (5.0, 2.0)),
-             evaluation((3, 2, 1), (6.0, 2.5))]
+    found = [evaluation((1, 2, 3), (10.0, 1.0)), evaluation((2, 1, 3), (5.0, 2.0)), evaluation((3, 2, 1), (6.0, 2.5))]
     known = evaluation((1, 3, 2), (4.0, 1.5))  # a known optimum of the first objective: beats (2, 1, 3) and (3, 2, 1)
     front = undominated(found + [known])
     assert [p.order for p in front] == [(1, 3, 2), (1, 2, 3)]
@@ -57,12 +57,26 @@ def test_the_studys_two_objective_front_is_not_dominated_by_the_certified_optimu
     """The study's scene at the default budget, receiver rule, sampled peak and compression: no reported point
     is dominated by the certified optimum of the peak or by any design the run evaluated at full fidelity."""
     out = tmp_path / "front"
-    code = cli.main(["--fmu", str(fmu_path), "--out", str(out), "--objective", "sampled,max_compression",
-                     "--diagonal-rule", "receiver", "--no-progress", "--executor", "process", "--workers", "2"])
+    code = cli.main(
+        [
+            "--fmu",
+            str(fmu_path),
+            "--out",
+            str(out),
+            "--objective",
+            "sampled,max_compression",
+            "--diagonal-rule",
+            "receiver",
+            "--no-progress",
+            "--executor",
+            "process",
+            "--workers",
+            "2",
+        ]
+    )
     console = capfd.readouterr().out
     assert code == 0, console
-    certified = next(k for k in known_optima() if k.columns == 11 and k.diagonal_rule == "receiver"
-                     and k.certified)
+    certified = next(k for k in known_optima() if k.columns == 11 and k.diagonal_rule == "receiver" and k.certified)
     run = FMURun(str(fmu_path), 8.0, (), ("peak_backplate_force", "max_compression"))
     optimum = run(certified.order)
     assert optimum.ok and optimum.value == pytest.approx(certified.peak, rel=1e-6)
@@ -71,9 +85,14 @@ def test_the_studys_two_objective_front_is_not_dominated_by_the_certified_optimu
     values = [tuple(p["values"]) for p in front["points"]]
     assert values and not dominated_by(values, [optimum.values]).any(), (optimum.values, values)
     full = [json.loads(line) for line in (out / "journal.jsonl").read_text().splitlines()]
-    evaluated = [tuple(r["result"]["values"]) for r in full
-                 if isinstance(r.get("result"), dict) and r["result"].get("status") == OK
-                 and len(r["result"].get("values") or ()) == 2 and "|8.0|None|" in r.get("key", "")]
+    evaluated = [
+        tuple(r["result"]["values"])
+        for r in full
+        if isinstance(r.get("result"), dict)
+        and r["result"].get("status") == OK
+        and len(r["result"].get("values") or ()) == 2
+        and "|8.0|None|" in r.get("key", "")
+    ]
     assert evaluated and not dominated_by(values, evaluated).any()
     assert tuple(front["points"][0]["order"]) == certified.order  # the low-force end is the certified optimum
     sure = front["sureness"]

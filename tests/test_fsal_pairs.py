@@ -2,6 +2,7 @@
 and Fine's Runge-Kutta-Nystrom pair (5, "rkn5"): their peaks converge to DOP853's tight-tolerance ones as rtol
 falls, the energy balance closes, and the dense output keeps the steps independent of the communication
 points."""
+
 import pytest
 
 from fmu_src.published import PUBLISHED_PEAKS
@@ -10,9 +11,22 @@ from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import SimulationError
 
 PEAKS = ("peak_backplate_force", "peak_backplate_force_continuous")
-OUTPUTS = PEAKS + ("peak_time", "last_contact_time", "backplate_force", "kinetic_energy", "potential_energy",
-                   "external_work", "dissipated_energy", "nonreciprocal_work", "energy_balance_error",
-                   "ux_right_edge", "uy_centre", "rhs_evaluations", "steps_accepted", "steps_rejected")
+OUTPUTS = PEAKS + (
+    "peak_time",
+    "last_contact_time",
+    "backplate_force",
+    "kinetic_energy",
+    "potential_energy",
+    "external_work",
+    "dissipated_energy",
+    "nonreciprocal_work",
+    "energy_balance_error",
+    "ux_right_edge",
+    "uy_centre",
+    "rhs_evaluations",
+    "steps_accepted",
+    "steps_rejected",
+)
 
 
 def tolerances(rtol):
@@ -24,8 +38,10 @@ def references(fmu_path):
     from orchestrator.simulation import LatticeFMU
 
     with LatticeFMU(fmu_path) as fmu:
-        return {order: fmu.simulate(order, horizon=1.0, parameters={"rtol": 1e-12, "atol": 1e-14}, outputs=PEAKS)
-                for order in (PUBLISHED_SEQUENTIAL, PUBLISHED_BEST)}
+        return {
+            order: fmu.simulate(order, horizon=1.0, parameters={"rtol": 1e-12, "atol": 1e-14}, outputs=PEAKS)
+            for order in (PUBLISHED_SEQUENTIAL, PUBLISHED_BEST)
+        }
 
 
 @pytest.mark.parametrize("solver", ["tsit5", "dopri5", "rkn5"])
@@ -33,16 +49,19 @@ def references(fmu_path):
 def test_peaks_converge_to_the_tight_dop853_ones(lattice, references, order, solver):
     errors = {}
     for rtol in (1e-4, 1e-6, 1e-8, 1e-10):
-        result = lattice.simulate(order, horizon=1.0, parameters={"solver": solver, **tolerances(rtol)},
-                                  outputs=PEAKS)
+        result = lattice.simulate(order, horizon=1.0, parameters={"solver": solver, **tolerances(rtol)}, outputs=PEAKS)
         errors[rtol] = max(abs(result[name] / references[order][name] - 1.0) for name in PEAKS)
     assert errors[1e-4] < 3e-4 and errors[1e-6] < 3e-6 and errors[1e-8] < 3e-8 and errors[1e-10] < 1e-9, errors
     assert errors[1e-10] < errors[1e-8] < errors[1e-6] < errors[1e-4]
 
 
 def test_published_peak_over_8_s(lattice):
-    result = lattice.simulate(PUBLISHED_BEST, horizon=8.0, parameters={"solver": 3, **tolerances(1e-9)},
-                              outputs=PEAKS + ("energy_balance_error", "external_work"))
+    result = lattice.simulate(
+        PUBLISHED_BEST,
+        horizon=8.0,
+        parameters={"solver": 3, **tolerances(1e-9)},
+        outputs=PEAKS + ("energy_balance_error", "external_work"),
+    )
     assert result["peak_backplate_force"] == pytest.approx(PUBLISHED_PEAKS[PUBLISHED_BEST], rel=1e-6)
     assert abs(result["energy_balance_error"]) <= 1e-7 * result["external_work"]
 
@@ -51,8 +70,9 @@ def test_published_peak_over_8_s(lattice):
 def test_one_do_step_gives_the_outputs_of_many(lattice, solver):
     parameters = {"solver": solver, **tolerances(1e-5)}
     whole = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=parameters, outputs=OUTPUTS)
-    stepped = lattice.simulate(PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=parameters, outputs=OUTPUTS,
-                               communication_step=0.0173)
+    stepped = lattice.simulate(
+        PUBLISHED_SEQUENTIAL, horizon=1.0, parameters=parameters, outputs=OUTPUTS, communication_step=0.0173
+    )
     assert whole == stepped
 
 
@@ -61,8 +81,12 @@ def test_fewer_right_hand_sides_than_dop853_at_the_search_tolerance(lattice, ref
     counts, errors = {"dop853": 0, "tsit5": 0}, {}
     for order in (PUBLISHED_BEST, PUBLISHED_SEQUENTIAL, tuple(reversed(PUBLISHED_SEQUENTIAL))):
         for solver in ("dop853", "tsit5"):
-            result = lattice.simulate(order, horizon=1.0, parameters={"solver": solver, **tolerances(1e-5)},
-                                      outputs=PEAKS + ("rhs_evaluations",))
+            result = lattice.simulate(
+                order,
+                horizon=1.0,
+                parameters={"solver": solver, **tolerances(1e-5)},
+                outputs=PEAKS + ("rhs_evaluations",),
+            )
             counts[solver] += result["rhs_evaluations"]
             if order in references:
                 reference = references[order]["peak_backplate_force"]
@@ -80,8 +104,11 @@ def test_an_unknown_solver_is_refused_by_name(lattice):
 def test_the_nystrom_pair_over_8_s_and_on_the_whole_lattice(lattice, use_symmetry):
     """Fine's pair on the published scene, on the reduced state and on the whole one (its position, velocity and
     integral parts are combined apart, so both layouts matter): the published peak and a closing balance."""
-    result = lattice.simulate(PUBLISHED_BEST, horizon=8.0,
-                              parameters={"solver": "rkn5", "use_symmetry": use_symmetry, **tolerances(1e-9)},
-                              outputs=PEAKS + ("energy_balance_error", "external_work"))
+    result = lattice.simulate(
+        PUBLISHED_BEST,
+        horizon=8.0,
+        parameters={"solver": "rkn5", "use_symmetry": use_symmetry, **tolerances(1e-9)},
+        outputs=PEAKS + ("energy_balance_error", "external_work"),
+    )
     assert result["peak_backplate_force"] == pytest.approx(PUBLISHED_PEAKS[PUBLISHED_BEST], rel=1e-6)
     assert abs(result["energy_balance_error"]) <= 1e-7 * result["external_work"]

@@ -18,6 +18,7 @@ tests are skipped. They cover FMI 2 Co-Simulation, FMI 2 Model Exchange at OMSim
 tight tolerance, FMI 3 Co-Simulation with the order set, and the design file through the C entry
 oms_importFile and the Python SSP class.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -46,8 +47,10 @@ from orchestrator.ssp import COMPONENT, SYSTEM, read_design_parameters, write_be
 ORDERS = [PUBLISHED_BEST, PUBLISHED_SEQUENTIAL]
 HORIZON, STEP = 8.0, 0.01
 RELATIVE_TOLERANCE = 1e-9
-AGREES = (f"both published orders' peak_backplate_force within {RELATIVE_TOLERANCE:g} of fmpy's on the same FMU "
-          f"({HORIZON:g} s in {STEP:g} s communication steps)")
+AGREES = (
+    f"both published orders' peak_backplate_force within {RELATIVE_TOLERANCE:g} of fmpy's on the same FMU "
+    f"({HORIZON:g} s in {STEP:g} s communication steps)"
+)
 FMI4J_PROJECT = Path(__file__).resolve().parent / "fmi4j"
 CACHE_DIR = Path(os.environ.get("MSL_CACHE_DIR") or Path.home() / ".cache" / "mass-spring-lattice")
 
@@ -56,17 +59,21 @@ CACHE_DIR = Path(os.environ.get("MSL_CACHE_DIR") or Path.home() / ".cache" / "ma
 def fmpy_peaks(fmu_path):
     """The reference: fmpy driving the same FMU with the same 800 doSteps of 0.01 s."""
     with LatticeFMU(fmu_path) as fmu:
-        return {order: fmu.simulate(order, horizon=HORIZON, communication_step=STEP)["peak_backplate_force"]
-                for order in ORDERS}
+        return {
+            order: fmu.simulate(order, horizon=HORIZON, communication_step=STEP)["peak_backplate_force"]
+            for order in ORDERS
+        }
 
 
 def assert_agrees(peak: float, reference: float, importer: str) -> None:
     relative = abs(peak - reference) / abs(reference)
     assert relative <= RELATIVE_TOLERANCE, (
-        f"{importer} gives {peak!r}, fmpy {reference!r}: relative difference {relative:.3g} > {RELATIVE_TOLERANCE}")
+        f"{importer} gives {peak!r}, fmpy {reference!r}: relative difference {relative:.3g} > {RELATIVE_TOLERANCE}"
+    )
 
 
 # ---------------------------------------------------------------------------------------------------- libcosim
+
 
 def libcosim_peak(fmu_path, order, horizon=HORIZON, step=STEP) -> float:
     from libcosimpy.CosimExecution import CosimExecution
@@ -89,8 +96,14 @@ def libcosim_peak(fmu_path, order, horizon=HORIZON, step=STEP) -> float:
 
 
 def test_libcosim_agrees_with_fmpy(request, fmu_path, fmpy_peaks):
-    with compatibility_row(request, "libcosim (libcosimpy)", importlib.metadata.version("libcosimpy"),
-                           fmi_version="2.0", interface="CS", checked=AGREES) as row:
+    with compatibility_row(
+        request,
+        "libcosim (libcosimpy)",
+        importlib.metadata.version("libcosimpy"),
+        fmi_version="2.0",
+        interface="CS",
+        checked=AGREES,
+    ) as row:
         for order in ORDERS:
             peak = libcosim_peak(fmu_path, order)
             row.reached(order, peak)
@@ -98,6 +111,7 @@ def test_libcosim_agrees_with_fmpy(request, fmu_path, fmpy_peaks):
 
 
 # ------------------------------------------------------------------------------------------------------- FMI4j
+
 
 def fmi4j_build() -> Path:
     """Classes and dependency jars of tests/fmi4j, built with Maven once per content of that folder."""
@@ -110,10 +124,11 @@ def fmi4j_build() -> Path:
     if done.is_file():
         return build
     if shutil.which("mvn") is None:
-        pytest.skip("FMI4j: Maven (mvn) is not installed, and tests/fmi4j has not been built before "
-                    "(apt-get install maven, with Java 17)")
-    command = ["mvn", "-B", "-q", "-f", str(FMI4J_PROJECT / "pom.xml"), "process-classes",
-               f"-Dfmi4j.build.dir={build}"]
+        pytest.skip(
+            "FMI4j: Maven (mvn) is not installed, and tests/fmi4j has not been built before "
+            "(apt-get install maven, with Java 17)"
+        )
+    command = ["mvn", "-B", "-q", "-f", str(FMI4J_PROJECT / "pom.xml"), "process-classes", f"-Dfmi4j.build.dir={build}"]
     result = subprocess.run(command, capture_output=True, text=True, timeout=900)
     assert result.returncode == 0, f"{' '.join(command)} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
     done.write_text(" ".join(command) + "\n")
@@ -146,8 +161,7 @@ def fmi4j_version() -> str:
 
 @pytest.mark.importers
 def test_fmi4j_agrees_with_fmpy(request, fmu_path, fmpy_peaks):
-    with compatibility_row(request, "FMI4j", fmi4j_version(), fmi_version="2.0", interface="CS",
-                           checked=AGREES) as row:
+    with compatibility_row(request, "FMI4j", fmi4j_version(), fmi_version="2.0", interface="CS", checked=AGREES) as row:
         peaks = fmi4j_peaks(fmu_path, ORDERS)  # one JVM for both orders
         for order in ORDERS:
             row.reached(order, peaks[order])
@@ -190,10 +204,13 @@ def libclang_library() -> Path | None:
 
 
 def test_libclang_is_told_from_its_neighbours():
-    assert all(is_libclang(n) for n in ("libclang.so", "libclang.so.1", "libclang-14.so", "libclang-14.0.6.so",
-                                        "libclang-14.so.1"))
-    assert not any(is_libclang(n) for n in ("libclang-cpp.so.14", "libclang-cpp.so", "libclangAST.a",
-                                            "libclangBasic.so"))
+    assert all(
+        is_libclang(n)
+        for n in ("libclang.so", "libclang.so.1", "libclang-14.so", "libclang-14.0.6.so", "libclang-14.so.1")
+    )
+    assert not any(
+        is_libclang(n) for n in ("libclang-cpp.so.14", "libclang-cpp.so", "libclangAST.a", "libclangBasic.so")
+    )
 
 
 def test_without_libclang_fmi_sim_is_skipped_with_the_reason_not_built(tmp_path, monkeypatch):
@@ -220,13 +237,25 @@ def fmi_sim_binary() -> str:
         if candidate and Path(candidate).is_file() and os.access(candidate, os.X_OK):
             return candidate
     if shutil.which("cargo") is None:
-        pytest.skip("fmi-sim: not installed and no cargo to build it (install Rust, then "
-                    f"`cargo install fmi-sim --version {FMI_SIM_VERSION} --locked`, or set FMI_SIM)")
+        pytest.skip(
+            "fmi-sim: not installed and no cargo to build it (install Rust, then "
+            f"`cargo install fmi-sim --version {FMI_SIM_VERSION} --locked`, or set FMI_SIM)"
+        )
     if libclang_library() is None:
-        pytest.skip("fmi-sim: building it needs libclang, and there is none here (libclang-cpp is another library; "
-                    "Debian: apt-get install -y libclang-dev, or set LIBCLANG_PATH)")
-    command = ["cargo", "install", "fmi-sim", "--version", FMI_SIM_VERSION, "--locked",
-               "--root", str(cached.parents[1])]
+        pytest.skip(
+            "fmi-sim: building it needs libclang, and there is none here (libclang-cpp is another library; "
+            "Debian: apt-get install -y libclang-dev, or set LIBCLANG_PATH)"
+        )
+    command = [
+        "cargo",
+        "install",
+        "fmi-sim",
+        "--version",
+        FMI_SIM_VERSION,
+        "--locked",
+        "--root",
+        str(cached.parents[1]),
+    ]
     result = subprocess.run(command, capture_output=True, text=True, timeout=3600)  # minutes on 2 cores, once
     assert result.returncode == 0, f"{' '.join(command)} failed:\n{result.stderr[-5000:]}"
     return str(cached)
@@ -242,12 +271,27 @@ def fmi_sim_version(binary: str) -> str:
 
 def fmi_sim_peak(fmu, csv: Path, init_values=()) -> float:
     """Runs fmi-sim co-simulation for 8 s in 0.01 s steps; the last row's peak_backplate_force."""
-    command = [fmi_sim_binary(), "--model", str(fmu), "-o", str(csv), "co-simulation", "-f", repr(HORIZON),
-               "--step", repr(STEP)]
+    command = [
+        fmi_sim_binary(),
+        "--model",
+        str(fmu),
+        "-o",
+        str(csv),
+        "co-simulation",
+        "-f",
+        repr(HORIZON),
+        "--step",
+        repr(STEP),
+    ]
     for name, value in init_values:
         command += ["--init-values", f"{name}={value}"]
-    result = subprocess.run(command, capture_output=True, text=True, timeout=600,
-                            env={**os.environ, "RUST_BACKTRACE": "0", "RUST_LOG": "warn"})
+    result = subprocess.run(
+        command,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "RUST_BACKTRACE": "0", "RUST_LOG": "warn"},
+    )
     assert result.returncode == 0, f"fmi-sim failed:\n{result.stderr[-5000:]}"
     lines = csv.read_text().splitlines()
     header, last = lines[0].split(","), lines[-1].split(",")
@@ -257,8 +301,9 @@ def fmi_sim_peak(fmu, csv: Path, init_values=()) -> float:
 
 @pytest.mark.importers
 def test_fmi_sim_agrees_with_fmpy(request, fmu_path, fmpy_peaks, tmp_path):
-    with compatibility_row(request, "fmi-sim", fmi_sim_version(fmi_sim_binary()), fmi_version="2.0", interface="CS",
-                           checked=AGREES) as row:
+    with compatibility_row(
+        request, "fmi-sim", fmi_sim_version(fmi_sim_binary()), fmi_version="2.0", interface="CS", checked=AGREES
+    ) as row:
         for order in ORDERS:
             init_values = [(f"material[{column}]", material) for column, material in enumerate(order, 1)]
             peak = fmi_sim_peak(fmu_path, tmp_path / "out.csv", init_values)
@@ -272,9 +317,15 @@ def test_fmi_sim_runs_the_fmi3_fmu_to_the_same_peak(request, tmp_path, fmpy_peak
     value of `material` in the FMU itself (a scene parameter of build_fmu.py)."""
     import build_fmu
 
-    with compatibility_row(request, "fmi-sim", fmi_sim_version(fmi_sim_binary()), fmi_version="3.0", interface="CS",
-                           checked=AGREES, note="the order set as the FMU's start values (fmi-sim sets no array "
-                                                "element)") as row:
+    with compatibility_row(
+        request,
+        "fmi-sim",
+        fmi_sim_version(fmi_sim_binary()),
+        fmi_version="3.0",
+        interface="CS",
+        checked=AGREES,
+        note="the order set as the FMU's start values (fmi-sim sets no array element)",
+    ) as row:
         for order in ORDERS:
             scene = build_fmu.Scene.load(build_fmu.DEFAULT_SCENE)
             scene.parameters = {**scene.parameters, "material": list(order)}
@@ -284,8 +335,10 @@ def test_fmi_sim_runs_the_fmi3_fmu_to_the_same_peak(request, tmp_path, fmpy_peak
             assert_agrees(peak, fmpy_peaks[order], f"fmi-sim (FMI 3.0), order {order}")
 
 
-EULER_CHECKED = ("the published best order's peak within 1e-3 of the published peak and the energy balance closed "
-                 "to 1e-3 of the work put in (1 s of forward Euler at 1e-5 s)")
+EULER_CHECKED = (
+    "the published best order's peak within 1e-3 of the published peak and the energy balance closed "
+    "to 1e-3 of the work put in (1 s of forward Euler at 1e-5 s)"
+)
 
 
 @pytest.mark.importers
@@ -299,22 +352,34 @@ def test_fmi_sim_runs_model_exchange_with_its_euler_solver(request, tmp_path):
     scene = build_fmu.Scene.load(build_fmu.DEFAULT_SCENE)
     scene.communication_step, scene.horizon = 1e-5, 1.0
     binary = fmi_sim_binary()
-    with compatibility_row(request, "fmi-sim", fmi_sim_version(binary), fmi_version="2.0", interface="ME",
-                           checked=EULER_CHECKED, note="its Model Exchange is forward Euler at the model's "
-                                                       "default step: the FMU built with a 1e-5 s step") as row:
+    with compatibility_row(
+        request,
+        "fmi-sim",
+        fmi_sim_version(binary),
+        fmi_version="2.0",
+        interface="ME",
+        checked=EULER_CHECKED,
+        note="its Model Exchange is forward Euler at the model's default step: the FMU built with a 1e-5 s step",
+    ) as row:
         fmu = build_fmu.build_fmu(scene, tmp_path / "MassSpringLattice.fmu", werror=True)
         csv = tmp_path / "me.csv"
         command = [binary, "--model", str(fmu), "-o", str(csv), "model-exchange", "-f", "1"]
         for column, material in enumerate(PUBLISHED_BEST, 1):
             command += ["--init-values", f"material[{column}]={material}"]
-        result = subprocess.run(command, capture_output=True, text=True, timeout=600,
-                                env={**os.environ, "RUST_BACKTRACE": "0", "RUST_LOG": "warn"})
+        result = subprocess.run(
+            command,
+            capture_output=True,
+            text=True,
+            timeout=600,
+            env={**os.environ, "RUST_BACKTRACE": "0", "RUST_LOG": "warn"},
+        )
         assert result.returncode == 0, f"fmi-sim failed:\n{result.stderr[-5000:]}"
         lines = csv.read_text().splitlines()
         header, last = lines[0].split(","), lines[-1].split(",")
-        final = {name: float(last[header.index(name)]) for name in ("time", "peak_backplate_force",
-                                                                    "steps_accepted", "external_work",
-                                                                    "energy_balance_error")}
+        final = {
+            name: float(last[header.index(name)])
+            for name in ("time", "peak_backplate_force", "steps_accepted", "external_work", "energy_balance_error")
+        }
         assert final["time"] == 1.0 and final["steps_accepted"] > 1e5 - 10  # 1e5 Euler steps and the events
         assert row.reached(PUBLISHED_BEST, final["peak_backplate_force"]) <= 1e-3
         assert abs(final["energy_balance_error"]) <= 1e-3 * final["external_work"]
@@ -339,27 +404,37 @@ def omsimulator_run(tmp_path: Path, **request) -> OMSimulatorRun:
     """Runs tests/omsimulator/oms_run.py with $OMSIMULATOR_PYTHON; its temporary files stay in tmp_path."""
     python = os.environ.get("OMSIMULATOR_PYTHON")
     if not python:
-        pytest.skip("OMSimulator: set OMSIMULATOR_PYTHON to the Python of an environment with OMSimulator 3 "
-                    "(README: OMSimulator)")
+        pytest.skip(
+            "OMSimulator: set OMSIMULATOR_PYTHON to the Python of an environment with OMSimulator 3 "
+            "(README: OMSimulator)"
+        )
     assert Path(python).is_file(), f"OMSIMULATOR_PYTHON={python} is not a file"
     work = tmp_path / "omsimulator"
     work.mkdir(exist_ok=True)
     request = {"temp_dir": str(work), **{k: str(v) if isinstance(v, Path) else v for k, v in request.items()}}
     (work / "request.json").write_text(json.dumps(request))
-    result = subprocess.run([python, str(OMSIMULATOR_DRIVER), str(work / "request.json")], capture_output=True,
-                            text=True, timeout=900, cwd=work, env={**os.environ, "TMPDIR": str(work)})
+    result = subprocess.run(
+        [python, str(OMSIMULATOR_DRIVER), str(work / "request.json")],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        cwd=work,
+        env={**os.environ, "TMPDIR": str(work)},
+    )
     lines = result.stdout.splitlines()
-    replies = [line[len("RESULT "):] for line in lines if line.startswith("RESULT ")]
+    replies = [line[len("RESULT ") :] for line in lines if line.startswith("RESULT ")]
     assert result.returncode == 0 and len(replies) == 1, (
-        f"OMSimulator exited with {result.returncode}:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}")
+        f"OMSimulator exited with {result.returncode}:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
+    )
     reply = json.loads(replies[0])
     return OMSimulatorRun(reply["values"], reply["failures"], [line for line in lines if line.startswith("error:")])
 
 
 @functools.lru_cache(maxsize=None)
 def omsimulator_version(python: str) -> str:
-    done = subprocess.run([python, "-c", "import OMSimulator; print(OMSimulator.version)"], capture_output=True,
-                          text=True, timeout=300)
+    done = subprocess.run(
+        [python, "-c", "import OMSimulator; print(OMSimulator.version)"], capture_output=True, text=True, timeout=300
+    )
     assert done.returncode == 0 and done.stdout.strip(), f"OMSimulator.version: {done.stderr[-2000:]}"
     return done.stdout.strip().splitlines()[-1]
 
@@ -367,10 +442,19 @@ def omsimulator_version(python: str) -> str:
 def omsimulator_row(request, fmi_version: str, interface: str, checked: str, note: str | None = None):
     python = os.environ.get("OMSIMULATOR_PYTHON")
     if not python:
-        pytest.skip("OMSimulator: set OMSIMULATOR_PYTHON to the Python of an environment with OMSimulator 3 "
-                    "(README: OMSimulator)")
-    return compatibility_row(request, "OMSimulator", omsimulator_version(python), fmi_version=fmi_version,
-                             interface=interface, checked=checked, note=note)
+        pytest.skip(
+            "OMSimulator: set OMSIMULATOR_PYTHON to the Python of an environment with OMSimulator 3 "
+            "(README: OMSimulator)"
+        )
+    return compatibility_row(
+        request,
+        "OMSimulator",
+        omsimulator_version(python),
+        fmi_version=fmi_version,
+        interface=interface,
+        checked=checked,
+        note=note,
+    )
 
 
 def order_parameters(order) -> dict:
@@ -385,8 +469,15 @@ def assert_clean(run: OMSimulatorRun, importer: str) -> None:
 def test_omsimulator_co_simulation_agrees_with_fmpy(request, fmu_path, fmpy_peaks, tmp_path):
     with omsimulator_row(request, "2.0", "CS", AGREES) as row:
         for order in ORDERS:
-            run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu_path, system="wc", stop_time=HORIZON,
-                                  integers=order_parameters(order), outputs=["peak_backplate_force"])
+            run = omsimulator_run(
+                tmp_path,
+                entry="fmu",
+                fmu=fmu_path,
+                system="wc",
+                stop_time=HORIZON,
+                integers=order_parameters(order),
+                outputs=["peak_backplate_force"],
+            )
             assert_clean(run, "OMSimulator (FMI 2.0 CS)")
             row.reached(order, run.values["peak_backplate_force"])
             assert_agrees(run.values["peak_backplate_force"], fmpy_peaks[order], "OMSimulator (FMI 2.0 CS)")
@@ -399,28 +490,52 @@ def test_omsimulator_model_exchange_reaches_the_published_peak(request, fmu_path
     1e-3 s, and re-initialises CVODE after every event; a lost wall switch must not cost more than that. The
     compatibility row is the tight tolerance's (one row per importer, version, platform, FMI and interface)."""
     checked = f"both published orders' peak_backplate_force within {relative:g} of the published peaks"
-    rows = (omsimulator_row(request, "2.0", "ME", f"{checked} (CVODE at rtol {tolerance:g})",
-                            note="at its default rtol 1e-4: within 1e-3") if tolerance
-            else contextlib.nullcontext(RowRecorder()))
+    rows = (
+        omsimulator_row(
+            request,
+            "2.0",
+            "ME",
+            f"{checked} (CVODE at rtol {tolerance:g})",
+            note="at its default rtol 1e-4: within 1e-3",
+        )
+        if tolerance
+        else contextlib.nullcontext(RowRecorder())
+    )
     with rows as row:
         for order in ORDERS:
-            run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu_path, system="sc", stop_time=HORIZON,
-                                  tolerance=tolerance, integers=order_parameters(order),
-                                  outputs=["peak_backplate_force", "energy_balance_error"])
+            run = omsimulator_run(
+                tmp_path,
+                entry="fmu",
+                fmu=fmu_path,
+                system="sc",
+                stop_time=HORIZON,
+                tolerance=tolerance,
+                integers=order_parameters(order),
+                outputs=["peak_backplate_force", "energy_balance_error"],
+            )
             assert_clean(run, "OMSimulator (FMI 2.0 ME)")
             peak = run.values["peak_backplate_force"]
             assert row.reached(order, peak) <= relative, (
                 f"OMSimulator ME ({'defaults' if tolerance is None else f'rtol {tolerance}'}) gives {peak!r}, "
-                f"published {PUBLISHED_PEAKS[order]!r}; energy_balance_error {run.values['energy_balance_error']!r} J")
+                f"published {PUBLISHED_PEAKS[order]!r}; energy_balance_error {run.values['energy_balance_error']!r} J"
+            )
 
 
 @pytest.mark.importers
 def test_omsimulator_runs_the_fmi3_fmu_with_the_order_set(request, fmu3_path, tmp_path):
-    with omsimulator_row(request, "3.0", "CS", "both published orders' peak_backplate_force within 1e-06 of the "
-                                               "published peaks") as row:
+    with omsimulator_row(
+        request, "3.0", "CS", "both published orders' peak_backplate_force within 1e-06 of the published peaks"
+    ) as row:
         for order in ORDERS:
-            run = omsimulator_run(tmp_path, entry="fmu", fmu=fmu3_path, system="wc", stop_time=HORIZON,
-                                  integers=order_parameters(order), outputs=["peak_backplate_force"])
+            run = omsimulator_run(
+                tmp_path,
+                entry="fmu",
+                fmu=fmu3_path,
+                system="wc",
+                stop_time=HORIZON,
+                integers=order_parameters(order),
+                outputs=["peak_backplate_force"],
+            )
             assert_clean(run, "OMSimulator (FMI 3.0 CS)")
             peak = run.values["peak_backplate_force"]
             assert row.reached(order, peak) <= 1e-6, (peak, PUBLISHED_PEAKS[order])
@@ -430,8 +545,9 @@ def test_omsimulator_runs_the_fmi3_fmu_with_the_order_set(request, fmu3_path, tm
 @pytest.mark.parametrize("entry", ["import_file", "ssp_class"])
 def test_omsimulator_runs_the_design_file_to_fmpys_peak(fmu_path, lattice, tmp_path, entry):
     design = write_best_design_ssp(fmu_path, DESIGN, tmp_path / "best_design.ssp", stop_time=DESIGN_HORIZON)
-    run = omsimulator_run(tmp_path, entry=entry, ssp=design, system=SYSTEM, component=COMPONENT,
-                          outputs=["peak_backplate_force"])
+    run = omsimulator_run(
+        tmp_path, entry=entry, ssp=design, system=SYSTEM, component=COMPONENT, outputs=["peak_backplate_force"]
+    )
     assert_clean(run, f"OMSimulator ({entry})")
     parameters = {k: v for k, v in DESIGN.items() if k != "material"}
     expected = lattice.simulate(PUBLISHED_BEST, horizon=DESIGN_HORIZON, parameters=parameters)
@@ -474,10 +590,15 @@ def test_the_mean_rule_design_runs_to_its_peak_in_libcosim_and_fmpy(fmu_path, la
 @pytest.mark.importers
 @pytest.mark.parametrize("entry", ["import_file", "ssp_class"])
 def test_omsimulator_runs_the_mean_rule_design_to_its_peak(fmu_path, lattice, tmp_path, entry):
-    design = write_best_design_ssp(fmu_path, {"material": list(MEAN_ORDER), "diagonal_rule": "mean"},
-                                   tmp_path / "mean.ssp", stop_time=DESIGN_HORIZON)
-    run = omsimulator_run(tmp_path, entry=entry, ssp=design, system=SYSTEM, component=COMPONENT,
-                          outputs=["peak_backplate_force"])
+    design = write_best_design_ssp(
+        fmu_path,
+        {"material": list(MEAN_ORDER), "diagonal_rule": "mean"},
+        tmp_path / "mean.ssp",
+        stop_time=DESIGN_HORIZON,
+    )
+    run = omsimulator_run(
+        tmp_path, entry=entry, ssp=design, system=SYSTEM, component=COMPONENT, outputs=["peak_backplate_force"]
+    )
     assert_clean(run, f"OMSimulator ({entry}, mean design)")
     reported = lattice.simulate(MEAN_ORDER, horizon=DESIGN_HORIZON, parameters={"diagonal_rule": "mean"})
     assert_agrees(run.values["peak_backplate_force"], reported["peak_backplate_force"], f"OMSimulator ({entry})")

@@ -8,6 +8,7 @@ The fresh environment sees this environment's site-packages for the dependencies
 the editable install of this checkout that lives there is not activated); pip fetches only the build backend
 (setuptools), as for any `pip install .`.
 """
+
 import os
 import shutil
 import subprocess
@@ -21,8 +22,9 @@ import pytest
 
 from conftest import ROOT
 
-SOURCE_IGNORE = shutil.ignore_patterns(".git", "models", "results", "build", "*.egg-info", "__pycache__", "bench",
-                                       ".pytest_cache", "*.fmu")
+SOURCE_IGNORE = shutil.ignore_patterns(
+    ".git", "models", "results", "build", "*.egg-info", "__pycache__", "bench", ".pytest_cache", "*.fmu"
+)
 
 
 @pytest.fixture(scope="module")
@@ -35,20 +37,29 @@ def installed(tmp_path_factory, fmu_path):
     shutil.copy(fmu_path, source / "models" / "MassSpringLattice.fmu")
     venv.EnvBuilder(with_pip=False).create(environment)
     python = environment / "bin" / "python"
-    site_packages = subprocess.run([python, "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
-                                   capture_output=True, text=True, check=True).stdout.strip()
+    site_packages = subprocess.run(
+        [python, "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
     (Path(site_packages) / "dependencies.pth").write_text(sysconfig.get_path("purelib") + "\n")
-    result = subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--quiet", "--no-deps",
-                             str(source)],
-                            capture_output=True, text=True, cwd=folder)
+    result = subprocess.run(
+        [sys.executable, "-m", "pip", "--python", str(python), "install", "--quiet", "--no-deps", str(source)],
+        capture_output=True,
+        text=True,
+        cwd=folder,
+    )
     assert result.returncode == 0, result.stderr
     shutil.rmtree(source)
     return environment / "bin"
 
 
 def run(command, cwd, timeout=300, environment=None):
-    environment = {**{k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")},
-                   **(environment or {})}
+    environment = {
+        **{k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")},
+        **(environment or {}),
+    }
     return subprocess.run(command, capture_output=True, text=True, cwd=cwd, env=environment, timeout=timeout)
 
 
@@ -61,8 +72,9 @@ def test_console_scripts_answer_help_from_anywhere(installed, tmp_path):
 
 def test_the_installed_modules_are_the_installed_copies(installed, tmp_path):
     modules = "build_fmu, orchestrator, scenes, fmu_src, builder, reference"
-    result = run([installed / "python", "-c", f"import {modules}; print('\\n'.join(m.__file__ for m in ({modules})))"],
-                 tmp_path)
+    result = run(
+        [installed / "python", "-c", f"import {modules}; print('\\n'.join(m.__file__ for m in ({modules})))"], tmp_path
+    )
     assert result.returncode == 0, result.stderr
     for path in result.stdout.split():
         assert Path(path).is_relative_to(installed.parent), path
@@ -77,8 +89,24 @@ def test_installed_lattice_build_writes_the_fmu_to_models_under_the_current_fold
     assert result.stdout.strip() == str(Path("models") / "TwoMassesLinear.fmu") and fmu.is_file()
     with zipfile.ZipFile(fmu) as archive:
         assert "sources/model.c" in archive.namelist()
-    result = run([installed / "lattice-search", "--method", "sequential", "--budget", "1", "--repeats", "1",
-                  "--executor", "serial", "--no-progress", "--no-local-check", "--out", "report"], tmp_path)
+    result = run(
+        [
+            installed / "lattice-search",
+            "--method",
+            "sequential",
+            "--budget",
+            "1",
+            "--repeats",
+            "1",
+            "--executor",
+            "serial",
+            "--no-progress",
+            "--no-local-check",
+            "--out",
+            "report",
+        ],
+        tmp_path,
+    )
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "models" / "MassSpringLattice.fmu").is_file()  # the default scene's FMU, built on demand
     assert (tmp_path / "report" / "results.json").is_file()
@@ -90,14 +118,28 @@ def test_a_bad_scene_is_one_line(installed, tmp_path):
     assert result.stderr.count("\n") == 1 and "scene" in result.stderr and "Traceback" not in result.stderr
 
 
-def test_without_a_compiler_the_installed_package_runs_the_default_scene_and_refuses_another(installed, tmp_path,
-                                                                                            fmu_path):
+def test_without_a_compiler_the_installed_package_runs_the_default_scene_and_refuses_another(
+    installed, tmp_path, fmu_path
+):
     """CC names no compiler: the default scene runs from the FMU the installation carries; another lattice
     is refused in one line naming the compiler to install."""
     no_compiler = {"CC": str(tmp_path / "no-such-cc")}
-    search = [installed / "lattice-search", "--method", "sequential", "--budget", "1", "--repeats", "1",
-              "--executor", "serial", "--no-progress", "--no-local-check", "--no-sensitivity",
-              "--diagonal-rule", "receiver"]
+    search = [
+        installed / "lattice-search",
+        "--method",
+        "sequential",
+        "--budget",
+        "1",
+        "--repeats",
+        "1",
+        "--executor",
+        "serial",
+        "--no-progress",
+        "--no-local-check",
+        "--no-sensitivity",
+        "--diagonal-rule",
+        "receiver",
+    ]
     result = run([*search, "--out", "report"], tmp_path, environment=no_compiler)
     assert result.returncode == 0, result.stderr
     assert "no C compiler" in result.stderr and "using the prebuilt MassSpringLattice.fmu" in result.stderr

@@ -1,4 +1,5 @@
 """The FMU's interface as an FMI tool sees it: enumeration types, self-contained descriptions."""
+
 from __future__ import annotations
 
 import re
@@ -18,14 +19,19 @@ ENUMERATIONS = {v.name: v for v in all_variables(11, 11) if v.enumeration}
 
 def test_the_enumerations_name_the_tables_items_in_both_versions(fmu_path, fmu3_path):
     assert set(ENUMERATIONS) == {"diagonal_rule", "solver", "load_mode"}
-    expected = {"diagonal_rule": {"receiver": 0, "mean": 1},
-                "solver": {"dop853": 0, "rk4": 1, "semi_implicit_euler": 2, "tsit5": 3, "dopri5": 4, "rkn5": 5},
-                "load_mode": {"pulse": 0, "input": 1, "projectile": 2}}
+    expected = {
+        "diagonal_rule": {"receiver": 0, "mean": 1},
+        "solver": {"dop853": 0, "rk4": 1, "semi_implicit_euler": 2, "tsit5": 3, "dopri5": 4, "rkn5": 5},
+        "load_mode": {"pulse": 0, "input": 1, "projectile": 2},
+    }
     for path in (fmu_path, fmu3_path):
         description = read_model_description(str(path))
         for name, variable in ENUMERATIONS.items():
-            assert enumeration_items(description, name) == expected[name] == {
-                item: code for code, (item, _) in enumerate(variable.items)}
+            assert (
+                enumeration_items(description, name)
+                == expected[name]
+                == {item: code for code, (item, _) in enumerate(variable.items)}
+            )
     fmi2 = {v.name: v for v in read_model_description(str(fmu_path)).modelVariables}
     fmi3 = {v.name: v for v in read_model_description(str(fmu3_path)).modelVariables}
     for name, variable in ENUMERATIONS.items():
@@ -33,7 +39,12 @@ def test_the_enumerations_name_the_tables_items_in_both_versions(fmu_path, fmu3_
         parameter, alias = fmi2[name], fmi2[f"{name}_item"]
         assert (parameter.type, parameter.causality, int(parameter.start)) == ("Integer", "parameter", 0)
         assert (alias.type, alias.causality, alias.variability, alias.initial, alias.start) == (
-            "Enumeration", "local", "fixed", "calculated", None)
+            "Enumeration",
+            "local",
+            "fixed",
+            "calculated",
+            None,
+        )
         assert alias.valueReference == parameter.valueReference and alias.declaredType.name == variable.enumeration
         # FMI 3: the parameter is the Enumeration itself
         assert fmi3[name].type == "Enumeration" and fmi3[name].declaredType.name == variable.enumeration
@@ -59,17 +70,21 @@ def test_libcosim_sets_the_fmi2_diagonal_rule_as_an_integer(fmu_path, lattice):
     execution.add_observer(observer)
     assert execution.simulate_until(target_time=int(round(horizon * 1e9))), execution.status()
     peak = observer.last_real_values(index, [references["peak_backplate_force"]])[0]
-    mean = lattice.simulate(PUBLISHED_BEST, horizon=horizon, communication_step=step,
-                            parameters={"diagonal_rule": "mean"})["peak_backplate_force"]
+    mean = lattice.simulate(
+        PUBLISHED_BEST, horizon=horizon, communication_step=step, parameters={"diagonal_rule": "mean"}
+    )["peak_backplate_force"]
     receiver = lattice.simulate(PUBLISHED_BEST, horizon=horizon, communication_step=step)["peak_backplate_force"]
     assert peak == pytest.approx(mean, rel=1e-9) and abs(mean - receiver) > 0.1 * receiver
 
 
 def test_fmi3_moves_an_enumeration_as_int64_and_refuses_int32(fmu_path, fmu3_path, lattice):
-    result = simulate_fmu(str(fmu3_path), stop_time=1.0, output_interval=0.01,
-                          start_values={**{f"material[{j}]": m for j, m in enumerate(PUBLISHED_BEST, 1)},
-                                        "diagonal_rule": 1},
-                          output=["peak_backplate_force"])
+    result = simulate_fmu(
+        str(fmu3_path),
+        stop_time=1.0,
+        output_interval=0.01,
+        start_values={**{f"material[{j}]": m for j, m in enumerate(PUBLISHED_BEST, 1)}, "diagonal_rule": 1},
+        output=["peak_backplate_force"],
+    )
     mean = lattice.simulate(PUBLISHED_BEST, horizon=1.0, parameters={"diagonal_rule": "mean"})
     assert result["peak_backplate_force"][-1] == mean["peak_backplate_force"]  # the same model, bit for bit
     instance = Instance(fmu3_path, name="enumerations")
@@ -110,8 +125,9 @@ def test_documentation_inside_the_fmu_describes_this_fmu(fmu_path, fmu3_path, wh
         assert f"<td><code>{list(order)}</code></td><td>{peak!r}</td>" in page
 
 
-@pytest.mark.parametrize("version, kind", [(2, "CoSimulation"), (2, "ModelExchange"), (3, "CoSimulation"),
-                                           (3, "ModelExchange")])
+@pytest.mark.parametrize(
+    "version, kind", [(2, "CoSimulation"), (2, "ModelExchange"), (3, "CoSimulation"), (3, "ModelExchange")]
+)
 def test_a_guid_of_another_build_is_refused_naming_both(fmu_path, fmu3_path, version, kind):
     """fmi2Instantiate and fmi3Instantiate* compare the importer's GUID / instantiation token with the one the
     binary was built with (a hash of its sources and variables) and refuse another, both named in one line."""
@@ -126,19 +142,28 @@ def test_a_guid_of_another_build_is_refused_naming_both(fmu_path, fmu3_path, ver
     foreign = "{00000000-0000-0000-0000-000000000000}"
     unzip_dir = extract(str(path))
     messages: list[str] = []
-    classes = {(2, "CoSimulation"): FMU2Slave, (2, "ModelExchange"): FMU2Model, (3, "CoSimulation"): FMU3Slave,
-               (3, "ModelExchange"): FMU3Model}
+    classes = {
+        (2, "CoSimulation"): FMU2Slave,
+        (2, "ModelExchange"): FMU2Model,
+        (3, "CoSimulation"): FMU3Slave,
+        (3, "ModelExchange"): FMU3Model,
+    }
     interface = description.coSimulation if kind == "CoSimulation" else description.modelExchange
-    fmu = classes[version, kind](guid=foreign, unzipDirectory=unzip_dir, modelIdentifier=interface.modelIdentifier,
-                                 instanceName=f"foreign-{version}-{kind}")
+    fmu = classes[version, kind](
+        guid=foreign,
+        unzipDirectory=unzip_dir,
+        modelIdentifier=interface.modelIdentifier,
+        instanceName=f"foreign-{version}-{kind}",
+    )
     try:
         with pytest.raises(Exception, match="Failed to instantiate"):  # fmpy's words for a NULL instance
             if version == 2:
                 _MESSAGES[f"foreign-{version}-{kind}"] = messages
                 fmu.instantiate(callbacks=_CALLBACKS)
             else:
-                callback = fmi3LogMessageCallback(lambda env, status, category, message:
-                                                  messages.append(message.decode()))
+                callback = fmi3LogMessageCallback(
+                    lambda env, status, category, message: messages.append(message.decode())
+                )
                 fmu.instantiate(logMessage=callback)
     finally:
         _MESSAGES.pop(f"foreign-{version}-{kind}", None)

@@ -1,4 +1,5 @@
 """The journal and the run folder: nothing a command, a kill or an edit does loses work or is trusted blindly."""
+
 from __future__ import annotations
 
 import json
@@ -18,14 +19,27 @@ KINDS = {"evaluation": Evaluation}
 SETTINGS = {"case": {"F_total": 1200.0, "rules": ["receiver", "mean"]}, "fmu_sha256": "abc"}
 
 
-OUTPUT_NAMES = ("peak_backplate_force", "peak_backplate_force_continuous", "peak_time", "last_contact_time",
-                "kinetic_energy", "potential_energy", "external_work", "dissipated_energy", "nonreciprocal_work",
-                "energy_balance_error", "rhs_evaluations", "steps_accepted", "steps_rejected")
+OUTPUT_NAMES = (
+    "peak_backplate_force",
+    "peak_backplate_force_continuous",
+    "peak_time",
+    "last_contact_time",
+    "kinetic_energy",
+    "potential_energy",
+    "external_work",
+    "dissipated_energy",
+    "nonreciprocal_work",
+    "energy_balance_error",
+    "rhs_evaluations",
+    "steps_accepted",
+    "steps_rejected",
+)
 
 
 def evaluation(order=(1, 2, 3), value=1405.9057831694442):
-    outputs = RunOutputs(dict(zip(OUTPUT_NAMES, (value, value + 1.5, 0.31, 0.72, 1.0, 2.0, 3.0, 4.0, -5.0, 1e-7, 100,
-                                                 10, 2))), 8.0)
+    outputs = RunOutputs(
+        dict(zip(OUTPUT_NAMES, (value, value + 1.5, 0.31, 0.72, 1.0, 2.0, 3.0, 4.0, -5.0, 1e-7, 100, 10, 2))), 8.0
+    )
     return Evaluation(order, value, "ok", "", 0.001, outputs)
 
 
@@ -37,8 +51,11 @@ def write(folder, entries):
 
 
 def test_a_resumed_journal_gives_back_the_typed_results_bit_for_bit(tmp_path):
-    entries = [("a#1,2,3", evaluation()), ("a#3,2,1", failed((3, 2, 1), "diverged")),
-               ("b#1,2,3", evaluation(value=0.1 + 0.2))]
+    entries = [
+        ("a#1,2,3", evaluation()),
+        ("a#3,2,1", failed((3, 2, 1), "diverged")),
+        ("b#1,2,3", evaluation(value=0.1 + 0.2)),
+    ]
     write(tmp_path, entries)
     with Journal(tmp_path, SETTINGS, KINDS, resume=True) as journal:
         loaded = journal.load()
@@ -53,14 +70,35 @@ class WrittenBefore:
     kind = "evaluation"
 
     def as_record(self):
-        return {"order": [1, 2, 3], "value": 1405.9057831694442, "status": "ok", "message": "", "seconds": 0.001,
-                "outputs": {"peak_backplate_force": 1405.9057831694442,
-                            "peak_backplate_force_continuous": 1407.4057831694442,
-                            "peak_time": 0.31, "last_contact_time": 0.72, "kinetic_energy": 1.0,
-                            "potential_energy": 2.0, "external_work": 3.0, "dissipated_energy": 4.0,
-                            "nonreciprocal_work": -5.0, "energy_balance_error": 1e-07, "rhs_evaluations": 100,
-                            "steps_accepted": 10, "steps_rejected": 2, "horizon": 8.0, "max_compression": None},
-                "values": [], "limit": None, "stopped_at": None, "cases": [], "work": None}
+        return {
+            "order": [1, 2, 3],
+            "value": 1405.9057831694442,
+            "status": "ok",
+            "message": "",
+            "seconds": 0.001,
+            "outputs": {
+                "peak_backplate_force": 1405.9057831694442,
+                "peak_backplate_force_continuous": 1407.4057831694442,
+                "peak_time": 0.31,
+                "last_contact_time": 0.72,
+                "kinetic_energy": 1.0,
+                "potential_energy": 2.0,
+                "external_work": 3.0,
+                "dissipated_energy": 4.0,
+                "nonreciprocal_work": -5.0,
+                "energy_balance_error": 1e-07,
+                "rhs_evaluations": 100,
+                "steps_accepted": 10,
+                "steps_rejected": 2,
+                "horizon": 8.0,
+                "max_compression": None,
+            },
+            "values": [],
+            "limit": None,
+            "stopped_at": None,
+            "cases": [],
+            "work": None,
+        }
 
 
 def test_a_journal_written_with_the_outputs_flat_resumes_with_its_outputs_by_name(tmp_path):

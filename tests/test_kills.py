@@ -1,6 +1,7 @@
 """SIGKILL at random moments, then --resume, again and again: the run ends as one never interrupted, with
 nothing simulated twice, and a finished folder still resumes (slow: `python -m pytest -m slow tests/test_kills.py`).
 """
+
 from __future__ import annotations
 
 import json
@@ -21,27 +22,37 @@ KILLS = 10
 
 @pytest.fixture(scope="module")
 def fmu7(tmp_path_factory):
-    return build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu7") / "MassSpringLattice11x7.fmu", cols=7,
-                     werror=True)
+    return build_fmu("armour_11x11", tmp_path_factory.mktemp("fmu7") / "MassSpringLattice11x7.fmu", cols=7, werror=True)
 
 
 def command(fmu, out, argv):
-    return [sys.executable, str(ROOT / "orchestrator" / "run.py"), "--fmu", str(fmu), "--out", str(out),
-            "--no-progress", *argv]
+    return [
+        sys.executable,
+        str(ROOT / "orchestrator" / "run.py"),
+        "--fmu",
+        str(fmu),
+        "--out",
+        str(out),
+        "--no-progress",
+        *argv,
+    ]
 
 
 def keys(folder: Path) -> list[str]:
-    return [json.loads(line)["key"] for line in (folder / "journal.jsonl").read_text().splitlines()[1:]
-            if '"key"' in line]
+    return [
+        json.loads(line)["key"] for line in (folder / "journal.jsonl").read_text().splitlines()[1:] if '"key"' in line
+    ]
 
 
 def essence(folder: Path):
     results = json.loads((folder / "results.json").read_text())
     searches = results["steps"].get("searches", {}).get("runs", [])
     sweeps = results["steps"].get("exhaustive", {}).get("sweeps", [])
-    return ([(a["diagonal_rule"], a["order"], a["peak"]) for a in results["answers"]],
-            [(r["method"], r["seed"], r["best_order"], r["best_value"], len(r["evaluations"])) for r in searches],
-            [(s["certificate"]["optimum"], s["certificate"]["certified"]) for s in sweeps])
+    return (
+        [(a["diagonal_rule"], a["order"], a["peak"]) for a in results["answers"]],
+        [(r["method"], r["seed"], r["best_order"], r["best_value"], len(r["evaluations"])) for r in searches],
+        [(s["certificate"]["optimum"], s["certificate"]["certified"]) for s in sweeps],
+    )
 
 
 def killed_and_resumed(fmu, out, argv, rng):
@@ -50,8 +61,12 @@ def killed_and_resumed(fmu, out, argv, rng):
     killed while Python still imports has started no run, and --resume there is refused by design."""
     partial = out.with_name(out.name + ".partial")
     for attempt in range(KILLS):
-        process = subprocess.Popen(command(fmu, out, argv + (["--resume"] if attempt else [])),
-                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        process = subprocess.Popen(
+            command(fmu, out, argv + (["--resume"] if attempt else [])),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         started = time.monotonic()
         while not partial.exists() and process.poll() is None and time.monotonic() - started < 120:
             time.sleep(0.01)
@@ -67,12 +82,50 @@ def killed_and_resumed(fmu, out, argv, rng):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name, argv", [
-    ("search", ["--cols", "7", "--method", "sa", "cmaes", "--budget", "300", "--repeats", "2", "--workers", "2",
-                "--sensitivity-budget", "20"]),
-    ("sweep", ["--cols", "7", "--method", "exhaustive", "random", "--budget", "40", "--repeats", "1",
-               "--workers", "2", "--chunk-size", "60", "--diagonal-rule", "receiver", "--no-sensitivity"]),
-])
+@pytest.mark.parametrize(
+    "name, argv",
+    [
+        (
+            "search",
+            [
+                "--cols",
+                "7",
+                "--method",
+                "sa",
+                "cmaes",
+                "--budget",
+                "300",
+                "--repeats",
+                "2",
+                "--workers",
+                "2",
+                "--sensitivity-budget",
+                "20",
+            ],
+        ),
+        (
+            "sweep",
+            [
+                "--cols",
+                "7",
+                "--method",
+                "exhaustive",
+                "random",
+                "--budget",
+                "40",
+                "--repeats",
+                "1",
+                "--workers",
+                "2",
+                "--chunk-size",
+                "60",
+                "--diagonal-rule",
+                "receiver",
+                "--no-sensitivity",
+            ],
+        ),
+    ],
+)
 def test_ten_kills_and_resumes_end_as_an_uninterrupted_run(fmu7, tmp_path, name, argv):
     rng = random.Random(name)
     out = killed_and_resumed(fmu7, tmp_path / "killed", argv, rng)

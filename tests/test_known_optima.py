@@ -3,6 +3,7 @@ optimal, and the table's certified 11 x 11 entry is the one the project's whole 
 
 Fast for 8 columns; slow for 9 columns and for the whole 8-column sweep, which certifies its optimum again.
 """
+
 from __future__ import annotations
 
 import json
@@ -39,7 +40,7 @@ def test_a_known_optimum_is_reproduced_and_locally_optimal(armour_fmu_of_width, 
     space = lattice.space
     with make_executor("process", workers=2) as executor:
         evaluator = Evaluator(executor)
-        full, = lattice.evaluate([order], evaluator, FULL)
+        (full,) = lattice.evaluate([order], evaluator, FULL)
         around = space.neighbour_list(order)
         values = lattice.evaluate([order] + around, evaluator, SEARCH)
     assert full.value == pytest.approx(data["peak_full"], rel=1e-6)  # the accuracy the FMU promises
@@ -78,9 +79,29 @@ def test_the_table_holds_the_test_data_and_the_certified_sweep():
 @pytest.mark.slow
 def test_the_whole_8_column_sweep_certifies_the_known_optimum(armour_fmu_of_width, tmp_path, capfd):
     out = tmp_path / "sweep8"
-    code = cli.main(["--fmu", str(armour_fmu_of_width(8)), "--cols", "8", "--out", str(out), "--method", "exhaustive",
-                     "cmaes", "--budget", "300", "--repeats", "1", "--diagonal-rule", "receiver", "--no-sensitivity",
-                     "--no-progress", "--workers", "2"])
+    code = cli.main(
+        [
+            "--fmu",
+            str(armour_fmu_of_width(8)),
+            "--cols",
+            "8",
+            "--out",
+            str(out),
+            "--method",
+            "exhaustive",
+            "cmaes",
+            "--budget",
+            "300",
+            "--repeats",
+            "1",
+            "--diagonal-rule",
+            "receiver",
+            "--no-sensitivity",
+            "--no-progress",
+            "--workers",
+            "2",
+        ]
+    )
     assert code == 0, capfd.readouterr().err
     certificate = json.loads((out / "exhaustive" / "certificate.json").read_text())
     assert certificate["certified"], certificate["reasons"]

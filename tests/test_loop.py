@@ -1,4 +1,5 @@
 """The evaluation loop: budget, cache, failures, stop reasons, determinism."""
+
 from __future__ import annotations
 
 import math
@@ -139,8 +140,9 @@ def test_same_seed_identical_run():
     objective = Flaky(QAP7, period=5, mode="nan")
     for method in METHODS:
         a, b = run(method, objective, 80, seed=3), run(method, objective, 80, seed=3)
-        assert [(e.order, e.value, e.status, e.message) for e in a.evaluations] \
-            == [(e.order, e.value, e.status, e.message) for e in b.evaluations]
+        assert [(e.order, e.value, e.status, e.message) for e in a.evaluations] == [
+            (e.order, e.value, e.status, e.message) for e in b.evaluations
+        ]
         assert a.best_order == b.best_order
 
 
@@ -155,8 +157,15 @@ def test_best_so_far():
 def test_progress_is_called_with_counts():
     seen = []
     with make_executor("serial") as ex:
-        result = run_search(make_search("random", 6, 0, batch=8), QAP7.__class__.random(6, 0), 20, ex,
-                            method_name="random", seed=0, progress=seen.append)
+        result = run_search(
+            make_search("random", 6, 0, batch=8),
+            QAP7.__class__.random(6, 0),
+            20,
+            ex,
+            method_name="random",
+            seed=0,
+            progress=seen.append,
+        )
     assert seen == list(range(1, result.n_evaluations + 1))
 
 

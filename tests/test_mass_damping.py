@@ -6,6 +6,7 @@ still carries the whole lattice, a run below peak_force_limit is the run without
 12 writes it, and a material table carries the two columns (checked in one line). The defaults' published
 figures are tests/test_recorded_outputs.py's.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -17,8 +18,15 @@ from fmpy import read_model_description, simulate_fmu
 
 from builder import build
 from fmu_src.core import Core, params_from_scene
-from fmu_src.materials import (FIELDS, Material, MaterialTable, MaterialTableError, load_materials, study_materials,
-                               write_materials_csv)
+from fmu_src.materials import (
+    FIELDS,
+    Material,
+    MaterialTable,
+    MaterialTableError,
+    load_materials,
+    study_materials,
+    write_materials_csv,
+)
 from fmu_src.variables import make_interface
 from orchestrator.simulation import COUNTER_OUTPUTS, SimulationError
 from reference import Scene as ReferenceScene
@@ -27,8 +35,12 @@ from scenes import Scene
 MASSES = (0.5, 2.0, 1.0, 3.0)
 EXPONENTS = (1.5, 1.0, 1.5, 2.0)  # a linear column among non-linear ones
 # the study's first four materials, each with a mass and a damping exponent of its own
-TABLE = MaterialTable(tuple(dataclasses.replace(material, mass=mass, damping_exponent=exponent)
-                            for material, mass, exponent in zip(study_materials(4).materials, MASSES, EXPONENTS)))
+TABLE = MaterialTable(
+    tuple(
+        dataclasses.replace(material, mass=mass, damping_exponent=exponent)
+        for material, mass, exponent in zip(study_materials(4).materials, MASSES, EXPONENTS)
+    )
+)
 ORDER = (2, 4, 1, 3)
 ROWS, COLS = 5, 4
 PLATE_ROWS, PLATE_COLS, PLATE_DEPTH = 3, 3, 3
@@ -38,8 +50,14 @@ HORIZON = 1.0  # through the load, the contact with the plate and the rebound
 # the balance closes to the solver's accuracy: rtol 1e-8 keeps these small lattices' error well below 1e-6 of W_ext
 # (the default 5e-8 is chosen for the armour scene, which the test below runs at it)
 ACCURATE = {"rtol": 1e-8}
-BALANCE = ("energy_balance_error", "external_work", "dissipated_energy", "kinetic_energy", "stack_mass",
-           "peak_backplate_force")
+BALANCE = (
+    "energy_balance_error",
+    "external_work",
+    "dissipated_energy",
+    "kinetic_energy",
+    "stack_mass",
+    "peak_backplate_force",
+)
 
 
 def order_start(order) -> dict:
@@ -52,20 +70,33 @@ def stack_mass(table: MaterialTable, order, masses_per_column: int) -> float:
 
 @pytest.fixture(scope="module")
 def lattice_fmu(tmp_path_factory):
-    return build.build_fmu(rows=ROWS, cols=COLS, materials=TABLE, werror=True,
-                           output=tmp_path_factory.mktemp("unequal") / "Unequal.fmu")
+    return build.build_fmu(
+        rows=ROWS, cols=COLS, materials=TABLE, werror=True, output=tmp_path_factory.mktemp("unequal") / "Unequal.fmu"
+    )
 
 
 @pytest.fixture(scope="module")
 def lattice_fmu3(tmp_path_factory):
-    return build.build_fmu(rows=ROWS, cols=COLS, materials=TABLE, werror=True, fmi_version=3,
-                           output=tmp_path_factory.mktemp("unequal3") / "Unequal-fmi3.fmu")
+    return build.build_fmu(
+        rows=ROWS,
+        cols=COLS,
+        materials=TABLE,
+        werror=True,
+        fmi_version=3,
+        output=tmp_path_factory.mktemp("unequal3") / "Unequal-fmi3.fmu",
+    )
 
 
 @pytest.fixture(scope="module")
 def plate_fmu(tmp_path_factory):
-    return build.build_fmu(rows=PLATE_ROWS, cols=PLATE_COLS, depth=PLATE_DEPTH, materials=PLATE_TABLE, werror=True,
-                           output=tmp_path_factory.mktemp("unequal_plate") / "UnequalPlate.fmu")
+    return build.build_fmu(
+        rows=PLATE_ROWS,
+        cols=PLATE_COLS,
+        depth=PLATE_DEPTH,
+        materials=PLATE_TABLE,
+        werror=True,
+        output=tmp_path_factory.mktemp("unequal_plate") / "UnequalPlate.fmu",
+    )
 
 
 @pytest.fixture()
@@ -82,6 +113,7 @@ def core(core_library):
 
 
 # ---------------------------------------------------------------- the variables
+
 
 def test_fmi2_declares_each_materials_mass_and_exponent_and_no_scalar_mass(lattice_fmu):
     variables = {v.name: v for v in read_model_description(str(lattice_fmu)).modelVariables}
@@ -118,16 +150,22 @@ def test_a_scalar_mass_of_an_older_scene_is_every_materials_mass():
 
 # ---------------------------------------------------------------- the energy balance, co-simulation and exchange
 
+
 def test_co_simulation_closes_the_energy_balance_with_unequal_masses_and_n_1_5(unequal):
     result = unequal.simulate(ORDER, horizon=HORIZON, parameters=ACCURATE, outputs=BALANCE)
     assert result["external_work"] > 1.0
     assert abs(result["energy_balance_error"]) <= 1e-6 * result["external_work"]
     assert result["stack_mass"] == pytest.approx(stack_mass(TABLE, ORDER, ROWS), rel=1e-15)
     # the dampers and the masses are in the physics: linear dampers and 1 kg masses give another run
-    linear = unequal.simulate(ORDER, horizon=HORIZON, outputs=BALANCE,
-                              parameters={**ACCURATE, **{f"damping_exponent[{m}]": 1.0 for m in range(1, 5)}})
-    light = unequal.simulate(ORDER, horizon=HORIZON, outputs=BALANCE,
-                             parameters={**ACCURATE, **{f"mass[{m}]": 1.0 for m in range(1, 5)}})
+    linear = unequal.simulate(
+        ORDER,
+        horizon=HORIZON,
+        outputs=BALANCE,
+        parameters={**ACCURATE, **{f"damping_exponent[{m}]": 1.0 for m in range(1, 5)}},
+    )
+    light = unequal.simulate(
+        ORDER, horizon=HORIZON, outputs=BALANCE, parameters={**ACCURATE, **{f"mass[{m}]": 1.0 for m in range(1, 5)}}
+    )
     # (a load along x moves a column's rows nearly alike: its own dampers take a small part of the dissipation)
     assert abs(linear["dissipated_energy"] / result["dissipated_energy"] - 1.0) > 1e-4
     assert abs(light["peak_backplate_force"] / result["peak_backplate_force"] - 1.0) > 1e-2
@@ -143,12 +181,15 @@ def test_the_armour_scene_at_its_default_settings_closes_the_balance_with_unequa
     half lattice and the whole one."""
     rng = np.random.default_rng(12)
     masses = rng.uniform(0.5, 2.0, 11)
-    parameters = {**{f"mass[{m}]": float(mass) for m, mass in enumerate(masses, start=1)},
-                  **{f"damping_exponent[{m}]": exponent for m in range(1, 12)}}
+    parameters = {
+        **{f"mass[{m}]": float(mass) for m, mass in enumerate(masses, start=1)},
+        **{f"damping_exponent[{m}]": exponent for m in range(1, 12)},
+    }
     order = (1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10)
     for symmetry in (1, 0):
-        result = lattice.simulate(order, horizon=8.0, parameters={**parameters, "use_symmetry": symmetry},
-                                  outputs=BALANCE)
+        result = lattice.simulate(
+            order, horizon=8.0, parameters={**parameters, "use_symmetry": symmetry}, outputs=BALANCE
+        )
         assert abs(result["energy_balance_error"]) <= 1e-6 * result["external_work"], symmetry
         assert result["stack_mass"] == pytest.approx(11 * sum(masses), rel=1e-14)
 
@@ -156,13 +197,21 @@ def test_the_armour_scene_at_its_default_settings_closes_the_balance_with_unequa
 def test_under_a_projectile_the_balance_closes_with_unequal_masses_and_n_1_5(lattice):
     """docs/model.md section 11's projectile mode: the body's kinetic energy is what is put in."""
     rng = np.random.default_rng(11)
-    parameters = {**{f"mass[{m}]": float(mass) for m, mass in enumerate(rng.uniform(0.5, 2.0, 11), start=1)},
-                  **{f"damping_exponent[{m}]": 1.5 for m in range(1, 12)},
-                  "load_mode": "projectile", "projectile_mass": 50.0, "projectile_speed": 3.6}
-    put_in = 0.5 * 50.0 * 3.6 ** 2
+    parameters = {
+        **{f"mass[{m}]": float(mass) for m, mass in enumerate(rng.uniform(0.5, 2.0, 11), start=1)},
+        **{f"damping_exponent[{m}]": 1.5 for m in range(1, 12)},
+        "load_mode": "projectile",
+        "projectile_mass": 50.0,
+        "projectile_speed": 3.6,
+    }
+    put_in = 0.5 * 50.0 * 3.6**2
     for symmetry in (1, 0):
-        result = lattice.simulate((1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10), horizon=2.0,
-                                  parameters={**parameters, "use_symmetry": symmetry}, outputs=BALANCE)
+        result = lattice.simulate(
+            (1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10),
+            horizon=2.0,
+            parameters={**parameters, "use_symmetry": symmetry},
+            outputs=BALANCE,
+        )
         assert result["peak_backplate_force"] > 0.0
         assert abs(result["energy_balance_error"]) <= 1e-6 * put_in, symmetry
 
@@ -170,8 +219,15 @@ def test_under_a_projectile_the_balance_closes_with_unequal_masses_and_n_1_5(lat
 @pytest.mark.parametrize("interface", ["CoSimulation", "ModelExchange"])
 def test_fmi3_closes_the_balance_too(lattice_fmu3, interface):
     options = {"solver": "CVode", "relative_tolerance": 1e-9} if interface == "ModelExchange" else {}
-    result = simulate_fmu(str(lattice_fmu3), fmi_type=interface, stop_time=HORIZON, output_interval=0.01,
-                          output=list(BALANCE), start_values=ACCURATE, **options)
+    result = simulate_fmu(
+        str(lattice_fmu3),
+        fmi_type=interface,
+        stop_time=HORIZON,
+        output_interval=0.01,
+        output=list(BALANCE),
+        start_values=ACCURATE,
+        **options,
+    )
     final = {name: float(result[name][-1]) for name in BALANCE}
     assert abs(final["energy_balance_error"]) <= 1e-6 * final["external_work"]
     assert final["stack_mass"] == pytest.approx(stack_mass(TABLE, (1, 2, 3, 4), ROWS), rel=1e-15)
@@ -180,19 +236,34 @@ def test_fmi3_closes_the_balance_too(lattice_fmu3, interface):
 @pytest.mark.parametrize("interface", ["CoSimulation", "ModelExchange"])
 def test_a_plate_closes_the_balance_with_unequal_masses_and_n_1_5(plate_fmu, interface):
     options = {"solver": "CVode", "relative_tolerance": 1e-9} if interface == "ModelExchange" else {}
-    result = simulate_fmu(str(plate_fmu), fmi_type=interface, stop_time=HORIZON, output_interval=0.01,
-                          start_values={**order_start(PLATE_ORDER), **ACCURATE}, output=list(BALANCE), **options)
+    result = simulate_fmu(
+        str(plate_fmu),
+        fmi_type=interface,
+        stop_time=HORIZON,
+        output_interval=0.01,
+        start_values={**order_start(PLATE_ORDER), **ACCURATE},
+        output=list(BALANCE),
+        **options,
+    )
     final = {name: float(result[name][-1]) for name in BALANCE}
     assert final["external_work"] > 1.0 and final["peak_backplate_force"] > 0.0
     assert abs(final["energy_balance_error"]) <= 1e-6 * final["external_work"]
-    assert final["stack_mass"] == pytest.approx(stack_mass(PLATE_TABLE, PLATE_ORDER, PLATE_ROWS * PLATE_DEPTH),
-                                                rel=1e-15)
+    assert final["stack_mass"] == pytest.approx(
+        stack_mass(PLATE_TABLE, PLATE_ORDER, PLATE_ROWS * PLATE_DEPTH), rel=1e-15
+    )
 
 
 def test_model_exchange_closes_the_balance_and_agrees_with_co_simulation(lattice_fmu, unequal):
-    result = simulate_fmu(str(lattice_fmu), fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-9,
-                          stop_time=HORIZON, output_interval=0.01, start_values=order_start(ORDER),
-                          output=list(BALANCE))
+    result = simulate_fmu(
+        str(lattice_fmu),
+        fmi_type="ModelExchange",
+        solver="CVode",
+        relative_tolerance=1e-9,
+        stop_time=HORIZON,
+        output_interval=0.01,
+        start_values=order_start(ORDER),
+        output=list(BALANCE),
+    )
     final = {name: float(result[name][-1]) for name in BALANCE}
     assert abs(final["energy_balance_error"]) <= 1e-6 * final["external_work"]
     co_simulation = unequal.simulate(ORDER, horizon=HORIZON, parameters=ACCURATE, outputs=BALANCE)
@@ -210,8 +281,13 @@ def test_the_upper_half_gives_the_whole_lattice_with_non_linear_dampers(unequal)
     """The half's right-hand side is the whole's to rounding (the core tests below); over a run the two take
     their own adaptive steps (rounding decides a rejection here and there), so they agree to the solver's
     accuracy."""
-    names = ("peak_backplate_force", "peak_backplate_force_continuous", "external_work", "dissipated_energy",
-             "max_compression")
+    names = (
+        "peak_backplate_force",
+        "peak_backplate_force_continuous",
+        "external_work",
+        "dissipated_energy",
+        "max_compression",
+    )
     whole = unequal.simulate(ORDER, horizon=HORIZON, parameters={**TIGHT, "use_symmetry": 0}, outputs=names)
     half = unequal.simulate(ORDER, horizon=HORIZON, parameters={**TIGHT, "use_symmetry": 1}, outputs=names)
     for name in names:
@@ -220,8 +296,13 @@ def test_the_upper_half_gives_the_whole_lattice_with_non_linear_dampers(unequal)
 
 def test_the_quarter_plate_gives_the_whole_plate_with_non_linear_dampers(plate_fmu):
     def run(symmetry):
-        result = simulate_fmu(str(plate_fmu), stop_time=HORIZON, output_interval=HORIZON, output=list(BALANCE),
-                              start_values={**order_start(PLATE_ORDER), **TIGHT, "use_symmetry": symmetry})
+        result = simulate_fmu(
+            str(plate_fmu),
+            stop_time=HORIZON,
+            output_interval=HORIZON,
+            output=list(BALANCE),
+            start_values={**order_start(PLATE_ORDER), **TIGHT, "use_symmetry": symmetry},
+        )
         return {name: float(result[name][-1]) for name in BALANCE}
 
     quarter, whole = run(1), run(0)
@@ -231,11 +312,21 @@ def test_the_quarter_plate_gives_the_whole_plate_with_non_linear_dampers(plate_f
 
 def test_a_run_below_the_force_limit_is_the_run_without_it(unequal):
     free = unequal.simulate(ORDER, horizon=HORIZON, parameters=SEARCH_SETTINGS, outputs=BALANCE + COUNTER_OUTPUTS)
-    limited = unequal.simulate(ORDER, horizon=HORIZON, parameters=SEARCH_SETTINGS, outputs=BALANCE + COUNTER_OUTPUTS,
-                               peak_force_limit=free["peak_backplate_force"])
+    limited = unequal.simulate(
+        ORDER,
+        horizon=HORIZON,
+        parameters=SEARCH_SETTINGS,
+        outputs=BALANCE + COUNTER_OUTPUTS,
+        peak_force_limit=free["peak_backplate_force"],
+    )
     assert limited.stopped_early is False and limited == free
-    stopped = unequal.simulate(ORDER, horizon=HORIZON, parameters=SEARCH_SETTINGS, outputs=BALANCE,
-                               peak_force_limit=0.5 * free["peak_backplate_force"])
+    stopped = unequal.simulate(
+        ORDER,
+        horizon=HORIZON,
+        parameters=SEARCH_SETTINGS,
+        outputs=BALANCE,
+        peak_force_limit=0.5 * free["peak_backplate_force"],
+    )
     assert stopped.stopped_early is True and stopped.stop_time < HORIZON
 
 
@@ -248,6 +339,7 @@ def test_a_mass_or_exponent_out_of_range_is_refused_naming_it(unequal):
 
 
 # ---------------------------------------------------------------- the core: the damper law, the mirrored part
+
 
 def core_params(rows, cols, order, masses, exponents, depth=1, **settings):
     scene = ReferenceScene(rows=rows, cols=cols, order=tuple(order), **settings)
@@ -270,8 +362,7 @@ def test_a_damper_inside_a_column_pushes_with_c_dv_to_the_n(core, exponent):
     dv = v_a - v_b
     speed = float(np.hypot(*dv))
     force_a = -c * speed ** (exponent - 1.0) * dv
-    np.testing.assert_allclose(dydt[4:], np.array([force_a[0], -force_a[0], force_a[1], -force_a[1]]) / 2.5,
-                               rtol=1e-13)
+    np.testing.assert_allclose(dydt[4:], np.array([force_a[0], -force_a[0], force_a[1], -force_a[1]]) / 2.5, rtol=1e-13)
     assert powers[1] == pytest.approx(c * speed ** (exponent + 1.0), rel=1e-13)
 
 
@@ -299,7 +390,7 @@ def test_a_column_of_n_1_and_1_kg_computes_what_the_linear_1_kg_lattice_does(cor
         got, got_powers = core.rhs(changed, y, load_on)
         others = np.arange(len(got)) % cols != cols - 1  # every component of the masses of columns 1 .. C-1
         assert np.array_equal(got[others], expected[others])
-        assert not np.array_equal(got[~others][components * n // cols:], expected[~others][components * n // cols:])
+        assert not np.array_equal(got[~others][components * n // cols :], expected[~others][components * n // cols :])
         assert got_powers[1] != expected_powers[1] and got_powers[0] == expected_powers[0]
 
 
@@ -321,8 +412,9 @@ def test_the_mirrored_part_carries_the_whole_with_unequal_masses_and_n_1_5(core,
     for load_on in (True, False):
         whole, whole_powers = core.rhs_along_x(params, whole_x, load_on)
         got, got_powers = core.rhs_along_x(params, part, load_on, mirrored=True)
-        expected = np.concatenate([block.reshape(depth, rows, cols)[:layers, :part_rows].reshape(-1)
-                                   for block in np.split(whole, 2)])
+        expected = np.concatenate(
+            [block.reshape(depth, rows, cols)[:layers, :part_rows].reshape(-1) for block in np.split(whole, 2)]
+        )
         scale = np.max(np.abs(whole))
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * scale)
         np.testing.assert_allclose(got_powers, whole_powers, rtol=1e-11, atol=1e-11 * scale)
@@ -330,10 +422,11 @@ def test_the_mirrored_part_carries_the_whole_with_unequal_masses_and_n_1_5(core,
         n = rows * cols * depth
         components = 3 if depth > 1 else 2
         full_state = np.zeros(2 * components * n)
-        full_state[:n], full_state[components * n:components * n + n] = ux.reshape(-1), vx.reshape(-1)
+        full_state[:n], full_state[components * n : components * n + n] = ux.reshape(-1), vx.reshape(-1)
         full, full_powers = core.rhs(params, full_state, load_on)
-        np.testing.assert_allclose(whole, np.concatenate([full[:n], full[components * n:components * n + n]]),
-                                   rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(
+            whole, np.concatenate([full[:n], full[components * n : components * n + n]]), rtol=0, atol=1e-12 * scale
+        )
         np.testing.assert_allclose(whole_powers, full_powers, rtol=1e-11, atol=1e-11 * scale)
 
 
@@ -370,13 +463,14 @@ def test_the_core_refuses_a_mass_or_exponent_that_is_not_positive_in_one_line(co
 
 # ---------------------------------------------------------------- the material table's new columns
 
+
 def test_a_table_with_mass_and_damping_exponent_columns_round_trips(tmp_path):
     path = write_materials_csv(TABLE, tmp_path / "table.csv")
     assert path.read_text().splitlines()[0].endswith(",mass,damping_exponent")
     assert load_materials(path) == TABLE
     rows = [{field.name: getattr(m, field.name) for field in FIELDS} | {"name": m.name} for m in TABLE.materials]
     (tmp_path / "t.json").write_text(json.dumps({"materials": rows}))
-    toml = "".join("[[material]]\n" + "".join(f'{k} = {json.dumps(v)}\n' for k, v in row.items()) for row in rows)
+    toml = "".join("[[material]]\n" + "".join(f"{k} = {json.dumps(v)}\n" for k, v in row.items()) for row in rows)
     (tmp_path / "t.toml").write_text(toml)
     assert load_materials(tmp_path / "t.json") == load_materials(tmp_path / "t.toml") == TABLE
     assert TABLE.stack_mass(ORDER, ROWS) == pytest.approx(ROWS * sum(MASSES), rel=1e-15)
@@ -386,8 +480,10 @@ def test_a_table_without_the_columns_is_the_studys_masses_and_dampers_with_its_f
     study = study_materials(3)
     assert all(m.mass == 1.0 and m.damping_exponent == 1.0 for m in study.materials)
     path = tmp_path / "old.csv"
-    path.write_text("name,k,k_diag,c,alpha,alpha_diag\n" + "".join(
-        f"{m.name},{m.k!r},{m.k_diag!r},{m.c!r},{m.alpha!r},{m.alpha_diag!r}\n" for m in study.materials))
+    path.write_text(
+        "name,k,k_diag,c,alpha,alpha_diag\n"
+        + "".join(f"{m.name},{m.k!r},{m.k_diag!r},{m.c!r},{m.alpha!r},{m.alpha_diag!r}\n" for m in study.materials)
+    )
     assert load_materials(path) == study
     spelled = load_materials(write_materials_csv(study, tmp_path / "spelled.csv"))
     assert spelled.sha256() == study.sha256()  # a file spelling out the defaults names the same table
@@ -399,14 +495,20 @@ def test_a_table_without_the_columns_is_the_studys_masses_and_dampers_with_its_f
 HEADER = "name,k,k_diag,c,alpha,alpha_diag,mass,damping_exponent\n"
 
 
-@pytest.mark.parametrize("row, expected", [
-    ("foam,1,1,1,1,1,0,1", "row 2 (foam), field mass: '0' is not allowed; allowed: a finite number > 0 (kg)"),
-    ("foam,1,1,1,1,1,-2,1", "row 2 (foam), field mass: '-2' is not allowed"),
-    ("foam,1,1,1,1,1,heavy,1", "row 2 (foam), field mass: 'heavy' is not a number"),
-    ("foam,1,1,1,1,1,1,0", "row 2 (foam), field damping_exponent: '0' is not allowed; allowed: a finite number > 0"),
-    ("foam,1,1,1,1,1,1,nan", "row 2 (foam), field damping_exponent: 'nan' is not allowed"),
-    ("foam,1,1,1,1,1,1,inf", "row 2 (foam), field damping_exponent: 'inf' is not allowed"),
-])
+@pytest.mark.parametrize(
+    "row, expected",
+    [
+        ("foam,1,1,1,1,1,0,1", "row 2 (foam), field mass: '0' is not allowed; allowed: a finite number > 0 (kg)"),
+        ("foam,1,1,1,1,1,-2,1", "row 2 (foam), field mass: '-2' is not allowed"),
+        ("foam,1,1,1,1,1,heavy,1", "row 2 (foam), field mass: 'heavy' is not a number"),
+        (
+            "foam,1,1,1,1,1,1,0",
+            "row 2 (foam), field damping_exponent: '0' is not allowed; allowed: a finite number > 0",
+        ),
+        ("foam,1,1,1,1,1,1,nan", "row 2 (foam), field damping_exponent: 'nan' is not allowed"),
+        ("foam,1,1,1,1,1,1,inf", "row 2 (foam), field damping_exponent: 'inf' is not allowed"),
+    ],
+)
 def test_a_bad_mass_or_exponent_is_refused_in_one_line_naming_row_and_field(tmp_path, row, expected):
     path = tmp_path / "bad.csv"
     path.write_text(HEADER + "steel,2,2,2,2,2,7.8,1\n" + row + "\n")  # the bad row is the second

@@ -1,10 +1,17 @@
 """Material tables as data: the study's table in one place, and a designer's table checked before any use."""
+
 import json
 
 import pytest
 
-from fmu_src.materials import (HEADER, MaterialTable, MaterialTableError, load_materials, study_materials,
-                               write_materials_csv)
+from fmu_src.materials import (
+    HEADER,
+    MaterialTable,
+    MaterialTableError,
+    load_materials,
+    study_materials,
+    write_materials_csv,
+)
 
 pytestmark = pytest.mark.quick  # a first check: python -m pytest -m quick
 
@@ -31,30 +38,36 @@ def test_a_csv_table_round_trips_exactly(tmp_path):
 
 
 def test_toml_and_json_give_the_same_table(tmp_path):
-    rows = [{"name": "foam", "k": 20.0, "k_diag": 10.0, "c": 1.0, "alpha": 8.0, "alpha_diag": 8.0},
-            {"name": "steel", "k": 900.0, "k_diag": 450.0, "c": 9.0, "alpha": 12.0, "alpha_diag": 11.0}]
+    rows = [
+        {"name": "foam", "k": 20.0, "k_diag": 10.0, "c": 1.0, "alpha": 8.0, "alpha_diag": 8.0},
+        {"name": "steel", "k": 900.0, "k_diag": 450.0, "c": 9.0, "alpha": 12.0, "alpha_diag": 11.0},
+    ]
     (tmp_path / "t.json").write_text(json.dumps({"materials": rows}))
-    toml = "".join("[[material]]\n" + "".join(f"{k} = {v!r}\n".replace("'", '"') for k, v in row.items())
-                   for row in rows)
+    toml = "".join(
+        "[[material]]\n" + "".join(f"{k} = {v!r}\n".replace("'", '"') for k, v in row.items()) for row in rows
+    )
     (tmp_path / "t.toml").write_text(toml)
     assert load_materials(tmp_path / "t.json") == load_materials(tmp_path / "t.toml")
     assert load_materials(tmp_path / "t.json").names == ("foam", "steel")
 
 
-@pytest.mark.parametrize("body, expected", [
-    ("name,k,k_diag,c,alpha\nfoam,1,1,1,1\n", "header must name each of"),
-    ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,1,1,1\nfoam,2,2,2,2,2\n", "row 2, field name: 'foam' is also"),
-    ("name,k,k_diag,c,alpha,alpha_diag\n,1,1,1,1,1\n", "row 1, field name: missing"),
-    ("name,k,k_diag,c,alpha,alpha_diag\nfoam,abc,1,1,1,1\n", "row 1 (foam), field k: 'abc' is not a number"),
-    ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,nan,1,1,1\n", "row 1 (foam), field k_diag: 'nan' is not allowed"),
-    ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,-1,1,1\n", "row 1 (foam), field c: '-1' is not allowed"),
-    ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,1,0,1\n", "row 1 (foam), field alpha: '0' is not allowed"),
-    ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,1,1,inf\n", "field alpha_diag: 'inf' is not allowed"),
-    ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,1,1\n", "row 1: 5 fields, the header has 6"),
-    ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,,1,1\n", "row 1 (foam), field c: missing"),
-    ("name,k,k_diag,c,alpha,alpha_diag\n", "no materials"),
-    ("", "empty"),
-])
+@pytest.mark.parametrize(
+    "body, expected",
+    [
+        ("name,k,k_diag,c,alpha\nfoam,1,1,1,1\n", "header must name each of"),
+        ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,1,1,1\nfoam,2,2,2,2,2\n", "row 2, field name: 'foam' is also"),
+        ("name,k,k_diag,c,alpha,alpha_diag\n,1,1,1,1,1\n", "row 1, field name: missing"),
+        ("name,k,k_diag,c,alpha,alpha_diag\nfoam,abc,1,1,1,1\n", "row 1 (foam), field k: 'abc' is not a number"),
+        ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,nan,1,1,1\n", "row 1 (foam), field k_diag: 'nan' is not allowed"),
+        ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,-1,1,1\n", "row 1 (foam), field c: '-1' is not allowed"),
+        ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,1,0,1\n", "row 1 (foam), field alpha: '0' is not allowed"),
+        ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,1,1,inf\n", "field alpha_diag: 'inf' is not allowed"),
+        ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,1,1\n", "row 1: 5 fields, the header has 6"),
+        ("name,k,k_diag,c,alpha,alpha_diag\nfoam,1,1,,1,1\n", "row 1 (foam), field c: missing"),
+        ("name,k,k_diag,c,alpha,alpha_diag\n", "no materials"),
+        ("", "empty"),
+    ],
+)
 def test_a_bad_csv_is_refused_in_one_line_naming_row_and_field(tmp_path, body, expected):
     path = tmp_path / "bad.csv"
     path.write_text(body)
@@ -68,8 +81,9 @@ def test_unknown_suffix_and_unknown_fields_are_refused(tmp_path):
     (tmp_path / "t.xlsx").write_text("x")
     with pytest.raises(MaterialTableError, match="allowed: .csv, .toml, .json"):
         load_materials(tmp_path / "t.xlsx")
-    (tmp_path / "t.json").write_text(json.dumps([{"name": "a", "k": 1, "k_diag": 1, "c": 1, "alpha": 1,
-                                                  "alpha_diag": 1, "density": 7}]))
+    (tmp_path / "t.json").write_text(
+        json.dumps([{"name": "a", "k": 1, "k_diag": 1, "c": 1, "alpha": 1, "alpha_diag": 1, "density": 7}])
+    )
     with pytest.raises(MaterialTableError, match="unknown field 'density'"):
         load_materials(tmp_path / "t.json")
     with pytest.raises(MaterialTableError, match="cannot be read"):

@@ -2,6 +2,7 @@
 
 Run as a user runs it, on a copy of the repository's bench/, README.md and pages (tests import nothing from
 bench/): a benchmark's writer called with and without --write-readme, and the separate command."""
+
 from __future__ import annotations
 
 import shutil

@@ -5,6 +5,7 @@ The README quotes the pages' headlines in a block that bench/measurements.py wri
 into the block by hand, is caught here. Nothing is imported from bench/: the pages and the README are read as a
 reader reads them.
 """
+
 from __future__ import annotations
 
 import json
@@ -21,7 +22,7 @@ def front_matter(path: Path) -> dict:
     lines = path.read_text().splitlines()
     assert lines[0] == "---", f"{path.name} has no front matter"
     meta = {}
-    for line in lines[1:lines.index("---", 1)]:
+    for line in lines[1 : lines.index("---", 1)]:
         key, _, value = line.partition(": ")
         meta[key] = json.loads(value)
     return meta
@@ -30,9 +31,13 @@ def front_matter(path: Path) -> dict:
 def readme_rows() -> dict[str, str]:
     readme = (ROOT / "README.md").read_text()
     assert START in readme and END in readme
-    block = readme[readme.index(START) + len(START):readme.index(END)]
-    return {m.group(1): line for line in block.splitlines()
-            for m in [re.search(r"\(docs/measurements/([\w.]+\.md)\)", line)] if m}
+    block = readme[readme.index(START) + len(START) : readme.index(END)]
+    return {
+        m.group(1): line
+        for line in block.splitlines()
+        for m in [re.search(r"\(docs/measurements/([\w.]+\.md)\)", line)]
+        if m
+    }
 
 
 def cell(text: str) -> str:

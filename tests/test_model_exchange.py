@@ -4,6 +4,7 @@ The importer's solver integrates: fmpy's CVode must reproduce the published peak
 its 0.01 s output grid, the energy integrals are continuous states it integrates with the lattice, and an
 importer that breaks the calling sequence or passes vectors of the wrong size gets an error with a reason.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -20,8 +21,15 @@ from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 from orchestrator.simulation import _CALLBACKS, _MESSAGES
 
-OUTPUTS = ["backplate_force", "peak_backplate_force", "peak_backplate_force_continuous", "external_work",
-           "dissipated_energy", "nonreciprocal_work", "energy_balance_error"]
+OUTPUTS = [
+    "backplate_force",
+    "peak_backplate_force",
+    "peak_backplate_force_continuous",
+    "external_work",
+    "dissipated_energy",
+    "nonreciprocal_work",
+    "energy_balance_error",
+]
 ROWS = COLS = 11
 MASSES = ROWS * COLS
 FMI2_ERROR = 3
@@ -30,8 +38,16 @@ FMI2_ERROR = 3
 def simulate_model_exchange(fmu, order, stop_time=8.0):
     """The issue's command: fmpy's CVode at rtol 1e-9 on a 0.01 s output grid."""
     start = {f"material[{j}]": m for j, m in enumerate(order, start=1)}  # FMI 2 and 3 alike
-    return simulate_fmu(str(fmu), fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-9,
-                        output_interval=0.01, stop_time=stop_time, start_values=start, output=OUTPUTS)
+    return simulate_fmu(
+        str(fmu),
+        fmi_type="ModelExchange",
+        solver="CVode",
+        relative_tolerance=1e-9,
+        output_interval=0.01,
+        stop_time=stop_time,
+        start_values=start,
+        output=OUTPUTS,
+    )
 
 
 def grid_maximum(result) -> float:
@@ -77,9 +93,13 @@ def test_both_interfaces_are_declared_with_the_contracts_sizes(fmu_path, fmu3_pa
         assert description.numberOfContinuousStates == 4 * MASSES + 3 + 2
         assert description.numberOfEventIndicators == 2 * ROWS + 1  # each row's contact and damping, the impact
     states = [d.variable.derivative.name for d in read_model_description(str(fmu_path)).derivatives]
-    assert states[:2] == ["ux[1,1]", "ux[1,2]"] and states[-5:] == ["external_work", "dissipated_energy",
-                                                                     "nonreciprocal_work", "projectile_position",
-                                                                     "projectile_velocity"]
+    assert states[:2] == ["ux[1,1]", "ux[1,2]"] and states[-5:] == [
+        "external_work",
+        "dissipated_energy",
+        "nonreciprocal_work",
+        "projectile_position",
+        "projectile_velocity",
+    ]
 
 
 def as_pointer(array):
@@ -95,8 +115,12 @@ class Logged:
         _MESSAGES[name] = self.messages
         interface = self.description.modelExchange if kind is FMU2Model else self.description.coSimulation
         self.unzip_dir = extract(str(fmu_path))
-        self.fmu = kind(guid=self.description.guid, unzipDirectory=self.unzip_dir,
-                        modelIdentifier=interface.modelIdentifier, instanceName=name)
+        self.fmu = kind(
+            guid=self.description.guid,
+            unzipDirectory=self.unzip_dir,
+            modelIdentifier=interface.modelIdentifier,
+            instanceName=name,
+        )
         self.fmu.instantiate(callbacks=_CALLBACKS, loggingOn=True)
 
     def to_continuous_time(self):
@@ -127,34 +151,43 @@ def test_bad_calling_sequences_and_sizes_are_refused_with_a_reason(fmu_path):
     nx, nz = me.description.numberOfContinuousStates, me.description.numberOfEventIndicators
     x, dx, z = np.zeros(nx), np.zeros(nx + 1), np.zeros(nz + 1)
     try:
-        me.refuses(lambda: me.fmu.setContinuousStates(as_pointer(x), nx), "fmi2SetContinuousStates",
-                   "Model Exchange, instantiated")
+        me.refuses(
+            lambda: me.fmu.setContinuousStates(as_pointer(x), nx),
+            "fmi2SetContinuousStates",
+            "Model Exchange, instantiated",
+        )
         me.fmu.setupExperiment(startTime=0.0)
         me.fmu.enterInitializationMode()
         me.fmu.exitInitializationMode()  # -> event mode
         me.refuses(lambda: me.fmu.setContinuousStates(as_pointer(x), nx), "event mode")
-        status = me.fmu.dll.fmi2DoStep(ctypes.c_void_p(me.fmu.component), ctypes.c_double(0.0),
-                                       ctypes.c_double(0.01), 0)
+        status = me.fmu.dll.fmi2DoStep(
+            ctypes.c_void_p(me.fmu.component), ctypes.c_double(0.0), ctypes.c_double(0.01), 0
+        )
         assert status == FMI2_ERROR
         assert "fmi2DoStep" in me.messages[-1]
         event = me.fmu.newDiscreteStates()
         assert event[4] and event[5] == 0.15  # the load switches off at t_active: a time event
         me.fmu.enterContinuousTimeMode()
-        me.refuses(lambda: me.fmu.setContinuousStates(as_pointer(x), nx - 1),
-                   f"{nx - 1} continuous states given, but this FMU has {nx}")
-        me.refuses(lambda: me.fmu.getDerivatives(as_pointer(dx), nx + 1),
-                   f"{nx + 1} derivatives given, but this FMU has {nx}")
-        me.refuses(lambda: me.fmu.getEventIndicators(as_pointer(z), nz + 1),
-                   f"{nz + 1} event indicators given, but this FMU has {nz}")
+        me.refuses(
+            lambda: me.fmu.setContinuousStates(as_pointer(x), nx - 1),
+            f"{nx - 1} continuous states given, but this FMU has {nx}",
+        )
+        me.refuses(
+            lambda: me.fmu.getDerivatives(as_pointer(dx), nx + 1), f"{nx + 1} derivatives given, but this FMU has {nx}"
+        )
+        me.refuses(
+            lambda: me.fmu.getEventIndicators(as_pointer(z), nz + 1),
+            f"{nz + 1} event indicators given, but this FMU has {nz}",
+        )
         bad = x.copy()
         bad[7] = np.nan
         me.refuses(lambda: me.fmu.setContinuousStates(as_pointer(bad), nx), "continuous state 7", "finite")
         # a refused call leaves the instance usable: at rest, only column 1 moves, pushed by the load
         me.fmu.setContinuousStates(as_pointer(x), nx)
         me.fmu.getDerivatives(as_pointer(dx), nx)
-        acceleration_x = dx[2 * MASSES:3 * MASSES].reshape(ROWS, COLS)
+        acceleration_x = dx[2 * MASSES : 3 * MASSES].reshape(ROWS, COLS)
         assert list(acceleration_x[:, 0]) == [60.0] + [120.0] * (ROWS - 2) + [60.0]  # docs/model.md section 4, m = 1 kg
-        assert not acceleration_x[:, 1:].any() and not dx[:2 * MASSES].any()
+        assert not acceleration_x[:, 1:].any() and not dx[: 2 * MASSES].any()
         me.fmu.getEventIndicators(as_pointer(z), nz)
         # every mass 1 mm off the plate (the gap); the impact indicator 1 outside projectile mode
         assert list(z[:nz]) == [-1e-3] * (nz - 1) + [1.0]
@@ -180,8 +213,12 @@ def test_fmi3_model_exchange_refuses_wrong_sizes_and_sequences_with_a_reason(fmu
     description = read_model_description(str(fmu3_path))
     messages = []
     callback = fmi3LogMessageCallback(lambda environment, status, category, message: messages.append(message.decode()))
-    model = FMU3Model(guid=description.guid, unzipDirectory=extract(str(fmu3_path), str(tmp_path / "unzipped")),
-                      modelIdentifier=description.modelExchange.modelIdentifier, instanceName="me3")
+    model = FMU3Model(
+        guid=description.guid,
+        unzipDirectory=extract(str(fmu3_path), str(tmp_path / "unzipped")),
+        modelIdentifier=description.modelExchange.modelIdentifier,
+        instanceName="me3",
+    )
     model.instantiate(logMessage=callback)
     nx, nz = description.numberOfContinuousStates, description.numberOfEventIndicators
     x, z = np.zeros(nx), np.zeros(nz + 1)
@@ -258,8 +295,9 @@ def test_a_root_the_importer_drops_is_switched_at_its_next_step(fmu_path, honour
 
     order = PUBLISHED_SEQUENTIAL
     clean = simulate_lossy(fmu_path, order, horizon=LOSSY_HORIZON, zero_restart=False)
-    run = simulate_lossy(fmu_path, order, horizon=LOSSY_HORIZON, zero_restart=False, drop_root=3,
-                         honour_enter_event_mode=honour)
+    run = simulate_lossy(
+        fmu_path, order, horizon=LOSSY_HORIZON, zero_restart=False, drop_root=3, honour_enter_event_mode=honour
+    )
     warned = [message for message in run.messages if "contradicted the state" in message]
     assert clean.requests == 0 and run.requests >= 1  # only the dropped root made a step ask for an event
     assert (len(warned) > 0, run.ignored_requests > 0) == (not honour, not honour)

@@ -1,4 +1,5 @@
 """The objective on the real FMU: both peaks, fidelities, the horizon's fallback, load cases, failures."""
+
 from __future__ import annotations
 
 import pytest
@@ -23,17 +24,17 @@ def test_the_objective_reports_both_peaks_and_reproduces_the_study(fmu_path):
     sampled = objective(fmu_path)
     with make_executor("serial") as executor:
         evaluator = Evaluator(executor)
-        evaluation, = sampled.evaluate([STUDY_BEST_ORDER], evaluator, FULL)
+        (evaluation,) = sampled.evaluate([STUDY_BEST_ORDER], evaluator, FULL)
         assert evaluation.ok and sampled.unit == "N"
         assert evaluation.value == pytest.approx(PUBLISHED_PEAKS[STUDY_BEST_ORDER], rel=1e-6)
         outputs = evaluation.outputs
         assert outputs["peak_backplate_force_continuous"] > outputs["peak_backplate_force"] == evaluation.value
-        continuous, = objective(fmu_path, ("continuous",)).evaluate([STUDY_BEST_ORDER], evaluator, FULL)
+        (continuous,) = objective(fmu_path, ("continuous",)).evaluate([STUDY_BEST_ORDER], evaluator, FULL)
         assert continuous.value == outputs["peak_backplate_force_continuous"]
         assert evaluator.simulated == 2  # two objectives, two FMU runs ...
         sampled.evaluate([STUDY_BEST_ORDER], evaluator, FULL)
         assert evaluator.simulated == 2 and evaluator.cache_hits == 1  # ... and asking again costs nothing
-        search, = sampled.evaluate([STUDY_BEST_ORDER], evaluator, SEARCH)
+        (search,) = sampled.evaluate([STUDY_BEST_ORDER], evaluator, SEARCH)
         assert search.outputs.horizon == 1.0 and search.value == pytest.approx(evaluation.value, rel=1e-4)
 
 
@@ -51,8 +52,8 @@ def test_load_cases_are_one_run_each_and_their_aggregate(fmu_path):
     mean = worst.with_cases(cases, aggregate="mean")
     with make_executor("serial") as executor:
         evaluator = Evaluator(executor)
-        high, = worst.evaluate([STUDY_BEST_ORDER], evaluator, FULL)
-        average, = mean.evaluate([STUDY_BEST_ORDER], evaluator, FULL)
+        (high,) = worst.evaluate([STUDY_BEST_ORDER], evaluator, FULL)
+        (average,) = mean.evaluate([STUDY_BEST_ORDER], evaluator, FULL)
         assert evaluator.simulated == 2  # the mean reused both cases' runs
     peaks = [case.value for case in high.cases]
     assert [case.parameters for case in high.cases] == cases
@@ -60,7 +61,7 @@ def test_load_cases_are_one_run_each_and_their_aggregate(fmu_path):
     assert average.value == pytest.approx(sum(peaks) / 2)
     failing = worst.with_cases([{"F_total": 600.0}, {"solver": "rk4", "fixed_step": 0.05}])
     with make_executor("serial") as executor:
-        broken, = failing.evaluate([STUDY_BEST_ORDER], Evaluator(executor), FULL)
+        (broken,) = failing.evaluate([STUDY_BEST_ORDER], Evaluator(executor), FULL)
     assert not broken.ok and broken.value is None and "fixed_step" in broken.message
 
 
@@ -80,7 +81,7 @@ def test_two_outputs_make_a_two_objective_evaluation_without_force_limits(fmu_pa
     both = objective(fmu_path, ("sampled", "max_compression"))
     assert both.n_objectives == 2 and not both.supports_limits
     with make_executor("serial") as executor:
-        evaluation, = both.evaluate([STUDY_BEST_ORDER], Evaluator(executor), FULL)
+        (evaluation,) = both.evaluate([STUDY_BEST_ORDER], Evaluator(executor), FULL)
     assert evaluation.values[0] == evaluation.value == evaluation.outputs["peak_backplate_force"]
     assert evaluation.values[1] == evaluation.outputs["max_compression"] > 0
 
@@ -91,9 +92,13 @@ def _has(fmu_path, name):
     return any(v.name == name for v in model_description(fmu_path).modelVariables)
 
 
-@pytest.mark.parametrize("text, expected", [("sampled", ("peak_backplate_force",)),
-                                            ("continuous,max_compression",
-                                             ("peak_backplate_force_continuous", "max_compression"))])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("sampled", ("peak_backplate_force",)),
+        ("continuous,max_compression", ("peak_backplate_force_continuous", "max_compression")),
+    ],
+)
 def test_objective_names(text, expected):
     assert output_names(text) == expected
 
@@ -109,8 +114,7 @@ def test_dask_gives_the_same_search_as_a_process_pool(fmu_path):
     results = {}
     for kind in ("process", "dask"):
         with make_executor(kind, workers=2) as executor:
-            run = run_search(make_search("cmaes", SPACE, seed=3), function, 16, executor, method_name="cmaes",
-                             seed=3)
+            run = run_search(make_search("cmaes", SPACE, seed=3), function, 16, executor, method_name="cmaes", seed=3)
         results[kind] = [(e.order, e.value) for e in run.evaluations]
     assert results["dask"] == results["process"] and len(results["dask"]) == 16
 
@@ -126,12 +130,14 @@ def test_a_resumed_run_knows_at_each_point_only_what_the_interrupted_run_knew_th
     limit = 0.5 * PUBLISHED_PEAKS[SEQUENTIAL_ORDER]
 
     def the_run(resume):
-        with make_executor("serial") as executor, \
-                Journal(tmp_path, {"run": 1}, {"evaluation": Evaluation}, resume=resume) as journal:
+        with (
+            make_executor("serial") as executor,
+            Journal(tmp_path, {"run": 1}, {"evaluation": Evaluation}, resume=resume) as journal,
+        ):
             evaluator = Evaluator(executor, journal)
-            first, = lattice.evaluate([SEQUENTIAL_ORDER], evaluator, SEARCH, limits=[limit])
-            later, = lattice.evaluate([SEQUENTIAL_ORDER], evaluator, SEARCH)
-            again, = lattice.evaluate([SEQUENTIAL_ORDER], evaluator, SEARCH, limits=[limit])
+            (first,) = lattice.evaluate([SEQUENTIAL_ORDER], evaluator, SEARCH, limits=[limit])
+            (later,) = lattice.evaluate([SEQUENTIAL_ORDER], evaluator, SEARCH)
+            (again,) = lattice.evaluate([SEQUENTIAL_ORDER], evaluator, SEARCH, limits=[limit])
             return first, later, again, evaluator.simulated
 
     first, later, again, simulated = the_run(resume=False)

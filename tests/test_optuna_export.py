@@ -1,5 +1,6 @@
 """--export-optuna: every evaluation of evaluations.csv is one Optuna trial with the same values, failed and
 censored evaluations as failed and pruned trials; --start-file reads the best designs back from the storage."""
+
 from __future__ import annotations
 
 import csv
@@ -8,7 +9,7 @@ import pytest
 
 from orchestrator import run as cli
 
-optuna = pytest.importorskip("optuna", reason="needs the optuna extra (pip install -e \".[optuna]\")")
+optuna = pytest.importorskip("optuna", reason='needs the optuna extra (pip install -e ".[optuna]")')
 
 QUICK = ["--repeats", "1", "--no-sensitivity", "--no-progress", "--executor", "serial"]
 
@@ -36,8 +37,24 @@ def trials_by_rule(storage: str) -> dict[str, list]:
 def test_every_evaluation_is_a_trial_with_the_same_values(fmu_path, tmp_path, capfd):
     storage = f"sqlite:///{tmp_path / 'study.db'}"
     out = tmp_path / "r"
-    assert main("--fmu", fmu_path, "--out", out, "--budget", "20", "--method", "sa", "cmaes", "sequential",
-                "--export-optuna", storage, *QUICK) == 0
+    assert (
+        main(
+            "--fmu",
+            fmu_path,
+            "--out",
+            out,
+            "--budget",
+            "20",
+            "--method",
+            "sa",
+            "cmaes",
+            "sequential",
+            "--export-optuna",
+            storage,
+            *QUICK,
+        )
+        == 0
+    )
     assert f"optuna-dashboard {storage}" in capfd.readouterr().out
     rows = csv_rows(out)
     trials = trials_by_rule(storage)
@@ -64,20 +81,53 @@ def test_every_evaluation_is_a_trial_with_the_same_values(fmu_path, tmp_path, ca
     assert "optuna-dashboard" in record
 
     # the storage read back as starting designs: each rule's best trial, evaluated first by every search
-    best = {rule: min((t for t in found if t.state == optuna.trial.TrialState.COMPLETE), key=lambda t: t.values[0])
-            for rule, found in trials.items()}
+    best = {
+        rule: min((t for t in found if t.state == optuna.trial.TrialState.COMPLETE), key=lambda t: t.values[0])
+        for rule, found in trials.items()
+    }
     designs = [" ".join(str(t.params[f"column_{c:02d}"]) for c in range(1, 12)) for t in best.values()]
     again = tmp_path / "again"
-    assert main("--fmu", fmu_path, "--out", again, "--budget", "5", "--method", "cmaes", "--start-file", storage,
-                "--diagonal-rule", "mean", *QUICK) == 0
+    assert (
+        main(
+            "--fmu",
+            fmu_path,
+            "--out",
+            again,
+            "--budget",
+            "5",
+            "--method",
+            "cmaes",
+            "--start-file",
+            storage,
+            "--diagonal-rule",
+            "mean",
+            *QUICK,
+        )
+        == 0
+    )
     first = [r["order"] for r in csv_rows(again) if r["index"] in ("1", "2")]
     assert sorted(first) == sorted(dict.fromkeys(designs))
 
 
 def test_failed_evaluations_are_failed_trials(fmu_path, tmp_path):
     storage = f"sqlite:///{tmp_path / 'failed.db'}"
-    code = main("--fmu", fmu_path, "--out", tmp_path / "r", "--case", "solver=rk4", "--case", "fixed_step=0.05",
-                "--budget", "4", "--method", "random", "--export-optuna", storage, *QUICK)
+    code = main(
+        "--fmu",
+        fmu_path,
+        "--out",
+        tmp_path / "r",
+        "--case",
+        "solver=rk4",
+        "--case",
+        "fixed_step=0.05",
+        "--budget",
+        "4",
+        "--method",
+        "random",
+        "--export-optuna",
+        storage,
+        *QUICK,
+    )
     assert code == 3  # no answer: every evaluation failed; the export still holds them
     rows = csv_rows(tmp_path / "r")
     found = [t for trials in trials_by_rule(storage).values() for t in trials]
@@ -120,10 +170,26 @@ def test_trials_numbered_after_an_existing_study_and_read_back_through_optuna(tm
             evaluations.append(failed(order, "diverged"))
         else:
             evaluations.append(Evaluation(order, 1000.0 + k / 8, "ok", seconds=0.25))
-    run = SearchRun(method="random", seed=5, budget=count, label="mean", evaluations=tuple(evaluations),
-                    best_order=evaluations[0].order, best_value=1000.0, best_index=1, failed=0, censored=0,
-                    reevaluated=0, distinct=count, stalled=False, truncated=False, stop_reason="budget",
-                    wall_seconds=1.0, batches=count, cache_hits=0)
+    run = SearchRun(
+        method="random",
+        seed=5,
+        budget=count,
+        label="mean",
+        evaluations=tuple(evaluations),
+        best_order=evaluations[0].order,
+        best_value=1000.0,
+        best_index=1,
+        failed=0,
+        censored=0,
+        reevaluated=0,
+        distinct=count,
+        stalled=False,
+        truncated=False,
+        stop_reason="budget",
+        wall_seconds=1.0,
+        batches=count,
+        cache_hits=0,
+    )
     (study,) = export(storage, [run], ("F_peak",), 11, materials, "case", "run7", "0" * 64)
     assert (study.name, study.trials) == ("run7 mean", count)
 

@@ -2,6 +2,7 @@
 ``python -m bench.peers`` runs before it times anything, on small plates, run here as a user runs it,
 ``python -m bench.peer_models``, in a child process (tests import nothing from bench/, and JAX's threads stay
 out of the pytest process). numba and jax are benchmark-only (``pip install -e ".[bench]"``): skipped without."""
+
 from __future__ import annotations
 
 import importlib.util
@@ -15,8 +16,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-pytestmark = pytest.mark.skipif(importlib.util.find_spec("numba") is None,
-                                reason="numba is not installed (pip install -e \".[bench]\")")
+pytestmark = pytest.mark.skipif(
+    importlib.util.find_spec("numba") is None, reason='numba is not installed (pip install -e ".[bench]")'
+)
 
 
 def run(*argv: str) -> subprocess.CompletedProcess:
@@ -25,8 +27,7 @@ def run(*argv: str) -> subprocess.CompletedProcess:
 
 def worst_differences(line: str) -> dict[str, float]:
     """'plate against ...: numba 6.3e-16, backplate force 0.0e+00' -> {'numba': 6.3e-16, ...}."""
-    return {name: float(value) for name, value in
-            (item.rsplit(" ", 1) for item in line.split(": ", 1)[1].split(", "))}
+    return {name: float(value) for name, value in (item.rsplit(" ", 1) for item in line.split(": ", 1)[1].split(", "))}
 
 
 def test_the_plate_kernel_and_backplate_force_agree_with_the_reference_on_every_check_scene():
@@ -40,7 +41,7 @@ def test_the_plate_kernel_and_backplate_force_agree_with_the_reference_on_every_
 
 def test_the_plate_jax_kernel_agrees_with_the_reference():
     if importlib.util.find_spec("jax") is None:
-        pytest.skip("jax is not installed (pip install -e \".[bench]\")")
+        pytest.skip('jax is not installed (pip install -e ".[bench]")')
     script = textwrap.dedent("""
         from bench import peer_models
         scenes = [s for s in peer_models.plate_check_scenes() if s[0].startswith("5x4x3")]
@@ -78,6 +79,8 @@ def test_the_check_refuses_a_kernel_that_computes_another_plate():
     assert [changed for changed, _, _ in outcomes] == ["diagonal_rule", "load_patch", "c0"]
     for changed, code, message in outcomes:
         assert code == 1, changed
-        assert message.startswith("error: the plate's numba right-hand side differs from reference/lattice3d.py"), \
-            (changed, message)
+        assert message.startswith("error: the plate's numba right-hand side differs from reference/lattice3d.py"), (
+            changed,
+            message,
+        )
         assert len(message.strip().splitlines()) == 1, (changed, message)

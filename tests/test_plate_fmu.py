@@ -3,6 +3,7 @@ numpy/scipy reference (reference/plate_5x5x5_reference.json, written by referenc
 symmetry in y and z against the whole plate, both FMI versions through fmpy's validator, Model Exchange through
 fmpy's CVode, and the refusals of load_patch. Depth 1 keeps its numbers: tests/test_recorded_outputs.py.
 """
+
 from __future__ import annotations
 
 import json
@@ -30,14 +31,27 @@ TIGHT = {"rtol": 1e-12, "atol": 1e-12}
 
 @pytest.fixture(scope="module")
 def plate_fmu(tmp_path_factory):
-    return build_fmu.build_fmu("armour_11x11", tmp_path_factory.mktemp("plate") / "Plate5x5x5.fmu", rows=ROWS,
-                               cols=COLS, depth=DEPTH, werror=True)
+    return build_fmu.build_fmu(
+        "armour_11x11",
+        tmp_path_factory.mktemp("plate") / "Plate5x5x5.fmu",
+        rows=ROWS,
+        cols=COLS,
+        depth=DEPTH,
+        werror=True,
+    )
 
 
 @pytest.fixture(scope="module")
 def plate_fmu3(tmp_path_factory):
-    return build_fmu.build_fmu("armour_11x11", tmp_path_factory.mktemp("plate3") / "Plate5x5x5-fmi3.fmu", rows=ROWS,
-                               cols=COLS, depth=DEPTH, werror=True, fmi_version=3)
+    return build_fmu.build_fmu(
+        "armour_11x11",
+        tmp_path_factory.mktemp("plate3") / "Plate5x5x5-fmi3.fmu",
+        rows=ROWS,
+        cols=COLS,
+        depth=DEPTH,
+        werror=True,
+        fmi_version=3,
+    )
 
 
 def case_start(case) -> dict:
@@ -49,8 +63,13 @@ def case_start(case) -> dict:
 
 
 def co_simulation(fmu, start: dict, names=PEAKS + ENERGIES) -> dict:
-    result = simulate_fmu(str(fmu), stop_time=REFERENCE["horizon"], output_interval=REFERENCE["horizon"],
-                          start_values=start, output=list(names))
+    result = simulate_fmu(
+        str(fmu),
+        stop_time=REFERENCE["horizon"],
+        output_interval=REFERENCE["horizon"],
+        start_values=start,
+        output=list(names),
+    )
     return {name: float(result[name][-1]) for name in names}
 
 
@@ -61,9 +80,17 @@ def test_the_plate_fmu_is_built_from_the_reference_scene():
     assert values["k"] == pytest.approx(scene["k"], rel=1e-15)
     assert values["k_diag"] == pytest.approx(scene["k_diag"], rel=1e-15)
     assert values["c"] == pytest.approx(scene["c"], rel=1e-15)
-    for name, key in (("F_total", "F_total"), ("t_active", "t_active"), ("k_wall", "k_wall"), ("c_wall", "c_wall"),
-                      ("backplate_gap", "backplate_gap"), ("k_horizontal", "k0"), ("alpha_horizontal", "alpha0"),
-                      ("c_horizontal", "c0"), ("load_angle", "load_angle")):
+    for name, key in (
+        ("F_total", "F_total"),
+        ("t_active", "t_active"),
+        ("k_wall", "k_wall"),
+        ("c_wall", "c_wall"),
+        ("backplate_gap", "backplate_gap"),
+        ("k_horizontal", "k0"),
+        ("alpha_horizontal", "alpha0"),
+        ("c_horizontal", "c0"),
+        ("load_angle", "load_angle"),
+    ):
         assert values[name] == scene[key], name
     assert values["mass"] == (scene["mass"],) * len(values["k"])  # every material's node mass, the scene's one
 
@@ -104,8 +131,16 @@ def test_fmpy_validates_the_plate_fmu(plate_fmu, plate_fmu3, which):
 
 def test_the_plotted_masses_are_the_middle_layers(plate_fmu):
     """ux_centre is the middle mass of the middle slice along z: mass (k R + i) C + j with i, j, k the middles."""
-    names = ("ux_centre", "ux_left_edge", "ux_corner", "ux_right_edge", "ux[3,3,3]", "ux[3,3,1]", "ux[3,1,1]",
-             "ux[3,3,5]")
+    names = (
+        "ux_centre",
+        "ux_left_edge",
+        "ux_corner",
+        "ux_right_edge",
+        "ux[3,3,3]",
+        "ux[3,3,1]",
+        "ux[3,1,1]",
+        "ux[3,3,5]",
+    )
     result = simulate_fmu(str(plate_fmu), stop_time=0.2, output_interval=0.05, output=list(names))
     assert np.array_equal(result["ux_centre"], result["ux[3,3,3]"])
     assert np.array_equal(result["ux_left_edge"], result["ux[3,3,1]"])
@@ -115,15 +150,25 @@ def test_the_plotted_masses_are_the_middle_layers(plate_fmu):
 
 
 def model_exchange_peak(fmu, start: dict, stop_time: float) -> float:
-    result = simulate_fmu(str(fmu), fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-9,
-                          output_interval=0.01, stop_time=stop_time, start_values=start, output=["backplate_force"])
+    result = simulate_fmu(
+        str(fmu),
+        fmi_type="ModelExchange",
+        solver="CVode",
+        relative_tolerance=1e-9,
+        output_interval=0.01,
+        stop_time=stop_time,
+        start_values=start,
+        output=["backplate_force"],
+    )
     on_grid = np.abs(result["time"] / 0.01 - np.round(result["time"] / 0.01)) < 1e-9
     return float(result["backplate_force"][on_grid].max())
 
 
 # The peaks come at about 0.15 s: a 1 s run reaches them.
-EXCHANGE_CASES = [pytest.param(case, marks=[] if index == 1 else pytest.mark.slow, id=case["name"])
-                  for index, case in enumerate(CASES)]
+EXCHANGE_CASES = [
+    pytest.param(case, marks=[] if index == 1 else pytest.mark.slow, id=case["name"])
+    for index, case in enumerate(CASES)
+]
 
 
 @pytest.mark.parametrize("case", EXCHANGE_CASES)
@@ -140,8 +185,10 @@ def test_fmi3_model_exchange_through_cvode_gives_the_reference_peak(plate_fmu3):
     assert peak == pytest.approx(case["peak_backplate_force"], rel=1e-6)
 
 
-@pytest.mark.parametrize("patch, why", [(2, "load_patch = 2: allowed 0 (the whole face) or an odd side P"),
-                                        (6, "load_patch = 6 is not allowed")])
+@pytest.mark.parametrize(
+    "patch, why",
+    [(2, "load_patch = 2: allowed 0 (the whole face) or an odd side P"), (6, "load_patch = 6 is not allowed")],
+)
 def test_a_patch_the_plate_cannot_take_is_refused_in_one_line(plate_fmu, patch, why):
     with LatticeFMU(plate_fmu) as fmu, pytest.raises(SimulationError) as error:
         fmu.simulate(horizon=0.1, parameters={"load_patch": patch})
@@ -160,8 +207,9 @@ def test_the_plate_scene_is_the_study_in_eleven_layers_under_a_3x3_patch():
     values = scene.parameter_values()
     assert values["load_patch"] == 3
     armour = Scene.load("armour_11x11").parameter_values()
-    assert {k: v for k, v in values.items() if k != "load_patch"} == {k: v for k, v in armour.items()
-                                                                       if k != "load_patch"}
+    assert {k: v for k, v in values.items() if k != "load_patch"} == {
+        k: v for k, v in armour.items() if k != "load_patch"
+    }
     interface = scene.interface()
     states = sum(v.count for v in interface.exposed if v.role == "state")
     assert states == 6 * 11 * 11 * 11 + 3 + 2
@@ -181,8 +229,20 @@ def test_run_refuses_a_given_fmu_whose_plate_is_not_the_scenes(plate_fmu, tmp_pa
     """--fmu of a 5 x 5 x 5 plate with the scene resized to 5 columns but 11 rows and depth 1: refused in one line."""
     from orchestrator.run import main
 
-    code = main(["--fmu", str(plate_fmu), "--cols", "5", "--out", str(tmp_path / "out"), "--no-progress",
-                 "--no-sensitivity", "--budget", "1"])
+    code = main(
+        [
+            "--fmu",
+            str(plate_fmu),
+            "--cols",
+            "5",
+            "--out",
+            str(tmp_path / "out"),
+            "--no-progress",
+            "--no-sensitivity",
+            "--budget",
+            "1",
+        ]
+    )
     line = capfd.readouterr().err.strip()
     assert code == 2 and "\n" not in line, line
     assert "its lattice is 5 x 5 x 5 (rows x columns x depth), scene armour_11x11's 11 x 5" in line, line
@@ -195,8 +255,9 @@ def test_run_names_a_given_plates_size_read_from_the_fmu(plate_fmu, tmp_path, ca
     declares it."""
     from orchestrator.run import main
 
-    code = main(["--fmu", str(plate_fmu), "--out", str(tmp_path / "out"), "--no-progress", "--no-sensitivity",
-                 "--budget", "1"])
+    code = main(
+        ["--fmu", str(plate_fmu), "--out", str(tmp_path / "out"), "--no-progress", "--no-sensitivity", "--budget", "1"]
+    )
     line = capfd.readouterr().err.strip()
     assert code == 2 and "\n" not in line, line
     assert "its lattice is 5 x 5 x 5 (rows x columns x depth), scene armour_11x11's 11 x 11 (rows x columns)" in line
@@ -208,15 +269,21 @@ def test_a_design_file_of_a_plate_carries_its_patch(plate_fmu, tmp_path):
     from orchestrator.ssp import read_design_parameters, write_best_design_ssp
 
     path = tmp_path / "best_design.ssp"
-    write_best_design_ssp(plate_fmu, {"material": [3, 1, 5, 2, 4], "load_patch": 3, "diagonal_rule": "mean"}, path,
-                          stop_time=REFERENCE["horizon"])
+    write_best_design_ssp(
+        plate_fmu,
+        {"material": [3, 1, 5, 2, 4], "load_patch": 3, "diagonal_rule": "mean"},
+        path,
+        stop_time=REFERENCE["horizon"],
+    )
     design = read_design_parameters(path)
     assert design["load_patch"] == 3 and design["material[1]"] == 3
 
 
-@pytest.mark.parametrize("case", [c for c in CASES
-                                  if c["scene"]["load_patch"] and c["scene"]["diagonal_rule"] == "mean"],
-                         ids=lambda case: case["name"])
+@pytest.mark.parametrize(
+    "case",
+    [c for c in CASES if c["scene"]["load_patch"] and c["scene"]["diagonal_rule"] == "mean"],
+    ids=lambda case: case["name"],
+)
 def test_libcosim_runs_a_plates_design_file_to_the_reference_peak(plate_fmu, tmp_path, case):
     """An importer we did not write (libcosim, through libcosimpy) opens the design file of a plate struck over a
     patch under the mean rule (neither is the FMU's default) and reaches the numpy reference's peak."""
@@ -227,8 +294,7 @@ def test_libcosim_runs_a_plates_design_file_to_the_reference_peak(plate_fmu, tmp
     from orchestrator.ssp import COMPONENT, write_best_design_ssp
 
     scene = case["scene"]
-    parameters = {"material": list(scene["order"]), "load_patch": scene["load_patch"], "diagonal_rule": "mean",
-                  **TIGHT}
+    parameters = {"material": list(scene["order"]), "load_patch": scene["load_patch"], "diagonal_rule": "mean", **TIGHT}
     design = write_best_design_ssp(plate_fmu, parameters, tmp_path / "plate.ssp", stop_time=REFERENCE["horizon"])
     log_output_level(CosimLogLevel.ERROR)
     execution = CosimExecution.from_ssp_file(str(design))
@@ -237,10 +303,15 @@ def test_libcosim_runs_a_plates_design_file_to_the_reference_peak(plate_fmu, tmp
     index = execution.slave_index_from_instance_name(COMPONENT)
     references = {v.name.decode(): v.reference for v in execution.slave_variables(index)}
     assert execution.simulate_until(target_time=int(round(REFERENCE["horizon"] * 1e9))), execution.status()
-    peak, = observer.last_real_values(index, [references["peak_backplate_force"]])
+    (peak,) = observer.last_real_values(index, [references["peak_backplate_force"]])
     assert peak == pytest.approx(case["peak_backplate_force"], rel=1e-7)
-    whole_face = next(c for c in CASES if c["scene"]["order"] == scene["order"] and not c["scene"]["load_patch"]
-                      and c["scene"]["diagonal_rule"] == "mean")
+    whole_face = next(
+        c
+        for c in CASES
+        if c["scene"]["order"] == scene["order"]
+        and not c["scene"]["load_patch"]
+        and c["scene"]["diagonal_rule"] == "mean"
+    )
     assert abs(peak / whole_face["peak_backplate_force"] - 1) > 1e-3  # the patch was applied, not the default
 
 
@@ -251,9 +322,28 @@ def test_a_study_of_a_plate_says_it_is_a_plate_and_where_it_is_struck(tmp_path, 
 
     plate = build_fmu.build_fmu("armour_11x11", tmp_path / "Plate11x5x5.fmu", cols=5, depth=5, werror=True)
     out = tmp_path / "out"
-    code = main(["--fmu", str(plate), "--cols", "5", "--depth", "5", "--load-patch", "3", "--out", str(out),
-                 "--method", "exhaustive", "--diagonal-rule", "receiver", "--no-progress", "--no-sensitivity",
-                 "--workers", "2"])
+    code = main(
+        [
+            "--fmu",
+            str(plate),
+            "--cols",
+            "5",
+            "--depth",
+            "5",
+            "--load-patch",
+            "3",
+            "--out",
+            str(out),
+            "--method",
+            "exhaustive",
+            "--diagonal-rule",
+            "receiver",
+            "--no-progress",
+            "--no-sensitivity",
+            "--workers",
+            "2",
+        ]
+    )
     console = capfd.readouterr()
     assert code == 0, console.err
     assert "11 x 5 x 5 plate (5 layers of 11 x 5 masses)" in console.out and "over a centred 3 x 3 patch" in console.out
@@ -267,19 +357,35 @@ def test_a_study_of_a_plate_says_it_is_a_plate_and_where_it_is_struck(tmp_path, 
     assert '"depth":5,"loaded_faces":[{"load_patch":3,"whole_face":false,"rows":[4,6],"depth":[1,3]}]' in explore
 
 
-@pytest.mark.parametrize("depth, patch, says", [(5, 3, "over a centred 3 x 3 patch for"),
-                                                (5, 0, "over the whole face for"), (1, 0, "at 0 deg for")])
+@pytest.mark.parametrize(
+    "depth, patch, says",
+    [(5, 3, "over a centred 3 x 3 patch for"), (5, 0, "over the whole face for"), (1, 0, "at 0 deg for")],
+)
 def test_the_case_line_says_where_a_plate_is_struck(depth, patch, says):
     """A plate struck over its whole face says so; the 2-D lattice (always its whole face) keeps its line."""
     from orchestrator.objective import ObjectiveDescription
     from orchestrator.study import CaseDescription
 
-    objective = ObjectiveDescription(("peak_backplate_force",), ("peak",), ("peak",), ("N",), "receiver", {}, (), None,
-                                     8.0, 1.0, 8e-6, "rkn5")
-    case = CaseDescription(scene="plate", rows=5, columns=5, space="permutations", design_kind="permutation",
-                           design_count=120, materials=(), rules=("receiver",), objective=objective,
-                           load={"F_total": 1200.0, "load_angle": 0.0, "t_active": 0.15, "load_patch": patch},
-                           parameters={}, cases={}, aggregate=None, horizon=8.0, depth=depth)
+    objective = ObjectiveDescription(
+        ("peak_backplate_force",), ("peak",), ("peak",), ("N",), "receiver", {}, (), None, 8.0, 1.0, 8e-6, "rkn5"
+    )
+    case = CaseDescription(
+        scene="plate",
+        rows=5,
+        columns=5,
+        space="permutations",
+        design_kind="permutation",
+        design_count=120,
+        materials=(),
+        rules=("receiver",),
+        objective=objective,
+        load={"F_total": 1200.0, "load_angle": 0.0, "t_active": 0.15, "load_patch": patch},
+        parameters={},
+        cases={},
+        aggregate=None,
+        horizon=8.0,
+        depth=depth,
+    )
     assert says in case.line(), case.line()
 
 

@@ -15,6 +15,7 @@ needs `wine` and `qemu-aarch64` on PATH (Debian: wine64, qemu-user) and the aarc
 (QEMU_LD_PREFIX, default /usr/aarch64-linux-gnu, from the cross compiler's packages). Each run writes its row of
 the compatibility page (tests/compatibility.py, under --record-compatibility).
 """
+
 from __future__ import annotations
 
 import csv
@@ -27,14 +28,16 @@ import zipfile
 import pytest
 
 from builder import build
-from builder.platforms import (ALL_PLATFORMS, PLATFORMS, compiler_for, header_machine,
-                               native_platform, parse_platforms)
+from builder.platforms import ALL_PLATFORMS, PLATFORMS, compiler_for, header_machine, native_platform, parse_platforms
 from fmu_src.published import PUBLISHED_PEAKS, SEQUENTIAL_ORDER, STUDY_BEST_ORDER
 from compatibility import compatibility_row
 
 ORDERS = (SEQUENTIAL_ORDER, STUDY_BEST_ORDER)
-FMUSIM_VARIABLES = {"x86_64-linux": "FMUSIM_X86_64_LINUX", "x86_64-windows": "FMUSIM_X86_64_WINDOWS",
-                    "aarch64-linux": "FMUSIM_AARCH64_LINUX"}
+FMUSIM_VARIABLES = {
+    "x86_64-linux": "FMUSIM_X86_64_LINUX",
+    "x86_64-windows": "FMUSIM_X86_64_WINDOWS",
+    "aarch64-linux": "FMUSIM_AARCH64_LINUX",
+}
 # The program that runs another platform's executable here, and its Debian package.
 EMULATORS = {"x86_64-windows": ("wine", "wine64"), "aarch64-linux": ("qemu-aarch64", "qemu-user")}
 PUBLISHED_ACCURACY = 1e-6
@@ -57,8 +60,11 @@ def _missing_compilers(names) -> str | None:
 def _binaries(fmu) -> dict[str, tuple[str, str]]:
     """binaries/<folder>/<file> -> (format, architecture) read from each library's header in the FMU."""
     with zipfile.ZipFile(fmu) as archive:
-        return {name: header_machine(archive.read(name), name) for name in archive.namelist()
-                if name.startswith("binaries/") and not name.endswith("/")}
+        return {
+            name: header_machine(archive.read(name), name)
+            for name in archive.namelist()
+            if name.startswith("binaries/") and not name.endswith("/")
+        }
 
 
 @pytest.fixture(scope="session")
@@ -76,8 +82,9 @@ def platform_fmus(tmp_path_factory):
             if missing:
                 pytest.skip(missing)
             name = f"MassSpringLattice-fmi{fmi_version}-{platforms}.fmu"
-            built[key] = build.build_fmu(output=folder / name, werror=True, fmi_version=fmi_version,
-                                         platforms=platforms)
+            built[key] = build.build_fmu(
+                output=folder / name, werror=True, fmi_version=fmi_version, platforms=platforms
+            )
         return built[key]
 
     return fmu
@@ -85,14 +92,19 @@ def platform_fmus(tmp_path_factory):
 
 # ------------------------------------------------------------------ the build (default suite)
 
+
 @pytest.mark.parametrize("fmi_version", [2, 3])
 def test_all_platforms_put_each_library_of_its_architecture_in_its_folder(platform_fmus, fmi_version):
     from fmpy.validation import validate_fmu
 
     fmu = platform_fmus(fmi_version, "x86_64-linux")
-    expected = {f"binaries/{PLATFORMS[name].folder(fmi_version)}/MassSpringLattice{PLATFORMS[name].suffix}":
-                ("PE" if PLATFORMS[name].suffix == ".dll" else "ELF", PLATFORMS[name].machine)
-                for name in ALL_PLATFORMS[fmi_version]}
+    expected = {
+        f"binaries/{PLATFORMS[name].folder(fmi_version)}/MassSpringLattice{PLATFORMS[name].suffix}": (
+            "PE" if PLATFORMS[name].suffix == ".dll" else "ELF",
+            PLATFORMS[name].machine,
+        )
+        for name in ALL_PLATFORMS[fmi_version]
+    }
     assert _binaries(fmu) == expected
     assert validate_fmu(str(fmu)) == []
     if fmi_version == 2:
@@ -108,8 +120,12 @@ def test_the_windows_library_needs_only_what_windows_has(platform_fmus, tmp_path
         pytest.skip("x86_64-w64-mingw32-objdump is not installed: apt-get install binutils-mingw-w64-x86-64")
     with zipfile.ZipFile(platform_fmus(3, "x86_64-windows")) as archive:
         archive.extract("binaries/x86_64-windows/MassSpringLattice.dll", tmp_path)
-    headers = subprocess.run([objdump, "-p", str(tmp_path / "binaries/x86_64-windows/MassSpringLattice.dll")],
-                             capture_output=True, text=True, check=True).stdout
+    headers = subprocess.run(
+        [objdump, "-p", str(tmp_path / "binaries/x86_64-windows/MassSpringLattice.dll")],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     imported = {line.split(":", 1)[1].strip().lower() for line in headers.splitlines() if "DLL Name:" in line}
     assert imported <= {"kernel32.dll", "msvcrt.dll"}, imported
     exported = headers.split("[Ordinal/Name Pointer] Table", 1)[1]
@@ -117,14 +133,17 @@ def test_the_windows_library_needs_only_what_windows_has(platform_fmus, tmp_path
 
 
 def test_the_platforms_are_refused_in_one_line_naming_the_allowed_values():
-    with pytest.raises(ValueError, match="allowed values are 'all' or a comma list of x86_64-linux, "
-                                         "x86_64-windows, aarch64-linux"):
+    with pytest.raises(
+        ValueError, match="allowed values are 'all' or a comma list of x86_64-linux, x86_64-windows, aarch64-linux"
+    ):
         parse_platforms("x86_64-linux,sparc-solaris", 3)
     with pytest.raises(ValueError, match="FMI 2 has one folder, binaries/linux64, for x86_64-linux and aarch64-linux"):
         parse_platforms("x86_64-linux,aarch64-linux", 2)
     assert [p.name for p in parse_platforms("all", 2)] == ["x86_64-linux", "x86_64-windows"]
     assert [p.name for p in parse_platforms(" aarch64-linux, x86_64-linux ,aarch64-linux", 3)] == [
-        "aarch64-linux", "x86_64-linux"]
+        "aarch64-linux",
+        "x86_64-linux",
+    ]
 
 
 def test_a_missing_cross_compiler_is_refused_naming_its_package(monkeypatch, tmp_path, capsys):
@@ -156,6 +175,7 @@ def test_the_object_cache_keys_on_the_compiler_and_its_target(tmp_path):
 
 
 # ------------------------------------------------------------------ fmusim on each platform (opt-in)
+
 
 def _fmusim(platform: str) -> list[str]:
     """The command that runs this platform's fmusim here: the executable from its variable, under its emulator."""
@@ -192,8 +212,13 @@ def fmusim_options(interface: str, order) -> list[str]:
 def run_fmusim(command: list[str], fmu, interface: str, order, out_dir) -> float:
     """The FMU's final peak_backplate_force in one fmusim run (the last row of its output CSV)."""
     output = out_dir / f"{interface}_{''.join(f'{m:x}' for m in order)}.csv"
-    done = subprocess.run([*command, *fmusim_options(interface, order), "--output-file", str(output), str(fmu)],
-                          capture_output=True, text=True, env=_environment(), timeout=1800)
+    done = subprocess.run(
+        [*command, *fmusim_options(interface, order), "--output-file", str(output), str(fmu)],
+        capture_output=True,
+        text=True,
+        env=_environment(),
+        timeout=1800,
+    )
     if done.returncode != 0 or not output.is_file():
         problem = (done.stderr.strip() or done.stdout.strip() or "no output").splitlines()[-1]
         raise AssertionError(f"fmusim exited with {done.returncode}: {problem}")
@@ -229,8 +254,9 @@ def native_peaks(platform_fmus, tmp_path_factory):
             command = _fmusim("x86_64-linux")
             fmu = platform_fmus(fmi_version, "x86_64-linux")
             out_dir = tmp_path_factory.mktemp(f"native_{fmi_version}_{interface}")
-            peaks[fmi_version, interface] = {order: run_fmusim(command, fmu, interface, order, out_dir)
-                                             for order in ORDERS}
+            peaks[fmi_version, interface] = {
+                order: run_fmusim(command, fmu, interface, order, out_dir) for order in ORDERS
+            }
         return peaks[fmi_version, interface]
 
     return get
@@ -240,22 +266,38 @@ def native_peaks(platform_fmus, tmp_path_factory):
 @pytest.mark.parametrize("interface", list(INTERFACES))
 @pytest.mark.parametrize("fmi_version", [2, 3])
 @pytest.mark.parametrize("platform", list(FMUSIM_VARIABLES))
-def test_fmusim_reproduces_the_published_peaks_on_each_platform(platform, fmi_version, interface, platform_fmus,
-                                                                native_peaks, tmp_path, request):
+def test_fmusim_reproduces_the_published_peaks_on_each_platform(
+    platform, fmi_version, interface, platform_fmus, native_peaks, tmp_path, request
+):
     if native_platform() != "x86_64-linux":
         pytest.skip("the platform tests compare with the x86_64-linux library: run them on x86-64 Linux")
     command = _fmusim(platform)
     fmu = platform_fmus(fmi_version, platform)
-    checked = (f"published peaks to {PUBLISHED_ACCURACY:g}, peaks equal to the x86_64-linux library's in the same "
-               f"fmusim to {SAME_AS_NATIVE:g}")
+    checked = (
+        f"published peaks to {PUBLISHED_ACCURACY:g}, peaks equal to the x86_64-linux library's in the same "
+        f"fmusim to {SAME_AS_NATIVE:g}"
+    )
     options = " ".join(shlex.quote(o) for o in fmusim_options(interface, ()))
-    environment = tuple(dict.fromkeys(f"{FMUSIM_VARIABLES[name]}=path/to/{name}/fmusim"
-                                      f"{'.exe' if 'windows' in name else ''}" for name in ("x86_64-linux", platform)))
-    with compatibility_row(request, "fmusim", _version(command), fmi_version=f"{fmi_version}.0",
-                           interface=INTERFACES[interface], checked=checked, platform=platform,
-                           environment=environment,
-                           note=(f"the Reference FMUs' C fmusim, {_emulator_note(platform)}: fmusim {options} "
-                                 "--start-value material[j] m_j (each published order)")) as row:
+    environment = tuple(
+        dict.fromkeys(
+            f"{FMUSIM_VARIABLES[name]}=path/to/{name}/fmusim{'.exe' if 'windows' in name else ''}"
+            for name in ("x86_64-linux", platform)
+        )
+    )
+    with compatibility_row(
+        request,
+        "fmusim",
+        _version(command),
+        fmi_version=f"{fmi_version}.0",
+        interface=INTERFACES[interface],
+        checked=checked,
+        platform=platform,
+        environment=environment,
+        note=(
+            f"the Reference FMUs' C fmusim, {_emulator_note(platform)}: fmusim {options} "
+            "--start-value material[j] m_j (each published order)"
+        ),
+    ) as row:
         native = native_peaks(fmi_version, interface)
         for order in ORDERS:
             peak = run_fmusim(command, fmu, interface, order, tmp_path)
@@ -270,8 +312,16 @@ def platform_plate(tmp_path_factory):
     missing = _missing_compilers(ALL_PLATFORMS[3])
     if missing:
         pytest.skip(missing)
-    return build.build_fmu("armour_11x11", tmp_path_factory.mktemp("platform_plate") / "Plate5x5x5-all.fmu",
-                           rows=5, cols=5, depth=5, werror=True, fmi_version=3, platforms="all")
+    return build.build_fmu(
+        "armour_11x11",
+        tmp_path_factory.mktemp("platform_plate") / "Plate5x5x5-all.fmu",
+        rows=5,
+        cols=5,
+        depth=5,
+        werror=True,
+        fmi_version=3,
+        platforms="all",
+    )
 
 
 @pytest.mark.platforms
@@ -284,18 +334,39 @@ def test_fmusim_runs_a_plate_under_a_patch_to_the_reference_on_each_platform(pla
 
     if native_platform() != "x86_64-linux":
         pytest.skip("the platform tests run on x86-64 Linux")
-    reference = json.loads((Path(__file__).resolve().parents[1] / "reference" / "plate_5x5x5_reference.json")
-                           .read_text())
+    reference = json.loads(
+        (Path(__file__).resolve().parents[1] / "reference" / "plate_5x5x5_reference.json").read_text()
+    )
     case = next(c for c in reference["cases"] if c["name"] == "mean-patch3-31524")
     command = _fmusim(platform)
     output = tmp_path / "plate.csv"
-    options = ["--interface-type", "cs", "--output-variable", "peak_backplate_force", "--start-value", "load_patch",
-               "3", "--start-value", "diagonal_rule", "1", "--start-value", "rtol", "1e-12", "--start-value", "atol",
-               "1e-12"]
+    options = [
+        "--interface-type",
+        "cs",
+        "--output-variable",
+        "peak_backplate_force",
+        "--start-value",
+        "load_patch",
+        "3",
+        "--start-value",
+        "diagonal_rule",
+        "1",
+        "--start-value",
+        "rtol",
+        "1e-12",
+        "--start-value",
+        "atol",
+        "1e-12",
+    ]
     for index, material in enumerate(case["scene"]["order"], start=1):
         options += ["--start-value", f"material[{index}]", str(material)]
-    done = subprocess.run([*command, *options, "--output-file", str(output), str(platform_plate)],
-                          capture_output=True, text=True, env=_environment(), timeout=1800)
+    done = subprocess.run(
+        [*command, *options, "--output-file", str(output), str(platform_plate)],
+        capture_output=True,
+        text=True,
+        env=_environment(),
+        timeout=1800,
+    )
     assert done.returncode == 0 and output.is_file(), (done.stderr or done.stdout)[-2000:]
     with open(output, newline="") as handle:
         rows = list(csv.DictReader(handle))

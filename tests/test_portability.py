@@ -7,6 +7,7 @@ libc or msvcrt). Linux-only calls
 (prctl, renameat2) must then be skipped, not fail, and the run must still lock its folder, resume, and swap
 its report in.
 """
+
 from __future__ import annotations
 
 import json
@@ -55,16 +56,24 @@ def run_without_posix(tmp_path, code: str) -> subprocess.CompletedProcess:
     shim = tmp_path / "shim"
     shim.mkdir(exist_ok=True)
     (shim / "sitecustomize.py").write_text(SHIM)
-    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(shim), str(ROOT)]),
-                   "SHIM_LOG": str(tmp_path / "shim.log"), "LATTICE_START_METHOD": "spawn"}
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
-                          env=environment, timeout=600)
+    environment = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(shim), str(ROOT)]),
+        "SHIM_LOG": str(tmp_path / "shim.log"),
+        "LATTICE_START_METHOD": "spawn",
+    }
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=environment, timeout=600
+    )
 
 
 def test_the_shim_hides_fcntl_and_the_c_library(tmp_path):
-    done = run_without_posix(tmp_path, "import ctypes\ntry:\n    import fcntl\nexcept ImportError:\n    pass\n"
-                                       "else:\n    raise SystemExit('fcntl imported')\n"
-                                       "try:\n    ctypes.CDLL(None)\nexcept OSError:\n    print('refused')\n")
+    done = run_without_posix(
+        tmp_path,
+        "import ctypes\ntry:\n    import fcntl\nexcept ImportError:\n    pass\n"
+        "else:\n    raise SystemExit('fcntl imported')\n"
+        "try:\n    ctypes.CDLL(None)\nexcept OSError:\n    print('refused')\n",
+    )
     assert done.returncode == 0 and done.stdout.strip() == "refused", done.stderr
 
 

@@ -2,6 +2,7 @@
 the back port (x_back, v_back in: a moving backplate), their <ModelStructure> dependencies and the energy balance
 with ports, through FMI 2 and FMI 3 Co-Simulation and fmpy's Model Exchange.
 """
+
 from __future__ import annotations
 
 import math
@@ -22,9 +23,20 @@ STEP = 0.01
 PULSE_FORCE, PULSE_END = 1200.0, 0.15  # the study's pulse (docs/model.md section 4)
 MODES = enumeration_values("load_mode")
 PULSE, INPUT, PROJECTILE = MODES["pulse"], MODES["input"], MODES["projectile"]
-OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "external_work", "energy_balance_error",
-           "x_front", "v_front", "backplate_force", "potential_energy", "kinetic_energy", "contact_force",
-           "projectile_position", "projectile_velocity")
+OUTPUTS = (
+    "peak_backplate_force",
+    "peak_backplate_force_continuous",
+    "external_work",
+    "energy_balance_error",
+    "x_front",
+    "v_front",
+    "backplate_force",
+    "potential_energy",
+    "kinetic_energy",
+    "contact_force",
+    "projectile_position",
+    "projectile_velocity",
+)
 # The peak comes near 0.3 s, and the lattice has left the plate for good before 1 s (README, horizon study).
 HORIZON = 1.0
 
@@ -49,8 +61,12 @@ class Slave:
         self.vr = {v.name: v.valueReference for v in self.description.modelVariables}
         self.unzip_dir = extract(str(path))
         kind = FMU3Slave if self.fmi3 else FMU2Slave
-        self.slave = kind(guid=self.description.guid, unzipDirectory=self.unzip_dir,
-                          modelIdentifier=self.description.coSimulation.modelIdentifier, instanceName="ports")
+        self.slave = kind(
+            guid=self.description.guid,
+            unzipDirectory=self.unzip_dir,
+            modelIdentifier=self.description.coSimulation.modelIdentifier,
+            instanceName="ports",
+        )
         self.slave.instantiate()
         if self.fmi3:
             self.slave.enterInitializationMode(startTime=0.0, stopTime=horizon)
@@ -59,8 +75,9 @@ class Slave:
         else:
             self.slave.setupExperiment(startTime=0.0, stopTime=horizon)
             self.slave.enterInitializationMode()
-            self.slave.setInteger([self.vr["load_mode"], self.vr["use_symmetry"], self.vr["solver"]],
-                                  [load_mode, use_symmetry, solver])
+            self.slave.setInteger(
+                [self.vr["load_mode"], self.vr["use_symmetry"], self.vr["solver"]], [load_mode, use_symmetry, solver]
+            )
         self.slave.exitInitializationMode()
 
     def set(self, **values):
@@ -78,8 +95,9 @@ class Slave:
         shutil.rmtree(self.unzip_dir, ignore_errors=True)
 
 
-def run(path, load_mode=PULSE, front=None, back=None, horizon=HORIZON, use_symmetry=1, solver=0,
-        step=STEP) -> dict[str, float]:
+def run(
+    path, load_mode=PULSE, front=None, back=None, horizon=HORIZON, use_symmetry=1, solver=0, step=STEP
+) -> dict[str, float]:
     """A run over `horizon` in steps of `step`, the inputs set before each step from front(t) and back(t)."""
     instance = Slave(path, horizon, load_mode, use_symmetry, solver)
     try:
@@ -105,8 +123,9 @@ def test_input_mode_driven_with_the_pulse_gives_the_pulse_peak(co_simulation_fmu
     pulse = run(co_simulation_fmu)
     driven = run(co_simulation_fmu, INPUT, front=pulse_force)
     assert driven["peak_backplate_force"] == pytest.approx(pulse["peak_backplate_force"], rel=1e-7)
-    assert driven["peak_backplate_force_continuous"] == pytest.approx(pulse["peak_backplate_force_continuous"],
-                                                                      rel=1e-7)
+    assert driven["peak_backplate_force_continuous"] == pytest.approx(
+        pulse["peak_backplate_force_continuous"], rel=1e-7
+    )
     assert driven["external_work"] == pytest.approx(pulse["external_work"], rel=1e-7)
     assert abs(driven["energy_balance_error"]) <= 1e-6 * driven["external_work"]
 
@@ -208,16 +227,19 @@ def test_every_output_declares_its_input_dependencies(fmu_path, fmu3_path):
     index = {v.get("name"): str(i) for i, v in enumerate(variables, start=1)}
     inputs = {v.get("name") for v in variables if v.get("causality") == "input"}
     assert inputs == {"F_front", "x_back", "v_back"}
-    outputs = {variables[int(u.get("index")) - 1].get("name"): u.get("dependencies")
-               for u in root.find("ModelStructure").find("Outputs")}
+    outputs = {
+        variables[int(u.get("index")) - 1].get("name"): u.get("dependencies")
+        for u in root.find("ModelStructure").find("Outputs")
+    }
     assert all(dependencies is not None for dependencies in outputs.values())
     assert outputs["x_front"] == outputs["v_front"] == outputs["kinetic_energy"] == ""
     assert outputs["backplate_force"] == f"{index['x_back']} {index['v_back']}"
     assert outputs["potential_energy"] == outputs["backplate_force"]
     root3 = _structure(fmu3_path)
     reference = {v.get("name"): v.get("valueReference") for v in root3.find("ModelVariables")}
-    outputs3 = {u.get("valueReference"): u.get("dependencies") for u in root3.find("ModelStructure")
-                if u.tag == "Output"}
+    outputs3 = {
+        u.get("valueReference"): u.get("dependencies") for u in root3.find("ModelStructure") if u.tag == "Output"
+    }
     assert all(dependencies is not None for dependencies in outputs3.values())
     assert outputs3[reference["x_front"]] == ""
     assert outputs3[reference["backplate_force"]] == f"{reference['x_back']} {reference['v_back']}"
@@ -251,10 +273,18 @@ def test_output_derivatives_and_input_derivatives(fmu_path):
 
 def test_model_exchange_takes_the_inputs_the_importer_sets(fmu_path):
     """fmpy's CVode drives F_front with the pulse (a step signal at t_active) and gives the pulse's peak."""
-    signal = np.array([(0.0, PULSE_FORCE), (PULSE_END, PULSE_FORCE), (PULSE_END, 0.0), (HORIZON, 0.0)],
-                      dtype=[("time", np.float64), ("F_front", np.float64)])
-    common = {"fmi_type": "ModelExchange", "solver": "CVode", "relative_tolerance": 1e-9, "output_interval": STEP,
-              "stop_time": HORIZON, "output": ["peak_backplate_force", "external_work", "energy_balance_error"]}
+    signal = np.array(
+        [(0.0, PULSE_FORCE), (PULSE_END, PULSE_FORCE), (PULSE_END, 0.0), (HORIZON, 0.0)],
+        dtype=[("time", np.float64), ("F_front", np.float64)],
+    )
+    common = {
+        "fmi_type": "ModelExchange",
+        "solver": "CVode",
+        "relative_tolerance": 1e-9,
+        "output_interval": STEP,
+        "stop_time": HORIZON,
+        "output": ["peak_backplate_force", "external_work", "energy_balance_error"],
+    }
     pulse = simulate_fmu(str(fmu_path), **common)
     driven = simulate_fmu(str(fmu_path), start_values={"load_mode": INPUT}, input=signal, **common)
     assert driven["peak_backplate_force"][-1] == pytest.approx(pulse["peak_backplate_force"][-1], rel=1e-6)
@@ -299,8 +329,9 @@ def test_projectile_mode_the_contact_pushes_while_the_body_overlaps_the_face(fmu
         instance.close()
 
 
-@pytest.mark.parametrize("variant", [{"use_symmetry": 0}, {"solver": 5}, {"step": HORIZON}],
-                         ids=["whole-lattice", "rkn5", "one-step"])
+@pytest.mark.parametrize(
+    "variant", [{"use_symmetry": 0}, {"solver": 5}, {"step": HORIZON}], ids=["whole-lattice", "rkn5", "one-step"]
+)
 def test_projectile_mode_agrees_across_solvers_layouts_and_communication(fmu_path, variant):
     """The quarter (here half) lattice with the body, Fine's Nystrom pair (which takes the body as second order)
     and one doStep over the horizon agree with the default run of 0.01 s steps."""
@@ -314,9 +345,16 @@ def test_projectile_mode_agrees_across_solvers_layouts_and_communication(fmu_pat
 def test_projectile_mode_under_model_exchange(fmu_path):
     """fmpy's CVode integrates the body with the lattice and locates the contact's opening as an event."""
     names = ["peak_backplate_force", "projectile_velocity", "energy_balance_error"]
-    result = simulate_fmu(str(fmu_path), fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-9,
-                          output_interval=STEP, stop_time=HORIZON, start_values={"load_mode": PROJECTILE},
-                          output=names)
+    result = simulate_fmu(
+        str(fmu_path),
+        fmi_type="ModelExchange",
+        solver="CVode",
+        relative_tolerance=1e-9,
+        output_interval=STEP,
+        stop_time=HORIZON,
+        start_values={"load_mode": PROJECTILE},
+        output=names,
+    )
     co_simulation = run(fmu_path, PROJECTILE)
     assert result["peak_backplate_force"][-1] == pytest.approx(co_simulation["peak_backplate_force"], rel=1e-6)
     assert result["projectile_velocity"][-1] == pytest.approx(co_simulation["projectile_velocity"], rel=1e-6)
@@ -337,8 +375,8 @@ def _coupled_projectile(path, step, interpolate, horizon=0.5) -> float:
         """The contact force and its partial derivatives by the overlap and by its rate (docs/model.md 11)."""
         if overlap <= 0.0:
             return 0.0, 0.0, 0.0
-        force = stiffness * overlap ** exponent * max(1.0 + damping * rate, 0.0)
-        by_rate = stiffness * overlap ** exponent * damping if force > 0.0 else 0.0
+        force = stiffness * overlap**exponent * max(1.0 + damping * rate, 0.0)
+        by_rate = stiffness * overlap**exponent * damping if force > 0.0 else 0.0
         return force, exponent * force / overlap, by_rate
 
     def body_over_step(position, velocity, x_face, v_face, a_face):
@@ -356,10 +394,14 @@ def _coupled_projectile(path, step, interpolate, horizon=0.5) -> float:
         for j in range(substeps):
             tau = j * h
             k1x, k1v = velocity, acceleration(tau, position, velocity)
-            k2x, k2v = velocity + 0.5 * h * k1v, acceleration(tau + 0.5 * h, position + 0.5 * h * k1x,
-                                                               velocity + 0.5 * h * k1v)
-            k3x, k3v = velocity + 0.5 * h * k2v, acceleration(tau + 0.5 * h, position + 0.5 * h * k2x,
-                                                               velocity + 0.5 * h * k2v)
+            k2x, k2v = (
+                velocity + 0.5 * h * k1v,
+                acceleration(tau + 0.5 * h, position + 0.5 * h * k1x, velocity + 0.5 * h * k1v),
+            )
+            k3x, k3v = (
+                velocity + 0.5 * h * k2v,
+                acceleration(tau + 0.5 * h, position + 0.5 * h * k2x, velocity + 0.5 * h * k2v),
+            )
             k4x, k4v = velocity + h * k3v, acceleration(tau + h, position + h * k3x, velocity + h * k3v)
             position += h / 6.0 * (k1x + 2 * k2x + 2 * k3x + k4x)
             velocity += h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
@@ -403,8 +445,9 @@ def small_plate(tmp_path_factory):
     """A 5 x 5 x 5 plate under a centred 3 x 3 patch: mirror-symmetric in y and in z (a quarter carries it)."""
     from builder.build import build_fmu
 
-    return build_fmu(output=tmp_path_factory.mktemp("plate") / "plate.fmu", rows=5, cols=5, depth=5, load_patch=3,
-                     werror=True)
+    return build_fmu(
+        output=tmp_path_factory.mktemp("plate") / "plate.fmu", rows=5, cols=5, depth=5, load_patch=3, werror=True
+    )
 
 
 @pytest.mark.parametrize("load_mode", [INPUT, PROJECTILE], ids=["input", "projectile"])
@@ -414,8 +457,14 @@ def test_the_quarter_plate_keeps_the_ports_and_the_projectile_exact(small_plate,
     front = pulse_force if load_mode == INPUT else None
     quarter = run(small_plate, load_mode, front=front, use_symmetry=1)
     whole = run(small_plate, load_mode, front=front, use_symmetry=0)
-    for name in ("peak_backplate_force", "peak_backplate_force_continuous", "x_front", "v_front",
-                 "projectile_velocity", "kinetic_energy"):
+    for name in (
+        "peak_backplate_force",
+        "peak_backplate_force_continuous",
+        "x_front",
+        "v_front",
+        "projectile_velocity",
+        "kinetic_energy",
+    ):
         assert quarter[name] == pytest.approx(whole[name], rel=1e-6, abs=1e-12), name
     energy_in = quarter["external_work"] if load_mode == INPUT else _impact_energy(small_plate)
     assert abs(quarter["energy_balance_error"]) <= 1e-6 * energy_in

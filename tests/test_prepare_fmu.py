@@ -1,5 +1,6 @@
 """The FMU a run uses is checked, built and instantiated once before anything is searched: a broken or foreign
 binary is refused with the FMU's own reason, or rebuilt when it is the scene's default FMU."""
+
 from __future__ import annotations
 
 import shutil
@@ -52,6 +53,7 @@ def test_the_scenes_default_fmu_with_a_foreign_binary_is_rebuilt(foreign, tmp_pa
 
 # ------------------------------------------------------------------------------------------ without a compiler
 
+
 @pytest.fixture()
 def no_compiler(tmp_path, monkeypatch):
     """No C compiler (CC names none), models/ and the prebuilt folder empty under tmp_path."""
@@ -74,14 +76,19 @@ def test_without_a_compiler_the_default_scene_runs_from_the_prebuilt_fmu(no_comp
 
 
 @pytest.mark.parametrize("change", ["lattice", "materials"])
-def test_without_a_compiler_another_lattice_or_table_is_refused_naming_the_compiler(no_compiler, fmu_path, tmp_path,
-                                                                                    change):
+def test_without_a_compiler_another_lattice_or_table_is_refused_naming_the_compiler(
+    no_compiler, fmu_path, tmp_path, change
+):
     shutil.copy(fmu_path, no_compiler / "MassSpringLattice.fmu")
     table = tmp_path / "materials.csv"
-    table.write_text("name,k,k_diag,c,alpha,alpha_diag\n" + "".join(
-        f"m{i},{10 * i},{5 * i},{0.5 * i},10,10\n" for i in range(1, 12)))
-    scene = (build.resolve_scene("armour_11x11", cols=5) if change == "lattice"
-             else build.resolve_scene("armour_11x11", materials=table))
+    table.write_text(
+        "name,k,k_diag,c,alpha,alpha_diag\n" + "".join(f"m{i},{10 * i},{5 * i},{0.5 * i},10,10\n" for i in range(1, 12))
+    )
+    scene = (
+        build.resolve_scene("armour_11x11", cols=5)
+        if change == "lattice"
+        else build.resolve_scene("armour_11x11", materials=table)
+    )
     with pytest.raises(FMUError) as caught:
         prepare_fmu(scene)
     message = str(caught.value)
@@ -96,8 +103,10 @@ def test_without_a_compiler_a_prebuilt_fmu_that_cannot_be_instantiated_is_refuse
         prepare_fmu(Scene.load("armour_11x11"))
 
 
-@pytest.mark.parametrize("system, hint", [("Windows", "MinGW-w64 gcc"), ("Darwin", "xcode-select --install"),
-                                          ("Linux", "apt-get install gcc")])
+@pytest.mark.parametrize(
+    "system, hint",
+    [("Windows", "MinGW-w64 gcc"), ("Darwin", "xcode-select --install"), ("Linux", "apt-get install gcc")],
+)
 def test_the_compiler_to_install_is_named_for_each_platform(monkeypatch, system, hint):
     from orchestrator import fmu as prepared_fmu
 

@@ -1,5 +1,6 @@
 """The orchestrator under a projectile (docs/model.md section 11): the same study, the load a body that answers
 back; options of the other load refused in one line, the pulse's known optima never claimed for it."""
+
 from __future__ import annotations
 
 import json
@@ -19,8 +20,19 @@ from orchestrator.study import PROJECTILE, CaseConfig, resolve_case, search_fide
 from orchestrator.studyfile import read_study_file, write_study_file
 from scenes import PROJECTILE_SCENE, Scene
 
-QUICK = ["--budget", "12", "--repeats", "1", "--method", "cmaes", "sequential", "--no-sensitivity",
-         "--no-progress", "--executor", "serial"]
+QUICK = [
+    "--budget",
+    "12",
+    "--repeats",
+    "1",
+    "--method",
+    "cmaes",
+    "sequential",
+    "--no-sensitivity",
+    "--no-progress",
+    "--executor",
+    "serial",
+]
 
 
 def main(*argv):
@@ -47,16 +59,19 @@ def case_of(fmu_path, **options):
     return resolve_case(config, resolve(config))
 
 
-@pytest.mark.parametrize("argv, named", [
-    (["--load-mode", "input"], "--load-mode input: input mode needs a co-simulation master"),
-    (["--projectile-mass", "60"], "--projectile-mass: only under a projectile"),
-    (["--contact-damping", "0.1", "--load-mode", "pulse"], "--contact-damping: only under a projectile"),
-    (["--load-mode", "projectile", "--load", "600"], "--load: the pulse's F_total does nothing under a projectile"),
-    (["--load-mode", "projectile", "--case", "t_active=0.1,0.2"], "--case t_active: the pulse's t_active"),
-    (["--case", "load_mode=pulse,input"], "--case load_mode input"),
-    (["--load-mode", "projectile", "--projectile-speed", "-1"], "--projectile-speed"),
-    (["--load-mode", "projectile", "--projectile-mass", "0"], "--projectile-mass"),
-])
+@pytest.mark.parametrize(
+    "argv, named",
+    [
+        (["--load-mode", "input"], "--load-mode input: input mode needs a co-simulation master"),
+        (["--projectile-mass", "60"], "--projectile-mass: only under a projectile"),
+        (["--contact-damping", "0.1", "--load-mode", "pulse"], "--contact-damping: only under a projectile"),
+        (["--load-mode", "projectile", "--load", "600"], "--load: the pulse's F_total does nothing under a projectile"),
+        (["--load-mode", "projectile", "--case", "t_active=0.1,0.2"], "--case t_active: the pulse's t_active"),
+        (["--case", "load_mode=pulse,input"], "--case load_mode input"),
+        (["--load-mode", "projectile", "--projectile-speed", "-1"], "--projectile-speed"),
+        (["--load-mode", "projectile", "--projectile-mass", "0"], "--projectile-mass"),
+    ],
+)
 def test_options_of_the_other_load_are_refused_in_one_line(fmu_path, tmp_path, capfd, argv, named):
     code = main(*argv, "--fmu", fmu_path, "--out", tmp_path / "out", *QUICK)
     line = one_line(capfd)
@@ -106,43 +121,66 @@ def test_the_projectile_scene_departs_from_the_study_and_carries_its_search_fide
 
 
 def test_the_projectile_options_round_trip_through_the_study_file(tmp_path):
-    case = CaseConfig(load_mode=PROJECTILE, projectile_mass=60.0, projectile_speed=3.0, contact_stiffness=2e6,
-                      contact_exponent=1.5, contact_damping=0.1)
+    case = CaseConfig(
+        load_mode=PROJECTILE,
+        projectile_mass=60.0,
+        projectile_speed=3.0,
+        contact_stiffness=2e6,
+        contact_exponent=1.5,
+        contact_damping=0.1,
+    )
     path = write_study_file(tmp_path, {CaseConfig: case}, "0" * 64, "1" * 64)
     written = tomllib.loads(path.read_text())["case"]
     assert written["load-mode"] == PROJECTILE and written["projectile-mass"] == 60.0
     assert read_study_file(path).values == {
-        "CaseConfig.load_mode": PROJECTILE, "CaseConfig.projectile_mass": 60.0, "CaseConfig.projectile_speed": 3.0,
-        "CaseConfig.contact_stiffness": 2e6, "CaseConfig.contact_exponent": 1.5, "CaseConfig.contact_damping": 0.1}
+        "CaseConfig.load_mode": PROJECTILE,
+        "CaseConfig.projectile_mass": 60.0,
+        "CaseConfig.projectile_speed": 3.0,
+        "CaseConfig.contact_stiffness": 2e6,
+        "CaseConfig.contact_exponent": 1.5,
+        "CaseConfig.contact_damping": 0.1,
+    }
 
 
 def test_a_study_under_a_projectile_answers_and_draws_the_contact_force_on_its_first_screen(fmu_path, tmp_path, capfd):
     out = tmp_path / "results"
-    code = main("--fmu", fmu_path, "--out", out, "--load-mode", "projectile", "--projectile-mass", "60",
-                "--diagonal-rule", "receiver", *QUICK)
+    code = main(
+        "--fmu",
+        fmu_path,
+        "--out",
+        out,
+        "--load-mode",
+        "projectile",
+        "--projectile-mass",
+        "60",
+        "--diagonal-rule",
+        "receiver",
+        *QUICK,
+    )
     printed = capfd.readouterr()
     assert code == 0, printed.err
     results = json.loads((out / "results.json").read_text())
-    answer, = results["answers"]
+    (answer,) = results["answers"]
     assert answer["evidence"]["status"] == "best_found"  # the pulse's certificate is not the projectile's
     assert results["case"]["load"]["load_mode"] == PROJECTILE and results["case"]["load"]["projectile_mass"] == 60.0
     assert "60 kg projectile" in printed.out
     from orchestrator.simulation import LatticeFMU
 
     with LatticeFMU(fmu_path) as fmu:  # the answer is the FMU's peak under that projectile
-        peak = fmu.simulate(answer["order"], 8.0, {"diagonal_rule": "receiver", "load_mode": PROJECTILE,
-                                                   "projectile_mass": 60.0})["peak_backplate_force"]
+        peak = fmu.simulate(
+            answer["order"], 8.0, {"diagonal_rule": "receiver", "load_mode": PROJECTILE, "projectile_mass": 60.0}
+        )["peak_backplate_force"]
         pulse = fmu.simulate(answer["order"], 8.0, {"diagonal_rule": "receiver"})["peak_backplate_force"]
     assert peak == pytest.approx(answer["peak"], rel=1e-9) and abs(peak / pulse - 1) > 1e-6
     html = (out / "report.html").read_text()
-    first = html[:html.index("<h2", html.index("<h2") + 1)]  # up to the second section's heading
+    first = html[: html.index("<h2", html.index("<h2") + 1)]  # up to the second section's heading
     assert "60 kg projectile" in first and 'data-chart="impact.png"' in first and (out / "impact.png").is_file()
     force = results["steps"]["trajectories"]["force"][0]["trajectory"]["values"]
     assert set(force) == {"backplate_force", "contact_force"} and max(force["contact_force"]) > 0
     speed = describe(fmu_path, 11).start("projectile_speed")  # what is put in: the body's kinetic energy
     energy = answer["energy_by_rule"]["receiver"]
     assert energy["external_work"] == pytest.approx(0, abs=1e-9)
-    assert energy["start_energy"] == pytest.approx(0.5 * 60.0 * speed ** 2)
+    assert energy["start_energy"] == pytest.approx(0.5 * 60.0 * speed**2)
     assert results["design_files_refused"] == {}  # the design file carries the projectile
     design = read_design_parameters(out / answer["design_file"])
     assert design["load_mode"] == 2 and design["projectile_mass"] == 60.0
@@ -168,27 +206,57 @@ def test_sensitivity_under_a_projectile_varies_the_projectile_not_the_pulse(fmu_
 
 def test_a_sweep_under_a_projectile_certifies_its_own_optimum(armour_fmu_of_width, tmp_path, capfd):
     out = tmp_path / "results"
-    code = main("--fmu", armour_fmu_of_width(5), "--cols", 5, "--out", out, "--load-mode", "projectile",
-                "--method", "exhaustive", "--diagonal-rule", "mean", "--no-sensitivity", "--no-progress",
-                "--executor", "serial")
+    code = main(
+        "--fmu",
+        armour_fmu_of_width(5),
+        "--cols",
+        5,
+        "--out",
+        out,
+        "--load-mode",
+        "projectile",
+        "--method",
+        "exhaustive",
+        "--diagonal-rule",
+        "mean",
+        "--no-sensitivity",
+        "--no-progress",
+        "--executor",
+        "serial",
+    )
     assert code == 0, capfd.readouterr().err
     results = json.loads((out / "results.json").read_text())
-    answer, = results["answers"]
-    assert answer["evidence"]["status"] == "certified" and "this run's exhaustive sweep" in \
-        answer["evidence"]["status_source"]
+    (answer,) = results["answers"]
+    assert (
+        answer["evidence"]["status"] == "certified"
+        and "this run's exhaustive sweep" in answer["evidence"]["status_source"]
+    )
     certificate = json.loads((out / "exhaustive" / "certificate.json").read_text())
     assert certificate["certified"] and certificate["optimum"]["order"] == answer["order"]
 
 
 def test_one_order_for_the_pulse_and_the_projectile_is_the_worst_of_both(fmu_path, tmp_path, capfd):
     out = tmp_path / "results"
-    code = main("--fmu", fmu_path, "--out", out, "--case", "load_mode=pulse,projectile", "--aggregate", "worst",
-                "--diagonal-rule", "receiver", *QUICK)
+    code = main(
+        "--fmu",
+        fmu_path,
+        "--out",
+        out,
+        "--case",
+        "load_mode=pulse,projectile",
+        "--aggregate",
+        "worst",
+        "--diagonal-rule",
+        "receiver",
+        *QUICK,
+    )
     assert code == 0, capfd.readouterr().err
-    answer, = json.loads((out / "results.json").read_text())["answers"]
+    (answer,) = json.loads((out / "results.json").read_text())["answers"]
     from orchestrator.simulation import LatticeFMU
 
     with LatticeFMU(fmu_path) as fmu:
-        peaks = [fmu.simulate(answer["order"], 8.0, {"diagonal_rule": "receiver", "load_mode": mode})
-                 ["peak_backplate_force"] for mode in ("pulse", "projectile")]
+        peaks = [
+            fmu.simulate(answer["order"], 8.0, {"diagonal_rule": "receiver", "load_mode": mode})["peak_backplate_force"]
+            for mode in ("pulse", "projectile")
+        ]
     assert answer["peak"] == pytest.approx(max(peaks), rel=1e-9)

@@ -1,4 +1,5 @@
 """The README is a user guide that stays inside the repository: every link and image it names exists here."""
+
 from __future__ import annotations
 
 import re
@@ -31,10 +32,13 @@ def test_the_readme_is_short_and_runs_the_test_command_ci_runs():
 def test_the_readme_quotes_the_run_times_as_their_page_measured_them():
     """The plate's and the quick tests' run times in the README are the run times page's, not typed apart."""
     page = (ROOT / "docs" / "measurements" / "run_times.md").read_text()
-    rows = {cells[0].strip("` "): cells[1:] for cells in
-            (line.strip("|").split("|") for line in page.splitlines() if line.startswith("| `"))}
-    plate_wall, plate_did = (cell.strip() for cell in rows["python orchestrator/run.py --scene plate_11x11x11 "
-                                                          "--budget 20 --repeats 1"])
+    rows = {
+        cells[0].strip("` "): cells[1:]
+        for cells in (line.strip("|").split("|") for line in page.splitlines() if line.startswith("| `"))
+    }
+    plate_wall, plate_did = (
+        cell.strip() for cell in rows["python orchestrator/run.py --scene plate_11x11x11 --budget 20 --repeats 1"]
+    )
     quick_wall, quick_did = (cell.strip() for cell in rows["python -m pytest -m quick"])
     text = " ".join(README.split())
     plate_runs = plate_did.split(" FMU runs")[0]

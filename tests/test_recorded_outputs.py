@@ -5,6 +5,7 @@ tests/recorded_outputs.py for why those and nothing else), else to the FMU's acc
 do not depend on the step sequence's details (peaks and energy integrals). `python tests/recorded_outputs.py`
 records them again, which a change that is meant to change the numbers does (and says so).
 """
+
 from __future__ import annotations
 
 import json
@@ -12,21 +13,39 @@ import math
 
 import pytest
 
-from recorded_outputs import (CO_SIMULATION_CASES, DATA, EXCHANGE_SETTING, MODEL_EXCHANGE_CASES, co_simulation_run,
-                              decode, fixed_step_exchange, libm_identity)
+from recorded_outputs import (
+    CO_SIMULATION_CASES,
+    DATA,
+    EXCHANGE_SETTING,
+    MODEL_EXCHANGE_CASES,
+    co_simulation_run,
+    decode,
+    fixed_step_exchange,
+    libm_identity,
+)
 
 RECORD = json.loads(DATA.read_text())
 SAME_BITS = RECORD["environment"] == libm_identity()
 # Off the recording's libm the step sequence may differ by a step, so the outputs agree to the solvers' accuracy.
-STABLE_OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "external_work", "dissipated_energy",
-                  "nonreciprocal_work")
+STABLE_OUTPUTS = (
+    "peak_backplate_force",
+    "peak_backplate_force_continuous",
+    "external_work",
+    "dissipated_energy",
+    "nonreciprocal_work",
+)
 ACCURACY = 1e-5
 
 
 def recorded(interface, setting, order, rule, symmetry=None) -> dict:
     for run in RECORD["runs"]:
         if (run["interface"], run["setting"], tuple(run["order"]), run["diagonal_rule"], run.get("use_symmetry")) == (
-                interface, setting, tuple(order), rule, symmetry):
+            interface,
+            setting,
+            tuple(order),
+            rule,
+            symmetry,
+        ):
             return {name: decode(value) for name, value in run["outputs"].items()}
     raise LookupError(f"no recorded {interface} run {setting} {order} {rule} {symmetry}")
 
@@ -47,8 +66,10 @@ def _id(case) -> str:
 
 @pytest.mark.parametrize("setting, order, rule, symmetry", CO_SIMULATION_CASES, ids=map(_id, CO_SIMULATION_CASES))
 def test_co_simulation_gives_the_recorded_outputs(lattice, setting, order, rule, symmetry):
-    check(co_simulation_run(lattice, setting, order, rule, symmetry),
-          recorded("co-simulation", setting, order, rule, symmetry))
+    check(
+        co_simulation_run(lattice, setting, order, rule, symmetry),
+        recorded("co-simulation", setting, order, rule, symmetry),
+    )
 
 
 @pytest.mark.parametrize("order, rule", MODEL_EXCHANGE_CASES, ids=map(_id, MODEL_EXCHANGE_CASES))

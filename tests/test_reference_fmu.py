@@ -4,6 +4,7 @@ Both FMUs are driven through the same fmpy code path (orchestrator.simulation.La
 tolerances, over a short horizon (0.6 s: the peak is near 0.32 s and the lattice leaves the plate before
 0.6 s for these orders), so the numpy route stays quick enough for CI.
 """
+
 import json
 import math
 import subprocess
@@ -56,8 +57,16 @@ def test_reference_fmu_is_valid_and_has_the_c_fmus_names(reference_fmu_path, fmu
     ref = {v.name: v for v in read_model_description(str(reference_fmu_path)).modelVariables}
     c = {v.name: v for v in read_model_description(str(fmu_path)).modelVariables}
     required = [f"material[{j}]" for j in range(1, 12)] + [
-        "F_total", "diagonal_rule", "rtol", "atol", "peak_sample_interval", "k[1]", "k_diag[11]",
-        *OUTPUTS, "last_contact_time"]
+        "F_total",
+        "diagonal_rule",
+        "rtol",
+        "atol",
+        "peak_sample_interval",
+        "k[1]",
+        "k_diag[11]",
+        *OUTPUTS,
+        "last_contact_time",
+    ]
     for name in required:
         assert name in ref, name
     for name, variable in ref.items():  # every name it has means the same in the C FMU
@@ -87,17 +96,19 @@ def test_c_fmu_and_reference_fmu_agree(reference, c_fmu, order):
 def test_one_do_step_equals_many(reference):
     params = {"rtol": 1e-6, "atol": 1e-8}
     one = reference.simulate(PUBLISHED_BEST, horizon=0.4, parameters=params, outputs=OUTPUTS)
-    many = reference.simulate(PUBLISHED_BEST, horizon=0.4, parameters=params, outputs=OUTPUTS,
-                              communication_step=0.01)
+    many = reference.simulate(PUBLISHED_BEST, horizon=0.4, parameters=params, outputs=OUTPUTS, communication_step=0.01)
     assert one == many
 
 
-@pytest.mark.parametrize("parameters, order, expected", [
-    ({}, (1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11), "permutation of 1..11"),
-    ({"rtol": 0.5}, None, "rtol"),
-    ({"solver": 1}, None, "solver"),
-    ({"diagonal_rule": 2}, None, "diagonal_rule"),
-])
+@pytest.mark.parametrize(
+    "parameters, order, expected",
+    [
+        ({}, (1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11), "permutation of 1..11"),
+        ({"rtol": 0.5}, None, "rtol"),
+        ({"solver": 1}, None, "solver"),
+        ({"diagonal_rule": 2}, None, "diagonal_rule"),
+    ],
+)
 def test_bad_parameters_are_refused_with_a_clear_message(fresh_reference, parameters, order, expected):
     # reported at the first doStep: pythonfmu can only make exitInitializationMode fatal (see the slave)
     with pytest.raises(SimulationError, match="fmi2DoStep failed: parameters refused") as info:
@@ -114,11 +125,11 @@ def test_a_start_pressed_into_the_plate_is_physics_not_divergence(reference_fmu_
     results = {}
     for name, path in (("reference", reference_fmu_path), ("c", fmu_path)):
         with LatticeFMU(path, instance_name=name) as fmu:
-            results[name] = fmu.simulate(PUBLISHED_BEST, horizon=0.05,
-                                         parameters={"backplate_gap": -0.5, "rtol": 1e-10, "atol": 1e-12})
+            results[name] = fmu.simulate(
+                PUBLISHED_BEST, horizon=0.05, parameters={"backplate_gap": -0.5, "rtol": 1e-10, "atol": 1e-12}
+            )
     assert results[which]["peak_backplate_force"] > 1e4
-    assert results["c"]["peak_backplate_force"] == pytest.approx(results["reference"]["peak_backplate_force"],
-                                                                 rel=1e-6)
+    assert results["c"]["peak_backplate_force"] == pytest.approx(results["reference"]["peak_backplate_force"], rel=1e-6)
 
 
 def test_stepping_past_the_stop_time_is_refused(reference_fmu_path, tmp_path):
@@ -126,8 +137,12 @@ def test_stepping_past_the_stop_time_is_refused(reference_fmu_path, tmp_path):
     from fmpy.fmi2 import FMU2Slave
 
     md = read_model_description(str(reference_fmu_path))
-    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(reference_fmu_path), str(tmp_path / "unzipped")),
-                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="stop")
+    slave = FMU2Slave(
+        guid=md.guid,
+        unzipDirectory=extract(str(reference_fmu_path), str(tmp_path / "unzipped")),
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName="stop",
+    )
     slave.instantiate()
     try:
         slave.setupExperiment(startTime=0.0, stopTime=0.05)
@@ -149,7 +164,7 @@ def test_the_fmu_bundles_what_it_imports(reference_fmu_path, tmp_path):
 import json, sys
 sys.path = [p for p in sys.path if p not in ('', {str(ROOT)!r})]
 sys.path.insert(0, {str(resources)!r})
-module = open({str(resources / 'slavemodule.txt')!r}).read().strip()
+module = open({str(resources / "slavemodule.txt")!r}).read().strip()
 slave = __import__(module).MassSpringLatticeReference(instance_name='x', resources={str(resources)!r})
 import reference
 slave.setup_experiment(0.0, 0.35, None)
@@ -157,8 +172,14 @@ slave.exit_initialization_mode()
 assert slave.do_step(0.0, 0.35)
 print(json.dumps({{'file': reference.__file__, 'peak': slave.outputs['peak_backplate_force']}}))
 """
-    result = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True,
-                            timeout=120, env={"PATH": "/usr/bin:/bin", "HOME": str(tmp_path)})
+    result = subprocess.run(
+        [sys.executable, "-c", script],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={"PATH": "/usr/bin:/bin", "HOME": str(tmp_path)},
+    )
     assert result.returncode == 0, result.stderr
     found = json.loads(result.stdout.strip().splitlines()[-1])
     assert found["file"].startswith(str(resources))

@@ -64,8 +64,8 @@ def random_state(scene, rng, u_scale=0.04, v_scale=0.5):
 def naive_accel(scene, y, load_on):
     """Loop over masses and their 8 neighbours, literally as docs/model.md sections 2, 4 and 5 say."""
     R, C, N = scene.rows, scene.cols, scene.n_masses
-    u = np.column_stack([y[:N], y[N:2 * N]])
-    v = np.column_stack([y[2 * N:3 * N], y[3 * N:]])
+    u = np.column_stack([y[:N], y[N : 2 * N]])
+    v = np.column_stack([y[2 * N : 3 * N], y[3 * N :]])
     mat = [p - 1 for p in scene.order]
     wts = [0.5 if i in (0, R - 1) else 1.0 for i in range(R)]
     F = np.zeros((N, 2))
@@ -122,8 +122,7 @@ def grad_pe(scene, y, h=1e-7):
 SCENES_FOR_NAIVE = [
     dict(rows=4, cols=5, order=(3, 1, 5, 2, 4), diagonal_rule="receiver"),
     dict(rows=4, cols=5, order=(3, 1, 5, 2, 4), diagonal_rule="mean"),
-    dict(rows=3, cols=4, order=(2, 4, 1, 3), diagonal_rule="receiver", spring_law="linear",
-         load_angle=30.0, mass=2.5),
+    dict(rows=3, cols=4, order=(2, 4, 1, 3), diagonal_rule="receiver", spring_law="linear", load_angle=30.0, mass=2.5),
     dict(rows=1, cols=3, order=(2, 3, 1)),
     dict(rows=5, cols=1, order=(1,), load_angle=-70.0),
 ]
@@ -243,11 +242,14 @@ def test_receiver_rule_reciprocal_only_with_equal_materials():
         assert np.abs(Fd.sum(axis=0)).max() > 1e-3
 
 
-@pytest.mark.parametrize("kw", [
-    dict(rows=4, cols=5, order=(3, 1, 5, 2, 4), diagonal_rule="mean"),
-    dict(rows=4, cols=5, order=(3, 1, 5, 2, 4), diagonal_rule="mean", spring_law="linear"),
-    dict(rows=3, cols=4, equal=True),
-])
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(rows=4, cols=5, order=(3, 1, 5, 2, 4), diagonal_rule="mean"),
+        dict(rows=4, cols=5, order=(3, 1, 5, 2, 4), diagonal_rule="mean", spring_law="linear"),
+        dict(rows=3, cols=4, equal=True),
+    ],
+)
 def test_forces_are_minus_gradient_of_potential(kw):
     """Conservative part: at v = 0 (so damping and the wall damper vanish) and
     with the load off, m a = -grad PE (springs + wall)."""
@@ -261,8 +263,8 @@ def test_forces_are_minus_gradient_of_potential(kw):
     N = sc.n_masses
     for _ in range(2):
         y = random_state(sc, rng, u_scale=0.03)
-        y[2 * N:] = 0.0
-        acc = rhs(sc, 1.0, y, load_on=False)[2 * N:]
+        y[2 * N :] = 0.0
+        acc = rhs(sc, 1.0, y, load_on=False)[2 * N :]
         g = grad_pe(sc, y)
         assert np.allclose(sc.mass * acc, -g, rtol=1e-6, atol=1e-6 * np.abs(g).max())
 
@@ -272,17 +274,16 @@ def test_forces_are_minus_gradient_of_potential(kw):
 def test_power_identity(rule, load_on):
     """sum m a.v = P_ext - P_diss + P_nr - dPE/dt at any state (docs/model.md section 7)."""
     rng = np.random.default_rng(6)
-    sc = Scene(rows=4, cols=5, order=(3, 1, 5, 2, 4), diagonal_rule=rule, load_angle=20.0,
-               **random_table(rng, 5))
+    sc = Scene(rows=4, cols=5, order=(3, 1, 5, 2, 4), diagonal_rule=rule, load_angle=20.0, **random_table(rng, 5))
     N = sc.n_masses
     for _ in range(3):
         y = random_state(sc, rng)
-        a = rhs(sc, 0.0, y, load_on=load_on)[2 * N:]
-        v = y[2 * N:]
+        a = rhs(sc, 0.0, y, load_on=load_on)[2 * N :]
+        v = y[2 * N :]
         h = 1e-7
         yp, ym = y.copy(), y.copy()
-        yp[:2 * N] += h * v
-        ym[:2 * N] -= h * v
+        yp[: 2 * N] += h * v
+        ym[: 2 * N] -= h * v
         dpe = (energies(sc, yp)[1] - energies(sc, ym)[1]) / (2 * h)
         p_ext, p_diss, p_nr = powers(sc, 0.0, y, load_on=load_on)
         if rule == "mean":
@@ -300,7 +301,7 @@ def test_kinetic_energy_and_wall_potential():
     sc = Scene(rows=2, cols=2, mass=3.0)
     y = np.zeros(sc.state_size)
     N = sc.n_masses
-    y[2 * N:] = np.arange(2 * N)
+    y[2 * N :] = np.arange(2 * N)
     y[sc.index(2, 2)] = 0.001 + 0.01  # wall penetration 0.01, all springs stretched
     ke, pe = energies(sc, y)
     assert ke == pytest.approx(0.5 * 3.0 * np.sum(np.arange(2 * N) ** 2))
@@ -308,8 +309,7 @@ def test_kinetic_energy_and_wall_potential():
     # of which differ (receiver: mean of the two potentials) + wall
     d = 0.011
     U = lambda k, a: (k / a) * (math.exp(a * d) - a * d - 1)  # noqa: E731
-    expect = U(100, 10) + U(sc.k[1], 10) + 0.5 * (U(sc.k_diag[0], 10) + U(sc.k_diag[1], 10)) \
-        + 0.5 * 1e4 * 0.01 ** 2
+    expect = U(100, 10) + U(sc.k[1], 10) + 0.5 * (U(sc.k_diag[0], 10) + U(sc.k_diag[1], 10)) + 0.5 * 1e4 * 0.01**2
     assert pe == pytest.approx(expect, rel=1e-12)
 
 
@@ -318,8 +318,7 @@ def test_two_masses_linear_exact():
     """Two free masses joined by a linear spring (the study's two-mass scene):
     the relative coordinate is a forced damped oscillator solved exactly with a
     matrix exponential; the momentum is F_total * t_active."""
-    sc = Scene(rows=1, cols=2, spring_law="linear", wall=False, k0=100.0, c0=5.0,
-               F_total=10.0, t_active=0.15, mass=2.0)
+    sc = Scene(rows=1, cols=2, spring_law="linear", wall=False, k0=100.0, c0=5.0, F_total=10.0, t_active=0.15, mass=2.0)
     T = 2.0
     res = simulate(sc, horizon=T, sample_interval=0.5)
     m, k, c, F, ta = sc.mass, sc.k0, sc.c0, sc.F_total, sc.t_active
@@ -334,7 +333,7 @@ def test_two_masses_linear_exact():
     assert x == pytest.approx(s2[0], rel=1e-7, abs=1e-12)
     assert xd == pytest.approx(s2[1], rel=1e-7, abs=1e-12)
     assert m * (yf[2 * N] + yf[2 * N + 1]) == pytest.approx(F * ta, rel=1e-10)
-    assert np.allclose(yf[N:2 * N], 0) and np.allclose(yf[3 * N:], 0)
+    assert np.allclose(yf[N : 2 * N], 0) and np.allclose(yf[3 * N :], 0)
     assert abs(res.energy_balance_error) < 1e-9 * res.external_work
     assert res.peak_backplate_force == 0.0
 
@@ -342,12 +341,17 @@ def test_two_masses_linear_exact():
 def test_free_5x5_lattice_momentum():
     """docs/model.md section 8: free 5 x 5 lattice, no wall, one material, k_diag = 0.5 k: the
     springs are reciprocal, so the momentum is exactly the impulse."""
-    one = dict(k=np.full(5, 100.0), k_diag=np.full(5, 50.0), c=np.full(5, 5.0),
-               alpha=np.full(5, 10.0), alpha_diag=np.full(5, 10.0))
+    one = dict(
+        k=np.full(5, 100.0),
+        k_diag=np.full(5, 50.0),
+        c=np.full(5, 5.0),
+        alpha=np.full(5, 10.0),
+        alpha_diag=np.full(5, 10.0),
+    )
     sc = Scene(rows=5, cols=5, wall=False, F_total=200.0, load_angle=15.0, **one)
     res = simulate(sc, horizon=1.0, rtol=1e-10, atol=1e-12)
     N = sc.n_masses
-    p = sc.mass * np.array([res.final_state[2 * N:3 * N].sum(), res.final_state[3 * N:].sum()])
+    p = sc.mass * np.array([res.final_state[2 * N : 3 * N].sum(), res.final_state[3 * N :].sum()])
     th = math.radians(15.0)
     assert np.allclose(p, 200.0 * 0.15 * np.array([math.cos(th), math.sin(th)]), rtol=1e-9)
     assert res.nonreciprocal_work == 0.0
@@ -378,8 +382,7 @@ def test_sample_grid_and_continuous_peak():
     assert res.times.size == 51 and res.backplate_force[0] == 0.0
     assert res.peak_backplate_force == res.backplate_force.max()
     # a much finer sampling approaches the continuous peak from below
-    fine = simulate(sc, horizon=0.5, sample_interval=1e-4, rtol=1e-9, atol=1e-11,
-                    continuous_peak=False)
+    fine = simulate(sc, horizon=0.5, sample_interval=1e-4, rtol=1e-9, atol=1e-11, continuous_peak=False)
     assert fine.peak_backplate_force <= res.peak_backplate_force_continuous * (1 + 1e-9)
     assert fine.peak_backplate_force == pytest.approx(res.peak_backplate_force_continuous, rel=1e-5)
     assert abs(fine.peak_sample_time - res.peak_time) < 2e-4
@@ -396,16 +399,20 @@ def _published(order, rule="receiver", rtol=1e-10, atol=1e-12):
     key = (tuple(order), rule, rtol, atol)
     if key not in _RESULTS:
         t0 = time.perf_counter()
-        _RESULTS[key] = simulate(Scene(order=order, diagonal_rule=rule), horizon=8.0,
-                                 sample_interval=0.01, rtol=rtol, atol=atol)
+        _RESULTS[key] = simulate(
+            Scene(order=order, diagonal_rule=rule), horizon=8.0, sample_interval=0.01, rtol=rtol, atol=atol
+        )
         _RESULTS[key].wall_time = time.perf_counter() - t0
     return _RESULTS[key]
 
 
-@pytest.mark.parametrize("order, expect", [
-    (SEQUENTIAL_ORDER, PUBLISHED_SEQUENTIAL),
-    (PUBLISHED_ORDER, PUBLISHED_STUDY),
-])
+@pytest.mark.parametrize(
+    "order, expect",
+    [
+        (SEQUENTIAL_ORDER, PUBLISHED_SEQUENTIAL),
+        (PUBLISHED_ORDER, PUBLISHED_STUDY),
+    ],
+)
 def test_published_peaks(order, expect):
     res = _published(order)
     assert res.times.size == 801
@@ -435,32 +442,38 @@ def test_mean_rule_peaks():
 
 
 # ---------------------------------------------------------------- bad input
-@pytest.mark.parametrize("kw, field", [
-    (dict(order=(1, 2, 3)), "order"),
-    (dict(order=tuple(range(0, 11))), "order"),
-    (dict(order=(1, 12, 3, 4, 5, 6, 7, 8, 9, 10, 11)), "order"),  # material 12 of a table of 11
-    (dict(order=(1.5,) + tuple(range(2, 12))), "order"),
-    (dict(order="abc"), "order"),
-    (dict(order=5), "order"),
-    (dict(diagonal_rule="average"), "diagonal_rule"),
-    (dict(diagonal_rule=None), "diagonal_rule"),
-    (dict(spring_law="cubic"), "spring_law"),
-    (dict(rows=0), "rows"),
-    (dict(cols=2.5), "cols"),
-    (dict(mass=0.0), "mass"),
-    (dict(spacing=-1.0), "spacing"),
-    (dict(k_wall=-1.0), "k_wall"),
-    (dict(t_active=float("nan")), "t_active"),
-    (dict(F_total="1200"), "F_total"),
-    (dict(wall="yes"), "wall"),
-    (dict(k=np.ones(11)), "k_diag"),  # partial table
-    (dict(cols=3, k=np.ones(4), **{f: np.ones(3) for f in ("k_diag", "c", "alpha", "alpha_diag")}), "k_diag"),
-    (dict(cols=5, **{f: np.ones(3) for f in ("k", "k_diag", "c", "alpha", "alpha_diag")}), "order"),  # M < C
-    (dict(cols=3, **{f: np.ones(3) for f in ("k", "k_diag", "c", "alpha_diag")},
-          alpha=np.array([1.0, 0.0, 1.0])), "alpha"),
-    (dict(cols=2, **{f: np.ones(2) for f in ("k_diag", "c", "alpha", "alpha_diag")},
-          k=np.array([1.0, -1.0])), "k"),
-])
+@pytest.mark.parametrize(
+    "kw, field",
+    [
+        (dict(order=(1, 2, 3)), "order"),
+        (dict(order=tuple(range(0, 11))), "order"),
+        (dict(order=(1, 12, 3, 4, 5, 6, 7, 8, 9, 10, 11)), "order"),  # material 12 of a table of 11
+        (dict(order=(1.5,) + tuple(range(2, 12))), "order"),
+        (dict(order="abc"), "order"),
+        (dict(order=5), "order"),
+        (dict(diagonal_rule="average"), "diagonal_rule"),
+        (dict(diagonal_rule=None), "diagonal_rule"),
+        (dict(spring_law="cubic"), "spring_law"),
+        (dict(rows=0), "rows"),
+        (dict(cols=2.5), "cols"),
+        (dict(mass=0.0), "mass"),
+        (dict(spacing=-1.0), "spacing"),
+        (dict(k_wall=-1.0), "k_wall"),
+        (dict(t_active=float("nan")), "t_active"),
+        (dict(F_total="1200"), "F_total"),
+        (dict(wall="yes"), "wall"),
+        (dict(k=np.ones(11)), "k_diag"),  # partial table
+        (dict(cols=3, k=np.ones(4), **{f: np.ones(3) for f in ("k_diag", "c", "alpha", "alpha_diag")}), "k_diag"),
+        (dict(cols=5, **{f: np.ones(3) for f in ("k", "k_diag", "c", "alpha", "alpha_diag")}), "order"),  # M < C
+        (
+            dict(
+                cols=3, **{f: np.ones(3) for f in ("k", "k_diag", "c", "alpha_diag")}, alpha=np.array([1.0, 0.0, 1.0])
+            ),
+            "alpha",
+        ),
+        (dict(cols=2, **{f: np.ones(2) for f in ("k_diag", "c", "alpha", "alpha_diag")}, k=np.array([1.0, -1.0])), "k"),
+    ],
+)
 def test_bad_scene_raises_naming_field(kw, field):
     with pytest.raises(ValueError, match=rf"\b{field}\b"):
         Scene(**kw)
@@ -475,8 +488,12 @@ def test_bad_rule_message_lists_allowed_values():
 
 def test_bad_simulate_arguments():
     sc = Scene(rows=2, cols=2)
-    for kw, field in [(dict(horizon=0), "horizon"), (dict(sample_interval=-1), "sample_interval"),
-                      (dict(rtol=0), "rtol"), (dict(method="Euler"), "method")]:
+    for kw, field in [
+        (dict(horizon=0), "horizon"),
+        (dict(sample_interval=-1), "sample_interval"),
+        (dict(rtol=0), "rtol"),
+        (dict(method="Euler"), "method"),
+    ]:
         with pytest.raises(ValueError, match=field):
             simulate(sc, **kw)
     with pytest.raises(ValueError, match="shape"):

@@ -8,6 +8,7 @@ run, the mirror symmetries of a centred load, and the reference file the C model
     python -m pytest tests/test_reference_plate.py              # the fast checks
     python -m pytest tests/test_reference_plate.py -m slow      # the published 11 x 11 orders, the whole file
 """
+
 from __future__ import annotations
 
 import functools
@@ -36,17 +37,22 @@ from reference.lattice3d import (
 
 # ------------------------------------------------------------------------------------------------ helpers
 def random_table(rng, n):
-    return dict(k=tuple(rng.uniform(20, 150, n)), k_diag=tuple(rng.uniform(10, 80, n)),
-                c=tuple(rng.uniform(0.5, 6, n)), alpha=tuple(rng.uniform(3, 12, n)),
-                alpha_diag=tuple(rng.uniform(3, 12, n)))
+    return dict(
+        k=tuple(rng.uniform(20, 150, n)),
+        k_diag=tuple(rng.uniform(10, 80, n)),
+        c=tuple(rng.uniform(0.5, 6, n)),
+        alpha=tuple(rng.uniform(3, 12, n)),
+        alpha_diag=tuple(rng.uniform(3, 12, n)),
+    )
 
 
 def random_state(scene, rng, u_scale=0.04, v_scale=0.5):
     """Displacements and velocities in x, y and z; some of column C in the plate, some not, none near p = 0."""
     N = scene.n_masses
     y = np.concatenate([rng.normal(scale=u_scale, size=3 * N), rng.normal(scale=v_scale, size=3 * N)])
-    last = np.array([scene.index(i, scene.cols, k) for k in range(1, scene.depth + 1)
-                     for i in range(1, scene.rows + 1)])
+    last = np.array(
+        [scene.index(i, scene.cols, k) for k in range(1, scene.depth + 1) for i in range(1, scene.rows + 1)]
+    )
     y[last] = scene.backplate_gap + rng.choice([-1, 1], size=last.size) * rng.uniform(0.005, 0.03, last.size)
     return y
 
@@ -66,16 +72,17 @@ def derivative(scene, y, load_on):
 def naive_acceleration(scene, y, load_on):
     """Every mass and its neighbours, one at a time, as docs/model.md sections 2, 4, 5 and 10 say."""
     R, C, D, N = scene.rows, scene.cols, scene.depth, scene.n_masses
-    u = y[:3 * N].reshape(3, N).T
-    v = y[3 * N:].reshape(3, N).T
+    u = y[: 3 * N].reshape(3, N).T
+    v = y[3 * N :].reshape(3, N).T
     material = [p - 1 for p in scene.order]
     force = np.zeros((N, 3))
     edge = lambda q, n: 0.5 if q in (1, n) else 1.0  # noqa: E731
     if scene.load_patch:
         P = scene.load_patch
         inside = lambda q, n: (n - P) // 2 < q <= (n + P) // 2  # noqa: E731
-        weight = {(i, k): 1.0 if inside(i, R) and inside(k, D) else 0.0
-                  for i in range(1, R + 1) for k in range(1, D + 1)}
+        weight = {
+            (i, k): 1.0 if inside(i, R) and inside(k, D) else 0.0 for i in range(1, R + 1) for k in range(1, D + 1)
+        }
     else:
         weight = {(i, k): edge(i, R) * edge(k, D) for i in range(1, R + 1) for k in range(1, D + 1)}
     total = sum(weight.values())
@@ -143,9 +150,9 @@ def test_right_hand_side_matches_a_loop_over_every_mass_and_neighbour(kw, load_o
     for _ in range(3):
         y = random_state(scene, rng)
         got = derivative(scene, y, load_on)
-        assert np.array_equal(got[:3 * N], y[3 * N:])
+        assert np.array_equal(got[: 3 * N], y[3 * N :])
         expect = naive_acceleration(scene, y, load_on)
-        assert np.allclose(got[3 * N:6 * N], expect, rtol=1e-12, atol=1e-9), np.abs(got[3 * N:6 * N] - expect).max()
+        assert np.allclose(got[3 * N : 6 * N], expect, rtol=1e-12, atol=1e-9), np.abs(got[3 * N : 6 * N] - expect).max()
 
 
 def test_the_springs_of_a_plate():
@@ -188,21 +195,29 @@ def test_depth_one_is_the_two_dimensional_reference_state_by_state(rule, law):
     three powers of section 7 at random states."""
     rng = np.random.default_rng(12)
     table = random_table(rng, 5)
-    flat = reference.Scene(rows=4, cols=5, order=(3, 1, 5, 2, 4), diagonal_rule=rule, spring_law=law,
-                           load_angle=20.0, **{f: np.array(v) for f, v in table.items()})
-    plate = PlateScene(rows=4, cols=5, depth=1, order=(3, 1, 5, 2, 4), diagonal_rule=rule, spring_law=law,
-                       load_angle=20.0, **table)
+    flat = reference.Scene(
+        rows=4,
+        cols=5,
+        order=(3, 1, 5, 2, 4),
+        diagonal_rule=rule,
+        spring_law=law,
+        load_angle=20.0,
+        **{f: np.array(v) for f, v in table.items()},
+    )
+    plate = PlateScene(
+        rows=4, cols=5, depth=1, order=(3, 1, 5, 2, 4), diagonal_rule=rule, spring_law=law, load_angle=20.0, **table
+    )
     N = plate.n_masses
     for _ in range(3):
         y = random_state(plate, rng)
-        y[2 * N:3 * N] = y[5 * N:] = 0.0  # no z: the 2-D state
-        y2 = np.concatenate([y[:2 * N], y[3 * N:5 * N]])
+        y[2 * N : 3 * N] = y[5 * N :] = 0.0  # no z: the 2-D state
+        y2 = np.concatenate([y[: 2 * N], y[3 * N : 5 * N]])
         for load_on in (True, False):
             flat_rate, flat_powers = reference.rhs_with_powers(flat, 0.0, y2, load_on=load_on)
             rate = derivative(plate, y, load_on)
-            assert np.allclose(rate[3 * N:5 * N], flat_rate[2 * N:], rtol=1e-12, atol=1e-9)
-            assert np.all(rate[5 * N:6 * N] == 0.0)
-            assert np.allclose(rate[6 * N:], flat_powers, rtol=1e-11, atol=1e-9)
+            assert np.allclose(rate[3 * N : 5 * N], flat_rate[2 * N :], rtol=1e-12, atol=1e-9)
+            assert np.all(rate[5 * N : 6 * N] == 0.0)
+            assert np.allclose(rate[6 * N :], flat_powers, rtol=1e-11, atol=1e-9)
 
 
 @pytest.mark.parametrize("rule", ["receiver", "mean"])
@@ -217,9 +232,9 @@ def test_forces_are_minus_the_gradient_of_the_potential(rule):
     model = PlateModel(scene)
     N = scene.n_masses
     y = random_state(scene, rng, u_scale=0.03)
-    y[3 * N:] = 0.0
+    y[3 * N :] = 0.0
     contact, damper_on = modes_of(model, y)
-    acceleration = model.derivative(np.concatenate([y, np.zeros(3)]), False, contact, damper_on)[3 * N:6 * N]
+    acceleration = model.derivative(np.concatenate([y, np.zeros(3)]), False, contact, damper_on)[3 * N : 6 * N]
     gradient = np.zeros(3 * N)
     h = 1e-7
     for q in range(3 * N):
@@ -234,26 +249,28 @@ def test_forces_are_minus_the_gradient_of_the_potential(rule):
 def test_the_power_identity_of_section_7(rule):
     """sum m a.v = P_ext - P_diss + P_nr - dPE/dt at any state."""
     rng = np.random.default_rng(14)
-    scene = PlateScene(rows=3, cols=4, depth=3, order=(2, 4, 1, 3), diagonal_rule=rule, load_angle=20.0,
-                       **random_table(rng, 4))
+    scene = PlateScene(
+        rows=3, cols=4, depth=3, order=(2, 4, 1, 3), diagonal_rule=rule, load_angle=20.0, **random_table(rng, 4)
+    )
     model = PlateModel(scene)
     N = scene.n_masses
     for _ in range(3):
         y = random_state(scene, rng)
         contact, damper_on = modes_of(model, y)
         rate = model.derivative(np.concatenate([y, np.zeros(3)]), True, contact, damper_on)
-        v = y[3 * N:]
+        v = y[3 * N :]
         h = 1e-7
         plus, minus = y.copy(), y.copy()
-        plus[:3 * N] += h * v
-        minus[:3 * N] -= h * v
+        plus[: 3 * N] += h * v
+        minus[: 3 * N] -= h * v
         potential_rate = (model.energies(plus, contact)[1] - model.energies(minus, contact)[1]) / (2 * h)
-        external, dissipated, nonreciprocal = rate[6 * N:]
+        external, dissipated, nonreciprocal = rate[6 * N :]
         assert dissipated > 0 and external != 0
         assert (nonreciprocal == 0.0) if rule == "mean" else abs(nonreciprocal) > 1e-3
-        lhs = scene.mass * float(rate[3 * N:6 * N] @ v)
-        assert lhs == pytest.approx(external - dissipated + nonreciprocal - potential_rate, rel=1e-6,
-                                    abs=1e-6 * dissipated)
+        lhs = scene.mass * float(rate[3 * N : 6 * N] @ v)
+        assert lhs == pytest.approx(
+            external - dissipated + nonreciprocal - potential_rate, rel=1e-6, abs=1e-6 * dissipated
+        )
 
 
 # ------------------------------------------------------------------------------------------------ runs
@@ -268,9 +285,13 @@ def test_depth_one_run_is_the_two_dimensional_reference():
     assert plate.peak_backplate_force_continuous == pytest.approx(flat.peak_backplate_force_continuous, rel=1e-9)
     assert plate.max_compression == pytest.approx(flat.max_compression, rel=1e-9)
     assert np.allclose(plate.backplate_force, flat.backplate_force, rtol=1e-8, atol=1e-6)
-    for mine, theirs in (("external_work", "external_work"), ("dissipated_energy", "dissipated_energy"),
-                         ("nonreciprocal_work", "nonreciprocal_work"), ("kinetic_energy", "kinetic"),
-                         ("potential_energy", "potential")):
+    for mine, theirs in (
+        ("external_work", "external_work"),
+        ("dissipated_energy", "dissipated_energy"),
+        ("nonreciprocal_work", "nonreciprocal_work"),
+        ("kinetic_energy", "kinetic"),
+        ("potential_energy", "potential"),
+    ):
         assert getattr(plate, mine) == pytest.approx(getattr(flat, theirs), rel=1e-8), mine
 
 
@@ -290,7 +311,7 @@ def test_depth_one_gives_the_published_peaks(order):
 def _mirrored(scene, field, flip_rows=False, flip_layers=False):
     """One displacement or velocity field of the final state as (depth, rows, cols), mirrored as asked."""
     grid = field.reshape(scene.depth, scene.rows, scene.cols)
-    return grid[::-1 if flip_layers else 1, ::-1 if flip_rows else 1, :]
+    return grid[:: -1 if flip_layers else 1, :: -1 if flip_rows else 1, :]
 
 
 def test_a_centred_patch_gives_a_mirror_symmetric_solution():
@@ -303,39 +324,55 @@ def test_a_centred_patch_gives_a_mirror_symmetric_solution():
     y = result.final_state
     scale = np.abs(y).max()
     for block in (0, 3):  # ux, vx
-        field = _mirrored(scene, y[block * N:(block + 1) * N])
+        field = _mirrored(scene, y[block * N : (block + 1) * N])
         assert np.abs(field).max() > 1e-3 * scale
         for flips in (dict(flip_rows=True), dict(flip_layers=True)):
-            assert np.allclose(_mirrored(scene, y[block * N:(block + 1) * N], **flips), field, rtol=0,
-                               atol=1e-10 * scale), flips
+            assert np.allclose(
+                _mirrored(scene, y[block * N : (block + 1) * N], **flips), field, rtol=0, atol=1e-10 * scale
+            ), flips
         assert np.allclose(field.transpose(1, 0, 2), field, rtol=0, atol=1e-10 * scale)
-    assert not np.any(y[N:3 * N]) and not np.any(y[4 * N:])
+    assert not np.any(y[N : 3 * N]) and not np.any(y[4 * N :])
 
-    tilted = simulate_plate(PlateScene(rows=3, cols=4, depth=5, order=(2, 4, 1, 3), load_patch=3, load_angle=30.0),
-                            horizon=1.0)
+    tilted = simulate_plate(
+        PlateScene(rows=3, cols=4, depth=5, order=(2, 4, 1, 3), load_patch=3, load_angle=30.0), horizon=1.0
+    )
     scene, N = tilted.scene, tilted.scene.n_masses
     y = tilted.final_state
     scale = np.abs(y).max()
     for block in (0, 1, 3, 4):  # ux, uy, vx, vy
-        field = _mirrored(scene, y[block * N:(block + 1) * N])
+        field = _mirrored(scene, y[block * N : (block + 1) * N])
         assert np.abs(field).max() > 1e-4 * scale
-        assert np.allclose(_mirrored(scene, y[block * N:(block + 1) * N], flip_layers=True), field, rtol=0,
-                           atol=1e-10 * scale)
-    assert not np.any(y[2 * N:3 * N]) and not np.any(y[5 * N:])  # no force ever has a z part
+        assert np.allclose(
+            _mirrored(scene, y[block * N : (block + 1) * N], flip_layers=True), field, rtol=0, atol=1e-10 * scale
+        )
+    assert not np.any(y[2 * N : 3 * N]) and not np.any(y[5 * N :])  # no force ever has a z part
 
 
 def test_a_free_plate_of_reciprocal_springs_takes_exactly_the_impulse():
     """No backplate, the mean rule (every spring reciprocal): the momentum at the end is the load's impulse
     F_total t_active along the load's direction, with either spring law; the energy balance closes."""
     for law in SPRING_LAWS:
-        scene = PlateScene(rows=3, cols=3, depth=3, order=(2, 3, 1), diagonal_rule="mean", has_backplate=False,
-                           F_total=300.0, load_angle=40.0, spring_law=law)
+        scene = PlateScene(
+            rows=3,
+            cols=3,
+            depth=3,
+            order=(2, 3, 1),
+            diagonal_rule="mean",
+            has_backplate=False,
+            F_total=300.0,
+            load_angle=40.0,
+            spring_law=law,
+        )
         result = simulate_plate(scene, horizon=0.6)
         N = scene.n_masses
-        v = result.final_state[3 * N:].reshape(3, N)
+        v = result.final_state[3 * N :].reshape(3, N)
         theta = math.radians(40.0)
-        assert np.allclose(scene.mass * v.sum(axis=1), 300.0 * 0.15 * np.array([math.cos(theta), math.sin(theta), 0]),
-                           rtol=1e-9, atol=1e-9)
+        assert np.allclose(
+            scene.mass * v.sum(axis=1),
+            300.0 * 0.15 * np.array([math.cos(theta), math.sin(theta), 0]),
+            rtol=1e-9,
+            atol=1e-9,
+        )
         assert result.peak_backplate_force == 0.0 and result.n_switches == 0
         assert result.nonreciprocal_work == 0.0
         assert abs(result.energy_balance_error) < 1e-8 * result.external_work
@@ -354,10 +391,15 @@ def test_the_reference_file_covers_the_cases_and_says_how_it_was_made():
     assert document["integration"]["rtol"] <= 1e-12
     cases = {case["name"]: case for case in document["cases"]}
     assert list(cases) == [name for name, _ in reference_cases()]
-    covered = {(tuple(c["scene"]["order"]), c["scene"]["diagonal_rule"], c["scene"]["load_patch"])
-               for c in cases.values()}
-    assert covered == {(order, rule, patch) for order in ((1, 2, 3, 4, 5), (3, 1, 5, 2, 4))
-                       for rule in ("receiver", "mean") for patch in (0, 3)}
+    covered = {
+        (tuple(c["scene"]["order"]), c["scene"]["diagonal_rule"], c["scene"]["load_patch"]) for c in cases.values()
+    }
+    assert covered == {
+        (order, rule, patch)
+        for order in ((1, 2, 3, 4, 5), (3, 1, 5, 2, 4))
+        for rule in ("receiver", "mean")
+        for patch in (0, 3)
+    }
     for name, case in cases.items():
         assert (case["scene"]["rows"], case["scene"]["cols"], case["scene"]["depth"]) == (5, 5, 5)
         assert case["peak_backplate_force_continuous"] >= case["peak_backplate_force"] > 0, name
@@ -373,8 +415,13 @@ CHECKED_CASE = "receiver-patch3-31524"
 def _recomputed(name):
     scene = dict(reference_cases())[name]
     document = _reference_file()
-    result = simulate_plate(scene, document["horizon"], document["sample_interval"],
-                            document["integration"]["rtol"], document["integration"]["atol"])
+    result = simulate_plate(
+        scene,
+        document["horizon"],
+        document["sample_interval"],
+        document["integration"]["rtol"],
+        document["integration"]["atol"],
+    )
     return result, next(case for case in document["cases"] if case["name"] == name)
 
 
@@ -412,8 +459,12 @@ def test_the_reference_file_is_converged(name):
     document = _reference_file()
     case = next(case for case in document["cases"] if case["name"] == name)
     rtol, atol = document["integration"]["rtol"], document["integration"]["atol"]
-    _assert_agrees(simulate_plate(dict(reference_cases())[name], document["horizon"], document["sample_interval"],
-                                  rtol / 10, atol / 10), case)
+    _assert_agrees(
+        simulate_plate(
+            dict(reference_cases())[name], document["horizon"], document["sample_interval"], rtol / 10, atol / 10
+        ),
+        case,
+    )
 
 
 def test_the_energy_balance_closes_on_a_5x5x5_plate():
@@ -427,20 +478,23 @@ def test_the_energy_balance_closes_on_a_5x5x5_plate():
 
 
 # ------------------------------------------------------------------------------------------------ bad input
-@pytest.mark.parametrize("kw, field", [
-    (dict(load_patch=2), "load_patch"),
-    (dict(load_patch=7), "load_patch"),
-    (dict(load_patch=-1), "load_patch"),
-    (dict(rows=4, load_patch=3), "load_patch"),
-    (dict(depth=0), "depth"),
-    (dict(order=(1, 2, 3)), "order"),
-    (dict(order=(1, 2, 3, 4, 6)), "order"),
-    (dict(diagonal_rule="average"), "diagonal_rule"),
-    (dict(spring_law="cubic"), "spring_law"),
-    (dict(k=(1.0,) * 5), "material table"),
-    (dict(F_total=float("nan")), "F_total"),
-    (dict(has_backplate="yes"), "has_backplate"),
-])
+@pytest.mark.parametrize(
+    "kw, field",
+    [
+        (dict(load_patch=2), "load_patch"),
+        (dict(load_patch=7), "load_patch"),
+        (dict(load_patch=-1), "load_patch"),
+        (dict(rows=4, load_patch=3), "load_patch"),
+        (dict(depth=0), "depth"),
+        (dict(order=(1, 2, 3)), "order"),
+        (dict(order=(1, 2, 3, 4, 6)), "order"),
+        (dict(diagonal_rule="average"), "diagonal_rule"),
+        (dict(spring_law="cubic"), "spring_law"),
+        (dict(k=(1.0,) * 5), "material table"),
+        (dict(F_total=float("nan")), "F_total"),
+        (dict(has_backplate="yes"), "has_backplate"),
+    ],
+)
 def test_a_bad_scene_is_refused_naming_the_parameter(kw, field):
     with pytest.raises(ValueError, match=field):
         PlateScene(**kw)
@@ -473,8 +527,11 @@ def test_the_nonreciprocal_work_takes_its_sign_from_the_order():
     from pathlib import Path
 
     cases = json.loads((Path(reference.__file__).resolve().parent / "plate_5x5x5_reference.json").read_text())["cases"]
-    work = {tuple(c["scene"]["order"]): c["nonreciprocal_work"] for c in cases
-            if c["scene"]["diagonal_rule"] == "receiver" and not c["scene"]["load_patch"]}
+    work = {
+        tuple(c["scene"]["order"]): c["nonreciprocal_work"]
+        for c in cases
+        if c["scene"]["diagonal_rule"] == "receiver" and not c["scene"]["load_patch"]
+    }
     assert work[(1, 2, 3, 4, 5)] < -1.0 and work[(3, 1, 5, 2, 4)] > 1.0, work
     page = Path(reference.__file__).resolve().parents[1] / "docs" / "model.md"
     assert "[3, 1, 5, 2, 4] of the 5 x 5 x 5" in page.read_text()

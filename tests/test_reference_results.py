@@ -6,6 +6,7 @@ the manifest is validated against a schema of the structure the Reference FMUs s
 elements with type, source, role and description), whose root attributes are FMI 3's own attribute group for
 layered-standard manifests, read from the fmi3LayeredStandardManifest.xsd that FMPy ships.
 """
+
 from __future__ import annotations
 
 import csv
@@ -96,7 +97,9 @@ def test_todays_fmu_gives_the_recorded_reference_results(fmu_path, reference):
 
 def test_an_fmu_of_another_scene_or_size_carries_no_reference_results(tmp_path):
     """The published results hold for the study's armour scene only; other FMUs have none to carry."""
-    for fmu in (build.build_fmu("free_5x5", tmp_path / "free.fmu"),
-                build.build_fmu(rows=7, output=tmp_path / "armour7x11.fmu")):
+    for fmu in (
+        build.build_fmu("free_5x5", tmp_path / "free.fmu"),
+        build.build_fmu(rows=7, output=tmp_path / "armour7x11.fmu"),
+    ):
         with zipfile.ZipFile(fmu) as archive:
             assert not [name for name in archive.namelist() if name.startswith("extra/")]

@@ -7,6 +7,7 @@ x_front, v_front; both balances close to 1e-6.
 
     python -m pytest tests/test_reference_section11.py
 """
+
 from __future__ import annotations
 
 import math
@@ -26,8 +27,15 @@ STEP = 0.01
 HORIZON = 1.0  # through the load, the contact with the plate and the rebound
 TIGHT = {"rtol": 1e-12, "atol": 1e-12}
 INPUT = enumeration_values("load_mode")["input"]
-OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "external_work", "energy_balance_error",
-           "x_front", "v_front", "backplate_force")
+OUTPUTS = (
+    "peak_backplate_force",
+    "peak_backplate_force_continuous",
+    "external_work",
+    "energy_balance_error",
+    "x_front",
+    "v_front",
+    "backplate_force",
+)
 STEPS = round(HORIZON / STEP)
 STEP_STARTS = tuple(i * STEP for i in range(STEPS))
 
@@ -61,8 +69,12 @@ def fmu_run(path, backplate_moves: bool, interpolated: bool = False, backplate=N
     description = read_model_description(str(path))
     vr = {v.name: v.valueReference for v in description.modelVariables}
     unzipped = extract(str(path))
-    slave = FMU2Slave(guid=description.guid, unzipDirectory=unzipped,
-                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName="section11")
+    slave = FMU2Slave(
+        guid=description.guid,
+        unzipDirectory=unzipped,
+        modelIdentifier=description.coSimulation.modelIdentifier,
+        instanceName="section11",
+    )
     try:
         slave.instantiate()
         slave.setupExperiment(startTime=0.0, stopTime=HORIZON)
@@ -91,16 +103,22 @@ def line(start: float, rate: float, t0: float):
 
 
 def reference_run(backplate_moves: bool, interpolated: bool = False):
-    front = PiecewiseSignal(STEP_STARTS, tuple(line(*front_inputs(i, interpolated), STEP_STARTS[i])
-                                               for i in range(STEPS)))
+    front = PiecewiseSignal(
+        STEP_STARTS, tuple(line(*front_inputs(i, interpolated), STEP_STARTS[i]) for i in range(STEPS))
+    )
     if not backplate_moves:
         scene = SystemScene(PlateScene(rows=11, cols=11, depth=1), load_mode="input", front_force=front)
         return simulate_system(scene, horizon=HORIZON, sample_interval=STEP)
     pieces = [backplate_inputs(i) for i in range(STEPS)]
     position = PiecewiseSignal(STEP_STARTS, tuple(line(x, v, t0) for (x, v), t0 in zip(pieces, STEP_STARTS)))
     velocity = PiecewiseSignal(STEP_STARTS, tuple(line(v, 0.0, t0) for (_, v), t0 in zip(pieces, STEP_STARTS)))
-    scene = SystemScene(PlateScene(rows=11, cols=11, depth=1), load_mode="input", front_force=front,
-                        back_position=position, back_velocity=velocity)
+    scene = SystemScene(
+        PlateScene(rows=11, cols=11, depth=1),
+        load_mode="input",
+        front_force=front,
+        back_position=position,
+        back_velocity=velocity,
+    )
     return simulate_system(scene, horizon=HORIZON, sample_interval=STEP)
 
 
@@ -128,19 +146,23 @@ def test_the_continuous_peak_agrees_with_the_reference(runs):
     """Also under a backplate whose speed changes from one communication step to the next: a sample or a peak
     found inside a step reads the back port where the backplate is at that time."""
     _, fmu, reference = runs
-    assert fmu["peak_backplate_force_continuous"] == pytest.approx(reference.peak_backplate_force_continuous,
-                                                                   rel=1e-7)
+    assert fmu["peak_backplate_force_continuous"] == pytest.approx(reference.peak_backplate_force_continuous, rel=1e-7)
 
 
 @pytest.mark.parametrize("offset, speed", [(-5e-4, 0.0), (0.0, -4e-3)], ids=["offset", "constant-speed"])
 def test_a_backplate_at_an_offset_or_a_constant_speed_agrees_with_the_reference_continuous_peak_too(
-        fmu_path, offset, speed):
+    fmu_path, offset, speed
+):
     """Where v_back keeps one value from step to step the FMU's continuous peak agrees as well."""
     fmu = fmu_run(fmu_path, backplate_moves=False, backplate=lambda i: (offset + speed * STEP_STARTS[i], speed))
     front = PiecewiseSignal(STEP_STARTS, tuple(line(*front_inputs(i, False), STEP_STARTS[i]) for i in range(STEPS)))
-    scene = SystemScene(PlateScene(rows=11, cols=11, depth=1), load_mode="input", front_force=front,
-                        back_position=PiecewiseSignal((0.0,), (line(offset, speed, 0.0),)),
-                        back_velocity=PiecewiseSignal.constant(speed))
+    scene = SystemScene(
+        PlateScene(rows=11, cols=11, depth=1),
+        load_mode="input",
+        front_force=front,
+        back_position=PiecewiseSignal((0.0,), (line(offset, speed, 0.0),)),
+        back_velocity=PiecewiseSignal.constant(speed),
+    )
     reference = simulate_system(scene, horizon=HORIZON, sample_interval=STEP)
     for name in ("peak_backplate_force", "peak_backplate_force_continuous"):
         assert fmu[name] == pytest.approx(getattr(reference, name), rel=1e-7), name
@@ -162,30 +184,58 @@ def test_an_interpolated_front_force_agrees_with_the_reference(fmu_path):
 
 # ------------------------------------------------------------------------------------------- projectile mode
 PROJECTILE_MODE = enumeration_values("load_mode")["projectile"]
-PROJECTILE_PARAMETERS = ("projectile_mass", "projectile_speed", "contact_stiffness", "contact_exponent",
-                         "contact_damping")
-PROJECTILE_OUTPUTS = ("peak_backplate_force", "peak_backplate_force_continuous", "kinetic_energy",
-                      "potential_energy", "dissipated_energy", "external_work", "nonreciprocal_work",
-                      "energy_balance_error", "projectile_velocity", "x_front")
+PROJECTILE_PARAMETERS = (
+    "projectile_mass",
+    "projectile_speed",
+    "contact_stiffness",
+    "contact_exponent",
+    "contact_damping",
+)
+PROJECTILE_OUTPUTS = (
+    "peak_backplate_force",
+    "peak_backplate_force_continuous",
+    "kinetic_energy",
+    "potential_energy",
+    "dissipated_energy",
+    "external_work",
+    "nonreciprocal_work",
+    "energy_balance_error",
+    "projectile_velocity",
+    "x_front",
+)
 
 
 def projectile_of(path, **changed) -> Projectile:
     """The FMU's own projectile (its parameters' start values), with some of them changed."""
-    starts = {v.name: float(v.start) for v in read_model_description(str(path)).modelVariables
-              if v.name in PROJECTILE_PARAMETERS}
+    starts = {
+        v.name: float(v.start)
+        for v in read_model_description(str(path)).modelVariables
+        if v.name in PROJECTILE_PARAMETERS
+    }
     starts.update(changed)
-    return Projectile(mass=starts["projectile_mass"], speed=starts["projectile_speed"],
-                      contact_stiffness=starts["contact_stiffness"], contact_exponent=starts["contact_exponent"],
-                      contact_damping=starts["contact_damping"])
+    return Projectile(
+        mass=starts["projectile_mass"],
+        speed=starts["projectile_speed"],
+        contact_stiffness=starts["contact_stiffness"],
+        contact_exponent=starts["contact_exponent"],
+        contact_damping=starts["contact_damping"],
+    )
 
 
 def projectile_fmu_run(path, horizon: float, projectile: Projectile, **start) -> dict[str, float]:
-    values = {"load_mode": PROJECTILE_MODE, **TIGHT, "projectile_mass": projectile.mass,
-              "projectile_speed": projectile.speed, "contact_stiffness": projectile.contact_stiffness,
-              "contact_exponent": projectile.contact_exponent, "contact_damping": projectile.contact_damping,
-              **start}
-    result = simulate_fmu(str(path), stop_time=horizon, output_interval=horizon, start_values=values,
-                          output=list(PROJECTILE_OUTPUTS))
+    values = {
+        "load_mode": PROJECTILE_MODE,
+        **TIGHT,
+        "projectile_mass": projectile.mass,
+        "projectile_speed": projectile.speed,
+        "contact_stiffness": projectile.contact_stiffness,
+        "contact_exponent": projectile.contact_exponent,
+        "contact_damping": projectile.contact_damping,
+        **start,
+    }
+    result = simulate_fmu(
+        str(path), stop_time=horizon, output_interval=horizon, start_values=values, output=list(PROJECTILE_OUTPUTS)
+    )
     return {name: float(result[name][-1]) for name in PROJECTILE_OUTPUTS}
 
 
@@ -196,12 +246,14 @@ def compare_projectile(fmu: dict, reference, rel: float) -> None:
     scale = energy.projectile_initial_kinetic
     assert reference.peak_backplate_force > 0 and reference.peak_contact_force_continuous > 0
     assert fmu["peak_backplate_force"] == pytest.approx(reference.peak_backplate_force, rel=rel)
-    assert fmu["peak_backplate_force_continuous"] == pytest.approx(reference.peak_backplate_force_continuous,
-                                                                   rel=rel)
-    figures = {"kinetic_energy": energy.lattice_kinetic + energy.projectile_kinetic,
-               "potential_energy": energy.lattice_potential + energy.contact_potential,
-               "dissipated_energy": energy.lattice_dissipation + energy.contact_dissipation,
-               "external_work": -energy.back_work, "nonreciprocal_work": energy.nonreciprocal_work}
+    assert fmu["peak_backplate_force_continuous"] == pytest.approx(reference.peak_backplate_force_continuous, rel=rel)
+    figures = {
+        "kinetic_energy": energy.lattice_kinetic + energy.projectile_kinetic,
+        "potential_energy": energy.lattice_potential + energy.contact_potential,
+        "dissipated_energy": energy.lattice_dissipation + energy.contact_dissipation,
+        "external_work": -energy.back_work,
+        "nonreciprocal_work": energy.nonreciprocal_work,
+    }
     for name, value in figures.items():
         assert abs(fmu[name] - value) <= rel * scale, name
     assert fmu["projectile_velocity"] == pytest.approx(reference.projectile_velocity[-1], rel=rel, abs=rel)
@@ -210,8 +262,9 @@ def compare_projectile(fmu: dict, reference, rel: float) -> None:
 
 
 def projectile_reference(lattice: PlateScene, projectile: Projectile, horizon: float, **section12):
-    return simulate_system(SystemScene(lattice, load_mode="projectile", projectile=projectile, **section12),
-                           horizon=horizon)
+    return simulate_system(
+        SystemScene(lattice, load_mode="projectile", projectile=projectile, **section12), horizon=horizon
+    )
 
 
 PROJECTILE_HORIZON = 1.0  # the default body's contact, the plate's peak and the rebound
@@ -230,17 +283,26 @@ def test_projectile_mode_under_model_exchange_agrees_with_the_reference(fmu_path
     continuous peak is the largest force at the points the importer stopped at, so it lies between the sampled
     peak and the reference's continuous maximum."""
     projectile = projectile_of(fmu_path)
-    result = simulate_fmu(str(fmu_path), fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-10,
-                          stop_time=PROJECTILE_HORIZON, output_interval=STEP,
-                          start_values={"load_mode": PROJECTILE_MODE}, output=list(PROJECTILE_OUTPUTS))
+    result = simulate_fmu(
+        str(fmu_path),
+        fmi_type="ModelExchange",
+        solver="CVode",
+        relative_tolerance=1e-10,
+        stop_time=PROJECTILE_HORIZON,
+        output_interval=STEP,
+        start_values={"load_mode": PROJECTILE_MODE},
+        output=list(PROJECTILE_OUTPUTS),
+    )
     fmu = {name: float(result[name][-1]) for name in PROJECTILE_OUTPUTS}
     reference = projectile_reference(PlateScene(rows=11, cols=11, depth=1), projectile, PROJECTILE_HORIZON)
     energy = reference.energy
     assert fmu["peak_backplate_force"] == pytest.approx(reference.peak_backplate_force, rel=1e-6)
-    assert (fmu["peak_backplate_force"] <= fmu["peak_backplate_force_continuous"]
-            <= reference.peak_backplate_force_continuous * (1 + 1e-7))
-    assert fmu["dissipated_energy"] == pytest.approx(energy.lattice_dissipation + energy.contact_dissipation,
-                                                     rel=1e-6)
+    assert (
+        fmu["peak_backplate_force"]
+        <= fmu["peak_backplate_force_continuous"]
+        <= reference.peak_backplate_force_continuous * (1 + 1e-7)
+    )
+    assert fmu["dissipated_energy"] == pytest.approx(energy.lattice_dissipation + energy.contact_dissipation, rel=1e-6)
     assert abs(fmu["energy_balance_error"]) <= 1e-6 * energy.projectile_initial_kinetic
 
 
@@ -254,16 +316,18 @@ def test_projectile_mode_agrees_with_the_reference_over_the_study_horizon(fmu_pa
 
 @pytest.fixture(scope="module")
 def small_plate_fmu(tmp_path_factory):
-    return build.build_fmu(rows=3, cols=3, depth=3, werror=True,
-                           output=tmp_path_factory.mktemp("projectile_plate") / "ProjectilePlate.fmu")
+    return build.build_fmu(
+        rows=3, cols=3, depth=3, werror=True, output=tmp_path_factory.mktemp("projectile_plate") / "ProjectilePlate.fmu"
+    )
 
 
 @pytest.mark.parametrize("patch", [0, 1], ids=["whole-face", "patch1"])
 def test_projectile_mode_on_a_plate_agrees_with_the_reference(small_plate_fmu, patch):
     projectile = projectile_of(small_plate_fmu)
     fmu = projectile_fmu_run(small_plate_fmu, PROJECTILE_HORIZON, projectile, load_patch=patch)
-    reference = projectile_reference(PlateScene(rows=3, cols=3, depth=3, load_patch=patch), projectile,
-                                     PROJECTILE_HORIZON)
+    reference = projectile_reference(
+        PlateScene(rows=3, cols=3, depth=3, load_patch=patch), projectile, PROJECTILE_HORIZON
+    )
     compare_projectile(fmu, reference, rel=1e-6)
 
 
@@ -272,9 +336,16 @@ def test_projectile_mode_with_unequal_masses_and_non_linear_dampers_agrees_with_
     contact with more damping than the default's."""
     masses = tuple(0.5 + 0.15 * m for m in range(11))
     projectile = projectile_of(fmu_path, contact_exponent=1.0, contact_damping=0.3)
-    start = {**{f"mass[{m}]": mass for m, mass in enumerate(masses, start=1)},
-             **{f"damping_exponent[{m}]": 1.5 for m in range(1, 12)}}
+    start = {
+        **{f"mass[{m}]": mass for m, mass in enumerate(masses, start=1)},
+        **{f"damping_exponent[{m}]": 1.5 for m in range(1, 12)},
+    }
     fmu = projectile_fmu_run(fmu_path, PROJECTILE_HORIZON, projectile, **start)
-    reference = projectile_reference(PlateScene(rows=11, cols=11, depth=1), projectile, PROJECTILE_HORIZON,
-                                     material_mass=masses, damping_exponent=(1.5,) * 11)
+    reference = projectile_reference(
+        PlateScene(rows=11, cols=11, depth=1),
+        projectile,
+        PROJECTILE_HORIZON,
+        material_mass=masses,
+        damping_exponent=(1.5,) * 11,
+    )
     compare_projectile(fmu, reference, rel=1e-7)

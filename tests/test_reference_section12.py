@@ -4,6 +4,7 @@ lattice and a small plate, and both close their energy balances to 1e-6.
 
     python -m pytest tests/test_reference_section12.py
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -18,8 +19,12 @@ from reference.system import SystemScene, simulate_system
 
 MASSES = (0.5, 2.0, 1.0, 3.0)
 EXPONENTS = (1.5, 1.0, 1.5, 2.0)  # a linear column among non-linear ones
-TABLE = MaterialTable(tuple(dataclasses.replace(material, mass=mass, damping_exponent=exponent)
-                            for material, mass, exponent in zip(study_materials(4).materials, MASSES, EXPONENTS)))
+TABLE = MaterialTable(
+    tuple(
+        dataclasses.replace(material, mass=mass, damping_exponent=exponent)
+        for material, mass, exponent in zip(study_materials(4).materials, MASSES, EXPONENTS)
+    )
+)
 ROWS, COLS, ORDER = 5, 4, (2, 4, 1, 3)
 PLATE_TABLE = MaterialTable(TABLE.materials[:3])
 PLATE_SIZE, PLATE_ORDER = 3, (3, 1, 2)
@@ -31,28 +36,41 @@ ENERGIES = ("external_work", "dissipated_energy", "kinetic_energy", "nonreciproc
 
 
 def reference_run(table: MaterialTable, rows: int, cols: int, depth: int, order, rule: str):
-    lattice = PlateScene(rows=rows, cols=cols, depth=depth, order=order, diagonal_rule=rule,
-                         **{name: tuple(table.column(name)) for name in MATERIAL_FIELDS})
-    scene = SystemScene(lattice, material_mass=tuple(table.column("mass")),
-                        damping_exponent=tuple(table.column("damping_exponent")))
+    lattice = PlateScene(
+        rows=rows,
+        cols=cols,
+        depth=depth,
+        order=order,
+        diagonal_rule=rule,
+        **{name: tuple(table.column(name)) for name in MATERIAL_FIELDS},
+    )
+    scene = SystemScene(
+        lattice, material_mass=tuple(table.column("mass")), damping_exponent=tuple(table.column("damping_exponent"))
+    )
     return simulate_system(scene, horizon=HORIZON)
 
 
 def fmu_run(fmu, order, rule: str) -> dict:
-    start = {**{f"material[{j}]": m for j, m in enumerate(order, start=1)}, **TIGHT,
-             "diagonal_rule": {"receiver": 0, "mean": 1}[rule]}
+    start = {
+        **{f"material[{j}]": m for j, m in enumerate(order, start=1)},
+        **TIGHT,
+        "diagonal_rule": {"receiver": 0, "mean": 1}[rule],
+    }
     names = PEAKS + ENERGIES + ("energy_balance_error", "stack_mass")
-    result = simulate_fmu(str(fmu), stop_time=HORIZON, output_interval=HORIZON, start_values=start,
-                          output=list(names))
+    result = simulate_fmu(str(fmu), stop_time=HORIZON, output_interval=HORIZON, start_values=start, output=list(names))
     return {name: float(result[name][-1]) for name in names}
 
 
 def compare(fmu_figures: dict, reference) -> None:
     energy = reference.energy
-    figures = {"peak_backplate_force": reference.peak_backplate_force,
-               "peak_backplate_force_continuous": reference.peak_backplate_force_continuous,
-               "external_work": energy.front_work, "dissipated_energy": energy.lattice_dissipation,
-               "kinetic_energy": energy.lattice_kinetic, "nonreciprocal_work": energy.nonreciprocal_work}
+    figures = {
+        "peak_backplate_force": reference.peak_backplate_force,
+        "peak_backplate_force_continuous": reference.peak_backplate_force_continuous,
+        "external_work": energy.front_work,
+        "dissipated_energy": energy.lattice_dissipation,
+        "kinetic_energy": energy.lattice_kinetic,
+        "nonreciprocal_work": energy.nonreciprocal_work,
+    }
     for name in PEAKS:
         assert fmu_figures[name] == pytest.approx(figures[name], rel=1e-7), name
     # energy terms relative to the work put in (a term near zero is meaningless relative to itself)
@@ -65,14 +83,25 @@ def compare(fmu_figures: dict, reference) -> None:
 
 @pytest.fixture(scope="module")
 def lattice_fmu(tmp_path_factory):
-    return build.build_fmu(rows=ROWS, cols=COLS, materials=TABLE, werror=True,
-                           output=tmp_path_factory.mktemp("section12") / "Section12.fmu")
+    return build.build_fmu(
+        rows=ROWS,
+        cols=COLS,
+        materials=TABLE,
+        werror=True,
+        output=tmp_path_factory.mktemp("section12") / "Section12.fmu",
+    )
 
 
 @pytest.fixture(scope="module")
 def plate_fmu(tmp_path_factory):
-    return build.build_fmu(rows=PLATE_SIZE, cols=PLATE_SIZE, depth=PLATE_SIZE, materials=PLATE_TABLE, werror=True,
-                           output=tmp_path_factory.mktemp("section12_plate") / "Section12Plate.fmu")
+    return build.build_fmu(
+        rows=PLATE_SIZE,
+        cols=PLATE_SIZE,
+        depth=PLATE_SIZE,
+        materials=PLATE_TABLE,
+        werror=True,
+        output=tmp_path_factory.mktemp("section12_plate") / "Section12Plate.fmu",
+    )
 
 
 @pytest.mark.parametrize("rule", ["receiver", "mean"])
@@ -81,8 +110,10 @@ def test_unequal_masses_and_non_linear_dampers_agree_with_the_reference(lattice_
 
 
 def test_a_plate_with_unequal_masses_and_non_linear_dampers_agrees_with_the_reference(plate_fmu):
-    compare(fmu_run(plate_fmu, PLATE_ORDER, "receiver"),
-            reference_run(PLATE_TABLE, PLATE_SIZE, PLATE_SIZE, PLATE_SIZE, PLATE_ORDER, "receiver"))
+    compare(
+        fmu_run(plate_fmu, PLATE_ORDER, "receiver"),
+        reference_run(PLATE_TABLE, PLATE_SIZE, PLATE_SIZE, PLATE_SIZE, PLATE_ORDER, "receiver"),
+    )
 
 
 def test_the_masses_and_exponents_change_the_figures_compared():

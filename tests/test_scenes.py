@@ -1,4 +1,5 @@
 """The study's scenes as scene files: each builds, validates, carries only what it needs, and is right."""
+
 import json
 
 import numpy as np
@@ -15,8 +16,7 @@ from scenes import SCENE_DIR, Scene, scene_names
 
 SCENES = scene_names()
 # A plate of layers (depth > 1) takes minutes to build and validate on a 2-core machine: the slow suite's.
-SCENE_CASES = [pytest.param(name, marks=pytest.mark.slow) if Scene.load(name).depth > 1 else name
-               for name in SCENES]
+SCENE_CASES = [pytest.param(name, marks=pytest.mark.slow) if Scene.load(name).depth > 1 else name for name in SCENES]
 
 
 class BuiltScenes(dict):
@@ -55,8 +55,11 @@ def test_two_masses_with_a_linear_spring_follow_the_exact_solution(scene_fmus):
     """Linear springs and dampers: the solution is a matrix exponential, independent of any integrator."""
     k, c, mass, force, duration, horizon = 100.0, 5.0, 1.0, 100.0, 0.15, 2.0
     with LatticeFMU(scene_fmus["two_masses_linear"]) as fmu:
-        result = fmu.simulate(None, horizon=horizon, outputs=("ux_corner", "ux_right_edge", "kinetic_energy",
-                                                               "external_work", "energy_balance_error"))
+        result = fmu.simulate(
+            None,
+            horizon=horizon,
+            outputs=("ux_corner", "ux_right_edge", "kinetic_energy", "external_work", "energy_balance_error"),
+        )
     # state (x1, x2, v1, v2): x1'' = (k (x2 - x1) + c (v2 - v1) + F) / m, x2'' = -(same internal force) / m
     masses = np.array([1, 1, mass, mass])[:, None]
     system = np.array([[0, 0, 1, 0], [0, 0, 0, 1], [-k, k, -c, c], [k, -k, c, -c]]) / masses
@@ -79,7 +82,7 @@ def test_free_scenes_conserve_momentum_and_energy(scene_fmus, name):
         result = fmu.simulate(None, horizon=scene.horizon)
     total_mass = scene.rows * scene.cols
     impulse = scene.parameters.get("F_total", 1200.0) * 0.15
-    translation = 0.5 * impulse ** 2 / total_mass  # kinetic energy of the centre of mass alone
+    translation = 0.5 * impulse**2 / total_mass  # kinetic energy of the centre of mass alone
     assert result["kinetic_energy"] >= translation * (1 - 1e-9)
     assert result["kinetic_energy"] < translation + result["external_work"]
     assert abs(result["energy_balance_error"]) < 1e-6 * result["external_work"]
@@ -87,9 +90,25 @@ def test_free_scenes_conserve_momentum_and_energy(scene_fmus, name):
 
 
 def test_a_scene_without_materials_to_order_is_refused_by_the_orchestrator(scene_fmus, tmp_path, capfd):
-    code = cli.main(["--method", "random", "--budget", "2", "--repeats", "1", "--executor", "serial", "--out",
-                     str(tmp_path / "out"), "--fmu", str(scene_fmus["free_5x5"]), "--scene", "free_5x5",
-                     "--no-progress"])
+    code = cli.main(
+        [
+            "--method",
+            "random",
+            "--budget",
+            "2",
+            "--repeats",
+            "1",
+            "--executor",
+            "serial",
+            "--out",
+            str(tmp_path / "out"),
+            "--fmu",
+            str(scene_fmus["free_5x5"]),
+            "--scene",
+            "free_5x5",
+            "--no-progress",
+        ]
+    )
     err = capfd.readouterr().err
     assert code == 2 and "no material order to search" in err and len(err.strip().splitlines()) == 1, err
 
@@ -114,9 +133,17 @@ def crafted_scene(tmp_path, key, value):
     return path
 
 
-@pytest.mark.parametrize("key, value", [("model_identifier", "../../outside"), ("model_identifier", "a/b"),
-                                        ("model_identifier", "9lives"), ("model_identifier", ""),
-                                        ("name", "x.json"), ("name", "..")])
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("model_identifier", "../../outside"),
+        ("model_identifier", "a/b"),
+        ("model_identifier", "9lives"),
+        ("model_identifier", ""),
+        ("name", "x.json"),
+        ("name", ".."),
+    ],
+)
 def test_scene_names_and_identifiers_must_be_identifiers(tmp_path, key, value):
     path = crafted_scene(tmp_path, key, value)
     with pytest.raises(ValueError, match=rf"^scene {key} .* must be .*\[A-Za-z_\]\[A-Za-z0-9_\]\*") as refused:
@@ -124,9 +151,16 @@ def test_scene_names_and_identifiers_must_be_identifiers(tmp_path, key, value):
     assert "\n" not in str(refused.value)
 
 
-@pytest.mark.parametrize("key, value, allowed", [("cols", 65, "an integer from 1 to 64"), ("cols", 0, "from 1 to 64"),
-                                                 ("cols", 2.5, "an integer"), ("rows", 0, "at least 1"),
-                                                 ("depth", 0, "at least 1")])
+@pytest.mark.parametrize(
+    "key, value, allowed",
+    [
+        ("cols", 65, "an integer from 1 to 64"),
+        ("cols", 0, "from 1 to 64"),
+        ("cols", 2.5, "an integer"),
+        ("rows", 0, "at least 1"),
+        ("depth", 0, "at least 1"),
+    ],
+)
 def test_a_scene_file_with_a_lattice_size_out_of_range_is_refused_in_one_line(tmp_path, key, value, allowed):
     path = crafted_scene(tmp_path, key, value)
     with pytest.raises(ValueError, match=rf"^scene two_masses_linear: {key} must be .*{allowed}") as refused:
@@ -149,8 +183,9 @@ def test_a_scene_name_that_is_not_an_identifier_is_refused(name):
 
 
 def test_a_scene_file_outside_the_scenes_folder_loads_by_its_path(tmp_path):
-    data = dict(json.loads((SCENE_DIR / "two_masses_linear.json").read_text()), name="mine",
-                model_identifier="MyTwoMasses")
+    data = dict(
+        json.loads((SCENE_DIR / "two_masses_linear.json").read_text()), name="mine", model_identifier="MyTwoMasses"
+    )
     (tmp_path / "mine.json").write_text(json.dumps(data))
     scene = Scene.load(str(tmp_path / "mine.json"))
     assert (scene.name, scene.model_identifier, scene.rows, scene.cols) == ("mine", "MyTwoMasses", 1, 2)
@@ -160,8 +195,24 @@ def test_the_reference_model_reads_the_same_scene_descriptions():
     """reference.Scene.from_description: the oracle's parameters are the scene's (and the FMU's defaults)."""
     assert reference.Scene.from_description("armour_11x11").__dict__.keys() == reference.Scene().__dict__.keys()
     armour, default = reference.Scene.from_description("armour_11x11"), reference.Scene()
-    for field in ("rows", "cols", "order", "k0", "alpha0", "c0", "mass", "F_total", "load_angle", "t_active",
-                  "wall", "k_wall", "c_wall", "backplate_gap", "diagonal_rule", "spring_law"):
+    for field in (
+        "rows",
+        "cols",
+        "order",
+        "k0",
+        "alpha0",
+        "c0",
+        "mass",
+        "F_total",
+        "load_angle",
+        "t_active",
+        "wall",
+        "k_wall",
+        "c_wall",
+        "backplate_gap",
+        "diagonal_rule",
+        "spring_law",
+    ):
         assert getattr(armour, field) == getattr(default, field), field
     for field in ("k", "k_diag", "c", "alpha", "alpha_diag"):
         np.testing.assert_array_equal(getattr(armour, field), getattr(default, field))

@@ -1,5 +1,6 @@
 """Search strategies over the three kinds of design space, on cheap problems with known optima (no FMU, no
 executor): each run goes through the study's own loop (``run_search`` on the serial executor)."""
+
 from __future__ import annotations
 
 import json
@@ -20,8 +21,18 @@ from orchestrator.search.base import to_internal
 from orchestrator.search.local import Descent, neighbours
 from orchestrator.search.pareto import hypervolume, non_dominated, pareto_front, reference_point
 from orchestrator.search.pymoo_search import Genome
-from problems import (Flaky, QuadraticAssignment, TwoObjectives, WeightedDistance, brute_force, designs_of,
-                      enumerate_space, exact_front, importable_env, search_run)
+from problems import (
+    Flaky,
+    QuadraticAssignment,
+    TwoObjectives,
+    WeightedDistance,
+    brute_force,
+    designs_of,
+    enumerate_space,
+    exact_front,
+    importable_env,
+    search_run,
+)
 
 METHODS = sorted(SEARCHES)
 SINGLE = sorted(m for m in SEARCHES if SEARCHES[m].n_objectives == 1)
@@ -29,15 +40,18 @@ OPTIMISERS = ["cmaes", "pso", "sa", "ga", "de"]
 RECORDED_ASKS = Path(__file__).parent / "data" / "search_asks_permutation6.json"
 
 PERMUTATIONS7 = DesignSpace.permutations(7)
-CATALOGUE = DesignSpace(5, 8)                 # 8 materials over 5 columns: 6,720 arrangements
-GRADED = DesignSpace(7, 3, repeat=True)       # 3 materials over 7 columns: 2,187 designs
+CATALOGUE = DesignSpace(5, 8)  # 8 materials over 5 columns: 6,720 arrangements
+GRADED = DesignSpace(7, 3, repeat=True)  # 3 materials over 7 columns: 2,187 designs
 SPACES = {"permutation": PERMUTATIONS7, "arrangement": CATALOGUE, "repetition": GRADED}
 
 QAP7 = QuadraticAssignment.random(7, 11)
 QAP8 = QuadraticAssignment.random(8, 1)
 WD8 = WeightedDistance.random(8, 5)
-PROBLEMS = {"permutation": QAP7, "arrangement": QuadraticAssignment.random(CATALOGUE, 2),
-            "repetition": QuadraticAssignment.random(GRADED, 5)}
+PROBLEMS = {
+    "permutation": QAP7,
+    "arrangement": QuadraticAssignment.random(CATALOGUE, 2),
+    "repetition": QuadraticAssignment.random(GRADED, 5),
+}
 
 
 def drive(search, value, batches):
@@ -81,8 +95,9 @@ def test_permutations_give_the_recorded_asks(method):
     for seed in (0, 7):
         asked = drive(make_search(method, 6, seed, budget=40), recorded_value, 14)
         assert [[list(d) for d in batch] for batch in asked] == recorded[f"{method}:{seed}"], seed
-    assert drive(make_search(method, DesignSpace(6, 6), 0, budget=40), recorded_value, 14) == \
-        drive(make_search(method, 6, 0, budget=40), recorded_value, 14)
+    assert drive(make_search(method, DesignSpace(6, 6), 0, budget=40), recorded_value, 14) == drive(
+        make_search(method, 6, 0, budget=40), recorded_value, 14
+    )
 
 
 # ---------------------------------------------------------------- optimum found, over each kind of space
@@ -107,8 +122,9 @@ def test_the_optimisers_alone_find_the_known_optimum(method, budget, kind, optim
     assert sum(r.best_order == optimum for r in found) >= 2, [(r.best_value, value) for r in found]
 
 
-@pytest.mark.parametrize("space", [DesignSpace(3, 5), DesignSpace(4, 3, repeat=True), DesignSpace(4, 4)],
-                         ids=lambda s: s.key)
+@pytest.mark.parametrize(
+    "space", [DesignSpace(3, 5), DesignSpace(4, 3, repeat=True), DesignSpace(4, 4)], ids=lambda s: s.key
+)
 @pytest.mark.parametrize("method", ["random", "local"])
 def test_the_baselines_find_the_optimum_of_a_tiny_space(method, space):
     """Random search and the iterated local search, with the whole space as budget: every asked design is in
@@ -196,8 +212,9 @@ def test_cmaes_unaffected_by_global_numpy_random():
 
 # ---------------------------------------------------------------- failures are never good numbers
 @pytest.mark.parametrize("method", [m for m in SINGLE if m != "sequential"])
-@pytest.mark.parametrize("space", [DesignSpace.permutations(6), DesignSpace(4, 6), DesignSpace(5, 3, repeat=True)],
-                         ids=lambda s: s.key)
+@pytest.mark.parametrize(
+    "space", [DesignSpace.permutations(6), DesignSpace(4, 6), DesignSpace(5, 3, repeat=True)], ids=lambda s: s.key
+)
 def test_failures_are_worst(method, space):
     """Every design but a few 'fails'; what is told as None or NaN must never become the best."""
     search = make_search(method, space, 0, budget=300)
@@ -303,8 +320,11 @@ def test_annealing_cools_until_the_polishing_phase():
     assert d["temperature"] == pytest.approx(d["t0"] * 1e-3)
 
 
-@pytest.mark.parametrize("space,problem", [(DesignSpace.permutations(8), QAP8), (CATALOGUE, PROBLEMS["arrangement"])],
-                         ids=["permutation", "arrangement"])
+@pytest.mark.parametrize(
+    "space,problem",
+    [(DesignSpace.permutations(8), QAP8), (CATALOGUE, PROBLEMS["arrangement"])],
+    ids=["permutation", "arrangement"],
+)
 def test_descent_ends_in_a_local_optimum_then_kicks(space, problem):
     """Polishing alone (polish=1) with a budget to spare: the best design has no better neighbour (swaps,
     insertions and replacements), and the descent goes on from kicks instead of stalling."""
@@ -364,8 +384,9 @@ def test_a_space_or_a_number_of_columns():
 
 
 @pytest.mark.parametrize("method", METHODS)
-@pytest.mark.parametrize("space", [DesignSpace.permutations(5), DesignSpace(3, 5), DesignSpace(4, 2, repeat=True)],
-                         ids=lambda s: s.key)
+@pytest.mark.parametrize(
+    "space", [DesignSpace.permutations(5), DesignSpace(3, 5), DesignSpace(4, 2, repeat=True)], ids=lambda s: s.key
+)
 def test_every_search_accepts_budget_and_reports_state(method, space):
     search = make_search(method, space, 0, budget=10)
     assert search.space == space and search.n == space.columns
@@ -440,15 +461,16 @@ def test_pymoo_options_are_checked():
         make_search("nsga2", 5, 0, objectives=4)
 
 
-@pytest.mark.parametrize("space", [DesignSpace(5, 5), DesignSpace(3, 6), DesignSpace(4, 3, repeat=True)],
-                         ids=lambda s: s.key)
+@pytest.mark.parametrize(
+    "space", [DesignSpace(5, 5), DesignSpace(3, 6), DesignSpace(4, 3, repeat=True)], ids=lambda s: s.key
+)
 def test_genomes_decode_to_designs_of_the_space(space):
     genome = Genome(space)
     rng = np.random.default_rng(0)
     for _ in range(30):
         design = space.random(rng)
         assert genome.decode(genome.encode(design)) == design
-    assert list(genome.encode(space.baseline())[:space.columns]) == [m - 1 for m in space.baseline()]
+    assert list(genome.encode(space.baseline())[: space.columns]) == [m - 1 for m in space.baseline()]
     problem = genome.problem()
     assert all(space.contains(genome.decode(x)) for x in genome.sample(problem, 50, rng))
 
@@ -600,6 +622,7 @@ def test_the_test_problems_are_found_by_a_spawned_worker_and_a_new_interpreter()
         evaluation = pool.submit(problem, design).result(timeout=120)
     assert evaluation.order == design and evaluation.value == pytest.approx(problem.value(design), rel=1e-12)
     script = "import problems; print(problems.WeightedDistance((2, 1)).value((1, 2)))"
-    done = subprocess.run([sys.executable, "-c", script], env=importable_env(), capture_output=True, text=True,
-                          timeout=120)
+    done = subprocess.run(
+        [sys.executable, "-c", script], env=importable_env(), capture_output=True, text=True, timeout=120
+    )
     assert done.returncode == 0 and float(done.stdout) == 2.0, done.stderr

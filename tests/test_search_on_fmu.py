@@ -1,4 +1,5 @@
 """The searches on the real FMU: failures, and the annealing's temperature checks where the lattice is stiff."""
+
 from __future__ import annotations
 
 import math
@@ -34,8 +35,9 @@ def test_a_search_survives_an_objective_that_fails_for_some_orders(fmu_path):
     objective = SometimesDiverging(good, bad)
     for method in ("cmaes", "sa"):
         with make_executor("serial") as executor:
-            run = run_search(make_search(method, SPACE, seed=1, budget=24), objective, 24, executor,
-                             method_name=method, seed=1)
+            run = run_search(
+                make_search(method, SPACE, seed=1, budget=24), objective, 24, executor, method_name=method, seed=1
+            )
         assert run.n_evaluations == 24, run.stop_reason
         failed = [e for e in run.evaluations if not e.ok]
         assert run.failed == len(failed) > 0
@@ -49,8 +51,14 @@ def test_a_search_survives_an_objective_that_fails_for_some_orders(fmu_path):
 def test_annealing_at_a_poor_temperature_is_flagged_on_the_fmu(fmu_path, t0, verdict):
     objective = FMURun(str(fmu_path), horizon=0.5, parameters=(("atol", 1e-7), ("rtol", 1e-5)))
     with make_executor("serial") as executor:
-        run = run_search(make_search("sa", SPACE, seed=0, budget=48, t0=t0, chains=4, window=10), objective, 48,
-                         executor, method_name="sa", seed=0)
+        run = run_search(
+            make_search("sa", SPACE, seed=0, budget=48, t0=t0, chains=4, window=10),
+            objective,
+            48,
+            executor,
+            method_name="sa",
+            seed=0,
+        )
     state = run.diagnostics
     assert run.n_evaluations == 48
     assert state["poor_temperature"] and verdict in state["poor_temperature"], state
@@ -83,8 +91,14 @@ def test_annealing_flags_a_poor_automatic_temperature_on_the_fmu(fmu_path):
     """Seed 2 calibrates on two worsening deltas (0.4 N and 83 N) and gets T0 = 0.45 N, far below the moves it
     meets next: a real failure of the automatic temperature, which the check must report."""
     with make_executor("serial") as executor:
-        run = run_search(make_search("sa", SPACE, 2, budget=100), LatticeObjective(fmu_path, SPACE, 8.0), 100, executor,
-                         method_name="sa", seed=2)
+        run = run_search(
+            make_search("sa", SPACE, 2, budget=100),
+            LatticeObjective(fmu_path, SPACE, 8.0),
+            100,
+            executor,
+            method_name="sa",
+            seed=2,
+        )
     state = run.diagnostics
     assert state["t0_source"] == "automatic" and state["t0"] < 1.0
     assert state["window_censored"] > 0 and state["initial_acceptance_at_t0_bounds"][1] <= 0.02

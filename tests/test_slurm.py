@@ -7,6 +7,7 @@ whose job is cancelled mid-sweep (``scancel``); none simulates a design twice. W
 the tests are not run as root or the node is not up, they skip with the reason. The other tests check the
 options and their refusals without SLURM.
 """
+
 from __future__ import annotations
 
 import functools
@@ -25,8 +26,7 @@ from orchestrator.cluster import ClusterConfig, walltime_seconds, worker_lifetim
 from orchestrator.studyfile import read_study_file
 
 ROOT = Path(__file__).resolve().parents[1]
-SWEEP = ["--cols", "8", "--method", "exhaustive", "--diagonal-rule", "receiver", "--no-sensitivity",
-         "--no-progress"]
+SWEEP = ["--cols", "8", "--method", "exhaustive", "--diagonal-rule", "receiver", "--no-sensitivity", "--no-progress"]
 JOB_NAME = "lattice-dask"
 
 
@@ -50,23 +50,41 @@ def slurm_missing() -> str | None:
 
 def needs_slurm(test):
     """Skips ``test`` with the reason where SLURM cannot run it (asked when the test runs, not when collected)."""
+
     @functools.wraps(test)
     def run(*args, **kwargs):
         if slurm_missing():
             pytest.skip(slurm_missing())
         return test(*args, **kwargs)
+
     return run
 
 
 def run_sweep(out: Path, *extra: str) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.run([sys.executable, "-m", "orchestrator.run", *SWEEP, "--out", str(out), *extra],
-                          capture_output=True, text=True, env=env, cwd=out.parent, timeout=900)
+    return subprocess.run(
+        [sys.executable, "-m", "orchestrator.run", *SWEEP, "--out", str(out), *extra],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=out.parent,
+        timeout=900,
+    )
 
 
 def slurm_options(folder: Path, jobs: int, walltime: str) -> list[str]:
-    return ["--executor", "dask", "--cluster", "slurm", "--jobs", str(jobs), "--walltime", walltime,
-            "--job-directory", str(folder / "scratch")]
+    return [
+        "--executor",
+        "dask",
+        "--cluster",
+        "slurm",
+        "--jobs",
+        str(jobs),
+        "--walltime",
+        walltime,
+        "--job-directory",
+        str(folder / "scratch"),
+    ]
 
 
 def certificate(out: Path) -> dict:
@@ -141,9 +159,13 @@ def test_a_job_cancelled_mid_sweep_loses_nothing(pool_sweep, tmp_path):
     out = tmp_path / "sweep"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     log = (tmp_path / "run.log").open("w")
-    process = subprocess.Popen([sys.executable, "-m", "orchestrator.run", *SWEEP, "--out", str(out),
-                                *slurm_options(tmp_path, 2, "00:30:00")],
-                               stdout=log, stderr=subprocess.STDOUT, env=env, cwd=tmp_path)
+    process = subprocess.Popen(
+        [sys.executable, "-m", "orchestrator.run", *SWEEP, "--out", str(out), *slurm_options(tmp_path, 2, "00:30:00")],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        env=env,
+        cwd=tmp_path,
+    )
     try:
         journal = out.with_name(out.name + ".partial") / "journal.jsonl"
         deadline = time.monotonic() + 300
@@ -151,8 +173,9 @@ def test_a_job_cancelled_mid_sweep_loses_nothing(pool_sweep, tmp_path):
             if journal.is_file() and len(journal.read_text().splitlines()) > 40:
                 break
             time.sleep(0.5)
-        jobs = subprocess.run(["squeue", "-h", "-t", "RUNNING", "-n", JOB_NAME, "-o", "%i"],
-                              capture_output=True, text=True, check=True).stdout.split()
+        jobs = subprocess.run(
+            ["squeue", "-h", "-t", "RUNNING", "-n", JOB_NAME, "-o", "%i"], capture_output=True, text=True, check=True
+        ).stdout.split()
         assert process.poll() is None and jobs, "the sweep ended before a job could be cancelled"
         subprocess.run(["scancel", jobs[0]], check=True)
         assert process.wait(timeout=600) == 0, (tmp_path / "run.log").read_text()[-2000:]
@@ -191,12 +214,15 @@ def test_slurm_options_are_refused_in_one_line_where_they_mean_nothing(capsys, t
     out = str(tmp_path / "out")
     assert "only with --executor dask" in cli_error(capsys, ["--cluster", "slurm", "--out", out])
     assert "--jobs: only with --cluster slurm" in cli_error(capsys, ["--jobs", "3", "--out", out])
-    assert "--walltime" in cli_error(capsys, ["--executor", "dask", "--cluster", "slurm", "--walltime", "1h",
-                                              "--out", out])
-    assert "give one of them" in cli_error(capsys, ["--executor", "dask", "--cluster", "slurm", "--scheduler",
-                                                    "tcp://127.0.0.1:8786", "--out", out])
-    assert "--job-memory" in cli_error(capsys, ["--executor", "dask", "--cluster", "slurm", "--job-memory", "lots",
-                                                "--out", out])
+    assert "--walltime" in cli_error(
+        capsys, ["--executor", "dask", "--cluster", "slurm", "--walltime", "1h", "--out", out]
+    )
+    assert "give one of them" in cli_error(
+        capsys, ["--executor", "dask", "--cluster", "slurm", "--scheduler", "tcp://127.0.0.1:8786", "--out", out]
+    )
+    assert "--job-memory" in cli_error(
+        capsys, ["--executor", "dask", "--cluster", "slurm", "--job-memory", "lots", "--out", out]
+    )
     assert not (tmp_path / "out").exists() and not (tmp_path / "out.partial").exists()
 
 
@@ -208,18 +234,27 @@ def test_without_sbatch_the_run_is_refused_in_one_line(capsys, tmp_path, monkeyp
 
 def test_a_study_files_cluster_section_sets_the_cluster(tmp_path):
     study = tmp_path / "study.toml"
-    study.write_text('[cluster]\ncluster = "slurm"\njobs = 16\nwalltime = "04:00:00"\nqueue = "short"\n'
-                     'account = "armour"\njob-cores = 8\njob-memory = "16GB"\n'
-                     'job-setup = ["module load python/3.11", "source ~/venv/bin/activate"]\n')
+    study.write_text(
+        '[cluster]\ncluster = "slurm"\njobs = 16\nwalltime = "04:00:00"\nqueue = "short"\n'
+        'account = "armour"\njob-cores = 8\njob-memory = "16GB"\n'
+        'job-setup = ["module load python/3.11", "source ~/venv/bin/activate"]\n'
+    )
     parser = run_cli.build_parser()
     args = read_study_file(study).apply(parser.parse_args(["--jobs", "4"]))  # the command line wins
     from orchestrator.options import config_from
 
     cluster = config_from(ClusterConfig, args)
-    assert cluster == ClusterConfig(cluster="slurm", jobs=4, walltime="04:00:00", queue="short", account="armour",
-                                    job_cores=8, job_memory="16GB",
-                                    job_setup=("module load python/3.11", "source ~/venv/bin/activate"))
-    study.write_text('[cluster]\njobs = 0\n')
+    assert cluster == ClusterConfig(
+        cluster="slurm",
+        jobs=4,
+        walltime="04:00:00",
+        queue="short",
+        account="armour",
+        job_cores=8,
+        job_memory="16GB",
+        job_setup=("module load python/3.11", "source ~/venv/bin/activate"),
+    )
+    study.write_text("[cluster]\njobs = 0\n")
     with pytest.raises(ValueError, match=r"\[cluster\] jobs"):
         read_study_file(study)
 
@@ -230,11 +265,27 @@ def test_the_job_script_runs_the_setup_lines_and_leaves_before_the_walltime(tmp_
 
     from orchestrator.cluster import SlurmJobs
 
-    config = ClusterConfig(cluster="slurm", jobs=3, walltime="02:00:00", queue="short", account="armour",
-                           job_cores=4, job_memory="8GB", job_setup=("module load python",))
+    config = ClusterConfig(
+        cluster="slurm",
+        jobs=3,
+        walltime="02:00:00",
+        queue="short",
+        account="armour",
+        job_cores=4,
+        job_memory="8GB",
+        job_setup=("module load python",),
+    )
     jobs = SlurmJobs(config, str(tmp_path / "logs"))
     assert jobs.workers == 12
     script = SLURMJob(scheduler="tcp://127.0.0.1:8786", name="x", **jobs.job_options()).job_script()
-    for expected in ("#SBATCH -p short", "#SBATCH -A armour", "#SBATCH -t 02:00:00", "module load python",
-                     "--lifetime", "--lifetime-stagger", "--nworkers 4", "--nthreads 1"):
+    for expected in (
+        "#SBATCH -p short",
+        "#SBATCH -A armour",
+        "#SBATCH -t 02:00:00",
+        "module load python",
+        "--lifetime",
+        "--lifetime-stagger",
+        "--nworkers 4",
+        "--nthreads 1",
+    ):
         assert expected in script, expected

@@ -2,6 +2,7 @@
 memory must not grow after the warm-up, natively through the C driver (FMI 2 and 3, Co-Simulation and Model
 Exchange), through the orchestrator's own FMU path, through the Evaluator on a process pool, and while refusing
 bad inputs."""
+
 from __future__ import annotations
 
 import random

@@ -4,6 +4,7 @@ That is what a user on another platform does (FMI 2: <SourceFiles> in modelDescr
 sources/buildDescription.xml). fmpy compiles with CMake (the pip package cmake, an fmpy dependency) with
 -Wall -Wextra -Wpedantic, here with warnings as errors, and the rebuilt FMU must give bit-identical results.
 """
+
 from __future__ import annotations
 
 import os
@@ -43,8 +44,7 @@ def run(fmu: Path, order) -> np.ndarray:
     description = read_model_description(str(fmu))
     start_values = {f"material[{j}]": m for j, m in enumerate(order, 1)}  # scalars in FMI 2 and 3
     outputs = [v.name for v in description.modelVariables if v.causality == "output"]
-    return simulate_fmu(str(fmu), stop_time=HORIZON, output_interval=STEP, start_values=start_values,
-                        output=outputs)
+    return simulate_fmu(str(fmu), stop_time=HORIZON, output_interval=STEP, start_values=start_values, output=outputs)
 
 
 @pytest.mark.parametrize("fixture", ["fmu_path", "fmu3_path"], ids=["fmi2", "fmi3"])

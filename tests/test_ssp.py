@@ -1,4 +1,5 @@
 """A design as an .ssp: libcosim co-simulates it to fmpy's peak, FMPy reads it, a foreign parameter is refused."""
+
 from __future__ import annotations
 
 import zipfile
@@ -15,8 +16,9 @@ DESIGN = {"material": list(PUBLISHED_BEST), "F_total": 1100.0, "c_wall": 12.0}  
 
 @pytest.fixture(scope="module")
 def design_ssp(fmu_path, tmp_path_factory):
-    return write_best_design_ssp(fmu_path, DESIGN, tmp_path_factory.mktemp("ssp") / "best_design.ssp",
-                                 stop_time=HORIZON)
+    return write_best_design_ssp(
+        fmu_path, DESIGN, tmp_path_factory.mktemp("ssp") / "best_design.ssp", stop_time=HORIZON
+    )
 
 
 def test_libcosim_runs_the_ssp_to_fmpys_peak(design_ssp, lattice):

@@ -12,6 +12,7 @@
 
 Every FMU run that could hang goes through tests/isolated.py's IsolatedFMU (a worker process with a timeout).
 """
+
 from __future__ import annotations
 
 import math
@@ -54,10 +55,10 @@ def oracle_bounded(order, method: str, h: float, horizon: float = HORIZON) -> bo
                 y = y + step / 6 * (k1 + 2 * k2 + 2 * k3 + f(y + step * k3))
             else:
                 y = y.copy()
-                y[2 * n_masses:] += step * f(y)[2 * n_masses:]
-                y[:2 * n_masses] += step * y[2 * n_masses:]
+                y[2 * n_masses :] += step * f(y)[2 * n_masses :]
+                y[: 2 * n_masses] += step * y[2 * n_masses :]
             t += step
-            if not np.all(np.isfinite(y)) or np.max(np.abs(y[2 * n_masses:])) > 1e3:
+            if not np.all(np.isfinite(y)) or np.max(np.abs(y[2 * n_masses :])) > 1e3:
                 return False
     return True
 
@@ -81,19 +82,23 @@ def fmu_run(isolated, order, method: str, h: float, horizon: float = HORIZON):
     return status, result
 
 
-@pytest.mark.parametrize("method, order", [
-    pytest.param("rk4", PUBLISHED_BEST, id="rk4-study_best"),
-    pytest.param("rk4", REVERSED, id="rk4-reversed"),
-    pytest.param("semi_implicit_euler", PUBLISHED_BEST, id="semi_implicit_euler-study_best"),
-    pytest.param("semi_implicit_euler", REVERSED, id="semi_implicit_euler-reversed"),
-])
+@pytest.mark.parametrize(
+    "method, order",
+    [
+        pytest.param("rk4", PUBLISHED_BEST, id="rk4-study_best"),
+        pytest.param("rk4", REVERSED, id="rk4-reversed"),
+        pytest.param("semi_implicit_euler", PUBLISHED_BEST, id="semi_implicit_euler-study_best"),
+        pytest.param("semi_implicit_euler", REVERSED, id="semi_implicit_euler-reversed"),
+    ],
+)
 def test_fixed_step_limit_is_the_methods_own_and_beyond_it_is_an_fmi_error(isolated, method, order):
     oracle_low, oracle_high = bisect(lambda h: oracle_bounded(order, method, h), 1e-4, 0.1)
     fmu_low, fmu_high = bisect(lambda h: fmu_run(isolated, order, method, h)[0] == "ok", 1e-4, 0.1)
     # the FMU stops where the method really goes unstable: not (much) later, and not far earlier either
     assert 0.8 * oracle_low <= fmu_low <= 1.25 * oracle_high, (
         f"{method}: the FMU's largest working step is {fmu_low:.4g} s, the method's stability limit on the "
-        f"numpy oracle is {oracle_low:.4g} s")
+        f"numpy oracle is {oracle_low:.4g} s"
+    )
     # below the limit a number, beyond it an FMI error naming the step, at every step we try (right at the
     # limit the outcome flips between neighbouring steps, RK4 on the study's best order for instance works at
     # 0.03 s and diverges at 0.029 s, so "below" means clearly below)
@@ -128,9 +133,18 @@ def test_semi_implicit_euler_counts_the_work_of_its_first_step(isolated):
 @pytest.mark.parametrize("order", [PUBLISHED_BEST, REVERSED], ids=["study_best", "reversed"])
 @pytest.mark.parametrize("load", [1, 10, 100])
 def test_adaptive_solver_survives_stiff_orders_and_extreme_loads(lattice, order, load):
-    result = lattice.simulate(order, horizon=1.0, parameters={"F_total": 1200.0 * load},
-                              outputs=("peak_backplate_force", "peak_backplate_force_continuous",
-                                       "external_work", "energy_balance_error", "rhs_evaluations"))
+    result = lattice.simulate(
+        order,
+        horizon=1.0,
+        parameters={"F_total": 1200.0 * load},
+        outputs=(
+            "peak_backplate_force",
+            "peak_backplate_force_continuous",
+            "external_work",
+            "energy_balance_error",
+            "rhs_evaluations",
+        ),
+    )
     assert all(math.isfinite(v) for v in result.values.values())
     assert result["peak_backplate_force"] > 1000.0 * load  # the plate takes the load (and then some)
     assert abs(result["energy_balance_error"]) <= 1e-6 * result["external_work"]

@@ -1,5 +1,6 @@
 """Starting designs: every search evaluates them first and starts from them; they are checked against the design
 space in one line; the answer says how much better it is than each of them."""
+
 from __future__ import annotations
 
 import json
@@ -17,8 +18,21 @@ from orchestrator.types import OK, Evaluation
 
 STUDY_BEST = (1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10)
 OTHER = (2, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11)
-QUICK = ["--budget", "12", "--repeats", "1", "--method", "cmaes", "sequential", "--no-sensitivity", "--no-progress",
-         "--executor", "serial", "--diagonal-rule", "receiver"]
+QUICK = [
+    "--budget",
+    "12",
+    "--repeats",
+    "1",
+    "--method",
+    "cmaes",
+    "sequential",
+    "--no-sensitivity",
+    "--no-progress",
+    "--executor",
+    "serial",
+    "--diagonal-rule",
+    "receiver",
+]
 
 
 def weighted(design) -> float:
@@ -78,12 +92,15 @@ def main(*argv):
         return exc.code
 
 
-@pytest.mark.parametrize("argv, named", [
-    (["--start", "1,2,3"], ["--start [1, 2, 3]", "3 materials for 11 columns", "allowed: every order of 11"]),
-    (["--start", "1,1,2,3,4,5,6,7,8,9,10"], ["--start", "material 1 is used twice"]),
-    (["--start", "1,seven"], ["--start '1,seven'", "material numbers separated by commas"]),
-    (["--start", "1,2,3,4,5,6,7,8,9,10,12"], ["material 12 is not in 1..11"]),
-])
+@pytest.mark.parametrize(
+    "argv, named",
+    [
+        (["--start", "1,2,3"], ["--start [1, 2, 3]", "3 materials for 11 columns", "allowed: every order of 11"]),
+        (["--start", "1,1,2,3,4,5,6,7,8,9,10"], ["--start", "material 1 is used twice"]),
+        (["--start", "1,seven"], ["--start '1,seven'", "material numbers separated by commas"]),
+        (["--start", "1,2,3,4,5,6,7,8,9,10,12"], ["material 12 is not in 1..11"]),
+    ],
+)
 def test_a_starting_design_outside_the_space_is_refused_in_one_line(fmu_path, tmp_path, capfd, argv, named):
     assert main("--fmu", fmu_path, "--out", tmp_path / "r", *QUICK, *argv) == 2
     err = capfd.readouterr().err.strip()
@@ -105,8 +122,10 @@ def test_the_answer_says_how_much_better_it_is_than_the_starting_design(fmu_path
     out = tmp_path / "r"
     starts = tmp_path / "starts.txt"
     starts.write_text(",".join(map(str, OTHER)) + "\n")
-    assert main("--fmu", fmu_path, "--out", out, *QUICK, "--start", ",".join(map(str, STUDY_BEST)),
-                "--start-file", starts) == 0
+    assert (
+        main("--fmu", fmu_path, "--out", out, *QUICK, "--start", ",".join(map(str, STUDY_BEST)), "--start-file", starts)
+        == 0
+    )
     printed = capfd.readouterr().out
     record = json.loads((out / "results.json").read_text())
     comparisons = record["steps"]["starts"]["comparisons"]
@@ -119,8 +138,10 @@ def test_the_answer_says_how_much_better_it_is_than_the_starting_design(fmu_path
         assert comparison["improvement"] == pytest.approx(full - answer["peak"])
         assert comparison["improvement"] >= 0  # the starting designs are finalists: the answer is never worse
         assert comparison["improvement_percent"] == pytest.approx(100 * comparison["improvement"] / full)
-        line = (f"starting design {list(comparison['order'])}: {full:.2f} N under the receiver rule; the answer is "
-                f"{comparison['improvement']:.2f} N ({comparison['improvement_percent']:.1f} %) lower")
+        line = (
+            f"starting design {list(comparison['order'])}: {full:.2f} N under the receiver rule; the answer is "
+            f"{comparison['improvement']:.2f} N ({comparison['improvement_percent']:.1f} %) lower"
+        )
         assert line in printed, printed
     with (out / "evaluations.csv").open() as handle:
         first = [row.split(",")[4] for row in handle.read().splitlines()[1:] if row.split(",")[3] in ("1", "2")]

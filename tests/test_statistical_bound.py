@@ -1,5 +1,6 @@
 """The statistical bound: an extreme-value fit to random designs' values (bench.statistical_bound measures its
 coverage where the optimum is known)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -49,12 +50,15 @@ def test_equal_values_give_an_interval_of_one_point():
     assert bound.lower == bound.estimate == bound.best_seen == 3.0
 
 
-@pytest.mark.parametrize("values, size, confidence, message", [
-    ([1.0] * 100, 10, 1.0, "confidence"),
-    ([1.0] * 100, 0, 0.9, "group_size"),
-    ([1.0] * 40, 10, 0.9, "at least 5 groups"),
-    ([1.0, float("nan")] * 50, 10, 0.9, "finite"),
-])
+@pytest.mark.parametrize(
+    "values, size, confidence, message",
+    [
+        ([1.0] * 100, 10, 1.0, "confidence"),
+        ([1.0] * 100, 0, 0.9, "group_size"),
+        ([1.0] * 40, 10, 0.9, "at least 5 groups"),
+        ([1.0, float("nan")] * 50, 10, 0.9, "finite"),
+    ],
+)
 def test_bad_input_is_refused(values, size, confidence, message):
     with pytest.raises(ValueError, match=message):
         weibull_bound(values, size, confidence)
@@ -74,8 +78,9 @@ class Quadratic:
 def test_estimate_optimum_runs_random_designs_through_the_evaluator():
     with make_executor("serial") as executor:
         evaluator = Evaluator(executor)
-        bound = estimate_optimum(evaluator, Quadratic(), DesignSpace.permutations(6), groups=20, group_size=30,
-                                 rng=np.random.default_rng(11))
+        bound = estimate_optimum(
+            evaluator, Quadratic(), DesignSpace.permutations(6), groups=20, group_size=30, rng=np.random.default_rng(11)
+        )
     assert bound.designs == 600
     assert bound.best_seen >= 10.0
     assert bound.lower <= bound.best_seen

@@ -1,5 +1,6 @@
 """docs/model.md section 11's figure of the projectile, the lattice and the hull: written by the command its page
 states, naming every port, its labels apart."""
+
 from __future__ import annotations
 
 import re
@@ -47,7 +48,7 @@ def test_no_two_labels_of_the_figure_overlap(figure):
 
 def test_the_system_figure_is_written_by_the_command_its_page_states(tmp_path, capsys):
     page = PAGE.read_text()
-    section = page[page.index("## 11. "):page.index("## 12. ")]
+    section = page[page.index("## 11. ") : page.index("## 12. ")]
     assert "`python -m orchestrator.system_picture --write docs/images/system-model.png`" in section
     assert "(images/system-model.png)" in section
     assert system.main(["--write", str(tmp_path / "system-model.png")]) == 0

@@ -8,6 +8,7 @@
 - Bounded work: settings that would make one doStep run for ever are refused, naming the cap. Every such
   run goes through a worker process with a timeout, so a regression shows as a failure, not a hung suite.
 """
+
 from __future__ import annotations
 
 import math
@@ -106,8 +107,11 @@ class Fmi3(Fmi2):
 
 @pytest.fixture(params=["fmi2", "fmi3"])
 def fmu(request):
-    driver = Fmi2(request.getfixturevalue("fmu_path")) if request.param == "fmi2" else \
-        Fmi3(request.getfixturevalue("fmu3_path"))
+    driver = (
+        Fmi2(request.getfixturevalue("fmu_path"))
+        if request.param == "fmi2"
+        else Fmi3(request.getfixturevalue("fmu3_path"))
+    )
     yield driver
     driver.close()
 
@@ -143,7 +147,7 @@ def continues_to(fmu, data, peak):
 
 def with_checksum(data: bytearray) -> bytes:
     """Recomputes the CRC-32 over everything after it: what a crafted state would do to pass the check."""
-    data[CHECKSUM_AT:CHECKSUM_AT + 4] = struct.pack("<I", zlib.crc32(bytes(data[CHECKSUM_AT + 4:])))
+    data[CHECKSUM_AT : CHECKSUM_AT + 4] = struct.pack("<I", zlib.crc32(bytes(data[CHECKSUM_AT + 4 :])))
     return bytes(data)
 
 
@@ -169,7 +173,7 @@ def test_every_state_of_a_run_is_accepted(fmu):
 
 def test_truncated_and_extended_states_are_refused(fmu, saved):
     data, peak = saved
-    for damaged in (data[:-1], data[:HEADER_SIZE], data[:len(data) // 2], data + b"\0"):
+    for damaged in (data[:-1], data[:HEADER_SIZE], data[: len(data) // 2], data + b"\0"):
         refused(fmu, damaged, f"the serialised state has {len(damaged)} bytes")
     continues_to(fmu, data, peak)
 
@@ -196,10 +200,15 @@ def test_a_state_with_a_changed_size_and_a_valid_checksum_is_refused(fmu, saved)
     solver_sizes = struct.pack("<iii", 0, HALF_STATE, HALF_ROWS * COLS)
     assert data.count(solver_sizes) == 1
     at = data.index(solver_sizes)
-    for n, n_second_order in ((10 ** 6, HALF_ROWS * COLS), (HALF_STATE, 10 ** 6), (-1, HALF_ROWS * COLS), (4, 2),
-                              (N_STATE, 2 * ROWS * COLS)):  # the last: the whole lattice's, not the reduced one's
+    for n, n_second_order in (
+        (10**6, HALF_ROWS * COLS),
+        (HALF_STATE, 10**6),
+        (-1, HALF_ROWS * COLS),
+        (4, 2),
+        (N_STATE, 2 * ROWS * COLS),
+    ):  # the last: the whole lattice's, not the reduced one's
         crafted = bytearray(data)
-        crafted[at + 4:at + 12] = struct.pack("<ii", n, n_second_order)
+        crafted[at + 4 : at + 12] = struct.pack("<ii", n, n_second_order)
         refused(fmu, with_checksum(crafted), "its sizes")
     crafted = bytearray(data)
     crafted[16:24] = struct.pack("<Q", len(data) * 2)  # the header's own size field
@@ -213,7 +222,7 @@ def test_crafted_fields_with_a_valid_checksum_are_refused(fmu, saved):
     assert data.count(order) == 1
     at = data.index(order)
     crafted = bytearray(data)
-    crafted[at:at + 4] = struct.pack("<i", 1000)  # material[1] = 1000 would index far outside the table
+    crafted[at : at + 4] = struct.pack("<i", 1000)  # material[1] = 1000 would index far outside the table
     refused(fmu, with_checksum(crafted), "material")
     crafted = bytearray(data)
     crafted[12:16] = struct.pack("<i", 99)  # the FMI state machine's state: used as a shift
@@ -238,15 +247,18 @@ def test_a_state_of_the_other_fmi_version_is_refused(fmu_path, fmu3_path):
         fmi3.close()
 
 
-@pytest.mark.parametrize("point, step, reason", [
-    (0.0, -0.1, "communicationStepSize = -0.1 is not allowed"),
-    (0.0, math.nan, "communicationStepSize = nan is not allowed"),
-    (0.0, math.inf, "communicationStepSize = inf is not allowed"),
-    (0.5, 0.1, "does not match the FMU's time"),
-    (math.nan, 0.1, "does not match the FMU's time"),
-    (0.0, 2.1e6, "beyond the stop time"),
-    (0.0, 1.9e6, "samples per doStep"),
-])
+@pytest.mark.parametrize(
+    "point, step, reason",
+    [
+        (0.0, -0.1, "communicationStepSize = -0.1 is not allowed"),
+        (0.0, math.nan, "communicationStepSize = nan is not allowed"),
+        (0.0, math.inf, "communicationStepSize = inf is not allowed"),
+        (0.5, 0.1, "does not match the FMU's time"),
+        (math.nan, 0.1, "does not match the FMU's time"),
+        (0.0, 2.1e6, "beyond the stop time"),
+        (0.0, 1.9e6, "samples per doStep"),
+    ],
+)
 def test_a_refused_do_step_argument_leaves_the_instance_usable(fmu, point, step, reason):
     """The importer's mistake is refused with its reason, and the next right doStep goes on as if it had never
     been made: the same peak as a run without it."""
@@ -271,11 +283,14 @@ def isolated(fmu_path):
         yield runner
 
 
-@pytest.mark.parametrize("parameters, reasons", [
-    ({"peak_sample_interval": 1e-300}, ("samples per doStep", "peak_sample_interval = 1e-300")),
-    ({"solver": 1, "fixed_step": 1e-12}, ("solver steps per doStep", "fixed_step = 1e-12")),
-    ({"solver": 2, "fixed_step": 1e-12}, ("solver steps per doStep", "fixed_step = 1e-12")),
-])
+@pytest.mark.parametrize(
+    "parameters, reasons",
+    [
+        ({"peak_sample_interval": 1e-300}, ("samples per doStep", "peak_sample_interval = 1e-300")),
+        ({"solver": 1, "fixed_step": 1e-12}, ("solver steps per doStep", "fixed_step = 1e-12")),
+        ({"solver": 2, "fixed_step": 1e-12}, ("solver steps per doStep", "fixed_step = 1e-12")),
+    ],
+)
 def test_settings_that_would_never_finish_are_refused_naming_the_cap(isolated, parameters, reasons):
     status, message, _ = isolated.run(PUBLISHED_BEST, 1.0, parameters)
     assert status == "error", (status, message)
@@ -312,10 +327,12 @@ fmu.close()
 
 @pytest.mark.parametrize("version", [2, 3])
 def test_do_step_to_infinity_without_a_stop_time_returns_an_error(fmu_path, fmu3_path, version):
-    script = DO_STEP_WITHOUT_STOP_TIME.format(tests=str(ROOT / "tests"), version=version,
-                                              path=str(fmu_path if version == 2 else fmu3_path))
-    result = subprocess.run([sys.executable, "-c", textwrap.dedent(script)], capture_output=True, text=True,
-                            timeout=HANG_TIMEOUT, cwd=ROOT)
+    script = DO_STEP_WITHOUT_STOP_TIME.format(
+        tests=str(ROOT / "tests"), version=version, path=str(fmu_path if version == 2 else fmu3_path)
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(script)], capture_output=True, text=True, timeout=HANG_TIMEOUT, cwd=ROOT
+    )
     assert result.returncode == 0, result.stderr
     infinite, huge, peak = result.stdout.splitlines()
     assert "communicationStepSize = inf is not allowed" in infinite
@@ -350,20 +367,28 @@ def test_the_adaptive_solver_stops_at_the_cap_of_steps_per_do_step(fmu_path):
     """Without a stop time and with a long peak_sample_interval, nothing but the steps cap bounds a doStep of
     1e9 s: it fails (a model failure: the instance needs a reset) after 200000 steps, about 7 s of CPU."""
     script = ADAPTIVE_STEPS_CAP.format(tests=str(ROOT / "tests"), path=str(fmu_path))
-    result = subprocess.run([sys.executable, "-c", textwrap.dedent(script)], capture_output=True, text=True,
-                            timeout=3 * HANG_TIMEOUT, cwd=ROOT)
+    result = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(script)],
+        capture_output=True,
+        text=True,
+        timeout=3 * HANG_TIMEOUT,
+        cwd=ROOT,
+    )
     assert result.returncode == 0, result.stderr
     message, peak = result.stdout.splitlines()
     assert "reached the cap of 200000 solver steps per doStep" in message
     assert float(peak) > 1000  # after fmi2Reset the instance runs again
 
 
-@pytest.mark.parametrize("order, parameters, name", [
-    ((2 ** 32 + 1,) + PUBLISHED_BEST[1:], {}, "order"),  # wrapped, it would be material 1
-    (PUBLISHED_BEST, {"diagonal_rule": 2 ** 32}, "diagonal_rule"),  # wrapped, it would be 0
-    (PUBLISHED_BEST, {"solver": -2 ** 31 - 1}, "solver"),
-    (PUBLISHED_BEST, {"solver": 1.5}, "solver"),
-])
+@pytest.mark.parametrize(
+    "order, parameters, name",
+    [
+        ((2**32 + 1,) + PUBLISHED_BEST[1:], {}, "order"),  # wrapped, it would be material 1
+        (PUBLISHED_BEST, {"diagonal_rule": 2**32}, "diagonal_rule"),  # wrapped, it would be 0
+        (PUBLISHED_BEST, {"solver": -(2**31) - 1}, "solver"),
+        (PUBLISHED_BEST, {"solver": 1.5}, "solver"),
+    ],
+)
 def test_integers_that_do_not_fit_32_bits_are_refused_not_wrapped(lattice, order, parameters, name):
     with pytest.raises(ValueError, match=rf"^{name} = .* is not allowed: FMI integers are whole numbers"):
         lattice.simulate(order, horizon=0.05, parameters=parameters)

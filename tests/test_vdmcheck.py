@@ -5,6 +5,7 @@ Maven Central into the cache (default ~/.cache/mass-spring-lattice, or $MSL_CACH
 model description (Model Exchange and Co-Simulation) in about 30 s. VDMCheck for FMI 3 (vdmcheck3) is not
 published on Maven Central, so the FMI 3 model description is checked by fmpy's validation only.
 """
+
 from __future__ import annotations
 
 import re
@@ -34,16 +35,23 @@ def vdmcheck_dir() -> Path:
         command = ["mvn", "-B", "-q", "-f", str(PROJECT / "pom.xml"), "process-resources", f"-Dvdmcheck.dir={folder}"]
         result = subprocess.run(command, capture_output=True, text=True, timeout=1800)
         assert result.returncode == 0, f"{' '.join(command)} failed:\n{result.stdout[-3000:]}{result.stderr[-3000:]}"
-        for jar, prefix in (("static-model.jar", "fmi2-static-model/"), ("rule-model.jar", "fmi2-rule-model/"),
-                            ("vdmcheck2.jar", "fmi2schema/")):
+        for jar, prefix in (
+            ("static-model.jar", "fmi2-static-model/"),
+            ("rule-model.jar", "fmi2-rule-model/"),
+            ("vdmcheck2.jar", "fmi2schema/"),
+        ):
             with zipfile.ZipFile(folder / jar) as archive:
                 archive.extractall(folder, [name for name in archive.namelist() if name.startswith(prefix)])
     return folder
 
 
 def vdmcheck(folder: Path, fmu: Path) -> str:
-    result = subprocess.run(["java", "-cp", str(folder / "vdmcheck2.jar"), "VDMCheck", str(fmu)],
-                            capture_output=True, text=True, timeout=900)
+    result = subprocess.run(
+        ["java", "-cp", str(folder / "vdmcheck2.jar"), "VDMCheck", str(fmu)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     return result.stdout + result.stderr
 
 

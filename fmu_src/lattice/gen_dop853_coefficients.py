@@ -2,6 +2,7 @@
 
 Run once by hand when the table changes (never at build time: the FMU sources must not need SciPy).
 """
+
 from pathlib import Path
 
 import numpy as np
@@ -23,10 +24,13 @@ def main():
         " * dense output), as tabulated in SciPy's scipy/integrate/_ivp/dop853_coefficients.py (BSD-3-Clause),",
         " * printed with repr() so every double is exact. Regenerate with "
         "fmu_src/lattice/gen_dop853_coefficients.py. */",
-        "#ifndef DOP853_COEFFICIENTS_H", "#define DOP853_COEFFICIENTS_H", "",
+        "#ifndef DOP853_COEFFICIENTS_H",
+        "#define DOP853_COEFFICIENTS_H",
+        "",
         f"#define DOP853_N_STAGES {coefficients.N_STAGES}",
         f"#define DOP853_N_STAGES_EXTENDED {coefficients.N_STAGES_EXTENDED}",
-        f"#define DOP853_INTERPOLATOR_POWER {coefficients.INTERPOLATOR_POWER}", "",
+        f"#define DOP853_INTERPOLATOR_POWER {coefficients.INTERPOLATOR_POWER}",
+        "",
     ]
     for name in ("C", "A", "B", "E3", "E5", "D"):
         lines.append(c_array(f"DOP853_{name}", getattr(coefficients, name)))

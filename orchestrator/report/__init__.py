@@ -4,6 +4,7 @@ The report only renders: every number comes from the study's typed results (``St
 simulates. HTML and the design files are rendered from templates (jinja2, autoescaped), one template per step
 under ``orchestrator/templates/report/``.
 """
+
 from __future__ import annotations
 
 import csv
@@ -29,26 +30,25 @@ from ..study import PROJECTILE, PULSE, StudyResult, search_fidelity
 RESULTS_FORMAT = "lattice-results/1"
 TERMS = {
     "sampled peak": "the largest backplate force among the samples every 0.01 s (peak_sample_interval): what "
-                    "the study computed and published",
+    "the study computed and published",
     "continuous peak": "the largest backplate force over the continuous solution (between the samples too); "
-                       "at least the sampled peak",
+    "at least the sampled peak",
     "search fidelity": "the cheaper evaluation the searches rank by: a short horizon (the scene's: "
-                       f"{search_fidelity(PULSE).horizon:g} s under the study's pulse, "
-                       f"{search_fidelity(PROJECTILE).horizon:g} s under a projectile, whose contact lasts longer; "
-                       "extended while the lattice still touches the backplate) at a looser tolerance; every reported "
-                       "number is at full fidelity, the whole scene at the FMU's default accuracy",
+    f"{search_fidelity(PULSE).horizon:g} s under the study's pulse, "
+    f"{search_fidelity(PROJECTILE).horizon:g} s under a projectile, whose contact lasts longer; "
+    "extended while the lattice still touches the backplate) at a looser tolerance; every reported "
+    "number is at full fidelity, the whole scene at the FMU's default accuracy",
     "censored": "an evaluation the FMU stopped as soon as its peak passed a force limit the search gave "
-                "(it could no longer win): its value is only known to be above that limit, and it is never "
-                "reported as a value",
+    "(it could no longer win): its value is only known to be above that limit, and it is never "
+    "reported as a value",
     "regret": "what keeping the chosen design costs under a variation of the case: its value there minus the "
-              "best value this study knows for that variation",
+    "best value this study knows for that variation",
     "screening error": "how far the search fidelity's value of a design is from its full-fidelity value "
-                       "(relative); an answer is safe when it is far smaller than the gap to the runner-up",
+    "(relative); an answer is safe when it is far smaller than the gap to the runner-up",
     "receiver rule": "each diagonal spring takes its constants from the column of the mass it pushes (as the "
-                     "study computed): between columns of different materials the two ends feel different "
-                     "forces, so Newton's third law does not hold there",
-    "mean rule": "each diagonal spring uses the mean of its two columns' constants: reciprocal, physically "
-                 "consistent",
+    "study computed): between columns of different materials the two ends feel different "
+    "forces, so Newton's third law does not hold there",
+    "mean rule": "each diagonal spring uses the mean of its two columns' constants: reciprocal, physically consistent",
 }
 
 
@@ -69,8 +69,9 @@ def _env() -> jinja2.Environment:
     env.filters["n"] = _number
     env.filters["g2"] = lambda v: "n/a" if v is None else f"{v:,.2g}"
     env.filters["order"] = lambda order: "[" + ", ".join(str(m) for m in order) + "]" if order else "none"
-    env.filters["sci"] = lambda v, digits=1: "n/a" if v is None or (isinstance(v, float) and math.isnan(v)) \
-        else f"{v:.{digits}e}"
+    env.filters["sci"] = lambda v, digits=1: (
+        "n/a" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}e}"
+    )
     return env
 
 
@@ -91,9 +92,11 @@ def rule_default_note(study: StudyResult, answer) -> str:
     code = case.rule_codes.get(default)
     if answer.diagonal_rule == default:
         return f"diagonal_rule {code} = {default} is also the FMU's default: it reproduces the study's published table"
-    return (f"diagonal_rule {answer.parameters['diagonal_rule']} = {answer.diagonal_rule}: without it the FMU runs "
-            f"its default, {code} = {default}, which reproduces the study's published table, and gives another "
-            "number")
+    return (
+        f"diagonal_rule {answer.parameters['diagonal_rule']} = {answer.diagonal_rule}: without it the FMU runs "
+        f"its default, {code} = {default}, which reproduces the study's published table, and gives another "
+        "number"
+    )
 
 
 def case_line(study: StudyResult) -> str:
@@ -104,13 +107,20 @@ def results_record(study: StudyResult) -> dict:
     """results.json: the answers first, then the case and every step's result, as the typed results hold them."""
     steps = {name: to_record(result) for name, result in study.results_by_name().items()}
     answers = study.result(Answers)
-    return {"format": RESULTS_FORMAT, "answers": to_record(answers.answers) if answers else [],
-            "pareto": _pareto_points(study),
-            "case": to_record(study.case), "case_line": case_line(study),
-            "fmu": {"path": study.fmu_path, "sha256": study.fmu_sha256},
-            "steps": steps, "evaluator": to_record(study.evaluator), "costs": to_record(study.costs),
-            "wall_seconds": study.wall_seconds,
-            "run": study.run_id, "terms": TERMS}
+    return {
+        "format": RESULTS_FORMAT,
+        "answers": to_record(answers.answers) if answers else [],
+        "pareto": _pareto_points(study),
+        "case": to_record(study.case),
+        "case_line": case_line(study),
+        "fmu": {"path": study.fmu_path, "sha256": study.fmu_sha256},
+        "steps": steps,
+        "evaluator": to_record(study.evaluator),
+        "costs": to_record(study.costs),
+        "wall_seconds": study.wall_seconds,
+        "run": study.run_id,
+        "terms": TERMS,
+    }
 
 
 def _pareto_points(study: StudyResult) -> list:
@@ -118,25 +128,53 @@ def _pareto_points(study: StudyResult) -> list:
     if pareto is None:
         return []
     outputs = study.case.objective.outputs
-    return [{"diagonal_rule": front.diagonal_rule, "order": list(point.order),
-             "objectives": dict(zip(outputs, point.values))} for front in pareto.fronts for point in front.points]
-
+    return [
+        {
+            "diagonal_rule": front.diagonal_rule,
+            "order": list(point.order),
+            "objectives": dict(zip(outputs, point.values)),
+        }
+        for front in pareto.fronts
+        for point in front.points
+    ]
 
 
 def write_evaluations_csv(study: StudyResult, path: Path) -> None:
     """Every evaluation of the searches (journal.jsonl has every task of the run)."""
-    fields = ["diagonal_rule", "method", "seed", "index", "order", "value", "status", "censored_above", "seconds",
-              "horizon", "message"]
+    fields = [
+        "diagonal_rule",
+        "method",
+        "seed",
+        "index",
+        "order",
+        "value",
+        "status",
+        "censored_above",
+        "seconds",
+        "horizon",
+        "message",
+    ]
     searches = study.result(Searches)
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(fields)
-        for run in (searches.runs if searches else ()):
+        for run in searches.runs if searches else ():
             for index, e in enumerate(run.evaluations, start=1):
-                writer.writerow([run.label, run.method, run.seed, index, " ".join(map(str, e.order)),
-                                 "" if e.value is None else repr(e.value), e.status,
-                                 "" if e.limit is None else repr(e.limit), f"{e.seconds:.6f}",
-                                 "" if e.outputs is None else e.outputs.horizon, e.message])
+                writer.writerow(
+                    [
+                        run.label,
+                        run.method,
+                        run.seed,
+                        index,
+                        " ".join(map(str, e.order)),
+                        "" if e.value is None else repr(e.value),
+                        e.status,
+                        "" if e.limit is None else repr(e.limit),
+                        f"{e.seconds:.6f}",
+                        "" if e.outputs is None else e.outputs.horizon,
+                        e.message,
+                    ]
+                )
 
 
 def write_design_files(study: StudyResult, out: Path, steps, materials) -> dict[str, str]:
@@ -151,8 +189,9 @@ def write_design_files(study: StudyResult, out: Path, steps, materials) -> dict[
     return refused
 
 
-def write_design_file(study: StudyResult, out: Path, name: str, order, rule: str, materials,
-                      refused: dict[str, str]) -> None:
+def write_design_file(
+    study: StudyResult, out: Path, name: str, order, rule: str, materials, refused: dict[str, str]
+) -> None:
     """One design file: the FMU with the order, the run's parameters and the rule where the study chose it; a
     design the writer refuses (one a named tool would run differently) goes into ``refused`` with why."""
     from ..ssp import write_best_design_ssp
@@ -161,8 +200,7 @@ def write_design_file(study: StudyResult, out: Path, name: str, order, rule: str
     if rule in study.case.rules:
         parameters["diagonal_rule"] = rule
     try:
-        write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon,
-                              materials=materials)
+        write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon, materials=materials)
     except (ValueError, OSError) as exc:
         refused[name] = str(exc).splitlines()[0]
 
@@ -218,16 +256,36 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
         result = study.result(type(step))
         if result is None or not step.template or isinstance(step, Answers):
             continue
-        sections.append(markupsafe.Markup(env.get_template(f"report/{step.template}").render(
-            result=result, study=study, chart=figures.get(type(step)), title=step.title, terms=TERMS,
-            refused=refused)))
+        sections.append(
+            markupsafe.Markup(
+                env.get_template(f"report/{step.template}").render(
+                    result=result,
+                    study=study,
+                    chart=figures.get(type(step)),
+                    title=step.title,
+                    terms=TERMS,
+                    refused=refused,
+                )
+            )
+        )
     page = env.get_template("report/report.html.j2").render(
-        study=study, case_line=study.case.line(), answers=answers, answers_chart=figures.get(Answers),
+        study=study,
+        case_line=study.case.line(),
+        answers=answers,
+        answers_chart=figures.get(Answers),
         rule_default_note=rule_default_note,
         impact_chart=impact_chart,
-        sections=sections, terms=TERMS, refused=refused, certificates=certificates, known=known,
-        pareto=study.result(Pareto), starts=study.result(Starts), best_design=best_design(study),
-        best_design_file=BEST_DESIGN_FILE, explore_contents=explore_contents(study))
+        sections=sections,
+        terms=TERMS,
+        refused=refused,
+        certificates=certificates,
+        known=known,
+        pareto=study.result(Pareto),
+        starts=study.result(Starts),
+        best_design=best_design(study),
+        best_design_file=BEST_DESIGN_FILE,
+        explore_contents=explore_contents(study),
+    )
     (out / "report.html").write_text(page)
     return out / "report.html"
 

@@ -10,6 +10,7 @@ The loop does this with a cache, a budget and an executor; searches never see an
 A search of several objectives (``SEARCHES[name].n_objectives > 1``: ``nsga2``) is told a vector per design
 and answers with ``pareto_front()``; ``pareto.hypervolume`` measures a front.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -79,6 +80,26 @@ def _polished(name: str, space: DesignSpace | int, seed: int, **options: Any) ->
     return Polished(inner, polish=fraction, polish_batch=polish_batch, budget=budget)
 
 
-__all__ = ["SEARCHES", "make_search", "Search", "CMAES", "PSO", "Annealing", "RandomSearch", "Sequential",
-           "LocalSearch", "Polished", "GeneticAlgorithm", "DifferentialEvolution", "NSGA2", "FAILURE",
-           "ParetoPoint", "hypervolume", "non_dominated", "pareto_front", "reference_point", "Started", "parse_design"]
+__all__ = [
+    "SEARCHES",
+    "make_search",
+    "Search",
+    "CMAES",
+    "PSO",
+    "Annealing",
+    "RandomSearch",
+    "Sequential",
+    "LocalSearch",
+    "Polished",
+    "GeneticAlgorithm",
+    "DifferentialEvolution",
+    "NSGA2",
+    "FAILURE",
+    "ParetoPoint",
+    "hypervolume",
+    "non_dominated",
+    "pareto_front",
+    "reference_point",
+    "Started",
+    "parse_design",
+]

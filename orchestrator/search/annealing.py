@@ -54,6 +54,7 @@ Why the defaults (python -m bench.search_convergence, on the study's lattice at 
 - ``polish=0.3``: the last 30 % of the budget goes to the descent (``local.py``), which checks neighbours
   systematically where the cold end of the annealing samples them at random.
 """
+
 from __future__ import annotations
 
 import math
@@ -96,34 +97,46 @@ class Proposal:
 
 class Annealing(Search):
     """Options (defaults):
-      chains=4               chains; batch size.
-      budget=None            distinct evaluations the loop will allow; scales the
-                             cooling.  Pass the loop's budget (1000 assumed if None).
-      t0=None                force the initial temperature (skips calibration).
-      initial_acceptance=0.2 target acceptance of worsening moves at T0.
-      t_final_ratio=1e-3     final temperature / T0.
-      swap_prob=0.5          probability of a swap (else an insertion) for a move that is not a
-                             replacement (``DesignSpace.random_move``).
-      calibration=None       worsening/improving deltas sampled before T0 is set
-                             (default max(10, 2 * chains)).
-      window=30              worsening moves after T0 used to check the temperature.
-      poor_low=0.02, poor_high=0.98   bounds of their mean acceptance at T0.
-      max_free=500           proposals tried per chain and batch before a kick.
-      kick=3                 random moves in a kick.
-      x0="sequential"        chain c starts at starting design c (default: the space's baseline), the
-                             chains beyond the starting designs one random move
-                             from it; "random": every chain at a random design.
-      use_limits=True        give the loop each proposal's Metropolis threshold as its limit.
-      polish=0.3             fraction of ``budget`` left to the final descent (0 = none).
-      polish_batch=4         batch size of that descent.
+    chains=4               chains; batch size.
+    budget=None            distinct evaluations the loop will allow; scales the
+                           cooling.  Pass the loop's budget (1000 assumed if None).
+    t0=None                force the initial temperature (skips calibration).
+    initial_acceptance=0.2 target acceptance of worsening moves at T0.
+    t_final_ratio=1e-3     final temperature / T0.
+    swap_prob=0.5          probability of a swap (else an insertion) for a move that is not a
+                           replacement (``DesignSpace.random_move``).
+    calibration=None       worsening/improving deltas sampled before T0 is set
+                           (default max(10, 2 * chains)).
+    window=30              worsening moves after T0 used to check the temperature.
+    poor_low=0.02, poor_high=0.98   bounds of their mean acceptance at T0.
+    max_free=500           proposals tried per chain and batch before a kick.
+    kick=3                 random moves in a kick.
+    x0="sequential"        chain c starts at starting design c (default: the space's baseline), the
+                           chains beyond the starting designs one random move
+                           from it; "random": every chain at a random design.
+    use_limits=True        give the loop each proposal's Metropolis threshold as its limit.
+    polish=0.3             fraction of ``budget`` left to the final descent (0 = none).
+    polish_batch=4         batch size of that descent.
     """
 
     name = "sa"
     POLISH = 0.3  # the default share of the budget polished (polish.Polished)
-    OPTIONS = {"chains": 4, "budget": None, "t0": None, "initial_acceptance": 0.2,
-               "t_final_ratio": 1e-3, "swap_prob": 0.5, "calibration": None, "window": 30,
-               "poor_low": 0.02, "poor_high": 0.98, "max_free": 500, "kick": 3,
-               "x0": "sequential", "use_limits": True}
+    OPTIONS = {
+        "chains": 4,
+        "budget": None,
+        "t0": None,
+        "initial_acceptance": 0.2,
+        "t_final_ratio": 1e-3,
+        "swap_prob": 0.5,
+        "calibration": None,
+        "window": 30,
+        "poor_low": 0.02,
+        "poor_high": 0.98,
+        "max_free": 500,
+        "kick": 3,
+        "x0": "sequential",
+        "use_limits": True,
+    }
 
     def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:
         super().__init__(space, seed, **options)
@@ -159,7 +172,7 @@ class Annealing(Search):
         self.kicks = 0
         self.window_uphill: list[bool] = []  # accepted or not, at the temperature of the time
         self.window_deltas: list[float] = []  # the delta, or for a censored move the lower bound it is above
-        self.window_exact: list[bool] = []    # False: a censored move, its delta only known to exceed the bound
+        self.window_exact: list[bool] = []  # False: a censored move, its delta only known to exceed the bound
         # what this search knows of a design beyond its memo: only that it is above this bound (censored,
         # or told a value above the limit it was asked with: see "Why the Metropolis uniform ...")
         self.above: dict[Design, float] = {}
@@ -204,8 +217,7 @@ class Annealing(Search):
     def _neighbour(self, design: Design) -> Design:
         return self.space.random_move(self.rng, design, float(self.options["swap_prob"]))
 
-    def _step(self, c: int, order: Design, value: float, threshold: float, *, free: bool,
-              calibrating: bool) -> bool:
+    def _step(self, c: int, order: Design, value: float, threshold: float, *, free: bool, calibrating: bool) -> bool:
         """One Metropolis step of chain c (greedy while calibrating): accept iff value <= current or
         value < threshold. A design known only to be above a bound (``self.above``) is rejected when the
         bound is at or above the threshold; below it the step is not decided: returns False, changes
@@ -273,9 +285,14 @@ class Annealing(Search):
                 order = self._neighbour(current)
                 temperature = self.temperature
                 u = None if temperature is None else float(self.rng.random())  # drawn before the evaluation
-                if order in self.memo and self._step(c, order, self.memo[order],
-                                                     metropolis_threshold(self.current_value[c], temperature, u),
-                                                     free=True, calibrating=temperature is None):
+                if order in self.memo and self._step(
+                    c,
+                    order,
+                    self.memo[order],
+                    metropolis_threshold(self.current_value[c], temperature, u),
+                    free=True,
+                    calibrating=temperature is None,
+                ):
                     current = self.current[c]
                     continue
                 self.reevaluations += order in self.memo  # known only above a bound below the threshold
@@ -334,11 +351,13 @@ class Annealing(Search):
                 # set T0: a Metropolis step at the temperature of now, its u drawn now
                 temperature = self.temperature
                 u = float(self.rng.random())
-                proposal = Proposal(proposal.order, "move", u, temperature,
-                                    metropolis_threshold(self.current_value[c], temperature, u))
+                proposal = Proposal(
+                    proposal.order, "move", u, temperature, metropolis_threshold(self.current_value[c], temperature, u)
+                )
             if proposal.kind == "move":
-                if not self._step(c, proposal.order, value, proposal.threshold, free=False,
-                                  calibrating=proposal.temperature is None):
+                if not self._step(
+                    c, proposal.order, value, proposal.threshold, free=False, calibrating=proposal.temperature is None
+                ):
                     self.undecided += 1  # censored below the limit asked: rejected, as a failure would be
                     self.steps += 1
                     self.recent.append(False)
@@ -362,25 +381,39 @@ class Annealing(Search):
         at_t0 = bounds[1] if bounds is not None and not censored else None
         poor = None
         if bounds is not None and len(window) >= min(10, int(self.options["window"])):
-            mean = (f"{bounds[1]:.2g}" if not censored else
-                    f"between {bounds[0]:.2g} and {bounds[1]:.2g} ({censored} censored)")
-            met = (f"the first {len(window)} worsening moves would be accepted at T0 with mean probability "
-                   f"{mean} ({initial:.0%} were, as it cooled)")
+            mean = (
+                f"{bounds[1]:.2g}"
+                if not censored
+                else f"between {bounds[0]:.2g} and {bounds[1]:.2g} ({censored} censored)"
+            )
+            met = (
+                f"the first {len(window)} worsening moves would be accepted at T0 with mean probability "
+                f"{mean} ({initial:.0%} were, as it cooled)"
+            )
             if bounds[1] <= low:
-                poor = (f"poor temperature: too low (T0={self.t0:.4g}, {self.t0_source}); {met}: "
-                        "annealing degenerates into greedy descent")
+                poor = (
+                    f"poor temperature: too low (T0={self.t0:.4g}, {self.t0_source}); {met}: "
+                    "annealing degenerates into greedy descent"
+                )
             elif bounds[0] >= high:
-                poor = (f"poor temperature: too high (T0={self.t0:.4g}, {self.t0_source}); {met}: "
-                        "annealing degenerates into a random walk")
+                poor = (
+                    f"poor temperature: too high (T0={self.t0:.4g}, {self.t0_source}); {met}: "
+                    "annealing degenerates into a random walk"
+                )
         temperature = self.temperature
         return {
-            "chains": self.chains, "budget": self.budget, "budget_assumed": self.budget_assumed,
+            "chains": self.chains,
+            "budget": self.budget,
+            "budget_assumed": self.budget_assumed,
             "anneal_budget": self.anneal_budget,
-            "t0": self.t0, "t0_source": self.t0_source,
+            "t0": self.t0,
+            "t0_source": self.t0_source,
             "t_final": None if self.t0 is None else self.t0 * float(self.options["t_final_ratio"]),
             "temperature": temperature,
             "calibration_deltas": len(self.deltas),
-            "steps": self.steps, "free_steps": self.free_steps, "kicks": self.kicks,
+            "steps": self.steps,
+            "free_steps": self.free_steps,
+            "kicks": self.kicks,
             "acceptance_rate": self.accepted / self.steps if self.steps else None,
             "uphill_acceptance_rate": self.uphill_accepted / self.uphill if self.uphill else None,
             "recent_acceptance_rate": float(np.mean(self.recent)) if self.recent else None,
@@ -388,7 +421,8 @@ class Annealing(Search):
             "initial_acceptance_at_t0": at_t0,
             "initial_acceptance_at_t0_bounds": None if bounds is None else list(bounds),
             "window_censored": censored,
-            "reevaluations": self.reevaluations, "undecided": self.undecided,
+            "reevaluations": self.reevaluations,
+            "undecided": self.undecided,
             "poor_temperature": poor,
             "chain_values": [None if v == FAILURE else v for v in self.current_value],
         }

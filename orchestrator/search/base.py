@@ -26,6 +26,7 @@ the end of its budget.
 Randomness: every draw comes from ``numpy.random.default_rng(seed)`` (pycma's and pymoo's seeds are drawn
 from it), so given the same told values a search makes exactly the same asks.
 """
+
 from __future__ import annotations
 
 import math
@@ -93,7 +94,8 @@ class Search:
         if unknown:
             raise ValueError(
                 f"unknown option(s) {', '.join(unknown)} for search {self.name!r}; "
-                f"allowed: {', '.join(sorted(allowed))}")
+                f"allowed: {', '.join(sorted(allowed))}"
+            )
         self.space = as_space(space)
         self.n = self.space.columns
         self.seed = int(seed)
@@ -108,8 +110,9 @@ class Search:
         self.best_order: Design | None = None
         self.memo: dict[Design, Any] = {}
         self.censored_above: dict[Design, float] = {}
-        self.starts = tuple(self.space.check(d, f"{self.name}: starting design")
-                            for d in (self.options["starts"] or ()))
+        self.starts = tuple(
+            self.space.check(d, f"{self.name}: starting design") for d in (self.options["starts"] or ())
+        )
 
     def start_designs(self) -> tuple[Design, ...]:
         """Where the search starts (its ``x0="sequential"``): the starting designs it was given (option
@@ -161,12 +164,20 @@ class Search:
 
     def state(self) -> dict[str, Any]:
         common = {
-            "search": self.name, "n": self.n, "seed": self.seed,
-            "space": {"kind": self.space.kind, "columns": self.space.columns,
-                      "materials": self.space.materials, "repeat": self.space.repeat},
+            "search": self.name,
+            "n": self.n,
+            "seed": self.seed,
+            "space": {
+                "kind": self.space.kind,
+                "columns": self.space.columns,
+                "materials": self.space.materials,
+                "repeat": self.space.repeat,
+            },
             "n_objectives": self.n_objectives,
             "options": {k: v for k, v in self.options.items() if _jsonable(v)},
-            "batches": self.batches, "told": self.told, "failed_told": self.n_failed,
+            "batches": self.batches,
+            "told": self.told,
+            "failed_told": self.n_failed,
             "censored_told": self.n_censored,
             "best_value": None if self.best_order is None else self.best_value,
             "best_order": None if self.best_order is None else list(self.best_order),

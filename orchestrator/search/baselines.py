@@ -1,4 +1,5 @@
 """Baselines every optimiser must beat: the design a designer already has, and random search."""
+
 from __future__ import annotations
 
 from typing import Any

@@ -19,6 +19,7 @@ Why the defaults (python -m bench.search_convergence with ``--option``, on the s
 - ``polish=0.7``: the last 70 % of the budget goes to the descent by single moves from the best design
   (``local.py``): at a small budget the descent, more than CMA-ES, makes the last improvements.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -72,17 +73,26 @@ class CMAES(Search):
 
     name = "cmaes"
     POLISH = 0.7  # the default share of the budget polished (polish.Polished)
-    OPTIONS = {"popsize": None, "sigma0": 0.3, "restarts": True, "incpopsize": 1,
-               "cma_options": None, "budget": None, "x0": "sequential", "restart_x0": "random",
-               "restart_sigma0": None}
+    OPTIONS = {
+        "popsize": None,
+        "sigma0": 0.3,
+        "restarts": True,
+        "incpopsize": 1,
+        "cma_options": None,
+        "budget": None,
+        "x0": "sequential",
+        "restart_x0": "random",
+        "restart_sigma0": None,
+    }
 
     def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:
         super().__init__(space, seed, **options)
         if self.options["x0"] not in ("sequential", "random"):
             raise ValueError(f"cmaes: x0 must be 'sequential' or 'random', got {self.options['x0']!r}")
         if self.options["restart_x0"] not in ("sequential", "random", "best"):
-            raise ValueError(f"cmaes: restart_x0 must be 'random', 'best' or 'sequential', "
-                             f"got {self.options['restart_x0']!r}")
+            raise ValueError(
+                f"cmaes: restart_x0 must be 'random', 'best' or 'sequential', got {self.options['restart_x0']!r}"
+            )
         self.dim = max(self.space.key_dimension, 2)  # pycma needs at least 2 dimensions; extra keys are ignored
         self.popsize = int(self.options["popsize"] or (4 + int(3 * math.log(self.dim))))
         if self.popsize < 2:
@@ -120,8 +130,15 @@ class CMAES(Search):
         else:  # "random", or "best" before anything was told
             x0 = self.rng.uniform(0.0, 1.0, self.dim)
         cma_seed = int(self.rng.integers(1, 2**31 - 1))  # pycma treats 0 as "seed from the clock"
-        opts = {"popsize": self.popsize, "seed": cma_seed, "verbose": -9, "verb_log": 0,
-                "verb_disp": 0, "verb_filenameprefix": "", "maxfevals": math.inf}
+        opts = {
+            "popsize": self.popsize,
+            "seed": cma_seed,
+            "verbose": -9,
+            "verb_log": 0,
+            "verb_disp": 0,
+            "verb_filenameprefix": "",
+            "maxfevals": math.inf,
+        }
         if self.space.repeat:
             opts["bounds"] = [0.0, 1.0]
         opts.update(self.options["cma_options"] or {})
@@ -162,6 +179,10 @@ class CMAES(Search):
         return self._finished
 
     def _state(self) -> dict[str, Any]:
-        return {"sigma": float(self.es.sigma), "popsize": self.popsize,
-                "iterations_since_restart": int(self.es.countiter), "restarts": self.restarts,
-                "stop_reasons": self.restart_reasons[-10:]}
+        return {
+            "sigma": float(self.es.sigma),
+            "popsize": self.popsize,
+            "iterations_since_restart": int(self.es.countiter),
+            "restarts": self.restarts,
+            "stop_reasons": self.restart_reasons[-10:],
+        }

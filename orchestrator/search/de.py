@@ -9,6 +9,7 @@ population is the keys of the space's baseline and the others scatter around the
 ``budget`` goes to the descent by single moves from the best design (``polish.Polished``; the share as for
 CMA-ES and the swarm, python -m bench.search_convergence). Restarts scatter uniformly.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -25,21 +26,29 @@ VARIANTS = ("DE/rand/1/bin", "DE/best/1/bin", "DE/rand/1/exp", "DE/best/1/exp", 
 
 class DifferentialEvolution(PymooSearch):
     """Options (defaults):
-      pop_size=20            population and trial vectors per generation (batch size).
-      variant="DE/rand/1/bin"  pymoo's variant string (selection/differences/crossover).
-      CR=0.9                 crossover rate.
-      F=0.8                  differential weight.
-      x0="sequential"        vector 0 on the baseline's keys, the rest around them; "random": uniform.
-      spread=0.3             standard deviation of the keys around the start (None: uniform).
-      stagnation=20          generations of only known designs before a restart (0 = never).
-      (``make_search`` adds polish=0.7, the share of ``budget`` left to the final descent, and
-      polish_batch=4, see ``polish.Polished``.)
+    pop_size=20            population and trial vectors per generation (batch size).
+    variant="DE/rand/1/bin"  pymoo's variant string (selection/differences/crossover).
+    CR=0.9                 crossover rate.
+    F=0.8                  differential weight.
+    x0="sequential"        vector 0 on the baseline's keys, the rest around them; "random": uniform.
+    spread=0.3             standard deviation of the keys around the start (None: uniform).
+    stagnation=20          generations of only known designs before a restart (0 = never).
+    (``make_search`` adds polish=0.7, the share of ``budget`` left to the final descent, and
+    polish_batch=4, see ``polish.Polished``.)
     """
 
     name = "de"
     POLISH = 0.7  # the default share of the budget polished (polish.Polished), as CMA-ES and PSO
-    OPTIONS = {"pop_size": 20, "variant": "DE/rand/1/bin", "CR": 0.9, "F": 0.8, "x0": "sequential",
-               "spread": 0.3, "stagnation": 20, "budget": None}
+    OPTIONS = {
+        "pop_size": 20,
+        "variant": "DE/rand/1/bin",
+        "CR": 0.9,
+        "F": 0.8,
+        "x0": "sequential",
+        "spread": 0.3,
+        "stagnation": 20,
+        "budget": None,
+    }
 
     def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:
         merged = {**self.OPTIONS, **options}
@@ -66,12 +75,17 @@ class DifferentialEvolution(PymooSearch):
             centre = self.space.to_keys(starts[0])
             if self.options["spread"] is not None:
                 X = np.clip(centre + self.rng.normal(0.0, float(self.options["spread"]), X.shape), 0.0, 1.0)
-            X[:len(starts)] = [self.space.to_keys(d) for d in starts]
+            X[: len(starts)] = [self.space.to_keys(d) for d in starts]
         return X
 
     def _algorithm(self, initial_X: np.ndarray) -> DE:
-        return DE(pop_size=int(self.options["pop_size"]), sampling=initial_X,
-                  variant=self.options["variant"], CR=float(self.options["CR"]), F=float(self.options["F"]))
+        return DE(
+            pop_size=int(self.options["pop_size"]),
+            sampling=initial_X,
+            variant=self.options["variant"],
+            CR=float(self.options["CR"]),
+            F=float(self.options["F"]),
+        )
 
     def _decode(self, x: np.ndarray) -> Design:
         return self.space.from_keys(x)

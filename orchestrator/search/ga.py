@@ -11,6 +11,7 @@ population is the space's baseline (the design a designer already has) and the r
 ``polish`` fraction of ``budget`` goes to the descent by single moves from the best design
 (``polish.Polished``, which ``make_search`` wraps it in; the share as for CMA-ES, python -m bench.search_convergence).
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -35,19 +36,18 @@ def check_genetic_options(name: str, options: dict[str, Any]) -> None:
 
 class GeneticAlgorithm(PymooSearch):
     """Options (defaults):
-      pop_size=20        population and offspring per generation (batch size).
-      mutation_prob=0.3  probability that a child is mutated (a segment inverted; with repetition,
-                         polynomial mutation of its genes).
-      x0="sequential"    individual 0 of the first population is the space's baseline; "random": none is.
-      stagnation=20      generations of only known designs before a restart (0 = never).
-      (``make_search`` adds polish=0.7, the share of ``budget`` left to the final descent, and
-      polish_batch=4, see ``polish.Polished``.)
+    pop_size=20        population and offspring per generation (batch size).
+    mutation_prob=0.3  probability that a child is mutated (a segment inverted; with repetition,
+                       polynomial mutation of its genes).
+    x0="sequential"    individual 0 of the first population is the space's baseline; "random": none is.
+    stagnation=20      generations of only known designs before a restart (0 = never).
+    (``make_search`` adds polish=0.7, the share of ``budget`` left to the final descent, and
+    polish_batch=4, see ``polish.Polished``.)
     """
 
     name = "ga"
     POLISH = 0.7  # the default share of the budget polished (polish.Polished), as CMA-ES and PSO
-    OPTIONS = {"pop_size": 20, "mutation_prob": 0.3, "x0": "sequential", "stagnation": 20,
-               "budget": None}
+    OPTIONS = {"pop_size": 20, "mutation_prob": 0.3, "x0": "sequential", "stagnation": 20, "budget": None}
 
     def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:
         check_genetic_options(self.name, {**self.OPTIONS, **options})
@@ -60,14 +60,17 @@ class GeneticAlgorithm(PymooSearch):
     def _initial_X(self, first: bool) -> np.ndarray:
         X = self.genome.sample(self.problem, int(self.options["pop_size"]), self.rng)
         if first and self.options["x0"] == "sequential":
-            starts = self.start_designs()[:len(X)]
-            X[:len(starts)] = [self.genome.encode(d) for d in starts]
+            starts = self.start_designs()[: len(X)]
+            X[: len(starts)] = [self.genome.encode(d) for d in starts]
         return X
 
     def _algorithm(self, initial_X: np.ndarray) -> GA:
-        return GA(pop_size=int(self.options["pop_size"]), sampling=initial_X,
-                  **self.genome.operators(float(self.options["mutation_prob"])),
-                  eliminate_duplicates=self.genome.duplicates())
+        return GA(
+            pop_size=int(self.options["pop_size"]),
+            sampling=initial_X,
+            **self.genome.operators(float(self.options["mutation_prob"])),
+            eliminate_duplicates=self.genome.duplicates(),
+        )
 
     def _decode(self, x: np.ndarray) -> Design:
         return self.genome.decode(x)

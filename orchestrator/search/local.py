@@ -14,6 +14,7 @@ optimum (no single move improves it) long before the budget is spent. Rather tha
 local optimum found by ``kick`` random moves and descends again; the best local optimum is kept as the home
 from which the next kick starts.
 """
+
 from __future__ import annotations
 
 import math
@@ -48,8 +49,15 @@ class Descent:
     Why batches: a batch of neighbours is evaluated in parallel; the descent then takes the best of them.
     """
 
-    def __init__(self, rng: np.random.Generator, batch: int = 4, kick: int = 3, max_kick_tries: int = 100,
-                 max_kicks: int | None = None, space: DesignSpace | int | None = None) -> None:
+    def __init__(
+        self,
+        rng: np.random.Generator,
+        batch: int = 4,
+        kick: int = 3,
+        max_kick_tries: int = 100,
+        max_kicks: int | None = None,
+        space: DesignSpace | int | None = None,
+    ) -> None:
         self.space = None if space is None else as_space(space)  # None: the permutations of the start design
         self.rng = rng
         self.max_kicks = max_kicks  # None: kick for ever; 0: stop at the first local optimum
@@ -143,10 +151,15 @@ class Descent:
             self._set_current(*best)
 
     def state(self) -> dict:
-        return {"current_value": None if not math.isfinite(self.current_value) else self.current_value,
-                "moves": self.moves, "free_moves": self.free_moves, "local_optima": self.local_optima,
-                "kicks": self.kicks, "asked_again": self.asked_again,
-                "home_value": None if not math.isfinite(self.home_value) else self.home_value}
+        return {
+            "current_value": None if not math.isfinite(self.current_value) else self.current_value,
+            "moves": self.moves,
+            "free_moves": self.free_moves,
+            "local_optima": self.local_optima,
+            "kicks": self.kicks,
+            "asked_again": self.asked_again,
+            "home_value": None if not math.isfinite(self.home_value) else self.home_value,
+        }
 
 
 class LocalSearch(Search):
@@ -165,8 +178,12 @@ class LocalSearch(Search):
         start = self.options["start"]
         self.start = self.space.check(start, "local: start") if start is not None else self.start_designs()[0]
         kicks = self.options["kicks"]
-        self.descent = Descent(self.rng, batch=int(self.options["batch"]),
-                               max_kicks=None if kicks is None else int(kicks), space=self.space)
+        self.descent = Descent(
+            self.rng,
+            batch=int(self.options["batch"]),
+            max_kicks=None if kicks is None else int(kicks),
+            space=self.space,
+        )
         self._started = False
 
     def _ask(self) -> list[Design]:
@@ -190,5 +207,7 @@ class LocalSearch(Search):
         return self.descent.finished
 
     def _state(self) -> dict:
-        return {"descent": self.descent.state(),
-                "local_optimum": list(self.descent.current) if self.descent.finished else None}
+        return {
+            "descent": self.descent.state(),
+            "local_optimum": list(self.descent.current) if self.descent.finished else None,
+        }

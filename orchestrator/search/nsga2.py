@@ -24,6 +24,7 @@ The answer is ``pareto_front()``: the non-dominated set of every design told so 
 population, which survival may have thinned). Restarts (see ``pymoo_search``) begin from that front, topped
 up with random designs, so that a restart keeps what the search knows.
 """
+
 from __future__ import annotations
 
 import math
@@ -63,30 +64,40 @@ class NewDesigns(DefaultDuplicateElimination):
 
 class NSGA2(PymooSearch):
     """Options (defaults):
-      objectives=2       values told per design (2 or 3), every one minimised.
-      pop_size=20        population and offspring per generation (batch size).
-      mutation_prob=1.0  probability that a child is mutated (pymoo's default for inversion mutation, and
-                         its discrete-variable example's: a child unlike its parents is more often new).
-      x0="sequential"    individual 0 of the first population is the space's baseline; "random": none is.
-      seeds=()           designs placed in the first population (after the baseline), e.g. known optima of
-                         each objective; at most pop_size of them count.
-      stagnation=20      generations of only known designs before a restart (0 = never).
+    objectives=2       values told per design (2 or 3), every one minimised.
+    pop_size=20        population and offspring per generation (batch size).
+    mutation_prob=1.0  probability that a child is mutated (pymoo's default for inversion mutation, and
+                       its discrete-variable example's: a child unlike its parents is more often new).
+    x0="sequential"    individual 0 of the first population is the space's baseline; "random": none is.
+    seeds=()           designs placed in the first population (after the baseline), e.g. known optima of
+                       each objective; at most pop_size of them count.
+    stagnation=20      generations of only known designs before a restart (0 = never).
     """
 
     name = "nsga2"
     n_objectives = 2  # the default of ``objectives``; an instance has its own
-    OPTIONS = {"objectives": 2, "pop_size": 20, "mutation_prob": 1.0, "x0": "sequential", "seeds": (),
-               "stagnation": 20, "budget": None}
+    OPTIONS = {
+        "objectives": 2,
+        "pop_size": 20,
+        "mutation_prob": 1.0,
+        "x0": "sequential",
+        "seeds": (),
+        "stagnation": 20,
+        "budget": None,
+    }
 
     def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:
         merged = {**self.OPTIONS, **options}
         check_genetic_options(self.name, merged)
         if merged["objectives"] not in OBJECTIVE_COUNTS or isinstance(merged["objectives"], bool):
-            raise ValueError(f"nsga2: objectives must be one of {', '.join(map(str, OBJECTIVE_COUNTS))}, "
-                             f"got {merged['objectives']!r}")
+            raise ValueError(
+                f"nsga2: objectives must be one of {', '.join(map(str, OBJECTIVE_COUNTS))}, "
+                f"got {merged['objectives']!r}"
+            )
         self.n_objectives = int(merged["objectives"])
-        self.seeds = tuple(dict.fromkeys(as_space(space).check(d, f"{self.name} seeds")
-                                         for d in (merged["seeds"] or ())))
+        self.seeds = tuple(
+            dict.fromkeys(as_space(space).check(d, f"{self.name} seeds") for d in (merged["seeds"] or ()))
+        )
         self.worst = np.zeros(self.n_objectives)  # per objective, the worst finite value told so far
         self._seen_finite = False
         super().__init__(space, seed, **options)
@@ -127,14 +138,17 @@ class NSGA2(PymooSearch):
         else:
             front = [self.genome.encode(p.design) for p in self.pareto_front()][:size]
             if front:
-                X[:len(front)] = front
+                X[: len(front)] = front
         return X
 
     def _algorithm(self, initial_X: np.ndarray) -> PymooNSGA2:
         self.new_designs = NewDesigns(self.genome)  # the first population may hold known designs (a restart's)
-        return PymooNSGA2(pop_size=int(self.options["pop_size"]), sampling=initial_X,
-                          **self.genome.operators(float(self.options["mutation_prob"])),
-                          eliminate_duplicates=self.new_designs)
+        return PymooNSGA2(
+            pop_size=int(self.options["pop_size"]),
+            sampling=initial_X,
+            **self.genome.operators(float(self.options["mutation_prob"])),
+            eliminate_duplicates=self.new_designs,
+        )
 
     def _decode(self, x: np.ndarray) -> Design:
         return self.genome.decode(x)
@@ -160,10 +174,11 @@ class NSGA2(PymooSearch):
     def _state(self) -> dict[str, Any]:
         front = self.pareto_front()
         state = super()._state()
-        state.update({
-            "objectives": self.n_objectives,
-            "front_size": len(front),
-            "front": [{"design": list(p.design), "objectives": list(p.objectives)} for p in front],
-        })
+        state.update(
+            {
+                "objectives": self.n_objectives,
+                "front_size": len(front),
+                "front": [{"design": list(p.design), "objectives": list(p.objectives)} for p in front],
+            }
+        )
         return state
-

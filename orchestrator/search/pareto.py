@@ -6,6 +6,7 @@ is installed (exact, fast in 2 and 3 objectives) and pymoo's indicator otherwise
 dominated by the points and bounded by the reference point, to which a point not strictly better than the
 reference on every objective adds nothing.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -54,8 +55,9 @@ def non_dominated(points: Sequence[Sequence[float]] | np.ndarray) -> np.ndarray:
     return ~np.any(at_most & better, axis=0)
 
 
-def dominated_by(points: Sequence[Sequence[float]] | np.ndarray,
-                 others: Sequence[Sequence[float]] | np.ndarray) -> np.ndarray:
+def dominated_by(
+    points: Sequence[Sequence[float]] | np.ndarray, others: Sequence[Sequence[float]] | np.ndarray
+) -> np.ndarray:
     """A boolean mask: True for each of ``points`` that some row of ``others`` dominates (at least as good on
     every objective, better on one). What a reported front must never contain: a point that a design the
     study evaluated, or a known optimum, dominates."""

@@ -7,6 +7,7 @@ checks them one by one. The last improvements are single moves (swaps, insertion
 budget)`` distinct designs, then a ``local.Descent`` (with kicks: an iterated local search) starts at the best
 design found. The switch happens between two batches. ``state()["phase"]`` says which phase the search is in.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -36,14 +37,19 @@ class Polished(Search):
         self._polishing_batch = False
 
     def _ask(self) -> list[Design]:
-        if self.descent is None and self.switch_at is not None and self.best_order is not None \
-                and len(self.memo) >= self.switch_at:
+        if (
+            self.descent is None
+            and self.switch_at is not None
+            and self.best_order is not None
+            and len(self.memo) >= self.switch_at
+        ):
             self.descent = Descent(self.rng, batch=int(self.options["polish_batch"] or 4), space=self.space)
             self.descent.start(self.best_order, self.best_value)
             self.polish_started_at = len(self.memo)
         self._polishing_batch = self.descent is not None
-        self._asked = (self.descent.propose(self.memo, self.censored_above) if self._polishing_batch
-                       else self.inner.ask())
+        self._asked = (
+            self.descent.propose(self.memo, self.censored_above) if self._polishing_batch else self.inner.ask()
+        )
         return self._asked
 
     def limits(self) -> list[float | None] | None:
@@ -65,8 +71,7 @@ class Polished(Search):
     def state(self) -> dict[str, Any]:
         state = self.inner.state()
         own = super().state()
-        for key in ("batches", "told", "failed_told", "censored_told", "best_value", "best_order",
-                    "evaluations_told"):
+        for key in ("batches", "told", "failed_told", "censored_told", "best_value", "best_order", "evaluations_told"):
             state[key] = own[key]
         state["options"] = {**state.get("options", {}), **own["options"]}
         state["phase"] = "polish" if self.descent is not None else "search"

@@ -19,6 +19,7 @@ Why the defaults (python -m bench.search_convergence with ``--option``, on the s
 - ``topology="ring"``: each particle follows the best of itself and its two ring neighbours, which keeps the
   swarm diverse for longer than following the swarm's best.
 """
+
 from __future__ import annotations
 
 import math
@@ -57,9 +58,19 @@ class PSO(Search):
 
     name = "pso"
     POLISH = 0.7  # the default share of the budget polished (polish.Polished)
-    OPTIONS = {"swarm": 10, "inertia": 0.7298, "cognitive": 1.49618, "social": 1.49618,
-               "vmax": 0.2, "stagnation": 20, "topology": "ring", "budget": None,
-               "x0": "sequential", "spread": 0.3, "rescatter_best": False}
+    OPTIONS = {
+        "swarm": 10,
+        "inertia": 0.7298,
+        "cognitive": 1.49618,
+        "social": 1.49618,
+        "vmax": 0.2,
+        "stagnation": 20,
+        "topology": "ring",
+        "budget": None,
+        "x0": "sequential",
+        "spread": 0.3,
+        "rescatter_best": False,
+    }
 
     def __init__(self, space: DesignSpace | int, seed: int, **options: Any) -> None:
         super().__init__(space, seed, **options)
@@ -94,7 +105,7 @@ class PSO(Search):
                 self.x = np.clip(centre + self.rng.normal(0.0, float(spread), self.x.shape), 0.0, 1.0)
             self.x[0] = centre
             if self.restarts == 0:  # a particle on each further starting design
-                for i, design in enumerate(self.starts[1:self.size], start=1):
+                for i, design in enumerate(self.starts[1 : self.size], start=1):
                     self.x[i] = self.space.to_keys(design)
         self.pbest_x = self.x.copy()
         self.pbest_f = np.full(self.size, np.inf)
@@ -136,8 +147,7 @@ class PSO(Search):
             guide = self.pbest_x[pick]
         else:
             guide = self.gbest_x
-        self.v = (self.w * self.v + self.c1 * r1 * (self.pbest_x - self.x)
-                  + self.c2 * r2 * (guide - self.x))
+        self.v = self.w * self.v + self.c1 * r1 * (self.pbest_x - self.x) + self.c2 * r2 * (guide - self.x)
         np.clip(self.v, -self.vmax, self.vmax, out=self.v)
         self.x = self.x + self.v
         # reflect at the walls of [0, 1] and reverse the velocity there
@@ -149,7 +159,11 @@ class PSO(Search):
 
     def _state(self) -> dict[str, Any]:
         spread = float(np.mean(np.std(self.x, axis=0))) if self.size > 1 else 0.0
-        return {"swarm": self.size, "iterations": self.iterations, "restarts": self.restarts,
-                "swarm_best": None if not np.isfinite(self.gbest_f) else self.gbest_f,
-                "iterations_since_improvement": self.since_improvement,
-                "key_spread": spread}
+        return {
+            "swarm": self.size,
+            "iterations": self.iterations,
+            "restarts": self.restarts,
+            "swarm_best": None if not np.isfinite(self.gbest_f) else self.gbest_f,
+            "iterations_since_improvement": self.since_improvement,
+            "key_spread": spread,
+        }

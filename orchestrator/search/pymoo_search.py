@@ -25,6 +25,7 @@ converged population keeps asking designs the loop has already answered. Either 
 budget go unused, the algorithm is set up again on a fresh population (a new seed drawn from this search's
 generator). pymoo's own termination is switched off (the loop decides when to stop).
 """
+
 from __future__ import annotations
 
 import math
@@ -59,8 +60,9 @@ class Genome:
         self.length = space.columns if space.repeat else space.materials
 
     def problem(self, n_obj: int = 1, n_ieq_constr: int = 0) -> Problem:
-        return Problem(n_var=self.length, n_obj=n_obj, n_ieq_constr=n_ieq_constr, xl=0,
-                       xu=self.space.materials - 1, vtype=int)
+        return Problem(
+            n_var=self.length, n_obj=n_obj, n_ieq_constr=n_ieq_constr, xl=0, xu=self.space.materials - 1, vtype=int
+        )
 
     def sample(self, problem: Problem, size: int, rng: np.random.Generator) -> np.ndarray:
         sampling = IntegerRandomSampling() if self.kind == INTEGER_GENOME else PermutationRandomSampling()
@@ -71,8 +73,10 @@ class Genome:
         is mutated."""
         if self.kind == INTEGER_GENOME:
             # pymoo's discrete-variable setting: SBX and PM on the integers, rounded back to integers
-            return {"crossover": SBX(prob=1.0, eta=3.0, vtype=float, repair=RoundingRepair()),
-                    "mutation": PM(prob=mutation_prob, eta=3.0, vtype=float, repair=RoundingRepair())}
+            return {
+                "crossover": SBX(prob=1.0, eta=3.0, vtype=float, repair=RoundingRepair()),
+                "mutation": PM(prob=mutation_prob, eta=3.0, vtype=float, repair=RoundingRepair()),
+            }
         # order crossover draws two distinct cut points; below 3 genes inversion alone reaches every genome
         crossover = OrderCrossover() if self.length >= 3 else NoCrossover()
         return {"crossover": crossover, "mutation": InversionMutation(prob=mutation_prob)}
@@ -86,7 +90,7 @@ class Genome:
         if self.kind == INTEGER_GENOME:
             top = self.space.materials - 1
             return tuple(int(min(top, max(0, round(float(v))))) + 1 for v in x)
-        return tuple(int(v) + 1 for v in x[:self.space.columns])
+        return tuple(int(v) + 1 for v in x[: self.space.columns])
 
     def encode(self, design: Sequence[int]) -> np.ndarray:
         """The genome of ``design``: its materials (0-based), then, without repetition, the unused ones in
@@ -106,7 +110,7 @@ class DecodedGenes:
         self.columns = columns
 
     def __call__(self, pop) -> np.ndarray:
-        return pop.get("X")[:, :self.columns]
+        return pop.get("X")[:, : self.columns]
 
 
 class PymooSearch(Search):
@@ -192,6 +196,10 @@ class PymooSearch(Search):
         if self.n_objectives == 1 and opt is not None and len(opt) > 0:
             value = float(opt.get("F")[0, 0])
             best = value if value != FAILURE else None
-        return {"generations": self.generations, "restarts": self.restarts,
-                "restart_reasons": self.restart_reasons[-10:], "population_best": best,
-                "pymoo_evaluations": int(self.algorithm.evaluator.n_eval)}
+        return {
+            "generations": self.generations,
+            "restarts": self.restarts,
+            "restart_reasons": self.restart_reasons[-10:],
+            "population_best": best,
+            "pymoo_evaluations": int(self.algorithm.evaluator.n_eval),
+        }

@@ -11,6 +11,7 @@ the first batch is how they evaluate the starting designs.
 Why a composition rather than code in each search: "evaluated first" then holds for every search, whatever
 its library does with the points it is given.
 """
+
 from __future__ import annotations
 
 from typing import Any, Sequence
@@ -32,8 +33,9 @@ def parse_design(text: str, what: str = "--start") -> Design:
     try:
         design = tuple(int(item) for item in items)
     except ValueError:
-        raise ValueError(f"{what} {text.strip()!r}: expected material numbers separated by commas, e.g. "
-                         f"{DESIGN_EXAMPLE}") from None
+        raise ValueError(
+            f"{what} {text.strip()!r}: expected material numbers separated by commas, e.g. {DESIGN_EXAMPLE}"
+        ) from None
     if not design:
         raise ValueError(f"{what} {text!r}: no material numbers")
     return design

@@ -1,4 +1,5 @@
 """The study's steps, in the order they run: one file per feature, one line here."""
+
 from __future__ import annotations
 
 from .accuracy import Accuracy

@@ -1,5 +1,6 @@
 """How accurate the chosen answer's numbers are: against a tight reference, over shorter horizons, and the
 search fidelity against the full one."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -54,7 +55,7 @@ class Accuracy(Step):
         answer = context.result(Answers).chosen
         rule = answer.diagonal_rule if answer.diagonal_rule in context.case.rules else None
         objective = context.objective(rule)
-        full, = objective.tasks(FULL)
+        (full,) = objective.tasks(FULL)
         tight = full.with_parameters(**TIGHT)
         shorter = [replace(full, horizon=h) for h in HORIZONS if h < objective.horizon]
         runs = [tight] + shorter
@@ -64,19 +65,26 @@ class Accuracy(Step):
         outputs = answer.outputs
         continuous = outputs["peak_backplate_force_continuous"] if outputs else None
         return AccuracyResult(
-            diagonal_rule=answer.diagonal_rule, order=answer.order, reference_rtol=TIGHT["rtol"],
-            reference_value=reference.value, reference_message=reference.message,
+            diagonal_rule=answer.diagonal_rule,
+            order=answer.order,
+            reference_rtol=TIGHT["rtol"],
+            reference_value=reference.value,
+            reference_message=reference.message,
             value_relative_error=relative_difference(answer.peak, reference.value),
             continuous_relative_error=relative_difference(
-                continuous, reference.outputs["peak_backplate_force_continuous"] if reference.outputs else None),
+                continuous, reference.outputs["peak_backplate_force_continuous"] if reference.outputs else None
+            ),
             search_relative_difference=relative_difference(search.value, answer.peak) if search.ok else None,
             sampling_shortfall=(1 - outputs["peak_backplate_force"] / continuous) if outputs and continuous else None,
             last_contact_time=outputs["last_contact_time"] if outputs else None,
-            by_horizon=tuple(HorizonValue(run.horizon, e.value) for run, e in zip(shorter, by_horizon)))
+            by_horizon=tuple(HorizonValue(run.horizon, e.value) for run, e in zip(shorter, by_horizon)),
+        )
 
     def cost_note(self, context: StudyContext) -> str:
-        return ("the chosen design against a tight reference and over shorter horizons: a fixed few runs, whatever "
-                "the budget")
+        return (
+            "the chosen design against a tight reference and over shorter horizons: a fixed few runs, whatever "
+            "the budget"
+        )
 
 
 __all__ = ["Accuracy", "AccuracyResult", "HorizonValue", "relative_difference"]

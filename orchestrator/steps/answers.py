@@ -1,6 +1,7 @@
 """The designer's answer: for each diagonal rule searched, the design to build, its value under every rule,
 and how sure we are (how many runs reached it, whether it is a local optimum, whether it is certified, for
 which objective, whether its runner-up is as good for practical purposes, and what would settle it)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
@@ -50,11 +51,17 @@ class Settlement:
 
     def line(self) -> str:
         """The advice in one sentence (the console's and the report's)."""
-        sweep = (f"; or `{self.sweep_command}` (every design, certified: projected {self.sweep.core_hours:,.2g} "
-                 f"core-hours at {self.sweep.designs_per_core_second:,.0f} designs per core-second, measured here "
-                 "with the force limit at the searches' best)" if self.sweep else f"; or `{self.sweep_command}`")
-        return (f"to settle it: `--budget {self.budget}` (projected {self.budget_core_hours:,.2g} core-hours, "
-                f"{self.budget_factor} times this run's search time){sweep}")
+        sweep = (
+            f"; or `{self.sweep_command}` (every design, certified: projected {self.sweep.core_hours:,.2g} "
+            f"core-hours at {self.sweep.designs_per_core_second:,.0f} designs per core-second, measured here "
+            "with the force limit at the searches' best)"
+            if self.sweep
+            else f"; or `{self.sweep_command}`"
+        )
+        return (
+            f"to settle it: `--budget {self.budget}` (projected {self.budget_core_hours:,.2g} core-hours, "
+            f"{self.budget_factor} times this run's search time){sweep}"
+        )
 
 
 @dataclass(frozen=True)
@@ -109,8 +116,10 @@ class Equivalence:
     def reason(self, unit: str) -> str:
         """Why the two are equivalent, in one phrase (the console's and the report's)."""
         if self.sampling is not None and self.sampling >= self.integration:
-            return (f"{self.gap:.4f} {unit} apart, less than the {self.sampling:.2f} {unit} between the sampled and "
-                    "the continuous peak")
+            return (
+                f"{self.gap:.4f} {unit} apart, less than the {self.sampling:.2f} {unit} between the sampled and "
+                "the continuous peak"
+            )
         return f"{self.gap:.2g} {unit} apart, less than the integration error ({self.integration:.2g} {unit})"
 
 
@@ -225,11 +234,17 @@ class Answers(Step):
         if result is None or not result.answers:
             return Verdict.no_answer(f"no design was evaluated successfully: {study.failure_summary()}")
         if study.case.objective.units[0] == "N" and all(
-                a.outputs is not None and a.outputs["last_contact_time"] == 0 and a.peak == 0 for a in result.answers):
-            options = ("--projectile-mass, --projectile-speed" if study.case.load.get("load_mode") == PROJECTILE
-                       else "--load, --load-angle")
-            return Verdict.no_answer("no design touches the backplate in this case (every peak is 0 N): there is "
-                                     f"nothing to minimise; check {options} and the scene")
+            a.outputs is not None and a.outputs["last_contact_time"] == 0 and a.peak == 0 for a in result.answers
+        ):
+            options = (
+                "--projectile-mass, --projectile-speed"
+                if study.case.load.get("load_mode") == PROJECTILE
+                else "--load, --load-angle"
+            )
+            return Verdict.no_answer(
+                "no design touches the backplate in this case (every peak is 0 N): there is "
+                f"nothing to minimise; check {options} and the scene"
+            )
         return Verdict.answer()
 
     def run(self, context: StudyContext) -> AnswersResult:
@@ -245,47 +260,88 @@ class Answers(Step):
                 continue
             values, energy = {}, {}
             for judge in rules:
-                evaluation = (best if judge == rule else
-                              context.objective(judge).evaluate([best.order], context.evaluator, FULL)[0])
+                evaluation = (
+                    best
+                    if judge == rule
+                    else context.objective(judge).evaluate([best.order], context.evaluator, FULL)[0]
+                )
                 values[rule_label(judge)] = evaluation.value
                 outputs = evaluation.outputs
-                energy[rule_label(judge)] = None if outputs is None else EnergyFlows(
-                    outputs["external_work"], outputs["nonreciprocal_work"], outputs["dissipated_energy"],
-                    start_energy(context))
+                energy[rule_label(judge)] = (
+                    None
+                    if outputs is None
+                    else EnergyFlows(
+                        outputs["external_work"],
+                        outputs["nonreciprocal_work"],
+                        outputs["dissipated_energy"],
+                        start_energy(context),
+                    )
+                )
             other_values = [v for k, v in values.items() if k != label]
             runs = [r for r in (searched.runs_for(label) if searched else []) if r.method not in BASELINE_METHODS]
             reaching = sum(1 for r in runs if run_answer(r, context, label) == best.order)
             check = descent.for_rule(label) if descent else None
-            local = (None if check is None or (check.order == best.order and not check.complete) else
-                     check.locally_optimal and check.order == best.order)
+            local = (
+                None
+                if check is None or (check.order == best.order and not check.complete)
+                else check.locally_optimal and check.order == best.order
+            )
             status, source = self.status(context, rule, label, best.order, swept)
             objective = context.objective(rule)
             sweep = swept.for_rule(label) if swept else None
             runner = self.runner_up(context, rule, best, sweep)
             search = objective.evaluate([best.order], context.evaluator, SEARCH)[0]
-            evidence = Evidence(reaching, len(runs), local, status, source, covers=objective_covered(context, label),
-                                swept=sweep is not None and sweep.certificate.covered_once,
-                                found_by=found_by(context, rule, label, best.order, reaching, sweep, check),
-                                local_unchecked="" if check is None or check.complete else (
-                                    f"the local check stopped at its cap of {check.evaluations:,} designs, which "
-                                    "--budget sets, before every neighbour was evaluated"))
-            if evidence.few_runs and status == BEST_FOUND and known_optimum(
-                    context.case, rule or context.case.rule_default) is None:
+            evidence = Evidence(
+                reaching,
+                len(runs),
+                local,
+                status,
+                source,
+                covers=objective_covered(context, label),
+                swept=sweep is not None and sweep.certificate.covered_once,
+                found_by=found_by(context, rule, label, best.order, reaching, sweep, check),
+                local_unchecked=""
+                if check is None or check.complete
+                else (
+                    f"the local check stopped at its cap of {check.evaluations:,} designs, which "
+                    "--budget sets, before every neighbour was evaluated"
+                ),
+            )
+            if (
+                evidence.few_runs
+                and status == BEST_FOUND
+                and known_optimum(context.case, rule or context.case.rule_default) is None
+            ):
                 evidence = replace(evidence, settlement=settlement(context, rule, runs))
-            roles = tuple(role for role, holds in ((DESIGN_FILE_ROLE, index == 0),
-                                                   (STUDY_MODEL_ROLE, label == STUDY_RULE and len(rules) > 1))
-                          if holds)
-            answers.append(Answer(
-                diagonal_rule=label, order=best.order,
-                materials=tuple(context.case.materials.name_of(m) for m in best.order),
-                objective=context.case.outputs[0], peak=best.value,
-                peak_other_rule=other_values[0] if len(other_values) == 1 else None, values_by_rule=values,
-                energy_by_rule=energy, outputs=best.outputs, evidence=evidence,
-                design_file=design_file(index, label), runner_up=runner.order if runner else None,
-                runner_up_peak=runner.value if runner else None,
-                search_relative_error=abs(search.value / best.value - 1) if search.ok and best.value else None,
-                roles=roles, equivalence=equivalence(context, best, runner, sweep),
-                parameters=start_values_for(context, best.order, rule)))
+            roles = tuple(
+                role
+                for role, holds in (
+                    (DESIGN_FILE_ROLE, index == 0),
+                    (STUDY_MODEL_ROLE, label == STUDY_RULE and len(rules) > 1),
+                )
+                if holds
+            )
+            answers.append(
+                Answer(
+                    diagonal_rule=label,
+                    order=best.order,
+                    materials=tuple(context.case.materials.name_of(m) for m in best.order),
+                    objective=context.case.outputs[0],
+                    peak=best.value,
+                    peak_other_rule=other_values[0] if len(other_values) == 1 else None,
+                    values_by_rule=values,
+                    energy_by_rule=energy,
+                    outputs=best.outputs,
+                    evidence=evidence,
+                    design_file=design_file(index, label),
+                    runner_up=runner.order if runner else None,
+                    runner_up_peak=runner.value if runner else None,
+                    search_relative_error=abs(search.value / best.value - 1) if search.ok and best.value else None,
+                    roles=roles,
+                    equivalence=equivalence(context, best, runner, sweep),
+                    parameters=start_values_for(context, best.order, rule),
+                )
+            )
         known = {rule_label(r): known_optimum(context.case, r or context.case.rule_default) for r in rules}
         return AnswersResult(tuple(answers), known)
 
@@ -295,12 +351,17 @@ class Answers(Step):
         (a sweep verifies its candidates there, the finalists evaluate a known optimum's runner-up), else the
         sweep's runner-up by its recorded value."""
         objective = context.objective(rule)
-        full_task, = objective.with_cases(None).tasks(FULL) if len(context.case.cases) == 1 else (None,)
+        (full_task,) = objective.with_cases(None).tasks(FULL) if len(context.case.cases) == 1 else (None,)
         known = context.evaluator.known(full_task) if full_task else []
         others = [e for e in known if e.ok and e.order != best.order]
-        if sweep and sweep.certificate.optimum and sweep.certificate.optimum.order == best.order \
-                and sweep.certificate.runner_up and sweep.certificate.runner_up.full is not None \
-                and not any(e.order == sweep.certificate.runner_up.order for e in others):
+        if (
+            sweep
+            and sweep.certificate.optimum
+            and sweep.certificate.optimum.order == best.order
+            and sweep.certificate.runner_up
+            and sweep.certificate.runner_up.full is not None
+            and not any(e.order == sweep.certificate.runner_up.order for e in others)
+        ):
             others.append(Evaluation(sweep.certificate.runner_up.order, sweep.certificate.runner_up.full, "ok"))
         return min(others, key=lambda e: e.value) if others else None
 
@@ -314,10 +375,13 @@ class Answers(Step):
         known = known_optimum(context.case, rule or context.case.rule_default)
         if known is not None and known.order == order:
             return (CERTIFIED if known.certified else KNOWN), (
-                f"{known.source} (orchestrator/known_optima.json; to sweep it again: `{known.command}`)")
+                f"{known.source} (orchestrator/known_optima.json; to sweep it again: `{known.command}`)"
+            )
         if known is not None:
-            return BEST_FOUND, (f"the known optimum is {list(known.order)} at {known.peak:.4f} N "
-                                f"({'certified' if known.certified else 'exhaustive sweep'})")
+            return BEST_FOUND, (
+                f"the known optimum is {list(known.order)} at {known.peak:.4f} N "
+                f"({'certified' if known.certified else 'exhaustive sweep'})"
+            )
         return BEST_FOUND, "the best design the searches found; no exhaustive sweep of this case"
 
     def cost_note(self, context: StudyContext) -> str:
@@ -353,9 +417,11 @@ def start_energy(context: StudyContext) -> float:
     which the contact hands to the lattice inside the model; none under the pulse, whose work is external."""
     if context.case.load_mode != PROJECTILE:
         return 0.0
-    mass, speed = (float(context.case.parameters.get(name, context.fmu.start(name)))
-                   for name in ("projectile_mass", "projectile_speed"))
-    return 0.5 * mass * speed ** 2
+    mass, speed = (
+        float(context.case.parameters.get(name, context.fmu.start(name)))
+        for name in ("projectile_mass", "projectile_speed")
+    )
+    return 0.5 * mass * speed**2
 
 
 def equivalence(context: StudyContext, best: Evaluation, runner: Evaluation | None, sweep) -> Equivalence | None:
@@ -369,8 +435,12 @@ def equivalence(context: StudyContext, best: Evaluation, runner: Evaluation | No
         sampling = max(abs(o["peak_backplate_force"] - o["peak_backplate_force_continuous"]) for o in outputs)
     integration = FULL_ERROR * abs(best.value)
     certificate = sweep.certificate if sweep else None
-    if certificate and certificate.integration_error is not None and certificate.optimum \
-            and certificate.optimum.order == best.order:
+    if (
+        certificate
+        and certificate.integration_error is not None
+        and certificate.optimum
+        and certificate.optimum.order == best.order
+    ):
         integration = max(integration, certificate.integration_error)
     return Equivalence(runner.value - best.value, sampling, integration, runner.outputs)
 
@@ -390,8 +460,9 @@ def settlement(context: StudyContext, rule, runs) -> Settlement | None:
         cost = sweep_cost(context, rule, min(values) if values else None)
     except ValueError:
         cost = None
-    command = f"--method {SWEEP_METHOD}" + (" --executor dask --scheduler ADDRESS --confirm-cost"
-                                            if context.case.space.size > MAX_LOCAL_DESIGNS else "")
+    command = f"--method {SWEEP_METHOD}" + (
+        " --executor dask --scheduler ADDRESS --confirm-cost" if context.case.space.size > MAX_LOCAL_DESIGNS else ""
+    )
     return Settlement(budget, BUDGET_FACTOR, seconds * BUDGET_FACTOR / 3600, cost, command)
 
 
@@ -405,8 +476,11 @@ def draw_lattice(study, path: Path) -> str | None:
     stiffness = np.array([m["k"] for m in materials])
     colour_map = plt.get_cmap("viridis")
     low, high = float(stiffness.min()), float(stiffness.max())
-    norm = (matplotlib.colors.LogNorm(vmin=low, vmax=high) if low > 0 and high > low
-            else matplotlib.colors.Normalize(vmin=low, vmax=high if high > low else low + 1.0))
+    norm = (
+        matplotlib.colors.LogNorm(vmin=low, vmax=high)
+        if low > 0 and high > low
+        else matplotlib.colors.Normalize(vmin=low, vmax=high if high > low else low + 1.0)
+    )
     if case.depth > 1:  # a plate: its layers as a stack, the loaded patch on layer 1's face
         return draw_plate_answers(case, designs, colour_map, norm, path)
     figure, axes = plt.subplots(1, len(designs), figsize=(4.6 * len(designs), 4.4), squeeze=False)
@@ -415,8 +489,12 @@ def draw_lattice(study, path: Path) -> str | None:
         k = np.tile(np.array([materials[m - 1]["k"] for m in order]), (case.rows, 1))
         axis.scatter(x, y, c=k, cmap=colour_map, norm=norm, s=55, edgecolors="k", lw=0.3)
         axis.axvline(case.columns - 1 + 0.5, color="dimgray", lw=4)
-        axis.annotate("", xy=(-0.2, case.rows / 2 - 0.5), xytext=(-1.2, case.rows / 2 - 0.5),
-                      arrowprops=dict(arrowstyle="->", lw=2, color="crimson"))
+        axis.annotate(
+            "",
+            xy=(-0.2, case.rows / 2 - 0.5),
+            xytext=(-1.2, case.rows / 2 - 0.5),
+            arrowprops=dict(arrowstyle="->", lw=2, color="crimson"),
+        )
         axis.set_title(label, fontsize=9)
         axis.set_xticks(range(case.columns))
         axis.set_xticklabels([materials[m - 1]["name"] for m in order], fontsize=7, rotation=60)
@@ -425,12 +503,35 @@ def draw_lattice(study, path: Path) -> str | None:
     bar = figure.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=colour_map), ax=axes[0].tolist())
     bar.set_label("vertical spring constant k of the column's material (N)")
     load = case.load
-    striker = (f"A {load['projectile_mass']:g} kg projectile at {load['projectile_speed']:g} m/s strikes column 1 "
-               "from the left" if load.get("load_mode") == PROJECTILE else "Load from the left on column 1")
+    striker = (
+        f"A {load['projectile_mass']:g} kg projectile at {load['projectile_speed']:g} m/s strikes column 1 "
+        "from the left"
+        if load.get("load_mode") == PROJECTILE
+        else "Load from the left on column 1"
+    )
     figure.suptitle(f"{striker}, backplate on the right (grey bar)", fontsize=9)
     return save(figure, path, tight=False)
 
 
-__all__ = ["Answer", "Answers", "AnswersResult", "BEST_FOUND", "CERTIFIED", "EnergyFlows", "Equivalence",
-           "Evidence", "FOUND_BY_DESCENT", "FOUND_BY_FINALISTS", "FOUND_BY_KNOWN", "FOUND_BY_RUNS", "FOUND_BY_SWEEP",
-           "KNOWN", "STUDY_RULE", "Settlement", "design_file", "rule_best", "start_values_for", "value_text"]
+__all__ = [
+    "Answer",
+    "Answers",
+    "AnswersResult",
+    "BEST_FOUND",
+    "CERTIFIED",
+    "EnergyFlows",
+    "Equivalence",
+    "Evidence",
+    "FOUND_BY_DESCENT",
+    "FOUND_BY_FINALISTS",
+    "FOUND_BY_KNOWN",
+    "FOUND_BY_RUNS",
+    "FOUND_BY_SWEEP",
+    "KNOWN",
+    "STUDY_RULE",
+    "Settlement",
+    "design_file",
+    "rule_best",
+    "start_values_for",
+    "value_text",
+]

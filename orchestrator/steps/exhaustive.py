@@ -1,4 +1,5 @@
 """The exhaustive sweep: every design of the space under each diagonal rule, verified, with a certificate."""
+
 from __future__ import annotations
 
 import math
@@ -8,9 +9,20 @@ from pathlib import Path
 import numpy as np
 
 from ..charts import plt, save
-from ..exhaustive import (HISTOGRAM_RESOLUTION, MAX_LOCAL_DESIGNS, SWEEP_METHOD, ChunkResult, Scored, ScreenChunk,
-                          calibration_range, chunk_ranges, coverage, not_strongly_dominated, projected_cost,
-                          screening_threshold)
+from ..exhaustive import (
+    HISTOGRAM_RESOLUTION,
+    MAX_LOCAL_DESIGNS,
+    SWEEP_METHOD,
+    ChunkResult,
+    Scored,
+    ScreenChunk,
+    calibration_range,
+    chunk_ranges,
+    coverage,
+    not_strongly_dominated,
+    projected_cost,
+    screening_threshold,
+)
 from ..known_optima import known_optimum
 from ..loop import run_search
 from ..objective import FULL, SEARCH
@@ -41,9 +53,12 @@ INCUMBENT_BUDGET = 100  # designs of the short annealing run that gives a projec
 
 @dataclass(frozen=True)
 class ExhaustiveConfig:
-    chunk_size: int | None = option(None, "designs per chunk of the exhaustive sweep (a chunk is one task: "
-                                    "journalled, resumed, retried)", type=integer("--chunk-size", 1, 10**9),
-                                    show_default=f"about {SWEEP_CHUNKS} chunks")
+    chunk_size: int | None = option(
+        None,
+        "designs per chunk of the exhaustive sweep (a chunk is one task: journalled, resumed, retried)",
+        type=integer("--chunk-size", 1, 10**9),
+        show_default=f"about {SWEEP_CHUNKS} chunks",
+    )
 
     def __post_init__(self):
         check_options(self)
@@ -103,14 +118,18 @@ def sweep_cost(context: StudyContext, rule: str | None, incumbent: float | None)
     threshold (a chunk from the middle of the ranks, through the one Evaluator: journalled, resumed)."""
     objective = context.objective(rule)
     space = context.case.space
-    screening, = objective.tasks(SEARCH)
-    limit = (screening_threshold(incumbent, SCREENING_ERROR)
-             if incumbent is not None and math.isfinite(incumbent) and objective.supports_limits else None)
+    (screening,) = objective.tasks(SEARCH)
+    limit = (
+        screening_threshold(incumbent, SCREENING_ERROR)
+        if incumbent is not None and math.isfinite(incumbent) and objective.supports_limits
+        else None
+    )
     start, stop = calibration_range(space)
-    chunk, = context.evaluator.run([ScreenChunk(screening, space, start, stop, BEST_PER_CHUNK, SCREENING_ERROR, limit)])
+    (chunk,) = context.evaluator.run(
+        [ScreenChunk(screening, space, start, stop, BEST_PER_CHUNK, SCREENING_ERROR, limit)]
+    )
     rate, hours = projected_cost(chunk, space)
-    return SweepCost(space.size, rate, hours, incumbent if limit is not None else None, chunk.designs,
-                     chunk.censored)
+    return SweepCost(space.size, rate, hours, incumbent if limit is not None else None, chunk.designs, chunk.censored)
 
 
 def projection_incumbent(context: StudyContext, rule: str | None) -> float | None:
@@ -124,8 +143,15 @@ def projection_incumbent(context: StudyContext, rule: str | None) -> float | Non
         if value.ok:
             return value.value
     search = make_search("sa", context.case.space, context.config(Searches).seed, budget=INCUMBENT_BUDGET)
-    run = run_search(search, objective, INCUMBENT_BUDGET, context.evaluator, method_name="sa",
-                     seed=context.config(Searches).seed, label=rule_label(rule))
+    run = run_search(
+        search,
+        objective,
+        INCUMBENT_BUDGET,
+        context.evaluator,
+        method_name="sa",
+        seed=context.config(Searches).seed,
+        label=rule_label(rule),
+    )
     return run.best_value
 
 
@@ -258,15 +284,18 @@ class Exhaustive(Step):
                 f"--method {SWEEP_METHOD}: {space.size:,} designs is beyond the local limit of {MAX_LOCAL_DESIGNS:,}: "
                 f"projected {cost.core_hours * count:,.1f} core-hours{per_rule} at "
                 f"{cost.designs_per_core_second:,.0f} designs per core-second (measured here on {cost.timed} designs, "
-                f"{cost.censored} stopped at the force limit as the sweep's chunks are); {missing_for_sweep(context)}")
+                f"{cost.censored} stopped at the force limit as the sweep's chunks are); {missing_for_sweep(context)}"
+            )
 
     def run(self, context: StudyContext) -> ExhaustiveResult:
         why = f"asked (--method {SWEEP_METHOD})"
         if sweep_instead(context):
             evaluations = default_evaluations(context.config(Searches))
-            why = (f"the default study sweeps a space of at most {SWEEP_DESIGNS_PER_SEARCH_EVALUATION} designs per "
-                   f"evaluation its searches would make ({evaluations:,} per rule at this budget): "
-                   f"{context.case.space.size:,} designs cost less to sweep than to search, and the sweep certifies")
+            why = (
+                f"the default study sweeps a space of at most {SWEEP_DESIGNS_PER_SEARCH_EVALUATION} designs per "
+                f"evaluation its searches would make ({evaluations:,} per rule at this budget): "
+                f"{context.case.space.size:,} designs cost less to sweep than to search, and the sweep certifies"
+            )
         if len(context.case.outputs) > 1:
             return ExhaustiveResult((), tuple(self.sweep_front(context, rule) for rule in context.rules), why)
         return ExhaustiveResult(tuple(self.sweep(context, rule) for rule in context.rules), why=why)
@@ -281,11 +310,15 @@ class Exhaustive(Step):
         label = rule_label(rule)
         objective = context.objective(rule)
         space = context.case.space
-        screening, = objective.tasks(SEARCH)
+        (screening,) = objective.tasks(SEARCH)
         chunk_size = self.config.chunk_size or max(1, -(-space.size // SWEEP_CHUNKS))
         ranges = chunk_ranges(space.size, chunk_size)
-        tasks = (ScreenChunk(screening, space, a, b, BEST_PER_CHUNK, SCREENING_ERROR, None, objectives=len(
-            context.case.outputs)) for a, b in ranges)
+        tasks = (
+            ScreenChunk(
+                screening, space, a, b, BEST_PER_CHUNK, SCREENING_ERROR, None, objectives=len(context.case.outputs)
+            )
+            for a, b in ranges
+        )
         chunks = self.chunks(context, label, tasks, len(ranges))
         good = [c for c in chunks if c.ok]
         within = [s for c in good for s in c.within]
@@ -298,8 +331,11 @@ class Exhaustive(Step):
         screened = {s.order: s.values for s in candidates}
         errors = [abs(a / b - 1) for e in ok if e.order in screened for a, b in zip(screened[e.order], e.values) if b]
         front_mask = non_dominated([e.values for e in ok]) if ok else []
-        front = tuple(sorted((FrontPoint(e.order, e.values, e.outputs) for e, k in zip(ok, front_mask) if k),
-                             key=lambda p: p.values))
+        front = tuple(
+            sorted(
+                (FrontPoint(e.order, e.values, e.outputs) for e, k in zip(ok, front_mask) if k), key=lambda p: p.values
+            )
+        )
         covered, ranks = coverage(good, space.size)
         reasons = []
         if not covered:
@@ -312,15 +348,27 @@ class Exhaustive(Step):
         largest = max(errors) if errors else None
         if largest is None or largest > SCREENING_ERROR:
             reasons.append("the screening error bound did not hold" if largest is not None else "nothing verified")
-        return FrontSweep(label, space.describe(), space.size, len(ranges), ranks, covered,
-                          sum(c.failed for c in good), len(candidates), SCREENING_ERROR, largest, front,
-                          not reasons, tuple(reasons))
+        return FrontSweep(
+            label,
+            space.describe(),
+            space.size,
+            len(ranges),
+            ranks,
+            covered,
+            sum(c.failed for c in good),
+            len(candidates),
+            SCREENING_ERROR,
+            largest,
+            front,
+            not reasons,
+            tuple(reasons),
+        )
 
     def sweep(self, context: StudyContext, rule: str | None) -> Sweep:
         label = rule_label(rule)
         objective = context.objective(rule)
         space = context.case.space
-        screening, = objective.tasks(SEARCH)
+        (screening,) = objective.tasks(SEARCH)
         searched = context.result(Searches)
         known = [e.value for run in (searched.runs_for(label) if searched else []) for e in run.evaluations if e.ok]
         best = [min(known) if known else math.inf]
@@ -346,8 +394,9 @@ class Exhaustive(Step):
         scored = sorted((s for c in good for s in c.best), key=lambda s: s.value)
         screened_best = scored[0].value if scored else None
         threshold = screening_threshold(screened_best, SCREENING_ERROR) if screened_best is not None else None
-        candidates = sorted((s for c in good for s in c.within if threshold is not None and s.value <= threshold),
-                            key=lambda s: s.value)
+        candidates = sorted(
+            (s for c in good for s in c.within if threshold is not None and s.value <= threshold), key=lambda s: s.value
+        )
         failures = [f.order for c in good for f in c.failures]
         orders = list(dict.fromkeys([s.order for s in candidates] + failures + [s.order for s in scored[:VERIFY_TOP]]))
         full = dict(zip(orders, objective.evaluate(orders, context.evaluator, FULL)))
@@ -355,27 +404,50 @@ class Exhaustive(Step):
         ok = sorted((e for e in full.values() if e.ok), key=lambda e: e.value)
         errors = [abs(screened[e.order] / e.value - 1) for e in ok if e.order in screened and e.value]
         second = self.second_integrator(context, objective, [e.order for e in ok[:2]])
-        certificate = self.certify(label, space, chunks, ranges, screened, ok, errors, second, len(orders),
-                                   [c for c in chunks if not c.ok], failures, full)
+        certificate = self.certify(
+            label,
+            space,
+            chunks,
+            ranges,
+            screened,
+            ok,
+            errors,
+            second,
+            len(orders),
+            [c for c in chunks if not c.ok],
+            failures,
+            full,
+        )
         certificate = replace(certificate, objective=objective_covered(context, label))
         histogram: dict[int, int] = {}
         for chunk in good:
             for index, count in chunk.histogram:
                 histogram[index] = histogram.get(index, 0) + count
         cpu = sum(c.cpu_seconds for c in good)
-        return Sweep(label, certificate, chunk_size, resumed, initial_limit, tuple(scored[:BEST_PER_CHUNK]),
-                     tuple(sorted(histogram.items())), HISTOGRAM_RESOLUTION, tuple(full.values()), cpu,
-                     sum(c.designs for c in good) / cpu if cpu > 0 else None)
+        return Sweep(
+            label,
+            certificate,
+            chunk_size,
+            resumed,
+            initial_limit,
+            tuple(scored[:BEST_PER_CHUNK]),
+            tuple(sorted(histogram.items())),
+            HISTOGRAM_RESOLUTION,
+            tuple(full.values()),
+            cpu,
+            sum(c.designs for c in good) / cpu if cpu > 0 else None,
+        )
 
     @staticmethod
     def second_integrator(context: StudyContext, objective, orders: list[Order]) -> dict[Order, Evaluation]:
-        full, = objective.tasks(FULL)
+        (full,) = objective.tasks(FULL)
         second = full.with_parameters(**SECOND_INTEGRATOR)
         return dict(zip(orders, context.evaluator.evaluate([(second, o) for o in orders])))
 
     @staticmethod
-    def certify(label, space, chunks, ranges, screened, ok, errors, second, verified_count, failed_chunks,
-                failures, full) -> Certificate:
+    def certify(
+        label, space, chunks, ranges, screened, ok, errors, second, verified_count, failed_chunks, failures, full
+    ) -> Certificate:
         reasons = []
         covered, ranks = coverage([c for c in chunks if c.ok], space.size)
         if not covered:
@@ -384,13 +456,18 @@ class Exhaustive(Step):
             reasons.append(f"{len(failed_chunks)} chunk(s) failed: {failed_chunks[0].message}")
         unverified = [o for o in failures if not full[o].ok]
         if unverified:
-            reasons.append(f"{len(unverified)} design(s) failed at screening and at full fidelity "
-                           f"(first: {list(unverified[0])}: {full[unverified[0]].message})")
+            reasons.append(
+                f"{len(unverified)} design(s) failed at screening and at full fidelity "
+                f"(first: {list(unverified[0])}: {full[unverified[0]].message})"
+            )
         largest = max(errors) if errors else None
         held = largest is not None and largest <= SCREENING_ERROR
         if not held:
-            reasons.append("the screening error bound did not hold" if largest is not None
-                           else "no design was verified at full fidelity")
+            reasons.append(
+                "the screening error bound did not hold"
+                if largest is not None
+                else "no design was verified at full fidelity"
+            )
 
         def verified(e: Evaluation | None) -> Verified | None:
             if e is None:
@@ -408,38 +485,59 @@ class Exhaustive(Step):
             else:
                 integration = max(abs(optimum.full - optimum.second), abs(runner_up.full - runner_up.second))
                 if not gap > 2 * integration:
-                    reasons.append(f"the gap to the runner-up ({gap:.3g}) is not larger than twice the integration "
-                                   f"error ({integration:.3g})")
+                    reasons.append(
+                        f"the gap to the runner-up ({gap:.3g}) is not larger than twice the integration "
+                        f"error ({integration:.3g})"
+                    )
         elif optimum is None:
             reasons.append("no design has a value")
         good = [c for c in chunks if c.ok]
         return Certificate(
-            diagonal_rule=label, space=space.describe(), designs=space.size, chunks=len(ranges), ranks=ranks,
-            covered_once=covered, screened=sum(c.designs - c.failed - c.censored for c in good),
-            censored=sum(c.censored for c in good), failed=sum(c.failed for c in good), verified=verified_count,
-            screening_error=SCREENING_ERROR, max_screening_error_seen=largest, screening_bound_held=held,
-            second_integrator=SECOND_INTEGRATOR_NAME, optimum=optimum, runner_up=runner_up, gap=gap,
-            integration_error=integration, certified=not reasons, reasons=tuple(reasons))
+            diagonal_rule=label,
+            space=space.describe(),
+            designs=space.size,
+            chunks=len(ranges),
+            ranks=ranks,
+            covered_once=covered,
+            screened=sum(c.designs - c.failed - c.censored for c in good),
+            censored=sum(c.censored for c in good),
+            failed=sum(c.failed for c in good),
+            verified=verified_count,
+            screening_error=SCREENING_ERROR,
+            max_screening_error_seen=largest,
+            screening_bound_held=held,
+            second_integrator=SECOND_INTEGRATOR_NAME,
+            optimum=optimum,
+            runner_up=runner_up,
+            gap=gap,
+            integration_error=integration,
+            certified=not reasons,
+            reasons=tuple(reasons),
+        )
 
     def verdict(self, result: ExhaustiveResult | None, study) -> Verdict:
         """No answer when the screening error passed its bound: designs the sweep pruned may be better."""
-        for sweep in (result.sweeps if result else ()):
+        for sweep in result.sweeps if result else ():
             certificate = sweep.certificate
             if certificate.max_screening_error_seen is not None and not certificate.screening_bound_held:
                 return Verdict.no_answer(
                     f"the exhaustive sweep's screening error ({certificate.max_screening_error_seen:.2g}) passed its "
                     f"bound ({certificate.screening_error:g}) under the {sweep.diagonal_rule} rule: designs it pruned "
-                    "may be better than its optimum, which is not certain")
-        for front in (result.fronts if result else ()):
+                    "may be better than its optimum, which is not certain"
+                )
+        for front in result.fronts if result else ():
             if front.max_screening_error_seen is not None and front.max_screening_error_seen > front.screening_error:
                 return Verdict.no_answer(
                     f"the exhaustive sweep's screening error ({front.max_screening_error_seen:.2g}) passed its bound "
-                    f"({front.screening_error:g}) under the {front.diagonal_rule} rule: its front may miss designs")
+                    f"({front.screening_error:g}) under the {front.diagonal_rule} rule: its front may miss designs"
+                )
         return SILENT
 
     def cost_note(self, context: StudyContext) -> str:
-        return ("every design of the space, in chunks (a chunk is one task), then its candidates at full fidelity: "
-                "a sweep is not bounded by --budget")
+        return (
+            "every design of the space, in chunks (a chunk is one task), then its candidates at full fidelity: "
+            "a sweep is not bounded by --budget"
+        )
 
     def chart(self, study, path):
         return draw_exhaustive(study, path)
@@ -456,13 +554,26 @@ def draw_exhaustive(study, path: Path) -> str | None:
         certificate = sweep.certificate
         if bins:
             lefts = np.array([(1 + sweep.histogram_resolution) ** k for k, _ in bins])
-            axis.bar(lefts, [v for _, v in bins], width=lefts * sweep.histogram_resolution, align="edge",
-                     color="tab:gray", label=f"{certificate.screened:,} designs screened to a value"
-                     + (f"; {certificate.censored:,} more stopped above the force limit (censored)"
-                        if certificate.censored else ""))
+            axis.bar(
+                lefts,
+                [v for _, v in bins],
+                width=lefts * sweep.histogram_resolution,
+                align="edge",
+                color="tab:gray",
+                label=f"{certificate.screened:,} designs screened to a value"
+                + (
+                    f"; {certificate.censored:,} more stopped above the force limit (censored)"
+                    if certificate.censored
+                    else ""
+                ),
+            )
         if certificate.optimum:
-            axis.axvline(certificate.optimum.full, color="crimson", lw=2,
-                         label=f"optimum {list(certificate.optimum.order)}: {certificate.optimum.full:.4f} {unit}")
+            axis.axvline(
+                certificate.optimum.full,
+                color="crimson",
+                lw=2,
+                label=f"optimum {list(certificate.optimum.order)}: {certificate.optimum.full:.4f} {unit}",
+            )
         if bins:
             axis.set_yscale("log")
         axis.set_xlabel(f"{study.case.objective.outputs[0]} ({unit}), screening fidelity")
@@ -474,6 +585,22 @@ def draw_exhaustive(study, path: Path) -> str | None:
     return save(figure, path)
 
 
-__all__ = ["Certificate", "Exhaustive", "ExhaustiveConfig", "ExhaustiveResult", "FULL_ERROR", "FrontPoint",
-           "FrontSweep", "SCREENING_ERROR", "SWEEP_DESIGNS_PER_SEARCH_EVALUATION", "Sweep", "SweepCost", "Verified",
-           "asked", "objective_covered", "projection_incumbent", "sweep_cost", "sweep_instead"]
+__all__ = [
+    "Certificate",
+    "Exhaustive",
+    "ExhaustiveConfig",
+    "ExhaustiveResult",
+    "FULL_ERROR",
+    "FrontPoint",
+    "FrontSweep",
+    "SCREENING_ERROR",
+    "SWEEP_DESIGNS_PER_SEARCH_EVALUATION",
+    "Sweep",
+    "SweepCost",
+    "Verified",
+    "asked",
+    "objective_covered",
+    "projection_incumbent",
+    "sweep_cost",
+    "sweep_instead",
+]

@@ -1,5 +1,6 @@
 """The final descent: from each rule's best finalist, single moves until none improves, and the check that
 the design it ends at is a local optimum (every swap, insertion and, in a catalogue, replacement evaluated)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -19,8 +20,12 @@ MAX_DESCENT = 5000  # designs a descent may evaluate (it stops at the first loca
 
 @dataclass(frozen=True)
 class FinalDescentConfig:
-    enabled: bool = option(True, "skip the final descent and local-optimality check of each rule's best design",
-                               flag="--no-local-check", action="store_false")
+    enabled: bool = option(
+        True,
+        "skip the final descent and local-optimality check of each rule's best design",
+        flag="--no-local-check",
+        action="store_false",
+    )
 
     def __post_init__(self):
         check_options(self)
@@ -70,13 +75,13 @@ def descent_cap(context: StudyContext, label: str, start: Order) -> int:
     return min(MAX_DESCENT, max(sum(run.distinct for run in runs), neighbourhood + 1))
 
 
-def check_local_optimum(context: StudyContext, rule: str | None, start: Order, seed: int,
-                        cap: int = MAX_DESCENT) -> LocalCheck:
+def check_local_optimum(
+    context: StudyContext, rule: str | None, start: Order, seed: int, cap: int = MAX_DESCENT
+) -> LocalCheck:
     objective = context.objective(rule)
     space = context.case.space
     descent = make_search("local", space, seed, start=start, kicks=0)
-    run = run_search(descent, objective, cap, context.evaluator, method_name="local", seed=seed,
-                     label=rule_label(rule))
+    run = run_search(descent, objective, cap, context.evaluator, method_name="local", seed=seed, label=rule_label(rule))
     end = run.best_order or start
     moves = space.neighbours(end)
     values = {e.order: e for e in run.evaluations}
@@ -86,15 +91,31 @@ def check_local_optimum(context: StudyContext, rule: str | None, start: Order, s
     good = [e for e in every if e.ok]
     above = [e for e in every if e.censored]
     complete = all(len(around[m]) == len(moves[m]) for m in MOVES)
-    optimal = bool(complete and own.ok and len(good) + len(above) == len(every)
-                   and all(e.value >= own.value for e in good) and all(e.lower_bound >= own.value for e in above))
+    optimal = bool(
+        complete
+        and own.ok
+        and len(good) + len(above) == len(every)
+        and all(e.value >= own.value for e in good)
+        and all(e.lower_bound >= own.value for e in above)
+    )
     curve = [v for v in run.best_so_far() if v is not None]
     improvements = sum(1 for a, b in zip(curve, curve[1:]) if b < a)
     full = objective.evaluate([end], context.evaluator, FULL)[0]
-    return LocalCheck(rule_label(rule), start, end, run.n_evaluations, improvements,
-                      {m: len(around[m]) for m in MOVES}, {m: len(moves[m]) for m in MOVES},
-                      sum(1 for e in every if not e.ok and not e.censored), len(above), optimal,
-                      (min(e.value for e in good) - own.value) if good and own.ok else None, full, run.stop_reason)
+    return LocalCheck(
+        rule_label(rule),
+        start,
+        end,
+        run.n_evaluations,
+        improvements,
+        {m: len(around[m]) for m in MOVES},
+        {m: len(moves[m]) for m in MOVES},
+        sum(1 for e in every if not e.ok and not e.censored),
+        len(above),
+        optimal,
+        (min(e.value for e in good) - own.value) if good and own.ok else None,
+        full,
+        run.stop_reason,
+    )
 
 
 class FinalDescent(Step):
@@ -115,16 +136,28 @@ class FinalDescent(Step):
         for rule in context.rules:
             best = finalists.for_rule(rule_label(rule)).best
             if best is not None:
-                checks.append(check_local_optimum(context, rule, best.order, seed,
-                                                  descent_cap(context, rule_label(rule), best.order)))
+                checks.append(
+                    check_local_optimum(
+                        context, rule, best.order, seed, descent_cap(context, rule_label(rule), best.order)
+                    )
+                )
         return FinalDescentResult(tuple(checks))
 
     def cost_note(self, context: StudyContext) -> str:
         result = context.result(FinalDescent)
         sizes = [sum(c.neighbours.values()) for c in (result.rules if result else ())]
-        return (f"a local optimum is known only once each of its {max(sizes, default=0):,} neighbours is evaluated, "
-                "and each improving move starts another neighbourhood; --no-local-check skips it")
+        return (
+            f"a local optimum is known only once each of its {max(sizes, default=0):,} neighbours is evaluated, "
+            "and each improving move starts another neighbourhood; --no-local-check skips it"
+        )
 
 
-__all__ = ["FinalDescent", "FinalDescentConfig", "FinalDescentResult", "LocalCheck", "MAX_DESCENT",
-           "check_local_optimum", "descent_cap"]
+__all__ = [
+    "FinalDescent",
+    "FinalDescentConfig",
+    "FinalDescentResult",
+    "LocalCheck",
+    "MAX_DESCENT",
+    "check_local_optimum",
+    "descent_cap",
+]

@@ -1,5 +1,6 @@
 """The finalists: each run's best designs, the baselines, the sweep's optimum and the case's known optimum (with
 its runner-up), at full fidelity."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -20,9 +21,13 @@ from .starting_designs import starting_designs
 
 @dataclass(frozen=True)
 class FinalistsConfig:
-    per_run: int = option(3, "best designs of each run re-evaluated at full fidelity", flag="--finalists",
-                          metavar="FINALISTS",
-                          type=integer("--finalists", 1, 1000))
+    per_run: int = option(
+        3,
+        "best designs of each run re-evaluated at full fidelity",
+        flag="--finalists",
+        metavar="FINALISTS",
+        type=integer("--finalists", 1, 1000),
+    )
 
     def __post_init__(self):
         check_options(self)
@@ -70,8 +75,11 @@ def baselines(context: StudyContext) -> dict[str, Order]:
     study's own lattice and materials."""
     space = context.case.space
     found = {"sequential": space.baseline()}
-    if (space.kind == "permutation" and space.columns == len(STUDY_BEST_ORDER)
-            and context.case.materials == study_materials(space.materials)):
+    if (
+        space.kind == "permutation"
+        and space.columns == len(STUDY_BEST_ORDER)
+        and context.case.materials == study_materials(space.materials)
+    ):
         found["study's best"] = STUDY_BEST_ORDER
     for index, design in enumerate(starting_designs(context), start=1):  # the answer is never worse than one
         found[f"starting design {index}"] = design
@@ -111,13 +119,18 @@ class Finalists(Step):
             orders = list(dict.fromkeys(orders))
             evaluations = context.objective(rule).evaluate(orders, context.evaluator, FULL)
             full = dict(zip(orders, evaluations))
-            rules.append(RuleFinalists(label, tuple(evaluations), best_of(evaluations),
-                                       tuple(disagreements(runs, full, count)), known))
+            rules.append(
+                RuleFinalists(
+                    label, tuple(evaluations), best_of(evaluations), tuple(disagreements(runs, full, count)), known
+                )
+            )
         return FinalistsResult(tuple(rules))
 
     def cost_note(self, context: StudyContext) -> str:
-        return (f"each run's {self.config.per_run} best designs, the baselines and any known optimum, at full "
-                "fidelity (the whole scene); --finalists N bounds it")
+        return (
+            f"each run's {self.config.per_run} best designs, the baselines and any known optimum, at full "
+            "fidelity (the whole scene); --finalists N bounds it"
+        )
 
 
 def disagreements(runs: list[SearchRun], full: dict[Order, Evaluation], count: int) -> list[Disagreement]:
@@ -136,5 +149,13 @@ def disagreements(runs: list[SearchRun], full: dict[Order, Evaluation], count: i
     return found
 
 
-__all__ = ["Disagreement", "Finalists", "FinalistsConfig", "FinalistsResult", "RuleFinalists", "baselines", "best_of",
-           "finalist_orders"]
+__all__ = [
+    "Disagreement",
+    "Finalists",
+    "FinalistsConfig",
+    "FinalistsResult",
+    "RuleFinalists",
+    "baselines",
+    "best_of",
+    "finalist_orders",
+]

@@ -1,6 +1,7 @@
 """The evaluations in an Optuna storage (``--export-optuna STORAGE``), for optuna-dashboard and the tools of
 optimisation users; the export itself is ``orchestrator.optuna_export``. It simulates nothing; a storage that
 cannot take the export is reported in the report and on stderr, never losing the study's results."""
+
 from __future__ import annotations
 
 import sys
@@ -16,9 +17,14 @@ from .searches import Searches
 @dataclass(frozen=True)
 class OptunaExportConfig:
     export_optuna: str | None = option(
-        None, "write every evaluation of the searches as an Optuna trial into STORAGE, an Optuna RDB URL such as "
+        None,
+        "write every evaluation of the searches as an Optuna trial into STORAGE, an Optuna RDB URL such as "
         "sqlite:///study.db (one study per diagonal rule; needs the optuna extra); optuna-dashboard STORAGE shows "
-        "it", metavar="STORAGE", study=NO_NUMBER, show_default="none")
+        "it",
+        metavar="STORAGE",
+        study=NO_NUMBER,
+        show_default="none",
+    )
 
     def __post_init__(self):
         if self.export_optuna is not None:  # with the options: before the FMU is built
@@ -52,10 +58,17 @@ class OptunaExport(Step):
         journal = context.evaluator.journal
         start = time.perf_counter()
         try:
-            studies = export(storage, searched.runs if searched else (), tuple(context.case.outputs),
-                             context.case.columns, list(context.case.materials.names),
-                             context.case.describe(context.fmu).line(), getattr(journal, "run_id", "") or "study",
-                             context.fmu.sha256, context.progress)
+            studies = export(
+                storage,
+                searched.runs if searched else (),
+                tuple(context.case.outputs),
+                context.case.columns,
+                list(context.case.materials.names),
+                context.case.describe(context.fmu).line(),
+                getattr(journal, "run_id", "") or "study",
+                context.fmu.sha256,
+                context.progress,
+            )
         except Exception as exc:  # noqa: BLE001 - a storage error is reported; the results are kept
             message = str(exc).splitlines()[0] if str(exc).strip() else type(exc).__name__
             print(f"--export-optuna {storage}: not exported: {message}", file=sys.stderr)

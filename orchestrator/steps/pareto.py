@@ -1,5 +1,6 @@
 """The trade-off between two or three objectives: the Pareto front at full fidelity, its hypervolume, and the
 designs a designer would look at first (each objective's best end, and the knee)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -95,8 +96,12 @@ def undominated(evaluations) -> tuple[FrontPoint, ...]:
         return ()
     values = [e.values for e in evaluations]
     beaten = dominated_by(values, values)
-    return tuple(sorted((FrontPoint(e.order, e.values, e.outputs) for e, out in zip(evaluations, beaten) if not out),
-                        key=lambda p: (p.values, p.order)))
+    return tuple(
+        sorted(
+            (FrontPoint(e.order, e.values, e.outputs) for e, out in zip(evaluations, beaten) if not out),
+            key=lambda p: (p.values, p.order),
+        )
+    )
 
 
 def run_fronts(runs) -> list[list[tuple[float, ...]]]:
@@ -125,14 +130,18 @@ def settle_advice(context: StudyContext, runs, agreeing: int) -> str:
     seconds = [e.seconds for run in runs for e in run.evaluations]
     rate = sum(seconds) / len(seconds) if seconds else None
     size = context.case.space.size
-    sweep = (f"--method {SWEEP_METHOD} sweeps all {size:,} designs and gives the exact front"
-             + (f" (about {size * rate / 3600:.2g} core-hours at this run's rate)" if rate else ""))
+    sweep = f"--method {SWEEP_METHOD} sweeps all {size:,} designs and gives the exact front" + (
+        f" (about {size * rate / 3600:.2g} core-hours at this run's rate)" if rate else ""
+    )
     if not runs:
         return f"no multi-objective search ran (only baselines): add --method nsga2, or {sweep}"
     if agreeing == len(runs):
         return f"every run reached the same front; {sweep}"
-    more = (f"--budget {2 * budget} (about {len(runs) * budget * rate:.0f} more core-seconds over the "
-            f"{len(runs)} runs)" if rate else f"--budget {2 * budget}")
+    more = (
+        f"--budget {2 * budget} (about {len(runs) * budget * rate:.0f} more core-seconds over the {len(runs)} runs)"
+        if rate
+        else f"--budget {2 * budget}"
+    )
     return f"{agreeing} of {len(runs)} runs reached it: raise {more} until the runs agree, or {sweep}"
 
 
@@ -152,9 +161,15 @@ def choose(points: tuple[FrontPoint, ...], outputs: tuple[str, ...], label: str)
     for k, output in enumerate(outputs):
         picks.setdefault(int(np.argmin(values[:, k])), f"lowest {output}")
     picks.setdefault(knee(values), "knee")
-    return tuple(ChosenPoint(name, points[i].order, points[i].values,
-                             f"design_{label}_{name.replace('lowest ', '').replace(' ', '_')}.ssp")
-                 for i, name in sorted(picks.items(), key=lambda item: item[0]))
+    return tuple(
+        ChosenPoint(
+            name,
+            points[i].order,
+            points[i].values,
+            f"design_{label}_{name.replace('lowest ', '').replace(' ', '_')}.ssp",
+        )
+        for i, name in sorted(picks.items(), key=lambda item: item[0])
+    )
 
 
 class Pareto(Step):
@@ -183,38 +198,63 @@ class Pareto(Step):
             objective = context.objective(rule)
             runs = [r for r in (searched.runs_for(label) if searched else ()) if multi_objective(r.method)]
             ends = known_ends(context.case, rule or context.case.rule_default)
-            end_values = {e.order: e for e in objective.evaluate([k.order for k in ends], context.evaluator, FULL)
-                          if e.ok}
+            end_values = {
+                e.order: e for e in objective.evaluate([k.order for k in ends], context.evaluator, FULL) if e.ok
+            }
             exact = swept.front_for_rule(label) if swept else None
             descended = ()
             if exact is not None:
                 points, source, is_exact = exact.front, "exhaustive sweep of the whole space", exact.exact
             else:
-                evaluated = {e.order: e for run in (searched.runs_for(label) if searched else ())
-                             for e in run.evaluations if e.ok}
+                evaluated = {
+                    e.order: e
+                    for run in (searched.runs_for(label) if searched else ())
+                    for e in run.evaluations
+                    if e.ok
+                }
                 found = list(evaluated.values())
                 mask = not_strongly_dominated([e.values for e in found], SCREENING_ERROR) if found else []
                 candidates = [e.order for e, k in zip(found, mask) if k]
                 full = [e for e in objective.evaluate(candidates, context.evaluator, FULL) if e.ok]
                 pool = {e.order: e for e in full + list(end_values.values()) + self.evaluated(context, objective)}
                 descended = self.descend_ends(context, rule, undominated(pool.values()))
-                pool.update({e.order: e for e in objective.evaluate([d.order for d in descended], context.evaluator,
-                                                                    FULL) if e.ok})
+                pool.update(
+                    {
+                        e.order: e
+                        for e in objective.evaluate([d.order for d in descended], context.evaluator, FULL)
+                        if e.ok
+                    }
+                )
                 points = undominated(pool.values())
-                source = (f"the searches' {len(evaluated)} designs"
-                          + (f", the known optimum of {len(ends)} objective{'s' if len(ends) > 1 else ''} alone"
-                             if ends else "") + " and a descent from each end on its own objective, verified at "
-                          "full fidelity")
+                source = (
+                    f"the searches' {len(evaluated)} designs"
+                    + (
+                        f", the known optimum of {len(ends)} objective{'s' if len(ends) > 1 else ''} alone"
+                        if ends
+                        else ""
+                    )
+                    + " and a descent from each end on its own objective, verified at "
+                    "full fidelity"
+                )
                 is_exact = False
             if points:
                 reference = tuple(float(v) for v in reference_point([p.values for p in points]))
                 volume = hypervolume([p.values for p in points], reference)
             else:
                 reference, volume = (), 0.0
-            fronts.append(Front(label, points, is_exact, source, volume, reference,
-                                choose(points, context.case.outputs, label),
-                                self.sureness(context, runs, points, is_exact, ends, end_values),
-                                tuple(descended)))
+            fronts.append(
+                Front(
+                    label,
+                    points,
+                    is_exact,
+                    source,
+                    volume,
+                    reference,
+                    choose(points, context.case.outputs, label),
+                    self.sureness(context, runs, points, is_exact, ends, end_values),
+                    tuple(descended),
+                )
+            )
         return ParetoResult(context.case.outputs, tuple(fronts))
 
     @staticmethod
@@ -229,8 +269,15 @@ class Pareto(Step):
         for k, output in enumerate(context.case.outputs):
             start = min(points, key=lambda p: (p.values[k], p.values)).order
             alone = context.objective(rule).with_outputs((output,))
-            run = run_search(make_search("local", context.case.space, seed, start=start, kicks=0), alone,
-                             MAX_DESCENT, context.evaluator, method_name="local", seed=seed, label=rule_label(rule))
+            run = run_search(
+                make_search("local", context.case.space, seed, start=start, kicks=0),
+                alone,
+                MAX_DESCENT,
+                context.evaluator,
+                method_name="local",
+                seed=seed,
+                label=rule_label(rule),
+            )
             descended.append(DescendedEnd(output, start, run.best_order or start, run.n_evaluations))
         return descended
 
@@ -240,26 +287,40 @@ class Pareto(Step):
         own results; several: the combined values are not kept, so none)."""
         if len(context.case.cases) != 1:
             return []
-        task, = objective.with_cases(None).tasks(FULL)
+        (task,) = objective.with_cases(None).tasks(FULL)
         return [e for e in context.evaluator.known(task) if e.ok and len(e.values) == len(context.case.outputs)]
 
     @staticmethod
     def sureness(context: StudyContext, runs, points, is_exact: bool, ends, end_values) -> FrontSureness:
         on_front = {p.order for p in points}
         front_values = {tuple(p.values) for p in points}
-        known = tuple(KnownEnd(k.objective, k.order, k.certified,
-                               tuple(end_values[k.order].values) if k.order in end_values else None,
-                               k.order in on_front or (k.order in end_values
-                                                       and tuple(end_values[k.order].values) in front_values))
-                      for k in ends)
+        known = tuple(
+            KnownEnd(
+                k.objective,
+                k.order,
+                k.certified,
+                tuple(end_values[k.order].values) if k.order in end_values else None,
+                k.order in on_front or (k.order in end_values and tuple(end_values[k.order].values) in front_values),
+            )
+            for k in ends
+        )
         shares = coverage(run_fronts(runs))
         agreeing = sum(1 for share in shares if share >= AGREEMENT)
-        return FrontSureness(is_exact, len(runs), agreeing, AGREEMENT, shares, known,
-                             "" if is_exact else settle_advice(context, runs, agreeing))
+        return FrontSureness(
+            is_exact,
+            len(runs),
+            agreeing,
+            AGREEMENT,
+            shares,
+            known,
+            "" if is_exact else settle_advice(context, runs, agreeing),
+        )
 
     def cost_note(self, context: StudyContext) -> str:
-        return ("the front at full fidelity, and each objective's end descended on that objective alone until no "
-                "single move improves it: not bounded by --budget")
+        return (
+            "the front at full fidelity, and each objective's end descended on that objective alone until no "
+            "single move improves it: not bounded by --budget"
+        )
 
     def chart(self, study, path):
         return draw_pareto(study, path)
@@ -302,23 +363,51 @@ def draw_pareto(study, path: Path) -> str | None:
     searches = study.result(Searches)
     labels = []
     for front, colour in zip(result.fronts, RULE_COLOURS):
-        evaluated = [e.values for run in (searches.runs if searches else ()) if run.label == front.diagonal_rule
-                     for e in run.evaluations if e.ok and len(e.values) >= 2]
+        evaluated = [
+            e.values
+            for run in (searches.runs if searches else ())
+            if run.label == front.diagonal_rule
+            for e in run.evaluations
+            if e.ok and len(e.values) >= 2
+        ]
         if evaluated:
             points = np.array(evaluated)
-            axis.plot(points[:, 0], points[:, 1], ".", color=colour, alpha=0.15, ms=3,
-                      label=f"every design the searches evaluated ({front.diagonal_rule} rule, search fidelity)")
+            axis.plot(
+                points[:, 0],
+                points[:, 1],
+                ".",
+                color=colour,
+                alpha=0.15,
+                ms=3,
+                label=f"every design the searches evaluated ({front.diagonal_rule} rule, search fidelity)",
+            )
         if front.points:
             values = np.array(sorted(p.values for p in front.points))
-            axis.plot(values[:, 0], values[:, 1], "o-", color=colour, ms=4,
-                      label=f"non-dominated set, full fidelity ({front.diagonal_rule} rule)")
-            labels += [axis.annotate(chosen.label, chosen.values[:2], fontsize=7, textcoords="offset points",
-                                     xytext=(5, 5)) for chosen in front.chosen]
+            axis.plot(
+                values[:, 0],
+                values[:, 1],
+                "o-",
+                color=colour,
+                ms=4,
+                label=f"non-dominated set, full fidelity ({front.diagonal_rule} rule)",
+            )
+            labels += [
+                axis.annotate(chosen.label, chosen.values[:2], fontsize=7, textcoords="offset points", xytext=(5, 5))
+                for chosen in front.chosen
+            ]
         for end in front.sureness.known_ends:
             if end.values:
-                axis.plot([end.values[0]], [end.values[1]], "*", color=colour, ms=12, mec="black", mew=0.6,
-                          label=f"{'certified' if end.certified else 'known'} optimum of {end.output} alone "
-                                f"({front.diagonal_rule} rule)")
+                axis.plot(
+                    [end.values[0]],
+                    [end.values[1]],
+                    "*",
+                    color=colour,
+                    ms=12,
+                    mec="black",
+                    mew=0.6,
+                    label=f"{'certified' if end.certified else 'known'} optimum of {end.output} alone "
+                    f"({front.diagonal_rule} rule)",
+                )
     axis.set_xlabel(f"{outputs[0]} ({units[0]})")
     axis.set_ylabel(f"{outputs[1]} ({units[1]})")
     axis.set_title("The trade-off: each point a design; lower is better on both axes", fontsize=9)
@@ -328,5 +417,15 @@ def draw_pareto(study, path: Path) -> str | None:
     return save(figure, path, labels=labels)
 
 
-__all__ = ["BEST_DESIGN_FILE", "BestDesign", "ChosenPoint", "DescendedEnd", "Front", "Pareto", "ParetoResult",
-           "best_design", "choose", "knee"]
+__all__ = [
+    "BEST_DESIGN_FILE",
+    "BestDesign",
+    "ChosenPoint",
+    "DescendedEnd",
+    "Front",
+    "Pareto",
+    "ParetoResult",
+    "best_design",
+    "choose",
+    "knee",
+]

@@ -1,4 +1,5 @@
 """The searches: each method and seed, under each diagonal rule, at the search fidelity."""
+
 from __future__ import annotations
 
 import warnings
@@ -49,16 +50,26 @@ def methods_for(requested: tuple[str, ...], objectives: int) -> tuple[str, ...]:
 @dataclass(frozen=True)
 class SearchesConfig:
     methods: tuple[str, ...] = option(
-        (), f"searches and baselines to run; {ALL}: every search (not the exhaustive sweep); {SWEEP_METHOD}: every "
-        "design of the space (its own step, beside the searches)", flag="--method", nargs="+",
-        choices=tuple(SEARCHES) + (SWEEP_METHOD, ALL), metavar="METHOD",
-        show_default=f"{' '.join(SINGLE_DEFAULT)}; with several objectives {' '.join(MULTI_DEFAULT)}")
-    budget: int = option(200, "distinct designs each run evaluates: a hard cap on distinct designs (a design "
-                         "evaluated again because its earlier run stopped at a lower force limit is counted as a "
-                         "re-evaluation, not against the budget)", type=integer("--budget", 1, 10**9))
+        (),
+        f"searches and baselines to run; {ALL}: every search (not the exhaustive sweep); {SWEEP_METHOD}: every "
+        "design of the space (its own step, beside the searches)",
+        flag="--method",
+        nargs="+",
+        choices=tuple(SEARCHES) + (SWEEP_METHOD, ALL),
+        metavar="METHOD",
+        show_default=f"{' '.join(SINGLE_DEFAULT)}; with several objectives {' '.join(MULTI_DEFAULT)}",
+    )
+    budget: int = option(
+        200,
+        "distinct designs each run evaluates: a hard cap on distinct designs (a design "
+        "evaluated again because its earlier run stopped at a lower force limit is counted as a "
+        "re-evaluation, not against the budget)",
+        type=integer("--budget", 1, 10**9),
+    )
     seed: int = option(0, "first seed", type=integer("--seed", 0, 2**32 - 1001))
-    repeats: int = option(3, "runs per method: seeds S..S+R-1 (a deterministic method runs once)",
-                          type=integer("--repeats", 1, 10**6))
+    repeats: int = option(
+        3, "runs per method: seeds S..S+R-1 (a deterministic method runs once)", type=integer("--repeats", 1, 10**6)
+    )
 
     def __post_init__(self):
         check_options(self)
@@ -76,8 +87,10 @@ class SearchesResult:
 
 def default_evaluations(config: "SearchesConfig") -> int:
     """The evaluations the default searches make under one rule at ``config``'s budget, seed and repeats."""
-    return sum(min(config.budget, SEARCHES[m].max_evaluations or config.budget)
-               for m, _ in plan(SINGLE_DEFAULT, config.seed, config.repeats))
+    return sum(
+        min(config.budget, SEARCHES[m].max_evaluations or config.budget)
+        for m, _ in plan(SINGLE_DEFAULT, config.seed, config.repeats)
+    )
 
 
 def rule_label(rule: str | None) -> str:
@@ -90,18 +103,36 @@ def plan(methods: tuple[str, ...], seed: int, repeats: int) -> list[tuple[str, i
     return [(method, s) for method in methods for s in (seeds[:1] if SEARCHES[method].deterministic else seeds)]
 
 
-def run_searches(context: StudyContext, objective, methods, seed: int, repeats: int, budget: int, label: str,
-                 options: dict | None = None, progress_label: str | None = None) -> list[SearchRun]:
+def run_searches(
+    context: StudyContext,
+    objective,
+    methods,
+    seed: int,
+    repeats: int,
+    budget: int,
+    label: str,
+    options: dict | None = None,
+    progress_label: str | None = None,
+) -> list[SearchRun]:
     """Each (method, seed) for ``budget`` designs on ``objective``; ``options[method]``: its search options."""
     runs = []
     todo = plan(methods, seed, repeats)
     total = sum(min(budget, SEARCHES[m].max_evaluations or budget) for m, _ in todo)
     with context.progress.bar(total, progress_label or f"searching ({label})") as advance:
         for method, run_seed in todo:
-            search = make_search(method, context.case.space, run_seed, budget=budget,
-                                 **(options or {}).get(method, {}))
-            runs.append(run_search(search, objective, budget, context.evaluator, method_name=method, seed=run_seed,
-                                   label=label, progress=advance.of_run()))
+            search = make_search(method, context.case.space, run_seed, budget=budget, **(options or {}).get(method, {}))
+            runs.append(
+                run_search(
+                    search,
+                    objective,
+                    budget,
+                    context.evaluator,
+                    method_name=method,
+                    seed=run_seed,
+                    label=label,
+                    progress=advance.of_run(),
+                )
+            )
             advance.close_run()
     return runs
 
@@ -123,9 +154,11 @@ class Searches(Step):
         objectives = len(context.case.outputs)
         for method in self.methods(context):
             if not fits(method, objectives):
-                raise ValueError(f"--method {method}: it minimises {'several objectives' if objectives == 1 else 'one'}"
-                                 f", the objective has {objectives}; allowed: "
-                                 + ", ".join(m for m in SEARCHES if fits(m, objectives)))
+                raise ValueError(
+                    f"--method {method}: it minimises {'several objectives' if objectives == 1 else 'one'}"
+                    f", the objective has {objectives}; allowed: "
+                    + ", ".join(m for m in SEARCHES if fits(m, objectives))
+                )
 
     def run(self, context: StudyContext) -> SearchesResult:
         methods = self.methods(context)
@@ -134,13 +167,28 @@ class Searches(Step):
         runs = []
         for rule in context.rules:
             # NSGA-II starts from the known optimum of each objective alone: the ends of the true front
-            options = {"nsga2": {"objectives": objectives, "seeds": tuple(
-                k.order for k in known_ends(context.case, rule or context.case.rule_default))}} \
-                if objectives > 1 else {}
+            options = (
+                {
+                    "nsga2": {
+                        "objectives": objectives,
+                        "seeds": tuple(k.order for k in known_ends(context.case, rule or context.case.rule_default)),
+                    }
+                }
+                if objectives > 1
+                else {}
+            )
             if starts:  # every search evaluates them first and starts from them
                 options = {method: {**options.get(method, {}), "starts": starts} for method in methods}
-            runs += run_searches(context, context.objective(rule), methods, self.config.seed, self.config.repeats,
-                                 self.config.budget, rule_label(rule), options=options or None)
+            runs += run_searches(
+                context,
+                context.objective(rule),
+                methods,
+                self.config.seed,
+                self.config.repeats,
+                self.config.budget,
+                rule_label(rule),
+                options=options or None,
+            )
         return SearchesResult(methods, self.config.budget, tuple(runs))
 
     def chart(self, study, path):
@@ -179,17 +227,34 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
                 axis.fill_between(x, low, high, color=colour, alpha=0.2, lw=0)
         optimum = known.get(label)
         if optimum is not None:
-            axis.axhline(optimum.peak, color="crimson", lw=1, ls="--",
-                         label=f"{'certified' if optimum.certified else 'known'} optimum: {optimum.peak:.2f} {unit}")
-        published = study.case.objective.outputs == ("peak_backplate_force",) and known.get(label) and \
-            label == PUBLISHED_CONDITIONS["diagonal_rule"]
+            axis.axhline(
+                optimum.peak,
+                color="crimson",
+                lw=1,
+                ls="--",
+                label=f"{'certified' if optimum.certified else 'known'} optimum: {optimum.peak:.2f} {unit}",
+            )
+        published = (
+            study.case.objective.outputs == ("peak_backplate_force",)
+            and known.get(label)
+            and label == PUBLISHED_CONDITIONS["diagonal_rule"]
+        )
         if published:  # at the evaluation the study found it, or at the last one where the study does not say
             last = max(r.n_evaluations for r in runs) if runs else 1
             for point, marker in zip(REFERENCE_POINTS, "o^sD"):
-                where = (f"found at its evaluation {point.evaluation}" if point.evaluation else
-                         "at which evaluation not published: drawn at the last")
-                axis.plot([point.evaluation or last], [point.peak], marker=marker, color="crimson", ls="none",
-                          label=f"published {point.label}: {point.peak:.2f} N, {where}")
+                where = (
+                    f"found at its evaluation {point.evaluation}"
+                    if point.evaluation
+                    else "at which evaluation not published: drawn at the last"
+                )
+                axis.plot(
+                    [point.evaluation or last],
+                    [point.peak],
+                    marker=marker,
+                    color="crimson",
+                    ls="none",
+                    label=f"published {point.label}: {point.peak:.2f} N, {where}",
+                )
         if axis.lines:
             axis.set_xscale("log")
         else:
@@ -204,5 +269,15 @@ def draw_convergence(study, path: Path, context_line: str, known: dict) -> str |
     return save(figure, path)
 
 
-__all__ = ["Searches", "SearchesConfig", "SearchesResult", "default_evaluations", "fits", "methods_for",
-           "multi_objective", "plan", "rule_label", "run_searches"]
+__all__ = [
+    "Searches",
+    "SearchesConfig",
+    "SearchesResult",
+    "default_evaluations",
+    "fits",
+    "methods_for",
+    "multi_objective",
+    "plan",
+    "rule_label",
+    "run_searches",
+]

@@ -1,5 +1,6 @@
 """How the chosen design holds up when the case changes: each standard variation of the load, the duration,
 the angle and the diagonal rule, the designs compared against the best design known for that variation."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -19,13 +20,20 @@ DEFAULT_BUDGET = 100  # designs each short search evaluates, unless the searches
 
 @dataclass(frozen=True)
 class SensitivityConfig:
-    enabled: bool = option(True, "do not evaluate the chosen design under the standard variations of the case",
-                               flag="--no-sensitivity", action="store_false")
-    budget: int | None = option(None, "designs each short search evaluates for a variation",
-                                flag="--sensitivity-budget",
-                                show_default=f"{DEFAULT_BUDGET}, fewer when the searches evaluated fewer designs under "
-                                "the chosen rule than the step would (--budget bounds it)",
-                                type=integer("--sensitivity-budget", 1, 10**9))
+    enabled: bool = option(
+        True,
+        "do not evaluate the chosen design under the standard variations of the case",
+        flag="--no-sensitivity",
+        action="store_false",
+    )
+    budget: int | None = option(
+        None,
+        "designs each short search evaluates for a variation",
+        flag="--sensitivity-budget",
+        show_default=f"{DEFAULT_BUDGET}, fewer when the searches evaluated fewer designs under "
+        "the chosen rule than the step would (--budget bounds it)",
+        type=integer("--sensitivity-budget", 1, 10**9),
+    )
 
     def __post_init__(self):
         check_options(self)
@@ -86,16 +94,20 @@ def variations(context: StudyContext, rule: str) -> dict[str, dict[str, Any]]:
         value = float(parameters.get(name, fmu.start(name, 0.0)))
         label = name.replace("_", " ")
         return {f"{label} 0.5x": {name: 0.5 * value}, f"{label} 2x": {name: 2.0 * value}}
+
     if context.case.load_mode == PROJECTILE:
         found = {**scaled("projectile_mass"), **scaled("projectile_speed")}
     else:
         load = float(parameters.get("F_total", fmu.start("F_total", 1200.0)))
         duration = float(parameters.get("t_active", fmu.start("t_active", 0.15)))
-        found = {"load 0.5x": {"F_total": 0.5 * load}, "load 2x": {"F_total": 2.0 * load},
-                 "load duration 0.5x": {"t_active": 0.5 * duration},
-                 "load duration 2x": {"t_active": 2.0 * duration}}
+        found = {
+            "load 0.5x": {"F_total": 0.5 * load},
+            "load 2x": {"F_total": 2.0 * load},
+            "load duration 0.5x": {"t_active": 0.5 * duration},
+            "load duration 2x": {"t_active": 2.0 * duration},
+        }
     rules = fmu.parameters.get("diagonal_rule")
-    for other in (rules.items if rules else ()):
+    for other in rules.items if rules else ():
         if other != rule:
             found[f"{other} diagonal rule"] = {"diagonal_rule": other}
     if context.case.load_mode != PROJECTILE:
@@ -133,18 +145,33 @@ class Sensitivity(Step):
         for name, change in varied_cases.items():
             varied = base.with_parameters(**change)
             seed = context.config(Searches).seed
-            runs = run_searches(context, varied, METHODS, seed, 1, budget,
-                                name, options={"local": {"start": chosen.order}},
-                                progress_label=f"sensitivity: {name}")
+            runs = run_searches(
+                context,
+                varied,
+                METHODS,
+                seed,
+                1,
+                budget,
+                name,
+                options={"local": {"start": chosen.order}},
+                progress_label=f"sensitivity: {name}",
+            )
             finalists = [o for run in runs for o in finalist_orders(run, context.config(Finalists).per_run)]
             orders = list(dict.fromkeys(list(compared.values()) + finalists))
             full = dict(zip(orders, varied.evaluate(orders, context.evaluator, FULL)))
-            full_task, = varied.tasks(FULL)
+            (full_task,) = varied.tasks(FULL)
             best = best_of(list(full.values()) + context.evaluator.known(full_task))
-            designs = tuple(Compared(label, order, full[order].value,
-                                     (full[order].value - best.value) if full[order].ok and best else None,
-                                     full[order].status, "" if full[order].ok else full[order].message)
-                            for label, order in compared.items())
+            designs = tuple(
+                Compared(
+                    label,
+                    order,
+                    full[order].value,
+                    (full[order].value - best.value) if full[order].ok and best else None,
+                    full[order].status,
+                    "" if full[order].ok else full[order].message,
+                )
+                for label, order in compared.items()
+            )
             found.append(Variation(name, change, best, designs))
         return SensitivityResult(budget, METHODS, rule, tuple(found))
 
@@ -152,9 +179,19 @@ class Sensitivity(Step):
         result = context.result(Sensitivity)
         count = len(result.variations) if result else 0
         budget = result.budget if result else self.config.budget or DEFAULT_BUDGET
-        return (f"{len(METHODS)} short searches of {budget} designs for each of {count} variations of the case, "
-                "then the compared designs at full fidelity; --sensitivity-budget N or --no-sensitivity bounds it")
+        return (
+            f"{len(METHODS)} short searches of {budget} designs for each of {count} variations of the case, "
+            "then the compared designs at full fidelity; --sensitivity-budget N or --no-sensitivity bounds it"
+        )
 
 
-__all__ = ["Compared", "Sensitivity", "SensitivityConfig", "SensitivityResult", "Variation", "search_budget",
-           "searched_designs", "variations"]
+__all__ = [
+    "Compared",
+    "Sensitivity",
+    "SensitivityConfig",
+    "SensitivityResult",
+    "Variation",
+    "search_budget",
+    "searched_designs",
+    "variations",
+]

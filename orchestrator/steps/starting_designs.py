@@ -2,6 +2,7 @@
 the design space once. The searches start from them, the finalists include them, and the Starts step compares
 them with the answers, so they live below all three.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -20,13 +21,21 @@ COMMENT = "#"
 @dataclass(frozen=True)
 class StartsConfig:
     start: tuple[str, ...] = option(
-        (), "a design every search evaluates first and starts from: the material of each column, column 1 "
-        f"(at the load) first, e.g. {DESIGN_EXAMPLE} (repeatable)", action="append", metavar="ORDER")
+        (),
+        "a design every search evaluates first and starts from: the material of each column, column 1 "
+        f"(at the load) first, e.g. {DESIGN_EXAMPLE} (repeatable)",
+        action="append",
+        metavar="ORDER",
+    )
     start_file: str | None = option(
-        None, "starting designs, one per line as for --start (# starts a comment), or an Optuna storage "
+        None,
+        "starting designs, one per line as for --start (# starts a comment), or an Optuna storage "
         "(e.g. sqlite:///study.db, needs the optuna extra): the best trial of each of its studies (with several "
         "objectives, each study's Pareto front)",
-        metavar="FILE", path=True, show_default="none")
+        metavar="FILE",
+        path=True,
+        show_default="none",
+    )
 
     def __post_init__(self):
         for text in self.start:

@@ -5,6 +5,7 @@ The designs are read and checked against the design space before any simulation.
 starting design is evaluated at full fidelity under each rule (the finalists' evaluation when it was one: the
 evaluator's cache) and compared with that rule's answer, in the objective's unit and in per cent.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -15,6 +16,7 @@ from ..types import Order
 from .answers import Answers
 from .searches import rule_label
 from .starting_designs import StartsConfig, starting_designs
+
 
 @dataclass(frozen=True)
 class StartComparison:
@@ -59,12 +61,19 @@ class Starts(Step):
             for evaluation in context.objective(rule).evaluate(designs, context.evaluator, FULL):
                 value = evaluation.value if evaluation.ok else None
                 improvement = None if value is None else value - answer.peak
-                comparisons.append(StartComparison(
-                    diagonal_rule=answer.diagonal_rule, order=evaluation.order,
-                    materials=tuple(context.case.materials.name_of(m) for m in evaluation.order), value=value,
-                    message=evaluation.message, answer=answer.order, answer_value=answer.peak,
-                    improvement=improvement,
-                    improvement_percent=None if value in (None, 0) else 100.0 * improvement / value))
+                comparisons.append(
+                    StartComparison(
+                        diagonal_rule=answer.diagonal_rule,
+                        order=evaluation.order,
+                        materials=tuple(context.case.materials.name_of(m) for m in evaluation.order),
+                        value=value,
+                        message=evaluation.message,
+                        answer=answer.order,
+                        answer_value=answer.peak,
+                        improvement=improvement,
+                        improvement_percent=None if value in (None, 0) else 100.0 * improvement / value,
+                    )
+                )
         return StartsResult(designs, tuple(comparisons))
 
 
@@ -74,11 +83,12 @@ def comparison_line(comparison: StartComparison, unit: str) -> str:
     if comparison.value is None:
         return f"{start}: its evaluation failed ({comparison.message}) under the {comparison.diagonal_rule} rule"
     if comparison.answer == comparison.order:
-        return (f"{start}: {comparison.value:.2f} {unit} under the {comparison.diagonal_rule} rule; the searches "
-                "found nothing better: it is the answer")
+        return (
+            f"{start}: {comparison.value:.2f} {unit} under the {comparison.diagonal_rule} rule; the searches "
+            "found nothing better: it is the answer"
+        )
     if comparison.improvement > 0:
-        how = (f"the answer is {comparison.improvement:.2f} {unit} ({comparison.improvement_percent:.1f} %) "
-               "lower")
+        how = f"the answer is {comparison.improvement:.2f} {unit} ({comparison.improvement_percent:.1f} %) lower"
     else:
         how = f"the answer is {-comparison.improvement:.2f} {unit} higher (see the answer's evidence)"
     return f"{start}: {comparison.value:.2f} {unit} under the {comparison.diagonal_rule} rule; {how}"

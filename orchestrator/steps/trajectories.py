@@ -1,5 +1,6 @@
 """The force on the backplate over time for the answers and the baselines, and the energy balance of each
 answer: the report's charts, computed as tasks of the evaluator (journalled, resumed, parallel)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -35,7 +36,7 @@ class TrajectoriesResult:
 
 def record(context: StudyContext, rule_label: str, order, horizon: float, step: float, outputs) -> RecordRun:
     rule = rule_label if rule_label in context.case.rules else None
-    full, = context.objective(rule).with_cases(None).tasks(FULL)
+    (full,) = context.objective(rule).with_cases(None).tasks(FULL)
     return RecordRun(full.fmu_path, order, horizon, step, full.parameters, tuple(outputs), full.fmu_sha256)
 
 
@@ -58,23 +59,30 @@ class Trajectories(Step):
         case = context.case
         horizon = min(max(FORCE_HORIZON, case.search_horizon or case.horizon), case.horizon)  # the searches' span
         forces = ("backplate_force", "contact_force") if case.load_mode == PROJECTILE else ("backplate_force",)
-        force_tasks = [record(context, chosen.diagonal_rule, order, horizon, FORCE_STEP, forces)
-                       for order in designs.values()]
-        energy_tasks = [record(context, a.diagonal_rule, a.order, context.case.horizon, ENERGY_STEP, ENERGY_OUTPUTS)
-                        for a in answers]
+        force_tasks = [
+            record(context, chosen.diagonal_rule, order, horizon, FORCE_STEP, forces) for order in designs.values()
+        ]
+        energy_tasks = [
+            record(context, a.diagonal_rule, a.order, context.case.horizon, ENERGY_STEP, ENERGY_OUTPUTS)
+            for a in answers
+        ]
         results = context.evaluator.run(force_tasks + energy_tasks)
-        force = tuple(LabelledTrajectory(label, chosen.diagonal_rule, t)
-                      for label, t in zip(designs, results[:len(force_tasks)]))
-        energy = tuple(LabelledTrajectory(f"{a.diagonal_rule} rule's answer", a.diagonal_rule, t)
-                       for a, t in zip(answers, results[len(force_tasks):]))
+        force = tuple(
+            LabelledTrajectory(label, chosen.diagonal_rule, t) for label, t in zip(designs, results[: len(force_tasks)])
+        )
+        energy = tuple(
+            LabelledTrajectory(f"{a.diagonal_rule} rule's answer", a.diagonal_rule, t)
+            for a, t in zip(answers, results[len(force_tasks) :])
+        )
         return TrajectoriesResult(force, energy)
 
     def cost_note(self, context: StudyContext) -> str:
         return "one recorded run of each answer and baseline for the force and energy charts, whatever the budget"
 
     def chart(self, study, path):
-        return draw_force_and_energy(study, path, study.case.line(),
-                                     struck=study.case.load.get("load_mode") == PROJECTILE)
+        return draw_force_and_energy(
+            study, path, study.case.line(), struck=study.case.load.get("load_mode") == PROJECTILE
+        )
 
 
 def draw_impact(study, path: Path) -> str | None:
@@ -93,12 +101,17 @@ def draw_impact(study, path: Path) -> str | None:
         t = labelled.trajectory
         contact = np.array(t.values["contact_force"])
         plate = np.array(t.values["backplate_force"])
-        contact_axis.plot(t.time, contact, color=colour,
-                          label=f"{labelled.label} {list(t.order)}: peak {contact.max():.1f} N")
-        plate_axis.plot(t.time, plate, color=colour,
-                        label=f"{labelled.label} {list(t.order)}: peak {plate.max():.1f} N every 1 ms")
-    contact_axis.set_title(f"Contact force of the {load['projectile_mass']:g} kg projectile at "
-                           f"{load['projectile_speed']:g} m/s on column 1", fontsize=9)
+        contact_axis.plot(
+            t.time, contact, color=colour, label=f"{labelled.label} {list(t.order)}: peak {contact.max():.1f} N"
+        )
+        plate_axis.plot(
+            t.time, plate, color=colour, label=f"{labelled.label} {list(t.order)}: peak {plate.max():.1f} N every 1 ms"
+        )
+    contact_axis.set_title(
+        f"Contact force of the {load['projectile_mass']:g} kg projectile at "
+        f"{load['projectile_speed']:g} m/s on column 1",
+        fontsize=9,
+    )
     plate_axis.set_title(f"Force on the backplate ({drawn[0].diagonal_rule} rule)", fontsize=9)
     for axis, what in ((contact_axis, "contact force (N)"), (plate_axis, "backplate force (N)")):
         axis.set_xlabel("time (s)")
@@ -118,8 +131,10 @@ def draw_force_and_energy(study, path: Path, context_line: str, struck: bool = F
     figure, (force_axis, energy_axis) = plt.subplots(1, 2, figsize=(13, 5.6))
     # the answers in their rules' colours, the sequential baseline in the baseline method's, the others grey
     # and dashed; the chosen design (the first) is drawn last, so no other curve hides it
-    colours = {labelled.label: colour for labelled, colour in zip(
-        [f for f in trajectories.force if f.label.endswith("rule's answer")], RULE_COLOURS)}
+    colours = {
+        labelled.label: colour
+        for labelled, colour in zip([f for f in trajectories.force if f.label.endswith("rule's answer")], RULE_COLOURS)
+    }
     colours["sequential"] = COLOURS["sequential"]
     for rank, labelled in reversed(list(enumerate(trajectories.force))):
         t = labelled.trajectory
@@ -130,25 +145,45 @@ def draw_force_and_energy(study, path: Path, context_line: str, struck: bool = F
         samples = np.abs(time / 0.01 - np.round(time / 0.01)) < 1e-6
         sampled = force[samples].max() if samples.any() else float("nan")
         answer = labelled.label in colours and labelled.label != "sequential"
-        force_axis.plot(time, force, color=colours.get(labelled.label, "0.55"), lw=2.2 if rank == 0 else 1.3,
-                        ls="-" if answer else (0, (5, 2)), zorder=3 if rank == 0 else 2,
-                        label=f"{labelled.label} {list(t.order)}: peak {force.max():.1f} N every 1 ms, "
-                              f"{sampled:.1f} N at the 0.01 s samples")
+        force_axis.plot(
+            time,
+            force,
+            color=colours.get(labelled.label, "0.55"),
+            lw=2.2 if rank == 0 else 1.3,
+            ls="-" if answer else (0, (5, 2)),
+            zorder=3 if rank == 0 else 2,
+            label=f"{labelled.label} {list(t.order)}: peak {force.max():.1f} N every 1 ms, "
+            f"{sampled:.1f} N at the 0.01 s samples",
+        )
     handles, labels = force_axis.get_legend_handles_labels()
-    force_axis.legend(handles[::-1], labels[::-1], fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.16),
-                      frameon=False)  # in the order of the designs: the chosen one first
+    force_axis.legend(
+        handles[::-1], labels[::-1], fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False
+    )  # in the order of the designs: the chosen one first
     force_axis.set_xlabel("time (s)")
     force_axis.set_ylabel("backplate force (N)")
-    force_axis.set_title(f"Force on the backplate ({trajectories.force[0].diagonal_rule if trajectories.force else ''}"
-                         f" rule), recorded every 1 ms", fontsize=9)
+    force_axis.set_title(
+        f"Force on the backplate ({trajectories.force[0].diagonal_rule if trajectories.force else ''}"
+        f" rule), recorded every 1 ms",
+        fontsize=9,
+    )
     force_axis.grid(alpha=0.3)
-    names = {"kinetic_energy": "KE", "potential_energy": "PE", "external_work": "W_ext",
-             "dissipated_energy": "D", "nonreciprocal_work": "W_nr", "energy_balance_error": "balance error"}
+    names = {
+        "kinetic_energy": "KE",
+        "potential_energy": "PE",
+        "external_work": "W_ext",
+        "dissipated_energy": "D",
+        "nonreciprocal_work": "W_nr",
+        "energy_balance_error": "balance error",
+    }
     if trajectories.energy and trajectories.energy[0].trajectory.ok:
         first = trajectories.energy[0]
         for name, values in first.trajectory.values.items():
-            energy_axis.plot(first.trajectory.time, values, ":" if name == "energy_balance_error" else "-",
-                             label=names.get(name, name))
+            energy_axis.plot(
+                first.trajectory.time,
+                values,
+                ":" if name == "energy_balance_error" else "-",
+                label=names.get(name, name),
+            )
         balance = "E_0 + W_nr = KE + PE + D" if struck else "W_ext + W_nr = KE + PE + D"
         energy_axis.set_title(f"Energy of the {first.label} ({first.diagonal_rule} rule): {balance}", fontsize=9)
         legend_below(energy_axis, columns=3)

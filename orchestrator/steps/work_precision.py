@@ -1,5 +1,6 @@
 """Speed against accuracy of the FMU's solvers for the chosen design: each solver setting over the full
 scene, against the accuracy step's tight reference (python -m bench.work_precision does it over many designs)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -12,12 +13,20 @@ from .accuracy import Accuracy, relative_difference
 from .answers import Answers
 
 TARGET = 1e-6  # the relative accuracy the FMU's default promises for the reported peaks
-SETTINGS = ([("DOP853 (adaptive)", {"solver": "dop853", "rtol": r, "atol": r * 1e-2}, f"rtol {r:g}")
-             for r in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)]
-            + [("RK4 (fixed step)", {"solver": "rk4", "fixed_step": h}, f"step {h:g} s")
-               for h in (1e-3, 3e-3, 1e-2, 2e-2, 4e-2)]
-            + [("semi-implicit Euler (fixed step)", {"solver": "semi_implicit_euler", "fixed_step": h}, f"step {h:g} s")
-               for h in (1e-4, 3e-4, 1e-3, 3e-3)])
+SETTINGS = (
+    [
+        ("DOP853 (adaptive)", {"solver": "dop853", "rtol": r, "atol": r * 1e-2}, f"rtol {r:g}")
+        for r in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+    ]
+    + [
+        ("RK4 (fixed step)", {"solver": "rk4", "fixed_step": h}, f"step {h:g} s")
+        for h in (1e-3, 3e-3, 1e-2, 2e-2, 4e-2)
+    ]
+    + [
+        ("semi-implicit Euler (fixed step)", {"solver": "semi_implicit_euler", "fixed_step": h}, f"step {h:g} s")
+        for h in (1e-4, 3e-4, 1e-3, 3e-3)
+    ]
+)
 
 
 @dataclass(frozen=True)
@@ -52,19 +61,24 @@ class WorkPrecision(Step):
         answer = context.result(Answers).chosen
         reference = context.result(Accuracy).reference_value
         rule = answer.diagonal_rule if answer.diagonal_rule in context.case.rules else None
-        full, = context.objective(rule).tasks(FULL)
+        (full,) = context.objective(rule).tasks(FULL)
         runs = [full.with_parameters(**settings) for _, settings, _ in SETTINGS]
         fmu = context.fmu
-        default_label = (f"default: {fmu.start('solver', 'dop853')} at rtol {fmu.start('rtol', 0):g}, "
-                         f"atol {fmu.start('atol', 0):g}")
+        default_label = (
+            f"default: {fmu.start('solver', 'dop853')} at rtol {fmu.start('rtol', 0):g}, atol {fmu.start('atol', 0):g}"
+        )
         results = context.evaluator.evaluate([(run, answer.order) for run in [full] + runs])
-        points = [self.point(family, label, e, reference)
-                  for (family, _, label), e in zip([("the FMU's default", None, default_label)] + SETTINGS, results)]
+        points = [
+            self.point(family, label, e, reference)
+            for (family, _, label), e in zip([("the FMU's default", None, default_label)] + SETTINGS, results)
+        ]
         return WorkPrecisionResult(answer.diagonal_rule, TARGET, points[0], tuple(points[1:]))
 
     def cost_note(self, context: StudyContext) -> str:
-        return ("each solver setting of the FMU once on the chosen design, for the work-precision chart, whatever "
-                "the budget")
+        return (
+            "each solver setting of the FMU once on the chosen design, for the work-precision chart, whatever "
+            "the budget"
+        )
 
     @staticmethod
     def point(family: str, label: str, evaluation, reference: float) -> SolverPoint:
@@ -87,17 +101,40 @@ def draw_work_precision(study, path: Path) -> str | None:
     for family, colour in zip(families, ("tab:blue", "tab:orange", "tab:green")):
         good = [p for p in result.points if p.solver == family and p.relative_error is not None]
         bad = [p for p in result.points if p.solver == family and p.relative_error is None]
-        axis.plot([p.seconds for p in good], [max(p.relative_error, 1e-16) for p in good], "o-", color=colour,
-                  label=family)
-        labels += [axis.annotate(p.setting, (p.seconds, max(p.relative_error, 1e-16)), fontsize=6, color=colour,
-                                 textcoords="offset points", xytext=(3, 3)) for p in good]
+        axis.plot(
+            [p.seconds for p in good], [max(p.relative_error, 1e-16) for p in good], "o-", color=colour, label=family
+        )
+        labels += [
+            axis.annotate(
+                p.setting,
+                (p.seconds, max(p.relative_error, 1e-16)),
+                fontsize=6,
+                color=colour,
+                textcoords="offset points",
+                xytext=(3, 3),
+            )
+            for p in good
+        ]
         if bad:
-            axis.plot([max(p.seconds, 1e-5) for p in bad], [1.0] * len(bad), "x", color=colour, ms=9,
-                      label=f"{family}: failed with an FMI error ({', '.join(p.setting for p in bad)})")
+            axis.plot(
+                [max(p.seconds, 1e-5) for p in bad],
+                [1.0] * len(bad),
+                "x",
+                color=colour,
+                ms=9,
+                label=f"{family}: failed with an FMI error ({', '.join(p.setting for p in bad)})",
+            )
     default = result.default
     if default.relative_error is not None:
-        axis.plot([default.seconds], [max(default.relative_error, 1e-16)], "*", ms=15, color="gold",
-                  markeredgecolor="k", label=f"the FMU's {default.setting}: what every number above used")
+        axis.plot(
+            [default.seconds],
+            [max(default.relative_error, 1e-16)],
+            "*",
+            ms=15,
+            color="gold",
+            markeredgecolor="k",
+            label=f"the FMU's {default.setting}: what every number above used",
+        )
     axis.axhline(result.target, color="crimson", ls="--", lw=1, label=f"{result.target:g}: the accuracy target")
     if any(p.relative_error is not None for p in result.points):
         axis.set_xscale("log")

@@ -10,6 +10,7 @@ inside a Python interpreter, which must have numpy and scipy.  Same variable nam
 fmpy code path (``orchestrator.simulation.LatticeFMU``) drives both: that is how the two are compared in the tests.
 Nothing is done at import (pythonfmu is imported only when building).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -37,18 +38,23 @@ def build_reference_fmu(output: str | Path | None = None) -> Path:
         # a clean copy of the package: no caches, no build leftovers, nothing of the 3-D reference or the armour
         # system (other models)
         package = Path(staging) / "reference"
-        shutil.copytree(REFERENCE_DIR, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "lattice3d.py",
-                                                                              "system.py", "*.json", "README.md"))
+        shutil.copytree(
+            REFERENCE_DIR,
+            package,
+            ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "lattice3d.py", "system.py", "*.json", "README.md"),
+        )
         # the study's material table and orders come from fmu_src, the one place each is written: the FMU carries
         # those modules as a package of its own
         materials = Path(staging) / "fmu_src"
         materials.mkdir()
-        (materials / "__init__.py").write_text('"""fmu_src.materials and fmu_src.published alone, for the reference '
-                                               'model."""\n')
+        (materials / "__init__.py").write_text(
+            '"""fmu_src.materials and fmu_src.published alone, for the reference model."""\n'
+        )
         for module in FMU_SRC_MODULES:
             shutil.copy2(module, materials / module.name)
-        built = FmuBuilder.build_FMU(SLAVE_SCRIPT, dest=Path(staging) / f"{MODEL_IDENTIFIER}.fmu",
-                                     project_files=[package, materials])
+        built = FmuBuilder.build_FMU(
+            SLAVE_SCRIPT, dest=Path(staging) / f"{MODEL_IDENTIFIER}.fmu", project_files=[package, materials]
+        )
         partial = output.with_suffix(".fmu.partial")
         shutil.copyfile(built, partial)
         partial.replace(output)  # never leave a half-written FMU where an importer could load it

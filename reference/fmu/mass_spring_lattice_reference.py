@@ -13,6 +13,7 @@ passes log messages on only to an importer that instantiates with ``loggingOn``.
 An importer needs a Python 3 interpreter with numpy and scipy (the FMU runs inside it); the C FMU is the
 one to ship, this one is the independent oracle.
 """
+
 from __future__ import annotations
 
 import math
@@ -51,11 +52,26 @@ INTEGER_PARAMETERS = {
 # like the C FMU of the armour scene (scenes/armour_11x11.json), spring_law and has_backplate are not exposed:
 # exponential springs and the backplate are fixed
 REAL_OUTPUTS = (
-    "backplate_force", "peak_backplate_force", "max_compression", "peak_backplate_force_continuous", "peak_time",
-    "last_contact_time", "kinetic_energy", "potential_energy", "external_work", "dissipated_energy",
-    "nonreciprocal_work", "energy_balance_error",
-    "ux_corner", "uy_corner", "ux_left_edge", "uy_left_edge", "ux_centre", "uy_centre",
-    "ux_right_edge", "uy_right_edge",
+    "backplate_force",
+    "peak_backplate_force",
+    "max_compression",
+    "peak_backplate_force_continuous",
+    "peak_time",
+    "last_contact_time",
+    "kinetic_energy",
+    "potential_energy",
+    "external_work",
+    "dissipated_energy",
+    "nonreciprocal_work",
+    "energy_balance_error",
+    "ux_corner",
+    "uy_corner",
+    "ux_left_edge",
+    "uy_left_edge",
+    "ux_centre",
+    "uy_centre",
+    "ux_right_edge",
+    "uy_right_edge",
 )
 INTEGER_OUTPUTS = ("rhs_evaluations", "steps_accepted", "steps_rejected")
 
@@ -64,8 +80,10 @@ class MassSpringLatticeReference(Fmi2Slave):
     """11 x 11 lattice of docs/model.md, integrated by reference/ (numpy + scipy DOP853)."""
 
     author = "mass-spring-lattice project"
-    description = ("Reference FMU: the numpy/scipy model of reference/ (docs/model.md), scipy DOP853; "
-                   "needs a Python interpreter with numpy and scipy")
+    description = (
+        "Reference FMU: the numpy/scipy model of reference/ (docs/model.md), scipy DOP853; "
+        "needs a Python interpreter with numpy and scipy"
+    )
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -97,15 +115,30 @@ class MassSpringLatticeReference(Fmi2Slave):
     # ------------------------------------------------------------------ variables
     def _parameter(self, name, kind, start, description):
         self.values[name] = start
-        self.register_variable(kind(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
-                                    description=description, getter=lambda n=name: self.values[n],
-                                    setter=lambda v, n=name: self.values.__setitem__(n, v)), nested=False)
+        self.register_variable(
+            kind(
+                name,
+                causality=Fmi2Causality.parameter,
+                variability=Fmi2Variability.fixed,
+                description=description,
+                getter=lambda n=name: self.values[n],
+                setter=lambda v, n=name: self.values.__setitem__(n, v),
+            ),
+            nested=False,
+        )
 
     def _output(self, name, kind, variability):
         # initial="exact" (the lattice starts at rest, every output is 0): pythonfmu writes no InitialUnknowns
-        self.register_variable(kind(name, causality=Fmi2Causality.output, variability=variability,
-                                    initial=Fmi2Initial.exact, getter=lambda n=name: self.outputs[n]),
-                               nested=False)
+        self.register_variable(
+            kind(
+                name,
+                causality=Fmi2Causality.output,
+                variability=variability,
+                initial=Fmi2Initial.exact,
+                getter=lambda n=name: self.outputs[n],
+            ),
+            nested=False,
+        )
 
     # ------------------------------------------------------------------ FMI
     def setup_experiment(self, start_time, stop_time, tolerance):
@@ -122,8 +155,10 @@ class MassSpringLatticeReference(Fmi2Slave):
         order = [int(v[f"material[{j}]"]) for j in range(1, COLS + 1)]
         distinct = int(v["repeat_materials"]) == 0
         if not all(1 <= p <= COLS for p in order) or (distinct and len(set(order)) != COLS):
-            raise ValueError(f"material[1..{COLS}] = {order} is not allowed: allowed values are "
-                             + (f"a permutation of 1..{COLS}" if distinct else f"each in 1..{COLS}"))
+            raise ValueError(
+                f"material[1..{COLS}] = {order} is not allowed: allowed values are "
+                + (f"a permutation of 1..{COLS}" if distinct else f"each in 1..{COLS}")
+            )
         for name, (_, check, allowed) in REAL_PARAMETERS.items():
             if not check(float(v[name])):
                 raise ValueError(f"{name} = {v[name]!r} is not allowed: allowed values are {allowed}")
@@ -135,19 +170,33 @@ class MassSpringLatticeReference(Fmi2Slave):
                 value = float(v[f"{array}[{m}]"])
                 ok = _finite(value) and (value > 0 if array.startswith("alpha") else value >= 0)
                 if not ok:
-                    raise ValueError(f"{array}[{m}] = {value!r} is not allowed: allowed values are "
-                                     f"a finite number in {'(0' if array.startswith('alpha') else '[0'}, inf)")
+                    raise ValueError(
+                        f"{array}[{m}] = {value!r} is not allowed: allowed values are "
+                        f"a finite number in {'(0' if array.startswith('alpha') else '[0'}, inf)"
+                    )
         masses = {float(v[f"mass[{m}]"]) for m in range(1, COLS + 1)}
         if len(masses) != 1 or not all(_finite(mass) and mass > 0 for mass in masses):
-            raise ValueError(f"mass[1..{COLS}] = {sorted(masses)} is not allowed: allowed values are one finite number "
-                             f"in (0, inf) for every material (this reference has one mass for every node)")
+            raise ValueError(
+                f"mass[1..{COLS}] = {sorted(masses)} is not allowed: allowed values are one finite number "
+                f"in (0, inf) for every material (this reference has one mass for every node)"
+            )
         table = {a: [float(v[f"{a}[{m}]"]) for m in range(1, COLS + 1)] for a in MATERIAL_ARRAYS}
         return Scene(
-            rows=ROWS, cols=COLS, order=tuple(order), **table,
-            k0=float(v["k_horizontal"]), alpha0=float(v["alpha_horizontal"]), c0=float(v["c_horizontal"]),
-            mass=masses.pop(), F_total=float(v["F_total"]), load_angle=float(v["load_angle"]),
-            t_active=float(v["t_active"]), wall=True, k_wall=float(v["k_wall"]),
-            c_wall=float(v["c_wall"]), backplate_gap=float(v["backplate_gap"]),
+            rows=ROWS,
+            cols=COLS,
+            order=tuple(order),
+            **table,
+            k0=float(v["k_horizontal"]),
+            alpha0=float(v["alpha_horizontal"]),
+            c0=float(v["c_horizontal"]),
+            mass=masses.pop(),
+            F_total=float(v["F_total"]),
+            load_angle=float(v["load_angle"]),
+            t_active=float(v["t_active"]),
+            wall=True,
+            k_wall=float(v["k_wall"]),
+            c_wall=float(v["c_wall"]),
+            backplate_gap=float(v["backplate_gap"]),
             diagonal_rule=("receiver", "mean")[int(v["diagonal_rule"])],
             spring_law="exponential",
         )
@@ -160,8 +209,14 @@ class MassSpringLatticeReference(Fmi2Slave):
             scene = self.scene()
             if self.stop_time is not None and not self.stop_time >= self.start_time:
                 raise ValueError(f"stop time {self.stop_time} is before the start time {self.start_time}")
-            self.stepper = Stepper(scene, float(self.values["rtol"]), float(self.values["atol"]),
-                                   float(self.values["peak_sample_interval"]), self.start_time, self.stop_time)
+            self.stepper = Stepper(
+                scene,
+                float(self.values["rtol"]),
+                float(self.values["atol"]),
+                float(self.values["peak_sample_interval"]),
+                self.start_time,
+                self.stop_time,
+            )
             self.outputs.update(self.stepper.outputs())
         except ValueError as exc:
             self.failure = f"parameters refused at exitInitializationMode: {exc}"

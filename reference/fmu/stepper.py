@@ -18,6 +18,7 @@ The load is switched off exactly at ``t_active`` (the solver of the loaded phase
 no event location at the backplate's switches: the adaptive error control takes care of them, which makes
 this an independent check of the C FMU's event handling.  Pure numpy/scipy.
 """
+
 from __future__ import annotations
 
 import math
@@ -49,8 +50,15 @@ class SimulationDiverged(RuntimeError):
 class Stepper:
     """Advance one scene from rest at ``start_time`` to successive communication points."""
 
-    def __init__(self, scene: Scene, rtol: float, atol: float, sample_interval: float = 0.01,
-                 start_time: float = 0.0, stop_time: float | None = None):
+    def __init__(
+        self,
+        scene: Scene,
+        rtol: float,
+        atol: float,
+        sample_interval: float = 0.01,
+        start_time: float = 0.0,
+        stop_time: float | None = None,
+    ):
         if not isinstance(scene, Scene):
             raise ValueError(f"Stepper: scene must be a reference.Scene, got {type(scene).__name__}")
         for name, value in (("rtol", rtol), ("atol", atol), ("sample_interval", sample_interval)):
@@ -75,7 +83,7 @@ class Stepper:
         self.t_old = self.t_new = self.time
         self.z = np.zeros(self.n + 3)  # state and (W_ext, D, W_nr) at t_new
         # the start state's potential energy counts as energy put in (a negative gap presses from t = 0)
-        self.initial_energy = energies(scene, self.z[:self.n])[1]
+        self.initial_energy = energies(scene, self.z[: self.n])[1]
         self.h_last = None
         self.rhs_evaluations = 0
         self.steps_accepted = 0
@@ -142,8 +150,15 @@ class Stepper:
         first = None
         if self.h_last is not None:
             first = min(self.h_last, t_bound - self.t_new)
-        self.solver = DOP853(self._fun(self.load_on), self.t_new, self.z.copy(), t_bound, rtol=self.rtol,
-                             atol=self.atol, first_step=first)
+        self.solver = DOP853(
+            self._fun(self.load_on),
+            self.t_new,
+            self.z.copy(),
+            t_bound,
+            rtol=self.rtol,
+            atol=self.atol,
+            first_step=first,
+        )
         self._solver_nfev = 0
         self._solver_start_evals = 1 + (first is None)
         self._solver_dense = 0
@@ -152,18 +167,22 @@ class Stepper:
     def _take_step(self) -> None:
         s = self.solver
         if s is None or s.status != "running":
-            raise SimulationDiverged(f"cannot step past t = {self.t_new:.17g}: beyond the stop time "
-                                     f"{self.stop_time:.17g} given at setup")
+            raise SimulationDiverged(
+                f"cannot step past t = {self.t_new:.17g}: beyond the stop time {self.stop_time:.17g} given at setup"
+            )
         nfev_before = s.nfev
         message = s.step()
         if s.status == "failed":
-            raise SimulationDiverged(f"the solution diverged at t = {s.t:.9g} s: scipy DOP853 failed "
-                                     f"({message}; rtol = {self.rtol:g})")
+            raise SimulationDiverged(
+                f"the solution diverged at t = {s.t:.9g} s: scipy DOP853 failed ({message}; rtol = {self.rtol:g})"
+            )
         step = s.t - s.t_old
         if step < MIN_STEP * max(1.0, abs(s.t)) and s.t < s.t_bound:
-            raise SimulationDiverged(f"the solution diverged at t = {s.t:.9g} s: step size collapsed to {step:g} s "
-                                     f"(the solution is diverging or too stiff for rtol = {self.rtol:g}, "
-                                     f"atol = {self.atol:g})")
+            raise SimulationDiverged(
+                f"the solution diverged at t = {s.t:.9g} s: step size collapsed to {step:g} s "
+                f"(the solution is diverging or too stiff for rtol = {self.rtol:g}, "
+                f"atol = {self.atol:g})"
+            )
         attempts = (s.nfev - nfev_before) // STAGES
         self.steps_accepted += 1
         self.steps_rejected += max(0, attempts - 1)
@@ -175,8 +194,9 @@ class Stepper:
         self._step_peak = None
         self._step_committed = False
         if not np.all(np.isfinite(self.z)):
-            raise SimulationDiverged(f"the solution diverged at t = {self.t_new:.9g} s: the state is not "
-                                     f"finite (rtol = {self.rtol:g})")
+            raise SimulationDiverged(
+                f"the solution diverged at t = {self.t_new:.9g} s: the state is not finite (rtol = {self.rtol:g})"
+            )
         self._check_energy()
         self._track_contact()
         if self.load_on and s.status == "finished" and self.t_new >= self.scene.t_active:
@@ -185,14 +205,16 @@ class Stepper:
 
     def _check_energy(self) -> None:
         n = self.n
-        v = self.z[2 * self.N:n]
+        v = self.z[2 * self.N : n]
         kinetic = 0.5 * self.scene.mass * float(v @ v)
         injected = self.initial_energy + abs(self.z[n]) + abs(self.z[n + 2])
         impulse = abs(self.scene.F_total) * max(self.scene.t_active, self.sample_interval)
         floor = 1e-9 + 1e-6 * impulse * impulse / self.scene.mass
         if not (math.isfinite(kinetic) and kinetic <= ENERGY_LIMIT_FACTOR * injected + floor):
-            raise SimulationDiverged(f"the solution diverged at t = {self.t_new:.9g} s: kinetic energy "
-                                     f"{kinetic:g} J against {injected:g} J of energy put in (rtol = {self.rtol:g})")
+            raise SimulationDiverged(
+                f"the solution diverged at t = {self.t_new:.9g} s: kinetic energy "
+                f"{kinetic:g} J against {injected:g} J of energy put in (rtol = {self.rtol:g})"
+            )
 
     def _track_contact(self) -> None:
         if not self.scene.wall:
@@ -225,8 +247,12 @@ class Stepper:
         best, best_t = float(values[i]), float(grid[i])
         if best > 0:
             lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, FINE_POINTS)]
-            res = minimize_scalar(lambda t: -float(self.backplate_force(self.dense(t))), bounds=(lo, hi),
-                                  method="bounded", options={"xatol": 1e-13 * max(1.0, hi)})
+            res = minimize_scalar(
+                lambda t: -float(self.backplate_force(self.dense(t))),
+                bounds=(lo, hi),
+                method="bounded",
+                options={"xatol": 1e-13 * max(1.0, hi)},
+            )
             if -res.fun > best:
                 best, best_t = float(-res.fun), float(res.x)
         return best, best_t
@@ -297,8 +323,12 @@ class Stepper:
         w_ext, diss, w_nr = (float(x) for x in z[n:])
         sc = self.scene
         mid_row, mid_col = (sc.rows + 1) // 2, (sc.cols + 1) // 2
-        places = {"corner": (1, 1), "left_edge": (mid_row, 1), "centre": (mid_row, mid_col),
-                  "right_edge": (mid_row, sc.cols)}
+        places = {
+            "corner": (1, 1),
+            "left_edge": (mid_row, 1),
+            "centre": (mid_row, mid_col),
+            "right_edge": (mid_row, sc.cols),
+        }
         out = {
             "backplate_force": float(self.backplate_force(z)),
             "peak_backplate_force": self.peak_sampled if math.isfinite(self.peak_sampled) else 0.0,

@@ -13,6 +13,7 @@ Exchange with CVODE, at OMSimulator's defaults unless "tolerance" is given). One
 (its `error:` lines) goes to stdout around it. Nothing here imports the project: it runs with only
 OMSimulator installed.
 """
+
 import ctypes
 import json
 import sys
@@ -66,8 +67,10 @@ def run_import_file(request, failures):
     Capi.setResultFile(model, "", 0)
     for step in ("instantiate", "initialize", "simulate"):
         check(failures, step, getattr(Capi, step)(model))
-    values = {output: read(failures, f"{model}.{request['system']}.{request['component']}.{output}")
-              for output in request["outputs"]}
+    values = {
+        output: read(failures, f"{model}.{request['system']}.{request['component']}.{output}")
+        for output in request["outputs"]
+    }
     Capi.terminate(model)
     Capi.delete(model)
     return values
@@ -79,8 +82,10 @@ def run_ssp_class(request, failures):
     instance.setResultFile("", 0)
     instance.initialize()
     instance.simulate()
-    values = {output: instance.getValue(CRef(request["system"], request["component"], output))
-              for output in request["outputs"]}
+    values = {
+        output: instance.getValue(CRef(request["system"], request["component"], output))
+        for output in request["outputs"]
+    }
     instance.terminate()
     instance.delete()
     return values
