@@ -146,7 +146,9 @@ def test_a_sweep_through_slurm_jobs_gives_the_process_pools_certificate(pool_swe
 @needs_slurm
 def test_a_sweep_longer_than_a_jobs_walltime_ends_certified(pool_sweep, tmp_path):
     out = tmp_path / "sweep"
-    done = run_sweep(out, *slurm_options(tmp_path, 2, "00:00:15"))
+    # a walltime of 5 s: its workers leave after 5 s, a few tenths of a second of chunks each after their start,
+    # far less than the sweep's core-time on any machine, so jobs must be replaced for the sweep to finish
+    done = run_sweep(out, *slurm_options(tmp_path, 2, "00:00:05"))
     assert done.returncode == 0, done.stderr
     assert_same_certificate(out, pool_sweep)
     assert job_logs(out) > 2, "no job reached its walltime: the sweep was shorter than the test means"
@@ -184,8 +186,9 @@ def test_a_job_cancelled_mid_sweep_loses_nothing(pool_sweep, tmp_path):
             process.kill()
             process.wait()
         log.close()
+    # nothing lost and nothing simulated twice; whether a job replaces the cancelled one before the other job
+    # finishes the sweep depends on the machine's speed, so it is not asserted (the walltime test replaces jobs)
     assert_same_certificate(out, pool_sweep)
-    assert job_logs(out) > 2  # the cancelled job was replaced
 
 
 # ------------------------------------------------------------------------------- the options, without SLURM
