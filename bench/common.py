@@ -128,6 +128,26 @@ class WithoutLimit:
         return self.run(order)
 
 
+# an answer's reported peak against a benchmark's own evaluation of it
+AGREEMENT = 1e-9
+
+
+def check_agrees(label: str, reported: float, computed: float) -> None:
+    if abs(reported / computed - 1.0) > AGREEMENT:
+        raise SystemExit(f"{label}: the answer reports {reported!r} N, this benchmark computes {computed!r} N")
+
+
+def percent(value: float, reference: float) -> str:
+    return f"{100.0 * (value / reference - 1.0):+.2f}"
+
+
+def rank_of(order, space: DesignSpace, values: list) -> tuple[int, int]:
+    """(1-based rank of ``order`` by screened value, orders screened); failed orders are not counted."""
+    mine = values[space.rank(tuple(order))]
+    good = [v for v in values if v is not None]
+    return 1 + sum(v < mine for v in good), len(good)
+
+
 def screened_values(
     fmu_path,
     space: DesignSpace,

@@ -42,7 +42,7 @@ from orchestrator.steps.searches import SearchesConfig
 from orchestrator.steps.sensitivity import Sensitivity, SensitivityConfig
 from orchestrator.study import CaseConfig
 
-from .common import FULL_HORIZON, order_text, screened_values
+from .common import FULL_HORIZON, check_agrees, order_text, percent, rank_of, screened_values
 from .measurements import Page, Run, Table, write_page
 
 PLATE_SCENE = "plate_11x11x11"
@@ -50,7 +50,6 @@ RULES = ("mean", "receiver")
 LOADS = {"3 x 3 patch": 3, "whole face": 0}
 SWEPT_COLUMNS = 7
 SEARCHES = ("cmaes", "pso", "sa", "random", "sequential")
-AGREEMENT = 1e-9  # an answer's reported peak against this benchmark's own evaluation of it
 
 
 @dataclass(frozen=True)
@@ -95,22 +94,6 @@ def full_peaks(fmu_path, rule: str, patch: int | None, orders, workers: int) -> 
     if bad:
         raise SystemExit(f"{len(bad)} full evaluations failed, first {order_text(bad[0].order)}: {bad[0].message}")
     return {e.order: e.value for e in evaluations}
-
-
-def rank_of(order, space: DesignSpace, values: list) -> tuple[int, int]:
-    """(1-based rank of ``order`` by screened value, orders screened); failed orders are not counted."""
-    mine = values[space.rank(tuple(order))]
-    good = [v for v in values if v is not None]
-    return 1 + sum(v < mine for v in good), len(good)
-
-
-def check_agrees(label: str, reported: float, computed: float) -> None:
-    if abs(reported / computed - 1.0) > AGREEMENT:
-        raise SystemExit(f"{label}: the answer reports {reported!r} N, this benchmark computes {computed!r} N")
-
-
-def percent(value: float, reference: float) -> str:
-    return f"{100.0 * (value / reference - 1.0):+.2f}"
 
 
 def seven_layers(root: Path, setting: Setting, log) -> tuple[list, list]:

@@ -61,7 +61,17 @@ from orchestrator.steps.sensitivity import Sensitivity, SensitivityConfig
 from orchestrator.study import PROJECTILE, CaseConfig, SearchFidelity, search_fidelity
 from scenes import DEFAULT_SCENE, PROJECTILE_SCENE, Scene
 
-from .common import FULL_HORIZON, order_text, random_orders, relative, screened_values, search_parameters
+from .common import (
+    FULL_HORIZON,
+    check_agrees,
+    order_text,
+    percent,
+    random_orders,
+    rank_of,
+    relative,
+    screened_values,
+    search_parameters,
+)
 from .horizon_study import RECORD, SAME, STEP, TOP, TRUTH, at, kendall_tau, swaps
 from .measurements import Page, Run, Table, write_page
 
@@ -70,7 +80,6 @@ SWEPT_COLUMNS = 7
 HORIZONS = (0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 3.0, 4.0)  # s: each a multiple of STEP, compared with 8 s
 RTOLS = (SEARCH_RTOL, 3e-6, 1e-6, 3e-7)  # the searches' solver at these tolerances against the truth
 GUARD = 0.9  # an order touching the plate after this fraction of a horizon is re-run by the searches (CONTACT_GUARD)
-AGREEMENT = 1e-9  # an answer's reported peak against this benchmark's own evaluation of it
 PROJECTILE_PARAMETERS = {"load_mode": PROJECTILE}
 
 COSTS: list[tuple] = []  # (study, methods, wall seconds) of every study this run made
@@ -129,15 +138,6 @@ def full_peaks(fmu_path, parameters: dict, orders, workers: int) -> dict:
     if bad:
         raise SystemExit(f"{len(bad)} full evaluations failed, first {order_text(bad[0].order)}: {bad[0].message}")
     return {e.order: e.value for e in evaluations}
-
-
-def check_agrees(label: str, reported: float, computed: float) -> None:
-    if abs(reported / computed - 1.0) > AGREEMENT:
-        raise SystemExit(f"{label}: the answer reports {reported!r} N, this benchmark computes {computed!r} N")
-
-
-def percent(value: float, reference: float) -> str:
-    return f"{100.0 * (value / reference - 1.0):+.2f}"
 
 
 def pulse_optima_11x11() -> dict:
@@ -255,13 +255,6 @@ def horizon_check(fmu_path, search_horizon: float, search_rtol: float, setting: 
         smallest_gap,
         len(orders),
     )
-
-
-def rank_of(order, space: DesignSpace, values: list) -> tuple[int, int]:
-    """(1-based rank of ``order`` by screened value, orders screened); failed orders are not counted."""
-    mine = values[space.rank(tuple(order))]
-    good = [v for v in values if v is not None]
-    return 1 + sum(v < mine for v in good), len(good)
 
 
 def seven_columns(root: Path, setting: Setting, fidelity: SearchFidelity, log) -> tuple[list, list]:
