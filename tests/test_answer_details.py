@@ -4,18 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from orchestrator import run as cli
+from command_line import main
 from orchestrator.scene import narrowed_table_note
 from orchestrator.study import CaseConfig
 
 COMMON = ["--no-sensitivity", "--no-progress", "--executor", "serial"]
-
-
-def main(*argv):
-    try:
-        return cli.main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
 
 
 def test_cols_without_a_table_says_in_one_line_that_it_takes_the_first_materials_and_how_to_choose():

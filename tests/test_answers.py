@@ -12,7 +12,7 @@ import pytest
 
 from fmu_src.materials import study_materials
 from orchestrator import known_optima as known_optima_module
-from orchestrator import run as cli
+from command_line import main
 from orchestrator.design import DesignSpace
 from orchestrator.known_optima import known_optimum
 from orchestrator.simulation import LatticeFMU
@@ -47,13 +47,6 @@ def entry(columns, rule, ranked, source):
         "source": source,
         "command": f"python orchestrator/run.py --method exhaustive --cols {columns} --diagonal-rule {rule}",
     }
-
-
-def main(*argv):
-    try:
-        return cli.main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
 
 
 def test_a_known_optimum_is_looked_up_per_rule(tmp_path, monkeypatch):

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from orchestrator import run as cli
+from command_line import main, one_line
 
 ROOT = Path(__file__).resolve().parents[1]
 QUICK = [
@@ -30,20 +31,6 @@ QUICK = [
     "--executor",
     "serial",
 ]
-
-
-def main(*argv):
-    try:
-        return cli.main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
-
-
-def one_line(capfd) -> str:
-    err = capfd.readouterr().err
-    lines = [line for line in err.splitlines() if line.strip() and not line.startswith(("building", "rebuilding"))]
-    assert len(lines) == 1 and "Traceback" not in err, err
-    return lines[0]
 
 
 def refusals(fmu_path, tmp_path):

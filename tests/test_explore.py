@@ -13,18 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator import run as cli
+from command_line import main
 
 QUICK = ["--repeats", "1", "--no-sensitivity", "--no-progress", "--executor", "serial"]
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 CHROMEDRIVER = shutil.which("chromedriver")
-
-
-def main(*argv):
-    try:
-        return cli.main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
 
 
 @pytest.fixture(scope="module")

@@ -7,18 +7,11 @@ import csv
 
 import pytest
 
-from orchestrator import run as cli
+from command_line import main
 
 optuna = pytest.importorskip("optuna", reason='needs the optuna extra (pip install -e ".[optuna]")')
 
 QUICK = ["--repeats", "1", "--no-sensitivity", "--no-progress", "--executor", "serial"]
-
-
-def main(*argv):
-    try:
-        return cli.main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
 
 
 def csv_rows(folder) -> list[dict]:

@@ -10,6 +10,7 @@ from types import SimpleNamespace
 import pytest
 
 from orchestrator import run as cli
+from command_line import main, one_line
 from orchestrator.fmu import describe
 from orchestrator.known_optima import known_optimum
 from orchestrator.options import config_from
@@ -33,20 +34,6 @@ QUICK = [
     "--executor",
     "serial",
 ]
-
-
-def main(*argv):
-    try:
-        return cli.main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
-
-
-def one_line(capfd) -> str:
-    err = capfd.readouterr().err
-    lines = [line for line in err.splitlines() if line.strip() and not line.startswith(("building", "rebuilding"))]
-    assert len(lines) == 1 and "Traceback" not in err, err
-    return lines[0]
 
 
 def case_of(fmu_path, **options):

@@ -9,7 +9,7 @@ import tomllib
 import numpy as np
 import pytest
 
-from orchestrator import run as cli
+from command_line import main
 from orchestrator.design import DesignSpace
 from orchestrator.executors import SerialExecutor
 from orchestrator.loop import Evaluator, run_search
@@ -83,13 +83,6 @@ def test_without_starting_designs_the_searches_ask_as_before():
 @pytest.mark.parametrize("text, design", [("1,7,5", (1, 7, 5)), ("[1, 7, 5]", (1, 7, 5)), ("1 7 5,", (1, 7, 5))])
 def test_a_design_is_written_as_the_material_of_each_column(text, design):
     assert parse_design(text) == design
-
-
-def main(*argv):
-    try:
-        return cli.main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
 
 
 @pytest.mark.parametrize(

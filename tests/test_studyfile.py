@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from fmu_src.materials import Material, MaterialTable, study_materials, write_materials_csv
-from orchestrator import run as cli
+from command_line import main
 from orchestrator.options import NOT_KEPT, flag_of
 from orchestrator.studyfile import StudyFileError, read_study_file, render_study_file, sections, write_study_file
 from orchestrator.study import CaseConfig
@@ -32,13 +32,6 @@ QUICK = [
     "--diagonal-rule",
     "mean",
 ]
-
-
-def main(*argv):
-    try:
-        return cli.main([str(a) for a in argv])
-    except SystemExit as exc:
-        return exc.code
 
 
 def rows(path: Path) -> list[dict]:
