@@ -121,6 +121,12 @@ class BuildConfig:
     fmi_version: int = option(
         2, "2: FMI 2.0; 3: FMI 3.0, written to models/<identifier>-fmi3.fmu", type=int, choices=(2, 3)
     )
+    fmi3_scalars: bool = option(
+        False,
+        "FMI 3: declare the parameter arrays (material, k, ..., mass) element by element with FMI 2's "
+        "names (material[1] ...), for importers that set no FMI 3 array (OMSimulator 3, fmi-sim 0.7)",
+        action="store_true",
+    )
     platforms: str | None = option(None, PLATFORMS_HELP, metavar="LIST", show_default="this machine's only")
     werror: bool = option(False, "fail on any compiler warning (CI does)", action="store_true")
     reference: bool = option(
@@ -164,9 +170,11 @@ def main(argv: list[str] | None = None) -> int:
 
         print(build_system(config.output, werror=config.werror))
         return 0
+    if config.fmi3_scalars and config.fmi_version != 3:
+        parser.error("--fmi3-scalars: only with --fmi-version 3 (FMI 2 declares every array element by element)")
     if config.model != "lattice":
         scene_options = sorted(
-            given(config) & {"scene", "rows", "cols", "depth", "load_patch", "materials", "reference"}
+            given(config) & {"scene", "rows", "cols", "depth", "load_patch", "materials", "reference", "fmi3_scalars"}
         )
         if scene_options:
             parser.error(
@@ -203,6 +211,7 @@ def main(argv: list[str] | None = None) -> int:
             platforms=config.platforms,
             depth=config.depth,
             load_patch=config.load_patch,
+            fmi3_arrays=not config.fmi3_scalars,
         )
     except (ValueError, RuntimeError) as exc:
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)

@@ -352,6 +352,7 @@ def build_fmu(
     model_dir: str | os.PathLike = DEFAULT_MODEL_DIR,
     depth: int | None = None,
     load_patch: int | None = None,
+    fmi3_arrays: bool = True,
 ) -> Path:
     """Builds the FMU of a scene (default: the 11 x 11 armour scene) and returns its path (FMI 2.0 or 3.0),
     from the C model in `model_dir` (its model.h: the model API of fmu_src/common/model_api.h) and the shared FMI
@@ -360,9 +361,12 @@ def build_fmu(
     k[1..M], k_diag[1..M], c[1..M], alpha[1..M], alpha_diag[1..M] start with its values. `platforms` ('all'
     or a comma list of builder.platforms.PLATFORMS) says whose binaries the FMU carries; None, this machine's.
     `depth` overrides the scene's depth (fixed at build time, like rows and cols), `load_patch` the start of
-    that parameter.
+    that parameter. `fmi3_arrays` False declares FMI 3's parameter arrays (material, k, ...) element by element
+    with FMI 2's names, for importers that set no FMI 3 array.
     The armour scene's FMU carries its reference results (builder/reference_results.py) unless
     reference_results is False."""
+    if fmi_version != 3 and not fmi3_arrays:
+        raise ValueError("fmi3_arrays = False is for FMI 3 only: FMI 2 declares every array element by element")
     targets = parse_platforms(platforms, fmi_version) if platforms is not None else None
     scene = resolve_scene(scene, rows, cols, output, materials, depth, load_patch)
     interface = scene.interface()
@@ -372,13 +376,18 @@ def build_fmu(
     suffix_fmi = fmi3.OUTPUT_SUFFIX if fmi_version == 3 else ""
     output = Path(output) if output else MODELS_DIR / f"{identifier}{suffix_fmi}.fmu"
     if fmi_version == 3:
-        guid = fmi3.instantiation_token(guid, tree.files())
-        description = fmi3.generate_model_description(interface, identifier, guid, scene)
+        variable_map = fmi3.generate_variable_map(interface, fmi3_arrays)
+        guid = fmi3.instantiation_token(guid, tree.files(), variable_map)
+        description = fmi3.generate_model_description(interface, identifier, guid, scene, fmi3_arrays)
     else:
         description = fmi2.generate_model_description(interface, identifier, guid, scene, tree.source_names())
     extra = extra_files(identifier) if reference_results and carries_reference_results(scene) else {}
-    extra["documentation/index.html"] = documentation_html(fmi_version, interface, identifier, scene).encode()
+    extra["documentation/index.html"] = documentation_html(
+        fmi_version, interface, identifier, scene, fmi3_arrays
+    ).encode()
     generated = {"model_variables.h": generate_header(interface, guid), TABLE_HEADER: generate_table_header()}
+    if fmi_version == 3:
+        generated[fmi3.VARIABLE_MAP_HEADER] = variable_map
     return package_fmu(
         tree, identifier, description, output, generated=generated, extra_files=extra, targets=targets, werror=werror
     )

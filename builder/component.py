@@ -114,7 +114,8 @@ def build_component_fmu(
         table.identifier,
         description,
         output,
-        generated={"model_variables.h": generate_component_header(table, guid)},
+        generated={"model_variables.h": generate_component_header(table, guid)}
+        | ({fmi3.VARIABLE_MAP_HEADER: fmi3.generate_variable_map(table)} if fmi_version == 3 else {}),
         targets=targets,
         werror=werror,
     )

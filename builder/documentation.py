@@ -49,8 +49,9 @@ def variable_row(variable: Variable, fmi_version: int) -> dict:
     }
 
 
-def documentation_html(fmi_version: int, interface: Interface, identifier: str, scene) -> str:
-    """The page for the FMU of `scene` (FMI 2 or 3)."""
+def documentation_html(fmi_version: int, interface: Interface, identifier: str, scene, fmi3_arrays: bool = True) -> str:
+    """The page for the FMU of `scene` (FMI 2 or 3; FMI 3 with its parameter arrays as arrays unless fmi3_arrays is
+    False)."""
     published = []
     starts = {v.name: v.start for v in interface.exposed + interface.fixed}
     if is_study_scene(scene):  # the published numbers hold for the study's scene alone
@@ -64,6 +65,7 @@ def documentation_html(fmi_version: int, interface: Interface, identifier: str, 
         rule_codes=rule_codes,
         material_columns=interface.cols if "material" in starts else 0,
         fmi_version=fmi_version,
+        arrays=fmi_version == 3 and fmi3_arrays,
         rows=interface.rows,
         cols=interface.cols,
         depth=interface.depth,

@@ -26,6 +26,7 @@ from .simulation import (
     LatticeFMU,
     Parameter,
     SimulationError,
+    array_lengths,
     declared_lattice_size,
     declared_parameters,
     material_columns,
@@ -83,7 +84,9 @@ def describe(path: Path, rows: int) -> PreparedFMU:
         raise FMUError(f"--fmu {path}: it has no Co-Simulation interface; the study runs Co-Simulation FMUs")
     parameters = {name: parameter for name, parameter in declared_parameters(description).items() if "[" not in name}
     outputs = tuple(v.name for v in description.modelVariables if v.causality == "output")
-    materials = sum(1 for v in description.modelVariables if v.name.startswith("k["))
+    materials = array_lengths(description).get("k") or sum(
+        1 for v in description.modelVariables if v.name.startswith("k[")
+    )
     columns = material_columns(description)
     return PreparedFMU(
         path,

@@ -115,8 +115,50 @@ def declared_outputs(description) -> tuple[str, ...]:
 
 
 def material_columns(description) -> int:
-    """How many columns (material[j] parameters) the FMU's lattice has."""
+    """How many columns (material[j] parameters; FMI 3: the length of the array material) the FMU's lattice has."""
+    lengths = array_lengths(description)
+    if "material" in lengths:
+        return lengths["material"]
     return sum(1 for v in description.modelVariables if v.name.startswith("material["))
+
+
+def array_lengths(description) -> dict[str, int]:
+    """The FMI 3 arrays the model description declares (the parameter arrays material, k, ..., mass), by name,
+    with their lengths; {} for FMI 2, which declares each element a scalar `name[i]`."""
+    return {
+        v.name: int(np.prod(v.shape))
+        for v in description.modelVariables
+        if getattr(v, "dimensions", None) and getattr(v, "shape", None)
+    }
+
+
+def start_values(description, parameters: Mapping[str, Any]) -> dict[str, Any]:
+    """``parameters`` by FMI 2's names (``material[3]``, ``k[2]``: what answers[i].parameters and the console
+    give) as the start values of the FMU of ``description``, for fmpy.simulate_fmu or any importer: for FMI 2
+    the same; for FMI 3 each array's elements gathered into the array (``{"material": [3, 1, 2]}``), the elements
+    not given keeping the array's start. A whole array may be given by its name too, but not with its
+    elements."""
+    lengths = array_lengths(description)
+    if not lengths:
+        return dict(parameters)
+    declared = declared_parameters(description)
+    values: dict[str, Any] = {}
+    elements: dict[str, list] = {}
+    for name, value in parameters.items():
+        base, bracket, rest = name.partition("[")
+        if not bracket or base not in lengths:
+            values[name] = value
+            continue
+        if name not in declared:
+            raise ValueError(f"{name} is no element of the array {base}: allowed {base}[1] ... {base}[{lengths[base]}]")
+        if base not in elements:
+            elements[base] = [declared[f"{base}[{i}]"].start for i in range(1, lengths[base] + 1)]
+        elements[base][int(rest[:-1]) - 1] = value
+    for base, array in elements.items():
+        if base in values:
+            raise ValueError(f"{base} is given both as an array and by its elements: give one")
+        values[base] = array
+    return values
 
 
 def declared_lattice_size(fmu_path: str | Path) -> tuple[int, int, int] | None:
@@ -271,27 +313,35 @@ def declared_parameters(description) -> Mapping[str, Parameter]:
     """Every parameter the model description declares (array elements too), as the one typed Parameter; read
     once per model description."""
     parameters = {}
+    lengths = array_lengths(description)
     for variable in description.modelVariables:
         if variable.causality != "parameter":
             continue
         items = enumeration_items(description, variable.name)
-        start = variable.start
-        if items:
-            start = next((n for n, c in items.items() if str(c) == str(start)), start)
-        elif variable.type == "Real" and start is not None:
-            start = float(start)
-        elif variable.type in ("Integer", "Boolean") and start is not None:
-            start = int(start) if variable.type == "Integer" else int(str(start).lower() in ("1", "true"))
-        parameters[variable.name] = Parameter(
-            variable.name,
-            variable.type,
-            start,
-            _bound(variable, "min"),
-            _bound(variable, "max"),
-            getattr(variable, "unit", None),
-            variable.description or "",
-            items,
-        )
+        if variable.name in lengths:  # an FMI 3 array: its elements by FMI 2's names, each with its start
+            texts = str(variable.start).split() if variable.start is not None else [None] * lengths[variable.name]
+            elements = [(f"{variable.name}[{i}]", text) for i, text in enumerate(texts, start=1)]
+        else:
+            elements = [(variable.name, variable.start)]
+        for name, start in elements:
+            if items:
+                start = next((n for n, c in items.items() if str(c) == str(start)), start)
+            elif variable.type in REAL_TYPES and start is not None:
+                start = float(start)
+            elif variable.type in WHOLE_NUMBER_TYPES and variable.type != "Boolean" and start is not None:
+                start = int(start)
+            elif variable.type == "Boolean" and start is not None:
+                start = int(str(start).lower() in ("1", "true"))
+            parameters[name] = Parameter(
+                name,
+                variable.type,
+                start,
+                _bound(variable, "min"),
+                _bound(variable, "max"),
+                getattr(variable, "unit", None),
+                variable.description or "",
+                items,
+            )
     return MappingProxyType(parameters)
 
 

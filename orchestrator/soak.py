@@ -100,8 +100,14 @@ class UnpackedFMU:
     token: str
     states: int
     indicators: int
-    material_references: tuple[int, ...]
+    material_references: tuple[int, ...]  # material[1] ... material[C], or FMI 3's one array material
     output_references: tuple[int, ...]
+    columns: int
+
+    def material_argument(self) -> str:
+        """The driver's MATERIAL_VRS: the scalars' value references, or FMI 3's array as "VR*C"."""
+        listed = ",".join(map(str, self.material_references))
+        return listed if len(self.material_references) == self.columns else f"{listed}*{self.columns}"
 
     def binary(self, windows: bool) -> Path:
         if self.fmi_version == 2:
@@ -116,7 +122,9 @@ def unpack(fmu: Path, folder: Path) -> UnpackedFMU:
     with zipfile.ZipFile(fmu) as archive:
         archive.extractall(folder)
     (folder / "resources").mkdir(exist_ok=True)
-    materials = tuple(v.valueReference for v in description.modelVariables if v.name.startswith("material["))
+    materials = tuple(
+        v.valueReference for v in description.modelVariables if v.name.startswith("material[") or v.name == "material"
+    )
     outputs = tuple(
         v.valueReference
         for v in description.modelVariables
@@ -130,6 +138,7 @@ def unpack(fmu: Path, folder: Path) -> UnpackedFMU:
         description.numberOfEventIndicators,
         materials,
         outputs,
+        material_columns(description),
     )
 
 
@@ -177,7 +186,7 @@ def run_driver(
         str(max(1, cycles // SAMPLES)),
         repr(HORIZON),
         str(ME_STEPS),
-        ",".join(map(str, fmu.material_references)),
+        fmu.material_argument(),
         ",".join(map(str, fmu.output_references)),
     ]
     start = time.perf_counter()

@@ -5,7 +5,8 @@
  *
  * driver FMI(2|3) INTERFACE(cs|me) BINARY TOKEN RESOURCES STATES INDICATORS CYCLES SAMPLE_EVERY HORIZON
  *        ME_STEPS MATERIAL_VRS OUTPUT_VRS
- * (value references comma-separated; the materials take the permutations of 1..len(MATERIAL_VRS) in turn).
+ * (value references comma-separated; MATERIAL_VRS "VR*N" is one FMI 3 array of N values; the materials take the
+ * permutations of 1..N, N = len(MATERIAL_VRS) for scalars, in turn).
  * Output lines: "rss CYCLE BYTES", then "done CYCLES FAILED_CALLS".
  */
 #include <stdarg.h>
@@ -100,7 +101,8 @@ static void log_fmi3(fmi3InstanceEnvironment env, fmi3Status status, fmi3String 
 int main(int argc, char **argv) {
     int fmi, model_exchange, *order;
     const char *binary, *token, *resources;
-    size_t states, indicators, n_materials, n_outputs, k;
+    size_t states, indicators, n_material_vrs, n_materials, n_outputs, k;
+    const char *array_length;
     long cycles, sample_every, me_steps, cycle, step;
     double horizon, *x, *dx, *z, *outputs;
     unsigned int material_vrs[256], output_vrs[256];
@@ -116,9 +118,14 @@ int main(int argc, char **argv) {
     binary = argv[3]; token = argv[4]; resources = argv[5];
     states = (size_t)atol(argv[6]); indicators = (size_t)atol(argv[7]);
     cycles = atol(argv[8]); sample_every = atol(argv[9]); horizon = atof(argv[10]); me_steps = atol(argv[11]);
-    n_materials = parse_list(argv[12], material_vrs, 256);
+    n_material_vrs = parse_list(argv[12], material_vrs, 256);
+    array_length = strchr(argv[12], '*');
+    n_materials = array_length ? (size_t)atol(array_length + 1) : n_material_vrs;
     n_outputs = parse_list(argv[13], output_vrs, 256);
-    if ((fmi != 2 && fmi != 3) || sample_every < 1 || me_steps < 1) { fprintf(stderr, "bad arguments\n"); return 2; }
+    if ((fmi != 2 && fmi != 3) || sample_every < 1 || me_steps < 1 || (array_length && fmi != 3) || n_materials < 1) {
+        fprintf(stderr, "bad arguments\n");
+        return 2;
+    }
 
     order = calloc(n_materials, sizeof *order);
     x = calloc(states + 1, sizeof *x); dx = calloc(states + 1, sizeof *dx);
@@ -210,7 +217,7 @@ int main(int argc, char **argv) {
         for (cycle = 0; cycle < cycles; cycle++) {
             if (cycle % sample_every == 0) printf("rss %ld %llu\n", cycle, resident_bytes());
             if (cycle > 0) check(reset(c), "fmi3Reset");
-            check(set_int32(c, material_vrs, n_materials, order, n_materials), "fmi3SetInt32");
+            check(set_int32(c, material_vrs, n_material_vrs, order, n_materials), "fmi3SetInt32");
             check(enter_init(c, fmi3False, 0.0, 0.0, fmi3True, horizon), "fmi3EnterInitializationMode");
             check(exit_init(c), "fmi3ExitInitializationMode");
             if (!model_exchange) {

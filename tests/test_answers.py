@@ -278,11 +278,15 @@ def copied_study(armour_fmu_of_width, tmp_path_factory):
 @pytest.mark.quick
 @pytest.mark.parametrize("fmi_version", [2, 3])
 def test_the_answer_copied_from_results_json_into_fmpy_gives_the_reports_number(copied_study, fmi_version):
-    """A user copies each answer's parameters into fmpy.simulate_fmu (defaults otherwise) and gets the report's
+    """A user copies each answer's parameters into fmpy.simulate_fmu (defaults otherwise; FMI 3 through
+    orchestrator.simulation.start_values, which gathers material[j] into the array material) and gets the report's
     peak, under both rules; without diagonal_rule the mean rule's answer gives another number."""
     from fmpy import simulate_fmu
 
+    from orchestrator.simulation import model_description, start_values
+
     out, fmus = copied_study
+    description = model_description(fmus[fmi_version])
     results = json.loads((out / "results.json").read_text())
     answers = {a["diagonal_rule"]: a for a in results["answers"]}
     assert set(answers) == {"mean", "receiver"}
@@ -292,7 +296,7 @@ def test_the_answer_copied_from_results_json_into_fmpy_gives_the_reports_number(
         copied = simulate_fmu(
             str(fmus[fmi_version]),
             stop_time=results["case"]["horizon"],
-            start_values=answer["parameters"],
+            start_values=start_values(description, answer["parameters"]),
             output=["peak_backplate_force"],
         )
         assert copied["peak_backplate_force"][-1] == pytest.approx(answer["peak"], rel=1e-6), rule
@@ -301,7 +305,7 @@ def test_the_answer_copied_from_results_json_into_fmpy_gives_the_reports_number(
     default_rule = simulate_fmu(
         str(fmus[fmi_version]),
         stop_time=results["case"]["horizon"],
-        start_values=materials_only,
+        start_values=start_values(description, materials_only),
         output=["peak_backplate_force"],
     )
     assert abs(default_rule["peak_backplate_force"][-1] - mean["peak"]) > 1.0

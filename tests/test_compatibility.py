@@ -14,6 +14,8 @@ import sys
 import pytest
 from fmpy import simulate_fmu
 
+from orchestrator.simulation import model_description, start_values
+
 from builder import compatibility
 from builder.compatibility import ROOT, Result, RowError, load_rows, parse_row, row_file_name, write_row
 from compatibility import compatibility_row, reproducing_command
@@ -128,7 +130,7 @@ FMPY_VERSION = importlib.metadata.version("fmpy")
 
 
 def fmpy_peak(fmu, order, interface: str) -> float:
-    start = {f"material[{column}]": material for column, material in enumerate(order, 1)}
+    start = start_values(model_description(fmu), {f"material[{j}]": material for j, material in enumerate(order, 1)})
     if interface == "CS":
         result = simulate_fmu(
             str(fmu),

@@ -1,9 +1,11 @@
-"""The FMI 3.0 FMU (`build_fmu.py --fmi-version 3`): same model code, every variable a scalar.
+"""The FMI 3.0 FMU (`build_fmu.py --fmi-version 3`): same model code; the parameter arrays are FMI 3 arrays.
 
-Checked through fmpy: validation, the model description derived from the same table as FMI 2 (FMI 2's names,
-`material[1]` ... `material[11]` as Int32 scalars; value reference = position in <ModelVariables>, so a
-`derivative` read as an index finds its state), bit-identical peaks and outputs to the FMI 2 FMU, the error
-handling of fmi3/fmi3_glue.c, and FMU states. fmi-sim runs it in tests/test_importers.py.
+Checked through fmpy: validation, the model description derived from the same table as FMI 2 (`material` an
+Int32 array of 11, `k` ... `damping_exponent` Float64 arrays of M, with FMI 2's elements as their values; every
+other variable a scalar with FMI 2's name; value reference = position in <ModelVariables>, so a `derivative`
+read as an index finds its state), bit-identical peaks and outputs to the FMI 2 FMU, the error handling of
+fmi3/fmi3_glue.c (nValues counts an array's elements), and FMU states. fmi-sim runs it in
+tests/test_importers.py.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback
 from fmpy.validation import validate_fmu
 
 from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL, STUDY_BEST_ORDER as PUBLISHED_BEST
+from fmu_src.variables import TABLE_PARAMETERS
 from orchestrator.simulation import LatticeFMU
 
 HORIZON, STEP = 8.0, 0.01
@@ -46,13 +49,10 @@ class Instance:
     def vr(self, name):
         return self.variables[name].valueReference
 
-    def material_vrs(self):
-        return [self.vr(f"material[{j}]") for j in range(1, 12)]
-
     def start(self, order=None, stop=HORIZON):
         self.slave.enterInitializationMode(startTime=0.0, stopTime=stop)
         if order is not None:
-            self.slave.setInt32(self.material_vrs(), list(order))
+            self.slave.setInt32([self.vr("material")], list(order))
         self.slave.exitInitializationMode()
 
     def run(self, order, horizon=HORIZON, step=STEP):
@@ -98,17 +98,30 @@ def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path
     assert description.fmiVersion == "3.0"
     assert description.coSimulation is not None and description.modelExchange is not None
 
-    # FMI 2's scalars, names and order (its Enumeration aliases aside), no arrays, time last
-    assert [v.name for v in variables] == [n for n, v in fmi2.items() if v.type != "Enumeration"] + ["time"]
-    assert not any(v.dimensions for v in variables)
-    material = [fmi3[f"material[{j}]"] for j in range(1, 12)]
-    assert all(v.type == "Int32" and v.causality == "parameter" for v in material)
-    assert [int(v.start) for v in material] == list(range(1, 12))
-    assert float(fmi3["k[2]"].start) == float(fmi2["k[2]"].start)
-    units = {name: fmi3[name].declaredType.unit for name in ("k[1]", "c[1]", "F_total", "peak_backplate_force", "time")}
+    # FMI 2's names and order (its Enumeration aliases aside), each parameter array's elements as one array,
+    # time last
+    arrays = {"material": 11, **{name: 11 for name in TABLE_PARAMETERS}}
+    expected = []
+    for name, variable in fmi2.items():
+        base = name.partition("[")[0]
+        if variable.type == "Enumeration" or (base in arrays and base in expected):
+            continue
+        expected.append(base if base in arrays else name)
+    assert [v.name for v in variables] == expected + ["time"]
+    assert {v.name: v.shape for v in variables if v.dimensions} == {name: (n,) for name, n in arrays.items()}
+    for name, length in arrays.items():
+        elements = [fmi2[f"{name}[{m}]"] for m in range(1, length + 1)]
+        assert fmi3[name].start.split() == [e.start for e in elements], name  # the same literals
+        assert (fmi3[name].causality, fmi3[name].min, fmi3[name].max) == (
+            "parameter",
+            elements[0].min,
+            elements[0].max,
+        ), name
+    assert fmi3["material"].type == "Int32" and fmi3["material"].start.split() == [str(m) for m in range(1, 12)]
+    units = {name: fmi3[name].declaredType.unit for name in ("k", "c", "F_total", "peak_backplate_force", "time")}
     assert units == {
-        "k[1]": fmi2["k[1]"].unit,
-        "c[1]": fmi2["c[1]"].unit,
+        "k": fmi2["k[1]"].unit,
+        "c": fmi2["c[1]"].unit,
         "F_total": fmi2["F_total"].unit,
         "peak_backplate_force": fmi2["peak_backplate_force"].unit,
         "time": "s",
@@ -117,6 +130,8 @@ def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path
         if name == "time":
             assert variable.causality == "independent" and variable.type == "Float64"
             continue
+        if name in arrays:
+            name = f"{name}[1]"
         fmi2_type = (
             "Enumeration"
             if any(a.type == "Enumeration" and a.valueReference == fmi2[name].valueReference for a in fmi2.values())
@@ -126,7 +141,6 @@ def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path
             {"Real": "Float64", "Integer": "Int32", "Enumeration": "Enumeration"}[fmi2_type],
             fmi2[name].causality,
         )
-        assert variable.valueReference == fmi2[name].valueReference + 1
 
     with zipfile.ZipFile(fmu3_path) as archive:
         names = archive.namelist()
@@ -165,28 +179,30 @@ def test_same_numbers_as_fmi2_to_the_last_bit(instance, fmi2_results, order):
     assert instance.slave.getFloat64([instance.vr("time")]) == [HORIZON]
 
 
-def test_fmpy_simulate_fmu_sets_the_order_by_its_scalars(fmu3_path, fmi2_results):
+def test_fmpy_simulate_fmu_sets_the_order_as_an_array(fmu3_path, fmi2_results):
     result = simulate_fmu(
         str(fmu3_path),
         stop_time=HORIZON,
         output_interval=STEP,
-        start_values={f"material[{j}]": m for j, m in enumerate(PUBLISHED_BEST, 1)},
+        start_values={"material": list(PUBLISHED_BEST)},
         output=["peak_backplate_force"],
     )
     assert result["peak_backplate_force"][-1] == fmi2_results[PUBLISHED_BEST]["peak_backplate_force"]
 
 
-def test_scalars_are_read_and_written_several_at_a_time(instance):
-    vrs = instance.material_vrs()
-    assert instance.slave.getInt32(vrs) == list(range(1, 12))
+def test_arrays_and_scalars_are_read_and_written_several_at_a_time(instance):
+    """nValues counts values: an array moves all its elements, in order, between the scalars around it."""
+    material = [instance.vr("material")]
+    assert instance.slave.getInt32(material, 11) == list(range(1, 12))
     instance.slave.enterInitializationMode(startTime=0.0, stopTime=1.0)
-    instance.slave.setInt32(vrs, list(PUBLISHED_BEST))
-    assert instance.slave.getInt32(vrs) == list(PUBLISHED_BEST)
-    k = [instance.vr(f"k[{m}]") for m in range(1, 12)]
-    values = instance.slave.getFloat64(k + [instance.vr("F_total"), instance.vr("time")])
-    assert values[0] == 100.0 and values[11] == 1200.0 and values[12] == 0.0
-    instance.slave.setFloat64([instance.vr("F_total")] + k, [600.0] + [50.0] * 11)
-    assert instance.slave.getFloat64(k) == [50.0] * 11
+    instance.slave.setInt32(material, list(PUBLISHED_BEST))
+    assert instance.slave.getInt32(material, 11) == list(PUBLISHED_BEST)
+    k, mass = instance.vr("k"), instance.vr("mass")
+    values = instance.slave.getFloat64([instance.vr("F_total"), k, instance.vr("time"), mass], 24)
+    assert values[0] == 1200.0 and values[1] == 100.0 and values[12] == 0.0 and values[13:] == [1.0] * 11
+    instance.slave.setFloat64([k, instance.vr("F_total"), mass], [50.0] * 11 + [600.0] + [2.0] * 11)
+    assert instance.slave.getFloat64([mass, k], 22) == [2.0] * 11 + [50.0] * 11
+    assert instance.slave.getFloat64([instance.vr("F_total")]) == [600.0]
 
 
 @pytest.mark.parametrize(
@@ -194,8 +210,10 @@ def test_scalars_are_read_and_written_several_at_a_time(instance):
     [
         (lambda f: f.slave.getInt32([0]), "not an Int32 variable of this FMU"),  # before the first variable
         (lambda f: f.slave.getInt32([f.vr("time") + 1]), "not an Int32 variable of this FMU"),  # after time
-        (lambda f: f.slave.getInt32([f.vr("material[1]")], 5), "nValues"),
-        (lambda f: f.slave.getFloat64([f.vr("material[1]")]), "not a Float64"),
+        (lambda f: f.slave.getInt32([f.vr("material")], 5), "nValues is 5 but the 1 value references move 11"),
+        (lambda f: f.slave.getInt32([f.vr("material")]), "nValues is 1"),  # fmpy's default: one per reference
+        (lambda f: f.slave.setFloat64([f.vr("k")], [1.0] * 10), "nValues is 10"),
+        (lambda f: f.slave.getFloat64([f.vr("material")], 11), "not a Float64"),
         (lambda f: f.slave.getInt32([f.vr("time")]), "is time"),
         (lambda f: f.slave.setFloat64([f.vr("peak_backplate_force")], [1.0]), "output"),
         (lambda f: f.slave.setFloat64([f.vr("time")], [1.0]), "independent"),
@@ -239,7 +257,7 @@ def test_an_instantiation_token_of_another_build_is_refused(fmu3_path, tmp_path)
 
 def test_a_bad_material_order_is_refused_and_reset_recovers(instance):
     instance.slave.enterInitializationMode(startTime=0.0, stopTime=1.0)
-    instance.slave.setInt32(instance.material_vrs(), [1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11])
+    instance.slave.setInt32([instance.vr("material")], [1, 1, 3, 4, 5, 6, 7, 8, 9, 10, 11])
     with pytest.raises(FMICallException):
         instance.slave.exitInitializationMode()
     assert any("permutation of 1..11" in message for message in instance.messages), instance.messages
@@ -265,3 +283,65 @@ def test_get_set_and_serialize_fmu_state(instance):
     assert instance.slave.getFloat64(outputs) == straight
     instance.slave.freeFMUState(state)
     instance.slave.freeFMUState(restored)
+
+
+@pytest.fixture(scope="module")
+def scalars_fmu3(tmp_path_factory):
+    from builder import build
+
+    output = tmp_path_factory.mktemp("scalars3") / "MassSpringLattice-fmi3.fmu"
+    return build.build_fmu(output=output, werror=True, fmi_version=3, fmi3_arrays=False)
+
+
+def test_built_with_scalars_it_declares_fmi2s_names_for_importers_without_arrays(
+    fmu_path, fmu3_path, scalars_fmu3, fmi2_results
+):
+    """build_fmu.py --fmi3-scalars: no FMI 3 array, every element a scalar with FMI 2's name and value reference
+    + 1 (OMSimulator 3, fmi-sim 0.7 set these); another layout, so another instantiation token; the same run."""
+    fmi2 = {v.name: v for v in read_model_description(str(fmu_path)).modelVariables}
+    description = read_model_description(str(scalars_fmu3))
+    variables = description.modelVariables
+    assert [v.name for v in variables] == [n for n, v in fmi2.items() if v.type != "Enumeration"] + ["time"]
+    assert not any(v.dimensions for v in variables)
+    assert all(v.valueReference == fmi2[v.name].valueReference + 1 for v in variables if v.name != "time")
+    assert description.guid != read_model_description(str(fmu3_path)).guid
+    assert validate_fmu(str(scalars_fmu3)) == []
+    result = simulate_fmu(
+        str(scalars_fmu3),
+        stop_time=HORIZON,
+        output_interval=STEP,
+        start_values={f"material[{j}]": m for j, m in enumerate(PUBLISHED_BEST, 1)},
+        output=["peak_backplate_force"],
+    )
+    assert result["peak_backplate_force"][-1] == fmi2_results[PUBLISHED_BEST]["peak_backplate_force"]
+
+
+def test_scalars_are_refused_for_fmi2_in_one_line(capsys):
+    import build_fmu
+
+    with pytest.raises(SystemExit) as exit_status:
+        build_fmu.main(["--fmi3-scalars"])
+    assert exit_status.value.code == 2
+    (line,) = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
+    assert "--fmi3-scalars: only with --fmi-version 3" in line
+
+
+def test_fmi2s_element_names_become_fmi3s_arrays_in_our_layer(fmu_path, fmu3_path):
+    """orchestrator.simulation.start_values: what answers[i].parameters give (material[j], k[m]) as the FMI 3
+    FMU's arrays, the elements not given keeping their start; FMI 2's names pass unchanged to FMI 2. The typed
+    Parameter of each element is read from the array."""
+    from orchestrator.simulation import declared_parameters, model_description, start_values
+
+    fmi3 = model_description(fmu3_path)
+    given = {"material[1]": 3, "material[2]": 1, "material[3]": 2, "k[11]": 2.5, "diagonal_rule": 1}
+    values = start_values(fmi3, given)
+    assert values["material"] == [3, 1, 2, *range(4, 12)] and values["diagonal_rule"] == 1
+    assert values["k"][:10] == [declared_parameters(fmi3)[f"k[{m}]"].start for m in range(1, 11)]
+    assert values["k"][10] == 2.5 and set(values) == {"material", "k", "diagonal_rule"}
+    assert start_values(model_description(fmu_path), given) == given
+    parameter = declared_parameters(fmi3)["mass[2]"]
+    assert (parameter.name, parameter.type, parameter.start, parameter.minimum) == ("mass[2]", "Float64", 1.0, 0.0)
+    with pytest.raises(ValueError, match=r"k\[12\] is no element of the array k: allowed k\[1\] ... k\[11\]"):
+        start_values(fmi3, {"k[12]": 1.0})
+    with pytest.raises(ValueError, match="material is given both as an array and by its elements"):
+        start_values(fmi3, {"material": list(range(1, 12)), "material[1]": 2})

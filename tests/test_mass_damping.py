@@ -1,10 +1,10 @@
 """Each material's mass and non-linear dampers (docs/model.md section 12) in the lattice FMU and its core.
 
-mass[m] and damping_exponent[m] beside k[m] ... (FMI 2 and 3 alike: indexed scalars), Co-Simulation and Model
-Exchange, the lattice and a plate: the energy balance closes with unequal masses and n != 1, the mirrored half
-still carries the whole lattice, a run below peak_force_limit is the run without it, the damper pushes as section
-12 writes it, and a material table carries the two columns (checked in one line). The defaults' published
-figures are tests/test_recorded_outputs.py's.
+mass[m] and damping_exponent[m] beside k[m] ... (FMI 2: indexed scalars; FMI 3: arrays of M, set at run time
+through fmpy), Co-Simulation and Model Exchange, the lattice and a plate: the energy balance closes with unequal
+masses and n != 1, the mirrored half still carries the whole lattice, a run below peak_force_limit is the run
+without it, the damper pushes as section 12 writes it, and a material table carries the two columns (checked in
+one line). The defaults' published figures are tests/test_recorded_outputs.py's.
 """
 
 from __future__ import annotations
@@ -125,13 +125,14 @@ def test_fmi2_declares_each_materials_mass_and_exponent_and_no_scalar_mass(latti
 
 
 def test_fmi3_declares_them_as_it_declares_k(lattice_fmu3):
-    """FMI 3 declares every element of a parameter array as a scalar with FMI 2's name (builder/fmi3_description.py),
-    so mass[m] and damping_exponent[m] sit beside k[m] there as in FMI 2."""
+    """FMI 3 declares each column of the material table as one Float64 array of M (builder/fmi3_description.py),
+    so mass and damping_exponent sit beside k there, with the table's values as their start."""
     variables = {v.name: v for v in read_model_description(str(lattice_fmu3)).modelVariables}
     for name, values in (("mass", MASSES), ("damping_exponent", EXPONENTS)):
-        assert [float(variables[f"{name}[{m}]"].start) for m in range(1, 5)] == list(values), name
-        assert variables[f"{name}[1]"].type == variables["k[1]"].type == "Float64"
-    assert "mass" not in variables and variables["stack_mass"].causality == "output"
+        assert [float(text) for text in variables[name].start.split()] == list(values), name
+        assert variables[name].type == variables["k"].type == "Float64"
+        assert variables[name].shape == variables["k"].shape == (len(TABLE),), name
+    assert "mass[1]" not in variables and variables["stack_mass"].causality == "output"
 
 
 def test_a_scalar_mass_of_an_older_scene_is_every_materials_mass():
@@ -214,6 +215,39 @@ def test_under_a_projectile_the_balance_closes_with_unequal_masses_and_n_1_5(lat
         )
         assert result["peak_backplate_force"] > 0.0
         assert abs(result["energy_balance_error"]) <= 1e-6 * put_in, symmetry
+
+
+@pytest.fixture(scope="module")
+def equal_fmu3(tmp_path_factory):
+    """The lattice of the study's first four materials as they are (1 kg, n = 1), FMI 3."""
+    return build.build_fmu(
+        rows=ROWS,
+        cols=COLS,
+        materials=study_materials(COLS),
+        werror=True,
+        fmi_version=3,
+        output=tmp_path_factory.mktemp("equal3") / "Equal-fmi3.fmu",
+    )
+
+
+@pytest.mark.parametrize("interface", ["CoSimulation", "ModelExchange"])
+def test_fmi3_arrays_set_through_fmpy_give_the_built_tables_run(equal_fmu3, lattice_fmu3, interface):
+    """A table of the same length is a parameter set, not a rebuild: the FMU built with 1 kg and n = 1 and given
+    the unequal masses and exponents as FMI 3 arrays in fmpy's start values runs what the FMU built with them
+    runs (bit for bit: the same model code and numbers), and closes the energy balance to 1e-6 of the work."""
+    options = {"solver": "CVode", "relative_tolerance": 1e-9} if interface == "ModelExchange" else {}
+    common = dict(fmi_type=interface, stop_time=HORIZON, output_interval=0.01, output=list(BALANCE), **options)
+    order = {"material": list(ORDER)}
+    arrays = {"mass": list(MASSES), "damping_exponent": list(EXPONENTS)}
+    given = simulate_fmu(str(equal_fmu3), start_values={**ACCURATE, **order, **arrays}, **common)
+    built = simulate_fmu(str(lattice_fmu3), start_values={**ACCURATE, **order}, **common)
+    unset = simulate_fmu(str(equal_fmu3), start_values={**ACCURATE, **order}, **common)
+    final = {name: float(given[name][-1]) for name in BALANCE}
+    assert abs(final["energy_balance_error"]) <= 1e-6 * final["external_work"]
+    assert final["stack_mass"] == pytest.approx(stack_mass(TABLE, ORDER, ROWS), rel=1e-15)
+    for name in BALANCE:
+        assert np.array_equal(given[name], built[name]), name
+    assert abs(float(unset["peak_backplate_force"][-1]) / final["peak_backplate_force"] - 1.0) > 1e-2
 
 
 @pytest.mark.parametrize("interface", ["CoSimulation", "ModelExchange"])

@@ -19,7 +19,7 @@ from fmpy.fmi2 import FMU2Model, FMU2Slave
 from fmu_src.published import PUBLISHED_PEAKS
 from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
-from orchestrator.simulation import _CALLBACKS, _MESSAGES
+from orchestrator.simulation import _CALLBACKS, _MESSAGES, model_description, start_values
 
 OUTPUTS = [
     "backplate_force",
@@ -37,7 +37,7 @@ FMI2_ERROR = 3
 
 def simulate_model_exchange(fmu, order, stop_time=8.0):
     """The issue's command: fmpy's CVode at rtol 1e-9 on a 0.01 s output grid."""
-    start = {f"material[{j}]": m for j, m in enumerate(order, start=1)}  # FMI 2 and 3 alike
+    start = start_values(model_description(fmu), {f"material[{j}]": m for j, m in enumerate(order, start=1)})
     return simulate_fmu(
         str(fmu),
         fmi_type="ModelExchange",

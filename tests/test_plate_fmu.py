@@ -17,7 +17,7 @@ from fmpy.validation import validate_fmu
 
 from builder import build as build_fmu
 from fmu_src.variables import make_interface
-from orchestrator.simulation import LatticeFMU, SimulationError
+from orchestrator.simulation import LatticeFMU, SimulationError, model_description, start_values
 from scenes import Scene
 
 REFERENCE = json.loads((Path(__file__).resolve().parents[1] / "reference" / "plate_5x5x5_reference.json").read_text())
@@ -67,7 +67,7 @@ def co_simulation(fmu, start: dict, names=PEAKS + ENERGIES) -> dict:
         str(fmu),
         stop_time=REFERENCE["horizon"],
         output_interval=REFERENCE["horizon"],
-        start_values=start,
+        start_values=start_values(model_description(fmu), start),
         output=list(names),
     )
     return {name: float(result[name][-1]) for name in names}
@@ -157,7 +157,7 @@ def model_exchange_peak(fmu, start: dict, stop_time: float) -> float:
         relative_tolerance=1e-9,
         output_interval=0.01,
         stop_time=stop_time,
-        start_values=start,
+        start_values=start_values(model_description(fmu), start),
         output=["backplate_force"],
     )
     on_grid = np.abs(result["time"] / 0.01 - np.round(result["time"] / 0.01)) < 1e-9

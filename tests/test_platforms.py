@@ -200,20 +200,29 @@ def _environment() -> dict[str, str]:
     return env
 
 
-def fmusim_options(interface: str, order) -> list[str]:
-    options = ["--interface-type", interface, "--output-variable", "peak_backplate_force"]
-    if interface == "me":
-        options += ["--solver", "cvode", "--tolerance", repr(ME_TOLERANCE)]
+def order_options(order, fmi_version: int) -> list[str]:
+    """fmusim's start values of the order: FMI 2's scalars material[j], FMI 3's array material (its values
+    space-separated)."""
+    if fmi_version == 3:
+        return ["--start-value", "material", " ".join(str(material) for material in order)] if order else []
+    options = []
     for index, material in enumerate(order, start=1):
         options += ["--start-value", f"material[{index}]", str(material)]
     return options
 
 
-def run_fmusim(command: list[str], fmu, interface: str, order, out_dir) -> float:
+def fmusim_options(interface: str, order, fmi_version: int) -> list[str]:
+    options = ["--interface-type", interface, "--output-variable", "peak_backplate_force"]
+    if interface == "me":
+        options += ["--solver", "cvode", "--tolerance", repr(ME_TOLERANCE)]
+    return options + order_options(order, fmi_version)
+
+
+def run_fmusim(command: list[str], fmu, interface: str, order, out_dir, fmi_version: int) -> float:
     """The FMU's final peak_backplate_force in one fmusim run (the last row of its output CSV)."""
     output = out_dir / f"{interface}_{''.join(f'{m:x}' for m in order)}.csv"
     done = subprocess.run(
-        [*command, *fmusim_options(interface, order), "--output-file", str(output), str(fmu)],
+        [*command, *fmusim_options(interface, order, fmi_version), "--output-file", str(output), str(fmu)],
         capture_output=True,
         text=True,
         env=_environment(),
@@ -255,7 +264,7 @@ def native_peaks(platform_fmus, tmp_path_factory):
             fmu = platform_fmus(fmi_version, "x86_64-linux")
             out_dir = tmp_path_factory.mktemp(f"native_{fmi_version}_{interface}")
             peaks[fmi_version, interface] = {
-                order: run_fmusim(command, fmu, interface, order, out_dir) for order in ORDERS
+                order: run_fmusim(command, fmu, interface, order, out_dir, fmi_version) for order in ORDERS
             }
         return peaks[fmi_version, interface]
 
@@ -277,7 +286,7 @@ def test_fmusim_reproduces_the_published_peaks_on_each_platform(
         f"published peaks to {PUBLISHED_ACCURACY:g}, peaks equal to the x86_64-linux library's in the same "
         f"fmusim to {SAME_AS_NATIVE:g}"
     )
-    options = " ".join(shlex.quote(o) for o in fmusim_options(interface, ()))
+    options = " ".join(shlex.quote(o) for o in fmusim_options(interface, (), fmi_version))
     environment = tuple(
         dict.fromkeys(
             f"{FMUSIM_VARIABLES[name]}=path/to/{name}/fmusim{'.exe' if 'windows' in name else ''}"
@@ -295,12 +304,13 @@ def test_fmusim_reproduces_the_published_peaks_on_each_platform(
         environment=environment,
         note=(
             f"the Reference FMUs' C fmusim, {_emulator_note(platform)}: fmusim {options} "
-            "--start-value material[j] m_j (each published order)"
+            + ("--start-value material 'm_1 ... m_11'" if fmi_version == 3 else "--start-value material[j] m_j")
+            + " (each published order)"
         ),
     ) as row:
         native = native_peaks(fmi_version, interface)
         for order in ORDERS:
-            peak = run_fmusim(command, fmu, interface, order, tmp_path)
+            peak = run_fmusim(command, fmu, interface, order, tmp_path, fmi_version)
             row.reached(order, peak)
             assert peak == pytest.approx(PUBLISHED_PEAKS[order], rel=PUBLISHED_ACCURACY)
             assert peak == pytest.approx(native[order], rel=SAME_AS_NATIVE, abs=0.0)
@@ -358,8 +368,7 @@ def test_fmusim_runs_a_plate_under_a_patch_to_the_reference_on_each_platform(pla
         "atol",
         "1e-12",
     ]
-    for index, material in enumerate(case["scene"]["order"], start=1):
-        options += ["--start-value", f"material[{index}]", str(material)]
+    options += order_options(case["scene"]["order"], 3)
     done = subprocess.run(
         [*command, *options, "--output-file", str(output), str(platform_plate)],
         capture_output=True,

@@ -18,6 +18,8 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
+from orchestrator.simulation import start_values
+
 from fmu_src.published import STUDY_BEST_ORDER as PUBLISHED_BEST
 
 HORIZON, STEP = 8.0, 0.01
@@ -42,9 +44,9 @@ def fmpy_compile(fmu: Path) -> subprocess.CompletedProcess:
 def run(fmu: Path, order) -> np.ndarray:
     """Every output at every 0.01 s communication point over 8 s, through fmpy's simulate_fmu."""
     description = read_model_description(str(fmu))
-    start_values = {f"material[{j}]": m for j, m in enumerate(order, 1)}  # scalars in FMI 2 and 3
+    order_start = start_values(description, {f"material[{j}]": m for j, m in enumerate(order, 1)})  # FMI 3: an array
     outputs = [v.name for v in description.modelVariables if v.causality == "output"]
-    return simulate_fmu(str(fmu), stop_time=HORIZON, output_interval=STEP, start_values=start_values, output=outputs)
+    return simulate_fmu(str(fmu), stop_time=HORIZON, output_interval=STEP, start_values=order_start, output=outputs)
 
 
 @pytest.mark.parametrize("fixture", ["fmu_path", "fmu3_path"], ids=["fmi2", "fmi3"])

@@ -3,9 +3,11 @@
  *
  * Like fmi2/fmi2_glue.c it knows nothing of springs: every model question goes through the model folder's
  * model.h (Model Exchange hands the importer the model's continuous-time contract). What FMI 3 adds here:
- * - every variable is a scalar, and its value reference is the model's plus VR_OFFSET: its 1-based position in
- *   modelDescription.xml (builder/fmi3_description.py), where importers that read `derivative` as an index
- *   look for a state.
+ * - a parameter array (material, k, ..., mass) is one FMI 3 array: one value reference moves all its values, so
+ *   nValues counts values, not value references. Every other variable is a scalar.
+ * - a value reference is the variable's 1-based position in modelDescription.xml (builder/fmi3_description.py),
+ *   where importers that read `derivative` as an index look for a state; the generated fmi3_variables.h says
+ *   which of the model's value references each array moves (model_range).
  * - the independent variable `time` (FMI 3 requires one): the value reference after the model's variables.
  * - Real is Float64, Integer Int32 and an enumeration Int64; every other FMI 3 type is refused (the FMU has
  *   none).
@@ -16,6 +18,7 @@
 #include <string.h>
 
 #include "fmi3Functions.h"
+#include "fmi3_variables.h" /* generated: the FMI 3 arrays */
 #include "instance.h" /* and through it the model folder's model.h */
 #include "state_masks.h"
 
@@ -68,31 +71,53 @@ static int allowed(Instance *instance, const char *function, unsigned int states
 /* 1 when `function` may be called in the instance's state (its MASK_ in state_masks.h), else 0, logged. */
 #define CHECK_STATE(function) allowed(instance, #function, MASK_##function)
 
-#define VR_OFFSET 1u /* FMI 3 value reference = the model's + VR_OFFSET */
+#define VR_OFFSET 1u /* FMI 3 value reference = the 1-based position in modelDescription.xml */
 
 /* The value reference of `time`: the one after the model's variables. */
-static fmi3ValueReference time_reference(void) { return (fmi3ValueReference)model_value_reference_count() + VR_OFFSET; }
+static fmi3ValueReference time_reference(void) { return (fmi3ValueReference)FMI3_VARIABLE_COUNT + VR_OFFSET; }
+
+/* The model's value references the FMI 3 value reference vr moves: *first and how many (an array's length, or 1
+ * for a scalar); 0 for a value reference that is no model variable. A scalar is the model's value reference after
+ * those of every array declared before it. */
+static unsigned int model_range(fmi3ValueReference vr, unsigned int *first) {
+    unsigned int skipped = 0, i;
+    if (vr < VR_OFFSET || vr >= time_reference()) return 0;
+    for (i = 0; FMI3_ARRAYS[i].length != 0u && FMI3_ARRAYS[i].reference <= vr; i++) {
+        if (FMI3_ARRAYS[i].reference == vr) {
+            *first = FMI3_ARRAYS[i].first;
+            return FMI3_ARRAYS[i].length;
+        }
+        skipped += FMI3_ARRAYS[i].length - 1u;
+    }
+    *first = vr - VR_OFFSET + skipped;
+    return 1;
+}
 
 /* What a variable is moved as: Float64 (MODEL_TYPE_REAL), Int32 (MODEL_TYPE_INTEGER) or, for an Integer
  * declared as an enumeration, Int64 (FMI 3 moves enumerations with fmi3GetInt64 and fmi3SetInt64); -1 for a
  * value reference that is no model variable. */
 #define KIND_ENUMERATION 2
 static int kind_of(fmi3ValueReference vr) {
-    if (vr < VR_OFFSET || vr - VR_OFFSET >= model_value_reference_count()) return -1;
-    return model_variable_is_enumeration(vr - VR_OFFSET) ? KIND_ENUMERATION : model_variable_type(vr - VR_OFFSET);
+    unsigned int first = 0;
+    if (model_range(vr, &first) == 0) return -1;
+    return model_variable_is_enumeration(first) ? KIND_ENUMERATION : model_variable_type(first);
 }
 
-/* Checks a get or set call's value references (each one scalar of the type, or `time` where allowed) and that
- * nValues is their number. */
+/* Checks a get or set call's value references (each a variable of the type, or `time` where allowed) and that
+ * nValues is the number of values they move (an array's length for an array, 1 for a scalar). */
 static int check_values(Instance *instance, const char *function, const fmi3ValueReference vr[], size_t nvr,
                         size_t nValues, int type, int time_allowed) {
     static const char *kinds[] = {"a Float64", "an Int32", "an Enumeration (Int64)"};
     char message[MESSAGE_SIZE];
     const fmi3ValueReference time_vr = time_reference();
-    size_t i;
+    size_t i, values = 0;
+    unsigned int first = 0;
     for (i = 0; i < nvr; i++) {
         const int kind = kind_of(vr[i]);
-        if (vr[i] == time_vr && time_allowed) continue;
+        if (vr[i] == time_vr && time_allowed) {
+            values += 1;
+            continue;
+        }
         if (vr[i] == time_vr || kind < 0) {
             snprintf(message, sizeof(message), vr[i] == time_vr ? "value reference %u is time, not %s variable"
                                                                 : "value reference %u is not %s variable of this FMU",
@@ -105,10 +130,12 @@ static int check_values(Instance *instance, const char *function, const fmi3Valu
             error(instance, function, message);
             return -1;
         }
+        values += model_range(vr[i], &first);
     }
-    if (nValues != nvr) {
-        snprintf(message, sizeof(message), "nValues is %lu but the %lu value references are scalars (%lu values)",
-                 (unsigned long)nValues, (unsigned long)nvr, (unsigned long)nvr);
+    if (nValues != values) {
+        snprintf(message, sizeof(message),
+                 "nValues is %lu but the %lu value references move %lu values (an array all its elements)",
+                 (unsigned long)nValues, (unsigned long)nvr, (unsigned long)values);
         error(instance, function, message);
         return -1;
     }
@@ -269,38 +296,51 @@ fmi3Status fmi3Reset(fmi3Instance c) {
     return fmi3OK;
 }
 
-/* Float64, Int32 and Int64: the model's Real and Integer variables (and its enumerations as Int64). */
+/* Float64, Int32 and Int64: the model's Real and Integer variables (and its enumerations as Int64); each value
+ * reference moves its values (model_range) in order into values[], which check_values has sized. */
 fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Float64 values[],
                           size_t nValues) {
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     const fmi3ValueReference time_vr = time_reference();
-    size_t i;
+    size_t i, at = 0;
+    unsigned int first = 0, length, e;
     if (!CHECK_STATE(fmi3GetFloat64)) return fmi3Error;
     if (check_values(instance, "fmi3GetFloat64", vr, nvr, nValues, MODEL_TYPE_REAL, 1)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] == time_vr) {
-            values[i] = model_time(instance->common.model);
-        } else if (model_get_real(instance->common.model, vr[i] - VR_OFFSET, &values[i], message, sizeof(message))) {
-            return error(instance, "fmi3GetFloat64", message);
+            values[at++] = model_time(instance->common.model);
+            continue;
+        }
+        length = model_range(vr[i], &first);
+        for (e = 0; e < length; e++) {
+            if (model_get_real(instance->common.model, first + e, &values[at++], message, sizeof(message))) {
+                return error(instance, "fmi3GetFloat64", message);
+            }
         }
     }
     return fmi3OK;
 }
 
-/* An Integer or enumeration read into `value`; 0, or -1 when the model refused (the reason logged). */
-static int get_integer(Instance *instance, const char *function, fmi3ValueReference vr, int *value) {
+/* The model's integer (or enumeration) at the e-th value reference vr moves, read into value; 0, or -1 when the
+ * model refused (the reason logged). */
+static int get_integer(Instance *instance, const char *function, fmi3ValueReference vr, unsigned int e, int *value) {
     char message[MESSAGE_SIZE];
-    if (model_get_integer(instance->common.model, vr - VR_OFFSET, value, message, sizeof(message))) {
+    unsigned int first = 0;
+    model_range(vr, &first);
+    if (model_get_integer(instance->common.model, first + e, value, message, sizeof(message))) {
         error(instance, function, message);
         return -1;
     }
     return 0;
 }
 
-static int set_integer(Instance *instance, const char *function, fmi3ValueReference vr, int value) {
+/* The model's integer at the e-th value reference vr moves set to value; 0, or -1 when the model refused. */
+static int set_integer(Instance *instance, const char *function, fmi3ValueReference vr, unsigned int e, int value) {
     char message[MESSAGE_SIZE];
-    if (model_set_integer(instance->common.model, vr - VR_OFFSET, value, message, sizeof(message))) {
+    unsigned int first = 0;
+    model_range(vr, &first);
+    if (model_set_integer(instance->common.model, first + e, value, message, sizeof(message))) {
         error(instance, function, message);
         return -1;
     }
@@ -310,13 +350,17 @@ static int set_integer(Instance *instance, const char *function, fmi3ValueRefere
 fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Int32 values[],
                         size_t nValues) {
     Instance *instance = (Instance *)c;
-    size_t i;
+    size_t i, at = 0;
+    unsigned int first = 0, length, e;
     int value;
     if (!CHECK_STATE(fmi3GetInt32)) return fmi3Error;
     if (check_values(instance, "fmi3GetInt32", vr, nvr, nValues, MODEL_TYPE_INTEGER, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
-        if (get_integer(instance, "fmi3GetInt32", vr[i], &value)) return fmi3Error;
-        values[i] = (fmi3Int32)value;
+        length = model_range(vr[i], &first);
+        for (e = 0; e < length; e++) {
+            if (get_integer(instance, "fmi3GetInt32", vr[i], e, &value)) return fmi3Error;
+            values[at++] = (fmi3Int32)value;
+        }
     }
     return fmi3OK;
 }
@@ -327,7 +371,8 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     Instance *instance = (Instance *)c;
     char message[MESSAGE_SIZE];
     const fmi3ValueReference time_vr = time_reference();
-    size_t i;
+    size_t i, at = 0;
+    unsigned int first = 0, length, e;
     if (!CHECK_STATE(fmi3SetFloat64)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] == time_vr) {
@@ -336,8 +381,11 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     }
     if (check_values(instance, "fmi3SetFloat64", vr, nvr, nValues, MODEL_TYPE_REAL, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
-        if (model_set_real(instance->common.model, vr[i] - VR_OFFSET, values[i], message, sizeof(message))) {
-            return error(instance, "fmi3SetFloat64", message);
+        length = model_range(vr[i], &first);
+        for (e = 0; e < length; e++) {
+            if (model_set_real(instance->common.model, first + e, values[at++], message, sizeof(message))) {
+                return error(instance, "fmi3SetFloat64", message);
+            }
         }
     }
     return fmi3OK;
@@ -346,16 +394,20 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
 fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Int32 values[],
                         size_t nValues) {
     Instance *instance = (Instance *)c;
-    size_t i;
+    size_t i, at = 0;
+    unsigned int first = 0, length, e;
     if (!CHECK_STATE(fmi3SetInt32)) return fmi3Error;
     if (check_values(instance, "fmi3SetInt32", vr, nvr, nValues, MODEL_TYPE_INTEGER, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
-        if (set_integer(instance, "fmi3SetInt32", vr[i], (int)values[i])) return fmi3Error;
+        length = model_range(vr[i], &first);
+        for (e = 0; e < length; e++) {
+            if (set_integer(instance, "fmi3SetInt32", vr[i], e, (int)values[at++])) return fmi3Error;
+        }
     }
     return fmi3OK;
 }
 
-/* Int64: the enumerations (diagonal_rule, solver), kept by the model as Integers. */
+/* Int64: the enumerations (diagonal_rule, solver), kept by the model as Integers (scalars, never arrays). */
 fmi3Status fmi3GetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Int64 values[],
                         size_t nValues) {
     Instance *instance = (Instance *)c;
@@ -364,7 +416,7 @@ fmi3Status fmi3GetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
     if (!CHECK_STATE(fmi3GetInt64)) return fmi3Error;
     if (check_values(instance, "fmi3GetInt64", vr, nvr, nValues, KIND_ENUMERATION, 0)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
-        if (get_integer(instance, "fmi3GetInt64", vr[i], &value)) return fmi3Error;
+        if (get_integer(instance, "fmi3GetInt64", vr[i], 0, &value)) return fmi3Error;
         values[i] = (fmi3Int64)value;
     }
     return fmi3OK;
@@ -379,7 +431,7 @@ fmi3Status fmi3SetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
     for (i = 0; i < nvr; i++) {
         /* a value beyond Int32 is beyond every enumeration's items: the model refuses it with their names */
         const int value = values[i] > 1000000 ? 1000000 : values[i] < -1000000 ? -1000000 : (int)values[i];
-        if (set_integer(instance, "fmi3SetInt64", vr[i], value)) return fmi3Error;
+        if (set_integer(instance, "fmi3SetInt64", vr[i], 0, value)) return fmi3Error;
     }
     return fmi3OK;
 }
@@ -784,10 +836,12 @@ fmi3Status fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference vr[
     if (!CHECK_STATE(fmi3GetOutputDerivatives)) return fmi3Error;
     if (nValues != nvr) return error(instance, "fmi3GetOutputDerivatives", "nValues must equal nValueReferences");
     for (i = 0; i < nvr; i++) {
-        if (vr[i] < VR_OFFSET ||
-            model_get_output_derivative(instance->common.model, vr[i] - VR_OFFSET, orders[i], &values[i], message,
+        unsigned int first = 0;
+        const unsigned int length = model_range(vr[i], &first);
+        if (length != 1 ||
+            model_get_output_derivative(instance->common.model, first, orders[i], &values[i], message,
                                         sizeof(message))) {
-            if (vr[i] < VR_OFFSET) snprintf(message, sizeof(message), "value reference %u is unknown", vr[i]);
+            if (length != 1) snprintf(message, sizeof(message), "value reference %u is no scalar variable", vr[i]);
             return error(instance, "fmi3GetOutputDerivatives", message);
         }
     }
