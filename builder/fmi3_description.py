@@ -53,6 +53,7 @@ TYPE_NAMES = {REAL: "Float64", INTEGER: "Int32"}  # an Integer with an enumerati
 # FMI 3 value reference = the 1-based position in <ModelVariables>
 VR_OFFSET = 1
 VARIABLE_MAP_HEADER = "fmi3_variables.h"  # the glue's map of FMI 3 value references onto the model's
+OUTPUT_SUFFIX = "-fmi3"  # models/MassSpringLattice-fmi3.fmu beside the FMI 2 models/MassSpringLattice.fmu
 
 
 def is_fmi3_array(variable: Variable) -> bool:
@@ -97,7 +98,7 @@ def generate_variable_map(interface: Interface, arrays: bool = True) -> str:
     """fmi3_variables.h: which model value references each FMI 3 array moves; every other FMI 3 value reference
     is one scalar, the model's next one (fmi3/fmi3_glue.c, model_range)."""
     declared = declared_variables(interface, arrays)
-    arrays = [
+    entries = [
         f"    {{{position + VR_OFFSET}u, {entry.model_reference}u, {entry.length}u}}, /* {entry.name} */"
         for position, entry in enumerate(declared)
         if entry.is_array
@@ -113,10 +114,10 @@ def generate_variable_map(interface: Interface, arrays: bool = True) -> str:
         "} Fmi3Array;",
         "",
         f"#define FMI3_VARIABLE_COUNT {len(declared)}u /* value references VR_OFFSET ..., then time */",
-        f"#define FMI3_ARRAY_COUNT {len(arrays)}u",
+        f"#define FMI3_ARRAY_COUNT {len(entries)}u",
         "/* in value-reference order, ended by an entry of length 0 */",
         "static const Fmi3Array FMI3_ARRAYS[FMI3_ARRAY_COUNT + 1u] = {",
-        *arrays,
+        *entries,
         "    {0u, 0u, 0u}",
         "};",
         "",
@@ -124,9 +125,6 @@ def generate_variable_map(interface: Interface, arrays: bool = True) -> str:
         "",
     ]
     return "\n".join(lines)
-
-
-OUTPUT_SUFFIX = "-fmi3"  # models/MassSpringLattice-fmi3.fmu beside the FMI 2 models/MassSpringLattice.fmu
 
 
 def platform_folder() -> tuple[str, str]:
