@@ -287,6 +287,43 @@ def test_a_plate_closes_the_balance_with_unequal_masses_and_n_1_5(plate_fmu, int
     )
 
 
+@pytest.fixture(scope="module")
+def equal_plate_fmu3(tmp_path_factory):
+    """The plate of the study's first three materials as they are (1 kg, n = 1), FMI 3."""
+    return build.build_fmu(
+        rows=PLATE_ROWS,
+        cols=PLATE_COLS,
+        depth=PLATE_DEPTH,
+        materials=study_materials(PLATE_COLS),
+        werror=True,
+        fmi_version=3,
+        output=tmp_path_factory.mktemp("equal_plate3") / "EqualPlate-fmi3.fmu",
+    )
+
+
+@pytest.mark.parametrize("interface", ["CoSimulation", "ModelExchange"])
+def test_a_plate_of_fmi3_given_the_masses_and_exponents_as_arrays_closes_the_balance(equal_plate_fmu3, interface):
+    """The plate built with the study's materials as they are and given the unequal masses and exponents as FMI 3
+    arrays at run time: the balance closes, and the stack weighs what the arrays say."""
+    options = {"solver": "CVode", "relative_tolerance": 1e-9} if interface == "ModelExchange" else {}
+    arrays = {"mass": list(MASSES[:PLATE_COLS]), "damping_exponent": list(EXPONENTS[:PLATE_COLS])}
+    result = simulate_fmu(
+        str(equal_plate_fmu3),
+        fmi_type=interface,
+        stop_time=HORIZON,
+        output_interval=0.01,
+        start_values={"material": list(PLATE_ORDER), **arrays, **ACCURATE},
+        output=list(BALANCE),
+        **options,
+    )
+    final = {name: float(result[name][-1]) for name in BALANCE}
+    assert final["external_work"] > 1.0 and final["peak_backplate_force"] > 0.0
+    assert abs(final["energy_balance_error"]) <= 1e-6 * final["external_work"]
+    assert final["stack_mass"] == pytest.approx(
+        stack_mass(PLATE_TABLE, PLATE_ORDER, PLATE_ROWS * PLATE_DEPTH), rel=1e-15
+    )
+
+
 def test_model_exchange_closes_the_balance_and_agrees_with_co_simulation(lattice_fmu, unequal):
     result = simulate_fmu(
         str(lattice_fmu),
