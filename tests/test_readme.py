@@ -30,7 +30,7 @@ def test_the_readme_is_short_and_runs_the_test_command_ci_runs():
 
 
 def test_the_readme_quotes_the_run_times_as_their_page_measured_them():
-    """The plate's and the quick tests' run times in the README are the run times page's, not typed apart."""
+    """The plate's, the quick tests' and the whole suite's run times in the README are the run times page's, not typed apart."""
     page = (ROOT / "docs" / "measurements" / "run_times.md").read_text()
     rows = {
         cells[0].strip("` "): cells[1:]
@@ -44,4 +44,5 @@ def test_the_readme_quotes_the_run_times_as_their_page_measured_them():
     plate_runs = plate_did.split(" FMU runs")[0]
     assert f"(`--budget 20 --repeats 1`: {plate_runs} FMU runs, {plate_wall} on two loaded cores" in text
     assert f"`python -m pytest -m quick` runs {quick_did.split()[0]} of its tests" in text
-    assert f"in {quick_wall} on two loaded cores" in text
+    assert f"in {quick_wall}, and the whole suite in {rows['python -m pytest'][0].strip()}, on two" in text
+    assert f"at its defaults {rows['python orchestrator/run.py --scene plate_11x11x11'][0].strip()}" in text
