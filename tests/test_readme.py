@@ -30,7 +30,8 @@ def test_the_readme_is_short_and_runs_the_test_command_ci_runs():
 
 
 def test_the_readme_quotes_the_run_times_as_their_page_measured_them():
-    """The plate's, the quick tests' and the whole suite's run times in the README are the run times page's, not typed apart."""
+    """The plate's, the quick tests' and the whole suite's run times in the README are the run times page's, not
+    typed apart."""
     page = (ROOT / "docs" / "measurements" / "run_times.md").read_text()
     rows = {
         cells[0].strip("` "): cells[1:]
