@@ -154,7 +154,11 @@ def generate_header(interface: Interface, guid: str) -> str:
             variable.causality, "CAUSALITY_LOCAL"
         )
         state = state_offsets[variable.name] if variable.role == STATE else -1
-        derivative = state_offsets[variable.derivative_of] if variable.role == DERIVATIVE else -1
+        derivative = (
+            state_offsets[variable.derivative_of]
+            if variable.role == DERIVATIVE and variable.derivative_of is not None
+            else -1
+        )
         indicator = indicator_offset if variable.role == INDICATOR else -1
         indicator_offset += variable.count if variable.role == INDICATOR else 0
         low = "-INFINITY" if variable.minimum is None else repr(float(variable.minimum))

@@ -225,6 +225,7 @@ def load_materials(path: str | Path) -> MaterialTable:
     except (OSError, UnicodeDecodeError) as exc:
         raise MaterialTableError(f"{source}: cannot be read ({getattr(exc, 'strerror', None) or exc})") from None
     suffix = path.suffix.lower()
+    rows: object  # the file's list of materials, checked by MaterialTable.from_rows
     if suffix == ".csv":
         rows = _csv_rows(text, source)
     elif suffix == ".toml":

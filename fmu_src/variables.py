@@ -916,7 +916,8 @@ def make_interface(
             f"parameters {in_table} are the material table's: give the table itself (a scene's "
             f"materials, build_fmu.py --materials FILE)"
         )
-    exposed, fixed = [], []
+    exposed: list[Variable] = []
+    fixed: list[Variable] = []
     patch = (parameters or {}).get("load_patch", WHOLE_FACE)
     if not load_patch_allowed(rows, depth, patch):
         raise ValueError("parameter " + load_patch_refusal(rows, depth, patch))
