@@ -24,6 +24,7 @@ import tempfile
 import threading
 import uuid
 import zipfile
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -396,7 +397,7 @@ def package_fmu(
     *,
     generated: dict[str, str] | None = None,
     extra_files: dict[str, bytes] | None = None,
-    targets: list[TargetPlatform] | None = None,
+    targets: Sequence[TargetPlatform] | None = None,
     werror: bool = False,
 ) -> Path:
     """Zips an FMU of the model folder and glue of `tree`: its modelDescription.xml (`description`), its sources

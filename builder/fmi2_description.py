@@ -84,7 +84,12 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[tuple[int, 
                 initial_unknowns.append(index)
         if variable.causality == "output":
             outputs.append(
-                (index, " ".join(str(first_index[name]) for name in sorted(variable.depends_on, key=first_index.get)))
+                (
+                    index,
+                    " ".join(
+                        str(first_index[name]) for name in sorted(variable.depends_on, key=first_index.__getitem__)
+                    ),
+                )
             )
         type_attributes = []
         if variable.causality in ("parameter", "input"):

@@ -22,6 +22,7 @@ import dataclasses
 import hashlib
 import json
 import math
+import os
 import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -214,7 +215,7 @@ def check_rows(rows: list[dict[str, Any]], source: str) -> None:
                 raise MaterialTableError(f"{label}: {value!r} is not allowed; allowed: {field.allowed_in_unit()}")
 
 
-def load_materials(path: str | Path) -> MaterialTable:
+def load_materials(path: str | os.PathLike) -> MaterialTable:
     """A material table from a .csv (header ``name,k,k_diag,c,alpha,alpha_diag``, optionally ``mass`` and
     ``damping_exponent`` too), .toml (``[[material]]`` tables) or .json (a list of objects, or
     ``{"materials": [...]}``) file; checked before any use."""

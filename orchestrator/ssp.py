@@ -171,7 +171,7 @@ def _tool_problem(description, entries: Sequence[DesignParameter]) -> str | None
             if entry.value != default:
                 items = {code: item for item, code in enumeration_items(description, entry.name).items()}
                 return (
-                    f"{entry.name} = {items.get(entry.value, entry.value)}: libcosim ignores FMI 2 Enumeration "
+                    f"{entry.name} = {items.get(int(entry.value), entry.value)}: libcosim ignores FMI 2 Enumeration "
                     f"parameters and would run {entry.name} = {items.get(default, default)}; this FMU cannot carry "
                     f"that design to libcosim (rebuild it with {entry.name} settable as an Integer)"
                 )
