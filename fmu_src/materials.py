@@ -197,7 +197,7 @@ def check_rows(rows: list[dict[str, Any]], source: str) -> None:
             )
         seen[name] = number
         for field in FIELDS:
-            value = row.get(field.name)
+            value: Any = row.get(field.name)  # a cell of a CSV, TOML or JSON table
             label = f"{source}: row {number} ({name}), field {field.name}"
             if not _given(value) and not field.required:
                 continue
