@@ -7,7 +7,7 @@ The armour system (`python build_fmu.py --system`: projectile -> lattice -> hull
 0.4 s, by which the backplate force has peaked, at communication steps from 1e-5 to 1e-2 s, by each master and
 scheme available: libcosim's fixed-step master and FMPy's simulate_ssp (Jacobi: each FMU steps on the others'
 values of the last communication point), examples/armour_system.py's own Gauss-Seidel loop over FMPy's FMI 2
-layer (projectile, lattice, hull in turn, each on the newest values) and libcosim's ECCO (energy-conservation
+API (projectile, lattice, hull in turn, each on the newest values) and libcosim's ECCO (energy-conservation
 step control over the two power bonds, started at the step, free to go ten times shorter or longer).
 
 Each run against the one-model reference of the whole system (reference/system.py: projectile, lattice and hull

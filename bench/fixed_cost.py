@@ -1,6 +1,6 @@
-"""Fixed cost per run: what an evaluation costs apart from its integration, layer by layer.
+"""Fixed cost per run: what an evaluation costs apart from its integration, level by level.
 
-    python -m bench.fixed_cost            # about 1 min: 5 batches of 1000 runs per layer
+    python -m bench.fixed_cost            # about 1 min: 5 batches of 1000 runs per level
     python -m bench.fixed_cost --quick    # about 20 s: 3 batches of 300
 
 Why: a search evaluation integrates for about a millisecond, so what each run costs around the integration
@@ -41,14 +41,14 @@ def main(argv=None) -> int:
     parser = run.parser(__doc__, quick="3 batches of 300 runs")
     add_fmu_option(parser)
     parser.add_argument("--runs", type=int, default=1000, help="runs per batch")
-    parser.add_argument("--batches", type=int, default=5, help="batches per layer (the fastest counts)")
+    parser.add_argument("--batches", type=int, default=5, help="batches per level (the fastest counts)")
     args = parser.parse_args(argv)
     if args.quick:
         args.runs, args.batches = 300, 3
     with lattice_fmu(args.fmu) as path:
         parameters = search_parameters(path)
         task = FMURun(str(path), HORIZON, tuple(sorted(parameters.items())))
-        layers = {}
+        levels = {}
         with LatticeFMU(path) as fmu:
             first = fmu.simulate(random_orders(1, 0)[0], horizon=HORIZON, parameters=parameters)
             rhs, outputs = first["rhs_evaluations"], len(first.names)
@@ -57,7 +57,7 @@ def main(argv=None) -> int:
                 for order in orders:
                     fmu.simulate(order, horizon=HORIZON, parameters=parameters)
 
-            layers["LatticeFMU.simulate"] = fastest(
+            levels["LatticeFMU.simulate"] = fastest(
                 [random_orders(args.runs, seed) for seed in range(args.batches)], direct
             )
         task(random_orders(1, 0)[0])  # opens this process's instance once
@@ -66,7 +66,7 @@ def main(argv=None) -> int:
             for order in orders:
                 task(order)
 
-        layers["FMURun (an Evaluation made)"] = fastest(
+        levels["FMURun (an Evaluation made)"] = fastest(
             [random_orders(args.runs, 100 + seed) for seed in range(args.batches)], objective_run
         )
         with make_executor("serial") as executor:
@@ -74,17 +74,17 @@ def main(argv=None) -> int:
             def evaluator_run(orders):
                 Evaluator(executor).evaluate([(task, order) for order in orders])
 
-            layers["Evaluator, serial executor"] = fastest(
+            levels["Evaluator, serial executor"] = fastest(
                 [random_orders(args.runs, 200 + seed) for seed in range(args.batches)], evaluator_run
             )
         close_instances()
-    rows = tuple((layer, f"{seconds * 1e3:.4f}") for layer, seconds in layers.items())
+    rows = tuple((level, f"{seconds * 1e3:.4f}") for level, seconds in levels.items())
     page = Page(
         name=run.name,
         title="Fixed cost per run",
         headline=(
-            f"{layers['LatticeFMU.simulate'] * 1e3:.3f} ms CPU per FMU run around the integration, "
-            f"{layers['Evaluator, serial executor'] * 1e3:.3f} ms through the Evaluator"
+            f"{levels['LatticeFMU.simulate'] * 1e3:.3f} ms CPU per FMU run around the integration, "
+            f"{levels['Evaluator, serial executor'] * 1e3:.3f} ms through the Evaluator"
         ),
         summary=(
             f"Runs of {HORIZON * 1e3:g} ms of simulated time ({rhs} right-hand sides) with the searches' parameters "
@@ -92,7 +92,7 @@ def main(argv=None) -> int:
             f"reading the {outputs} outputs an evaluation reads; the fastest of {args.batches} batches of "
             f"{args.runs} distinct random orders, CPU time per run."
         ),
-        tables=(Table(("layer", "CPU ms per run"), rows),),
+        tables=(Table(("level", "CPU ms per run"), rows),),
     )
     write_page(run, page)
     return 0

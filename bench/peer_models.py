@@ -523,7 +523,7 @@ def plate_numba_kernels():
         D, R = load.shape[1], load.shape[2]
         C = columns.shape[1]
         N = R * C * D
-        plane = R * C  # from layer k to layer k+1
+        plane = R * C  # from slice k to slice k+1
         ux, uy, uz = y[:N], y[N : 2 * N], y[2 * N : 3 * N]
         vx, vy, vz = y[3 * N : 4 * N], y[4 * N : 5 * N], y[5 * N :]
         out[: 3 * N] = y[3 * N :]
@@ -717,7 +717,7 @@ def jax_plate_rhs(rows: int, cols: int, depth: int, equal_diagonal_alphas: bool 
 
 
 def plate_check_scenes():
-    """Small plates that reach every branch of the plate kernels and tell rows from layers (R != D): a centred
+    """Small plates that reach every branch of the plate kernels and tell rows from slices (R != D): a centred
     patch and the whole face under both diagonal rules, an angled load and mass, a table whose two diagonal
     ends see different alphas, a plate without a backplate."""
     from reference.lattice3d import PlateScene

@@ -24,6 +24,7 @@ import tempfile
 import threading
 import uuid
 import zipfile
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -154,7 +155,11 @@ def generate_header(interface: Interface, guid: str) -> str:
             variable.causality, "CAUSALITY_LOCAL"
         )
         state = state_offsets[variable.name] if variable.role == STATE else -1
-        derivative = state_offsets[variable.derivative_of] if variable.role == DERIVATIVE else -1
+        derivative = (
+            state_offsets[variable.derivative_of]
+            if variable.role == DERIVATIVE and variable.derivative_of is not None
+            else -1
+        )
         indicator = indicator_offset if variable.role == INDICATOR else -1
         indicator_offset += variable.count if variable.role == INDICATOR else 0
         low = "-INFINITY" if variable.minimum is None else repr(float(variable.minimum))
@@ -401,7 +406,7 @@ def package_fmu(
     *,
     generated: dict[str, str] | None = None,
     extra_files: dict[str, bytes] | None = None,
-    targets: list[TargetPlatform] | None = None,
+    targets: Sequence[TargetPlatform] | None = None,
     werror: bool = False,
 ) -> Path:
     """Zips an FMU of the model folder and glue of `tree`: its modelDescription.xml (`description`), its sources

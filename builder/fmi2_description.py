@@ -47,7 +47,7 @@ def _elements(interface: Interface) -> list[tuple]:
     return elements
 
 
-def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[int], list[int]]:
+def scalar_variables(interface: Interface) -> tuple[list[dict], list[tuple[int, str]], list[int], list[int]]:
     """The ScalarVariables in value-reference order, and the indices of the outputs (each with the indices of the
     inputs it depends on directly, space-separated), of the derivatives (in the order of the continuous states)
     and of the initial unknowns."""
@@ -84,7 +84,12 @@ def scalar_variables(interface: Interface) -> tuple[list[dict], list[int], list[
                 initial_unknowns.append(index)
         if variable.causality == "output":
             outputs.append(
-                (index, " ".join(str(first_index[name]) for name in sorted(variable.depends_on, key=first_index.get)))
+                (
+                    index,
+                    " ".join(
+                        str(first_index[name]) for name in sorted(variable.depends_on, key=first_index.__getitem__)
+                    ),
+                )
             )
         type_attributes = []
         if variable.causality in ("parameter", "input"):

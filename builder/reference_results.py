@@ -1,4 +1,4 @@
-"""The FMU's reference results, carried the way the Reference FMUs carry theirs: an FMI-LS-REF layer.
+"""The FMU's reference results, carried the way the Reference FMUs carry theirs: the FMI-LS-REF layered standard.
 
     extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml      <fmiReferences> with one <Related> per result
     extra/org.fmi-standard.fmi-ls-ref/<Model>_out.csv          the default experiment (the sequential order)
@@ -96,7 +96,7 @@ def manifest_xml(identifier: str) -> str:
 
 
 def extra_files(identifier: str) -> dict[str, bytes]:
-    """The FMI-LS-REF layer's files: path in the FMU -> content. FileNotFoundError (one line) if a recorded
+    """The FMI-LS-REF files: path in the FMU -> content. FileNotFoundError (one line) if a recorded
     result is missing from the sources."""
     files = {f"{EXTRA}/{MANIFEST}": manifest_xml(identifier).encode()}
     for result in REFERENCE_RESULTS:

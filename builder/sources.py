@@ -18,7 +18,7 @@ FMU_SOURCE_DIR = Path(fmu_src.__file__).resolve().parent  # the glue and the mod
 DEFAULT_MODEL_DIR = FMU_SOURCE_DIR / "lattice"
 # The glue shared by every model: the instance bookkeeping, then each FMI version's API and its headers.
 COMMON_SOURCES = ("common/instance.c",)
-COMMON_HEADERS = ("common/instance.h", "common/model_api.h", "common/state_masks.h")
+COMMON_HEADERS = ("common/instance.h", "common/model_api.h", "common/refused_calls.h", "common/state_masks.h")
 GLUE_SOURCES = {2: ("fmi2/fmi2_glue.c",), 3: ("fmi3/fmi3_glue.c",)}
 GLUE_HEADERS = {
     2: ("include/fmi2Functions.h", "include/fmi2FunctionTypes.h", "include/fmi2TypesPlatform.h"),

@@ -12,7 +12,7 @@ Three FMUs, one master, the system file `python build_fmu.py --system` writes (b
 The master (libcosim, or FMPy's simulate_ssp) steps the three side by side and exchanges the ports' values at
 every communication step: each FMU sees the others' values of the previous communication point (Jacobi). Such
 explicit coupling is stable only below a step each port predicts; the example prints it beside the step it uses.
-`--master jacobi` and `--master gauss-seidel` run the example's own loop over FMPy's FMI 2 layer (Gauss-Seidel:
+`--master jacobi` and `--master gauss-seidel` run the example's own loop over FMPy's FMI 2 API (Gauss-Seidel:
 projectile, lattice, hull in turn, each on the newest values); `--master libcosim-ecco` libcosim's ECCO
 algorithm, which adapts the step to the energy the two power bonds exchange (its outputs at the end only).
 
@@ -158,7 +158,7 @@ def run_loop(
     hull: dict[str, float] | None = None,
     scheme: str = "jacobi",
 ) -> SystemRun:
-    """The system under a master loop of this example's over FMPy's FMI 2 Co-Simulation layer, with the values
+    """The system under a master loop of this example's over FMPy's FMI 2 Co-Simulation API, with the values
     exchanged once after initialisation: Jacobi (every FMU steps on the others' values of the last
     communication point, as libcosim and simulate_ssp do) or Gauss-Seidel (projectile, lattice, hull in turn,
     each on the newest values: the lattice gets the projectile's mean force over the same step)."""

@@ -1,4 +1,4 @@
-"""ctypes binding to the C physics core (lattice.c) without the FMI layer, for tests and benchmarks.
+"""ctypes binding to the C physics core (lattice.c) without the FMI glue, for tests and benchmarks.
 
 `LatticeParams` mirrors the C struct in fmu_src/lattice/lattice.h field for field: change both together.
 """
@@ -62,7 +62,7 @@ def masses(params: LatticeParams) -> int:
 
 def params_from_scene(scene, depth: int = 1, load_patch: int = WHOLE_FACE) -> LatticeParams:
     """The C parameters of a `reference.Scene` (the numpy oracle's description of a scene), as a plate of
-    `depth` layers pushed over the whole face or a centred `load_patch` x `load_patch` patch (docs/model.md
+    `depth` slices pushed over the whole face or a centred `load_patch` x `load_patch` patch (docs/model.md
     section 10; the two-dimensional oracle's scene has neither)."""
     return _params(scene, scene.wall, depth, load_patch)
 
@@ -130,8 +130,8 @@ class Core:
         self.library.lattice_along_x.restype = ctypes.c_int
         self.library.lattice_mirror_rows.argtypes = [ctypes.POINTER(LatticeParams)]
         self.library.lattice_mirror_rows.restype = ctypes.c_int
-        self.library.lattice_mirror_layers.argtypes = [ctypes.POINTER(LatticeParams)]
-        self.library.lattice_mirror_layers.restype = ctypes.c_int
+        self.library.lattice_mirror_slices.argtypes = [ctypes.POINTER(LatticeParams)]
+        self.library.lattice_mirror_slices.restype = ctypes.c_int
         self.library.lattice_params_error.argtypes = [ctypes.POINTER(LatticeParams), ctypes.c_char_p, ctypes.c_int]
         self.library.lattice_params_error.restype = ctypes.c_char_p
         self.library.lattice_backplate_force_mirrored.argtypes = [
@@ -181,14 +181,14 @@ class Core:
         its middle row."""
         return self.library.lattice_mirror_rows(ctypes.byref(params))
 
-    def mirror_layers(self, params: LatticeParams) -> int:
-        """Layers of that part, 0 if the lattice is not symmetric about its middle layer."""
-        return self.library.lattice_mirror_layers(ctypes.byref(params))
+    def mirror_slices(self, params: LatticeParams) -> int:
+        """Slices of that part, 0 if the lattice is not symmetric about its middle slice."""
+        return self.library.lattice_mirror_slices(ctypes.byref(params))
 
     def mirrored_extent(self, params: LatticeParams) -> tuple[int, int]:
-        """(rows, layers) the mirrored along-x state holds (lattice.h: lattice_rhs_along_x)."""
-        rows, layers = self.mirror_rows(params), self.mirror_layers(params)
-        return rows or params.rows, layers or params.depth
+        """(rows, slices) the mirrored along-x state holds (lattice.h: lattice_rhs_along_x)."""
+        rows, slices = self.mirror_rows(params), self.mirror_slices(params)
+        return rows or params.rows, slices or params.depth
 
     def along_x(self, params: LatticeParams) -> bool:
         """Whether the lattice moves along x alone (lattice.h: its state without uy and vy carries it)."""
@@ -199,14 +199,14 @@ class Core:
     ) -> tuple[np.ndarray, np.ndarray]:
         """As rhs over the layout [ux, vx, W_ext, D, W_nr] of all masses or (mirrored) of the part that carries
         a mirror-symmetric lattice's solution (mirrored_extent)."""
-        symmetric = self.mirror_rows(params) or self.mirror_layers(params)
+        symmetric = self.mirror_rows(params) or self.mirror_slices(params)
         if not self.along_x(params) or (mirrored and not symmetric):
             raise ValueError(
                 "params: the lattice does not move along x alone (load_angle 0), or is not "
                 "mirror-symmetric (odd rows >= 3 or odd depth >= 3, a centred load)"
             )
-        rows, layers = self.mirrored_extent(params) if mirrored else (params.rows, params.depth)
-        n = 2 * rows * params.cols * layers
+        rows, slices = self.mirrored_extent(params) if mirrored else (params.rows, params.depth)
+        n = 2 * rows * params.cols * slices
         y = np.ascontiguousarray(y_x, dtype=float)
         if y.shape != (n + 3,):
             raise ValueError(f"state: expected {n + 3} values, got {y.shape}")
@@ -223,10 +223,10 @@ class Core:
 
     def backplate_force_mirrored(self, params: LatticeParams, y_half) -> float:
         """The backplate force from the mirrored part's along-x layout [ux, vx, ...] (lattice.h)."""
-        rows, layers = self.mirrored_extent(params)
+        rows, slices = self.mirrored_extent(params)
         cols = params.cols
         y = np.ascontiguousarray(y_half, dtype=float)
-        n = rows * cols * layers
+        n = rows * cols * slices
         return self.library.lattice_backplate_force_mirrored(
             ctypes.byref(params),
             y[cols - 1 :].ctypes.data_as(ctypes.POINTER(ctypes.c_double)),

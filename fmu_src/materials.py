@@ -22,6 +22,7 @@ import dataclasses
 import hashlib
 import json
 import math
+import os
 import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -196,7 +197,7 @@ def check_rows(rows: list[dict[str, Any]], source: str) -> None:
             )
         seen[name] = number
         for field in FIELDS:
-            value = row.get(field.name)
+            value: Any = row.get(field.name)  # a cell of a CSV, TOML or JSON table
             label = f"{source}: row {number} ({name}), field {field.name}"
             if not _given(value) and not field.required:
                 continue
@@ -214,7 +215,7 @@ def check_rows(rows: list[dict[str, Any]], source: str) -> None:
                 raise MaterialTableError(f"{label}: {value!r} is not allowed; allowed: {field.allowed_in_unit()}")
 
 
-def load_materials(path: str | Path) -> MaterialTable:
+def load_materials(path: str | os.PathLike) -> MaterialTable:
     """A material table from a .csv (header ``name,k,k_diag,c,alpha,alpha_diag``, optionally ``mass`` and
     ``damping_exponent`` too), .toml (``[[material]]`` tables) or .json (a list of objects, or
     ``{"materials": [...]}``) file; checked before any use."""
@@ -225,6 +226,7 @@ def load_materials(path: str | Path) -> MaterialTable:
     except (OSError, UnicodeDecodeError) as exc:
         raise MaterialTableError(f"{source}: cannot be read ({getattr(exc, 'strerror', None) or exc})") from None
     suffix = path.suffix.lower()
+    rows: object  # the file's list of materials, checked by MaterialTable.from_rows
     if suffix == ".csv":
         rows = _csv_rows(text, source)
     elif suffix == ".toml":

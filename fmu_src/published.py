@@ -13,7 +13,10 @@ SEQUENTIAL_ORDER = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11)
 STUDY_BEST_ORDER = (1, 7, 5, 9, 3, 6, 11, 8, 2, 4, 10)
 
 # peak_backplate_force (N) of each published order
-PUBLISHED_PEAKS = {SEQUENTIAL_ORDER: 1747.779979851872, STUDY_BEST_ORDER: 1497.8867334973704}
+PUBLISHED_PEAKS: dict[tuple[int, ...], float] = {
+    SEQUENTIAL_ORDER: 1747.779979851872,
+    STUDY_BEST_ORDER: 1497.8867334973704,
+}
 
 # The conditions the published peaks hold at (the armour scene's defaults), by FMU parameter name; the horizon
 # in s.

@@ -29,7 +29,7 @@ LOG_CATEGORIES = (
 # states, their derivatives and its event indicators.
 STATE, DERIVATIVE, INDICATOR = "state", "derivative", "indicator"
 # The continuous state vector in lattice.h's layout: displacements, velocities, the three energy integrals (a
-# plate of one layer has no uz and vz).
+# lattice of depth 1 has no uz and vz).
 # projectile mode's rigid body last (docs/model.md section 11).
 STATE_ORDER = (
     "ux",
@@ -85,10 +85,10 @@ class Variable:
             subscripts = [
                 f"[{row},{col}]" for row in range(1, self.shape[0] + 1) for col in range(1, self.shape[1] + 1)
             ]
-        elif self.shape and len(self.shape) == 3:  # (layer, row, column), row-major as lattice.h lays out a plate
+        elif self.shape and len(self.shape) == 3:  # (slice, row, column), row-major as lattice.h lays out a plate
             subscripts = [
-                f"[{layer},{row},{col}]"
-                for layer in range(1, self.shape[0] + 1)
+                f"[{k},{row},{col}]"
+                for k in range(1, self.shape[0] + 1)
                 for row in range(1, self.shape[1] + 1)
                 for col in range(1, self.shape[2] + 1)
             ]
@@ -135,7 +135,7 @@ def enumerations() -> list[Variable]:
 
 def plotted_masses(rows: int, cols: int) -> dict[str, tuple[int, int]]:
     """The masses whose displacements the study plots, as (row, column), 1-based (in a plate, of its
-    middle slice in depth: plotted_layer)."""
+    middle slice in depth: plotted_slice)."""
     middle_row, middle_col = (rows + 1) // 2, (cols + 1) // 2
     return {
         "corner": (1, 1),
@@ -145,14 +145,14 @@ def plotted_masses(rows: int, cols: int) -> dict[str, tuple[int, int]]:
     }
 
 
-def plotted_layer(depth: int) -> int:
-    """The layer (1-based) of a plate whose masses the plotted displacements are: the middle one."""
+def plotted_slice(depth: int) -> int:
+    """The slice (1-based) of a plate whose masses the plotted displacements are: the middle one."""
     return (depth + 1) // 2
 
 
 def plotted_mass_index(rows: int, cols: int, depth: int, row: int, col: int) -> int:
-    """lattice.h's number of plotted mass (row, col) (1-based) of the plotted layer: (k R + i) C + j, 0-based."""
-    return ((plotted_layer(depth) - 1) * rows + row - 1) * cols + col - 1
+    """lattice.h's number of plotted mass (row, col) (1-based) of the plotted slice: (k R + i) C + j, 0-based."""
+    return ((plotted_slice(depth) - 1) * rows + row - 1) * cols + col - 1
 
 
 # The event indicator of projectile mode's contact (the last indicator; an FMU without a backplate has only it).
@@ -224,7 +224,7 @@ def default_order(cols: int, materials: int) -> tuple[int, ...]:
 def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, depth: int = 1) -> list[Variable]:
     """Every variable the model knows, in value-reference order, with docs/model.md's published defaults and
     the material table's values (default: the study's, its first C materials, all eleven for a wider lattice,
-    whose default then repeats them) as the table's start values; `depth` layers (docs/model.md section 10)."""
+    whose default then repeats them) as the table's start values; `depth` slices (docs/model.md section 10)."""
     table = materials or study_materials(min(cols, STUDY_MATERIAL_COUNT))
     count = len(table)
     values = table.parameters()
@@ -710,7 +710,7 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
             role=STATE,
         ),
     ]
-    where = f" of layer {plotted_layer(depth)}" if depth > 1 else ""
+    where = f" of slice {plotted_slice(depth)}" if depth > 1 else ""
     for place, (row, col) in plotted_masses(rows, cols).items():
         for axis in ("x", "y"):
             variables.append(
@@ -748,14 +748,14 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
 def continuous_time_variables(rows: int, cols: int, depth: int = 1) -> list[Variable]:
     """The continuous states, their derivatives and the event indicators (model.h's contract), as variables.
 
-    Model Exchange needs them declared; Co-Simulation answers them too (at the communication point). A plate of
-    layers (depth > 1) adds the z components and indexes its masses [layer, row, column]; its indicators are
+    Model Exchange needs them declared; Co-Simulation answers them too (at the communication point). A plate
+    (depth > 1) adds the z components and indexes its masses [slice, row, column]; its indicators are
     one per column-C mass, f = k R + i, as lattice.h numbers the face.
     """
     masses = rows * cols * depth
-    shape, index = ((rows, cols), "[row, column]") if depth == 1 else ((depth, rows, cols), "[layer, row, column]")
+    shape, index = ((rows, cols), "[row, column]") if depth == 1 else ((depth, rows, cols), "[slice, row, column]")
     axes = ("x", "y") if depth == 1 else ("x", "y", "z")
-    face = "row's" if depth == 1 else "face mass's (layer by layer)"
+    face = "row's" if depth == 1 else "face mass's (slice by slice)"
     variables = []
     for name, what, unit in [(f"u{a}", f"Displacement {a}", "m") for a in axes] + [
         (f"v{a}", f"Velocity {a}", "m/s") for a in axes
@@ -916,7 +916,8 @@ def make_interface(
             f"parameters {in_table} are the material table's: give the table itself (a scene's "
             f"materials, build_fmu.py --materials FILE)"
         )
-    exposed, fixed = [], []
+    exposed: list[Variable] = []
+    fixed: list[Variable] = []
     patch = (parameters or {}).get("load_patch", WHOLE_FACE)
     if not load_patch_allowed(rows, depth, patch):
         raise ValueError("parameter " + load_patch_refusal(rows, depth, patch))

@@ -10,6 +10,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.transforms import Bbox  # noqa: E402
 
 
 METHOD_NAMES = {
@@ -78,7 +79,7 @@ def spread_labels(figure, labels, clearance: float = 2.0) -> None:
     renderer = figure.canvas.get_renderer()
     pad = clearance * figure.dpi / 72.0
     to_points = 72.0 / figure.dpi
-    placed = []
+    placed: list[Bbox] = []
     for label in labels:
         obstacles = placed + marker_boxes(label.axes, exclude=label.xy)
         lines = line_points(label.axes)

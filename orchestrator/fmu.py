@@ -146,11 +146,11 @@ def prepare_fmu(scene, fmu: str | None = None) -> PreparedFMU:
                 f"--fmu {fmu}: its lattice has {prepared.columns} columns, scene {scene.name} "
                 f"{scene.cols}; give the FMU's --scene or --cols {prepared.columns}"
             )
-        states, expected = len(prepared.description.derivatives), scene_state_count(scene)
-        if states and states != expected:
+        states, scene_states = len(prepared.description.derivatives), scene_state_count(scene)
+        if states and states != scene_states:
             raise FMUError(
                 f"--fmu {fmu}: it has {states} continuous states, scene {scene.name}'s {scene.rows} x "
-                f"{scene.cols} x {scene.depth} lattice {expected}; give the FMU's --scene, --cols or "
+                f"{scene.cols} x {scene.depth} lattice {scene_states}; give the FMU's --scene, --cols or "
                 f"--depth"
             )
         try:

@@ -21,7 +21,7 @@ import time
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 from .records import from_record, to_record
 
@@ -85,7 +85,7 @@ class Journal:
     back are the typed results that were written.
     """
 
-    def __init__(self, folder: str | os.PathLike, settings: dict, kinds: dict[str, type], *, resume: bool = False):
+    def __init__(self, folder: str | os.PathLike, settings: dict, kinds: Mapping[str, type], *, resume: bool = False):
         self.path = Path(folder) / JOURNAL_NAME
         self.settings = json.loads(json.dumps(to_record(settings)))
         self.kinds = dict(kinds)
@@ -179,7 +179,7 @@ class Journal:
                 raise JournalError(f"{self.path} line {number} belongs to another run ({entry.get('run')!r})")
             if "finished" in entry:
                 continue
-            kind = self.kinds.get(entry.get("kind"))
+            kind = self.kinds.get(str(entry.get("kind")))
             if kind is None:
                 raise JournalError(f"{self.path} line {number}: unknown result kind {entry.get('kind')!r}")
             try:

@@ -351,9 +351,9 @@ class Evaluator:
             flights.clear()
             self._renew()
             for flight in survivors:
-                future = self._submit(flight)
-                if future is not None:
-                    flights[future] = flight
+                resubmitted = self._submit(flight)
+                if resubmitted is not None:
+                    flights[resubmitted] = flight
         return expired
 
     def _renew(self) -> None:

@@ -304,14 +304,21 @@ class Objective:
     """
 
     space: DesignSpace
-    n_objectives: int = 1
-    supports_limits = False  # can an evaluation stop early once its value passes a limit?
+
+    @property
+    def n_objectives(self) -> int:
+        return 1
+
+    @property
+    def supports_limits(self) -> bool:
+        """Can an evaluation stop early once its value passes a limit?"""
+        return False
 
     @property
     def n_var(self) -> int:
         return self.space.columns
 
-    def tasks(self, fidelity: str) -> list[Callable[[Order], Evaluation]]:
+    def tasks(self, fidelity: str) -> Sequence[Callable[[Order], Evaluation]]:
         raise NotImplementedError
 
     def combine(self, order: Order, evaluations: Sequence[Evaluation]) -> Evaluation:
@@ -335,10 +342,10 @@ class Objective:
         orders = [as_design(o) for o in orders]
         tasks = self.tasks(fidelity)
         per_design = len(tasks)
-        use_limits = limits is not None and self.supports_limits and fidelity == SEARCH
+        used_limits = limits if self.supports_limits and fidelity == SEARCH else None
         items = []
         for index, order in enumerate(orders):
-            limit = limits[index] if use_limits else None
+            limit = used_limits[index] if used_limits is not None else None
             for task in tasks:
                 exact = EvaluateDesign(task, order)
                 if limit is not None and math.isfinite(limit) and evaluator.cached(exact) is None:
@@ -348,7 +355,7 @@ class Objective:
         reported = [0]
 
         def ticks(done_tasks: int) -> None:  # progress in designs, not in FMU runs
-            if done_tasks // per_design > reported[0]:
+            if progress is not None and done_tasks // per_design > reported[0]:
                 reported[0] = done_tasks // per_design
                 progress(reported[0])
 
@@ -367,9 +374,13 @@ class CallableObjective(Objective):
             or getattr(function, "space", None)
             or DesignSpace.permutations(n_var if n_var is not None else getattr(function, "n", 1))
         )
-        self.n_objectives = int(getattr(function, "n_objectives", 1))
+        self._n_objectives = int(getattr(function, "n_objectives", 1))
 
-    def tasks(self, fidelity: str) -> list[Callable[[Order], Evaluation]]:
+    @property
+    def n_objectives(self) -> int:
+        return self._n_objectives
+
+    def tasks(self, fidelity: str) -> Sequence[Callable[[Order], Evaluation]]:
         return [self.function]
 
     @property
@@ -520,12 +531,12 @@ class LatticeObjective(Objective):
         above = next((e for e in evaluations if e.censored), None)
         if above is not None:  # one case above the limit: the worst of the cases is above it too
             return censored(order, above.lower_bound, above.stopped_at, seconds, cases=cases)
-        columns = [e.values or (e.value,) for e in evaluations]
+        columns = [e.values or (e.ok_value,) for e in evaluations]
         if self.aggregate == "worst":
             values = tuple(max(column[i] for column in columns) for i in range(self.n_objectives))
         else:
             values = tuple(sum(column[i] for column in columns) / len(columns) for i in range(self.n_objectives))
-        worst = max(evaluations, key=lambda e: e.value)
+        worst = max(evaluations, key=lambda e: e.ok_value)
         work = sum(e.work or 0 for e in evaluations)
         return Evaluation(
             as_design(order),

@@ -132,7 +132,9 @@ def _insert_trials(optuna, storage, target, trials: list[TrialRow], distribution
                 .scalars()
                 .all()
             )
-            params, values, attributes = [], [], []
+            params: list[dict] = []
+            values: list[dict] = []
+            attributes: list[dict] = []
             for trial_id, trial in zip(ids, batch):
                 params.extend(
                     {

@@ -23,6 +23,7 @@ from matplotlib.collections import PolyCollection
 from matplotlib.colors import to_rgb
 from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon
+from matplotlib.typing import LineStyleType
 
 from fmu_src.variables import LoadedFace, loaded_face
 
@@ -254,7 +255,7 @@ def draw_plate_answers(case, designs, colour_map, norm, path: Path) -> str:
 
 # ------------------------------------------------------------------------------------------ the model page's figure
 
-SPRING_KINDS = (  # (what joins the mass to a neighbour, its colour, its line style)
+SPRING_KINDS: tuple[tuple[str, str, LineStyleType], ...] = (  # (what joins a mass to a neighbour, colour, line style)
     ("along x, between columns: k0, α0, c0", "tab:blue", "-"),
     ("along y and z, inside the column: its material's k, α, c", "tab:green", "-"),
     (

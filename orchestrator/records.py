@@ -63,7 +63,7 @@ def from_record(cls: Any, data: Any) -> Any:
         raise ValueError(f"{data!r} is none of {cls}")
     if isinstance(cls, type) and hasattr(cls, "read_record"):
         return cls.read_record(data)
-    if dataclasses.is_dataclass(cls):
+    if isinstance(cls, type) and dataclasses.is_dataclass(cls):
         if not isinstance(data, dict):
             raise ValueError(f"expected an object for {cls.__name__}, got {type(data).__name__}")
         hints = _hints(cls)

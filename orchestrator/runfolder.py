@@ -28,6 +28,7 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TextIO
 
 import portalocker
 import psutil
@@ -55,7 +56,7 @@ class RunFolder:
     lock_path: Path
     resume: bool
     previous: JournalState | None = None  # the run being resumed or replaced
-    _lock_handle: object | None = None
+    _lock_handle: TextIO | None = None
 
     @classmethod
     def open(cls, out: str | os.PathLike, *, resume: bool, overwrite: bool) -> "RunFolder":
@@ -161,7 +162,7 @@ class RunFolder:
                 f"{self.partial}); start the run without --resume"
             )
         self.partial.mkdir(parents=True)
-        if resume:  # a finished run: replayed from its journal, the report written again
+        if resume and finished is not None:  # a finished run: replayed from its journal, the report written again
             self.previous = finished
             shutil.copy2(finished.path, self.partial / JOURNAL_NAME)
 

@@ -238,7 +238,7 @@ class Parameter:
         if self.whole:
             if isinstance(given, str) and given.strip() in self.items:
                 return self.items[given.strip()]
-            number = _whole_number(given)
+            number: float | None = _whole_number(given)
             if number is None:
                 if self.items:
                     raise ValueError(f"{name} = {given!r} is not allowed: allowed values are {sorted(self.items)}")
@@ -246,8 +246,8 @@ class Parameter:
             if self.items and number not in self.items.values():
                 codes = ", ".join(f"{code} ({item})" for item, code in sorted(self.items.items(), key=lambda e: e[1]))
                 raise ValueError(f"{name} = {number} is not allowed: allowed values are {codes}")
-            low = None if self.minimum is None else int(self.minimum)
-            high = None if self.maximum is None else int(self.maximum)
+            low: float | None = None if self.minimum is None else int(self.minimum)
+            high: float | None = None if self.maximum is None else int(self.maximum)
             if (low is not None and number < low) or (high is not None and number > high):
                 raise ValueError(
                     f"{name} = {number} is outside its range [{'-inf' if low is None else low}, "
@@ -288,7 +288,7 @@ def _whole_number(given: Any) -> int | None:
         except ValueError:
             given = _real_number(text)
     if isinstance(given, numbers.Real) and math.isfinite(given) and float(given).is_integer():
-        return int(given)
+        return int(float(given))
     return None
 
 
@@ -438,19 +438,23 @@ class LatticeFMU:
         key = (with_order, names)
         setter = self._setters.get(key)
         if setter is None:
-            integers, reals = [], []
+            integers: list[tuple[int, int]] = []
+            reals: list[tuple[int, int]] = []
             for index, name in enumerate(names):
                 variable = self._parameter(name)
                 (integers if variable.type in INTEGER_TYPES else reals).append((index, variable.valueReference))
-            integers = [(index, vr, names[index]) for index, vr in integers]
-            setter = self._setters[key] = _Setter(self._material_references if with_order else [], integers, reals)
+            named_integers = [(index, vr, names[index]) for index, vr in integers]
+            setter = self._setters[key] = _Setter(
+                self._material_references if with_order else [], named_integers, reals
+            )
         return setter
 
     def _reader(self, names: tuple) -> "_Reader":
         """The value-reference arrays and value buffers for reading these outputs, made once."""
         reader = self._readers.get(names)
         if reader is None:
-            integers, reals = [], []
+            integers: list[tuple[str, int]] = []
+            reals: list[tuple[str, int]] = []
             for name in names:
                 variable = self.variables.get(name)
                 if variable is None:
@@ -512,7 +516,7 @@ class LatticeFMU:
                 count = max(1, int(round(horizon / step)))
                 times = [0.0] + [min(horizon, (i + 1) * step) for i in range(count)]
                 recorder = self._reader(tuple(record)) if record else None
-                series = {name: [] for name in (record or ())}
+                series: dict[str, list[float]] = {name: [] for name in (record or ())}
                 reached = [0.0]
                 if recorder:
                     for name, value in recorder.read(api).items():
@@ -642,7 +646,7 @@ class _Reader:
         self.real_values = (c_double * len(reals))()
 
     def read(self, api: _DirectCalls) -> dict:
-        values = {}
+        values: dict[str, float | int] = {}
         if self.real_names:
             api.call("fmi2GetReal", self.real_references, len(self.real_names), self.real_values)
             values.update(zip(self.real_names, self.real_values))

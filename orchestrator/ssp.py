@@ -84,7 +84,8 @@ def _parameters_of(description) -> dict:
 
 
 def _unknown(name: str, description, source: str) -> ValueError:
-    scalars, arrays = [], {}
+    scalars: list[str] = []
+    arrays: dict[str, int] = {}
     for known in _parameters_of(description):
         base, bracket, index = known.partition("[")
         if bracket:
@@ -146,7 +147,7 @@ def _check_design(description, values: Mapping[str, float | int], source: str) -
     except ValueError as error:
         raise ValueError(f"{source}: {error} ({REPEAT_PARAMETER} = 1)") from None
     if not repeat:
-        first_column = {}
+        first_column: dict[int, int] = {}
         for j, material in enumerate(order, 1):
             if material in first_column:
                 raise ValueError(
@@ -170,7 +171,7 @@ def _tool_problem(description, entries: Sequence[DesignParameter]) -> str | None
             if entry.value != default:
                 items = {code: item for item, code in enumeration_items(description, entry.name).items()}
                 return (
-                    f"{entry.name} = {items.get(entry.value, entry.value)}: libcosim ignores FMI 2 Enumeration "
+                    f"{entry.name} = {items.get(int(entry.value), entry.value)}: libcosim ignores FMI 2 Enumeration "
                     f"parameters and would run {entry.name} = {items.get(default, default)}; this FMU cannot carry "
                     f"that design to libcosim (rebuild it with {entry.name} settable as an Integer)"
                 )
@@ -240,7 +241,7 @@ def design_parameters(
         note = None
         items = {code: item for item, code in enumeration_items(description, name).items()}
         if items:
-            note = f"{name} = {items[value]}"
+            note = f"{name} = {items[int(value)]}"
         elif materials is not None and name.startswith("material["):
             note = f"column {name[len('material[') : -1]}: material {value} ({materials.name_of(int(value))})"
         result.append(DesignParameter(name, "Real" if known[name].type in REAL_TYPES else "Integer", value, note))

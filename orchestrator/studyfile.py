@@ -48,7 +48,7 @@ def sections() -> list[tuple[str, type]]:
     from .steps import STEPS
     from .study import CaseConfig
 
-    found = [("case", CaseConfig)]
+    found: list[tuple[str, type]] = [("case", CaseConfig)]
     found += [(step.name, step.Config) for step in STEPS if dataclasses.fields(step.Config)]
     found.append(("run", RunConfig))
     found.append(("cluster", ClusterConfig))

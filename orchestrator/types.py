@@ -138,6 +138,13 @@ class Evaluation:
         """For a censored evaluation, the limit its value is above."""
         return self.limit if self.censored else None
 
+    @property
+    def ok_value(self) -> float:
+        """The value of an evaluation that is ok, where only those are compared; ValueError for any other."""
+        if self.value is None:
+            raise ValueError(f"the evaluation of {self.order} is {self.status}: it has no value")
+        return self.value
+
 
 @dataclass(frozen=True)
 class Above:

@@ -8,7 +8,7 @@ two-dimensional reference does).
 
 Layout
 ------
-``N = rows * cols * depth`` masses. Row ``i`` (y), column ``j`` (x, the load's direction) and layer ``k`` (z),
+``N = rows * cols * depth`` masses. Row ``i`` (y), column ``j`` (x, the load's direction) and slice ``k`` (z, depth),
 all 1-based, is mass ``n = ((k-1) * rows + (i-1)) * cols + (j-1)``, so that ``depth = 1`` is the
 two-dimensional numbering. The state is ``[ux, uy, uz, vx, vy, vz]``, each of length N.
 
@@ -85,7 +85,7 @@ class PlateScene:
     (sections 3 to 5) on a 5 x 5 x 5 plate, the load over the whole face.
 
     ``load_patch`` 0 spreads the load over the whole face of column 1; an odd ``P`` puts it on the centred
-    ``P x P`` patch of that face (rows and layers ``(n - P)/2 + 1 .. (n + P)/2``), equal weights.
+    ``P x P`` patch of that face (rows and slices ``(n - P)/2 + 1 .. (n + P)/2``), equal weights.
     """
 
     rows: int = 5
@@ -199,7 +199,7 @@ class PlateScene:
             if self.rows % 2 == 0 or self.depth % 2 == 0:
                 raise ValueError(
                     f"PlateScene.load_patch: a centred odd patch needs an odd number of rows and of "
-                    f"layers, got rows = {self.rows}, depth = {self.depth}"
+                    f"slices, got rows = {self.rows}, depth = {self.depth}"
                 )
         put("load_patch", int(patch))
 
@@ -212,7 +212,7 @@ class PlateScene:
         return 6 * self.n_masses
 
     def index(self, i: int, j: int, k: int = 1) -> int:
-        """State index of the mass in row ``i``, column ``j``, layer ``k`` (all 1-based)."""
+        """State index of the mass in row ``i``, column ``j``, slice ``k`` (all 1-based)."""
         if not (1 <= i <= self.rows and 1 <= j <= self.cols and 1 <= k <= self.depth):
             raise ValueError(f"(i, j, k) = ({i}, {j}, {k}) outside 1..{self.rows} x 1..{self.cols} x 1..{self.depth}")
         return ((k - 1) * self.rows + (i - 1)) * self.cols + (j - 1)
@@ -228,8 +228,8 @@ def load_weights(rows: int, depth: int, patch: int) -> np.ndarray:
     edge); a centred ``patch x patch`` square: equal weights."""
     if patch:
         w = np.zeros((depth, rows))
-        first_row, first_layer = (rows - patch) // 2, (depth - patch) // 2
-        w[first_layer : first_layer + patch, first_row : first_row + patch] = 1.0
+        first_row, first_slice = (rows - patch) // 2, (depth - patch) // 2
+        w[first_slice : first_slice + patch, first_row : first_row + patch] = 1.0
     else:
         edge = lambda n: np.array([0.5 if q in (0, n - 1) else 1.0 for q in range(n)])  # noqa: E731
         w = np.outer(edge(depth), edge(rows))

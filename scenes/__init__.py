@@ -196,7 +196,7 @@ def resolve_scene(
         if resized.parameters.get("load_patch") != scene.parameters.get("load_patch"):
             identifier += f"_patch{load_patch}"
         if materials is not None:
-            identifier += f"_{resized.material_table().sha256()[:8]}"
+            identifier += f"_{table.sha256()[:8]}"
         resized = replace(resized, model_identifier=identifier)
     return resized
 

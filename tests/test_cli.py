@@ -51,7 +51,7 @@ def refusals(fmu_path, tmp_path):
         "depth 0": (["--depth", "0"], "--depth"),
         "load patch -1": (["--load-patch", "-1"], "--load-patch"),
         "load patch even": (["--load-patch", "2"], "--load-patch 2"),
-        "load patch on the one-layer lattice": (["--load-patch", "3"], "load_patch"),
+        "load patch on the 2-D lattice": (["--load-patch", "3"], "load_patch"),
         "search rtol 1": (["--search-rtol", "1"], "--search-rtol"),
         "horizon inf": (["--horizon", "inf"], "--horizon"),
         "horizon 1e9": (["--horizon", "1e9"], "--horizon"),

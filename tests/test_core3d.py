@@ -1,4 +1,4 @@
-"""The C physics core as a plate of layers (docs/model.md section 10), through its ctypes binding.
+"""The C physics core as a plate (docs/model.md section 10), through its ctypes binding.
 
 Against the independent numpy reference of section 10 (reference/lattice3d.py: index arrays of springs, no
 rows, no sweeps), and against the physics every right-hand side must obey: Newton's third law where the
@@ -24,7 +24,7 @@ def core(core_library):
 
 
 def mass_index(scene, depth, i, j, k):
-    """lattice.h's numbering: mass (i, j, k) (row, column, layer) is (k R + i) C + j."""
+    """lattice.h's numbering: mass (i, j, k) (row, column, slice) is (k R + i) C + j."""
     return (k * scene.rows + i) * scene.cols + j
 
 
@@ -255,14 +255,14 @@ def test_the_mirrored_part_carries_the_whole_plate(core, case, load_on):
     settings, depth, patch = case
     rng = np.random.default_rng(59 + load_on + len(plate_id(case)))
     scene = Scene(**settings)
-    rows, layers = (scene.rows + 1) // 2 if scene.rows % 2 else scene.rows, (depth + 1) // 2 if depth % 2 else depth
+    rows, slices = (scene.rows + 1) // 2 if scene.rows % 2 else scene.rows, (depth + 1) // 2 if depth % 2 else depth
     for _ in range(3):
         scene = with_order(scene, rng)
         params = plate(scene, depth, patch)
-        assert core.mirrored_extent(params) == (rows, layers)
+        assert core.mirrored_extent(params) == (rows, slices)
         ux, vx = mirror_symmetric_x(scene, depth, rng)
         whole_x = np.concatenate([ux.reshape(-1), vx.reshape(-1), np.zeros(3)])
-        part = np.concatenate([ux[:layers, :rows].reshape(-1), vx[:layers, :rows].reshape(-1), np.zeros(3)])
+        part = np.concatenate([ux[:slices, :rows].reshape(-1), vx[:slices, :rows].reshape(-1), np.zeros(3)])
         face = np.concatenate([ux[:, :, -1].reshape(-1) - scene.backplate_gap, vx[:, :, -1].reshape(-1)])
         modes = np.where(face[: depth * scene.rows] > 0, np.where(face[depth * scene.rows :] > 0, 2, 1), 0)
         for wall_mode in (None, modes):
@@ -270,7 +270,7 @@ def test_the_mirrored_part_carries_the_whole_plate(core, case, load_on):
             got, got_powers = core.rhs_along_x(params, part, load_on, mirrored=True, wall_mode=wall_mode)
             expected = np.concatenate(
                 [
-                    block.reshape(depth, scene.rows, scene.cols)[:layers, :rows].reshape(-1)
+                    block.reshape(depth, scene.rows, scene.cols)[:slices, :rows].reshape(-1)
                     for block in np.split(whole, 2)
                 ]
             )
@@ -285,7 +285,7 @@ def test_the_mirrored_part_carries_the_whole_plate(core, case, load_on):
 
 
 @pytest.mark.parametrize(
-    "settings,depth,patch,rows,layers",
+    "settings,depth,patch,rows,slices",
     [
         (dict(rows=5, cols=3), 5, WHOLE_FACE, 3, 3),
         (dict(rows=4, cols=3), 5, WHOLE_FACE, 0, 3),
@@ -295,9 +295,9 @@ def test_the_mirrored_part_carries_the_whole_plate(core, case, load_on):
         (dict(rows=5, cols=3), 1, WHOLE_FACE, 3, 0),
     ],
 )
-def test_which_plates_are_mirror_symmetric(core, settings, depth, patch, rows, layers):
+def test_which_plates_are_mirror_symmetric(core, settings, depth, patch, rows, slices):
     params = plate(Scene(**settings), depth, patch)
-    assert (core.mirror_rows(params), core.mirror_layers(params)) == (rows, layers)
+    assert (core.mirror_rows(params), core.mirror_slices(params)) == (rows, slices)
 
 
 @pytest.mark.parametrize(
@@ -311,7 +311,7 @@ def test_which_plates_are_mirror_symmetric(core, settings, depth, patch, rows, l
             3,
             r"load_patch = 3: a centred patch needs an odd number of rows and an odd depth \(rows = 4, depth = 5\)",
         ),
-        (5, 0, WHOLE_FACE, r"depth = 0: the lattice needs at least 1 layer"),
+        (5, 0, WHOLE_FACE, r"depth = 0: the lattice needs at least 1 slice"),
     ],
 )
 def test_a_plate_the_core_does_not_compute_is_refused_in_one_line(core, rows, depth, patch, message):

@@ -470,8 +470,8 @@ def test_the_mirrored_part_carries_the_whole_with_unequal_masses_and_n_1_5(core,
     rng = np.random.default_rng(1205 + depth)
     rows, cols = 5, 4
     params = core_params(rows, cols, ORDER, MASSES, EXPONENTS, depth=depth)
-    part_rows, layers = core.mirrored_extent(params)
-    assert part_rows == 3 and layers == (2 if depth == 3 else 1)
+    part_rows, slices = core.mirrored_extent(params)
+    assert part_rows == 3 and slices == (2 if depth == 3 else 1)
     blocks = []
     for scale in (0.05, 1.0):
         block = rng.normal(0.0, scale, (depth, rows, cols))
@@ -479,12 +479,12 @@ def test_the_mirrored_part_carries_the_whole_with_unequal_masses_and_n_1_5(core,
         blocks.append(0.5 * (block + block[::-1, :, :]))
     ux, vx = blocks
     whole_x = np.concatenate([ux.reshape(-1), vx.reshape(-1), np.zeros(3)])
-    part = np.concatenate([ux[:layers, :part_rows].reshape(-1), vx[:layers, :part_rows].reshape(-1), np.zeros(3)])
+    part = np.concatenate([ux[:slices, :part_rows].reshape(-1), vx[:slices, :part_rows].reshape(-1), np.zeros(3)])
     for load_on in (True, False):
         whole, whole_powers = core.rhs_along_x(params, whole_x, load_on)
         got, got_powers = core.rhs_along_x(params, part, load_on, mirrored=True)
         expected = np.concatenate(
-            [block.reshape(depth, rows, cols)[:layers, :part_rows].reshape(-1) for block in np.split(whole, 2)]
+            [block.reshape(depth, rows, cols)[:slices, :part_rows].reshape(-1) for block in np.split(whole, 2)]
         )
         scale = np.max(np.abs(whole))
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * scale)

@@ -1,4 +1,4 @@
-"""The FMU built as a plate of layers (docs/model.md section 10): a 5 x 5 x 5 FMU against the independent
+"""The FMU built as a plate (docs/model.md section 10): a 5 x 5 x 5 FMU against the independent
 numpy/scipy reference (reference/plate_5x5x5_reference.json, written by reference/lattice3d.py), the mirror
 symmetry in y and z against the whole plate, both FMI versions through fmpy's validator, Model Exchange through
 fmpy's CVode, and the refusals of load_patch. Depth 1 keeps its numbers: tests/test_recorded_outputs.py.
@@ -129,7 +129,7 @@ def test_fmpy_validates_the_plate_fmu(plate_fmu, plate_fmu3, which):
     assert validate_fmu(str(plate_fmu if which == "fmi2" else plate_fmu3)) == []
 
 
-def test_the_plotted_masses_are_the_middle_layers(plate_fmu):
+def test_the_plotted_masses_are_in_the_middle_slice(plate_fmu):
     """ux_centre is the middle mass of the middle slice along z: mass (k R + i) C + j with i, j, k the middles."""
     names = (
         "ux_centre",
@@ -317,7 +317,7 @@ def test_libcosim_runs_a_plates_design_file_to_the_reference_peak(plate_fmu, tmp
 
 def test_a_study_of_a_plate_says_it_is_a_plate_and_where_it_is_struck(tmp_path, capfd):
     """The first screen, the console and results.json name the plate's layers and the patch, and the sweep
-    certifies its answer as it does for one layer (the armour scene's 11 rows, 5 columns, 5 layers)."""
+    certifies its answer as it does for the 2-D lattice (the armour scene's 11 rows, 5 columns, 5 layers)."""
     from orchestrator.run import main
 
     plate = build_fmu.build_fmu("armour_11x11", tmp_path / "Plate11x5x5.fmu", cols=5, depth=5, werror=True)
@@ -390,8 +390,8 @@ def test_the_case_line_says_where_a_plate_is_struck(depth, patch, says):
 
 
 def test_a_plate_scenes_fmu_departs_from_the_study_so_no_known_optimum_of_the_lattice_is_claimed(tmp_path):
-    """The plate scene's FMU defaults to a 3 x 3 patch: the study's known optima (found on the lattice of one
-    layer over its whole face) are not its optima, whatever its columns; the study's own FMU departs in nothing."""
+    """The plate scene's FMU defaults to a 3 x 3 patch: the study's known optima (found on the 2-D lattice
+    over its whole face) are not its optima, whatever its columns; the study's own FMU departs in nothing."""
     from orchestrator.fmu import describe
     from orchestrator.scene import departures_from_the_study
 

@@ -1,6 +1,6 @@
 """The plate as the report and the docs draw it (docs/model.md section 10): which masses of column 1's face the
 load pushes, the same as the numpy reference's weights; the report's lattice picture of a plate shows its layers
-as a stack, the loaded patch and the backplate, while a one-layer lattice keeps its picture; the explore page's
+as a stack, the loaded patch and the backplate, while the 2-D lattice keeps its picture; the explore page's
 data of a plate carries its depth and patch; the model page's figure draws one mass's eighteen springs and is
 written by the command the page states."""
 
@@ -211,7 +211,7 @@ def test_each_load_cases_patch_is_outlined(drawn):
     assert sorted(len(face_masses_inside(axis, o, 11, 5)) for o in outlines) == [1, 9]
 
 
-def test_a_lattice_of_one_layer_keeps_its_picture(drawn):
+def test_the_2d_lattice_keeps_its_picture(drawn):
     """Depth 1: a dot per mass in its column's colour, the backplate bar, the names as ticks; no slab."""
     case = plate_case(11, 5, 1, 0)
     figure = drawn(case)

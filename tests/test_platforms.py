@@ -113,6 +113,43 @@ def test_all_platforms_put_each_library_of_its_architecture_in_its_folder(platfo
         assert validate_fmu(str(aarch64)) == []
 
 
+# The tool that lists a library's exported functions, by platform: (program, its arguments).
+EXPORT_LISTERS = {
+    "x86_64-linux": ("nm", ["-D", "--defined-only"]),
+    "aarch64-linux": ("aarch64-linux-gnu-nm", ["-D", "--defined-only"]),
+    "x86_64-windows": ("x86_64-w64-mingw32-objdump", ["-p"]),
+}
+
+
+def _exported(library, platform: str, prefix: str) -> set[str]:
+    """The functions named `prefix`... that `library` exports: its dynamic symbols (ELF) or its export table (PE)."""
+    program, arguments = EXPORT_LISTERS[platform]
+    if shutil.which(program) is None:
+        pytest.skip(f"{program} is not installed (binutils for {platform})")
+    listing = subprocess.run([program, *arguments, str(library)], capture_output=True, text=True, check=True).stdout
+    if platform == "x86_64-windows":
+        listing = listing.split("[Ordinal/Name Pointer] Table", 1)[1]
+    return {word for line in listing.splitlines() for word in line.split()[-1:] if word.startswith(prefix)}
+
+
+@pytest.mark.parametrize("fmi_version", [2, 3])
+def test_every_platforms_library_exports_what_the_fmi_header_declares(platform_fmus, fmi_version, tmp_path):
+    """The glue's functions, the refused ones written from fmu_src/common/refused_calls.h included, on each
+    platform: an importer may look up any function the FMI header declares."""
+    from test_refused_calls import declared_functions
+
+    fmu = platform_fmus(fmi_version, "x86_64-linux")
+    folders = {PLATFORMS[name].folder(fmi_version): name for name in ALL_PLATFORMS[fmi_version]}
+    with zipfile.ZipFile(fmu) as archive:
+        libraries = [name for name in archive.namelist() if name.startswith("binaries/") and not name.endswith("/")]
+        assert len(libraries) == len(folders)
+        for name in libraries:
+            platform = folders[name.split("/")[1]]
+            library = archive.extract(name, tmp_path)
+            exported = _exported(library, platform, f"fmi{fmi_version}")
+            assert exported == declared_functions(fmi_version), platform
+
+
 def test_the_windows_library_needs_only_what_windows_has(platform_fmus, tmp_path):
     """No libgcc_s_seh-1.dll or libwinpthread-1.dll beside it: an importer loads it as it is."""
     objdump = shutil.which("x86_64-w64-mingw32-objdump")

@@ -180,7 +180,7 @@ def test_load_weights_over_the_face_and_the_patch():
     assert np.allclose(load_weights(11, 1, 0)[0] * 1200, [60] + [120] * 9 + [60])  # section 4
     patch = load_weights(5, 7, 3) * 1200  # (depth, rows)
     assert np.count_nonzero(patch) == 9 and np.allclose(patch[patch > 0], 1200 / 9)
-    assert np.array_equal(np.flatnonzero(patch.any(axis=1)), [2, 3, 4])  # layers 3..5 of 7
+    assert np.array_equal(np.flatnonzero(patch.any(axis=1)), [2, 3, 4])  # slices 3..5 of 7
     assert np.array_equal(np.flatnonzero(patch.any(axis=0)), [1, 2, 3])  # rows 2..4 of 5
     scene = PlateScene(load_patch=3, load_angle=90.0)
     model = PlateModel(scene)
@@ -308,10 +308,10 @@ def test_depth_one_gives_the_published_peaks(order):
     assert abs(plate.energy_balance_error) < 1e-6 * plate.external_work
 
 
-def _mirrored(scene, field, flip_rows=False, flip_layers=False):
+def _mirrored(scene, field, flip_rows=False, flip_slices=False):
     """One displacement or velocity field of the final state as (depth, rows, cols), mirrored as asked."""
     grid = field.reshape(scene.depth, scene.rows, scene.cols)
-    return grid[:: -1 if flip_layers else 1, :: -1 if flip_rows else 1, :]
+    return grid[:: -1 if flip_slices else 1, :: -1 if flip_rows else 1, :]
 
 
 def test_a_centred_patch_gives_a_mirror_symmetric_solution():
@@ -326,7 +326,7 @@ def test_a_centred_patch_gives_a_mirror_symmetric_solution():
     for block in (0, 3):  # ux, vx
         field = _mirrored(scene, y[block * N : (block + 1) * N])
         assert np.abs(field).max() > 1e-3 * scale
-        for flips in (dict(flip_rows=True), dict(flip_layers=True)):
+        for flips in (dict(flip_rows=True), dict(flip_slices=True)):
             assert np.allclose(
                 _mirrored(scene, y[block * N : (block + 1) * N], **flips), field, rtol=0, atol=1e-10 * scale
             ), flips
@@ -343,7 +343,7 @@ def test_a_centred_patch_gives_a_mirror_symmetric_solution():
         field = _mirrored(scene, y[block * N : (block + 1) * N])
         assert np.abs(field).max() > 1e-4 * scale
         assert np.allclose(
-            _mirrored(scene, y[block * N : (block + 1) * N], flip_layers=True), field, rtol=0, atol=1e-10 * scale
+            _mirrored(scene, y[block * N : (block + 1) * N], flip_slices=True), field, rtol=0, atol=1e-10 * scale
         )
     assert not np.any(y[2 * N : 3 * N]) and not np.any(y[5 * N :])  # no force ever has a z part
 

@@ -1,4 +1,4 @@
-"""The FMU's FMI-LS-REF layer (builder/reference_results.py): the manifest is what the layered standard and FMI 3's
+"""The FMU's FMI-LS-REF files (builder/reference_results.py): the manifest is what the layered standard and FMI 3's
 manifest schema ask for, its results are there and are the published orders', and today's FMU still gives them.
 
 No checker of FMI-LS-REF manifests is published with a schema of its own (the layered standard is an alpha), so

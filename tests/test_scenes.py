@@ -15,7 +15,7 @@ from orchestrator import run as cli
 from scenes import SCENE_DIR, Scene, scene_names
 
 SCENES = scene_names()
-# A plate of layers (depth > 1) takes minutes to build and validate on a 2-core machine: the slow suite's.
+# A plate (depth > 1) takes minutes to build and validate on a 2-core machine: the slow suite's.
 SCENE_CASES = [pytest.param(name, marks=pytest.mark.slow) if Scene.load(name).depth > 1 else name for name in SCENES]
 
 

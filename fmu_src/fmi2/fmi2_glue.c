@@ -2,7 +2,7 @@
  * model API.
  *
  * It knows nothing of springs: every model question goes through the model folder's model.h, found on the
- * include path (builder/sources.py), as the Reference FMUs keep one shared FMI layer beside each model's own
+ * include path (builder/sources.py), as the Reference FMUs keep one shared FMI glue beside each model's own
  * folder. Model Exchange hands the importer the model's
  * continuous-time contract (states, derivatives, event indicators, event update); Co-Simulation lets the
  * model integrate that same contract itself.
@@ -14,6 +14,7 @@
 
 #include "fmi2Functions.h"
 #include "instance.h" /* and through it the model folder's model.h */
+#include "refused_calls.h"
 #include "state_masks.h"
 
 #define MESSAGE_SIZE 1024
@@ -295,18 +296,6 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
                                               (const unsigned char *)serializedState, size, FMUstate));
 }
 
-fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
-                                        const fmi2ValueReference vKnown_ref[], size_t nKnown,
-                                        const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
-    (void)vUnknown_ref;
-    (void)nUnknown;
-    (void)vKnown_ref;
-    (void)nKnown;
-    (void)dvKnown;
-    (void)dvUnknown;
-    return error((Instance *)c, "fmi2GetDirectionalDerivative", "not provided by this FMU");
-}
-
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[]) {
     Instance *instance = (Instance *)c;
@@ -354,16 +343,6 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     return fmi2OK;
 }
 
-fmi2Status fmi2CancelStep(fmi2Component c) {
-    return error((Instance *)c, "fmi2CancelStep", "doStep is synchronous in this FMU: there is nothing to cancel");
-}
-
-fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
-    (void)s;
-    (void)value;
-    return error((Instance *)c, "fmi2GetStatus", "doStep is synchronous in this FMU: no pending status");
-}
-
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
     Instance *instance = (Instance *)c;
     if (!instance) return fmi2Error;
@@ -372,12 +351,6 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
         return fmi2OK;
     }
     return error(instance, "fmi2GetRealStatus", "only fmi2LastSuccessfulTime is provided");
-}
-
-fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
-    (void)s;
-    (void)value;
-    return error((Instance *)c, "fmi2GetIntegerStatus", "not provided by this FMU");
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
@@ -390,11 +363,17 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
     return error(instance, "fmi2GetBooleanStatus", "only fmi2Terminated is provided");
 }
 
-fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
-    (void)s;
-    (void)value;
-    return error((Instance *)c, "fmi2GetStringStatus", "not provided by this FMU");
-}
+/* The calls this FMU refuses (common/refused_calls.h), each written by this macro. `ignored` takes a refused
+ * call's parameters, so that none of them is unused. */
+static void ignored(fmi2Component c, ...) { (void)c; }
+
+#define REFUSED(function, parameters, names, reason)    \
+    fmi2Status function parameters {                    \
+        ignored names;                                  \
+        return error((Instance *)c, #function, reason); \
+    }
+
+FMI2_REFUSED_CALLS
 
 /* Model Exchange: the importer integrates the model's contract (model.h). */
 

@@ -20,6 +20,7 @@
 #include "fmi3Functions.h"
 #include "fmi3_variables.h" /* generated: the FMI 3 arrays */
 #include "instance.h" /* and through it the model folder's model.h */
+#include "refused_calls.h"
 #include "state_masks.h"
 
 #define MESSAGE_SIZE 1024
@@ -436,92 +437,31 @@ fmi3Status fmi3SetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
     return fmi3OK;
 }
 
-/* Types this FMU does not have: an empty call is fine, anything else is refused. */
-#define NO_SUCH_TYPE(function, value_type, type_name)                                                         \
-    fmi3Status function(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, value_type values[],      \
-                        size_t nValues) {                                                                     \
-        Instance *instance = (Instance *)c;                                                                   \
-        (void)vr;                                                                                             \
-        (void)values;                                                                                         \
-        (void)nValues;                                                                                        \
-        if (!CHECK_STATE(function)) return fmi3Error;                                                        \
-        return nvr == 0 ? fmi3OK : error(instance, #function, "this FMU has no " type_name " variables");    \
+/* The calls this FMU refuses (common/refused_calls.h), each written by one of these three macros. `ignored`
+ * takes a refused call's parameters, so that none of them is unused. */
+static void ignored(fmi3Instance c, ...) { (void)c; }
+
+#define REFUSED(function, parameters, names, reason)    \
+    fmi3Status function parameters {                    \
+        ignored names;                                  \
+        return error((Instance *)c, #function, reason); \
     }
 
-NO_SUCH_TYPE(fmi3GetFloat32, fmi3Float32, "Float32")
-NO_SUCH_TYPE(fmi3GetInt8, fmi3Int8, "Int8")
-NO_SUCH_TYPE(fmi3GetUInt8, fmi3UInt8, "UInt8")
-NO_SUCH_TYPE(fmi3GetInt16, fmi3Int16, "Int16")
-NO_SUCH_TYPE(fmi3GetUInt16, fmi3UInt16, "UInt16")
-NO_SUCH_TYPE(fmi3GetUInt32, fmi3UInt32, "UInt32")
+#define REFUSED_UNLESS_EMPTY(function, parameters, names, reason)           \
+    fmi3Status function parameters {                                        \
+        ignored names;                                                      \
+        return nvr == 0 ? fmi3OK : error((Instance *)c, #function, reason); \
+    }
 
-NO_SUCH_TYPE(fmi3GetUInt64, fmi3UInt64, "UInt64")
-NO_SUCH_TYPE(fmi3GetBoolean, fmi3Boolean, "Boolean")
-NO_SUCH_TYPE(fmi3GetString, fmi3String, "String")
-NO_SUCH_TYPE(fmi3SetFloat32, const fmi3Float32, "Float32")
-NO_SUCH_TYPE(fmi3SetInt8, const fmi3Int8, "Int8")
-NO_SUCH_TYPE(fmi3SetUInt8, const fmi3UInt8, "UInt8")
-NO_SUCH_TYPE(fmi3SetInt16, const fmi3Int16, "Int16")
-NO_SUCH_TYPE(fmi3SetUInt16, const fmi3UInt16, "UInt16")
-NO_SUCH_TYPE(fmi3SetUInt32, const fmi3UInt32, "UInt32")
+#define NO_VARIABLES_OF_TYPE(function, parameters, names, type_name)                                      \
+    fmi3Status function parameters {                                                                      \
+        Instance *instance = (Instance *)c;                                                               \
+        ignored names;                                                                                    \
+        if (!CHECK_STATE(function)) return fmi3Error;                                                     \
+        return nvr == 0 ? fmi3OK : error(instance, #function, "this FMU has no " type_name " variables"); \
+    }
 
-NO_SUCH_TYPE(fmi3SetUInt64, const fmi3UInt64, "UInt64")
-NO_SUCH_TYPE(fmi3SetBoolean, const fmi3Boolean, "Boolean")
-NO_SUCH_TYPE(fmi3SetString, const fmi3String, "String")
-
-fmi3Status fmi3GetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, size_t valueSizes[],
-                         fmi3Binary values[], size_t nValues) {
-    Instance *instance = (Instance *)c;
-    (void)vr;
-    (void)valueSizes;
-    (void)values;
-    (void)nValues;
-    if (!CHECK_STATE(fmi3GetBinary)) return fmi3Error;
-    return nvr == 0 ? fmi3OK : error(instance, "fmi3GetBinary", "this FMU has no Binary variables");
-}
-
-fmi3Status fmi3SetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const size_t valueSizes[],
-                         const fmi3Binary values[], size_t nValues) {
-    Instance *instance = (Instance *)c;
-    (void)vr;
-    (void)valueSizes;
-    (void)values;
-    (void)nValues;
-    if (!CHECK_STATE(fmi3SetBinary)) return fmi3Error;
-    return nvr == 0 ? fmi3OK : error(instance, "fmi3SetBinary", "this FMU has no Binary variables");
-}
-
-fmi3Status fmi3GetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Clock values[]) {
-    (void)vr;
-    (void)values;
-    return nvr == 0 ? fmi3OK : error((Instance *)c, "fmi3GetClock", "this FMU has no clocks");
-}
-
-fmi3Status fmi3SetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Clock values[]) {
-    (void)vr;
-    (void)values;
-    return nvr == 0 ? fmi3OK : error((Instance *)c, "fmi3SetClock", "this FMU has no clocks");
-}
-
-fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance c, fmi3ValueReference valueReference,
-                                               size_t *nDependencies) {
-    (void)valueReference;
-    (void)nDependencies;
-    return error((Instance *)c, "fmi3GetNumberOfVariableDependencies", "not provided by this FMU");
-}
-
-fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3ValueReference dependent,
-                                       size_t elementIndicesOfDependent[], fmi3ValueReference independents[],
-                                       size_t elementIndicesOfIndependents[], fmi3DependencyKind dependencyKinds[],
-                                       size_t nDependencies) {
-    (void)dependent;
-    (void)elementIndicesOfDependent;
-    (void)independents;
-    (void)elementIndicesOfIndependents;
-    (void)dependencyKinds;
-    (void)nDependencies;
-    return error((Instance *)c, "fmi3GetVariableDependencies", "not provided by this FMU");
-}
+FMI3_REFUSED_CALLS
 
 /* FMU states: a flat copy of the common fields and the model (the model holds no pointers); common/instance.c
  * does the work. */
@@ -569,117 +509,6 @@ fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serializedStat
     return outcome(instance, "fmi3DeserializeFMUState",
                    instance_deserialize_state(&instance->common, STATE_MAGIC,
                                               (const unsigned char *)serializedState, size, FMUState));
-}
-
-fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,
-                                        const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
-                                        size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity) {
-    (void)unknowns;
-    (void)nUnknowns;
-    (void)knowns;
-    (void)nKnowns;
-    (void)seed;
-    (void)nSeed;
-    (void)sensitivity;
-    (void)nSensitivity;
-    return error((Instance *)c, "fmi3GetDirectionalDerivative", "not provided by this FMU");
-}
-
-fmi3Status fmi3GetAdjointDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,
-                                    const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
-                                    size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity) {
-    (void)unknowns;
-    (void)nUnknowns;
-    (void)knowns;
-    (void)nKnowns;
-    (void)seed;
-    (void)nSeed;
-    (void)sensitivity;
-    (void)nSensitivity;
-    return error((Instance *)c, "fmi3GetAdjointDerivative", "not provided by this FMU");
-}
-
-/* No structural parameters, clocks, event mode or model exchange: these all refuse. */
-fmi3Status fmi3EnterConfigurationMode(fmi3Instance c) {
-    return error((Instance *)c, "fmi3EnterConfigurationMode", "this FMU has no structural parameters");
-}
-
-fmi3Status fmi3ExitConfigurationMode(fmi3Instance c) {
-    return error((Instance *)c, "fmi3ExitConfigurationMode", "this FMU has no structural parameters");
-}
-
-fmi3Status fmi3GetIntervalDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                  fmi3Float64 intervals[], fmi3IntervalQualifier qualifiers[]) {
-    (void)vr;
-    (void)nvr;
-    (void)intervals;
-    (void)qualifiers;
-    return error((Instance *)c, "fmi3GetIntervalDecimal", "this FMU has no clocks");
-}
-
-fmi3Status fmi3GetIntervalFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                   fmi3UInt64 counters[], fmi3UInt64 resolutions[],
-                                   fmi3IntervalQualifier qualifiers[]) {
-    (void)vr;
-    (void)nvr;
-    (void)counters;
-    (void)resolutions;
-    (void)qualifiers;
-    return error((Instance *)c, "fmi3GetIntervalFraction", "this FMU has no clocks");
-}
-
-fmi3Status fmi3GetShiftDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Float64 shifts[]) {
-    (void)vr;
-    (void)nvr;
-    (void)shifts;
-    return error((Instance *)c, "fmi3GetShiftDecimal", "this FMU has no clocks");
-}
-
-fmi3Status fmi3GetShiftFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3UInt64 counters[],
-                                fmi3UInt64 resolutions[]) {
-    (void)vr;
-    (void)nvr;
-    (void)counters;
-    (void)resolutions;
-    return error((Instance *)c, "fmi3GetShiftFraction", "this FMU has no clocks");
-}
-
-fmi3Status fmi3SetIntervalDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                  const fmi3Float64 intervals[]) {
-    (void)vr;
-    (void)nvr;
-    (void)intervals;
-    return error((Instance *)c, "fmi3SetIntervalDecimal", "this FMU has no clocks");
-}
-
-fmi3Status fmi3SetIntervalFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                   const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]) {
-    (void)vr;
-    (void)nvr;
-    (void)counters;
-    (void)resolutions;
-    return error((Instance *)c, "fmi3SetIntervalFraction", "this FMU has no clocks");
-}
-
-fmi3Status fmi3SetShiftDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                               const fmi3Float64 shifts[]) {
-    (void)vr;
-    (void)nvr;
-    (void)shifts;
-    return error((Instance *)c, "fmi3SetShiftDecimal", "this FMU has no clocks");
-}
-
-fmi3Status fmi3SetShiftFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]) {
-    (void)vr;
-    (void)nvr;
-    (void)counters;
-    (void)resolutions;
-    return error((Instance *)c, "fmi3SetShiftFraction", "this FMU has no clocks");
-}
-
-fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance c) {
-    return error((Instance *)c, "fmi3EvaluateDiscreteStates", "this FMU has no clocks");
 }
 
 fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesNeedUpdate,
@@ -877,11 +706,4 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentCommunicationPoint, fmi
     }
     if (status) return error(instance, "fmi3DoStep", message);
     return fmi3OK;
-}
-
-fmi3Status fmi3ActivateModelPartition(fmi3Instance c, fmi3ValueReference clockReference,
-                                      fmi3Float64 activationTime) {
-    (void)clockReference;
-    (void)activationTime;
-    return error((Instance *)c, "fmi3ActivateModelPartition", "this FMU has no scheduled execution");
 }

@@ -34,7 +34,7 @@
  * f = k*R + i as lattice.h numbers column C's masses. */
 #define CONTACT_INDICATOR(face) (face)
 #define DAMPING_INDICATOR(face) (N_FACE_MASSES + (face))
-/* The column-1 and column-C mass of face mass f (k*rows + i) of a layout of rows x LATTICE_COLS x layers: the
+/* The column-1 and column-C mass of face mass f (k*rows + i) of a layout of rows x LATTICE_COLS x slices: the
  * whole lattice's, or the part of it a mirrored solver holds (its own rows). */
 #define FIRST_COLUMN_MASS(face) ((face) * LATTICE_COLS)
 #define LAST_COLUMN_MASS(face) ((face) * LATTICE_COLS + LATTICE_COLS - 1)
@@ -104,14 +104,14 @@ int model_contact_of(double delta, double rate);
 void model_energies(const Model *m, const double *y, double *kinetic, double *potential);
 
 /* Event indicator k (of the whole face: f = k*R + i) is state component *component minus *threshold, in a
- * layout of `rows` rows per layer whose vx begin at vx_base (LATTICE_ROWS and VX_BASE: the contract's whole
+ * layout of `rows` rows per slice whose vx begin at vx_base (LATTICE_ROWS and VX_BASE: the contract's whole
  * layout; the driver's reduced one has its own, and asks only of the face masses it holds). */
 void model_indicator_definition(const Model *m, int k, int rows, int vx_base, int *component, double *threshold);
 
 /* The backplate modes docs/model.md section 5 gives the column-C masses of state y, whose layout holds `rows`
- * rows of `layers` layers (the whole lattice's, or the part of a mirror-symmetric one, whose mirror images in y
+ * rows of `slices` slices (the whole lattice's, or the part of a mirror-symmetric one, whose mirror images in y
  * and z take the same modes): what an event switches to, one per face mass of the whole lattice, f = k*R + i. */
-void model_wall_modes(const Model *m, const double *y, int rows, int layers, int vx_base, signed char *modes);
+void model_wall_modes(const Model *m, const double *y, int rows, int slices, int vx_base, signed char *modes);
 
 /* The contract's time event (the load switches off at t_active): 1 and its time while one is ahead. */
 int model_next_time_event(const Model *m, double *time);
@@ -126,14 +126,14 @@ void model_take_sample(Model *m, double time, double force, double compression);
 void model_take_force(Model *m, double time, double force);
 
 /* The compression of the lattice along the load from the ux of its first and last columns' masses, f = k*rows + i
- * over `rows` rows of `layers` layers (all of them, or the part of a mirror-symmetric lattice, each mass counted
+ * over `rows` rows of `slices` slices (all of them, or the part of a mirror-symmetric lattice, each mass counted
  * as often as it stands in the whole): the mean of column 1 minus the mean of column C over its R x D masses. */
 double model_compression_of_columns(const Model *m, const double *ux_first, const double *ux_last, int rows,
-                                    int layers);
+                                    int slices);
 
-/* The backplate force from the column-C masses' ux and vx, f = k*rows + i over `rows` rows of `layers` layers:
+/* The backplate force from the column-C masses' ux and vx, f = k*rows + i over `rows` rows of `slices` slices:
  * all of them, or the part of a mirror-symmetric lattice (lattice_backplate_force_mirrored's counts). */
-double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows, int layers);
+double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows, int slices);
 
 /* The one output updater: every output from output_state, the continuous peak and its time, the last contact
  * and the counters given by the interface. */

@@ -36,9 +36,9 @@
 #define MAX_SAMPLES_PER_DO_STEP 10000000.0
 #define MAX_STEPS_PER_DO_STEP 200000L
 
-/* The solver holds the part of a mirror-symmetric lattice (fewer rows or layers than the whole). */
+/* The solver holds the part of a mirror-symmetric lattice (fewer rows or slices than the whole). */
 static int solver_mirrored(const Model *m) {
-    return m->cs.solver_rows != LATTICE_ROWS || m->cs.solver_layers != LATTICE_DEPTH;
+    return m->cs.solver_rows != LATTICE_ROWS || m->cs.solver_slices != LATTICE_DEPTH;
 }
 
 void model_ports_at(Model *m, double t) {
@@ -52,7 +52,7 @@ void model_ports_at(Model *m, double t) {
 
 /* The solver's layout (lattice.h): its masses, its positions (the lattice's), where its vx and its quadratures
  * begin (projectile mode: the body's position after the positions, its velocity after the velocities). */
-static int solver_faces(const Model *m) { return m->cs.solver_rows * m->cs.solver_layers; }
+static int solver_faces(const Model *m) { return m->cs.solver_rows * m->cs.solver_slices; }
 static int solver_masses(const Model *m) { return solver_faces(m) * LATTICE_COLS; }
 static int solver_positions(const Model *m) {
     return (m->cs.solver_along_x ? 1 : N_COMPONENTS) * solver_masses(m);
@@ -107,23 +107,23 @@ static void solver_rhs(void *context, int phase, double t, const double *y, doub
 }
 
 /* The smallest state that carries this lattice's solution (use_symmetry; lattice.h): without the y and z
- * components when it is loaded along x, and then of the upper rows and the front layers only when it is also
- * mirror-symmetric about its middle row or layer (a mirror-symmetric lattice is always loaded along x:
- * lattice_mirror_rows, lattice_mirror_layers). */
-static void solver_layout(const Model *m, int *rows, int *layers, int *along_x, int *projectile) {
+ * components when it is loaded along x, and then of the upper rows and the front slices only when it is also
+ * mirror-symmetric about its middle row or slice (a mirror-symmetric lattice is always loaded along x:
+ * lattice_mirror_rows, lattice_mirror_slices). */
+static void solver_layout(const Model *m, int *rows, int *slices, int *along_x, int *projectile) {
     *projectile = m->params.load_mode == LOAD_MODE_PROJECTILE;
     *along_x = PARAM_USE_SYMMETRY(m) && lattice_along_x(&m->params);
     *rows = *along_x && lattice_mirror_rows(&m->params) ? lattice_mirror_rows(&m->params) : LATTICE_ROWS;
-    *layers = *along_x && lattice_mirror_layers(&m->params) ? lattice_mirror_layers(&m->params) : LATTICE_DEPTH;
+    *slices = *along_x && lattice_mirror_slices(&m->params) ? lattice_mirror_slices(&m->params) : LATTICE_DEPTH;
 }
 
 /* How often face mass f = k*rows + i of the solver's layout stands in the whole lattice: twice for a mirror
  * image in y (all rows but the part's last, the middle one), twice more for one in z. */
 static double solver_face_count(const Model *m, int face) {
-    const int rows = m->cs.solver_rows, layers = m->cs.solver_layers;
+    const int rows = m->cs.solver_rows, slices = m->cs.solver_slices;
     const int i = face % rows, k = face / rows;
     return (rows != LATTICE_ROWS && i + 1 < rows ? 2.0 : 1.0) *
-           (layers != LATTICE_DEPTH && k + 1 < layers ? 2.0 : 1.0);
+           (slices != LATTICE_DEPTH && k + 1 < slices ? 2.0 : 1.0);
 }
 
 /* Where component i of the whole lattice's state (lattice.h) is in the solver's: -1 for the y and z components
@@ -131,7 +131,7 @@ static double solver_face_count(const Model *m, int face) {
  * in z (only a lattice along x is mirrored: solver_layout). */
 static int solver_component_of(const Model *m, int i) {
     const int positions = solver_positions(m), projectile = m->cs.solver_projectile;
-    int block, mass, face, row, layer, component;
+    int block, mass, face, row, slice, component;
     if (i >= INDEX_PROJECTILE_POSITION) {
         if (!projectile) return -1; /* the body rests outside projectile mode */
         return i == INDEX_PROJECTILE_POSITION ? positions : 2 * positions + 1;
@@ -143,10 +143,10 @@ static int solver_component_of(const Model *m, int i) {
     mass = i % N_MASSES;
     face = mass / LATTICE_COLS;
     row = face % LATTICE_ROWS;
-    layer = face / LATTICE_ROWS;
+    slice = face / LATTICE_ROWS;
     if (row >= m->cs.solver_rows) row = LATTICE_ROWS - 1 - row;
-    if (layer >= m->cs.solver_layers) layer = LATTICE_DEPTH - 1 - layer;
-    component = (block / N_COMPONENTS) * solver_masses(m) + (layer * m->cs.solver_rows + row) * LATTICE_COLS +
+    if (slice >= m->cs.solver_slices) slice = LATTICE_DEPTH - 1 - slice;
+    component = (block / N_COMPONENTS) * solver_masses(m) + (slice * m->cs.solver_rows + row) * LATTICE_COLS +
                 mass % LATTICE_COLS; /* ux, vx */
     return component < positions ? component : component + projectile;
 }
@@ -200,7 +200,7 @@ static double backplate_force_of(Model *m, double t, int hermite) {
     /* the ports at t after the looks: preparing the dense output evaluates the right-hand side at its stages,
      * which sets the ports to theirs */
     model_ports_at(m, t);
-    return model_backplate_force_of_column(m, ux, vx, m->cs.solver_rows, m->cs.solver_layers);
+    return model_backplate_force_of_column(m, ux, vx, m->cs.solver_rows, m->cs.solver_slices);
 }
 
 static double backplate_force_at(Model *m, double t) { return backplate_force_of(m, t, 0); }
@@ -213,7 +213,7 @@ static double compression_at(Model *m, double t, int hermite) {
         first[f] = look(m, FIRST_COLUMN_MASS(f), t, hermite);
         last[f] = look(m, LAST_COLUMN_MASS(f), t, hermite);
     }
-    return model_compression_of_columns(m, first, last, m->cs.solver_rows, m->cs.solver_layers);
+    return model_compression_of_columns(m, first, last, m->cs.solver_rows, m->cs.solver_slices);
 }
 
 /* The compression a sample takes: a step without contact pays for the dense output only when the free first
@@ -406,7 +406,7 @@ static int wall_free(const Model *m) {
 /* The modes docs/model.md gives the column-C masses in the state at the end of the last step. */
 static void wall_modes_of_state(Model *m, signed char *modes) {
     model_ports_at(m, m->cs.solver.t);
-    model_wall_modes(m, solver_state(m->cs.work), m->cs.solver_rows, m->cs.solver_layers, solver_vx_base(m), modes);
+    model_wall_modes(m, solver_state(m->cs.work), m->cs.solver_rows, m->cs.solver_slices, solver_vx_base(m), modes);
 }
 
 /* Where inside the last step event indicator k (the contract's, under the step's frozen modes) takes the
@@ -545,7 +545,7 @@ void model_driver_initialize(Model *m) {
     CoSimulation *cs = &m->cs;
     double *start = cs->lattice_state; /* scratch: the start state in the solver's layout */
     int i;
-    solver_layout(m, &cs->solver_rows, &cs->solver_layers, &cs->solver_along_x, &cs->solver_projectile);
+    solver_layout(m, &cs->solver_rows, &cs->solver_slices, &cs->solver_along_x, &cs->solver_projectile);
     memset(start, 0, sizeof(cs->lattice_state));
     for (i = 0; i < N_STATE; i++) {
         const int component = solver_component_of(m, i);
@@ -749,24 +749,24 @@ int model_driver_check(const Model *m, char *message, size_t message_size) {
     const CoSimulation *cs = &m->cs;
     const Solver *s = &cs->solver;
     const double interval = PARAM_PEAK_SAMPLE_INTERVAL(m);
-    int rows, layers, along_x, projectile;
+    int rows, slices, along_x, projectile;
     if (!m->initialized) return 0; /* the solver is set up at initialisation */
-    solver_layout(m, &rows, &layers, &along_x, &projectile);
+    solver_layout(m, &rows, &slices, &along_x, &projectile);
     {
-        const int positions = (along_x ? 1 : N_COMPONENTS) * rows * LATTICE_COLS * layers + projectile;
+        const int positions = (along_x ? 1 : N_COMPONENTS) * rows * LATTICE_COLS * slices + projectile;
         const int size = 2 * positions + LATTICE_N_QUADRATURES;
         const int norm_size = N_STATE - (projectile ? 0 : N_PROJECTILE_STATES);
-        const int reduced = rows != LATTICE_ROWS || layers != LATTICE_DEPTH || along_x;
-        if (cs->solver_rows != rows || cs->solver_layers != layers || cs->solver_along_x != along_x ||
+        const int reduced = rows != LATTICE_ROWS || slices != LATTICE_DEPTH || along_x;
+        if (cs->solver_rows != rows || cs->solver_slices != slices || cs->solver_along_x != along_x ||
             cs->solver_projectile != projectile || s->n != size || s->n_second_order != positions ||
             m->params.rows != LATTICE_ROWS || m->params.cols != LATTICE_COLS || m->params.depth != LATTICE_DEPTH ||
             s->weighted != reduced || s->norm_size != (double)norm_size) {
             snprintf(message, message_size,
-                     "the state is corrupt or foreign: its sizes (solver rows %d, layers %d, along x %d, state %d, "
+                     "the state is corrupt or foreign: its sizes (solver rows %d, slices %d, along x %d, state %d, "
                      "positions %d, lattice %d x %d x %d, norm over %g) are not this FMU's (%d, %d, %d, %d, %d, "
                      "%d x %d x %d, %d)",
-                     cs->solver_rows, cs->solver_layers, cs->solver_along_x, s->n, s->n_second_order,
-                     m->params.rows, m->params.cols, m->params.depth, s->norm_size, rows, layers, along_x, size,
+                     cs->solver_rows, cs->solver_slices, cs->solver_along_x, s->n, s->n_second_order,
+                     m->params.rows, m->params.cols, m->params.depth, s->norm_size, rows, slices, along_x, size,
                      positions, LATTICE_ROWS, LATTICE_COLS, LATTICE_DEPTH, norm_size);
             return -1;
         }

@@ -78,7 +78,7 @@ static SpringEnds spring_ends(int diagonal_rule, double k_a, double alpha_a, dou
 }
 
 /* Weight of row i (0-based) in the load over the whole face: 1/2 for the first and last rows, 1 for the others,
- * normalised (docs/model.md section 4); a layer k of D has the same weight in z (section 10). */
+ * normalised (docs/model.md section 4); a slice k of D has the same weight in z (section 10). */
 static double row_load_fraction(int rows, int i) {
     if (rows == 1) return 1.0;
     return ((i == 0 || i == rows - 1) ? 0.5 : 1.0) / (double)(rows - 1); /* the weights sum to rows - 1 */
@@ -115,7 +115,7 @@ static int nonlinear_columns(const LatticeParams *p, int *columns) {
 
 /* The constants c_effective[j] of the count non-linear dampers inside columns[] whose ends a and b have the
  * velocities given (vy and vz NULL along x: there |dv| is |dvx|, what sqrt(dvx^2) gives; vz NULL in a
- * lattice of one layer). The linear columns' entries are left as they are. */
+ * lattice of one slice). The linear columns' entries are left as they are. */
 static void nonlinear_dampers(const LatticeParams *p, int count, const int *columns, const double *vx_a,
                               const double *vy_a, const double *vz_a, const double *vx_b, const double *vy_b,
                               const double *vz_b, double *c_effective) {
@@ -156,7 +156,7 @@ double lattice_lightest_mass(const LatticeParams *p) {
 }
 
 
-/* always_inline where the compiler has it: rhs_of_layers is written once and compiled for the lattice and
+/* always_inline where the compiler has it: rhs_of_slices is written once and compiled for the lattice and
  * for the plate, with_z folded in each (the plate's z parts cost the lattice nothing). */
 #if defined(__GNUC__)
 #define ALWAYS_INLINE inline __attribute__((always_inline))
@@ -182,9 +182,9 @@ double lattice_lightest_mass(const LatticeParams *p) {
  * same: nothing is reassociated (the powers are summed by column over the rows, then over the columns),
  * so a build at -O3 gives the same numbers as one at -O2.
  *
- * A plate (depth > 1) is swept layer by layer, each layer's springs in its plane as above (with their z
- * parts), and then layer to layer (between_layers): the springs from layer k to k+1 in the same four stages,
- * row by row, which add what they do to both layers' forces. */
+ * A plate (depth > 1) is swept slice by slice, each slice's springs in its plane as above (with their z
+ * parts), and then slice to slice (between_slices): the springs from slice k to k+1 in the same four stages,
+ * row by row, which add what they do to both slices' forces. */
 
 /* j over [0, count): BODY(j) in a loop the compiler can vectorise, then the odd one out. even = EVEN(count)
  * is computed once, outside the loop over rows, and the loop ends on j != even: either way GCC (-O2) can
@@ -302,7 +302,7 @@ static NOINLINE VECTOR_CLONES void row_stretches(int linear, int along_x, int be
     stretches_of(linear, along_x, count, w->squared, w->alpha, w->stretch, w->inverse);
 }
 
-/* The buffers' per-lattice part (column constants, alphas and the zero guards) for rhs_of_layers and
+/* The buffers' per-lattice part (column constants, alphas and the zero guards) for rhs_of_slices and
  * rhs_rows_along_x; returns whether some diagonal's right end needs an exponential of its own. */
 static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
     const int cols = p->cols, links = cols - 1;
@@ -331,8 +331,8 @@ static int prepare_row_buffers(const LatticeParams *p, RowBuffers *w) {
     return alphas_differ;
 }
 
-/* Before the first row of a layer: nothing carried from above, no power summed yet. */
-static void start_layer(RowBuffers *w, int cols) {
+/* Before the first row of a slice: nothing carried from above, no power summed yet. */
+static void start_slice(RowBuffers *w, int cols) {
     int j, c;
     for (j = 0; j < cols; j++) {
         for (c = 0; c < 3; c++) w->carried[c][j] = 0.0;
@@ -350,7 +350,7 @@ static void count_mirror_images(double *dissipated, double *nonreciprocal, int c
     }
 }
 
-/* The springs' powers: what every layer and every pair of layers dissipate and do by unequal forces. */
+/* The springs' powers: what every slice and every pair of slices dissipate and do by unequal forces. */
 typedef struct {
     double dissipated, nonreciprocal;
 } SpringPowers;
@@ -374,26 +374,26 @@ static double load_fraction(const LatticeParams *p, int i, int k) {
     const int patch = p->load_patch;
     if (patch == LATTICE_WHOLE_FACE) return row_load_fraction(p->rows, i) * row_load_fraction(p->depth, k);
     {
-        const int first_row = (p->rows - patch) / 2, first_layer = (p->depth - patch) / 2;
-        const int inside = i >= first_row && i < first_row + patch && k >= first_layer && k < first_layer + patch;
+        const int first_row = (p->rows - patch) / 2, first_slice = (p->depth - patch) / 2;
+        const int inside = i >= first_row && i < first_row + patch && k >= first_slice && k < first_slice + patch;
         return inside ? 1.0 / (double)(patch * patch) : 0.0;
     }
 }
 
-/* How often face mass (i, k) of a part that holds rows x layers stands in the whole lattice: twice for a
+/* How often face mass (i, k) of a part that holds rows x slices stands in the whole lattice: twice for a
  * mirror image in y (all but the middle row, the part's last), twice more for one in z. */
-static double mirror_count(int mirror_y, int mirror_z, int rows, int layers, int i, int k) {
-    return (mirror_y && i + 1 < rows ? 2.0 : 1.0) * (mirror_z && k + 1 < layers ? 2.0 : 1.0);
+static double mirror_count(int mirror_y, int mirror_z, int rows, int slices, int i, int k) {
+    return (mirror_y && i + 1 < rows ? 2.0 : 1.0) * (mirror_z && k + 1 < slices ? 2.0 : 1.0);
 }
 
 /* What acts beyond the springs, after the rows: the springs' powers, the load on column 1, the backplate on
- * column C, the mass; the powers into powers[0..3) (W_ext, D, W_nr). Over the rows x layers the state holds
+ * column C, the mass; the powers into powers[0..3) (W_ext, D, W_nr). Over the rows x slices the state holds
  * (a mirrored part's counted as often as they stand in the whole); forces holds force_blocks blocks of
- * rows * cols * layers (x, then y and z: the load pushes in the xy plane), vy NULL along x. */
-static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, int rows, int layers, int load_on,
+ * rows * cols * slices (x, then y and z: the load pushes in the xy plane), vy NULL along x. */
+static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, int rows, int slices, int load_on,
                             const signed char *wall_mode, const double *ux, const double *vx, const double *vy,
                             double *forces, int force_blocks, const SpringPowers *springs, double *powers) {
-    const int cols = p->cols, n = rows * cols * layers;
+    const int cols = p->cols, n = rows * cols * slices;
     double *fx = forces, *fy = force_blocks > 1 ? forces + n : NULL;
     double power_external = 0.0, power_dissipated = springs->dissipated, power_nonreciprocal = springs->nonreciprocal;
     int i, k;
@@ -402,24 +402,24 @@ static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, 
         /* the front port's force along +x, with the pulse's weights; its work is external in input mode, while
          * projectile mode's contact is inside the model (the body's energy and the contact's take it) */
         const int external = p->load_mode == LOAD_MODE_INPUT;
-        for (k = 0; k < layers; k++) {
+        for (k = 0; k < slices; k++) {
             for (i = 0; i < rows; i++) {
                 const int a = (k * rows + i) * cols;
                 const double share = p->front_force * load_fraction(p, i, k);
                 if (share == 0.0) continue; /* outside the patch, or no force */
                 fx[a] += share;
-                if (external) power_external += mirror_count(mirror_y, mirror_z, rows, layers, i, k) * (share * vx[a]);
+                if (external) power_external += mirror_count(mirror_y, mirror_z, rows, slices, i, k) * (share * vx[a]);
             }
         }
     } else if (load_on) {
         const double angle = p->load_angle_deg * (M_PI / 180.0);
         const double cos_angle = cos(angle), sin_angle = sin(angle);
-        for (k = 0; k < layers; k++) {
+        for (k = 0; k < slices; k++) {
             for (i = 0; i < rows; i++) {
                 const int a = (k * rows + i) * cols;
                 const double fraction = load_fraction(p, i, k);
                 const double share = p->load_total * fraction;
-                const double counted = mirror_count(mirror_y, mirror_z, rows, layers, i, k); /* and its images */
+                const double counted = mirror_count(mirror_y, mirror_z, rows, slices, i, k); /* and its images */
                 if (fraction == 0.0) continue; /* outside the patch */
                 fx[a] += share * cos_angle;
                 if (fy) {
@@ -433,7 +433,7 @@ static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, 
     }
 
     if (p->has_backplate) {
-        for (k = 0; k < layers; k++) {
+        for (k = 0; k < slices; k++) {
             for (i = 0; i < rows; i++) {
                 const int a = (k * rows + i) * cols + cols - 1;
                 const double penetration = ux[a] - p->backplate_gap - p->back_position;
@@ -442,7 +442,7 @@ static void external_forces(const LatticeParams *p, int mirror_y, int mirror_z, 
                     /* the damper on the velocity relative to the backplate; the force on the mass does
                      * work on the backplate at v_back, which leaves the lattice (docs/model.md section 11) */
                     const double damped_velocity = mode == WALL_APPROACHING ? vx[a] - p->back_velocity : 0.0;
-                    const double counted = mirror_count(mirror_y, mirror_z, rows, layers, i, k);
+                    const double counted = mirror_count(mirror_y, mirror_z, rows, slices, i, k);
                     const double wall_force = p->k_wall * penetration + p->c_wall * damped_velocity;
                     fx[a] -= wall_force;
                     power_dissipated += counted * (p->c_wall * damped_velocity * damped_velocity);
@@ -475,7 +475,7 @@ int lattice_along_x(const LatticeParams *p) {
 }
 
 /* A load along x (or none) that is centred on the face: a patch is centred when its side leaves as many
- * rows (layers) on either side. */
+ * rows (slices) on either side. */
 static int centred_along_x(const LatticeParams *p, int extent) {
     return lattice_along_x(p) && (p->load_patch == LATTICE_WHOLE_FACE || (extent - p->load_patch) % 2 == 0);
 }
@@ -484,7 +484,7 @@ int lattice_mirror_rows(const LatticeParams *p) {
     return (p->rows >= 3 && p->rows % 2 == 1 && centred_along_x(p, p->rows)) ? (p->rows + 1) / 2 : 0;
 }
 
-int lattice_mirror_layers(const LatticeParams *p) {
+int lattice_mirror_slices(const LatticeParams *p) {
     return (p->depth >= 3 && p->depth % 2 == 1 && centred_along_x(p, p->depth)) ? (p->depth + 1) / 2 : 0;
 }
 
@@ -508,7 +508,7 @@ const char *lattice_params_error(const LatticeParams *p, char *message, int size
     } else if (p->cols < 1 || p->cols > LATTICE_MAX_COLS) {
         snprintf(message, (size_t)size, "cols = %d: allowed 1 to %d columns", p->cols, LATTICE_MAX_COLS);
     } else if (p->depth < 1) {
-        snprintf(message, (size_t)size, "depth = %d: the lattice needs at least 1 layer", p->depth);
+        snprintf(message, (size_t)size, "depth = %d: the lattice needs at least 1 slice", p->depth);
     } else if (column >= 0) {
         snprintf(message, (size_t)size,
                  "column %d: mass = %g kg, damping_exponent = %g: allowed for each a finite number > 0", column + 1,
@@ -529,16 +529,16 @@ const char *lattice_params_error(const LatticeParams *p, char *message, int size
     return message;
 }
 
-static void between_layers_general(const LatticeParams *p, const double *u, const double *v, double *f,
+static void between_slices_general(const LatticeParams *p, const double *u, const double *v, double *f,
                                    SpringPowers *powers);
-static void between_layers_along_x(const LatticeParams *p, int mirror_y, int mirror_z, int rows, int layers,
+static void between_slices_along_x(const LatticeParams *p, int mirror_y, int mirror_z, int rows, int slices,
                                    const double *ux, const double *vx, double *fx, SpringPowers *powers);
 
-/* The right-hand side of the whole lattice (with_z 0, depth 1) or plate (with_z 1): every layer's springs in
- * its plane, then the springs between layers. Written once, compiled for each (rhs_rows, rhs_plate). */
-static ALWAYS_INLINE void rhs_of_layers(const LatticeParams *p, const int with_z, int load_on,
+/* The right-hand side of the whole lattice (with_z 0, depth 1) or plate (with_z 1): every slice's springs in
+ * its plane, then the springs between slices. Written once, compiled for each (rhs_rows, rhs_plate). */
+static ALWAYS_INLINE void rhs_of_slices(const LatticeParams *p, const int with_z, int load_on,
                                         const signed char *wall_mode, const double *y, double *dydt) {
-    const int rows = p->rows, cols = p->cols, layers = p->depth, layer_size = rows * cols, n = layer_size * layers;
+    const int rows = p->rows, cols = p->cols, slices = p->depth, slice_size = rows * cols, n = slice_size * slices;
     const int components = with_z ? 3 : 2;
     const int linear = p->spring_law == SPRING_LINEAR;
     const int links = cols - 1; /* horizontal springs in a row, and rising (falling) diagonals below it */
@@ -556,10 +556,10 @@ static ALWAYS_INLINE void rhs_of_layers(const LatticeParams *p, const int with_z
 
     memcpy(dydt, vx, (size_t)components * (size_t)n * sizeof(double));
 
-    for (k = 0; k < layers; k++) {
-        start_layer(&w, cols);
+    for (k = 0; k < slices; k++) {
+        start_slice(&w, cols);
         for (i = 0; i < rows; i++) {
-            const size_t top = (size_t)k * (size_t)layer_size + (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
+            const size_t top = (size_t)k * (size_t)slice_size + (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
             const double *ux0 = ux + top, *uy0 = uy + top, *uz0 = uz + top, *vx0 = vx + top, *vy0 = vy + top,
                          *vz0 = vz + top;
             const double *ux1 = ux + bottom, *uy1 = uy + bottom, *uz1 = uz + bottom, *vx1 = vx + bottom,
@@ -699,19 +699,19 @@ static ALWAYS_INLINE void rhs_of_layers(const LatticeParams *p, const int with_z
         }
         add_spring_powers(w.dissipated, w.nonreciprocal, cols, 1.0, &springs);
     }
-    if (with_z) between_layers_general(p, y, vx, fx, &springs);
-    external_forces(p, 0, 0, rows, layers, load_on, wall_mode, ux, vx, vy, fx, components, &springs,
+    if (with_z) between_slices_general(p, y, vx, fx, &springs);
+    external_forces(p, 0, 0, rows, slices, load_on, wall_mode, ux, vx, vy, fx, components, &springs,
                     dydt + 2 * components * n);
 }
 
 static VECTOR_CLONES void rhs_rows(const LatticeParams *p, int load_on, const signed char *wall_mode,
                                    const double *y, double *dydt) {
-    rhs_of_layers(p, 0, load_on, wall_mode, y, dydt);
+    rhs_of_slices(p, 0, load_on, wall_mode, y, dydt);
 }
 
 static VECTOR_CLONES void rhs_plate(const LatticeParams *p, int load_on, const signed char *wall_mode,
                                     const double *y, double *dydt) {
-    rhs_of_layers(p, 1, load_on, wall_mode, y, dydt);
+    rhs_of_slices(p, 1, load_on, wall_mode, y, dydt);
 }
 
 void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mode, const double *y, double *dydt) {
@@ -722,19 +722,19 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
     }
 }
 
-/* The right-hand side over the layout without y and z (lattice_along_x): rhs_of_layers with every y and z part
+/* The right-hand side over the layout without y and z (lattice_along_x): rhs_of_slices with every y and z part
  * left out, the same arithmetic on what is left (|r| = |dx|, which is what sqrt(dx^2) gives), and the same
- * four stages (see above rhs_of_layers). With mirrored, of the part of a mirror-symmetric lattice that carries
- * its solution (rows 0 .. (R-1)/2, the last of them the middle row, and layers 0 .. (D-1)/2 likewise; see
+ * four stages (see above rhs_of_slices). With mirrored, of the part of a mirror-symmetric lattice that carries
+ * its solution (rows 0 .. (R-1)/2, the last of them the middle row, and slices 0 .. (D-1)/2 likewise; see
  * lattice.h): the rows above the middle are computed as the whole does, what the springs below the middle row
  * do to it is the mirror image of what those above it do, and every power but the middle row's own springs'
- * counts twice (the same for the layers in between_layers_along_x, and a layer's powers count twice but the
- * middle layer's). */
+ * counts twice (the same for the slices in between_slices_along_x, and a slice's powers count twice but the
+ * middle slice's). */
 static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored, int load_on,
                                            const signed char *wall_mode, const double *y, double *dydt) {
-    const int mirror_y = mirrored && lattice_mirror_rows(p), mirror_z = mirrored && lattice_mirror_layers(p);
-    const int rows = mirror_y ? (p->rows + 1) / 2 : p->rows, layers = mirror_z ? (p->depth + 1) / 2 : p->depth;
-    const int cols = p->cols, layer_size = rows * cols, n = layer_size * layers;
+    const int mirror_y = mirrored && lattice_mirror_rows(p), mirror_z = mirrored && lattice_mirror_slices(p);
+    const int rows = mirror_y ? (p->rows + 1) / 2 : p->rows, slices = mirror_z ? (p->depth + 1) / 2 : p->depth;
+    const int cols = p->cols, slice_size = rows * cols, n = slice_size * slices;
     const int linear = p->spring_law == SPRING_LINEAR;
     const int links = cols - 1;
     const int even_links = EVEN(links), even_cols = EVEN(cols);
@@ -750,10 +750,10 @@ static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored,
 
     memcpy(dydt, vx, (size_t)n * sizeof(double));
 
-    for (k = 0; k < layers; k++) {
-        start_layer(&w, cols);
+    for (k = 0; k < slices; k++) {
+        start_slice(&w, cols);
         for (i = 0; i < rows; i++) {
-            const size_t top = (size_t)k * (size_t)layer_size + (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
+            const size_t top = (size_t)k * (size_t)slice_size + (size_t)i * (size_t)cols, bottom = top + (size_t)cols;
             const double *ux0 = ux + top, *vx0 = vx + top, *ux1 = ux + bottom, *vx1 = vx + bottom;
             double *row_fx = fx + top;
             if (mirror_y && i + 1 == rows) count_mirror_images(w.dissipated, w.nonreciprocal, cols);
@@ -840,10 +840,10 @@ static VECTOR_CLONES void rhs_rows_along_x(const LatticeParams *p, int mirrored,
                 OVER(cols, even_cols, GATHER_LAST_X)
             }
         }
-        add_spring_powers(w.dissipated, w.nonreciprocal, cols, mirror_z && k + 1 < layers ? 2.0 : 1.0, &springs);
+        add_spring_powers(w.dissipated, w.nonreciprocal, cols, mirror_z && k + 1 < slices ? 2.0 : 1.0, &springs);
     }
-    if (layers > 1) between_layers_along_x(p, mirror_y, mirror_z, rows, layers, ux, vx, fx, &springs);
-    external_forces(p, mirror_y, mirror_z, rows, layers, load_on, wall_mode, ux, vx, NULL, fx, 1, &springs,
+    if (slices > 1) between_slices_along_x(p, mirror_y, mirror_z, rows, slices, ux, vx, fx, &springs);
+    external_forces(p, mirror_y, mirror_z, rows, slices, load_on, wall_mode, ux, vx, NULL, fx, 1, &springs,
                     dydt + 2 * n);
 }
 
@@ -852,32 +852,32 @@ void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, cons
     rhs_rows_along_x(p, mirrored, load_on, wall_mode, y, dydt);
 }
 
-/* Between layers k (the front) and k+1 (the back) of a plate, by row i of the front, the springs of
+/* Between slices k (the front) and k+1 (the back) of a plate, by row i of the front, the springs of
  * docs/model.md section 10 that leave the plane: depth (i, j, k) -> (i, j, k+1), of column j's material and
  * damped; depth rising (i, j, k) -> (i, j+1, k+1) and depth falling (i, j+1, k) -> (i, j, k+1), the xz
  * diagonals between columns j and j+1 (as the xy ones: their ends by the diagonal rule); side rising
  * (i, j, k) -> (i+1, j, k+1) and side falling (i+1, j, k) -> (i, j, k+1), the yz diagonals, inside column j
  * (its k_diag, alpha_diag at both ends: reciprocal). Each spring's a end is on the front and its b end on
- * the back. The same four stages as the rows (see above rhs_of_layers), in LayerBuffers. */
-enum { DEPTH = 0, DEPTH_RISING = 1, DEPTH_FALLING = 2, SIDE_RISING = 3, SIDE_FALLING = 4, LAYER_FAMILIES = 5 };
+ * the back. The same four stages as the rows (see above rhs_of_slices), in SliceBuffers. */
+enum { DEPTH = 0, DEPTH_RISING = 1, DEPTH_FALLING = 2, SIDE_RISING = 3, SIDE_FALLING = 4, SLICE_FAMILIES = 5 };
 
 /* Packed: depth (cols), depth rising, depth falling (links each), side rising, side falling (cols each), then
  * the right ends of the depth diagonals (links each; when their alphas differ from the left ends'). */
-#define LAYER_SLOT(family, j)                                                                           \
+#define SLICE_SLOT(family, j)                                                                           \
     (((family) == DEPTH            ? 0                                                                  \
       : (family) == DEPTH_RISING  ? cols                                                                \
       : (family) == DEPTH_FALLING ? cols + links                                                        \
       : (family) == SIDE_RISING   ? cols + 2 * links                                                    \
                                   : 2 * cols + 2 * links) +                                             \
      (j))
-#define LAYER_RIGHT_END_SLOT(diagonal, j) (3 * cols + 2 * links + (diagonal) * links + (j))
-#define LAYER_PACKED_SPRINGS (7 * LATTICE_MAX_COLS)
+#define SLICE_RIGHT_END_SLOT(diagonal, j) (3 * cols + 2 * links + (diagonal) * links + (j))
+#define SLICE_PACKED_SPRINGS (7 * LATTICE_MAX_COLS)
 
 typedef struct {
-    double rx[LAYER_FAMILIES][LATTICE_MAX_COLS], ry[LAYER_FAMILIES][LATTICE_MAX_COLS],
-        rz[LAYER_FAMILIES][LATTICE_MAX_COLS];
-    double squared[LAYER_PACKED_SPRINGS], alpha[LAYER_PACKED_SPRINGS], stretch[LAYER_PACKED_SPRINGS],
-        inverse[LAYER_PACKED_SPRINGS];
+    double rx[SLICE_FAMILIES][LATTICE_MAX_COLS], ry[SLICE_FAMILIES][LATTICE_MAX_COLS],
+        rz[SLICE_FAMILIES][LATTICE_MAX_COLS];
+    double squared[SLICE_PACKED_SPRINGS], alpha[SLICE_PACKED_SPRINGS], stretch[SLICE_PACKED_SPRINGS],
+        inverse[SLICE_PACKED_SPRINGS];
     double k_vertical[LATTICE_MAX_COLS], c_vertical[LATTICE_MAX_COLS], k_side[LATTICE_MAX_COLS],
         k_left[LATTICE_MAX_COLS], k_right[LATTICE_MAX_COLS];
     double c_effective[LATTICE_MAX_COLS]; /* the depth dampers' constants at this row's speeds (as RowBuffers) */
@@ -891,7 +891,7 @@ typedef struct {
     /* what the side diagonals of the row above do to a row of the front and of the back */
     double carried_front[3][LATTICE_MAX_COLS], carried_back[3][LATTICE_MAX_COLS], next_front[3][LATTICE_MAX_COLS],
         next_back[3][LATTICE_MAX_COLS];
-} LayerBuffers;
+} SliceBuffers;
 
 #define DEPTH_FORCE(c, j) l.depth[c][j]
 #define SIDE_RISING_FORCE(c, j) l.side_rising[c][j]
@@ -902,7 +902,7 @@ typedef struct {
 #define FALLING_BACK_FORCE(c, j) l.falling_back[c][j]
 
 /* OVER with j < even: GCC (12) cannot tell that j != even ends in these loops (and warns). */
-#define LAYER_OVER(count, even, BODY)  \
+#define SLICE_OVER(count, even, BODY)  \
     {                                  \
         for (j = 0; j < (even); j++) { \
             BODY(j)                    \
@@ -912,13 +912,13 @@ typedef struct {
         }                              \
     }
 
-/* All pairs of layers of the part of a plate that holds rows x layers (u, v and f: the x blocks, followed by
- * the y and z ones unless along_x), adding to f; a mirrored part's middle row and layer take the mirror
- * images of what they get from the rows above and the layers in front. */
-static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along_x, int mirror_y, int mirror_z,
-                                         int rows, int layers, const double *u, const double *v, double *f,
+/* All pairs of slices of the part of a plate that holds rows x slices (u, v and f: the x blocks, followed by
+ * the y and z ones unless along_x), adding to f; a mirrored part's middle row and slice take the mirror
+ * images of what they get from the rows above and the slices in front. */
+static ALWAYS_INLINE void between_slices(const LatticeParams *p, const int along_x, int mirror_y, int mirror_z,
+                                         int rows, int slices, const double *u, const double *v, double *f,
                                          SpringPowers *powers) {
-    const int cols = p->cols, links = cols > 1 ? cols - 1 : 0, layer_size = rows * cols, n = layer_size * layers;
+    const int cols = p->cols, links = cols > 1 ? cols - 1 : 0, slice_size = rows * cols, n = slice_size * slices;
     const int linear = p->spring_law == SPRING_LINEAR;
     const int even_links = EVEN(links), even_cols = EVEN(cols);
     const double *ux = u, *uy = along_x ? u : u + n, *uz = along_x ? u : u + 2 * n;
@@ -927,20 +927,20 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
     const int components = along_x ? 1 : 3;
     const double carried_count = mirror_y ? 2.0 : 1.0; /* on the middle row, the side diagonals' images */
     int alphas_differ = 0, i, j, k, c;
-    LayerBuffers l;
+    SliceBuffers l;
 
     for (j = 0; j < cols; j++) {
         const ColumnConstants *column = &p->column[j];
         l.k_vertical[j] = column->k;
         l.c_vertical[j] = l.c_effective[j] = column->c;
         l.k_side[j] = column->k_diag;
-        l.alpha[LAYER_SLOT(DEPTH, j)] = column->alpha;
-        l.alpha[LAYER_SLOT(SIDE_RISING, j)] = l.alpha[LAYER_SLOT(SIDE_FALLING, j)] = column->alpha_diag;
+        l.alpha[SLICE_SLOT(DEPTH, j)] = column->alpha;
+        l.alpha[SLICE_SLOT(SIDE_RISING, j)] = l.alpha[SLICE_SLOT(SIDE_FALLING, j)] = column->alpha_diag;
     }
     for (j = 0; j < links; j++) {
         const SpringEnds ends = diagonal_ends(p, j);
-        l.alpha[LAYER_SLOT(DEPTH_RISING, j)] = l.alpha[LAYER_SLOT(DEPTH_FALLING, j)] = ends.alpha_a;
-        l.alpha[LAYER_RIGHT_END_SLOT(0, j)] = l.alpha[LAYER_RIGHT_END_SLOT(1, j)] = ends.alpha_b;
+        l.alpha[SLICE_SLOT(DEPTH_RISING, j)] = l.alpha[SLICE_SLOT(DEPTH_FALLING, j)] = ends.alpha_a;
+        l.alpha[SLICE_RIGHT_END_SLOT(0, j)] = l.alpha[SLICE_RIGHT_END_SLOT(1, j)] = ends.alpha_b;
         l.k_left[j] = ends.k_a;
         l.k_right[j] = ends.k_b;
         alphas_differ = alphas_differ || ends.alpha_a != ends.alpha_b;
@@ -951,16 +951,16 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
         l.falling_front[c][1] = l.falling_back[c][links] = 0.0;
     }
 
-    for (k = 0; k + 1 < layers; k++) {
-        /* the back is the middle layer of a mirrored part: it gets as much again from the layer behind it */
-        const double back_count = mirror_z && k + 2 == layers ? 2.0 : 1.0;
+    for (k = 0; k + 1 < slices; k++) {
+        /* the back is the middle slice of a mirrored part: it gets as much again from the slice behind it */
+        const double back_count = mirror_z && k + 2 == slices ? 2.0 : 1.0;
         for (j = 0; j < cols; j++) {
             for (c = 0; c < 3; c++) l.carried_front[c][j] = l.carried_back[c][j] = 0.0;
             l.dissipated[j] = l.nonreciprocal[j] = 0.0;
         }
         for (i = 0; i < rows; i++) {
             const size_t front = ((size_t)k * (size_t)rows + (size_t)i) * (size_t)cols;
-            const size_t back = front + (size_t)layer_size;
+            const size_t back = front + (size_t)slice_size;
             const int below = i + 1 < rows;
             /* f0, f1: rows i and i+1 of the front; b0, b1: of the back (the side diagonals, undamped, need no
              * velocities of row i+1) */
@@ -975,48 +975,48 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
             if (mirror_y && i + 1 == rows) count_mirror_images(l.dissipated, l.nonreciprocal, cols);
 
             /* 1. geometry (dx itself along x: packed_stretches_x) */
-#define LAYER_GEOMETRY(family, j, ae, aj, be, bj)                                 \
+#define SLICE_GEOMETRY(family, j, ae, aj, be, bj)                                 \
     {                                                                             \
         const double dx = ux##be[bj] - ux##ae[aj];                                \
         l.rx[family][j] = dx;                                                     \
         if (along_x) {                                                            \
-            l.squared[LAYER_SLOT(family, j)] = dx;                                \
+            l.squared[SLICE_SLOT(family, j)] = dx;                                \
         } else {                                                                  \
             const double dy = uy##be[bj] - uy##ae[aj], dz = uz##be[bj] - uz##ae[aj]; \
             l.ry[family][j] = dy;                                                 \
             l.rz[family][j] = dz;                                                 \
-            l.squared[LAYER_SLOT(family, j)] = dx * dx + dy * dy + dz * dz;       \
+            l.squared[SLICE_SLOT(family, j)] = dx * dx + dy * dy + dz * dz;       \
         }                                                                         \
     }
-#define LAYER_GEOMETRY_D(j) LAYER_GEOMETRY(DEPTH, j, f0, j, b0, j)
-#define LAYER_GEOMETRY_RF(j)                                \
-    LAYER_GEOMETRY(DEPTH_RISING, j, f0, j, b0, j + 1)       \
-    LAYER_GEOMETRY(DEPTH_FALLING, j, f0, j + 1, b0, j)
-#define LAYER_GEOMETRY_S(j)                                 \
-    LAYER_GEOMETRY(SIDE_RISING, j, f0, j, b1, j)            \
-    LAYER_GEOMETRY(SIDE_FALLING, j, f1, j, b0, j)
-            LAYER_OVER(cols, even_cols, LAYER_GEOMETRY_D)
-            LAYER_OVER(links, even_links, LAYER_GEOMETRY_RF)
-            if (below) LAYER_OVER(cols, even_cols, LAYER_GEOMETRY_S)
+#define SLICE_GEOMETRY_D(j) SLICE_GEOMETRY(DEPTH, j, f0, j, b0, j)
+#define SLICE_GEOMETRY_RF(j)                                \
+    SLICE_GEOMETRY(DEPTH_RISING, j, f0, j, b0, j + 1)       \
+    SLICE_GEOMETRY(DEPTH_FALLING, j, f0, j + 1, b0, j)
+#define SLICE_GEOMETRY_S(j)                                 \
+    SLICE_GEOMETRY(SIDE_RISING, j, f0, j, b1, j)            \
+    SLICE_GEOMETRY(SIDE_FALLING, j, f1, j, b0, j)
+            SLICE_OVER(cols, even_cols, SLICE_GEOMETRY_D)
+            SLICE_OVER(links, even_links, SLICE_GEOMETRY_RF)
+            if (below) SLICE_OVER(cols, even_cols, SLICE_GEOMETRY_S)
 
             /* 2. stretches */
             stretches_of(linear, along_x, below ? 3 * cols + 2 * links : cols + 2 * links, l.squared, l.alpha,
                          l.stretch, l.inverse);
             if (alphas_differ) {
                 for (j = 0; j < links; j++) {
-                    l.squared[LAYER_RIGHT_END_SLOT(0, j)] = l.squared[LAYER_SLOT(DEPTH_RISING, j)];
-                    l.squared[LAYER_RIGHT_END_SLOT(1, j)] = l.squared[LAYER_SLOT(DEPTH_FALLING, j)];
+                    l.squared[SLICE_RIGHT_END_SLOT(0, j)] = l.squared[SLICE_SLOT(DEPTH_RISING, j)];
+                    l.squared[SLICE_RIGHT_END_SLOT(1, j)] = l.squared[SLICE_SLOT(DEPTH_FALLING, j)];
                 }
-                stretches_of(linear, along_x, 2 * links, l.squared + LAYER_RIGHT_END_SLOT(0, 0),
-                             l.alpha + LAYER_RIGHT_END_SLOT(0, 0), l.stretch + LAYER_RIGHT_END_SLOT(0, 0),
-                             l.inverse + LAYER_RIGHT_END_SLOT(0, 0));
+                stretches_of(linear, along_x, 2 * links, l.squared + SLICE_RIGHT_END_SLOT(0, 0),
+                             l.alpha + SLICE_RIGHT_END_SLOT(0, 0), l.stretch + SLICE_RIGHT_END_SLOT(0, 0),
+                             l.inverse + SLICE_RIGHT_END_SLOT(0, 0));
             }
 
             /* 3. forces, as in the rows */
-#define LAYER_PER_LENGTH(family, j, k) ((k) * l.stretch[LAYER_SLOT(family, j)] * l.inverse[LAYER_SLOT(family, j)])
-#define LAYER_DAMPED(family, j, k, c, ae, aj, be, bj, FORCE)                                  \
+#define SLICE_PER_LENGTH(family, j, k) ((k) * l.stretch[SLICE_SLOT(family, j)] * l.inverse[SLICE_SLOT(family, j)])
+#define SLICE_DAMPED(family, j, k, c, ae, aj, be, bj, FORCE)                                  \
     {                                                                                         \
-        const double per_length = LAYER_PER_LENGTH(family, j, k);                             \
+        const double per_length = SLICE_PER_LENGTH(family, j, k);                             \
         const double dvx = vx##be[bj] - vx##ae[aj];                                           \
         FORCE(0, j) = per_length * l.rx[family][j] + (c) * dvx;                               \
         if (along_x) {                                                                        \
@@ -1028,10 +1028,10 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
             l.dissipated[j] += (c) * (dvx * dvx + dvy * dvy + dvz * dvz);                     \
         }                                                                                     \
     }
-#define LAYER_DIAGONAL(family, j, k_a, stretch_a, k_b, stretch_b, ae, aj, be, bj, A_FORCE, B_FORCE)          \
+#define SLICE_DIAGONAL(family, j, k_a, stretch_a, k_b, stretch_b, ae, aj, be, bj, A_FORCE, B_FORCE)          \
     {                                                                                                       \
-        const double per_length_a = (k_a) * (stretch_a) * l.inverse[LAYER_SLOT(family, j)];                 \
-        const double per_length_b = (k_b) * (stretch_b) * l.inverse[LAYER_SLOT(family, j)];                 \
+        const double per_length_a = (k_a) * (stretch_a) * l.inverse[SLICE_SLOT(family, j)];                 \
+        const double per_length_b = (k_b) * (stretch_b) * l.inverse[SLICE_SLOT(family, j)];                 \
         A_FORCE(0, j) = per_length_a * l.rx[family][j];                                                     \
         B_FORCE(0, j) = per_length_b * l.rx[family][j];                                                     \
         if (along_x) {                                                                                      \
@@ -1048,49 +1048,49 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
                                    l.rz[family][j] * (vz##ae[aj] + vz##be[bj]));                            \
         }                                                                                                   \
     }
-#define LAYER_SIDE(family, j, FORCE)                                       \
+#define SLICE_SIDE(family, j, FORCE)                                       \
     {                                                                      \
-        const double per_length = LAYER_PER_LENGTH(family, j, l.k_side[j]); \
+        const double per_length = SLICE_PER_LENGTH(family, j, l.k_side[j]); \
         FORCE(0, j) = per_length * l.rx[family][j];                        \
         if (!along_x) {                                                    \
             FORCE(1, j) = per_length * l.ry[family][j];                    \
             FORCE(2, j) = per_length * l.rz[family][j];                    \
         }                                                                  \
     }
-#define LAYER_FORCES_D(j) LAYER_DAMPED(DEPTH, j, l.k_vertical[j], l.c_vertical[j], f0, j, b0, j, DEPTH_FORCE)
-#define LAYER_FORCES_D_NONLINEAR(j) \
-    LAYER_DAMPED(DEPTH, j, l.k_vertical[j], l.c_effective[j], f0, j, b0, j, DEPTH_FORCE)
+#define SLICE_FORCES_D(j) SLICE_DAMPED(DEPTH, j, l.k_vertical[j], l.c_vertical[j], f0, j, b0, j, DEPTH_FORCE)
+#define SLICE_FORCES_D_NONLINEAR(j) \
+    SLICE_DAMPED(DEPTH, j, l.k_vertical[j], l.c_effective[j], f0, j, b0, j, DEPTH_FORCE)
             /* depth rising: a = (i, j, k) is the left end; depth falling: a = (i, j+1, k) the right end */
-#define LAYER_FORCES_RF(j, rising_right, falling_right)                                                         \
-    LAYER_DIAGONAL(DEPTH_RISING, j, l.k_left[j], l.stretch[LAYER_SLOT(DEPTH_RISING, j)], l.k_right[j],          \
+#define SLICE_FORCES_RF(j, rising_right, falling_right)                                                         \
+    SLICE_DIAGONAL(DEPTH_RISING, j, l.k_left[j], l.stretch[SLICE_SLOT(DEPTH_RISING, j)], l.k_right[j],          \
                    rising_right, f0, j, b0, j + 1, RISING_FRONT_FORCE, RISING_BACK_FORCE)                       \
-    LAYER_DIAGONAL(DEPTH_FALLING, j, l.k_right[j], falling_right, l.k_left[j],                                  \
-                   l.stretch[LAYER_SLOT(DEPTH_FALLING, j)], f0, j + 1, b0, j, FALLING_FRONT_FORCE,              \
+    SLICE_DIAGONAL(DEPTH_FALLING, j, l.k_right[j], falling_right, l.k_left[j],                                  \
+                   l.stretch[SLICE_SLOT(DEPTH_FALLING, j)], f0, j + 1, b0, j, FALLING_FRONT_FORCE,              \
                    FALLING_BACK_FORCE)
-#define LAYER_FORCES_RF_SAME(j) \
-    LAYER_FORCES_RF(j, l.stretch[LAYER_SLOT(DEPTH_RISING, j)], l.stretch[LAYER_SLOT(DEPTH_FALLING, j)])
-#define LAYER_FORCES_RF_DIFFERENT(j) \
-    LAYER_FORCES_RF(j, l.stretch[LAYER_RIGHT_END_SLOT(0, j)], l.stretch[LAYER_RIGHT_END_SLOT(1, j)])
-#define LAYER_FORCES_S(j)                           \
-    LAYER_SIDE(SIDE_RISING, j, SIDE_RISING_FORCE)   \
-    LAYER_SIDE(SIDE_FALLING, j, SIDE_FALLING_FORCE)
+#define SLICE_FORCES_RF_SAME(j) \
+    SLICE_FORCES_RF(j, l.stretch[SLICE_SLOT(DEPTH_RISING, j)], l.stretch[SLICE_SLOT(DEPTH_FALLING, j)])
+#define SLICE_FORCES_RF_DIFFERENT(j) \
+    SLICE_FORCES_RF(j, l.stretch[SLICE_RIGHT_END_SLOT(0, j)], l.stretch[SLICE_RIGHT_END_SLOT(1, j)])
+#define SLICE_FORCES_S(j)                           \
+    SLICE_SIDE(SIDE_RISING, j, SIDE_RISING_FORCE)   \
+    SLICE_SIDE(SIDE_FALLING, j, SIDE_FALLING_FORCE)
             if (l.nonlinear_count) {
                 nonlinear_dampers(p, l.nonlinear_count, l.nonlinear, vxf0, along_x ? NULL : vyf0,
                                   along_x ? NULL : vzf0, vxb0, along_x ? NULL : vyb0, along_x ? NULL : vzb0,
                                   l.c_effective);
-                LAYER_OVER(cols, even_cols, LAYER_FORCES_D_NONLINEAR)
+                SLICE_OVER(cols, even_cols, SLICE_FORCES_D_NONLINEAR)
             } else {
-                LAYER_OVER(cols, even_cols, LAYER_FORCES_D)
+                SLICE_OVER(cols, even_cols, SLICE_FORCES_D)
             }
             if (alphas_differ) {
-                LAYER_OVER(links, even_links, LAYER_FORCES_RF_DIFFERENT)
+                SLICE_OVER(links, even_links, SLICE_FORCES_RF_DIFFERENT)
             } else {
-                LAYER_OVER(links, even_links, LAYER_FORCES_RF_SAME)
+                SLICE_OVER(links, even_links, SLICE_FORCES_RF_SAME)
             }
-            if (below) LAYER_OVER(cols, even_cols, LAYER_FORCES_S)
+            if (below) SLICE_OVER(cols, even_cols, SLICE_FORCES_S)
 
             /* 4. gather: the front (a ends) and the back (b ends), each component apart */
-#define LAYER_GATHER(j, c, front_force, back_force)                                                            \
+#define SLICE_GATHER(j, c, front_force, back_force)                                                            \
     {                                                                                                          \
         front_force[j] += l.carried_front[c][j] + (l.depth[c][j] + l.rising_front[c][j] +                      \
                                                    FALLING_FRONT_FORCE(c, j - 1) + l.side_rising[c][j]);       \
@@ -1099,20 +1099,20 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
         l.next_front[c][j] = l.side_falling[c][j];                                                             \
         l.next_back[c][j] = -l.side_rising[c][j];                                                              \
     }
-#define LAYER_GATHER_LAST(j, c, front_force, back_force)                                                      \
+#define SLICE_GATHER_LAST(j, c, front_force, back_force)                                                      \
     {                                                                                                         \
         front_force[j] += carried_count * l.carried_front[c][j] +                                             \
                           (l.depth[c][j] + l.rising_front[c][j] + FALLING_FRONT_FORCE(c, j - 1));             \
         back_force[j] += back_count * (carried_count * l.carried_back[c][j] -                                 \
                                        (l.depth[c][j] + RISING_BACK_FORCE(c, j - 1) + l.falling_back[c][j])); \
     }
-#define LAYER_GATHER_X(j) LAYER_GATHER(j, 0, fxf0, fxb0)
-#define LAYER_GATHER_Y(j) LAYER_GATHER(j, 1, fyf0, fyb0)
-#define LAYER_GATHER_Z(j) LAYER_GATHER(j, 2, fzf0, fzb0)
-#define LAYER_GATHER_LAST_X(j) LAYER_GATHER_LAST(j, 0, fxf0, fxb0)
-#define LAYER_GATHER_LAST_Y(j) LAYER_GATHER_LAST(j, 1, fyf0, fyb0)
-#define LAYER_GATHER_LAST_Z(j) LAYER_GATHER_LAST(j, 2, fzf0, fzb0)
-#define LAYER_CARRY(j)                                    \
+#define SLICE_GATHER_X(j) SLICE_GATHER(j, 0, fxf0, fxb0)
+#define SLICE_GATHER_Y(j) SLICE_GATHER(j, 1, fyf0, fyb0)
+#define SLICE_GATHER_Z(j) SLICE_GATHER(j, 2, fzf0, fzb0)
+#define SLICE_GATHER_LAST_X(j) SLICE_GATHER_LAST(j, 0, fxf0, fxb0)
+#define SLICE_GATHER_LAST_Y(j) SLICE_GATHER_LAST(j, 1, fyf0, fyb0)
+#define SLICE_GATHER_LAST_Z(j) SLICE_GATHER_LAST(j, 2, fzf0, fzb0)
+#define SLICE_CARRY(j)                                    \
     {                                                     \
         for (c = 0; c < components; c++) {                \
             l.carried_front[c][j] = l.next_front[c][j];   \
@@ -1120,17 +1120,17 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
         }                                                 \
     }
             if (below) {
-                LAYER_OVER(cols, even_cols, LAYER_GATHER_X)
+                SLICE_OVER(cols, even_cols, SLICE_GATHER_X)
                 if (!along_x) {
-                    LAYER_OVER(cols, even_cols, LAYER_GATHER_Y)
-                    LAYER_OVER(cols, even_cols, LAYER_GATHER_Z)
+                    SLICE_OVER(cols, even_cols, SLICE_GATHER_Y)
+                    SLICE_OVER(cols, even_cols, SLICE_GATHER_Z)
                 }
-                LAYER_OVER(cols, even_cols, LAYER_CARRY)
+                SLICE_OVER(cols, even_cols, SLICE_CARRY)
             } else {
-                LAYER_OVER(cols, even_cols, LAYER_GATHER_LAST_X)
+                SLICE_OVER(cols, even_cols, SLICE_GATHER_LAST_X)
                 if (!along_x) {
-                    LAYER_OVER(cols, even_cols, LAYER_GATHER_LAST_Y)
-                    LAYER_OVER(cols, even_cols, LAYER_GATHER_LAST_Z)
+                    SLICE_OVER(cols, even_cols, SLICE_GATHER_LAST_Y)
+                    SLICE_OVER(cols, even_cols, SLICE_GATHER_LAST_Z)
                 }
             }
         }
@@ -1138,32 +1138,32 @@ static ALWAYS_INLINE void between_layers(const LatticeParams *p, const int along
     }
 }
 
-static NOINLINE VECTOR_CLONES void between_layers_general(const LatticeParams *p, const double *u, const double *v,
+static NOINLINE VECTOR_CLONES void between_slices_general(const LatticeParams *p, const double *u, const double *v,
                                                           double *f, SpringPowers *powers) {
-    between_layers(p, 0, 0, 0, p->rows, p->depth, u, v, f, powers);
+    between_slices(p, 0, 0, 0, p->rows, p->depth, u, v, f, powers);
 }
 
-static NOINLINE VECTOR_CLONES void between_layers_along_x(const LatticeParams *p, int mirror_y, int mirror_z,
-                                                          int rows, int layers, const double *ux,
+static NOINLINE VECTOR_CLONES void between_slices_along_x(const LatticeParams *p, int mirror_y, int mirror_z,
+                                                          int rows, int slices, const double *ux,
                                                           const double *vx, double *fx, SpringPowers *powers) {
-    between_layers(p, 1, mirror_y, mirror_z, rows, layers, ux, vx, fx, powers);
+    between_slices(p, 1, mirror_y, mirror_z, rows, slices, ux, vx, fx, powers);
 }
 
-/* The backplate force over the column-C masses of rows x layers, f = k*rows + i at [f * stride], each counted
+/* The backplate force over the column-C masses of rows x slices, f = k*rows + i at [f * stride], each counted
  * as often as it stands in the whole lattice (mirror_count). */
-static double backplate_force_of_face(const LatticeParams *p, int rows, int layers, int mirror_y, int mirror_z,
+static double backplate_force_of_face(const LatticeParams *p, int rows, int slices, int mirror_y, int mirror_z,
                                       const double *ux_last_column, const double *vx_last_column, int stride) {
     double force = 0.0;
     int i, k;
     if (!p->has_backplate) return 0.0;
-    for (k = 0; k < layers; k++) {
+    for (k = 0; k < slices; k++) {
         for (i = 0; i < rows; i++) {
             const int at = (k * rows + i) * stride;
             const double penetration = ux_last_column[at] - p->backplate_gap - p->back_position;
             if (penetration > 0.0) {
                 const double approach = vx_last_column[at] - p->back_velocity;
                 const double mass_force = p->k_wall * penetration + p->c_wall * (approach > 0.0 ? approach : 0.0);
-                force += mirror_count(mirror_y, mirror_z, rows, layers, i, k) * mass_force;
+                force += mirror_count(mirror_y, mirror_z, rows, slices, i, k) * mass_force;
             }
         }
     }
@@ -1177,8 +1177,8 @@ double lattice_backplate_force_from_column(const LatticeParams *p, const double 
 
 double lattice_backplate_force_mirrored(const LatticeParams *p, const double *ux_last_column,
                                         const double *vx_last_column, int stride) {
-    const int rows = lattice_mirror_rows(p), layers = lattice_mirror_layers(p);
-    return backplate_force_of_face(p, rows ? rows : p->rows, layers ? layers : p->depth, rows != 0, layers != 0,
+    const int rows = lattice_mirror_rows(p), slices = lattice_mirror_slices(p);
+    return backplate_force_of_face(p, rows ? rows : p->rows, slices ? slices : p->depth, rows != 0, slices != 0,
                                    ux_last_column, vx_last_column, stride);
 }
 
@@ -1190,16 +1190,16 @@ double lattice_backplate_force(const LatticeParams *p, const double *y) {
 
 double lattice_load_weight(const LatticeParams *p, int i, int k) { return load_fraction(p, i, k); }
 
-/* The front port over the face masses of rows x layers (each counted as often as it stands in the whole). */
-static void front_port_of_face(const LatticeParams *p, int rows, int layers, int mirror_y, int mirror_z,
+/* The front port over the face masses of rows x slices (each counted as often as it stands in the whole). */
+static void front_port_of_face(const LatticeParams *p, int rows, int slices, int mirror_y, int mirror_z,
                                const double *ux, const double *vx, double *x_front, double *v_front) {
     const int cols = p->cols;
     double x = 0.0, v = 0.0;
     int i, k;
-    for (k = 0; k < layers; k++) {
+    for (k = 0; k < slices; k++) {
         for (i = 0; i < rows; i++) {
             const int a = (k * rows + i) * cols;
-            const double weight = mirror_count(mirror_y, mirror_z, rows, layers, i, k) * load_fraction(p, i, k);
+            const double weight = mirror_count(mirror_y, mirror_z, rows, slices, i, k) * load_fraction(p, i, k);
             x += weight * ux[a];
             v += weight * vx[a];
         }
@@ -1215,14 +1215,14 @@ void lattice_front_port(const LatticeParams *p, const double *y, double *x_front
 
 void lattice_front_port_along_x(const LatticeParams *p, int mirrored, const double *y, double *x_front,
                                 double *v_front) {
-    const int mirror_rows = mirrored ? lattice_mirror_rows(p) : 0, mirror_layers = mirrored ? lattice_mirror_layers(p) : 0;
-    const int rows = mirror_rows ? mirror_rows : p->rows, layers = mirror_layers ? mirror_layers : p->depth;
-    front_port_of_face(p, rows, layers, mirror_rows != 0, mirror_layers != 0, y, y + rows * p->cols * layers, x_front,
+    const int mirror_rows = mirrored ? lattice_mirror_rows(p) : 0, mirror_slices = mirrored ? lattice_mirror_slices(p) : 0;
+    const int rows = mirror_rows ? mirror_rows : p->rows, slices = mirror_slices ? mirror_slices : p->depth;
+    front_port_of_face(p, rows, slices, mirror_rows != 0, mirror_slices != 0, y, y + rows * p->cols * slices, x_front,
                        v_front);
 }
 
 /* Potential of one spring: for a non-reciprocal pair, the mean of its two ends' potentials. uz NULL in a
- * lattice of one layer. */
+ * lattice of one slice. */
 static double spring_energy(const double *ux, const double *uy, const double *uz, int a, int b, int spring_law,
                             SpringEnds ends) {
     const double rx = ux[b] - ux[a], ry = uy[b] - uy[a];
@@ -1233,8 +1233,8 @@ static double spring_energy(const double *ux, const double *uy, const double *uz
 }
 
 void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, double *potential) {
-    const int rows = p->rows, cols = p->cols, layers = p->depth, layer_size = rows * cols, n = layer_size * layers;
-    const int components = LATTICE_COMPONENTS(layers), law = p->spring_law;
+    const int rows = p->rows, cols = p->cols, slices = p->depth, slice_size = rows * cols, n = slice_size * slices;
+    const int components = LATTICE_COMPONENTS(slices), law = p->spring_law;
     const double *ux = y, *uy = y + n, *uz = components == 3 ? y + 2 * n : NULL;
     const double *vx = y + components * n, *vy = vx + n, *vz = components == 3 ? vx + 2 * n : NULL;
     const SpringEnds horizontal = {p->k_horizontal, p->alpha_horizontal, p->k_horizontal, p->alpha_horizontal};
@@ -1250,36 +1250,36 @@ void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, 
             weighted += p->column[i % cols].mass * squared;
         }
     }
-    for (k = 0; k < layers; k++) {
+    for (k = 0; k < slices; k++) {
         for (i = 0; i < rows; i++) {
             for (j = 0; j + 1 < cols; j++) {
-                const int a = k * layer_size + i * cols + j;
+                const int a = k * slice_size + i * cols + j;
                 energy += spring_energy(ux, uy, uz, a, a + 1, law, horizontal);
             }
         }
     }
-    for (k = 0; k < layers; k++) {
+    for (k = 0; k < slices; k++) {
         for (j = 0; j < cols; j++) {
             const ColumnConstants *column = &p->column[j];
             const SpringEnds vertical = {column->k, column->alpha, column->k,
                                          column->alpha};
             for (i = 0; i + 1 < rows; i++) {
-                const int a = k * layer_size + i * cols + j;
+                const int a = k * slice_size + i * cols + j;
                 energy += spring_energy(ux, uy, uz, a, a + cols, law, vertical);
             }
         }
     }
-    for (k = 0; k < layers; k++) {
+    for (k = 0; k < slices; k++) {
         for (j = 0; j + 1 < cols; j++) {
             const SpringEnds rising = diagonal_ends(p, j), falling = reversed(rising);
             for (i = 0; i + 1 < rows; i++) {
-                const int a = k * layer_size + i * cols + j;
+                const int a = k * slice_size + i * cols + j;
                 energy += spring_energy(ux, uy, uz, a, a + cols + 1, law, rising);
                 energy += spring_energy(ux, uy, uz, a + 1, a + cols, law, falling);
             }
         }
     }
-    for (k = 0; k + 1 < layers; k++) { /* between layers k and k+1 (between_layers) */
+    for (k = 0; k + 1 < slices; k++) { /* between slices k and k+1 (between_slices) */
         for (j = 0; j < cols; j++) {
             const ColumnConstants *column = &p->column[j];
             const SpringEnds depth = {column->k, column->alpha, column->k,
@@ -1287,28 +1287,28 @@ void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, 
             const SpringEnds side = {column->k_diag, column->alpha_diag, column->k_diag,
                                      column->alpha_diag};
             for (i = 0; i < rows; i++) {
-                const int a = k * layer_size + i * cols + j;
-                energy += spring_energy(ux, uy, uz, a, a + layer_size, law, depth);
+                const int a = k * slice_size + i * cols + j;
+                energy += spring_energy(ux, uy, uz, a, a + slice_size, law, depth);
                 if (i + 1 < rows) {
-                    energy += spring_energy(ux, uy, uz, a, a + layer_size + cols, law, side);
-                    energy += spring_energy(ux, uy, uz, a + cols, a + layer_size, law, side);
+                    energy += spring_energy(ux, uy, uz, a, a + slice_size + cols, law, side);
+                    energy += spring_energy(ux, uy, uz, a + cols, a + slice_size, law, side);
                 }
             }
         }
         for (j = 0; j + 1 < cols; j++) {
             const SpringEnds rising = diagonal_ends(p, j), falling = reversed(rising);
             for (i = 0; i < rows; i++) {
-                const int a = k * layer_size + i * cols + j;
-                energy += spring_energy(ux, uy, uz, a, a + layer_size + 1, law, rising);
-                energy += spring_energy(ux, uy, uz, a + 1, a + layer_size, law, falling);
+                const int a = k * slice_size + i * cols + j;
+                energy += spring_energy(ux, uy, uz, a, a + slice_size + 1, law, rising);
+                energy += spring_energy(ux, uy, uz, a + 1, a + slice_size, law, falling);
             }
         }
     }
     if (p->has_backplate) {
-        for (k = 0; k < layers; k++) {
+        for (k = 0; k < slices; k++) {
             for (i = 0; i < rows; i++) {
                 const double penetration =
-                    ux[k * layer_size + i * cols + cols - 1] - p->backplate_gap - p->back_position;
+                    ux[k * slice_size + i * cols + cols - 1] - p->backplate_gap - p->back_position;
                 if (penetration > 0.0) energy += 0.5 * p->k_wall * penetration * penetration;
             }
         }
@@ -1318,13 +1318,13 @@ void lattice_energies(const LatticeParams *p, const double *y, double *kinetic, 
 }
 
 double lattice_backplate_potential(const LatticeParams *p, const double *y) {
-    const int rows = p->rows, cols = p->cols, layer_size = rows * cols;
+    const int rows = p->rows, cols = p->cols, slice_size = rows * cols;
     double energy = 0.0;
     int i, k;
     if (!p->has_backplate) return 0.0;
     for (k = 0; k < p->depth; k++) {
         for (i = 0; i < rows; i++) {
-            const double penetration = y[k * layer_size + i * cols + cols - 1] - p->backplate_gap - p->back_position;
+            const double penetration = y[k * slice_size + i * cols + cols - 1] - p->backplate_gap - p->back_position;
             if (penetration > 0.0) energy += 0.5 * p->k_wall * penetration * penetration;
         }
     }

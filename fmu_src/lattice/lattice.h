@@ -6,9 +6,9 @@
  * library that checks it against the numpy oracle.
  *
  * The plate of docs/model.md section 10 is this lattice with a depth, not a second model: every spring of
- * it, in the plane or between layers, goes through the one force law (spring_stretch in lattice.c) and the
+ * it, in the plane or between slices, goes through the one force law (spring_stretch in lattice.c) and the
  * same ends rule, so a change to the physics is made once and depth 1 is the two-dimensional lattice of
- * sections 1 to 7 with the same numbers, bit for bit (the layers' extra springs and components are simply
+ * sections 1 to 7 with the same numbers, bit for bit (the slices' extra springs and components are simply
  * absent there, not added as zeros).
  *
  * State layout (reference/lattice.py shares it at depth 1): R rows i (y), C columns j (x), D slices k along z (depth), all
@@ -19,8 +19,8 @@
  * then y[2cN] W_ext (external work), y[2cN+1] D (dissipated energy), y[2cN+2] W_nr (non-reciprocal work),
  * c the components: quadratures, integrating them with the state is what closes the energy balance.
  * The face masses (column 1's for the load, column C's for the backplate) are numbered f = k*R + i.
- * Words: in this core a "layer" is one of the D slices along z; to the designer (docs/model.md section 10, the
- * report) a layer is a column, one material's sheet of R x D masses.
+ * Words (docs/model.md's glossary): a slice is the R x C masses at one depth k; a layer is one material's column
+ * j, its R x D masses.
  */
 #ifndef LATTICE_H
 #define LATTICE_H
@@ -29,7 +29,7 @@
 
 #define LATTICE_MAX_COLS 64
 #define LATTICE_N_QUADRATURES 3
-/* Components of a displacement (and of a velocity): x and y in one layer, x, y and z in more. */
+/* Components of a displacement (and of a velocity): x and y in one slice, x, y and z in more. */
 #define LATTICE_COMPONENTS(depth) ((depth) > 1 ? 3 : 2)
 #define LATTICE_STATE_SIZE_OF_PLATE(rows, cols, depth) \
     (2 * LATTICE_COMPONENTS(depth) * (rows) * (cols) * (depth) + LATTICE_N_QUADRATURES)
@@ -51,7 +51,7 @@ typedef struct {
     double load_total, load_angle_deg, load_duration; /* F_total, theta, t_active */
     int has_backplate;
     double k_wall, c_wall, backplate_gap;
-    int depth;      /* layers D >= 1 (docs/model.md section 10); 1 is the two-dimensional lattice */
+    int depth;      /* slices D >= 1 (docs/model.md section 10); 1 is the two-dimensional lattice */
     int load_patch; /* LATTICE_WHOLE_FACE, or the odd side P of the centred P x P patch column 1 is pushed on */
     /* the ports (docs/model.md section 11): what pushes column 1 (enum LoadMode: the pulse above, or
      * front_force spread with the pulse's weights), and the backplate's displacement and velocity along +x, as
@@ -81,14 +81,14 @@ void lattice_rhs(const LatticeParams *p, int load_on, const signed char *wall_mo
 
 /* A lattice loaded along x (load_angle 0, or no load) by a load centred on its face (the whole face, or a
  * centred patch) is mirror-symmetric about its middle row when it has an odd number of rows R >= 3, and
- * about its middle layer when it has an odd depth D >= 3, for all time (the materials vary by column only,
- * the start state is zero): row R-1-i moves as row i, layer D-1-k as layer k, and the middle row and layer
- * stay on their planes. The part of rows 0 .. (R-1)/2 and layers 0 .. (D-1)/2 (the middle ones last), a
+ * about its middle slice when it has an odd depth D >= 3, for all time (the materials vary by column only,
+ * the start state is zero): row R-1-i moves as row i, slice D-1-k as slice k, and the middle row and slice
+ * stay on their planes. The part of rows 0 .. (R-1)/2 and slices 0 .. (D-1)/2 (the middle ones last), a
  * half or a quarter, carries the whole solution (lattice_rhs_along_x with mirrored 1).
  * lattice_mirror_rows returns the rows of that part, or 0 when the lattice is not symmetric about a row;
- * lattice_mirror_layers its layers, or 0 when it is not symmetric about a layer. */
+ * lattice_mirror_slices its slices, or 0 when it is not symmetric about a slice. */
 int lattice_mirror_rows(const LatticeParams *p);
-int lattice_mirror_layers(const LatticeParams *p);
+int lattice_mirror_slices(const LatticeParams *p);
 
 /* A lattice loaded along x (load_angle 0, no load, or the ports' load, which is along +x) moves along x alone for all time: r = u_b - u_a
  * (docs/model.md section 2) of two masses that have not moved in y or z has no y or z part, so no spring,
@@ -98,8 +98,8 @@ int lattice_along_x(const LatticeParams *p);
 
 /* The right-hand side over that layout, of all masses (mirrored 0) or of the part of a mirror-symmetric
  * lattice that carries its solution (mirrored 1: the lattice_mirror_rows rows if that is not 0, else all R,
- * times the lattice_mirror_layers layers if that is not 0, else all D; at least one must not be 0), its
- * masses numbered as the whole lattice's with those rows and layers. wall_mode, when not NULL, holds one
+ * times the lattice_mirror_slices slices if that is not 0, else all D; at least one must not be 0), its
+ * masses numbered as the whole lattice's with those rows and slices. wall_mode, when not NULL, holds one
  * mode per column-C mass of the whole lattice (f = k*R + i); the part reads its own. Equal, to rounding, to
  * the x components of lattice_rhs on the same state (the whole one, mirrored) with the y and z parts 0. */
 void lattice_rhs_along_x(const LatticeParams *p, int mirrored, int load_on, const signed char *wall_mode,
@@ -125,7 +125,7 @@ double lattice_backplate_force_from_column(const LatticeParams *p, const double 
                                            const double *vx_last_column, int stride);
 
 /* The same over the column-C masses of the part of a mirror-symmetric lattice that lattice_rhs_along_x
- * computes with mirrored 1 (f = k*rows + i over its rows and layers), each counted as often as it stands
+ * computes with mirrored 1 (f = k*rows + i over its rows and slices), each counted as often as it stands
  * in the whole: 4 times off both middle planes, twice on one, once on both. */
 double lattice_backplate_force_mirrored(const LatticeParams *p, const double *ux_last_column,
                                         const double *vx_last_column, int stride);

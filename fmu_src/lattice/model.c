@@ -108,9 +108,9 @@ static double indicator_value(const Model *m, int k, const double *y) {
     return y[component] - threshold;
 }
 
-void model_wall_modes(const Model *m, const double *y, int rows, int layers, int vx_base, signed char *modes) {
+void model_wall_modes(const Model *m, const double *y, int rows, int slices, int vx_base, signed char *modes) {
     int i, k;
-    for (k = 0; k < layers; k++) {
+    for (k = 0; k < slices; k++) {
         for (i = 0; i < rows; i++) {
             const int mass = LAST_COLUMN_MASS(k * rows + i);
             modes[k * LATTICE_ROWS + i] = (signed char)lattice_wall_mode(&m->params, y[mass], y[vx_base + mass]);
@@ -118,10 +118,10 @@ void model_wall_modes(const Model *m, const double *y, int rows, int layers, int
     }
     /* the rest of the face is the mirror image (in y, in z) of what the layout holds */
     for (k = 0; k < LATTICE_DEPTH; k++) {
-        const int layer = k < layers ? k : LATTICE_DEPTH - 1 - k;
-        for (i = k < layers ? rows : 0; i < LATTICE_ROWS; i++) {
+        const int slice = k < slices ? k : LATTICE_DEPTH - 1 - k;
+        for (i = k < slices ? rows : 0; i < LATTICE_ROWS; i++) {
             const int row = i < rows ? i : LATTICE_ROWS - 1 - i;
-            modes[k * LATTICE_ROWS + i] = modes[layer * LATTICE_ROWS + row];
+            modes[k * LATTICE_ROWS + i] = modes[slice * LATTICE_ROWS + row];
         }
     }
 }
@@ -342,8 +342,8 @@ static void build_params(const Model *m, LatticeParams *p) {
     take_inputs(m, p);
 }
 
-double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows, int layers) {
-    if (rows == LATTICE_ROWS && layers == LATTICE_DEPTH) {
+double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows, int slices) {
+    if (rows == LATTICE_ROWS && slices == LATTICE_DEPTH) {
         return lattice_backplate_force_from_column(&m->params, ux, vx, 1);
     }
     return lattice_backplate_force_mirrored(&m->params, ux, vx, 1);
@@ -356,28 +356,28 @@ double model_energy_balance(const Model *m, const double *y, double *kinetic, do
 }
 
 double model_compression_of_columns(const Model *m, const double *ux_first, const double *ux_last, int rows,
-                                    int layers) {
-    /* a row (layer) of a mirrored part but the middle one, its last, stands for itself and its mirror image */
-    const int mirror_y = rows != LATTICE_ROWS, mirror_z = layers != LATTICE_DEPTH;
+                                    int slices) {
+    /* a row (slice) of a mirrored part but the middle one, its last, stands for itself and its mirror image */
+    const int mirror_y = rows != LATTICE_ROWS, mirror_z = slices != LATTICE_DEPTH;
     double total = 0.0;
     int i, k;
     (void)m;
     if (!mirror_y && !mirror_z) {
-        for (i = 0; i < rows * layers; i++) total += ux_first[i] - ux_last[i];
+        for (i = 0; i < rows * slices; i++) total += ux_first[i] - ux_last[i];
         return total / N_FACE_MASSES;
     }
-    for (k = 0; k < layers; k++) {
+    for (k = 0; k < slices; k++) {
         const double *first = ux_first + k * rows, *last = ux_last + k * rows;
-        double mirrored = 0.0, middle = 0.0, layer;
+        double mirrored = 0.0, middle = 0.0, slice;
         if (mirror_y) {
             for (i = 0; i < rows - 1; i++) mirrored += first[i] - last[i];
             middle = first[rows - 1] - last[rows - 1];
-            layer = 2.0 * mirrored + middle;
+            slice = 2.0 * mirrored + middle;
         } else {
             for (i = 0; i < rows; i++) middle += first[i] - last[i];
-            layer = middle;
+            slice = middle;
         }
-        total += (mirror_z && k + 1 < layers ? 2.0 : 1.0) * layer;
+        total += (mirror_z && k + 1 < slices ? 2.0 : 1.0) * slice;
     }
     return total / N_FACE_MASSES;
 }

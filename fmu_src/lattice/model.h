@@ -4,7 +4,7 @@
  *
  * Its continuous-time contract:
  * Continuous states (model_state_count): the lattice's displacements and velocities (x and y; x, y and z in a
- *   plate of layers) and its three energy integrals (external work, dissipation, non-reciprocal work), in
+ *   plate of slices) and its three energy integrals (external work, dissipation, non-reciprocal work), in
  *   lattice.h's layout.
  * Discrete states, changed only by model_event_update: whether the load acts (a time event at t_active)
  *   and each column-C mass's backplate mode (free, receding, approaching). The event update switches the
@@ -12,7 +12,7 @@
  *   in, so that a switch does not wait for an indicator to leave zero: an importer that restarts on an exact
  *   zero may never report it leaving).
  * Event indicators (model_event_indicator_count; none without a backplate): each column-C mass's contact
- *   (f = k*R + i, row by row, layer by layer), ux - backplate_gap (> 0 in contact), then each one's damping,
+ *   (f = k*R + i, row by row, slice by slice), ux - backplate_gap (> 0 in contact), then each one's damping,
  *   vx while in contact (> 0 the damper acts);
  *   off the plate the damper cannot switch, so the damping indicator repeats the contact one.
  * model_advance stops the run early (MODEL_LIMIT_REACHED) when peak_backplate_force exceeds peak_force_limit.

@@ -180,7 +180,7 @@ def write_evaluations_csv(study: StudyResult, path: Path) -> None:
 def write_design_files(study: StudyResult, out: Path, steps, materials) -> dict[str, str]:
     """Each step's design files; {file: why it was not written} for those the writer refused (a design a named
     tool would run differently)."""
-    refused = {}
+    refused: dict[str, str] = {}
     for step in steps:
         if study.result(type(step)) is None:
             continue

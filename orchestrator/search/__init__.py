@@ -42,7 +42,7 @@ SEARCHES: dict[str, type[Search]] = {
 }
 
 
-def make_search(name: str, space: DesignSpace | int, seed: int, **options: Any) -> Search:
+def make_search(name: str, space: DesignSpace | int, seed: int, **options: Any) -> Search | Started:
     """Build a search by name over ``space`` (an int n: the permutations of n materials), composed with its
     polishing phase (``polish.Polished``) when it has one, and with its starting designs (``starts.Started``:
     evaluated first) when ``starts`` are given.

@@ -228,7 +228,7 @@ class Annealing(Search):
             if not bound >= threshold:
                 return False
             accept, exact = False, False
-            delta = bound - current  # a lower bound: the value is above ``bound``
+            delta: float | None = bound - current  # a lower bound: the value is above ``bound``
         else:
             accept = value <= current or value < threshold
             exact = True
@@ -319,8 +319,8 @@ class Annealing(Search):
         for p in self._proposals:
             if p.order not in merged:
                 merged[p.order] = p.limit
-            elif merged[p.order] is not None:
-                merged[p.order] = None if p.limit is None else max(merged[p.order], p.limit)
+            elif (known := merged[p.order]) is not None:
+                merged[p.order] = None if p.limit is None else max(known, p.limit)
         self._limits = [merged[p.order] for p in self._proposals]
         return [p.order for p in self._proposals]
 

@@ -72,7 +72,7 @@ def dominated_by(
     return np.any(at_most & better, axis=0)
 
 
-def hypervolume(points: Sequence[Sequence[float]] | np.ndarray, reference_point: Sequence[float]) -> float:
+def hypervolume(points: Sequence[Sequence[float]] | np.ndarray, reference_point: Sequence[float] | np.ndarray) -> float:
     """The hypervolume of ``points`` (minimised objectives) with respect to ``reference_point``: the measure
     of the region each point dominates and the reference point bounds. Points not strictly better than the
     reference on every objective add nothing; no points: 0."""

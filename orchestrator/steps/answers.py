@@ -363,7 +363,7 @@ class Answers(Step):
             and not any(e.order == sweep.certificate.runner_up.order for e in others)
         ):
             others.append(Evaluation(sweep.certificate.runner_up.order, sweep.certificate.runner_up.full, "ok"))
-        return min(others, key=lambda e: e.value) if others else None
+        return min(others, key=lambda e: e.ok_value) if others else None
 
     @staticmethod
     def status(context: StudyContext, rule, label: str, order: Order, swept) -> tuple[str, str]:

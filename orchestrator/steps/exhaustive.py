@@ -330,7 +330,7 @@ class Exhaustive(Step):
         ok = [e for e in full if e.ok]
         screened = {s.order: s.values for s in candidates}
         errors = [abs(a / b - 1) for e in ok if e.order in screened for a, b in zip(screened[e.order], e.values) if b]
-        front_mask = non_dominated([e.values for e in ok]) if ok else []
+        front_mask = non_dominated([e.values for e in ok]) if ok else np.zeros(0, dtype=bool)
         front = tuple(
             sorted(
                 (FrontPoint(e.order, e.values, e.outputs) for e, k in zip(ok, front_mask) if k), key=lambda p: p.values
@@ -401,7 +401,7 @@ class Exhaustive(Step):
         orders = list(dict.fromkeys([s.order for s in candidates] + failures + [s.order for s in scored[:VERIFY_TOP]]))
         full = dict(zip(orders, objective.evaluate(orders, context.evaluator, FULL)))
         screened = {s.order: s.value for s in scored + candidates}
-        ok = sorted((e for e in full.values() if e.ok), key=lambda e: e.value)
+        ok = sorted((e for e in full.values() if e.ok), key=lambda e: e.ok_value)
         errors = [abs(screened[e.order] / e.value - 1) for e in ok if e.order in screened and e.value]
         second = self.second_integrator(context, objective, [e.order for e in ok[:2]])
         certificate = self.certify(

@@ -112,7 +112,7 @@ def check_local_optimum(
         sum(1 for e in every if not e.ok and not e.censored),
         len(above),
         optimal,
-        (min(e.value for e in good) - own.value) if good and own.ok else None,
+        (min(e.ok_value for e in good) - own.ok_value) if good and own.ok else None,
         full,
         run.stop_reason,
     )

@@ -66,7 +66,7 @@ class FinalistsResult:
 
 def finalist_orders(run: SearchRun, count: int) -> list[Order]:
     """The run's best ``count`` distinct designs by their search value."""
-    good = sorted((e for e in run.evaluations if e.ok), key=lambda e: e.value)
+    good = sorted((e for e in run.evaluations if e.ok), key=lambda e: e.ok_value)
     return list(dict.fromkeys(e.order for e in good))[:count]
 
 
@@ -137,8 +137,8 @@ def disagreements(runs: list[SearchRun], full: dict[Order, Evaluation], count: i
     found = []
     for run in runs:
         orders = finalist_orders(run, count)
-        by_search = {e.order: e.value for e in run.evaluations if e.ok}
-        values = {o: full[o].value for o in orders if o in full and full[o].ok}
+        by_search = {e.order: e.ok_value for e in run.evaluations if e.ok}
+        values = {o: full[o].ok_value for o in orders if o in full and full[o].ok}
         if len(values) < 2:
             continue
         search_rank = tuple(sorted(values, key=lambda o: by_search[o]))

@@ -202,7 +202,7 @@ class Pareto(Step):
                 e.order: e for e in objective.evaluate([k.order for k in ends], context.evaluator, FULL) if e.ok
             }
             exact = swept.front_for_rule(label) if swept else None
-            descended = ()
+            descended: list[DescendedEnd] = []
             if exact is not None:
                 points, source, is_exact = exact.front, "exhaustive sweep of the whole space", exact.exact
             else:
@@ -265,7 +265,7 @@ class Pareto(Step):
         if not points:
             return []
         seed = context.config(Searches).seed
-        descended = []
+        descended: list[DescendedEnd] = []
         for k, output in enumerate(context.case.outputs):
             start = min(points, key=lambda p: (p.values[k], p.values)).order
             alone = context.objective(rule).with_outputs((output,))

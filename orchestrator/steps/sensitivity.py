@@ -95,6 +95,7 @@ def variations(context: StudyContext, rule: str) -> dict[str, dict[str, Any]]:
         label = name.replace("_", " ")
         return {f"{label} 0.5x": {name: 0.5 * value}, f"{label} 2x": {name: 2.0 * value}}
 
+    found: dict[str, dict[str, Any]]
     if context.case.load_mode == PROJECTILE:
         found = {**scaled("projectile_mass"), **scaled("projectile_speed")}
     else:

@@ -70,7 +70,7 @@ class WorkPrecision(Step):
         results = context.evaluator.evaluate([(run, answer.order) for run in [full] + runs])
         points = [
             self.point(family, label, e, reference)
-            for (family, _, label), e in zip([("the FMU's default", None, default_label)] + SETTINGS, results)
+            for (family, _, label), e in zip([("the FMU's default", None, default_label), *SETTINGS], results)
         ]
         return WorkPrecisionResult(answer.diagonal_rule, TARGET, points[0], tuple(points[1:]))
 
