@@ -323,15 +323,16 @@ def declared_parameters(description) -> Mapping[str, Parameter]:
             elements = [(f"{variable.name}[{i}]", text) for i, text in enumerate(texts, start=1)]
         else:
             elements = [(variable.name, variable.start)]
-        for name, start in elements:
+        for name, text in elements:
+            start: str | float | int | None = text
             if items:
-                start = next((n for n, c in items.items() if str(c) == str(start)), start)
-            elif variable.type in REAL_TYPES and start is not None:
-                start = float(start)
-            elif variable.type in WHOLE_NUMBER_TYPES and variable.type != "Boolean" and start is not None:
-                start = int(start)
-            elif variable.type == "Boolean" and start is not None:
-                start = int(str(start).lower() in ("1", "true"))
+                start = next((n for n, c in items.items() if str(c) == str(text)), text)
+            elif variable.type in REAL_TYPES and text is not None:
+                start = float(text)
+            elif variable.type in WHOLE_NUMBER_TYPES and variable.type != "Boolean" and text is not None:
+                start = int(text)
+            elif variable.type == "Boolean" and text is not None:
+                start = int(str(text).lower() in ("1", "true"))
             parameters[name] = Parameter(
                 name,
                 variable.type,
