@@ -145,13 +145,19 @@ class TailBound:
         return value - self.lower
 
     def text(self, value: float, unit: str) -> str:
-        """The estimate for a reader, beside an answer of ``value``, in one sentence."""
+        """The estimate for a reader, beside an answer of ``value`` (a design's value, so the optimum is at most
+        that), in one sentence."""
         head = (
             f"statistical estimate from {self.designs:,} random designs (the lower tail of their values; not a "
-            f"certificate): the optimum is estimated at {self.estimate:.2f} {unit}"
+            f"certificate): the optimum is estimated at {min(self.estimate, value):.2f} {unit}"
         )
         if not self.bounded:
             return f"{head}; their tail does not show where it ends, so no distance to it is given"
+        if value < self.lower:
+            return (
+                f"{head}; the answer lies below the limit of {self.lower:.2f} {unit} the tail gives, so the tail's "
+                "law does not describe this space and no distance to the optimum is given"
+            )
         return (
             f"{head}; with probability {self.confidence:.0%} it is at least {self.lower:.2f} {unit}, so the answer "
             f"is within {self.within(value):.2f} {unit} ({self.within(value) / abs(value):.1%}) of the optimum"
@@ -234,11 +240,10 @@ def tail_bound(values: Sequence[float], confidence: float = 0.95, tail: int | No
     )
 
 
-def random_values(
-    evaluator: Any, function: Callable, space: Any, designs: int, rng: np.random.Generator
-) -> list[float]:
-    """The values of ``designs`` uniformly random designs of ``space`` through ``evaluator`` (the run's one
-    Evaluator). Failed evaluations are drawn again; refuses when more than half fail."""
+def random_values(evaluate: Callable[[list], list], space: Any, designs: int, rng: np.random.Generator) -> list[float]:
+    """The values of ``designs`` uniformly random designs of ``space``; ``evaluate`` takes a list of designs and
+    returns their Evaluations (through the run's one Evaluator). Failed evaluations are drawn again; refuses when
+    more than half fail."""
     values: list[float] = []
     attempts = 0
     while len(values) < designs:
@@ -246,8 +251,7 @@ def random_values(
         attempts += missing
         if attempts > 2 * designs + 100:
             raise RuntimeError(f"more than half of {attempts} random designs failed: no bound from so few values")
-        drawn = [space.random(rng) for _ in range(missing)]
-        values += [e.value for e in evaluator.evaluate([(function, d) for d in drawn]) if e.ok]
+        values += [e.value for e in evaluate([space.random(rng) for _ in range(missing)]) if e.ok]
     return values
 
 
@@ -259,10 +263,15 @@ def estimate_optimum(
     rng: np.random.Generator,
     confidence: float = 0.95,
 ) -> TailBound:
-    """``tail_bound`` of ``designs`` random designs of ``space`` evaluated through ``evaluator``."""
+    """``tail_bound`` of ``designs`` random designs of ``space``, each evaluated by ``function`` through
+    ``evaluator``."""
     if designs < MIN_DESIGNS:
         raise ValueError(f"at least {MIN_DESIGNS} random designs needed, got {designs}")
-    return tail_bound(random_values(evaluator, function, space, designs, rng), confidence)
+
+    def evaluate(drawn: list) -> list:
+        return evaluator.evaluate([(function, d) for d in drawn])
+
+    return tail_bound(random_values(evaluate, space, designs, rng), confidence)
 
 
 __all__ = [
