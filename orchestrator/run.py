@@ -190,6 +190,8 @@ def print_answer(outcome) -> None:
         estimate = statistical.for_rule(answer.diagonal_rule) if statistical else None
         if estimate is not None:
             print(f"  {estimate.sentence}")
+    for reason in statistical.unfitted if statistical else ():
+        print(f"  statistical estimate: {reason}")
         same = answer.equivalence
         if same is not None and same.equivalent:
             print(

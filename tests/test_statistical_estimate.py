@@ -48,3 +48,34 @@ def test_too_few_random_designs_are_refused_in_one_line(designs, capfd, tmp_path
         StatisticalEstimateConfig(designs=designs)
     assert main("--statistical-bound", designs, "--out", tmp_path / "out", *COMMON) == 2
     assert "--statistical-bound must be 0 (none) or at least 100 random designs" in one_line(capfd)
+
+
+def test_a_space_too_small_to_fit_says_why_and_keeps_the_answer(armour_fmu_of_width, tmp_path, capfd):
+    out = tmp_path / "out"  # 2 columns: 2 designs, so the smallest random values are all one design's
+    fmu = armour_fmu_of_width(2)
+    assert (
+        main(
+            "--fmu",
+            fmu,
+            "--cols",
+            2,
+            "--method",
+            "sa",
+            "--budget",
+            2,
+            "--repeats",
+            1,
+            *COMMON,
+            "--diagonal-rule",
+            "mean",
+            "--out",
+            out,
+            "--statistical-bound",
+            100,
+        )
+        == 0
+    )
+    console = capfd.readouterr().out
+    assert "statistical estimate: mean rule: no estimate (the" in console and "all equal" in console
+    record = json.loads((out / "results.json").read_text())
+    assert record["answers"] and record["steps"]["statistical_estimate"]["estimates"] == []

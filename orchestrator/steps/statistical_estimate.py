@@ -77,6 +77,7 @@ class StatisticalEstimateResult:
     estimates: tuple[RuleEstimate, ...]
     sweepable: bool  # the space is small enough to sweep here: the sweep would certify the optimum instead
     unit: str
+    unfitted: tuple[str, ...] = ()  # a rule whose values could not be fitted, and why
 
     def for_rule(self, label: str) -> RuleEstimate | None:
         return next((e for e in self.estimates if e.diagonal_rule == label), None)
@@ -105,7 +106,7 @@ class StatisticalEstimate(Step):
         objective = context.objective(context.rules[0])
         unit = objective.describe().units[0]
         seed = context.config(Searches).seed
-        estimates = []
+        estimates, unfitted = [], []
         for index, rule in enumerate(context.rules):
             answer = answers.for_rule(rule_label(rule))
             if answer is None:
@@ -120,7 +121,11 @@ class StatisticalEstimate(Step):
                 self.config.designs,
                 np.random.default_rng([seed, index]),
             )
-            bound = tail_bound(values, CONFIDENCE)
+            try:
+                bound = tail_bound(values, CONFIDENCE)
+            except ValueError as exc:  # too few distinct values in a small space: say why, keep the run's answer
+                unfitted.append(f"{answer.diagonal_rule} rule: no estimate ({exc})")
+                continue
             estimates.append(
                 RuleEstimate(
                     diagonal_rule=answer.diagonal_rule,
@@ -137,7 +142,8 @@ class StatisticalEstimate(Step):
                     sentence=bound.text(at_search.value, unit),
                 )
             )
-        return StatisticalEstimateResult(tuple(estimates), context.case.space.size <= MAX_LOCAL_DESIGNS, unit)
+        sweepable = context.case.space.size <= MAX_LOCAL_DESIGNS
+        return StatisticalEstimateResult(tuple(estimates), sweepable, unit, tuple(unfitted))
 
     def cost_note(self, context: StudyContext) -> str:
         return (
