@@ -208,8 +208,34 @@ def narrow_lattice(columns: int) -> Iterator[tuple[Path, Path]]:
         yield path, build_fmu(scene=str(path), output=Path(folder) / f"MassSpringLattice11x{columns}.fmu")
 
 
+TWELFTH_SCALE = (2.0 / 3.0) ** 11  # the study's law (docs/model.md section 3) one step past its eleventh material
+
+
+def twelve_materials():
+    """A user's table of twelve materials for the 12-column frontier: the study's eleven and a twelfth by the same
+    law (k = 100 s, k_diag = 50 s, c = 5 s, alpha = 10 at the next scale s). Not the study's table, which has
+    eleven: a benchmark's scenario, named as such on its page."""
+    from fmu_src.materials import Material, MaterialTable, study_materials
+
+    s = TWELFTH_SCALE
+    return MaterialTable(study_materials().materials + (Material("m12", 100.0 * s, 50.0 * s, 5.0 * s, 10.0, 10.0),))
+
+
+TWELVE_MATERIALS_TEXT = "the study's 11 materials and a 12th by the same law (scale (2/3)^11), a user's table"
+
+
+@contextlib.contextmanager
+def twelve_column_lattice() -> Iterator[Path]:
+    """The armour scene over 12 columns with ``twelve_materials``, built into a folder removed afterwards."""
+    with tempfile.TemporaryDirectory(prefix="bench_lattice_") as folder:
+        yield build_fmu(output=Path(folder) / "MassSpringLattice11x12.fmu", cols=12, materials=twelve_materials())
+
+
 __all__ = [
     "BEST_KNOWN",
+    "TWELVE_MATERIALS_TEXT",
+    "twelve_column_lattice",
+    "twelve_materials",
     "default_setting",
     "setting_text",
     "FULL_HORIZON",

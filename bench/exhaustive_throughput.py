@@ -1,8 +1,8 @@
 """Exhaustive throughput: designs per core-second of the sweep's chunks, and of whole sweeps started with and
 without a short search's incumbent.
 
-    python -m bench.exhaustive_throughput           # about 4 min, 2 workers: chunks of 11 x 8, 9, 11; two 11 x 8 sweeps
-    python -m bench.exhaustive_throughput --quick   # about 2 min: chunks of 11 x 8; two 11 x 7 sweeps
+    python -m bench.exhaustive_throughput           # 2 workers: chunks of 11 x 8, 9, 11; 11 x 8 sweeps; the frontier
+    python -m bench.exhaustive_throughput --quick   # chunks of 11 x 8; two 11 x 7 sweeps; the frontier's chunks smaller
 
 Why: what an exhaustive sweep costs decides whether it runs here or on a cluster (the orchestrator refuses one
 beyond its local limit with the projected core-hours), and the force limit is what makes it affordable: a
@@ -21,24 +21,105 @@ from __future__ import annotations
 import math
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from orchestrator.design import DesignSpace
 from orchestrator.executors import make_executor
-from orchestrator.exhaustive import ScreenChunk, screening_threshold
+from orchestrator.exhaustive import ChunkResult, ScreenChunk, screening_threshold
 from orchestrator.known_optima import known_optima
-from orchestrator.loop import Evaluator
+from orchestrator.loop import Evaluator, run_search
 from orchestrator.objective import SEARCH, LatticeObjective, close_instances
+from orchestrator.search import make_search
 from orchestrator.runner import RunConfig, run_in_folder
 from orchestrator.steps import Answers, Exhaustive, Finalists, Searches
 from orchestrator.steps.exhaustive import SCREENING_ERROR
 from orchestrator.steps.searches import SearchesConfig
 from orchestrator.study import CaseConfig
 
-from .common import FULL_HORIZON, WithoutLimit, narrow_lattice, order_text
+from .common import (
+    FULL_HORIZON,
+    TWELVE_MATERIALS_TEXT,
+    WithoutLimit,
+    lattice_fmu,
+    narrow_lattice,
+    order_text,
+    twelve_column_lattice,
+)
 from .measurements import Page, Run, Table, write_page
 
 KNOWN = {k.columns: k.order for k in known_optima() if k.diagonal_rule == "receiver" and k.rows == 11}
+PLATE_SCENE = "plate_11x11x11"
+JOB_CORES = 32  # cores per SLURM job in the frontier's commands (one single-threaded Dask worker each)
+
+
+@dataclass(frozen=True)
+class Frontier:
+    """A space beyond a sweep here, priced: its chunk's rate with the force limit at a short search's best."""
+
+    label: str
+    options: str  # run.py's options that select the case
+    designs: int
+    incumbent: float  # the annealing run's best, at the search fidelity
+    threshold: float
+    chunk: ChunkResult  # the fastest of the repeats
+
+    @property
+    def rate(self) -> float:
+        return self.chunk.designs / self.chunk.cpu_seconds
+
+    @property
+    def core_hours(self) -> float:
+        return self.designs / self.rate / 3600
+
+
+def frontier(label: str, options: str, fmu, columns: int, budget: int, designs: int, repeats: int, workers: int):
+    """The incumbent of an annealing run of ``budget`` designs (receiver rule), then a chunk of ``designs`` from
+    the middle rank timed with the limit at its threshold (the fastest of ``repeats``, CPU time in the chunk)."""
+    space = DesignSpace.permutations(columns)
+    objective = LatticeObjective(str(fmu), space, FULL_HORIZON, parameters={"diagonal_rule": "receiver"})
+    with make_executor("process", workers) as executor:
+        searched = run_search(
+            make_search("sa", space, 1, budget=budget), objective, budget, Evaluator(executor), method_name="sa", seed=1
+        )
+    close_instances()
+    incumbent = searched.best_value
+    if incumbent is None:
+        raise SystemExit(f"{label}: the annealing run found no design with a value")
+    (screening,) = objective.tasks(SEARCH)
+    limit = screening_threshold(incumbent, SCREENING_ERROR)
+    start = space.size // 2
+    fastest = None
+    with make_executor("serial") as executor:
+        Evaluator(executor).evaluate([(screening, space.unrank(start))])  # this process opens the FMU first
+        for _ in range(repeats):
+            chunk = Evaluator(executor).run(
+                [ScreenChunk(screening, space, start, start + designs, 20, SCREENING_ERROR, limit)]
+            )[0]
+            if not chunk.ok:
+                raise SystemExit(f"{label}: the chunk failed: {chunk.message}")
+            if fastest is None or chunk.cpu_seconds < fastest.cpu_seconds:
+                fastest = chunk
+    close_instances()
+    assert fastest is not None
+    return Frontier(label, options, space.size, incumbent, limit, fastest)
+
+
+def clock(hours: float) -> str:
+    """HH:MM:SS, rounded up to the minute."""
+    minutes = max(1, math.ceil(hours * 60))
+    return f"{minutes // 60:02d}:{minutes % 60:02d}:00"
+
+
+def slurm_command(priced: Frontier, cores: int) -> str:
+    """The command that sweeps ``priced`` on ``cores`` cores of a SLURM cluster: jobs of JOB_CORES cores, each
+    job's walltime the expected wall time plus a quarter (a job that ends is replaced; nothing is lost)."""
+    jobs = max(1, cores // JOB_CORES)
+    walltime = clock(1.25 * priced.core_hours / (jobs * JOB_CORES))
+    return (
+        f"python orchestrator/run.py {priced.options} --method exhaustive --diagonal-rule receiver --executor dask "
+        f"--cluster slurm --jobs {jobs} --job-cores {JOB_CORES} --walltime {walltime} --confirm-cost"
+    )
 
 
 def chunk_rates(columns: int, designs: int, repeats: int) -> dict:
@@ -100,9 +181,22 @@ def main(argv=None) -> int:
     parser.add_argument("--sweep-columns", type=int, default=8, help="the lattice 11 x C swept twice")
     parser.add_argument("--search-budget", type=int, default=100, help="designs of the short search before a sweep")
     parser.add_argument("--workers", type=int, default=2, help="worker processes of the sweeps")
+    parser.add_argument(
+        "--frontier-budget", type=int, default=500, help="designs of the annealing run giving the frontier's incumbent"
+    )
+    parser.add_argument(
+        "--cluster-cores", default="256,1024", help="cores of the SLURM clusters the frontier is priced on, comma list"
+    )
     args = parser.parse_args(argv)
     if args.quick:
         args.chunk_columns, args.chunk_designs, args.repeats, args.sweep_columns = [8], 300, 1, 7
+        args.frontier_budget = 100
+    try:
+        cluster_cores = tuple(int(c) for c in args.cluster_cores.split(","))
+    except ValueError:
+        parser.error(f"--cluster-cores: a comma list of whole numbers >= {JOB_CORES}, got {args.cluster_cores!r}")
+    if min(cluster_cores) < JOB_CORES or args.frontier_budget < 10:
+        parser.error(f"--cluster-cores: each >= {JOB_CORES}; --frontier-budget >= 10")
 
     chunk_rows, rates = [], {}
     for columns in args.chunk_columns:
@@ -129,6 +223,50 @@ def main(argv=None) -> int:
         searched, searched_wall = sweep(
             scene, fmu, Path(out) / "searched", ("exhaustive", "sa"), args.search_budget, args.workers
         )
+    priced = []
+    with twelve_column_lattice() as fmu:
+        priced.append(
+            frontier(
+                "11 x 12 lattice, 12 materials",
+                "--materials twelve_materials.csv --cols 12",
+                fmu,
+                12,
+                args.frontier_budget,
+                args.chunk_designs,
+                args.repeats,
+                args.workers,
+            )
+        )
+    with lattice_fmu(scene=PLATE_SCENE) as fmu:
+        priced.append(
+            frontier(
+                "11 x 11 x 11 plate",
+                f"--scene {PLATE_SCENE}",
+                fmu,
+                11,
+                args.frontier_budget,
+                args.chunk_designs // 4,
+                args.repeats,
+                args.workers,
+            )
+        )
+    frontier_rows = tuple(
+        (
+            p.label,
+            f"{p.designs:,}",
+            f"{p.incumbent:.3f} N",
+            f"{p.rate:.0f}",
+            f"{p.chunk.censored} of {p.chunk.designs}",
+            f"{p.core_hours:.1f}",
+            *(f"{p.core_hours / cores * 60:.0f} min" for cores in cluster_cores),
+        )
+        for p in priced
+    )
+    command_rows = tuple(
+        (p.label, f"{cores:,}", f"{p.core_hours / cores * 60:.0f} min", f"`{slurm_command(p, cores)}`")
+        for p in priced
+        for cores in cluster_cores
+    )
     sweep_rows = []
     for label, result, wall in (
         ("alone", alone, alone_wall),
@@ -205,6 +343,34 @@ def main(argv=None) -> int:
                 ),
                 tuple(sweep_rows),
                 caption="**A whole sweep, with and without a short search's incumbent:**",
+            ),
+            Table(
+                (
+                    "space",
+                    "designs",
+                    "incumbent (search fidelity)",
+                    "designs per core-second, limit at its threshold",
+                    "censored",
+                    "projected core-hours",
+                    *(f"wall on {cores:,} cores" for cores in cluster_cores),
+                ),
+                frontier_rows,
+                caption=(
+                    f"**The frontier, priced** (receiver rule; incumbent: the best of an annealing run of "
+                    f"{args.frontier_budget} designs; the chunk: {args.chunk_designs} designs of the 12-column "
+                    f"lattice, {args.chunk_designs // 4} of the plate, from the middle rank, the fastest of "
+                    f"{args.repeats} run(s); wall time: core-hours over the cores, the sweep's verification and "
+                    "the jobs' queue not counted):"
+                ),
+            ),
+            Table(
+                ("space", "cores", "expected wall time", "command"),
+                command_rows,
+                caption=(
+                    f"**On a SLURM cluster** (jobs of {JOB_CORES} cores; each job's walltime a quarter above the "
+                    "expected wall time: a job that ends is replaced, nothing is lost or simulated twice; "
+                    f"twelve_materials.csv: {TWELVE_MATERIALS_TEXT}):"
+                ),
             ),
         ),
         notes=tuple(notes),

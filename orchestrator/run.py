@@ -162,11 +162,12 @@ def parameters_line(answer, study) -> str:
 def print_answer(outcome) -> None:
     """The answer in a few lines, as the report's first screen gives it."""
     from orchestrator.report import case_line
-    from orchestrator.steps import Answers, OptunaExport, Pareto, Starts
+    from orchestrator.steps import Answers, OptunaExport, Pareto, Starts, StatisticalEstimate
 
     study = outcome.study
     print(case_line(study))
     answers = study.result(Answers)
+    statistical = study.result(StatisticalEstimate)
     unit = study.case.objective.units[0]
     for answer in answers.answers if answers else ():
         other = "".join(
@@ -186,6 +187,11 @@ def print_answer(outcome) -> None:
         print(f"  {parameters_line(answer, study)}")
         if evidence.settlement is not None:
             print(f"  {evidence.settlement.line()}")
+        estimate = statistical.for_rule(answer.diagonal_rule) if statistical else None
+        if estimate is not None:
+            print(f"  {estimate.sentence}")
+    for reason in statistical.unfitted if statistical else ():
+        print(f"  statistical estimate: {reason}")
         same = answer.equivalence
         if same is not None and same.equivalent:
             print(

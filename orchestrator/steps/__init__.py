@@ -12,6 +12,7 @@ from .pareto import Pareto
 from .searches import Searches
 from .sensitivity import Sensitivity
 from .starts import Starts
+from .statistical_estimate import StatisticalEstimate
 from .trajectories import Trajectories
 from .work_precision import WorkPrecision
 
@@ -23,6 +24,7 @@ STEPS = (
     Pareto,
     Answers,
     Starts,
+    StatisticalEstimate,
     Sensitivity,
     Accuracy,
     Trajectories,
