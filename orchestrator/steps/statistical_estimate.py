@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exhaustive import MAX_LOCAL_DESIGNS
-from ..objective import SEARCH
+from ..objective import SEARCH, Objective
 from ..options import check_options, integer, option
 from ..statistical_bound import KIND, MIN_DESIGNS, random_values, tail_bound
 from ..study import Step, StudyContext
@@ -115,8 +115,13 @@ class StatisticalEstimate(Step):
             (at_search,) = objective.evaluate([answer.order], context.evaluator, SEARCH)
             if not at_search.ok:
                 continue
+            answer_value = at_search.ok_value
+
+            def evaluate(drawn: list, objective: Objective = objective) -> list:
+                return list(objective.evaluate(drawn, context.evaluator, SEARCH))
+
             values = random_values(
-                lambda drawn, objective=objective: objective.evaluate(drawn, context.evaluator, SEARCH),
+                evaluate,
                 context.case.space,
                 self.config.designs,
                 np.random.default_rng([seed, index]),
@@ -130,16 +135,16 @@ class StatisticalEstimate(Step):
                 RuleEstimate(
                     diagonal_rule=answer.diagonal_rule,
                     answer=answer.order,
-                    answer_value=at_search.value,
+                    answer_value=answer_value,
                     designs=bound.designs,
                     tail=bound.tail,
                     confidence=bound.confidence,
-                    estimate=min(bound.estimate, at_search.value),
+                    estimate=min(bound.estimate, answer_value),
                     lower=finite_or_none(bound.lower),
                     best_seen=bound.best_seen,
                     exponent=bound.exponent,
                     exponent_upper=finite_or_none(bound.exponent_upper),
-                    sentence=bound.text(at_search.value, unit),
+                    sentence=bound.text(answer_value, unit),
                 )
             )
         sweepable = context.case.space.size <= MAX_LOCAL_DESIGNS
