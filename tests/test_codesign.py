@@ -1,0 +1,167 @@
+"""Co-design (docs/model.md section 12): the order and each column's properties searched together.
+
+The design's representation (order and factors, scaled coordinates, the FMU parameters it sets, the stack's
+mass against the budget), the options' one-line refusals before anything runs, the evaluator's cache telling
+factors apart, and a whole run on the 11 x 3 lattice: its answer carries each column's properties and the
+stack's mass within the budget, is at most the order search's answer, and its parameters, typed into FMPy, give
+its peak.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+
+from command_line import main, one_line
+from fmu_src.materials import FIELD_NAMES, study_materials
+from orchestrator.codesign import (
+    CoDesignObjective,
+    CoDesignSpace,
+    cmaes_search,
+    parse_vary,
+    parse_vary_range,
+    polish,
+)
+from orchestrator.design import DesignSpace
+from orchestrator.executors import SerialExecutor
+from orchestrator.loop import Evaluator
+from orchestrator.objective import FULL, LatticeObjective
+from orchestrator.ssp import read_design_parameters
+
+TABLE = study_materials(3)
+ROWS = 11
+
+
+def codesign_space(names=("k", "c", "mass"), budget=None, low=0.5, high=2.0) -> CoDesignSpace:
+    return CoDesignSpace(DesignSpace.permutations(3), TABLE, names, low, high, ROWS, budget)
+
+
+def test_a_point_decodes_to_the_order_and_factors_it_was_encoded_from():
+    space = codesign_space()
+    point = space.with_factors((2, 3, 1), [0.5, 1.0, 2.0, 0.7, 1.3, 1.0, 1.9, 0.6, 0.8])
+    x = space.encode(point)
+    assert len(x) == space.dimension == 3 + 9
+    assert np.all((x >= 0) & (x <= 1))
+    again = space.decode(x)
+    assert again.order == point.order
+    np.testing.assert_allclose(np.array(again.factors), np.array(point.factors), rtol=1e-12)
+    assert space.scaled_of(1.0) == pytest.approx(0.5)  # factor 1 in the middle of a range symmetric about it
+
+
+def test_a_point_sets_its_columns_materials_parameters_and_weighs_what_section_12_says():
+    space = codesign_space()
+    point = space.with_factors((2, 3, 1), [0.5, 1.0, 2.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
+    parameters = space.parameters(point)
+    assert set(parameters) == {f"{n}[{m}]" for n in ("k", "c", "mass") for m in (1, 2, 3)}
+    assert parameters["k[2]"] == pytest.approx(0.5 * TABLE.materials[1].k)  # column 1 holds material 2
+    assert parameters["mass[2]"] == pytest.approx(2.0)
+    assert parameters["k[3]"] == TABLE.materials[2].k
+    assert space.total_mass(point) == pytest.approx(ROWS * (2.0 + 1.0 + 1.0))
+    assert space.budget_for((2, 3, 1)) == pytest.approx(ROWS * 3.0)
+    assert space.mass_excess(point, space.budget_for((2, 3, 1))) == pytest.approx(ROWS * 1.0)
+    assert space.mass_excess(space.unit_point((2, 3, 1)), ROWS * 3.0) == 0
+    columns = space.columns_of(point)
+    assert [c.material for c in columns] == ["m2", "m3", "m1"]
+    assert set(columns[0].values) == set(FIELD_NAMES) and columns[0].factors == {"k": 0.5, "c": 1.0, "mass": 2.0}
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [("k,stiffness", "--vary 'stiffness': allowed values are k, k_diag"), ("k,k", "each property once")],
+)
+def test_vary_names_are_section_12s(text, words):
+    with pytest.raises(ValueError, match=words):
+        parse_vary(text)
+
+
+@pytest.mark.parametrize("text", ["2,0.5", "0,2", "1.5,2", "0.5", "a,b", "0.5,inf"])
+def test_a_vary_range_must_hold_the_tables_value(text):
+    with pytest.raises(ValueError, match="--vary-range"):
+        parse_vary_range(text)
+
+
+def test_repeated_materials_cannot_vary_per_column():
+    with pytest.raises(ValueError, match="not with --repeat"):
+        CoDesignSpace(DesignSpace(3, 3, repeat=True), TABLE, ("k",))
+
+
+@pytest.mark.parametrize(
+    "options, words",
+    [
+        (("--vary", "k,stiffness"), "--vary 'stiffness': allowed values are"),
+        (("--vary", "k", "--vary-range", "2,0.5"), "--vary-range '2,0.5': allowed values are"),
+        (("--mass-budget", "30"), "--mass-budget: only with --vary"),
+        (("--vary-range", "0.5,3"), "--vary-range: only with --vary"),
+        (("--vary", "k", "--repeat"), "--vary: not with --repeat"),
+        (("--vary", "mass", "--mass-budget", "-1"), "--mass-budget must be a finite number > 0"),
+        (("--vary", "k", "--objective", "sampled,max_compression"), "--vary: one objective only"),
+    ],
+)
+def test_co_design_options_are_refused_in_one_line_before_any_run(armour_fmu_of_width, tmp_path, capfd, options, words):
+    code = main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", tmp_path / "out", "--no-progress", *options)
+    line = one_line(capfd)
+    assert code == 2 and words in line, line
+    assert not (tmp_path / "out").exists() and not (tmp_path / "out.partial" / "journal.jsonl").exists()
+
+
+def test_the_cache_tells_designs_of_one_order_with_other_factors_apart(armour_fmu_of_width):
+    fmu = armour_fmu_of_width(3)
+    space = codesign_space(("k",))
+    objective = CoDesignObjective(LatticeObjective(fmu, space.space, 8.0), space)
+    evaluator = Evaluator(SerialExecutor())
+    unit = space.unit_point((1, 2, 3))
+    softer = space.with_factors((1, 2, 3), [0.5, 0.5, 0.5])
+    first = objective.evaluate([unit, softer, unit], evaluator, FULL)
+    assert evaluator.state().simulated == 2
+    assert first[0].value == first[2].value and not math.isclose(first[0].value, first[1].value, rel_tol=1e-6)
+    plain = LatticeObjective(fmu, space.space, 8.0).evaluate([(1, 2, 3)], evaluator, FULL)[0]
+    assert plain.value == pytest.approx(first[0].value, rel=1e-12)  # the table's values, set or not, are one design
+
+
+def test_the_search_keeps_to_the_budget_and_the_polish_reports_its_optimality(
+    armour_fmu_of_width, tmp_path, monkeypatch
+):
+    monkeypatch.chdir(tmp_path)  # pycma writes no log files into the working folder
+    space = codesign_space(("k", "mass"))
+    objective = CoDesignObjective(LatticeObjective(armour_fmu_of_width(3), space.space, 8.0), space)
+    evaluator = Evaluator(SerialExecutor())
+    budget = 0.9 * space.budget_for((1, 2, 3))  # below the order's own mass: the start is infeasible
+    outcome = cmaes_search(objective, evaluator, (1, 2, 3), budget, 200, seed=3)
+    assert outcome.best is not None and outcome.best.feasible
+    assert space.total_mass(outcome.best.point) <= budget * (1 + 1e-9)
+    assert any(not s.feasible for s in outcome.scored)  # the search met the constraint, it was not clipped away
+    assert all(s.feasible == (s.mass <= budget * (1 + 1e-9)) for s in outcome.scored)
+    polished = polish(objective, evaluator, outcome.best.point, budget, FULL, iterations=5)
+    assert polished.end_value <= polished.start_value
+    assert space.total_mass(polished.end) <= budget * (1 + 1e-9)
+    assert polished.kkt_residual >= 0 and polished.tolerance > 0 and polished.evaluations > 0
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak(armour_fmu_of_width, tmp_path):
+    fmu = armour_fmu_of_width(3)
+    out = tmp_path / "run"
+    common = ("--fmu", fmu, "--cols", 3, "--diagonal-rule", "mean", "--no-progress", "--budget", 6, "--repeats", 1)
+    assert main(*common, "--out", out, "--vary", "k,c,mass", "--vary-budget", 150) == 0
+    record = json.loads((out / "results.json").read_text())
+    answer = record["answers"][0]
+    codesign = record["steps"]["codesign"]["answers"][0]
+    assert answer["total_mass"] <= codesign["mass_budget"] * (1 + 1e-9)
+    assert codesign["mass_budget"] == pytest.approx(ROWS * 3.0)  # the order's own mass at the table's values
+    assert answer["peak"] <= codesign["start_peak"]
+    assert [c["column"] for c in answer["columns"]] == [1, 2, 3]
+    for column in answer["columns"]:
+        assert set(column["values"]) == set(FIELD_NAMES) and set(column["factors"]) == {"k", "c", "mass"}
+        assert all(0.5 <= f <= 2.0 for f in column["factors"].values())
+    assert answer["total_mass"] == pytest.approx(ROWS * sum(c["values"]["mass"] for c in answer["columns"]))
+    parameters = answer["parameters"]
+    assert any(name.startswith("mass[") for name in parameters)
+    result = simulate_fmu(str(fmu), start_values=parameters, stop_time=8.0, output=["peak_backplate_force"])
+    assert result["peak_backplate_force"][-1] == pytest.approx(answer["peak"], rel=1e-6)
+    in_file = read_design_parameters(out / "best_design.ssp")
+    for name, value in parameters.items():
+        assert in_file[name] == pytest.approx(value, rel=1e-12), name
