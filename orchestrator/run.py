@@ -184,6 +184,9 @@ def print_answer(outcome) -> None:
             f"{status}, {evidence.origin()}, {evidence.local_text()}; {answer.design_file}"
         )
         print(f"  {parameters_line(answer, study)}")
+        line = codesign_line(study, answer.diagonal_rule, unit)
+        if line:
+            print(f"  {line}")
         if evidence.settlement is not None:
             print(f"  {evidence.settlement.line()}")
         same = answer.equivalence
@@ -220,6 +223,32 @@ def print_answer(outcome) -> None:
     for line in cost_lines(study):
         print(line)
     print(f"report: {outcome.report}")
+
+
+def codesign_line(study, rule: str, unit: str) -> str:
+    """A rule's co-design in one line: each layer's factors, the stack's mass against the budget, the order
+    search's answer it started from, and the polish's first-order optimality; "" without --vary."""
+    from orchestrator.steps import CoDesign
+
+    result = study.result(CoDesign)
+    found = result.for_rule(rule) if result else None
+    if found is None:
+        return ""
+    layers = "; ".join(
+        f"{c.column}: {c.material} " + " ".join(f"{name} x{factor:.3f}" for name, factor in c.factors.items())
+        for c in found.columns
+    )
+    polish = found.polish
+    optimality = (
+        ""
+        if polish is None
+        else f"; polish: projected gradient {polish.kkt_residual:.2g} (tolerance {polish.tolerance:g}, "
+        f"{'met' if polish.converged else 'NOT met'}) after {polish.iterations} SLSQP iterations"
+    )
+    return (
+        f"co-design: {found.total_mass:.2f} kg of {found.mass_budget:.2f} kg; from {list(found.start_order)} at "
+        f"{found.start_peak:.2f} {unit} (the table's values){optimality}; layers {layers}"
+    )
 
 
 def cost_lines(study) -> list[str]:

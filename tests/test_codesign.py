@@ -9,6 +9,7 @@ its peak.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 
@@ -29,7 +30,7 @@ from orchestrator.codesign import (
 from orchestrator.design import DesignSpace
 from orchestrator.executors import SerialExecutor
 from orchestrator.loop import Evaluator
-from orchestrator.objective import FULL, LatticeObjective
+from orchestrator.objective import FULL, SEARCH, LatticeObjective
 from orchestrator.ssp import read_design_parameters
 
 TABLE = study_materials(3)
@@ -142,13 +143,16 @@ def test_the_search_keeps_to_the_budget_and_the_polish_reports_its_optimality(
     assert not any(tmp_path.iterdir())
 
 
-def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak(armour_fmu_of_width, tmp_path):
+def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak(armour_fmu_of_width, tmp_path, capfd):
     fmu = armour_fmu_of_width(3)
     out = tmp_path / "run"
     common = ("--fmu", fmu, "--cols", 3, "--diagonal-rule", "mean", "--no-progress", "--budget", 6, "--repeats", 1)
     assert main(*common, "--out", out, "--vary", "k,c,mass", "--vary-budget", 150) == 0
+    printed = capfd.readouterr().out
+    assert "  co-design: " in printed and " kg of 33.00 kg; from " in printed
     record = json.loads((out / "results.json").read_text())
     answer = record["answers"][0]
+    assert "Each layer (co-design" in (out / "report.html").read_text()
     codesign = record["steps"]["codesign"]["answers"][0]
     assert answer["total_mass"] <= codesign["mass_budget"] * (1 + 1e-9)
     assert codesign["mass_budget"] == pytest.approx(ROWS * 3.0)  # the order's own mass at the table's values
@@ -165,3 +169,44 @@ def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak
     in_file = read_design_parameters(out / "best_design.ssp")
     for name, value in parameters.items():
         assert in_file[name] == pytest.approx(value, rel=1e-12), name
+
+
+GRID = 7  # points per factor, evenly spaced in the scaled coordinate: a spacing of 1/6 of the range's log
+
+
+@pytest.mark.slow
+def test_on_an_11_x_2_lattice_a_grid_of_the_factors_confirms_the_co_design_to_its_spacing(armour_fmu_of_width):
+    """Two columns (two orders), k and c varied in each: every order at every point of a 7^4 grid of the scaled
+    factors, against CMA-ES and the polish at the same (search) fidelity."""
+    table = study_materials(2)
+    space = CoDesignSpace(DesignSpace.permutations(2), table, ("k", "c"), 0.5, 2.0, ROWS)
+    objective = CoDesignObjective(
+        LatticeObjective(armour_fmu_of_width(2), space.space, 8.0, parameters={"diagonal_rule": "mean"}), space
+    )
+    evaluator = Evaluator(SerialExecutor())
+    ticks = np.linspace(0.0, 1.0, GRID)
+    cells = list(itertools.product(range(GRID), repeat=4))
+    grid = {}
+    for order in ((1, 2), (2, 1)):
+        points = [space.with_factors(order, [space.factor_of(ticks[i]) for i in cell]) for cell in cells]
+        for cell, result in zip(cells, objective.evaluate(points, evaluator, SEARCH)):
+            assert result.ok, result.message
+            grid[order, cell] = result.value
+    (best_order, best_cell), best = min(grid.items(), key=lambda item: item[1])
+    neighbours = [
+        grid[best_order, tuple(c + d * (i == axis) for i, c in enumerate(best_cell))]
+        for axis in range(4)
+        for d in (-1, 1)
+        if 0 <= best_cell[axis] + d < GRID
+    ]
+    spread = max(abs(v - best) for v in neighbours)  # how much the value moves over one spacing there
+
+    budget = space.budget_for((1, 2))
+    outcome = cmaes_search(objective, evaluator, (1, 2), budget, 600, seed=0)
+    polished = polish(objective, evaluator, outcome.best.point, budget, SEARCH)
+    found = min((outcome.best.value, outcome.best.point), (polished.end_value, polished.end), key=lambda p: p[0])
+    value, point = found
+    assert point.order == best_order
+    assert best - spread <= value <= best * (1 + 1e-9)
+    scaled = space.encode(point)[space.space.key_dimension :]
+    assert np.all(np.abs(scaled - ticks[list(best_cell)]) <= 1.0 / (GRID - 1) + 1e-9), (scaled, best_cell)

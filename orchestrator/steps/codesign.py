@@ -168,8 +168,12 @@ class CoDesign(Step):
             found = outcome.best.point if outcome.best is not None else start
             if space.mass_excess(start, budget) > 0 and outcome.best is None:
                 continue  # the order search's answer is above the budget and CMA-ES found nothing within it
-            polished = polish(objective, context.evaluator, found, budget, FULL)
-            candidates = [polished.end] + ([start] if space.mass_excess(start, budget) == 0 else [])
+            try:
+                polished: Polish | None = polish(objective, context.evaluator, found, budget, FULL)
+            except RuntimeError:  # a run of the polish failed: CMA-ES's design stands, unpolished
+                polished = None
+            end = polished.end if polished is not None else found
+            candidates = [end] + ([start] if space.mass_excess(start, budget) == 0 else [])
             evaluations = objective.evaluate(candidates, context.evaluator, FULL)
             chosen, evaluation = min(
                 ((p, e) for p, e in zip(candidates, evaluations) if e.ok and e.value is not None),
