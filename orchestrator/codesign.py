@@ -30,7 +30,7 @@ from scipy.optimize import minimize
 from fmu_src.materials import FIELD_NAMES, MaterialTable
 
 from .design import Design, DesignSpace, REPETITION, as_design
-from .objective import SEARCH, LatticeObjective
+from .objective import FULL, SEARCH, LatticeObjective
 from .tasks import EvaluateDesign
 from .types import Evaluation
 
@@ -457,6 +457,90 @@ def polish(
     )
 
 
+@dataclass(frozen=True)
+class FrontDesign:
+    """A design on the co-design front: its values at the search fidelity (what the front is chosen by) and at
+    full fidelity (what is reported), one per objective."""
+
+    point: CoDesignPoint
+    search_values: tuple[float, ...]
+    full_values: tuple[float, ...] | None  # None: its full-fidelity run failed
+
+
+@dataclass(frozen=True)
+class CoDesignFront:
+    """The front of the objectives (the peak against the stack's mass) over order and factors: the designs no
+    other design NSGA-II evaluated dominates at the search fidelity, by the first objective."""
+
+    designs: tuple[FrontDesign, ...]
+    evaluated: tuple[tuple[float, ...], ...]  # every evaluated design's values at the search fidelity
+    evaluations: int
+
+
+def nsga2_front(
+    objective: CoDesignObjective,
+    evaluator,
+    start_order: Sequence[int],
+    evaluations: int,
+    seed: int = 0,
+    population: int = 40,
+) -> CoDesignFront:
+    """pymoo's NSGA-II over the order's keys and the factors in [0, 1]-scaled coordinates (its first population
+    holds ``start_order`` at the table's values), every objective of ``objective``'s lattice objective minimised;
+    the front is the non-dominated set of every design it evaluated, then evaluated at full fidelity."""
+    from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.core.evaluator import Evaluator as PymooEvaluator
+    from pymoo.core.problem import Problem
+    from pymoo.problems.static import StaticProblem
+
+    from .search.pareto import non_dominated
+
+    space = objective.space
+    rng = np.random.default_rng(seed)
+    first = rng.random((population, space.dimension))
+    first[0] = space.encode(space.unit_point(start_order))
+    problem = Problem(n_var=space.dimension, n_obj=objective.base.n_objectives, xl=0.0, xu=1.0)
+    algorithm = NSGA2(pop_size=population, sampling=first)
+    algorithm.setup(problem, termination=("n_eval", evaluations), seed=seed, verbose=False)
+    points: list[CoDesignPoint] = []
+    values: list[tuple[float, ...]] = []
+    used = 0
+    while algorithm.has_next() and used < evaluations:
+        asked = algorithm.ask()
+        xs = asked.get("X")
+        batch = [space.decode(x) for x in xs]
+        results = objective.evaluate(batch, evaluator, SEARCH)
+        used += len(batch)
+        told = []
+        for point, result in zip(batch, results):
+            if result.ok and result.value is not None:
+                own = tuple(float(v) for v in (result.values or (result.value,)))
+                points.append(point)
+                values.append(own)
+                told.append(own)
+            else:  # a failed design ranks behind every evaluated one
+                told.append(tuple(math.inf for _ in range(problem.n_obj)))
+        worst = np.max(np.array(values), axis=0) if values else np.ones(problem.n_obj)
+        told_matrix = np.array([[w * 2 + 1 if math.isinf(v) else v for v, w in zip(row, worst)] for row in told])
+        PymooEvaluator().eval(StaticProblem(problem, F=told_matrix), asked)
+        algorithm.tell(infills=asked)
+    if not values:
+        return CoDesignFront((), (), used)
+    mask = non_dominated(values)
+    chosen = sorted((i for i in range(len(values)) if mask[i]), key=lambda i: values[i])
+    unique = list({points[i]: i for i in chosen}.values())
+    full = objective.evaluate([points[i] for i in unique], evaluator, FULL)
+    designs = tuple(
+        FrontDesign(
+            points[i],
+            values[i],
+            tuple(float(v) for v in (e.values or (e.value,))) if e.ok and e.value is not None else None,
+        )
+        for i, e in zip(unique, full)
+    )
+    return CoDesignFront(designs, tuple(values), used)
+
+
 @contextlib.contextmanager
 def _quiet():
     """pycma's console notes and warnings stay out of the run's output, and its augmented Lagrangian makes no log
@@ -473,15 +557,18 @@ def _quiet():
 
 
 __all__ = [
+    "CoDesignFront",
     "CoDesignObjective",
     "CoDesignPoint",
     "CoDesignSpace",
     "ColumnProperties",
     "DEFAULT_RANGE",
+    "FrontDesign",
     "Polish",
     "Scored",
     "SearchOutcome",
     "cmaes_search",
+    "nsga2_front",
     "parse_vary",
     "parse_vary_range",
     "polish",

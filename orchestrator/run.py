@@ -208,6 +208,21 @@ def print_answer(outcome) -> None:
             f"({front_sureness_line(front.sureness)}); "
             + "; ".join(f"{c.label} {list(c.order)} ({c.design_file})" for c in front.chosen)
         )
+    from orchestrator.steps import CoDesign
+
+    codesign = study.result(CoDesign)
+    for front in codesign.fronts if codesign else ():
+        ends = [d for d in front.designs if d.full_values is not None]
+        span = (
+            f": {ends[0].full_values[0]:.2f} {unit} at {ends[0].full_values[1]:.2f} kg to "
+            f"{ends[-1].full_values[0]:.2f} {unit} at {ends[-1].full_values[1]:.2f} kg (full fidelity)"
+            if ends
+            else ""
+        )
+        print(
+            f"{front.diagonal_rule} rule: {len(front.designs)} designs (order and factors) on the co-design front of "
+            f"{front.evaluations:,} NSGA-II evaluated{span}; each in results.json's steps.codesign.fronts"
+        )
     from orchestrator.steps.pareto import BEST_DESIGN_FILE, best_design
 
     best = best_design(study)

@@ -23,6 +23,7 @@ from orchestrator.codesign import (
     CoDesignObjective,
     CoDesignSpace,
     cmaes_search,
+    nsga2_front,
     parse_vary,
     parse_vary_range,
     polish,
@@ -31,6 +32,7 @@ from orchestrator.design import DesignSpace
 from orchestrator.executors import SerialExecutor
 from orchestrator.loop import Evaluator
 from orchestrator.objective import FULL, SEARCH, LatticeObjective
+from orchestrator.search.pareto import dominated_by
 from orchestrator.ssp import read_design_parameters
 
 TABLE = study_materials(3)
@@ -210,3 +212,48 @@ def test_on_an_11_x_2_lattice_a_grid_of_the_factors_confirms_the_co_design_to_it
     assert best - spread <= value <= best * (1 + 1e-9)
     scaled = space.encode(point)[space.space.key_dimension :]
     assert np.all(np.abs(scaled - ticks[list(best_cell)]) <= 1.0 / (GRID - 1) + 1e-9), (scaled, best_cell)
+
+
+def test_the_front_of_peak_against_mass_is_never_dominated_by_a_design_the_run_evaluated(armour_fmu_of_width):
+    space = codesign_space(("k", "mass"))
+    lattice = LatticeObjective(armour_fmu_of_width(3), space.space, 8.0, ("peak_backplate_force", "stack_mass"))
+    evaluator = Evaluator(SerialExecutor())
+    front = nsga2_front(CoDesignObjective(lattice, space), evaluator, (1, 2, 3), 160, seed=1, population=20)
+    assert len(front.evaluated) == front.evaluations == 160 and len(front.designs) >= 2
+    on_front = [d.search_values for d in front.designs]
+    assert not np.any(dominated_by(on_front, front.evaluated))
+    for design in front.designs:  # the FMU's stack_mass is section 12's, and the full fidelity's run is reported
+        assert design.search_values[1] == pytest.approx(space.total_mass(design.point), rel=1e-12)
+        assert design.full_values is not None and design.full_values[1] == pytest.approx(design.search_values[1])
+    masses = [d.search_values[1] for d in front.designs]
+    assert masses == sorted(masses, reverse=True)  # by the peak, lowest first: the mass falls along the front
+
+
+def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, capfd):
+    out = tmp_path / "front"
+    options = ("--fmu", armour_fmu_of_width(3), "--cols", 3, "--diagonal-rule", "mean", "--no-progress")
+    assert (
+        main(
+            *options,
+            "--out",
+            out,
+            "--budget",
+            6,
+            "--repeats",
+            1,
+            "--vary",
+            "k,mass",
+            "--objective",
+            "sampled,mass",
+            "--vary-budget",
+            80,
+        )
+        == 0
+    )
+    assert "designs (order and factors) on the co-design front" in capfd.readouterr().out
+    fronts = json.loads((out / "results.json").read_text())["steps"]["codesign"]["fronts"]
+    assert fronts[0]["diagonal_rule"] == "mean" and fronts[0]["designs"]
+    assert (
+        main(*options, "--out", tmp_path / "no", "--vary", "k", "--objective", "sampled,mass", "--mass-budget", 30) == 2
+    )
+    assert "--mass-budget: not with --objective ...,mass" in one_line(capfd)

@@ -19,6 +19,7 @@ from ..codesign import (
     ColumnProperties,
     Polish,
     cmaes_search,
+    nsga2_front,
     parse_vary,
     parse_vary_range,
     polish,
@@ -30,6 +31,8 @@ from ..study import Step, StudyContext
 from ..types import RunOutputs
 from .final_descent import rule_best
 from .searches import rule_label
+
+MASS_OUTPUT = "stack_mass"
 
 
 @dataclass(frozen=True)
@@ -92,10 +95,29 @@ class CoDesignAnswer:
 
 
 @dataclass(frozen=True)
+class FrontLayer:
+    """A design of a rule's co-design front: order and factors, its columns, its values (the objective, then
+    the stack's mass) at the search fidelity that chose it and at full fidelity (None: that run failed)."""
+
+    point: CoDesignPoint
+    columns: tuple[ColumnProperties, ...]
+    search_values: tuple[float, ...]
+    full_values: tuple[float, ...] | None
+
+
+@dataclass(frozen=True)
+class RuleFront:
+    diagonal_rule: str
+    designs: tuple[FrontLayer, ...]  # by the objective, lowest first
+    evaluations: int  # designs NSGA-II evaluated
+
+
+@dataclass(frozen=True)
 class CoDesignResult:
     names: tuple[str, ...]
     factor_range: tuple[float, float]
     answers: tuple[CoDesignAnswer, ...]
+    fronts: tuple[RuleFront, ...] = ()
 
     def for_rule(self, label: str) -> CoDesignAnswer | None:
         return next((a for a in self.answers if a.diagonal_rule == label), None)
@@ -135,8 +157,14 @@ class CoDesign(Step):
             return
         if context.case.space.kind == "repetition":
             raise ValueError("--vary: not with --repeat (a material in several columns has one value of each property)")
-        if len(context.case.outputs) != 1:
-            raise ValueError(f"--vary: one objective only (got {','.join(context.case.outputs)})")
+        outputs = context.case.outputs
+        if len(outputs) > 1 and (len(outputs) != 2 or outputs[1] != MASS_OUTPUT or outputs[0] == MASS_OUTPUT):
+            raise ValueError(
+                f"--vary: one objective, or an objective and the stack's mass (--objective sampled,mass), not "
+                f"{','.join(outputs)}"
+            )
+        if len(outputs) == 2 and config.mass_budget is not None:
+            raise ValueError("--mass-budget: not with --objective ...,mass (the mass is an objective: its front)")
         space = codesign_space(context, config)
         declared = declared_parameters(model_description(context.fmu.path))
         for name in space.names:
@@ -154,6 +182,8 @@ class CoDesign(Step):
     def run(self, context: StudyContext) -> CoDesignResult:
         config = self.config
         space = codesign_space(context, config)
+        if len(context.case.outputs) == 2:
+            return self.fronts(context, space)
         answers = []
         for index, rule in enumerate(context.rules):
             label = rule_label(rule)
@@ -199,8 +229,32 @@ class CoDesign(Step):
             )
         return CoDesignResult(space.names, (space.low, space.high), tuple(answers))
 
+    def fronts(self, context: StudyContext, space: CoDesignSpace) -> CoDesignResult:
+        """Under each rule, NSGA-II's front of the objective against the stack's mass, from the space's baseline
+        order at the table's values."""
+        fronts = []
+        for index, rule in enumerate(context.rules):
+            objective = CoDesignObjective(context.objective(rule), space)
+            front = nsga2_front(
+                objective, context.evaluator, context.case.space.baseline(), self.config.vary_budget, seed=index
+            )
+            fronts.append(
+                RuleFront(
+                    rule_label(rule),
+                    tuple(
+                        FrontLayer(d.point, space.columns_of(d.point), d.search_values, d.full_values)
+                        for d in front.designs
+                    ),
+                    front.evaluations,
+                )
+            )
+        return CoDesignResult(space.names, (space.low, space.high), (), tuple(fronts))
+
     def cost_note(self, context: StudyContext) -> str:
-        return "CMA-ES over order and factors (--vary-budget designs per rule), then the polish's finite differences"
+        return (
+            "CMA-ES over order and factors (--vary-budget designs per rule), then the polish's finite differences; "
+            "with --objective ...,mass NSGA-II (--vary-budget designs per rule) and its front at full fidelity"
+        )
 
 
 def varied_parameters(space: CoDesignSpace, point: CoDesignPoint) -> dict[str, float]:
@@ -215,4 +269,4 @@ def varied_parameters(space: CoDesignSpace, point: CoDesignPoint) -> dict[str, f
     return varied
 
 
-__all__ = ["CoDesign", "CoDesignAnswer", "CoDesignConfig", "CoDesignResult"]
+__all__ = ["CoDesign", "CoDesignAnswer", "CoDesignConfig", "CoDesignResult", "FrontLayer", "RuleFront"]
