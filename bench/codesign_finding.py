@@ -27,6 +27,7 @@ from .measurements import ROOT, Page, Run, Table, write_page
 
 VARIED = "k,c,mass"
 AGREEMENT = 1e-6  # FMPy's run of the answer's start values against its reported peak
+SENSITIVITIES_SHOWN = 8  # the layers' properties that move the mean rule's peak most, at its answer
 
 
 def run_study(fmu: Path, out: Path, options: list[str]) -> tuple[float, dict, str]:
@@ -62,6 +63,7 @@ def main(argv=None) -> int:
     vary_budget = ["--vary-budget", "400"] if args.quick else []
     rows = []
     front_table = None
+    sensitivity_rows: list[tuple] = []
     with lattice_fmu(args.fmu) as fmu, tempfile.TemporaryDirectory(prefix="bench_codesign_") as folder:
         for rule in ("mean", "receiver"):
             options = ["--vary", VARIED, "--diagonal-rule", rule, *searches, *vary_budget]
@@ -73,6 +75,20 @@ def main(argv=None) -> int:
             if abs(again / answer["peak"] - 1.0) > AGREEMENT:
                 raise SystemExit(f"{rule}: the answer reports {answer['peak']!r} N, FMPy gives {again!r} N")
             polish = codesign["polish"]
+            if rule == "mean" and polish is not None:
+                names = record["steps"]["codesign"]["names"]
+                ranked = sorted(
+                    (
+                        (abs(value), column, name, value)
+                        for column, row in enumerate(polish["sensitivities"], start=1)
+                        for name, value in zip(names, row)
+                    ),
+                    reverse=True,
+                )
+                sensitivity_rows = [
+                    (f"{column}", answer["columns"][column - 1]["material"], name, f"{value:+.1f}")
+                    for _, column, name, value in ranked[:SENSITIVITIES_SHOWN]
+                ]
             rows.append(
                 (
                     f"`python orchestrator/run.py {' '.join(options)}`",
@@ -135,6 +151,14 @@ def main(argv=None) -> int:
                 tuple(rows),
             ),
             front_table,
+            Table(
+                ("column", "material", "property", "d peak / d ln(factor) (N)"),
+                tuple(sensitivity_rows),
+                caption=(
+                    "The mean rule's answer: the peak's sensitivity to a relative change of each layer's property "
+                    "(the polish's forward differences at its end), the largest first"
+                ),
+            ),
         ),
         notes=(
             "The sampled peak is a maximum over samples: it is not differentiable everywhere, and the polish's "

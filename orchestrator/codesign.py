@@ -334,6 +334,9 @@ class Polish:
     iterations: int
     evaluations: int
     message: str
+    # at the end, d value / d ln(factor) per column and varied property (forward differences): how much a
+    # relative change of each layer's property moves the value
+    sensitivities: tuple[tuple[float, ...], ...] = ()
 
     @property
     def converged(self) -> bool:
@@ -454,6 +457,13 @@ def polish(
         iterations=int(getattr(result, "nit", 0)),
         evaluations=counted[0],
         message=str(result.message),
+        sensitivities=tuple(
+            tuple(
+                float(gradient[column * len(space.names) + i] * scale[0] / math.log(space.high / space.low))
+                for i in range(len(space.names))
+            )
+            for column in range(space.columns)
+        ),
     )
 
 

@@ -101,7 +101,10 @@ def test_repeated_materials_cannot_vary_per_column():
         (("--vary-range", "0.5,3"), "--vary-range: only with --vary"),
         (("--vary", "k", "--repeat"), "--vary: not with --repeat"),
         (("--vary", "mass", "--mass-budget", "-1"), "--mass-budget must be a finite number > 0"),
-        (("--vary", "k", "--objective", "sampled,max_compression"), "--vary: one objective only"),
+        (
+            ("--vary", "k", "--objective", "sampled,max_compression"),
+            "--vary: one objective, or an objective and the stack's mass",
+        ),
     ],
 )
 def test_co_design_options_are_refused_in_one_line_before_any_run(armour_fmu_of_width, tmp_path, capfd, options, words):
@@ -142,6 +145,7 @@ def test_the_search_keeps_to_the_budget_and_the_polish_reports_its_optimality(
     assert polished.end_value <= polished.start_value
     assert space.total_mass(polished.end) <= budget * (1 + 1e-9)
     assert polished.kkt_residual >= 0 and polished.tolerance > 0 and polished.evaluations > 0
+    assert [len(row) for row in polished.sensitivities] == [2, 2, 2]  # per column, per varied property
     assert not any(tmp_path.iterdir())
 
 

@@ -37,6 +37,7 @@ FOUND_BY_SWEEP = "this run's exhaustive sweep"
 FOUND_BY_DESCENT = "the final descent from the runs' best"
 FOUND_BY_KNOWN = "the recorded known optimum, evaluated among the finalists"
 FOUND_BY_FINALISTS = "the finalists at full fidelity"
+FOUND_BY_CODESIGN = "co-design: CMA-ES over the order and the factors together, then SLSQP on the factors"
 STUDY_MODEL_ROLE = "the study's model: reproduces its published numbers"
 
 
@@ -95,6 +96,8 @@ class Evidence:
         and the report's): a count of runs is never read as the answer's only source."""
         if self.swept and not self.runs:
             return "every design swept"
+        if self.found_by == FOUND_BY_CODESIGN:  # no search run of the order alone reaches a design of its own
+            return f"found by {self.found_by}"
         only = "only " if self.few_runs else ""
         if self.found_by == FOUND_BY_RUNS:
             return f"{only}{self.runs_reaching} of {self.runs} runs reached it"
@@ -393,9 +396,6 @@ class Answers(Step):
     def design_files(self, study):
         result = study.result(type(self))
         return [(a.design_file, a.order, a.diagonal_rule) for a in (result.answers if result else ())]
-
-
-FOUND_BY_CODESIGN = "co-design: CMA-ES over the order and the factors together, then SLSQP on the factors"
 
 
 def with_codesign(answer: Answer, found, context: StudyContext, rule) -> Answer:

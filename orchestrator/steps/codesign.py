@@ -205,10 +205,10 @@ class CoDesign(Step):
             end = polished.end if polished is not None else found
             candidates = [end] + ([start] if space.mass_excess(start, budget) == 0 else [])
             evaluations = objective.evaluate(candidates, context.evaluator, FULL)
-            chosen, evaluation = min(
-                ((p, e) for p, e in zip(candidates, evaluations) if e.ok and e.value is not None),
-                key=lambda pair: float(pair[1].value or 0.0),
-            )
+            valued = [(p, e) for p, e in zip(candidates, evaluations) if e.ok and e.value is not None]
+            if not valued:
+                continue  # no candidate has a value at full fidelity: the order search's answer stands
+            chosen, evaluation = min(valued, key=lambda pair: float(pair[1].value or 0.0))
             answers.append(
                 CoDesignAnswer(
                     diagonal_rule=label,
