@@ -9,9 +9,10 @@ holds keep their table values.
 
 The searches see the point in [0, 1]-scaled coordinates: the order's random keys (``DesignSpace.from_keys``),
 then each column's factors on a log scale between the range's ends (factor 1 sits in the middle of a range
-symmetric about it, as 0.5..2 is). The stack's total mass (section 12: R D times the sum of each column's mass)
-may not exceed the budget: a design above it is infeasible, a constraint of the searches (pycma's augmented
-Lagrangian, SLSQP's inequality), never clipped into the budget.
+symmetric about it, as 0.5..2 is); a table's ``<name>_min`` and ``<name>_max`` give a material's own ends, so a
+column's range is that of the material it holds. The stack's total mass (section 12: R D times the sum of each
+column's mass) may not exceed the budget: a design above it is infeasible, a constraint of the searches (pycma's
+augmented Lagrangian, SLSQP's inequality), never clipped into the budget.
 """
 
 from __future__ import annotations
@@ -136,24 +137,46 @@ class CoDesignSpace:
         """Length of a scaled point: the order's keys, then C times the varied properties' factors."""
         return self.space.key_dimension + self.columns * len(self.names)
 
-    def factor_of(self, scaled: float) -> float:
-        """A scaled coordinate in [0, 1] as a factor in [low, high], on a log scale."""
-        return float(self.low * (self.high / self.low) ** min(1.0, max(0.0, float(scaled))))
+    def factor_range(self, material: int, name: str) -> tuple[float, float]:
+        """The factors material ``material``'s property ``name`` may take: the table's bounds (``name_min``,
+        ``name_max``) over its value where its row gives them, else the range's ends."""
+        base = float(getattr(self.table.materials[material - 1], name))
+        low, high = self.table.bound(material, name)
+        return (self.low if low is None else low / base), (self.high if high is None else high / base)
 
-    def scaled_of(self, factor: float) -> float:
-        return float(math.log(factor / self.low) / math.log(self.high / self.low))
+    def factor_of(self, scaled: float, material: int, name: str) -> float:
+        """A scaled coordinate in [0, 1] as a factor in the material's range for ``name``, on a log scale."""
+        low, high = self.factor_range(material, name)
+        return float(low * (high / low) ** min(1.0, max(0.0, float(scaled))))
+
+    def scaled_of(self, factor: float, material: int, name: str) -> float:
+        low, high = self.factor_range(material, name)
+        return float(math.log(factor / low) / math.log(high / low))
+
+    def log_span(self, material: int, name: str) -> float:
+        """d ln(factor) / d scaled coordinate for the material's property."""
+        low, high = self.factor_range(material, name)
+        return math.log(high / low)
 
     def decode(self, x: Sequence[float]) -> CoDesignPoint:
         x = np.asarray(x, dtype=float)
         keys = self.space.key_dimension
         order = self.space.from_keys(x[:keys])
         per = len(self.names)
-        factors = tuple(tuple(self.factor_of(x[keys + j * per + i]) for i in range(per)) for j in range(self.columns))
+        factors = tuple(
+            tuple(self.factor_of(x[keys + j * per + i], order[j], name) for i, name in enumerate(self.names))
+            for j in range(self.columns)
+        )
         return CoDesignPoint(order, factors)
 
     def encode(self, point: CoDesignPoint) -> np.ndarray:
         keys = self.space.to_keys(point.order)
-        return np.concatenate([keys, [self.scaled_of(f) for column in point.factors for f in column]])
+        scaled = [
+            self.scaled_of(f, point.order[j], name)
+            for j, column in enumerate(point.factors)
+            for f, name in zip(column, self.names)
+        ]
+        return np.concatenate([keys, scaled])
 
     def unit_point(self, order: Sequence[int]) -> CoDesignPoint:
         """``order`` with every property at its table value (factor 1)."""
@@ -169,10 +192,13 @@ class CoDesignSpace:
     # ------------------------------------------------------------------------------------- properties
     def value(self, point: CoDesignPoint, column: int, name: str) -> float:
         """Column ``column``'s (1-based) value of property ``name``."""
-        base = getattr(self.table.materials[point.order[column - 1] - 1], name)
+        material = point.order[column - 1]
+        base = getattr(self.table.materials[material - 1], name)
         if name not in self.names:
             return float(base)
-        return float(base * point.factors[column - 1][self.names.index(name)])
+        value = float(base * point.factors[column - 1][self.names.index(name)])
+        low, high = self.table.bound(material, name)  # a bound's own value, not one rounded past it
+        return min(max(value, low if low is not None else value), high if high is not None else value)
 
     def parameters(self, point: CoDesignPoint) -> dict[str, float]:
         """The FMU parameters that set the point's properties: ``name[m]`` of every varied name and material
@@ -365,7 +391,13 @@ def polish(
     counted = [0]
 
     def points_of(zs: Sequence[np.ndarray]) -> list[CoDesignPoint]:
-        return [space.with_factors(order, [space.factor_of(v) for v in z]) for z in zs]
+        per = len(space.names)
+        return [
+            space.with_factors(
+                order, [space.factor_of(v, order[i // per], space.names[i % per]) for i, v in enumerate(z)]
+            )
+            for z in zs
+        ]
 
     def values_of(zs: Sequence[np.ndarray]) -> list[float]:
         todo = [z for z in zs if tuple(z) not in cache]
@@ -404,14 +436,15 @@ def polish(
 
     def mass_slack_gradient(z) -> np.ndarray:
         gradient = np.zeros(len(z))
-        log_ratio = math.log(space.high / space.low)
         per = len(space.names)
         for column in range(1, space.columns + 1):
             for i in mass_names:
                 index = (column - 1) * per + i
                 base = getattr(space.table.materials[order[column - 1] - 1], MASS)
-                factor = space.factor_of(z[index])
-                gradient[index] = -space.masses_per_column * base * factor * log_ratio / budget
+                factor = space.factor_of(z[index], order[column - 1], MASS)
+                gradient[index] = (
+                    -space.masses_per_column * base * factor * space.log_span(order[column - 1], MASS) / budget
+                )
         return gradient
 
     start_value = values_of([z0])[0]
@@ -459,8 +492,8 @@ def polish(
         message=str(result.message),
         sensitivities=tuple(
             tuple(
-                float(gradient[column * len(space.names) + i] * scale[0] / math.log(space.high / space.low))
-                for i in range(len(space.names))
+                float(gradient[column * len(space.names) + i] * scale[0] / space.log_span(order[column], name))
+                for i, name in enumerate(space.names)
             )
             for column in range(space.columns)
         ),

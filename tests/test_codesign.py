@@ -12,13 +12,14 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import re
 
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
 from command_line import main, one_line
-from fmu_src.materials import FIELD_NAMES, study_materials
+from fmu_src.materials import FIELD_NAMES, MaterialTableError, load_materials, study_materials
 from orchestrator.codesign import (
     CoDesignObjective,
     CoDesignSpace,
@@ -52,7 +53,7 @@ def test_a_point_decodes_to_the_order_and_factors_it_was_encoded_from():
     again = space.decode(x)
     assert again.order == point.order
     np.testing.assert_allclose(np.array(again.factors), np.array(point.factors), rtol=1e-12)
-    assert space.scaled_of(1.0) == pytest.approx(0.5)  # factor 1 in the middle of a range symmetric about it
+    assert space.scaled_of(1.0, 1, "k") == pytest.approx(0.5)  # factor 1 in the middle of a range symmetric about it
 
 
 def test_a_point_sets_its_columns_materials_parameters_and_weighs_what_section_12_says():
@@ -194,7 +195,11 @@ def test_on_an_11_x_2_lattice_a_grid_of_the_factors_confirms_the_co_design_to_it
     cells = list(itertools.product(range(GRID), repeat=4))
     grid = {}
     for order in ((1, 2), (2, 1)):
-        points = [space.with_factors(order, [space.factor_of(ticks[i]) for i in cell]) for cell in cells]
+        names = [(order[j], name) for j in range(2) for name in space.names]
+        points = [
+            space.with_factors(order, [space.factor_of(ticks[i], *names[axis]) for axis, i in enumerate(cell)])
+            for cell in cells
+        ]
         for cell, result in zip(cells, objective.evaluate(points, evaluator, SEARCH)):
             assert result.ok, result.message
             grid[order, cell] = result.value
@@ -261,3 +266,49 @@ def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, 
         main(*options, "--out", tmp_path / "no", "--vary", "k", "--objective", "sampled,mass", "--mass-budget", 30) == 2
     )
     assert "--mass-budget: not with --objective ...,mass" in one_line(capfd)
+
+
+def test_a_tables_bounds_give_each_materials_own_range(tmp_path):
+    path = tmp_path / "bounded.csv"
+    path.write_text(
+        "name,k,k_diag,c,alpha,alpha_diag,k_min,k_max,mass_max\n"
+        "steel,100,50,5,10,10,80,300,1.5\n"
+        "aramid,44,22,2,10,10,,,\n"
+        "foam,8,4,0.4,10,10,4,,\n"
+    )
+    table = load_materials(path)
+    assert table.bound(1, "k") == (80.0, 300.0) and table.bound(1, "mass") == (None, 1.5)
+    assert table.bound(2, "k") == (None, None) and table.bound(3, "k") == (4.0, None)
+    space = CoDesignSpace(DesignSpace.permutations(3), table, ("k", "mass"), 0.5, 2.0, ROWS)
+    assert space.factor_range(1, "k") == pytest.approx((0.8, 3.0))
+    assert space.factor_range(1, "mass") == pytest.approx((0.5, 1.5))
+    assert space.factor_range(2, "k") == (0.5, 2.0) and space.factor_range(3, "k") == pytest.approx((0.5, 2.0))
+    rng = np.random.default_rng(0)
+    ends = space.decode(np.concatenate([space.space.to_keys((1, 2, 3)), np.ones(6)]))
+    assert space.value(ends, 1, "k") == 300.0 and space.value(ends, 1, "mass") == 1.5  # the bound itself
+    for _ in range(50):  # every point decodes within each column's material's own bounds
+        point = space.decode(rng.random(space.dimension))
+        for column, material in enumerate(point.order, start=1):
+            low, high = space.factor_range(material, "k")
+            assert low * (1 - 1e-12) <= point.factors[column - 1][0] <= high * (1 + 1e-12)
+        for column in range(1, 4):
+            low, high = table.bound(point.order[column - 1], "k")
+            assert (low or 0) <= space.value(point, column, "k") <= (high or math.inf)
+        again = space.decode(space.encode(point))
+        np.testing.assert_allclose(np.array(again.factors), np.array(point.factors), rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "header, row, words",
+    [
+        ("k_min", "120", "field k: 100.0 is outside its bounds [120.0, -]"),
+        ("k_max", "-3", "field k_max: '-3' is not allowed; allowed: a finite number > 0 (N)"),
+        ("stiffness_max", "3", "unknown field 'stiffness_max'"),
+    ],
+)
+def test_a_bad_bound_is_refused_in_one_line_naming_its_row_and_field(tmp_path, header, row, words):
+    path = tmp_path / "bad.csv"
+    path.write_text(f"name,k,k_diag,c,alpha,alpha_diag,{header}\nsteel,100,50,5,10,10,{row}\n")
+    with pytest.raises(MaterialTableError, match=re.escape(words)) as refused:
+        load_materials(path)
+    assert "row 1" in str(refused.value) and len(str(refused.value).splitlines()) == 1

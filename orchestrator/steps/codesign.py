@@ -46,7 +46,8 @@ class CoDesignConfig:
     )
     vary_range: str = option(
         f"{DEFAULT_RANGE[0]:g},{DEFAULT_RANGE[1]:g}",
-        "with --vary: the factor range LOW,HIGH each varied property of a column may take of its material's value",
+        "with --vary: the factor range LOW,HIGH each varied property of a column may take of its material's value "
+        "(a material table's columns NAME_min, NAME_max give a material's own bounds instead)",
         metavar="LOW,HIGH",
     )
     mass_budget: float | None = option(
@@ -176,7 +177,7 @@ class CoDesign(Step):
                         "these sources)"
                     )
                 base = float(getattr(material, name))
-                for factor in (space.low, space.high):
+                for factor in space.factor_range(m, name):
                     parameter.value(base * factor, f"--vary-range {config.vary_range}: ")
 
     def run(self, context: StudyContext) -> CoDesignResult:
