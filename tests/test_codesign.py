@@ -159,7 +159,8 @@ def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak
     assert "  co-design: " in printed and " kg of 33.00 kg; from " in printed
     record = json.loads((out / "results.json").read_text())
     answer = record["answers"][0]
-    assert "Each layer (co-design" in (out / "report.html").read_text()
+    report = (out / "report.html").read_text()
+    assert "Each layer (co-design" in report and "first-order optimality: the projected gradient" in report
     codesign = record["steps"]["codesign"]["answers"][0]
     assert answer["total_mass"] <= codesign["mass_budget"] * (1 + 1e-9)
     assert codesign["mass_budget"] == pytest.approx(ROWS * 3.0)  # the order's own mass at the table's values
@@ -261,6 +262,7 @@ def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, 
     )
     assert "designs (order and factors) on the co-design front" in capfd.readouterr().out
     fronts = json.loads((out / "results.json").read_text())["steps"]["codesign"]["fronts"]
+    assert "on the front of the objective against the" in (out / "report.html").read_text()
     assert fronts[0]["diagonal_rule"] == "mean" and fronts[0]["designs"]
     assert (
         main(*options, "--out", tmp_path / "no", "--vary", "k", "--objective", "sampled,mass", "--mass-budget", 30) == 2

@@ -141,7 +141,7 @@ def codesign_space(context: StudyContext, config: CoDesignConfig) -> CoDesignSpa
 class CoDesign(Step):
     name = "codesign"
     title = "Co-design: order and properties"
-    template = None
+    template = "codesign.html.j2"
     Config = CoDesignConfig
 
     def applies(self, context: StudyContext) -> bool:
