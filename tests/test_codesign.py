@@ -314,3 +314,14 @@ def test_a_bad_bound_is_refused_in_one_line_naming_its_row_and_field(tmp_path, h
     with pytest.raises(MaterialTableError, match=re.escape(words)) as refused:
         load_materials(path)
     assert "row 1" in str(refused.value) and len(str(refused.value).splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_a_co_design_is_the_same_on_any_executor(armour_fmu_of_width, tmp_path):
+    options = ("--fmu", armour_fmu_of_width(3), "--cols", 3, "--diagonal-rule", "mean", "--no-progress", "--budget", 6)
+    options += ("--repeats", 1, "--vary", "k,mass", "--vary-budget", 60, "--no-sensitivity")
+    answers = []
+    for executor in ("serial", "process"):
+        assert main(*options, "--executor", executor, "--out", tmp_path / executor) == 0
+        answers.append(json.loads((tmp_path / executor / "results.json").read_text())["answers"][0])
+    assert answers[0]["parameters"] == answers[1]["parameters"] and answers[0]["peak"] == answers[1]["peak"]
