@@ -354,6 +354,9 @@ class Polish:
     start_value: float
     end_value: float
     kkt_residual: float  # the largest component of the projected gradient of the Lagrangian, per unit of scaled x
+    # the steepest descent, relative to the value per unit of scaled x, of a step along an axis either way that
+    # stays feasible (0: none descends): first-order optimality where the value has a kink and no gradient
+    descent: float
     tolerance: float
     multiplier: float  # the mass constraint's Lagrange multiplier at the end (N per unit of scaled constraint)
     active: bool  # the mass constraint binds at the end
@@ -366,7 +369,14 @@ class Polish:
 
     @property
     def converged(self) -> bool:
+        """The smooth first-order conditions hold: the projected gradient of the Lagrangian within tolerance."""
         return self.kkt_residual <= self.tolerance
+
+    @property
+    def no_descent(self) -> bool:
+        """No feasible step along an axis, either way, descends faster than the tolerance: a necessary first-order
+        condition that holds at a kink too (the sampled peak switching samples)."""
+        return self.descent <= self.tolerance
 
 
 def polish(
@@ -382,7 +392,9 @@ def polish(
     """SLSQP on the factors of ``start``'s order (scaled coordinates in [0, 1], the mass budget an inequality
     with its exact gradient, the value's gradient by forward differences of ``step``), then its first-order
     optimality at the end: the projected gradient of the Lagrangian (a bound's component counts only when it
-    points into the box), relative to the value, and the mass constraint's multiplier from least squares."""
+    points into the box), relative to the value, and the mass constraint's multiplier from least squares; and,
+    since the sampled peak has kinks where no gradient exists, the steepest descent of a feasible step of ``step``
+    along each axis, both ways."""
     space = objective.space
     order = start.order
     keys = space.space.key_dimension
@@ -474,6 +486,14 @@ def polish(
         free = (z > 1e-9) & (z < 1 - 1e-9)
         if np.any(free) and float(normal[free] @ normal[free]) > 0:
             multiplier = max(0.0, float(gradient[free] @ normal[free] / (normal[free] @ normal[free])))
+    moves = []  # one step each way along each axis that stays in the box and the budget
+    for i in range(len(z)):
+        for target in (z[i] + step, z[i] - step):
+            moved = z.copy()
+            moved[i] = target
+            if 0.0 <= target <= 1.0 and (not mass_names or mass_slack(moved) >= -MASS_TOLERANCE):
+                moves.append(moved)
+    slopes = [(v - value) / step / scale[0] for v in values_of(moves)]
     lagrangian = gradient - multiplier * (mass_slack_gradient(z) if active else 0.0)
     projected = np.where(
         z <= 1e-9, np.minimum(lagrangian, 0.0), np.where(z >= 1 - 1e-9, np.maximum(lagrangian, 0.0), lagrangian)
@@ -484,6 +504,7 @@ def polish(
         start_value=start_value,
         end_value=value,
         kkt_residual=float(np.max(np.abs(projected))) if len(projected) else 0.0,
+        descent=max([0.0] + [-slope for slope in slopes]),
         tolerance=tolerance,
         multiplier=multiplier * scale[0],
         active=active,

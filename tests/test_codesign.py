@@ -145,7 +145,7 @@ def test_the_search_keeps_to_the_budget_and_the_polish_reports_its_optimality(
     polished = polish(objective, evaluator, outcome.best.point, budget, FULL, iterations=5)
     assert polished.end_value <= polished.start_value
     assert space.total_mass(polished.end) <= budget * (1 + 1e-9)
-    assert polished.kkt_residual >= 0 and polished.tolerance > 0 and polished.evaluations > 0
+    assert polished.kkt_residual >= 0 and polished.descent >= 0 and polished.tolerance > 0 and polished.evaluations > 0
     assert [len(row) for row in polished.sensitivities] == [2, 2, 2]  # per column, per varied property
     assert not any(tmp_path.iterdir())
 
