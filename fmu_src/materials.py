@@ -83,6 +83,13 @@ FIELDS = tuple(Field(f.name, **f.metadata) for f in fields(Material) if f.metada
 FIELD_NAMES = tuple(f.name for f in FIELDS)
 HEADER = ("name",) + FIELD_NAMES
 REQUIRED_HEADER = ("name",) + tuple(f.name for f in FIELDS if f.required)  # what every table file must name
+# Optional bounds of a property for co-design (``--vary``): ``k_min``, ``k_max`` ... in the property's unit; the FMU
+# never sees them
+BOUND_SUFFIXES = ("_min", "_max")
+BOUND_COLUMNS = tuple(f"{name}{suffix}" for name in FIELD_NAMES for suffix in BOUND_SUFFIXES)
+
+Bounds = tuple[tuple[str, float | None, float | None], ...]
+"""One material's bounds: (property, lowest or None, highest or None) for each property the table bounds."""
 
 
 class MaterialTableError(ValueError):
@@ -94,9 +101,22 @@ class MaterialTable:
     """M materials; ``materials[m - 1]`` is material number m."""
 
     materials: tuple[Material, ...]
+    bounds: tuple[Bounds, ...] = ()  # per material, the bounds its row gives (co-design); () when none does
 
     def __post_init__(self):
         check_rows([{f.name: getattr(m, f.name) for f in fields(Material)} for m in self.materials], "materials")
+        if self.bounds and len(self.bounds) != len(self.materials):
+            raise MaterialTableError(
+                f"materials: {len(self.bounds)} rows of bounds for {len(self.materials)} materials"
+            )
+
+    def bound(self, number: int, name: str) -> tuple[float | None, float | None]:
+        """The lowest and highest value the table allows material ``number``'s property ``name`` (None: not
+        bounded on that side)."""
+        for bounded, low, high in self.bounds[number - 1] if self.bounds else ():
+            if bounded == name:
+                return low, high
+        return None, None
 
     def __len__(self) -> int:
         return len(self.materials)
@@ -137,6 +157,7 @@ class MaterialTable:
     def from_rows(cls, rows: Iterable[dict[str, Any]], source: str = "materials") -> "MaterialTable":
         rows = list(rows)
         check_rows(rows, source)
+        bounds = tuple(_bounds_of(r) for r in rows)
         return cls(
             tuple(
                 Material(
@@ -144,8 +165,18 @@ class MaterialTable:
                     **{f.name: float(r[f.name]) for f in FIELDS if _given(r.get(f.name)) or f.required},
                 )
                 for r in rows
-            )
+            ),
+            bounds if any(bounds) else (),
         )
+
+
+def _bounds_of(row: dict[str, Any]) -> Bounds:
+    bounds = []
+    for name in FIELD_NAMES:
+        low, high = (row.get(f"{name}{suffix}") for suffix in BOUND_SUFFIXES)
+        if _given(low) or _given(high):
+            bounds.append((name, float(low) if _given(low) else None, float(high) if _given(high) else None))
+    return tuple(bounds)
 
 
 def study_materials(count: int = STUDY_MATERIAL_COUNT) -> MaterialTable:
@@ -181,10 +212,11 @@ def check_rows(rows: list[dict[str, Any]], source: str) -> None:
     for number, row in enumerate(rows, start=1):
         if not isinstance(row, dict):
             raise MaterialTableError(f"{source}: row {number}: expected the fields {', '.join(HEADER)}")
-        unknown = sorted(set(row) - set(HEADER))
+        unknown = sorted(set(row) - set(HEADER) - set(BOUND_COLUMNS))
         if unknown:
             raise MaterialTableError(
-                f"{source}: row {number}: unknown field {unknown[0]!r}; allowed: {', '.join(HEADER)}"
+                f"{source}: row {number}: unknown field {unknown[0]!r}; allowed: {', '.join(HEADER)} (and a "
+                "property's bounds for --vary: k_min, k_max, ...)"
             )
         name = row.get("name")
         if not isinstance(name, str) or not name.strip():
@@ -213,6 +245,31 @@ def check_rows(rows: list[dict[str, Any]], source: str) -> None:
                 ) from None
             if not math.isfinite(number_value) or number_value < 0 or (field.positive and number_value == 0):
                 raise MaterialTableError(f"{label}: {value!r} is not allowed; allowed: {field.allowed_in_unit()}")
+            _check_bounds(row, field, number_value, f"{source}: row {number} ({name})")
+
+
+def _check_bounds(row: dict[str, Any], field: Field, value: float, where: str) -> None:
+    """A property's bounds are numbers > 0 in its unit with the material's own value between them."""
+    low = high = None
+    for suffix in BOUND_SUFFIXES:
+        cell = row.get(f"{field.name}{suffix}")
+        if not _given(cell):
+            continue
+        try:
+            bound = float(cell)
+        except (TypeError, ValueError):
+            bound = math.nan
+        if isinstance(cell, bool) or not math.isfinite(bound) or bound <= 0:
+            raise MaterialTableError(
+                f"{where}, field {field.name}{suffix}: {cell!r} is not allowed; allowed: a finite number > 0"
+                + (f" ({field.unit})" if field.unit else "")
+            )
+        low, high = (bound, high) if suffix == "_min" else (low, bound)
+    if (low is not None and value < low) or (high is not None and value > high):
+        raise MaterialTableError(
+            f"{where}, field {field.name}: {value!r} is outside its bounds [{low if low is not None else '-'}, "
+            f"{high if high is not None else '-'}] ({field.name}_min, {field.name}_max: its value lies between them)"
+        )
 
 
 def load_materials(path: str | os.PathLike) -> MaterialTable:

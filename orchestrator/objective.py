@@ -70,6 +70,13 @@ RUN_MAXIMA = {
             "peak backplate force (continuous)",
         ),
         Quantity(
+            "stack_mass",
+            "the stack's total mass (docs/model.md section 12; with --vary, its front against the peak)",
+            "kg",
+            False,
+            "stack mass",
+        ),
+        Quantity(
             "max_compression",
             "largest compression of the stack along the load (mean x-displacement of column 1 minus that of column C)",
             "m",
@@ -78,7 +85,7 @@ RUN_MAXIMA = {
         ),
     )
 }
-ALIASES = {"sampled": "peak_backplate_force", "continuous": "peak_backplate_force_continuous"}
+ALIASES = {"sampled": "peak_backplate_force", "continuous": "peak_backplate_force_continuous", "mass": "stack_mass"}
 
 _INSTANCES: dict[str, LatticeFMU] = {}  # one open FMU per file and process
 _SHIPPED: dict[str, str] = {}  # on a Dask worker: the FMU's SHA-256 -> this worker's copy of it

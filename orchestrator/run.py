@@ -185,6 +185,9 @@ def print_answer(outcome) -> None:
             f"{status}, {evidence.origin()}, {evidence.local_text()}; {answer.design_file}"
         )
         print(f"  {parameters_line(answer, study)}")
+        line = codesign_line(study, answer.diagonal_rule, unit)
+        if line:
+            print(f"  {line}")
         if evidence.settlement is not None:
             print(f"  {evidence.settlement.line()}")
         estimate = statistical.for_rule(answer.diagonal_rule) if statistical else None
@@ -211,6 +214,21 @@ def print_answer(outcome) -> None:
             f"({front_sureness_line(front.sureness)}); "
             + "; ".join(f"{c.label} {list(c.order)} ({c.design_file})" for c in front.chosen)
         )
+    from orchestrator.steps import CoDesign
+
+    codesign = study.result(CoDesign)
+    for front in codesign.fronts if codesign else ():
+        ends = [d for d in front.designs if d.full_values is not None]
+        span = (
+            f": {ends[0].full_values[0]:.2f} {unit} at {ends[0].full_values[1]:.2f} kg to "
+            f"{ends[-1].full_values[0]:.2f} {unit} at {ends[-1].full_values[1]:.2f} kg (full fidelity)"
+            if ends
+            else ""
+        )
+        print(
+            f"{front.diagonal_rule} rule: {len(front.designs)} designs (order and factors) on the co-design front of "
+            f"{front.evaluations:,} NSGA-II evaluated{span}; each in results.json's steps.codesign.fronts"
+        )
     from orchestrator.steps.pareto import BEST_DESIGN_FILE, best_design
 
     best = best_design(study)
@@ -226,6 +244,33 @@ def print_answer(outcome) -> None:
     for line in cost_lines(study):
         print(line)
     print(f"report: {outcome.report}")
+
+
+def codesign_line(study, rule: str, unit: str) -> str:
+    """A rule's co-design in one line: each layer's factors, the stack's mass against the budget, the order
+    search's answer it started from, and the polish's first-order optimality; "" without --vary."""
+    from orchestrator.steps import CoDesign
+
+    result = study.result(CoDesign)
+    found = result.for_rule(rule) if result else None
+    if found is None:
+        return ""
+    layers = "; ".join(
+        f"{c.column}: {c.material} " + " ".join(f"{name} x{factor:.3f}" for name, factor in c.factors.items())
+        for c in found.columns
+    )
+    polish = found.polish
+    optimality = (
+        ""
+        if polish is None
+        else f"; polish: projected gradient {polish.kkt_residual:.2g}, steepest feasible descent along an axis "
+        f"{polish.descent:.2g} (tolerance {polish.tolerance:g}: {'met' if polish.converged else 'NOT met'}, "
+        f"{'met' if polish.no_descent else 'NOT met'}) after {polish.iterations} SLSQP iterations"
+    )
+    return (
+        f"co-design: {found.total_mass:.2f} kg of {found.mass_budget:.2f} kg; from {list(found.start_order)} at "
+        f"{found.start_peak:.2f} {unit} (the table's values){optimality}; layers {layers}"
+    )
 
 
 def cost_lines(study) -> list[str]:

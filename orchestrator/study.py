@@ -150,7 +150,8 @@ class CaseConfig:
         "sampled",
         "FMU output(s) to minimise, one or two or three separated by commas: sampled "
         "(peak_backplate_force over the 0.01 s samples, the study's), continuous "
-        "(peak_backplate_force_continuous), max_compression",
+        "(peak_backplate_force_continuous), max_compression, mass (stack_mass: with --vary, the front of the "
+        "peak against the stack's mass)",
         metavar="OUTPUT[,OUTPUT]",
     )
     diagonal_rules: tuple[str, ...] = option(

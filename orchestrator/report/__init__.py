@@ -181,26 +181,44 @@ def write_design_files(study: StudyResult, out: Path, steps, materials) -> dict[
     """Each step's design files; {file: why it was not written} for those the writer refused (a design a named
     tool would run differently)."""
     refused: dict[str, str] = {}
+    answers = study.result(Answers)
+    varied = {a.design_file: varied_of(a.parameters) for a in answers.answers} if answers else {}
     for step in steps:
         if study.result(type(step)) is None:
             continue
         for name, order, rule in step.design_files(study):
-            write_design_file(study, out, name, order, rule, materials, refused)
+            own = varied.get(name, {}) if isinstance(step, Answers) else {}
+            write_design_file(study, out, name, order, rule, materials, refused, own)
     return refused
 
 
+def varied_of(parameters: dict) -> dict:
+    """The material properties a co-design answer sets away from the table (``k[3]``, ``mass[1]`` ...)."""
+    return {name: value for name, value in parameters.items() if "[" in name and not name.startswith("material[")}
+
+
 def write_design_file(
-    study: StudyResult, out: Path, name: str, order, rule: str, materials, refused: dict[str, str]
+    study: StudyResult,
+    out: Path,
+    name: str,
+    order,
+    rule: str,
+    materials,
+    refused: dict[str, str],
+    varied: dict | None = None,
 ) -> None:
-    """One design file: the FMU with the order, the run's parameters and the rule where the study chose it; a
-    design the writer refuses (one a named tool would run differently) goes into ``refused`` with why."""
+    """One design file: the FMU with the order, the run's parameters and the rule where the study chose it, and a
+    co-design's ``varied`` material properties (the table then no longer names every value, so it is not
+    checked against them); a design the writer refuses (one a named tool would run differently) goes into
+    ``refused`` with why."""
     from ..ssp import write_best_design_ssp
 
-    parameters = {"material": list(order), **study.case.parameters}
+    parameters = {"material": list(order), **study.case.parameters, **(varied or {})}
     if rule in study.case.rules:
         parameters["diagonal_rule"] = rule
+    table = None if varied else materials
     try:
-        write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon, materials=materials)
+        write_best_design_ssp(study.fmu_path, parameters, out / name, stop_time=study.case.horizon, materials=table)
     except (ValueError, OSError) as exc:
         refused[name] = str(exc).splitlines()[0]
 

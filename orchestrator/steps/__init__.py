@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from .accuracy import Accuracy
 from .answers import Answers
+from .codesign import CoDesign
 from .final_descent import FinalDescent
 from .exhaustive import Exhaustive
 from .finalists import Finalists
@@ -21,6 +22,7 @@ STEPS = (
     Exhaustive,
     Finalists,
     FinalDescent,
+    CoDesign,
     Pareto,
     Answers,
     Starts,

@@ -13,13 +13,15 @@ import numpy as np
 from fmu_src.published import PUBLISHED_CONDITIONS
 
 from ..charts import plt, save
+from ..codesign import ColumnProperties, table_columns
 from ..exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
 from ..known_optima import KnownOptimum, known_optimum
 from ..objective import FULL, SEARCH
 from ..plate_picture import draw_plate_answers
 from ..study import PROJECTILE, Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
-from .final_descent import FinalDescent
+from .codesign import CoDesign
+from .final_descent import FinalDescent, rule_best
 from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, objective_covered, sweep_cost
 from .finalists import Finalists, best_of, finalist_orders
 from .searches import Searches, rule_label
@@ -35,6 +37,7 @@ FOUND_BY_SWEEP = "this run's exhaustive sweep"
 FOUND_BY_DESCENT = "the final descent from the runs' best"
 FOUND_BY_KNOWN = "the recorded known optimum, evaluated among the finalists"
 FOUND_BY_FINALISTS = "the finalists at full fidelity"
+FOUND_BY_CODESIGN = "co-design: CMA-ES over the order and the factors together, then SLSQP on the factors"
 STUDY_MODEL_ROLE = "the study's model: reproduces its published numbers"
 
 
@@ -93,6 +96,8 @@ class Evidence:
         and the report's): a count of runs is never read as the answer's only source."""
         if self.swept and not self.runs:
             return "every design swept"
+        if self.found_by == FOUND_BY_CODESIGN:  # no search run of the order alone reaches a design of its own
+            return f"found by {self.found_by}"
         only = "only " if self.few_runs else ""
         if self.found_by == FOUND_BY_RUNS:
             return f"{only}{self.runs_reaching} of {self.runs} runs reached it"
@@ -155,6 +160,9 @@ class Answer:
     equivalence: Equivalence | None = None  # against the runner-up (None: no runner-up with a value)
     # every start value the answer needs in any FMI tool, by the FMU's variable names (start_values_for)
     parameters: dict[str, int | float] = field(default_factory=dict)
+    # each column's material and section 12's properties (with --vary, each varied one's factor too)
+    columns: tuple[ColumnProperties, ...] = ()
+    total_mass: float | None = None  # kg: the stack's mass, R D times the sum of its columns' masses
 
     def start_values_text(self, separator: str = "=") -> str:
         """The parameters as a user types them: ``material[1]=3 ... diagonal_rule=1`` (``separator`` " ":
@@ -198,17 +206,6 @@ def start_values_for(context: StudyContext, order: Order, rule: str | None) -> d
 
 def design_file(index: int, label: str) -> str:
     return "best_design.ssp" if index == 0 else f"design_{label}.ssp"
-
-
-def rule_best(context: StudyContext, label: str) -> Evaluation | None:
-    """A rule's best design at full fidelity: over its finalists and the end of its final descent."""
-    finalists = context.result(Finalists)
-    candidates = list(finalists.for_rule(label).evaluations) if finalists else []
-    descent = context.result(FinalDescent)
-    check = descent.for_rule(label) if descent else None
-    if check is not None:
-        candidates.append(check.full)
-    return best_of(candidates)
 
 
 def run_answer(run, context: StudyContext, label: str) -> Order | None:
@@ -340,8 +337,14 @@ class Answers(Step):
                     roles=roles,
                     equivalence=equivalence(context, best, runner, sweep),
                     parameters=start_values_for(context, best.order, rule),
+                    columns=table_columns(context.case.materials, best.order),
+                    total_mass=context.case.materials.stack_mass(best.order, context.case.rows * context.case.depth),
                 )
             )
+            codesign = context.result(CoDesign)
+            found = codesign.for_rule(label) if codesign else None
+            if found is not None:
+                answers[-1] = with_codesign(answers[-1], found, context, rule)
         known = {rule_label(r): known_optimum(context.case, r or context.case.rule_default) for r in rules}
         return AnswersResult(tuple(answers), known)
 
@@ -393,6 +396,44 @@ class Answers(Step):
     def design_files(self, study):
         result = study.result(type(self))
         return [(a.design_file, a.order, a.diagonal_rule) for a in (result.answers if result else ())]
+
+
+def with_codesign(answer: Answer, found, context: StudyContext, rule) -> Answer:
+    """The answer with the co-design's columns and mass; its design, value and parameters when the co-design
+    changed the order search's answer (its value under the other rules is then not computed)."""
+    columns = found.columns
+    if not found.varied and found.point.order == answer.order:
+        return replace(answer, columns=columns, total_mass=found.total_mass)
+    return replace(
+        answer,
+        order=found.point.order,
+        materials=tuple(c.material for c in columns),
+        peak=found.peak,
+        peak_other_rule=None,
+        values_by_rule={answer.diagonal_rule: found.peak},
+        energy_by_rule={answer.diagonal_rule: None},
+        outputs=found.outputs,
+        evidence=replace(
+            answer.evidence,
+            status=BEST_FOUND,
+            status_source=(
+                f"co-design within {found.mass_budget:.6g} kg; the order search's answer "
+                f"{list(found.start_order)} at the table's values: {found.start_peak:.4f}"
+            ),
+            found_by=FOUND_BY_CODESIGN,
+            runs_reaching=0,
+            local_optimum=None,
+            local_unchecked="the order's neighbours are checked at the table's values, not at the co-design's",
+            settlement=None,
+        ),
+        runner_up=None,
+        runner_up_peak=None,
+        search_relative_error=None,
+        equivalence=None,
+        parameters={**start_values_for(context, found.point.order, rule), **found.varied},
+        columns=columns,
+        total_mass=found.total_mass,
+    )
 
 
 def found_by(context: StudyContext, rule, label: str, order: Order, reaching: int, sweep, check) -> str:

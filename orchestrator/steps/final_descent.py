@@ -12,7 +12,7 @@ from ..options import check_options, option
 from ..search import make_search
 from ..study import Step, StudyContext
 from ..types import Evaluation, Order
-from .finalists import Finalists
+from .finalists import Finalists, best_of
 from .searches import Searches, rule_label
 
 MAX_DESCENT = 5000  # designs a descent may evaluate (it stops at the first local optimum long before)
@@ -156,8 +156,20 @@ __all__ = [
     "FinalDescent",
     "FinalDescentConfig",
     "FinalDescentResult",
+    "rule_best",
     "LocalCheck",
     "MAX_DESCENT",
     "check_local_optimum",
     "descent_cap",
 ]
+
+
+def rule_best(context: StudyContext, label: str) -> Evaluation | None:
+    """A rule's best design at full fidelity: over its finalists and the end of its final descent."""
+    finalists = context.result(Finalists)
+    candidates = list(finalists.for_rule(label).evaluations) if finalists else []
+    descent = context.result(FinalDescent)
+    check = descent.for_rule(label) if descent else None
+    if check is not None:
+        candidates.append(check.full)
+    return best_of(candidates)

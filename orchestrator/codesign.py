@@ -1,0 +1,640 @@
+"""Co-design (docs/model.md section 12): the material order and each column's properties, searched together.
+
+A co-design point is an order (a design of the order space) and, for each column, a factor per varied property
+(``--vary k,c,mass``): column j holds material ``p_j`` and its property ``name`` takes ``factor * name[p_j]`` of
+the table. Each material fills at most one column (a permutation or an arrangement), so a column's factor is the
+factor of the material it holds and the FMU's own parameters ``name[p_j]`` carry it: every run is an ordinary
+FMU run with a few more parameters, through the one Evaluator (its cache key holds them). Materials no column
+holds keep their table values.
+
+The searches see the point in [0, 1]-scaled coordinates: the order's random keys (``DesignSpace.from_keys``),
+then each column's factors on a log scale between the range's ends (factor 1 sits in the middle of a range
+symmetric about it, as 0.5..2 is); a table's ``<name>_min`` and ``<name>_max`` give a material's own ends, so a
+column's range is that of the material it holds. The stack's total mass (section 12: R D times the sum of each
+column's mass) may not exceed the budget: a design above it is infeasible, a constraint of the searches (pycma's
+augmented Lagrangian, SLSQP's inequality), never clipped into the budget.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import warnings
+from dataclasses import dataclass
+from typing import Sequence
+
+import cma
+import numpy as np
+from scipy.optimize import minimize
+
+from fmu_src.materials import FIELD_NAMES, MaterialTable
+
+from .design import Design, DesignSpace, REPETITION, as_design
+from .objective import FULL, SEARCH, LatticeObjective
+from .tasks import EvaluateDesign
+from .types import Evaluation
+
+DEFAULT_RANGE = (0.5, 2.0)
+MASS = "mass"
+MASS_TOLERANCE = 1e-9  # relative: a stack this close above its budget is within it (the sum's rounding)
+
+
+def parse_vary(text: str) -> tuple[str, ...]:
+    """``"k,c,mass"`` as the varied properties (section 12's names, each once); refuses the rest in one line."""
+    names = tuple(name.strip() for name in text.split(","))
+    for name in names:
+        if name not in FIELD_NAMES:
+            raise ValueError(f"--vary {name!r}: allowed values are {', '.join(FIELD_NAMES)} (separated by commas)")
+    if len(set(names)) != len(names):
+        raise ValueError(f"--vary {text}: each property once; allowed values are {', '.join(FIELD_NAMES)}")
+    return names
+
+
+def parse_vary_range(text: str) -> tuple[float, float]:
+    """``"0.5,2"`` as the factor range (0 < low <= 1 <= high, low < high: the table's value lies in it)."""
+    parts = text.split(",")
+    try:
+        low, high = (float(part) for part in parts)
+    except ValueError:
+        raise ValueError(
+            f"--vary-range {text!r}: expected LOW,HIGH, two numbers with 0 < LOW <= 1 <= HIGH and LOW < HIGH"
+        ) from None
+    if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= 1 <= high and low < high):
+        raise ValueError(
+            f"--vary-range {text!r}: allowed values are 0 < LOW <= 1 <= HIGH with LOW < HIGH (the table's value, "
+            "factor 1, inside the range)"
+        )
+    return low, high
+
+
+@dataclass(frozen=True)
+class CoDesignPoint:
+    """An order and each column's factors (``factors[j][i]``: column j + 1's factor of ``names[i]``)."""
+
+    order: Design
+    factors: tuple[tuple[float, ...], ...]
+
+
+@dataclass(frozen=True)
+class ColumnProperties:
+    """One column of a co-design answer: its material, each section-12 property's value and each varied one's
+    factor."""
+
+    column: int
+    material: str
+    values: dict[str, float]
+    factors: dict[str, float]
+
+
+def table_columns(table: MaterialTable, order: Sequence[int]) -> tuple[ColumnProperties, ...]:
+    """Each column of ``order`` at the table's values (no factors)."""
+    return tuple(
+        ColumnProperties(
+            column,
+            table.name_of(material),
+            {name: float(getattr(table.materials[material - 1], name)) for name in FIELD_NAMES},
+            {},
+        )
+        for column, material in enumerate(as_design(order), start=1)
+    )
+
+
+@dataclass(frozen=True)
+class CoDesignSpace:
+    """The order space, the varied properties and their factor range, the stack's mass budget (kg; None: none).
+
+    ``masses_per_column`` is R D, the masses of one column (section 12's total mass)."""
+
+    space: DesignSpace
+    table: MaterialTable
+    names: tuple[str, ...]
+    low: float = DEFAULT_RANGE[0]
+    high: float = DEFAULT_RANGE[1]
+    masses_per_column: int = 1
+    mass_budget: float | None = None
+
+    def __post_init__(self):
+        if self.space.kind == REPETITION:
+            raise ValueError(
+                "--vary: not with --repeat (a material in several columns has one value of each property); "
+                "allowed: a permutation or an arrangement of the table's materials"
+            )
+        if not self.names:
+            raise ValueError(f"--vary: name at least one property; allowed values are {', '.join(FIELD_NAMES)}")
+        parse_vary(",".join(self.names))
+        parse_vary_range(f"{self.low!r},{self.high!r}")
+        if self.mass_budget is not None and not (math.isfinite(self.mass_budget) and self.mass_budget > 0):
+            raise ValueError(f"--mass-budget must be a finite number of kg > 0, got {self.mass_budget!r}")
+
+    # ------------------------------------------------------------------------------------- coordinates
+    @property
+    def columns(self) -> int:
+        return self.space.columns
+
+    @property
+    def dimension(self) -> int:
+        """Length of a scaled point: the order's keys, then C times the varied properties' factors."""
+        return self.space.key_dimension + self.columns * len(self.names)
+
+    def factor_range(self, material: int, name: str) -> tuple[float, float]:
+        """The factors material ``material``'s property ``name`` may take: the table's bounds (``name_min``,
+        ``name_max``) over its value where its row gives them, else the range's ends."""
+        base = float(getattr(self.table.materials[material - 1], name))
+        low, high = self.table.bound(material, name)
+        return (self.low if low is None else low / base), (self.high if high is None else high / base)
+
+    def factor_of(self, scaled: float, material: int, name: str) -> float:
+        """A scaled coordinate in [0, 1] as a factor in the material's range for ``name``, on a log scale."""
+        low, high = self.factor_range(material, name)
+        return float(low * (high / low) ** min(1.0, max(0.0, float(scaled))))
+
+    def scaled_of(self, factor: float, material: int, name: str) -> float:
+        low, high = self.factor_range(material, name)
+        return float(math.log(factor / low) / math.log(high / low))
+
+    def log_span(self, material: int, name: str) -> float:
+        """d ln(factor) / d scaled coordinate for the material's property."""
+        low, high = self.factor_range(material, name)
+        return math.log(high / low)
+
+    def decode(self, coordinates: Sequence[float]) -> CoDesignPoint:
+        x = np.asarray(coordinates, dtype=float)
+        keys = self.space.key_dimension
+        order = self.space.from_keys(x[:keys])
+        per = len(self.names)
+        factors = tuple(
+            tuple(self.factor_of(x[keys + j * per + i], order[j], name) for i, name in enumerate(self.names))
+            for j in range(self.columns)
+        )
+        return CoDesignPoint(order, factors)
+
+    def encode(self, point: CoDesignPoint) -> np.ndarray:
+        keys = self.space.to_keys(point.order)
+        scaled = [
+            self.scaled_of(f, point.order[j], name)
+            for j, column in enumerate(point.factors)
+            for f, name in zip(column, self.names)
+        ]
+        return np.concatenate([keys, scaled])
+
+    def unit_point(self, order: Sequence[int]) -> CoDesignPoint:
+        """``order`` with every property at its table value (factor 1)."""
+        return CoDesignPoint(as_design(order), tuple((1.0,) * len(self.names) for _ in range(self.columns)))
+
+    def with_factors(self, order: Sequence[int], flat: Sequence[float]) -> CoDesignPoint:
+        """``order`` with the factors given column by column, property by property (a flat list)."""
+        per = len(self.names)
+        return CoDesignPoint(
+            as_design(order), tuple(tuple(float(flat[j * per + i]) for i in range(per)) for j in range(self.columns))
+        )
+
+    # ------------------------------------------------------------------------------------- properties
+    def value(self, point: CoDesignPoint, column: int, name: str) -> float:
+        """Column ``column``'s (1-based) value of property ``name``."""
+        material = point.order[column - 1]
+        base = getattr(self.table.materials[material - 1], name)
+        if name not in self.names:
+            return float(base)
+        value = float(base * point.factors[column - 1][self.names.index(name)])
+        low, high = self.table.bound(material, name)  # a bound's own value, not one rounded past it
+        return min(max(value, low if low is not None else value), high if high is not None else value)
+
+    def parameters(self, point: CoDesignPoint) -> dict[str, float]:
+        """The FMU parameters that set the point's properties: ``name[m]`` of every varied name and material
+        (a material no column holds at its table value), so every point sets the same names."""
+        values = {
+            f"{name}[{m}]": float(getattr(material, name))
+            for name in self.names
+            for m, material in enumerate(self.table.materials, start=1)
+        }
+        for column, material in enumerate(point.order, start=1):
+            for name in self.names:
+                values[f"{name}[{material}]"] = self.value(point, column, name)
+        return values
+
+    def total_mass(self, point: CoDesignPoint) -> float:
+        """Section 12's stack mass, R D times the sum of each column's mass, in kg."""
+        return self.masses_per_column * math.fsum(
+            self.value(point, column, MASS) for column in range(1, self.columns + 1)
+        )
+
+    def budget_for(self, order: Sequence[int]) -> float:
+        """The mass budget: the one given, else ``order``'s own mass at the table's values."""
+        if self.mass_budget is not None:
+            return float(self.mass_budget)
+        return self.table.stack_mass(as_design(order), self.masses_per_column)
+
+    def mass_excess(self, point: CoDesignPoint, budget: float) -> float:
+        """How far (kg) the point's mass lies above ``budget``; 0 within it."""
+        excess = self.total_mass(point) - budget
+        return excess if excess > MASS_TOLERANCE * budget else 0.0
+
+    def columns_of(self, point: CoDesignPoint) -> tuple[ColumnProperties, ...]:
+        return tuple(
+            ColumnProperties(
+                column,
+                self.table.name_of(material),
+                {name: self.value(point, column, name) for name in FIELD_NAMES},
+                {name: point.factors[column - 1][i] for i, name in enumerate(self.names)},
+            )
+            for column, material in enumerate(point.order, start=1)
+        )
+
+
+@dataclass(frozen=True)
+class CoDesignObjective:
+    """The objective of a co-design point: the lattice objective's runs with the point's parameters set."""
+
+    base: LatticeObjective
+    space: CoDesignSpace
+
+    def evaluate(self, points: Sequence[CoDesignPoint], evaluator, fidelity: str = SEARCH) -> list[Evaluation]:
+        """Each point's evaluation through ``evaluator`` (cached by its runs' parameters, the factors
+        included)."""
+        tasks = self.base.tasks(fidelity)
+        items = [
+            EvaluateDesign(task.with_parameters(**self.space.parameters(point)), point.order)
+            for point in points
+            for task in tasks
+        ]
+        results = evaluator.run(items)
+        per = len(tasks)
+        return [self.base.combine(p.order, results[i * per : (i + 1) * per]) for i, p in enumerate(points)]
+
+
+@dataclass(frozen=True)
+class Scored:
+    """A point the search evaluated: its value (None: failed), its mass and whether it is within the budget."""
+
+    point: CoDesignPoint
+    value: float | None
+    mass: float
+    feasible: bool
+
+
+@dataclass(frozen=True)
+class SearchOutcome:
+    """What the co-design search found: the best feasible point at the search fidelity and every point it scored."""
+
+    best: Scored | None
+    scored: tuple[Scored, ...]
+    evaluations: int
+    stop: str
+
+
+def cmaes_search(
+    objective: CoDesignObjective,
+    evaluator,
+    start_order: Sequence[int],
+    budget: float,
+    evaluations: int,
+    seed: int = 0,
+    sigma0: float = 0.2,
+    fidelity: str = SEARCH,
+) -> SearchOutcome:
+    """CMA-ES (pycma) over the order's keys and the factors together, in [0, 1]-scaled coordinates, from
+    ``start_order`` at the table's values; the mass budget is pycma's augmented-Lagrangian constraint
+    (``cma.ConstrainedFitnessAL``). Stops when pycma does or before a population would pass ``evaluations``
+    points (the cache's repeats count too)."""
+    space = objective.space
+    x0 = space.encode(space.unit_point(start_order))
+    values: dict[tuple[float, ...], float] = {}
+    scored: list[Scored] = []
+    worst = [0.0]
+
+    def constraint(x) -> list[float]:
+        return [(space.total_mass(space.decode(x)) - budget) / budget]
+
+    with _quiet():
+        fitness = cma.ConstrainedFitnessAL(lambda x: values[tuple(x)], constraint, logging=0)
+    options = {"bounds": [0.0, 1.0], "seed": seed + 1, "verbose": -9, "verb_log": 0, "maxfevals": evaluations}
+    caller_state = np.random.get_state()  # pycma draws from numpy's global generator: the caller's is kept
+    with _quiet():
+        strategy = cma.CMAEvolutionStrategy(x0, sigma0, options)
+    used = 0
+    while used < evaluations:
+        with _quiet():
+            if strategy.stop():
+                break
+            xs = strategy.ask()
+        if used + len(xs) > evaluations:  # pycma is told whole populations only
+            break
+        points = [space.decode(x) for x in xs]
+        results = objective.evaluate(points, evaluator, fidelity)
+        used += len(xs)
+        for x, point, result in zip(xs, points, results):
+            mass = space.total_mass(point)
+            peak = result.value if result.ok else None
+            if peak is not None:
+                worst[0] = max(worst[0], float(peak))
+            values[tuple(x)] = float(peak) if peak is not None else 2.0 * worst[0] + 1.0
+            scored.append(
+                Scored(point, None if peak is None else float(peak), mass, space.mass_excess(point, budget) == 0)
+            )
+        with _quiet():
+            strategy.tell(xs, [fitness(x) for x in xs])
+            fitness.update(strategy)
+    feasible = [s for s in scored if s.feasible and s.value is not None]
+    best = min(feasible, key=lambda s: s.value or 0.0) if feasible else None
+    with _quiet():
+        reasons = strategy.stop()
+    np.random.set_state(caller_state)
+    stop = ", ".join(sorted(reasons)) if reasons else f"{evaluations} evaluations"
+    return SearchOutcome(best, tuple(scored), used, stop)
+
+
+@dataclass(frozen=True)
+class Polish:
+    """The polish of the continuous part at a fixed order: SLSQP from ``start`` to ``end`` (values at the
+    fidelity it ran at), its first-order optimality and the tolerance it was asked to meet."""
+
+    start: CoDesignPoint
+    end: CoDesignPoint
+    start_value: float
+    end_value: float
+    kkt_residual: float  # the largest component of the projected gradient of the Lagrangian, per unit of scaled x
+    # the steepest descent, relative to the value per unit of scaled x, of a step along an axis either way that
+    # stays feasible (0: none descends): first-order optimality where the value has a kink and no gradient
+    descent: float
+    tolerance: float
+    multiplier: float  # the mass constraint's Lagrange multiplier at the end (N per unit of scaled constraint)
+    active: bool  # the mass constraint binds at the end
+    iterations: int
+    evaluations: int
+    message: str
+    # at the end, d value / d ln(factor) per column and varied property (forward differences): how much a
+    # relative change of each layer's property moves the value
+    sensitivities: tuple[tuple[float, ...], ...] = ()
+
+    @property
+    def converged(self) -> bool:
+        """The smooth first-order conditions hold: the projected gradient of the Lagrangian within tolerance."""
+        return self.kkt_residual <= self.tolerance
+
+    @property
+    def no_descent(self) -> bool:
+        """No feasible step along an axis, either way, descends faster than the tolerance: a necessary first-order
+        condition that holds at a kink too (the sampled peak switching samples)."""
+        return self.descent <= self.tolerance
+
+
+def polish(
+    objective: CoDesignObjective,
+    evaluator,
+    start: CoDesignPoint,
+    budget: float,
+    fidelity: str,
+    step: float = 1e-3,
+    tolerance: float = 1e-2,
+    iterations: int = 30,
+) -> Polish:
+    """SLSQP on the factors of ``start``'s order (scaled coordinates in [0, 1], the mass budget an inequality
+    with its exact gradient, the value's gradient by forward differences of ``step``), then its first-order
+    optimality at the end: the projected gradient of the Lagrangian (a bound's component counts only when it
+    points into the box), relative to the value, and the mass constraint's multiplier from least squares; and,
+    since the sampled peak has kinks where no gradient exists, the steepest descent of a feasible step of ``step``
+    along each axis, both ways."""
+    space = objective.space
+    order = start.order
+    keys = space.space.key_dimension
+    z0 = space.encode(start)[keys:]
+    cache: dict[tuple[float, ...], float] = {}
+    counted = [0]
+
+    def points_of(zs: Sequence[np.ndarray]) -> list[CoDesignPoint]:
+        per = len(space.names)
+        return [
+            space.with_factors(
+                order, [space.factor_of(v, order[i // per], space.names[i % per]) for i, v in enumerate(z)]
+            )
+            for z in zs
+        ]
+
+    def values_of(zs: Sequence[np.ndarray]) -> list[float]:
+        todo = [z for z in zs if tuple(z) not in cache]
+        if todo:
+            results = objective.evaluate(points_of(todo), evaluator, fidelity)
+            counted[0] += len(todo)
+            for z, result in zip(todo, results):
+                if not result.ok or result.value is None:
+                    raise RuntimeError(f"the polish's run of {list(order)} failed: {result.message}")
+                cache[tuple(z)] = float(result.value)
+        return [cache[tuple(z)] for z in zs]
+
+    def differences(z: np.ndarray) -> tuple[float, np.ndarray]:
+        z = np.asarray(z, dtype=float)
+        shifted = []
+        for i in range(len(z)):
+            moved = z.copy()
+            moved[i] = z[i] + step if z[i] + step <= 1.0 else z[i] - step
+            shifted.append(moved)
+        value, *others = values_of([z] + shifted)
+        gradient = np.array([(o - value) / (s[i] - z[i]) for i, (o, s) in enumerate(zip(others, shifted))])
+        return value, gradient
+
+    scale = [1.0]
+
+    def fun(z):
+        return differences(z)[0] / scale[0]
+
+    def jac(z):
+        return differences(z)[1] / scale[0]
+
+    mass_names = [i for i, name in enumerate(space.names) if name == MASS]
+
+    def mass_slack(z) -> float:  # >= 0 within the budget, relative to it
+        return (budget - space.total_mass(points_of([np.asarray(z)])[0])) / budget
+
+    def mass_slack_gradient(z) -> np.ndarray:
+        gradient = np.zeros(len(z))
+        per = len(space.names)
+        for column in range(1, space.columns + 1):
+            for i in mass_names:
+                index = (column - 1) * per + i
+                base = getattr(space.table.materials[order[column - 1] - 1], MASS)
+                factor = space.factor_of(z[index], order[column - 1], MASS)
+                gradient[index] = (
+                    -space.masses_per_column * base * factor * space.log_span(order[column - 1], MASS) / budget
+                )
+        return gradient
+
+    start_value = values_of([z0])[0]
+    scale[0] = abs(start_value) or 1.0
+    constraints = [{"type": "ineq", "fun": mass_slack, "jac": mass_slack_gradient}] if mass_names else []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = minimize(
+            fun,
+            z0,
+            jac=jac,
+            method="SLSQP",
+            bounds=[(0.0, 1.0)] * len(z0),
+            constraints=constraints,
+            options={"maxiter": iterations, "ftol": 1e-9},
+        )
+    z = np.clip(np.asarray(result.x, dtype=float), 0.0, 1.0)
+    if mass_slack(z) < -MASS_TOLERANCE or values_of([z])[0] > start_value:
+        z = z0  # SLSQP ended outside the budget or above its start: the start stands
+    value, gradient = differences(z)
+    gradient = gradient / scale[0]
+    slack = mass_slack(z) if mass_names else math.inf
+    active = bool(mass_names) and slack <= 1e-6
+    multiplier = 0.0
+    if active:
+        normal = mass_slack_gradient(z)
+        free = (z > 1e-9) & (z < 1 - 1e-9)
+        if np.any(free) and float(normal[free] @ normal[free]) > 0:
+            multiplier = max(0.0, float(gradient[free] @ normal[free] / (normal[free] @ normal[free])))
+    moves = []  # one step each way along each axis that stays in the box and the budget
+    for i in range(len(z)):
+        for target in (z[i] + step, z[i] - step):
+            moved = z.copy()
+            moved[i] = target
+            if 0.0 <= target <= 1.0 and (not mass_names or mass_slack(moved) >= -MASS_TOLERANCE):
+                moves.append(moved)
+    slopes = [(v - value) / step / scale[0] for v in values_of(moves)]
+    lagrangian = gradient - multiplier * (mass_slack_gradient(z) if active else 0.0)
+    projected = np.where(
+        z <= 1e-9, np.minimum(lagrangian, 0.0), np.where(z >= 1 - 1e-9, np.maximum(lagrangian, 0.0), lagrangian)
+    )
+    return Polish(
+        start=start,
+        end=points_of([z])[0],
+        start_value=start_value,
+        end_value=value,
+        kkt_residual=float(np.max(np.abs(projected))) if len(projected) else 0.0,
+        descent=max([0.0] + [-slope for slope in slopes]),
+        tolerance=tolerance,
+        multiplier=multiplier * scale[0],
+        active=active,
+        iterations=int(getattr(result, "nit", 0)),
+        evaluations=counted[0],
+        message=str(result.message),
+        sensitivities=tuple(
+            tuple(
+                float(gradient[column * len(space.names) + i] * scale[0] / space.log_span(order[column], name))
+                for i, name in enumerate(space.names)
+            )
+            for column in range(space.columns)
+        ),
+    )
+
+
+@dataclass(frozen=True)
+class FrontDesign:
+    """A design on the co-design front: its values at the search fidelity (what the front is chosen by) and at
+    full fidelity (what is reported), one per objective."""
+
+    point: CoDesignPoint
+    search_values: tuple[float, ...]
+    full_values: tuple[float, ...] | None  # None: its full-fidelity run failed
+
+
+@dataclass(frozen=True)
+class CoDesignFront:
+    """The front of the objectives (the peak against the stack's mass) over order and factors: the designs no
+    other design NSGA-II evaluated dominates at the search fidelity, by the first objective."""
+
+    designs: tuple[FrontDesign, ...]
+    evaluated: tuple[tuple[float, ...], ...]  # every evaluated design's values at the search fidelity
+    evaluations: int
+
+
+def nsga2_front(
+    objective: CoDesignObjective,
+    evaluator,
+    start_order: Sequence[int],
+    evaluations: int,
+    seed: int = 0,
+    population: int = 40,
+) -> CoDesignFront:
+    """pymoo's NSGA-II over the order's keys and the factors in [0, 1]-scaled coordinates (its first population
+    holds ``start_order`` at the table's values), every objective of ``objective``'s lattice objective minimised;
+    the front is the non-dominated set of every design it evaluated, then evaluated at full fidelity."""
+    from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.core.evaluator import Evaluator as PymooEvaluator
+    from pymoo.core.problem import Problem
+    from pymoo.problems.static import StaticProblem
+
+    from .search.pareto import non_dominated
+
+    space = objective.space
+    rng = np.random.default_rng(seed)
+    first = rng.random((population, space.dimension))
+    first[0] = space.encode(space.unit_point(start_order))
+    problem = Problem(n_var=space.dimension, n_obj=objective.base.n_objectives, xl=0.0, xu=1.0)
+    algorithm = NSGA2(pop_size=population, sampling=first)
+    algorithm.setup(problem, termination=("n_eval", evaluations), seed=seed, verbose=False)
+    points: list[CoDesignPoint] = []
+    values: list[tuple[float, ...]] = []
+    used = 0
+    while algorithm.has_next() and used < evaluations:
+        asked = algorithm.ask()
+        xs = asked.get("X")
+        batch = [space.decode(x) for x in xs]
+        results = objective.evaluate(batch, evaluator, SEARCH)
+        used += len(batch)
+        told = []
+        for point, result in zip(batch, results):
+            if result.ok and result.value is not None:
+                own = tuple(float(v) for v in (result.values or (result.value,)))
+                points.append(point)
+                values.append(own)
+                told.append(own)
+            else:  # a failed design ranks behind every evaluated one
+                told.append(tuple(math.inf for _ in range(problem.n_obj)))
+        worst = np.max(np.array(values), axis=0) if values else np.ones(problem.n_obj)
+        told_matrix = np.array([[w * 2 + 1 if math.isinf(v) else v for v, w in zip(row, worst)] for row in told])
+        PymooEvaluator().eval(StaticProblem(problem, F=told_matrix), asked)
+        algorithm.tell(infills=asked)
+    if not values:
+        return CoDesignFront((), (), used)
+    mask = non_dominated(values)
+    chosen = sorted((i for i in range(len(values)) if mask[i]), key=lambda i: values[i])
+    unique = list({points[i]: i for i in chosen}.values())
+    full = objective.evaluate([points[i] for i in unique], evaluator, FULL)
+    designs = tuple(
+        FrontDesign(
+            points[i],
+            values[i],
+            tuple(float(v) for v in (e.values or (e.value,))) if e.ok and e.value is not None else None,
+        )
+        for i, e in zip(unique, full)
+    )
+    return CoDesignFront(designs, tuple(values), used)
+
+
+@contextlib.contextmanager
+def _quiet():
+    """pycma's console notes and warnings stay out of the run's output, and its augmented Lagrangian makes no log
+    folder in the working folder (pycma's own switch: its constraints handler's logger replaced by the dummy)."""
+    handler = cma.constraints_handler
+    logger = handler._Logger
+    handler._Logger = cma.logger.LoggerDummy
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+            warnings.simplefilter("ignore")
+            yield
+    finally:
+        handler._Logger = logger
+
+
+__all__ = [
+    "CoDesignFront",
+    "CoDesignObjective",
+    "CoDesignPoint",
+    "CoDesignSpace",
+    "ColumnProperties",
+    "DEFAULT_RANGE",
+    "FrontDesign",
+    "Polish",
+    "Scored",
+    "SearchOutcome",
+    "cmaes_search",
+    "nsga2_front",
+    "parse_vary",
+    "parse_vary_range",
+    "polish",
+    "table_columns",
+]

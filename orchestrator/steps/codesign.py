@@ -1,0 +1,273 @@
+"""Co-design (docs/model.md section 12): each rule's best order, its columns' properties varied with it.
+
+With ``--vary`` the order search runs as without it (at the table's values: the sweep still certifies the order
+there); then, under each rule, CMA-ES searches the order's keys and every column's factors together from that
+rule's best order, within the mass budget, and SLSQP polishes the factors at the order CMA-ES ends at. The
+answer is the better, at full fidelity, of the polished design and the order at the table's values, so it is
+never above the order search's answer.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..codesign import (
+    DEFAULT_RANGE,
+    CoDesignObjective,
+    CoDesignPoint,
+    CoDesignSpace,
+    ColumnProperties,
+    Polish,
+    cmaes_search,
+    nsga2_front,
+    parse_vary,
+    parse_vary_range,
+    polish,
+)
+from ..objective import FULL
+from ..options import check_options, given, integer, number, option
+from ..simulation import declared_parameters, model_description
+from ..study import Step, StudyContext
+from ..types import RunOutputs
+from .final_descent import rule_best
+from .searches import rule_label
+
+MASS_OUTPUT = "stack_mass"
+
+
+@dataclass(frozen=True)
+class CoDesignConfig:
+    vary: str | None = option(
+        None,
+        "co-design: the material properties each column may vary, separated by commas, any of docs/model.md "
+        "section 12's: k, k_diag, c, alpha, alpha_diag, mass, damping_exponent",
+        metavar="NAMES",
+        show_default="none: the order alone, at the table's values",
+    )
+    vary_range: str = option(
+        f"{DEFAULT_RANGE[0]:g},{DEFAULT_RANGE[1]:g}",
+        "with --vary: the factor range LOW,HIGH each varied property of a column may take of its material's value "
+        "(a material table's columns NAME_min, NAME_max give a material's own bounds instead)",
+        metavar="LOW,HIGH",
+    )
+    mass_budget: float | None = option(
+        None,
+        "with --vary: the stack's largest total mass in kg (a heavier design is infeasible)",
+        show_default="the mass of each rule's best order at the table's values",
+        metavar="KG",
+        type=number("--mass-budget", 0),
+    )
+    vary_budget: int = option(
+        2000,
+        "with --vary: designs (order and factors) CMA-ES evaluates under each rule, before the polish",
+        type=integer("--vary-budget", 2, 10**7),
+    )
+
+    def __post_init__(self):
+        check_options(self)
+        if self.vary is not None:
+            parse_vary(self.vary)
+        parse_vary_range(self.vary_range)
+
+
+@dataclass(frozen=True)
+class CoDesignAnswer:
+    """A rule's co-design: the design (order and factors), its columns, its mass against the budget, its value
+    at full fidelity against the order's at the table's values, and how it was found."""
+
+    diagonal_rule: str
+    point: CoDesignPoint
+    columns: tuple[ColumnProperties, ...]
+    total_mass: float  # kg
+    mass_budget: float  # kg
+    peak: float  # the objective at full fidelity
+    outputs: RunOutputs | None
+    start_order: tuple[int, ...]  # the order search's answer under the rule
+    start_peak: float  # its value at full fidelity at the table's values
+    search_evaluations: int
+    search_best: float | None  # CMA-ES's best feasible value at the search fidelity
+    search_stop: str
+    polish: Polish | None
+    varied: dict[str, float]  # the FMU parameters name[m] the design sets away from the table
+
+    @property
+    def improvement(self) -> float:
+        return self.start_peak - self.peak
+
+
+@dataclass(frozen=True)
+class FrontLayer:
+    """A design of a rule's co-design front: order and factors, its columns, its values (the objective, then
+    the stack's mass) at the search fidelity that chose it and at full fidelity (None: that run failed)."""
+
+    point: CoDesignPoint
+    columns: tuple[ColumnProperties, ...]
+    search_values: tuple[float, ...]
+    full_values: tuple[float, ...] | None
+
+
+@dataclass(frozen=True)
+class RuleFront:
+    diagonal_rule: str
+    designs: tuple[FrontLayer, ...]  # by the objective, lowest first
+    evaluations: int  # designs NSGA-II evaluated
+
+
+@dataclass(frozen=True)
+class CoDesignResult:
+    names: tuple[str, ...]
+    factor_range: tuple[float, float]
+    answers: tuple[CoDesignAnswer, ...]
+    fronts: tuple[RuleFront, ...] = ()
+
+    def for_rule(self, label: str) -> CoDesignAnswer | None:
+        return next((a for a in self.answers if a.diagonal_rule == label), None)
+
+
+def codesign_space(context: StudyContext, config: CoDesignConfig) -> CoDesignSpace:
+    low, high = parse_vary_range(config.vary_range)
+    case = context.case
+    return CoDesignSpace(
+        case.space,
+        case.materials,
+        parse_vary(config.vary or ""),
+        low,
+        high,
+        case.rows * case.depth,
+        config.mass_budget,
+    )
+
+
+class CoDesign(Step):
+    name = "codesign"
+    title = "Co-design: order and properties"
+    template = "codesign.html.j2"
+    Config = CoDesignConfig
+
+    def applies(self, context: StudyContext) -> bool:
+        return self.config.vary is not None
+
+    def check(self, context: StudyContext) -> None:
+        """Refuses, before any simulation: the options of --vary without it, a design space or objective it has
+        no meaning in, an FMU without the varied parameters, and a range outside the FMU's declared ranges."""
+        config = self.config
+        if config.vary is None:
+            stray = sorted(given(config) - {"vary"})
+            if stray:
+                raise ValueError(f"--{stray[0].replace('_', '-')}: only with --vary (co-design)")
+            return
+        if context.case.space.kind == "repetition":
+            raise ValueError("--vary: not with --repeat (a material in several columns has one value of each property)")
+        outputs = context.case.outputs
+        if len(outputs) > 1 and (len(outputs) != 2 or outputs[1] != MASS_OUTPUT or outputs[0] == MASS_OUTPUT):
+            raise ValueError(
+                f"--vary: one objective, or an objective and the stack's mass (--objective sampled,mass), not "
+                f"{','.join(outputs)}"
+            )
+        if len(outputs) == 2 and config.mass_budget is not None:
+            raise ValueError("--mass-budget: not with --objective ...,mass (the mass is an objective: its front)")
+        space = codesign_space(context, config)
+        declared = declared_parameters(model_description(context.fmu.path))
+        for name in space.names:
+            for m, material in enumerate(space.table.materials, start=1):
+                parameter = declared.get(f"{name}[{m}]")
+                if parameter is None:
+                    raise ValueError(
+                        f"--vary {name}: {context.fmu.path.name} has no parameter {name}[{m}] (rebuild it from "
+                        "these sources)"
+                    )
+                base = float(getattr(material, name))
+                for factor in space.factor_range(m, name):
+                    parameter.value(base * factor, f"--vary-range {config.vary_range}: ")
+
+    def run(self, context: StudyContext) -> CoDesignResult:
+        config = self.config
+        space = codesign_space(context, config)
+        if len(context.case.outputs) == 2:
+            return self.fronts(context, space)
+        answers = []
+        for index, rule in enumerate(context.rules):
+            label = rule_label(rule)
+            best = rule_best(context, label)
+            if best is None:
+                continue
+            objective = CoDesignObjective(context.objective(rule), space)
+            budget = space.budget_for(best.order)
+            start = space.unit_point(best.order)
+            (start_full,) = objective.evaluate([start], context.evaluator, FULL)
+            outcome = cmaes_search(objective, context.evaluator, best.order, budget, config.vary_budget, seed=index)
+            found = outcome.best.point if outcome.best is not None else start
+            if space.mass_excess(start, budget) > 0 and outcome.best is None:
+                continue  # the order search's answer is above the budget and CMA-ES found nothing within it
+            try:
+                polished: Polish | None = polish(objective, context.evaluator, found, budget, FULL)
+            except RuntimeError:  # a run of the polish failed: CMA-ES's design stands, unpolished
+                polished = None
+            end = polished.end if polished is not None else found
+            candidates = [end] + ([start] if space.mass_excess(start, budget) == 0 else [])
+            evaluations = objective.evaluate(candidates, context.evaluator, FULL)
+            valued = [(p, e) for p, e in zip(candidates, evaluations) if e.ok and e.value is not None]
+            if not valued:
+                continue  # no candidate has a value at full fidelity: the order search's answer stands
+            chosen, evaluation = min(valued, key=lambda pair: float(pair[1].value or 0.0))
+            answers.append(
+                CoDesignAnswer(
+                    diagonal_rule=label,
+                    point=chosen,
+                    columns=space.columns_of(chosen),
+                    total_mass=space.total_mass(chosen),
+                    mass_budget=budget,
+                    peak=float(evaluation.value or 0.0),
+                    outputs=evaluation.outputs,
+                    start_order=best.order,
+                    start_peak=float(start_full.value) if start_full.value is not None else float("nan"),
+                    search_evaluations=outcome.evaluations,
+                    search_best=outcome.best.value if outcome.best is not None else None,
+                    search_stop=outcome.stop,
+                    polish=polished,
+                    varied=varied_parameters(space, chosen),
+                )
+            )
+        return CoDesignResult(space.names, (space.low, space.high), tuple(answers))
+
+    def fronts(self, context: StudyContext, space: CoDesignSpace) -> CoDesignResult:
+        """Under each rule, NSGA-II's front of the objective against the stack's mass, from the space's baseline
+        order at the table's values."""
+        fronts = []
+        for index, rule in enumerate(context.rules):
+            objective = CoDesignObjective(context.objective(rule), space)
+            front = nsga2_front(
+                objective, context.evaluator, context.case.space.baseline(), self.config.vary_budget, seed=index
+            )
+            fronts.append(
+                RuleFront(
+                    rule_label(rule),
+                    tuple(
+                        FrontLayer(d.point, space.columns_of(d.point), d.search_values, d.full_values)
+                        for d in front.designs
+                    ),
+                    front.evaluations,
+                )
+            )
+        return CoDesignResult(space.names, (space.low, space.high), (), tuple(fronts))
+
+    def cost_note(self, context: StudyContext) -> str:
+        return (
+            "CMA-ES over order and factors (--vary-budget designs per rule), then the polish's finite differences; "
+            "with --objective ...,mass NSGA-II (--vary-budget designs per rule) and its front at full fidelity"
+        )
+
+
+def varied_parameters(space: CoDesignSpace, point: CoDesignPoint) -> dict[str, float]:
+    """The FMU parameters ``name[m]`` the point sets away from the table's values, by column order."""
+    values = space.parameters(point)
+    varied = {}
+    for material in point.order:
+        for name in space.names:
+            key = f"{name}[{material}]"
+            if values[key] != float(getattr(space.table.materials[material - 1], name)):
+                varied[key] = values[key]
+    return varied
+
+
+__all__ = ["CoDesign", "CoDesignAnswer", "CoDesignConfig", "CoDesignResult", "FrontLayer", "RuleFront"]

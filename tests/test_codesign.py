@@ -1,0 +1,327 @@
+"""Co-design (docs/model.md section 12): the order and each column's properties searched together.
+
+The design's representation (order and factors, scaled coordinates, the FMU parameters it sets, the stack's
+mass against the budget), the options' one-line refusals before anything runs, the evaluator's cache telling
+factors apart, and a whole run on the 11 x 3 lattice: its answer carries each column's properties and the
+stack's mass within the budget, is at most the order search's answer, and its parameters, typed into FMPy, give
+its peak.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+
+from command_line import main, one_line
+from fmu_src.materials import FIELD_NAMES, MaterialTableError, load_materials, study_materials
+from orchestrator.codesign import (
+    CoDesignObjective,
+    CoDesignSpace,
+    cmaes_search,
+    nsga2_front,
+    parse_vary,
+    parse_vary_range,
+    polish,
+)
+from orchestrator.design import DesignSpace
+from orchestrator.executors import SerialExecutor
+from orchestrator.loop import Evaluator
+from orchestrator.objective import FULL, SEARCH, LatticeObjective
+from orchestrator.search.pareto import dominated_by
+from orchestrator.ssp import read_design_parameters
+
+TABLE = study_materials(3)
+ROWS = 11
+
+
+def codesign_space(names=("k", "c", "mass"), budget=None, low=0.5, high=2.0) -> CoDesignSpace:
+    return CoDesignSpace(DesignSpace.permutations(3), TABLE, names, low, high, ROWS, budget)
+
+
+def test_a_point_decodes_to_the_order_and_factors_it_was_encoded_from():
+    space = codesign_space()
+    point = space.with_factors((2, 3, 1), [0.5, 1.0, 2.0, 0.7, 1.3, 1.0, 1.9, 0.6, 0.8])
+    x = space.encode(point)
+    assert len(x) == space.dimension == 3 + 9
+    assert np.all((x >= 0) & (x <= 1))
+    again = space.decode(x)
+    assert again.order == point.order
+    np.testing.assert_allclose(np.array(again.factors), np.array(point.factors), rtol=1e-12)
+    assert space.scaled_of(1.0, 1, "k") == pytest.approx(0.5)  # factor 1 in the middle of a range symmetric about it
+
+
+def test_a_point_sets_its_columns_materials_parameters_and_weighs_what_section_12_says():
+    space = codesign_space()
+    point = space.with_factors((2, 3, 1), [0.5, 1.0, 2.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
+    parameters = space.parameters(point)
+    assert set(parameters) == {f"{n}[{m}]" for n in ("k", "c", "mass") for m in (1, 2, 3)}
+    assert parameters["k[2]"] == pytest.approx(0.5 * TABLE.materials[1].k)  # column 1 holds material 2
+    assert parameters["mass[2]"] == pytest.approx(2.0)
+    assert parameters["k[3]"] == TABLE.materials[2].k
+    assert space.total_mass(point) == pytest.approx(ROWS * (2.0 + 1.0 + 1.0))
+    assert space.budget_for((2, 3, 1)) == pytest.approx(ROWS * 3.0)
+    assert space.mass_excess(point, space.budget_for((2, 3, 1))) == pytest.approx(ROWS * 1.0)
+    assert space.mass_excess(space.unit_point((2, 3, 1)), ROWS * 3.0) == 0
+    columns = space.columns_of(point)
+    assert [c.material for c in columns] == ["m2", "m3", "m1"]
+    assert set(columns[0].values) == set(FIELD_NAMES) and columns[0].factors == {"k": 0.5, "c": 1.0, "mass": 2.0}
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [("k,stiffness", "--vary 'stiffness': allowed values are k, k_diag"), ("k,k", "each property once")],
+)
+def test_vary_names_are_section_12s(text, words):
+    with pytest.raises(ValueError, match=words):
+        parse_vary(text)
+
+
+@pytest.mark.parametrize("text", ["2,0.5", "0,2", "1.5,2", "0.5", "a,b", "0.5,inf"])
+def test_a_vary_range_must_hold_the_tables_value(text):
+    with pytest.raises(ValueError, match="--vary-range"):
+        parse_vary_range(text)
+
+
+def test_repeated_materials_cannot_vary_per_column():
+    with pytest.raises(ValueError, match="not with --repeat"):
+        CoDesignSpace(DesignSpace(3, 3, repeat=True), TABLE, ("k",))
+
+
+@pytest.mark.parametrize(
+    "options, words",
+    [
+        (("--vary", "k,stiffness"), "--vary 'stiffness': allowed values are"),
+        (("--vary", "k", "--vary-range", "2,0.5"), "--vary-range '2,0.5': allowed values are"),
+        (("--mass-budget", "30"), "--mass-budget: only with --vary"),
+        (("--vary-range", "0.5,3"), "--vary-range: only with --vary"),
+        (("--vary", "k", "--repeat"), "--vary: not with --repeat"),
+        (("--vary", "mass", "--mass-budget", "-1"), "--mass-budget must be a finite number > 0"),
+        (
+            ("--vary", "k", "--objective", "sampled,max_compression"),
+            "--vary: one objective, or an objective and the stack's mass",
+        ),
+    ],
+)
+def test_co_design_options_are_refused_in_one_line_before_any_run(armour_fmu_of_width, tmp_path, capfd, options, words):
+    code = main("--fmu", armour_fmu_of_width(3), "--cols", 3, "--out", tmp_path / "out", "--no-progress", *options)
+    line = one_line(capfd)
+    assert code == 2 and words in line, line
+    assert not (tmp_path / "out").exists() and not (tmp_path / "out.partial" / "journal.jsonl").exists()
+
+
+def test_the_cache_tells_designs_of_one_order_with_other_factors_apart(armour_fmu_of_width):
+    fmu = armour_fmu_of_width(3)
+    space = codesign_space(("k",))
+    objective = CoDesignObjective(LatticeObjective(fmu, space.space, 8.0), space)
+    evaluator = Evaluator(SerialExecutor())
+    unit = space.unit_point((1, 2, 3))
+    softer = space.with_factors((1, 2, 3), [0.5, 0.5, 0.5])
+    first = objective.evaluate([unit, softer, unit], evaluator, FULL)
+    assert evaluator.state().simulated == 2
+    assert first[0].value == first[2].value and not math.isclose(first[0].value, first[1].value, rel_tol=1e-6)
+    plain = LatticeObjective(fmu, space.space, 8.0).evaluate([(1, 2, 3)], evaluator, FULL)[0]
+    assert plain.value == pytest.approx(first[0].value, rel=1e-12)  # the table's values, set or not, are one design
+
+
+def test_the_search_keeps_to_the_budget_and_the_polish_reports_its_optimality(
+    armour_fmu_of_width, tmp_path, monkeypatch
+):
+    monkeypatch.chdir(tmp_path)  # pycma writes no log files into the working folder
+    space = codesign_space(("k", "mass"))
+    objective = CoDesignObjective(LatticeObjective(armour_fmu_of_width(3), space.space, 8.0), space)
+    evaluator = Evaluator(SerialExecutor())
+    budget = 0.9 * space.budget_for((1, 2, 3))  # below the order's own mass: the start is infeasible
+    outcome = cmaes_search(objective, evaluator, (1, 2, 3), budget, 200, seed=3)
+    assert outcome.best is not None and outcome.best.feasible
+    assert space.total_mass(outcome.best.point) <= budget * (1 + 1e-9)
+    assert any(not s.feasible for s in outcome.scored)  # the search met the constraint, it was not clipped away
+    assert all(s.feasible == (s.mass <= budget * (1 + 1e-9)) for s in outcome.scored)
+    polished = polish(objective, evaluator, outcome.best.point, budget, FULL, iterations=5)
+    assert polished.end_value <= polished.start_value
+    assert space.total_mass(polished.end) <= budget * (1 + 1e-9)
+    assert polished.kkt_residual >= 0 and polished.descent >= 0 and polished.tolerance > 0 and polished.evaluations > 0
+    assert [len(row) for row in polished.sensitivities] == [2, 2, 2]  # per column, per varied property
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak(armour_fmu_of_width, tmp_path, capfd):
+    fmu = armour_fmu_of_width(3)
+    out = tmp_path / "run"
+    common = ("--fmu", fmu, "--cols", 3, "--diagonal-rule", "mean", "--no-progress", "--budget", 6, "--repeats", 1)
+    assert main(*common, "--out", out, "--vary", "k,c,mass", "--vary-budget", 150) == 0
+    printed = capfd.readouterr().out
+    assert "  co-design: " in printed and " kg of 33.00 kg; from " in printed
+    record = json.loads((out / "results.json").read_text())
+    answer = record["answers"][0]
+    report = (out / "report.html").read_text()
+    assert "Each layer (co-design" in report and "first-order optimality: the projected gradient" in report
+    codesign = record["steps"]["codesign"]["answers"][0]
+    assert answer["total_mass"] <= codesign["mass_budget"] * (1 + 1e-9)
+    assert codesign["mass_budget"] == pytest.approx(ROWS * 3.0)  # the order's own mass at the table's values
+    assert answer["peak"] <= codesign["start_peak"]
+    assert [c["column"] for c in answer["columns"]] == [1, 2, 3]
+    for column in answer["columns"]:
+        assert set(column["values"]) == set(FIELD_NAMES) and set(column["factors"]) == {"k", "c", "mass"}
+        assert all(0.5 <= f <= 2.0 for f in column["factors"].values())
+    assert answer["total_mass"] == pytest.approx(ROWS * sum(c["values"]["mass"] for c in answer["columns"]))
+    parameters = answer["parameters"]
+    assert any(name.startswith("mass[") for name in parameters)
+    result = simulate_fmu(str(fmu), start_values=parameters, stop_time=8.0, output=["peak_backplate_force"])
+    assert result["peak_backplate_force"][-1] == pytest.approx(answer["peak"], rel=1e-6)
+    in_file = read_design_parameters(out / "best_design.ssp")
+    for name, value in parameters.items():
+        assert in_file[name] == pytest.approx(value, rel=1e-12), name
+
+
+GRID = 7  # points per factor, evenly spaced in the scaled coordinate: a spacing of 1/6 of the range's log
+
+
+@pytest.mark.slow
+def test_on_an_11_x_2_lattice_a_grid_of_the_factors_confirms_the_co_design_to_its_spacing(armour_fmu_of_width):
+    """Two columns (two orders), k and c varied in each: every order at every point of a 7^4 grid of the scaled
+    factors, against CMA-ES and the polish at the same (search) fidelity."""
+    table = study_materials(2)
+    space = CoDesignSpace(DesignSpace.permutations(2), table, ("k", "c"), 0.5, 2.0, ROWS)
+    objective = CoDesignObjective(
+        LatticeObjective(armour_fmu_of_width(2), space.space, 8.0, parameters={"diagonal_rule": "mean"}), space
+    )
+    evaluator = Evaluator(SerialExecutor())
+    ticks = np.linspace(0.0, 1.0, GRID)
+    cells = list(itertools.product(range(GRID), repeat=4))
+    grid = {}
+    for order in ((1, 2), (2, 1)):
+        names = [(order[j], name) for j in range(2) for name in space.names]
+        points = [
+            space.with_factors(order, [space.factor_of(ticks[i], *names[axis]) for axis, i in enumerate(cell)])
+            for cell in cells
+        ]
+        for cell, result in zip(cells, objective.evaluate(points, evaluator, SEARCH)):
+            assert result.ok, result.message
+            grid[order, cell] = result.value
+    (best_order, best_cell), best = min(grid.items(), key=lambda item: item[1])
+    neighbours = [
+        grid[best_order, tuple(c + d * (i == axis) for i, c in enumerate(best_cell))]
+        for axis in range(4)
+        for d in (-1, 1)
+        if 0 <= best_cell[axis] + d < GRID
+    ]
+    spread = max(abs(v - best) for v in neighbours)  # how much the value moves over one spacing there
+
+    budget = space.budget_for((1, 2))
+    outcome = cmaes_search(objective, evaluator, (1, 2), budget, 600, seed=0)
+    polished = polish(objective, evaluator, outcome.best.point, budget, SEARCH)
+    found = min((outcome.best.value, outcome.best.point), (polished.end_value, polished.end), key=lambda p: p[0])
+    value, point = found
+    assert point.order == best_order
+    assert best - spread <= value <= best * (1 + 1e-9)
+    scaled = space.encode(point)[space.space.key_dimension :]
+    assert np.all(np.abs(scaled - ticks[list(best_cell)]) <= 1.0 / (GRID - 1) + 1e-9), (scaled, best_cell)
+
+
+def test_the_front_of_peak_against_mass_is_never_dominated_by_a_design_the_run_evaluated(armour_fmu_of_width):
+    space = codesign_space(("k", "mass"))
+    lattice = LatticeObjective(armour_fmu_of_width(3), space.space, 8.0, ("peak_backplate_force", "stack_mass"))
+    evaluator = Evaluator(SerialExecutor())
+    front = nsga2_front(CoDesignObjective(lattice, space), evaluator, (1, 2, 3), 160, seed=1, population=20)
+    assert len(front.evaluated) == front.evaluations == 160 and len(front.designs) >= 2
+    on_front = [d.search_values for d in front.designs]
+    assert not np.any(dominated_by(on_front, front.evaluated))
+    for design in front.designs:  # the FMU's stack_mass is section 12's, and the full fidelity's run is reported
+        assert design.search_values[1] == pytest.approx(space.total_mass(design.point), rel=1e-12)
+        assert design.full_values is not None and design.full_values[1] == pytest.approx(design.search_values[1])
+    masses = [d.search_values[1] for d in front.designs]
+    assert masses == sorted(masses, reverse=True)  # by the peak, lowest first: the mass falls along the front
+
+
+def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, capfd):
+    out = tmp_path / "front"
+    options = ("--fmu", armour_fmu_of_width(3), "--cols", 3, "--diagonal-rule", "mean", "--no-progress")
+    assert (
+        main(
+            *options,
+            "--out",
+            out,
+            "--budget",
+            6,
+            "--repeats",
+            1,
+            "--vary",
+            "k,mass",
+            "--objective",
+            "sampled,mass",
+            "--vary-budget",
+            80,
+        )
+        == 0
+    )
+    assert "designs (order and factors) on the co-design front" in capfd.readouterr().out
+    fronts = json.loads((out / "results.json").read_text())["steps"]["codesign"]["fronts"]
+    assert "on the front of the objective against the" in (out / "report.html").read_text()
+    assert fronts[0]["diagonal_rule"] == "mean" and fronts[0]["designs"]
+    assert (
+        main(*options, "--out", tmp_path / "no", "--vary", "k", "--objective", "sampled,mass", "--mass-budget", 30) == 2
+    )
+    assert "--mass-budget: not with --objective ...,mass" in one_line(capfd)
+
+
+def test_a_tables_bounds_give_each_materials_own_range(tmp_path):
+    path = tmp_path / "bounded.csv"
+    path.write_text(
+        "name,k,k_diag,c,alpha,alpha_diag,k_min,k_max,mass_max\n"
+        "steel,100,50,5,10,10,80,300,1.5\n"
+        "aramid,44,22,2,10,10,,,\n"
+        "foam,8,4,0.4,10,10,4,,\n"
+    )
+    table = load_materials(path)
+    assert table.bound(1, "k") == (80.0, 300.0) and table.bound(1, "mass") == (None, 1.5)
+    assert table.bound(2, "k") == (None, None) and table.bound(3, "k") == (4.0, None)
+    space = CoDesignSpace(DesignSpace.permutations(3), table, ("k", "mass"), 0.5, 2.0, ROWS)
+    assert space.factor_range(1, "k") == pytest.approx((0.8, 3.0))
+    assert space.factor_range(1, "mass") == pytest.approx((0.5, 1.5))
+    assert space.factor_range(2, "k") == (0.5, 2.0) and space.factor_range(3, "k") == pytest.approx((0.5, 2.0))
+    rng = np.random.default_rng(0)
+    ends = space.decode(np.concatenate([space.space.to_keys((1, 2, 3)), np.ones(6)]))
+    assert space.value(ends, 1, "k") == 300.0 and space.value(ends, 1, "mass") == 1.5  # the bound itself
+    for _ in range(50):  # every point decodes within each column's material's own bounds
+        point = space.decode(rng.random(space.dimension))
+        for column, material in enumerate(point.order, start=1):
+            low, high = space.factor_range(material, "k")
+            assert low * (1 - 1e-12) <= point.factors[column - 1][0] <= high * (1 + 1e-12)
+        for column in range(1, 4):
+            low, high = table.bound(point.order[column - 1], "k")
+            assert (low or 0) <= space.value(point, column, "k") <= (high or math.inf)
+        again = space.decode(space.encode(point))
+        np.testing.assert_allclose(np.array(again.factors), np.array(point.factors), rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "header, row, words",
+    [
+        ("k_min", "120", "field k: 100.0 is outside its bounds [120.0, -]"),
+        ("k_max", "-3", "field k_max: '-3' is not allowed; allowed: a finite number > 0 (N)"),
+        ("stiffness_max", "3", "unknown field 'stiffness_max'"),
+    ],
+)
+def test_a_bad_bound_is_refused_in_one_line_naming_its_row_and_field(tmp_path, header, row, words):
+    path = tmp_path / "bad.csv"
+    path.write_text(f"name,k,k_diag,c,alpha,alpha_diag,{header}\nsteel,100,50,5,10,10,{row}\n")
+    with pytest.raises(MaterialTableError, match=re.escape(words)) as refused:
+        load_materials(path)
+    assert "row 1" in str(refused.value) and len(str(refused.value).splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_a_co_design_is_the_same_on_any_executor(armour_fmu_of_width, tmp_path):
+    options = ("--fmu", armour_fmu_of_width(3), "--cols", 3, "--diagonal-rule", "mean", "--no-progress", "--budget", 6)
+    options += ("--repeats", 1, "--vary", "k,mass", "--vary-budget", 60, "--no-sensitivity")
+    answers = []
+    for executor in ("serial", "process"):
+        assert main(*options, "--executor", executor, "--out", tmp_path / executor) == 0
+        answers.append(json.loads((tmp_path / executor / "results.json").read_text())["answers"][0])
+    assert answers[0]["parameters"] == answers[1]["parameters"] and answers[0]["peak"] == answers[1]["peak"]
