@@ -37,6 +37,7 @@ from typing import Any, Callable, Iterable, Sequence
 
 from .design import DesignSpace, as_design
 from .executors import executor_batch_size, executor_slots
+from .interruption import raise_if_requested
 from .tasks import EvaluateDesign, Task, TaskBatch, function_key, run_task
 from .types import Above, Evaluation, Order
 
@@ -172,6 +173,7 @@ class Evaluator:
                     submit(_Flight("", TaskBatch(tuple(m.task for m in members)), 0, 0.0, members=members))
 
         while True:
+            raise_if_requested()  # a SIGTERM a library swallowed still ends the run here
             pending: list[_Flight] = []  # designs pulled for batches: up to batch_size per submission
             while (
                 not exhausted

@@ -24,13 +24,10 @@ if __name__ == "__main__":  # run as `python orchestrator/run.py`: import from t
     sys.path[0] = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 import argparse  # noqa: E402
-import signal  # noqa: E402
+
+from orchestrator.interruption import Interrupted, requested, terminate_on_sigterm  # noqa: E402
 
 EXIT_OK, EXIT_USAGE, EXIT_NO_RESULT = 0, 2, 3
-
-
-class Interrupted(BaseException):
-    """SIGTERM, handled like Ctrl-C (a BaseException, so no evaluation guard swallows it)."""
 
 
 def build_parser():
@@ -61,10 +58,6 @@ def build_parser():
     return parser
 
 
-def _on_sigterm(signum, frame):
-    raise Interrupted()
-
-
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -91,26 +84,27 @@ def main(argv=None) -> int:
         configs = {step: config_from(step.Config, args) for step in STEPS if step.Config.__dataclass_fields__}
     except ValueError as exc:
         parser.error(str(exc))
-    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    interrupted = (
+        f"interrupted: the finished evaluations are kept in {run.out}.partial/journal.jsonl; continue with "
+        "the same options and --resume"
+    )
     try:
-        outcome = run_in_folder(run, case, configs, STEPS, study_file=study_file, cluster=cluster)
+        with terminate_on_sigterm():
+            outcome = run_in_folder(run, case, configs, STEPS, study_file=study_file, cluster=cluster)
     except (KeyboardInterrupt, Interrupted) as exc:
-        print(
-            f"interrupted: the finished evaluations are kept in {run.out}.partial/journal.jsonl; continue with "
-            "the same options and --resume",
-            file=sys.stderr,
-        )
+        print(interrupted, file=sys.stderr)
         return 143 if isinstance(exc, Interrupted) else 130
     except NoResult as exc:
         print(f"{parser.prog}: no answer: {exc}; report: {run.out}/report.html", file=sys.stderr)
         return EXIT_NO_RESULT
     except Exception as exc:  # noqa: BLE001 - one line for users, the traceback with --debug
+        if requested():  # a library turned the interruption into an error of its own
+            print(interrupted, file=sys.stderr)
+            return 143
         if debug:
             raise
         print(f"{parser.prog}: error: {one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
-    finally:
-        signal.signal(signal.SIGTERM, previous)
     print_answer(outcome)
     fmu_note = study_file.fmu_note(outcome.study.fmu_sha256) if study_file is not None else None
     if fmu_note:

@@ -33,6 +33,7 @@ from .runfolder import RunFolder, make_temp_root
 from .scene import narrowed_table_note, resolve, resolve_scene
 from .studyfile import write_study_file
 from .steps.searches import SearchesConfig
+from .interruption import raise_if_requested
 from .study import MAX_RUNS_PER_DESIGN, CaseConfig, StudyContext, StudyResult, resolve_case, run_study
 from .types import Evaluation
 
@@ -279,6 +280,7 @@ def run_in_folder(
                 )
             study = run_study(context, journal.run_id)
             report = write(study, folder.partial, steps, table)
+            raise_if_requested()  # a SIGTERM swallowed while drawing: the run stays partial, for --resume
             journal.finish()
         published = folder.publish()
         check_answer(study, steps)

@@ -23,6 +23,7 @@ from scenes import DEFAULT_SCENE, PROJECTILE_SCENE, Scene
 
 from .design import DesignSpace
 from .fmu import PreparedFMU
+from .interruption import raise_if_requested
 from .loop import Evaluator, EvaluatorState
 from .objective import AGGREGATES, SEARCH_HORIZON, SEARCH_RTOL, LatticeObjective, ObjectiveDescription, expand_cases
 from .options import check_options, given, integer, number, option
@@ -730,6 +731,7 @@ def run_study(context: StudyContext, run_id: str = "") -> StudyResult:
     for step in context.steps:
         if type(step) in replaced or not step.applies(context):
             continue
+        raise_if_requested()
         simulated = context.evaluator.state().simulated
         result = step.run(context)
         context.results[type(step)] = result
