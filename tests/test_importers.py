@@ -16,7 +16,7 @@ time; the README says how to build it from source): $OMSIMULATOR_PYTHON names th
 (for example oms-venv/bin/python), which runs tests/omsimulator/oms_run.py. Without it the OMSimulator
 tests are skipped. They cover FMI 2 Co-Simulation, FMI 2 Model Exchange at OMSimulator's defaults and at a
 tight tolerance, FMI 3 Co-Simulation with the order set, and the design file through the C entry
-oms_importFile and the Python SSP class.
+oms_importFile and the Python SSP class (the armour system's three FMUs: test_armour_system.py).
 """
 
 from __future__ import annotations
