@@ -430,13 +430,29 @@ def omsimulator_run(tmp_path: Path, **request) -> OMSimulatorRun:
     return OMSimulatorRun(reply["values"], reply["failures"], [line for line in lines if line.startswith("error:")])
 
 
+OMSIMULATOR_VERSION = re.compile(r"(?:OMSimulator )?v?(?P<number>\d[\w.+-]*?)(?:-(?:linux|mingw|win|darwin)[\w-]*)?")
+
+
+def omsimulator_version_number(text: str) -> str:
+    """The release in OMSimulator.version's text ("OMSimulator v3.0.0.post167-g2940ef1-linux" -> "3.0.0.post167-
+    g2940ef1"): the row names the version, not the platform it was built for."""
+    match = OMSIMULATOR_VERSION.fullmatch(text.strip())
+    return match["number"] if match else text.strip()
+
+
+def test_the_omsimulator_version_is_its_release_number():
+    assert omsimulator_version_number("OMSimulator v3.0.0.post167-g2940ef1-linux") == "3.0.0.post167-g2940ef1"
+    assert omsimulator_version_number("OMSimulator v2.1.2-mingw-ucrt64") == "2.1.2"
+    assert omsimulator_version_number("v3.0.0") == "3.0.0"
+
+
 @functools.lru_cache(maxsize=None)
 def omsimulator_version(python: str) -> str:
     done = subprocess.run(
         [python, "-c", "import OMSimulator; print(OMSimulator.version)"], capture_output=True, text=True, timeout=300
     )
     assert done.returncode == 0 and done.stdout.strip(), f"OMSimulator.version: {done.stderr[-2000:]}"
-    return done.stdout.strip().splitlines()[-1]
+    return omsimulator_version_number(done.stdout.strip().splitlines()[-1])
 
 
 def omsimulator_row(request, fmi_version: str, interface: str, checked: str, note: str | None = None):
@@ -454,6 +470,7 @@ def omsimulator_row(request, fmi_version: str, interface: str, checked: str, not
         interface=interface,
         checked=checked,
         note=note,
+        environment=("OMSIMULATOR_PYTHON=path/to/oms-venv/bin/python",),
     )
 
 
