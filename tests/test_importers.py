@@ -397,7 +397,7 @@ MEAN_ORDER = (5, 1, 2, 3, 8, 7, 6, 4, 9, 10, 11)  # a design searched under the 
 class OMSimulatorRun:
     values: dict
     failures: list  # the calls whose status was not ok
-    errors: list  # the error lines of OMSimulator's log
+    errors: list  # the error lines of OMSimulator's log (stdout and stderr)
 
 
 def omsimulator_run(tmp_path: Path, **request) -> OMSimulatorRun:
@@ -427,7 +427,8 @@ def omsimulator_run(tmp_path: Path, **request) -> OMSimulatorRun:
         f"OMSimulator exited with {result.returncode}:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
     )
     reply = json.loads(replies[0])
-    return OMSimulatorRun(reply["values"], reply["failures"], [line for line in lines if line.startswith("error:")])
+    logged = lines + result.stderr.splitlines()  # the FMU's own log messages come on stderr
+    return OMSimulatorRun(reply["values"], reply["failures"], [line for line in logged if line.startswith("error:")])
 
 
 OMSIMULATOR_VERSION = re.compile(r"(?:OMSimulator )?v?(?P<number>\d[\w.+-]*?)(?:-(?:linux|mingw|win|darwin)[\w-]*)?")
@@ -567,6 +568,36 @@ def test_omsimulator_runs_the_fmi3_fmu_with_the_order_set(request, tmp_path):
             assert_clean(run, "OMSimulator (FMI 3.0 CS)")
             peak = run.values["peak_backplate_force"]
             assert row.reached(order, peak) <= 1e-6, (peak, PUBLISHED_PEAKS[order])
+
+
+@pytest.mark.importers
+def test_omsimulator_runs_the_fmi3_array_fmu_at_its_start_values_and_cannot_set_the_array(fmu3_path, tmp_path):
+    """The default FMI 3 FMU declares `material` as an Int32 array. OMSimulator 3 loads and runs it at its start
+    values (the sequential order) to the published peak; its setInteger knows no element `material[1]`, and on
+    `material` it calls fmi3SetInt32 with one value, which the FMU refuses (an array is set whole) and
+    OMSimulator logs, running on at the start values."""
+    from fmpy import read_model_description
+
+    (material,) = [v for v in read_model_description(str(fmu3_path)).modelVariables if v.name == "material"]
+    assert material.type == "Int32" and len(material.dimensions) == 1
+    run = omsimulator_run(
+        tmp_path, entry="fmu", fmu=fmu3_path, system="wc", stop_time=HORIZON, outputs=["peak_backplate_force"]
+    )
+    assert_clean(run, "OMSimulator (FMI 3.0 CS, arrays)")
+    peak = run.values["peak_backplate_force"]
+    assert abs(peak - PUBLISHED_PEAKS[PUBLISHED_SEQUENTIAL]) <= 1e-6 * PUBLISHED_PEAKS[PUBLISHED_SEQUENTIAL]
+    refused = omsimulator_run(
+        tmp_path,
+        entry="fmu",
+        fmu=fmu3_path,
+        system="wc",
+        stop_time=HORIZON,
+        integers={"material[1]": PUBLISHED_BEST[0], "material": PUBLISHED_BEST[0]},
+        outputs=["peak_backplate_force"],
+    )
+    assert refused.failures == ["setInteger material[1]: error"]
+    assert any("fmi3SetInt32" in line and "array" in line for line in refused.errors), refused.errors
+    assert refused.values["peak_backplate_force"] == pytest.approx(peak, rel=1e-12)
 
 
 @pytest.mark.importers
