@@ -269,6 +269,12 @@ def fmi_sim_version(binary: str) -> str:
     return words[-1] if done.returncode == 0 and words else FMI_SIM_VERSION
 
 
+def fmi_sim_failure(stderr: str) -> str:
+    """fmi-sim's error on the first line (a compatibility row keeps only that), then the whole of its stderr."""
+    cause = next((line.strip() for line in stderr.splitlines() if line.strip().startswith("Error")), "no error line")
+    return f"fmi-sim failed: {cause[:250]}\n{stderr[-5000:]}"
+
+
 def fmi_sim_peak(fmu, csv: Path, init_values=()) -> float:
     """Runs fmi-sim co-simulation for 8 s in 0.01 s steps; the last row's peak_backplate_force."""
     command = [
@@ -292,7 +298,7 @@ def fmi_sim_peak(fmu, csv: Path, init_values=()) -> float:
         timeout=600,
         env={**os.environ, "RUST_BACKTRACE": "0", "RUST_LOG": "warn"},
     )
-    assert result.returncode == 0, f"fmi-sim failed:\n{result.stderr[-5000:]}"
+    assert result.returncode == 0, fmi_sim_failure(result.stderr)
     lines = csv.read_text().splitlines()
     header, last = lines[0].split(","), lines[-1].split(",")
     assert len(lines) == round(HORIZON / STEP) + 2 and float(last[0]) == HORIZON, lines[-1]
@@ -373,7 +379,7 @@ def test_fmi_sim_runs_model_exchange_with_its_euler_solver(request, tmp_path):
             timeout=600,
             env={**os.environ, "RUST_BACKTRACE": "0", "RUST_LOG": "warn"},
         )
-        assert result.returncode == 0, f"fmi-sim failed:\n{result.stderr[-5000:]}"
+        assert result.returncode == 0, fmi_sim_failure(result.stderr)
         lines = csv.read_text().splitlines()
         header, last = lines[0].split(","), lines[-1].split(",")
         final = {
