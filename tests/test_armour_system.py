@@ -17,6 +17,7 @@ from builder.system import (
     LATTICE_PARAMETER_SET,
     OSP_NAME,
     STEP_MARGIN,
+    SYSTEM,
     build_system,
     default_step,
     port_limits,
@@ -232,3 +233,34 @@ def test_libcosim_reads_the_ecco_system_from_its_own_system_structure(system_ssp
     assert run["lattice", "peak_backplate_force"][-1] == pytest.approx(
         libcosim_run["lattice", "peak_backplate_force"][-1], rel=5e-3
     )
+
+
+@pytest.mark.importers
+def test_omsimulator_runs_the_system_from_its_file(request, system_ssp, libcosim_run, reference, tmp_path):
+    """OMSimulator imports the archive (oms_importFile: the three FMUs, the connections, the lattice's parameter
+    binding) and co-simulates it with the master and step of its own annotation: the same physics as libcosim's
+    fixed-step run, read at the end of the horizon."""
+    from test_importers import assert_clean, omsimulator_row, omsimulator_run
+
+    speed = component_table("projectile").variable("projectile_speed").start
+    with omsimulator_row(
+        request,
+        "2.0",
+        "SSP",
+        "the armour system from ArmourSystem.ssp (oms_importFile, its oms-ma master at the file's step): the "
+        "sampled peak within 1 % of the one-model reference's and 5e-3 of libcosim's, the projectile slowed",
+    ) as row:
+        run = omsimulator_run(
+            tmp_path,
+            entry="system",
+            ssp=system_ssp,
+            system=SYSTEM,
+            stop_time=HORIZON,
+            outputs=["lattice.peak_backplate_force", "lattice.external_work", "projectile.projectile_velocity"],
+        )
+        assert_clean(run, "OMSimulator (armour system)")
+        peak = run.values["lattice.peak_backplate_force"]
+        assert row.reached_reference(peak, reference.peak_backplate_force) < 0.01
+        assert peak == pytest.approx(libcosim_run["lattice", "peak_backplate_force"][-1], rel=5e-3)
+        assert run.values["projectile.projectile_velocity"] < 0.5 * speed
+        assert run.values["lattice.external_work"] > 0.0

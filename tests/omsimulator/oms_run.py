@@ -5,10 +5,13 @@ environment's Python: `python oms_run.py REQUEST.json`. The request says what to
 
     {"entry": "fmu", "fmu": PATH, "system": "wc" | "sc", "stop_time": 8.0, "integers": {name: value},
      "reals": {name: value}, "tolerance": 1e-9 | null, "outputs": [name, ...]}
-    {"entry": "import_file" | "ssp_class", "ssp": PATH, "outputs": [name, ...]}
+    {"entry": "import_file" | "ssp_class", "ssp": PATH, "system": NAME, "component": NAME, "outputs": [name, ...]}
+    {"entry": "system", "ssp": PATH, "system": NAME, "stop_time": 0.4, "outputs": ["component.name", ...]}
 
 "wc" is OMSimulator's weakly coupled system (Co-Simulation, oms-ma), "sc" its strongly coupled one (Model
-Exchange with CVODE, at OMSimulator's defaults unless "tolerance" is given). One line printed is
+Exchange with CVODE, at OMSimulator's defaults unless "tolerance" is given). "system" imports a system of several
+FMUs (the armour system) through oms_importFile with its own master and step, run to "stop_time" when given
+(else the file's), and reads outputs of any of its components. One line printed is
 `RESULT {json}` with the outputs read after the run and every status that was not ok; OMSimulator's own log
 (its `error:` lines) goes to stdout around it. Nothing here imports the project: it runs with only
 OMSimulator installed.
@@ -55,7 +58,8 @@ def run_fmu(request, failures):
     return values
 
 
-def run_import_file(request, failures):
+def import_and_run(request, failures, outputs):
+    """oms_importFile, then instantiate, initialize and simulate; the values of `outputs` (cref -> name)."""
     Capi.obj.oms_importFile.argtypes = [ctypes.c_char_p, ctypes.POINTER(ctypes.c_char_p)]
     Capi.obj.oms_importFile.restype = ctypes.c_int
     name = ctypes.c_char_p()
@@ -65,15 +69,22 @@ def run_import_file(request, failures):
         return {}
     model = name.value.decode()
     Capi.setResultFile(model, "", 0)
+    if request.get("stop_time") is not None:
+        check(failures, "setStopTime", Capi.setStopTime(model, float(request["stop_time"])))
     for step in ("instantiate", "initialize", "simulate"):
         check(failures, step, getattr(Capi, step)(model))
-    values = {
-        output: read(failures, f"{model}.{request['system']}.{request['component']}.{output}")
-        for output in request["outputs"]
-    }
+    values = {output: read(failures, f"{model}.{request['system']}.{cref}") for cref, output in outputs.items()}
     Capi.terminate(model)
     Capi.delete(model)
     return values
+
+
+def run_import_file(request, failures):
+    return import_and_run(request, failures, {f"{request['component']}.{o}": o for o in request["outputs"]})
+
+
+def run_system(request, failures):
+    return import_and_run(request, failures, {output: output for output in request["outputs"]})
 
 
 def run_ssp_class(request, failures):
@@ -96,7 +107,8 @@ def main(path):
         request = json.load(handle)
     Capi.setTempDirectory(tempfile.mkdtemp(dir=request["temp_dir"]))
     failures = []
-    runner = {"fmu": run_fmu, "import_file": run_import_file, "ssp_class": run_ssp_class}[request["entry"]]
+    runners = {"fmu": run_fmu, "import_file": run_import_file, "ssp_class": run_ssp_class, "system": run_system}
+    runner = runners[request["entry"]]
     values = runner(request, failures)
     print("RESULT " + json.dumps({"values": values, "failures": failures}), flush=True)
 
