@@ -2,11 +2,11 @@
 
 Why batch jobs: a university or company cluster runs work only through its scheduler, so the study's Dask
 workers are jobs that start when the queue lets them, end at their walltime and may be cancelled. Each job
-runs one single-threaded worker per core it asks for (one actor each, ``executors.DaskActors``), receives the
+runs one single-threaded worker per core it asks for (each takes calls, ``executors.DaskWorkers``), receives the
 FMU as bytes as any Dask worker does (``dask_plugin.ShipFMU``), and leaves before its walltime, as dask-jobqueue
 advises: ``--lifetime`` a margin short of the walltime, staggered so that the jobs do not all leave at once,
 and adaptive scaling that keeps ``jobs`` jobs queued or running, so a job that left (its lifetime, ``scancel``,
-a crash) is replaced. A call in flight on a worker that left runs again on another worker (``DaskActors``); the
+a crash) is replaced. A call in flight on a worker that left runs again on another worker (``DaskWorkers``); the
 journal keeps every finished result, so a sweep longer than one job's walltime finishes with nothing lost and
 nothing simulated twice.
 

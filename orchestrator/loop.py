@@ -162,8 +162,11 @@ class Evaluator:
                 flights[future] = flight
 
         def submit_batches(pending: list[_Flight]) -> None:
-            """The pulled designs as batches: as many as the workers (up to ``batch_size`` designs each)."""
-            size = min(self._batch, -(-len(pending) // self._slots))
+            """The pulled designs as batches of up to ``batch_size`` designs, as few as keep every worker busy
+            (a call costs the same whatever it carries) and of equal sizes (so that no worker is left with a
+            remainder while the others wait)."""
+            calls = self._slots * -(-len(pending) // (self._slots * self._batch))
+            size = -(-len(pending) // calls)
             for start in range(0, len(pending), size):
                 members = tuple(pending[start : start + size])
                 if len(members) == 1:
