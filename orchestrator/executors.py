@@ -30,6 +30,7 @@ LOCAL_CLUSTER_START = 120.0  # s a local Dask cluster may take to start all its 
 # The most designs one call to a Dask worker carries; bench.study_costs measures the default study at several
 # sizes (its page has the figures).
 DASK_BATCH_DESIGNS = 64
+CALLS_PER_WORKER = 2  # the evaluator's submissions in flight per worker: one runs while the next waits there
 WORKERS_REFRESH = 2.0  # s between two looks for workers that joined or left the cluster
 # How many workers a call may lose on a cluster of batch jobs (each a worker that left: its lifetime, a cancelled
 # job) before it fails: enough for jobs leaving at their walltime, few enough that a call that kills every
@@ -326,7 +327,12 @@ def _dask(
         if scheduler:
             client = stack.enter_context(Client(scheduler))
         elif jobs is not None:
-            client = stack.enter_context(Client(stack.enter_context(jobs.open())))
+            running: list[DaskWorkers] = []  # the executor once it exists: the jobs' scaling asks it what it wants
+
+            def wanted_workers() -> int:
+                return running[0].wanted_workers() if running else 0
+
+            client = stack.enter_context(Client(stack.enter_context(jobs.open(wanted_workers))))
             jobs.wait(client)
         else:
             count = int(workers or os.cpu_count() or 1)
@@ -371,6 +377,7 @@ def _dask(
                 attempts=JOB_ATTEMPTS,
                 planned_workers=jobs.workers,
             )
+            running.append(executor)
         try:
             yield executor
         except BaseException:
@@ -414,6 +421,7 @@ class DaskWorkers(Executor):
         self._direct = bool(direct)
         self._lock = threading.Lock()
         self._outstanding: dict[str, int] = {}  # worker address -> its calls outstanding
+        self._peak_calls = 0  # the most calls outstanding at once since ``wanted_workers`` last looked
         self._looked = 0.0
         self._shutdown = False
         self._refresh()
@@ -449,7 +457,15 @@ class DaskWorkers(Executor):
                 raise RuntimeError("the Dask cluster has no worker left")
             address = min(choices, key=lambda a: (self._outstanding[a], a))
             self._outstanding[address] += 1
+            self._peak_calls = max(self._peak_calls, sum(self._outstanding.values()))
             return address
+
+    def wanted_workers(self) -> int:
+        """The workers the calls since the last look would keep busy (``CALLS_PER_WORKER`` calls each, at the
+        most calls outstanding at once since then): what a cluster of batch jobs scales to."""
+        with self._lock:
+            peak, self._peak_calls = self._peak_calls, sum(self._outstanding.values())
+        return -(-peak // CALLS_PER_WORKER)
 
     def _give_back(self, address: str, reachable: bool) -> None:
         with self._lock:

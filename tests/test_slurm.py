@@ -262,6 +262,30 @@ def test_a_study_files_cluster_section_sets_the_cluster(tmp_path):
         read_study_file(study)
 
 
+def test_adaptive_job_bounds_come_in_pairs_from_the_command_line_or_the_study_file(capsys, tmp_path):
+    assert ClusterConfig(cluster="slurm", jobs=3).job_bounds == (3, 3)
+    adaptive = ClusterConfig(cluster="slurm", min_jobs=0, max_jobs=8, job_cores=2)
+    assert adaptive.adaptive and adaptive.job_bounds == (0, 8)
+    with pytest.raises(ValueError, match="--min-jobs and --max-jobs: give both"):
+        ClusterConfig(cluster="slurm", max_jobs=8)
+    with pytest.raises(ValueError, match="--min-jobs 5 and --max-jobs 4: the minimum is above the maximum"):
+        ClusterConfig(cluster="slurm", min_jobs=5, max_jobs=4)
+    out = str(tmp_path / "out")
+    slurm = ["--executor", "dask", "--cluster", "slurm", "--out", out]
+    assert "give a fixed number of jobs or the bounds" in cli_error(
+        capsys, [*slurm, "--jobs", "4", "--min-jobs", "1", "--max-jobs", "8"]
+    )
+    assert "--max-jobs must be at least 1" in cli_error(capsys, [*slurm, "--min-jobs", "0", "--max-jobs", "0"])
+    local = ["--min-jobs", "1", "--max-jobs", "2", "--out", out]
+    assert "--max-jobs, --min-jobs: only with --cluster slurm" in cli_error(capsys, local)
+    study = tmp_path / "study.toml"
+    study.write_text('[cluster]\ncluster = "slurm"\nmin-jobs = 1\nmax-jobs = 16\n')
+    from orchestrator.options import config_from
+
+    cluster = config_from(ClusterConfig, read_study_file(study).apply(run_cli.build_parser().parse_args([])))
+    assert cluster.job_bounds == (1, 16)
+
+
 def test_the_job_script_runs_the_setup_lines_and_leaves_before_the_walltime(tmp_path):
     pytest.importorskip("dask_jobqueue")
     from dask_jobqueue.slurm import SLURMJob
