@@ -3,6 +3,7 @@
     python -m bench.soak                                        # the target: 10^6 FMU cycles per configuration
     python -m bench.soak --cycles 200000 --evaluations 10000 --refusals 20000   # shorter, same page
     python -m bench.soak --quick                                # a minute: 20,000 / 1,000 / 2,000
+    python -m bench.soak --only dask                            # one row, printed: no page
 
 Why: loops that evaluate an FMU many thousand times are known to leak or crash in the importers users run. A
 lattice FMU meant to be evaluated a hundred million times shows here that its life cycle does not grow. One
@@ -56,6 +57,8 @@ from orchestrator.soak import (
 
 from .measurements import Page, Run, Table, write_page
 
+PARTS = ("driver", "simulate", "process", "dask", "refusals")  # what --only chooses from
+
 # ---------------------------------------------------------------- the page
 
 
@@ -66,7 +69,16 @@ def main(argv=None) -> int:
     parser.add_argument("--evaluations", type=int, default=100_000, help="evaluations per executor")
     parser.add_argument("--refusals", type=int, default=100_000, help="bad inputs refused")
     parser.add_argument("--workers", type=int, default=2, help="workers of the process pool and the Dask cluster")
+    parser.add_argument(
+        "--only",
+        nargs="+",
+        choices=PARTS,
+        help="run only these configurations and print their rows, without writing the page (it holds them all): "
+        "driver (the C driver's eight), simulate (LatticeFMU.simulate), process and dask (the Evaluator on "
+        "each), refusals",
+    )
     args = parser.parse_args(argv)
+    parts = frozenset(args.only or PARTS)
     if args.quick:
         args.cycles, args.evaluations, args.refusals = 20_000, 1_000, 2_000
     for option in ("cycles", "evaluations", "refusals", "workers"):
@@ -81,6 +93,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory(prefix="bench_soak_") as folder_text:
         folder = Path(folder_text)
         wine = shutil.which("wine") is not None and shutil.which("x86_64-w64-mingw32-gcc") is not None
+        wine = wine and "driver" in parts
         platforms = "x86_64-linux,x86_64-windows" if wine else None
         fmus = {
             version: build_fmu(
@@ -91,11 +104,11 @@ def main(argv=None) -> int:
                 platforms=platforms,
                 reference_results=False,
             )
-            for version in (2, 3)
+            for version in ((2, 3) if "driver" in parts else (2,))
         }
         unpacked = {version: unpack(path, folder / f"fmi{version}") for version, path in fmus.items()}
         environment = dict(os.environ, WINEDEBUG="-all", WINEPREFIX=str(folder / "wine"))
-        for windows in (False, True):
+        for windows in (False, True) if "driver" in parts else ():
             driver = compile_driver(folder, windows) if (wine or not windows) else "wine or mingw-w64 not found"
             for version, model_exchange in itertools.product((2, 3), (False, True)):
                 name = (
@@ -109,13 +122,16 @@ def main(argv=None) -> int:
                     run_driver(driver, unpacked[version], False, True, 100, environment)  # Wine sets up its prefix
                 results.append(run_driver(driver, unpacked[version], model_exchange, windows, args.cycles, environment))
                 print(results[-1])
-        results.append(simulate_soak(fmus[2], args.cycles))
-        print(results[-1])
-        for kind in ("process", "dask"):
-            results.append(evaluator_soak(fmus[2], kind, args.evaluations, args.workers))
+        if "simulate" in parts:
+            results.append(simulate_soak(fmus[2], args.cycles))
             print(results[-1])
-        results.append(refusal_soak(fmus[2], args.refusals))
-        print(results[-1])
+        for kind in ("process", "dask"):
+            if kind in parts:
+                results.append(evaluator_soak(fmus[2], kind, args.evaluations, args.workers))
+                print(results[-1])
+        if "refusals" in parts:
+            results.append(refusal_soak(fmus[2], args.refusals))
+            print(results[-1])
 
     measured = [r for r in results if isinstance(r, SoakResult)]
     flat = all(r.growth.flat and not r.failures for r in measured)
@@ -134,6 +150,10 @@ def main(argv=None) -> int:
         else (r.configuration, "not run", r.reason, "", "", "", "", "")
         for r in results
     )
+    if args.only:
+        for row in rows:
+            print(" | ".join(row))
+        return 0 if flat else 1
     worst = max(measured, key=lambda r: r.growth.growth_bytes)
     page = Page(
         name=run.name,

@@ -40,10 +40,17 @@ BATCH_VARIABLE = "LATTICE_DASK_BATCH"  # another batch size, for bench.study_cos
 # The process pool's start method: unset, the platform's default (spawn on Windows and macOS); set to spawn on
 # Linux, the whole test suite runs the way a Windows or macOS user's runs do (every task and argument pickled).
 START_METHOD_VARIABLE = "LATTICE_START_METHOD"
-# A local cluster's workers run no statistical profiler: it samples the worker's threads every few milliseconds
-# for the dashboard, which a local cluster here does not serve, and takes the interpreter lock from the thread
-# running the FMU each time.
-LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
+# A local cluster runs none of Dask's periodic work a run here does not use, or runs it less often: each wakes a
+# thread that takes the interpreter lock from the one running the FMU (in a worker) or handling the calls (in
+# this process, where the scheduler and the nannies share the client's event loop). No statistical profiler (it
+# samples the worker's threads every few milliseconds for a dashboard a local cluster here does not serve), no
+# work stealing (the calls are no Dask tasks), the event loop's health tick and the memory monitor once a second.
+LOCAL_WORKER_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.scheduler.work-stealing": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
 
 
 class SerialExecutor(Executor):
