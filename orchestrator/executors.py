@@ -45,11 +45,16 @@ START_METHOD_VARIABLE = "LATTICE_START_METHOD"
 # this process, where the scheduler and the nannies share the client's event loop). No statistical profiler (it
 # samples the worker's threads every few milliseconds for a dashboard a local cluster here does not serve), no
 # work stealing (the calls are no Dask tasks), the event loop's health tick and the memory monitor once a second.
+# Each process's system monitor samples its CPU, memory, disk and network use twice a second into a history for
+# the dashboard; Dask keeps an hour of it, which grows with time whatever the run does: a local cluster here keeps
+# LOCAL_MONITOR_SAMPLES samples a quantity (the heartbeats need only the latest).
+LOCAL_MONITOR_SAMPLES = 10
 LOCAL_WORKER_CONFIG = {
     "distributed.worker.profile.enabled": False,
     "distributed.scheduler.work-stealing": False,
     "distributed.admin.tick.interval": "1s",
     "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.admin.system-monitor.log-length": LOCAL_MONITOR_SAMPLES,
 }
 
 
