@@ -405,10 +405,9 @@ class DaskWorkers(Executor):
     Why not Dask tasks: a search asks a few designs at a time and waits for them, so what a call costs is its
     round trip; a Dask task goes client, scheduler, worker, scheduler, client, each hop through a batched stream
     that waits a few milliseconds, while a call goes to its worker and back (through the scheduler only when
-    the workers may be out of the client's reach). A call goes to the worker with the
-    fewest calls outstanding; a call whose worker could not be reached (it died, or left) runs once more on
-    another worker, and the worker is dropped. Workers that join are used from the next look (every
-    ``WORKERS_REFRESH`` s).
+    the workers may be out of the client's reach). A call goes to the worker with the fewest calls outstanding;
+    a call whose worker could not be reached (it died, or left) runs once more on another worker, and the worker
+    is dropped. Workers that join are used from the next look (every ``WORKERS_REFRESH`` s).
     """
 
     def __init__(
@@ -422,9 +421,9 @@ class DaskWorkers(Executor):
     ) -> None:
         """``direct``: calls go to the workers directly, else through the scheduler; ``worker_wait``: seconds a
         call waits for a worker while the cluster has none (its workers' jobs left, others are queued);
-        ``attempts``: on how many workers a call may run before its failure is
-        delivered (a worker that could not be reached counts); ``planned_workers``: the workers the cluster
-        is scaled to, which the evaluator keeps busy although some jobs have not started yet."""
+        ``attempts``: on how many workers a call may run before its failure is delivered (a worker that could
+        not be reached counts); ``planned_workers``: the workers the cluster is scaled to (its most), which the
+        evaluator keeps busy although some jobs have not started yet."""
         self._planned = int(planned_workers)
         self._client = client
         self.batch_size = int(batch_size)
