@@ -208,10 +208,12 @@ def main(argv=None) -> int:
                 "Dask: each of its processes (the scheduler beside this process's client, each worker) samples its "
                 "own CPU, memory, disk and network use twice a second into a history for the dashboard, which Dask "
                 "keeps for an hour (7,200 samples a quantity): it grows with time, not with the evaluations, and "
-                "was what grew (tracemalloc in the client and the workers, Python's allocated blocks and the "
-                "histories' lengths compared along a soak: nothing else grew by more than a few KB). A local "
-                f"cluster here serves no dashboard and keeps {LOCAL_MONITOR_SAMPLES} samples a quantity "
-                "(orchestrator.executors.LOCAL_WORKER_CONFIG), so the history is full within the warm-up."
+                "was what grew in Python's memory (tracemalloc in the client and in the workers, Python's "
+                "allocated blocks and the histories' lengths compared along a soak: nothing else grew by more "
+                "than a few KB). A local cluster here serves no dashboard and keeps "
+                f"{LOCAL_MONITOR_SAMPLES} samples a quantity (orchestrator.executors.LOCAL_WORKER_CONFIG), so the "
+                "history is full within the warm-up. The slope both Evaluator rows keep, the process pool's as "
+                "the Dask cluster's, is not in Python's objects and is not explained here."
             ),
         ),
     )

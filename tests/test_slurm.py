@@ -2,8 +2,9 @@
 
 The ``slurm``-marked tests run against a real SLURM (``.ci/slurm-up`` starts a one-node one, as ``.ci/run`` does
 before ``python -m pytest -m slurm``): an 11 x 8 sweep through SLURM jobs gives the process pool's certificate;
-so does one whose jobs' walltime is shorter than the sweep (their workers leave, new jobs replace them) and one
-whose job is cancelled mid-sweep (``scancel``); none simulates a design twice. Where sbatch or munge is absent,
+so does one whose jobs' walltime is shorter than the sweep (their workers leave, new jobs replace them), one
+whose job is cancelled mid-sweep (``scancel``) and one whose jobs scale between one and two with its calls; none
+simulates a design twice. Where sbatch or munge is absent,
 the tests are not run as root or the node is not up, they skip with the reason. The other tests check the
 options and their refusals without SLURM.
 """
@@ -139,6 +140,19 @@ def test_a_sweep_through_slurm_jobs_gives_the_process_pools_certificate(pool_swe
     assert done.returncode == 0, done.stderr
     assert_same_certificate(out, pool_sweep)
     assert job_logs(out) == 2  # the two jobs ran the whole sweep
+
+
+@pytest.mark.slurm
+@pytest.mark.slow
+@needs_slurm
+def test_adaptive_jobs_scale_up_to_what_the_sweeps_calls_keep_busy(pool_sweep, tmp_path):
+    out = tmp_path / "sweep"
+    options = slurm_options(tmp_path, 1, "00:30:00")
+    options[options.index("--jobs") : options.index("--jobs") + 2] = ["--min-jobs", "1", "--max-jobs", "2"]
+    done = run_sweep(out, *options)
+    assert done.returncode == 0, done.stderr
+    assert_same_certificate(out, pool_sweep)
+    assert job_logs(out) >= 2, "the sweep's calls did not ask for the second job"
 
 
 @pytest.mark.slurm
