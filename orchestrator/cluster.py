@@ -2,11 +2,11 @@
 
 Why batch jobs: a university or company cluster runs work only through its scheduler, so the study's Dask
 workers are jobs that start when the queue lets them, end at their walltime and may be cancelled. Each job
-runs one single-threaded worker per core it asks for (one actor each, ``executors.DaskActors``), receives the
+runs one single-threaded worker per core it asks for (each takes calls, ``executors.DaskWorkers``), receives the
 FMU as bytes as any Dask worker does (``dask_plugin.ShipFMU``), and leaves before its walltime, as dask-jobqueue
 advises: ``--lifetime`` a margin short of the walltime, staggered so that the jobs do not all leave at once,
 and adaptive scaling that keeps ``jobs`` jobs queued or running, so a job that left (its lifetime, ``scancel``,
-a crash) is replaced. A call in flight on a worker that left runs again on another worker (``DaskActors``); the
+a crash) is replaced. A call in flight on a worker that left runs again on another worker (``DaskWorkers``); the
 journal keeps every finished result, so a sweep longer than one job's walltime finishes with nothing lost and
 nothing simulated twice.
 
@@ -23,7 +23,7 @@ import shutil
 from dataclasses import dataclass
 from importlib.util import find_spec
 from pathlib import Path
-from typing import Iterator
+from typing import Callable, Iterator
 
 from .options import NO_NUMBER, NOT_KEPT, check_options, given, integer, number, option
 
@@ -66,6 +66,21 @@ class ClusterConfig:
         2,
         "SLURM jobs kept queued or running; a job that ends (its walltime, scancel) is replaced",
         type=integer("--jobs", 1, 10**5),
+        study=NO_NUMBER,
+    )
+    min_jobs: int | None = option(
+        None,
+        "with --max-jobs: adaptive scaling, at least this many jobs (0: none while the run has no work for "
+        "them); instead of --jobs",
+        type=integer("--min-jobs", 0, 10**5),
+        show_default="--jobs, fixed",
+        study=NO_NUMBER,
+    )
+    max_jobs: int | None = option(
+        None,
+        "with --min-jobs: adaptive scaling, at most this many jobs, as many as the run's calls keep busy",
+        type=integer("--max-jobs", 1, 10**5),
+        show_default="--jobs, fixed",
         study=NO_NUMBER,
     )
     walltime: str = option(
@@ -119,6 +134,26 @@ class ClusterConfig:
         for line in self.job_setup:
             if "\n" in line:
                 raise ValueError("--job-setup: one shell line each (repeat the option for several)")
+        if (self.min_jobs is None) != (self.max_jobs is None):
+            raise ValueError(
+                "--min-jobs and --max-jobs: give both (adaptive scaling between them) or neither (--jobs, fixed)"
+            )
+        if self.adaptive and self.min_jobs > self.max_jobs:
+            raise ValueError(
+                f"--min-jobs {self.min_jobs} and --max-jobs {self.max_jobs}: the minimum is above the maximum"
+            )
+
+    @property
+    def adaptive(self) -> bool:
+        """Scaled between ``min_jobs`` and ``max_jobs`` jobs with the work, not kept at ``jobs``."""
+        return self.min_jobs is not None and self.max_jobs is not None
+
+    @property
+    def job_bounds(self) -> tuple[int, int]:
+        """The fewest and the most jobs the cluster keeps queued or running."""
+        if self.min_jobs is not None and self.max_jobs is not None:
+            return self.min_jobs, self.max_jobs
+        return self.jobs, self.jobs
 
     @property
     def slurm(self) -> bool:
@@ -135,6 +170,10 @@ def check_cluster(cluster: ClusterConfig, executor: str, scheduler: str | None) 
         return
     if executor != "dask":
         raise ValueError("--cluster slurm: only with --executor dask (the workers are Dask workers in SLURM jobs)")
+    if cluster.adaptive and "jobs" in given(cluster):
+        raise ValueError(
+            "--jobs and --min-jobs/--max-jobs: give a fixed number of jobs or the bounds of adaptive scaling, not both"
+        )
     if scheduler is not None:
         raise ValueError(
             "--cluster slurm and --scheduler: give one of them (the jobs' workers join a scheduler this run starts)"
@@ -158,16 +197,18 @@ class SlurmJobs:
 
     @property
     def workers(self) -> int:
-        """The Dask workers of all jobs together, once every job runs."""
-        return self.config.jobs * self.config.job_cores
+        """The Dask workers of all jobs together, once every job runs (the most jobs, when they adapt)."""
+        return self.config.job_bounds[1] * self.config.job_cores
 
     @property
     def job_start(self) -> float:
         return self.config.job_start
 
     @contextlib.contextmanager
-    def open(self) -> Iterator:
-        """The cluster, scaled adaptively to ``jobs`` jobs; every job cancelled on exit."""
+    def open(self, wanted_workers: Callable[[], int] | None = None) -> Iterator:
+        """The cluster, scaled adaptively between the config's job bounds (``jobs`` and ``jobs`` when fixed) to
+        ``wanted_workers()``, the workers the run's calls would keep busy (without it, or while it says 0
+        before the run's first call, one job's workers); every job cancelled on exit."""
         from dask_jobqueue import SLURMCluster
 
         Path(self.log_directory).mkdir(parents=True, exist_ok=True)
@@ -183,7 +224,14 @@ class SlurmJobs:
                 scheduler_options={"dashboard": False, "dashboard_address": ":0"},
             )
             try:
-                cluster.adapt(minimum_jobs=self.config.jobs, maximum_jobs=self.config.jobs)
+                fewest, most = self.config.job_bounds
+                cluster.adapt(
+                    minimum_jobs=fewest,
+                    maximum_jobs=most,
+                    Adaptive=adaptive_to_calls(),
+                    wanted_workers=wanted_workers,
+                    first_workers=self.config.job_cores,
+                )
                 yield cluster
             finally:
                 cluster.close()
@@ -220,4 +268,30 @@ class SlurmJobs:
             ) from None
 
 
-__all__ = ["CLUSTERS", "ClusterConfig", "SlurmJobs", "check_cluster", "walltime_seconds", "worker_lifetime"]
+def adaptive_to_calls():
+    """Dask's ``Adaptive``, with the target the run's calls set: they are requests to the workers, never Dask
+    tasks, so the scheduler's own target (from its queue of tasks) would never ask for more than the minimum."""
+    from distributed.deploy import Adaptive
+
+    class AdaptiveToCalls(Adaptive):
+        def __init__(self, *args, wanted_workers: Callable[[], int] | None = None, first_workers: int = 1, **kwargs):
+            self.wanted_workers = wanted_workers
+            self.first_workers = first_workers
+            super().__init__(*args, **kwargs)
+
+        async def target(self) -> int:
+            wanted = self.wanted_workers() if self.wanted_workers is not None else 0
+            return wanted or self.first_workers  # clamped to the job bounds by Dask's safe_target
+
+    return AdaptiveToCalls
+
+
+__all__ = [
+    "CLUSTERS",
+    "ClusterConfig",
+    "SlurmJobs",
+    "adaptive_to_calls",
+    "check_cluster",
+    "walltime_seconds",
+    "worker_lifetime",
+]

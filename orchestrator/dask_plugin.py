@@ -14,25 +14,57 @@ workers import it to unpickle the plugins.
 
 from __future__ import annotations
 
+import asyncio
 import hashlib
 import os
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from distributed import WorkerPlugin
+from distributed.protocol import pickle
 
 
-class TaskRunner:
-    """A Dask actor, one per worker: runs each call the client sends it (``DaskActors``), one at a time. A call
-    goes from the client to the worker and back, never through the scheduler."""
-
-    def call(self, function, args, kwargs):
-        return function(*args, **kwargs)
+CALL_HANDLER = "lattice_call"  # the operation a worker answers with ``RunCalls``'s handler
 
 
-class CloseFMUs(WorkerPlugin):
+def run_call(payload: bytes) -> bytes:
+    """One call the client sent: ``(function, args, kwargs)`` pickled, answered with ``(True, result)`` or
+    ``(False, exception)`` pickled (an exception that cannot be pickled travels as a RuntimeError naming it)."""
+    function, args, kwargs = pickle.loads(payload)
+    try:
+        answer = (True, function(*args, **kwargs))
+    except Exception as exc:  # noqa: BLE001 - delivered to the client's future
+        answer = (False, exc)
+    try:
+        return pickle.dumps(answer)
+    except Exception:  # noqa: BLE001 - a result or an exception that cannot travel
+        kind = "exception" if not answer[0] else "result"
+        return pickle.dumps((False, RuntimeError(f"the call's {kind} cannot be pickled: {answer[1]!r:.200}")))
+
+
+class RunCalls(WorkerPlugin):
+    """Runs the client's calls on every worker (``executors.DaskWorkers``), one at a time in a thread of their
+    own, and frees the worker's FMU instances when it closes.
+
+    Why a handler of the worker's own server, not a Dask task or an actor: a search asks a few designs at a time
+    and waits for them, so what a call costs is its round trip and the handling of its messages; a call to this
+    handler is one request to the worker and its reply, with its arguments and result as one pickled payload,
+    never through the scheduler and without a task's or an actor's bookkeeping on either side.
+    """
+
+    def setup(self, worker) -> None:
+        calls = self._calls = ThreadPoolExecutor(1, thread_name_prefix="lattice-call")
+
+        async def lattice_call(payload: bytes) -> bytes:
+            return await asyncio.get_running_loop().run_in_executor(calls, run_call, payload)
+
+        worker.handlers[CALL_HANDLER] = lattice_call
+
     def teardown(self, worker) -> None:
         from .objective import close_instances
 
+        worker.handlers.pop(CALL_HANDLER, None)
+        self._calls.shutdown(wait=False)
         close_instances()
 
 

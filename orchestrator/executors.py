@@ -30,8 +30,8 @@ LOCAL_CLUSTER_START = 120.0  # s a local Dask cluster may take to start all its 
 # The most designs one call to a Dask worker carries; bench.study_costs measures the default study at several
 # sizes (its page has the figures).
 DASK_BATCH_DESIGNS = 64
+CALLS_PER_WORKER = 2  # the evaluator's submissions in flight per worker: one runs while the next waits there
 WORKERS_REFRESH = 2.0  # s between two looks for workers that joined or left the cluster
-ACTOR_START = 60.0  # s a worker may take to start its actor
 # How many workers a call may lose on a cluster of batch jobs (each a worker that left: its lifetime, a cancelled
 # job) before it fails: enough for jobs leaving at their walltime, few enough that a call that kills every
 # worker it runs on stops.
@@ -40,6 +40,22 @@ BATCH_VARIABLE = "LATTICE_DASK_BATCH"  # another batch size, for bench.study_cos
 # The process pool's start method: unset, the platform's default (spawn on Windows and macOS); set to spawn on
 # Linux, the whole test suite runs the way a Windows or macOS user's runs do (every task and argument pickled).
 START_METHOD_VARIABLE = "LATTICE_START_METHOD"
+# A local cluster runs none of Dask's periodic work a run here does not use, or runs it less often: each wakes a
+# thread that takes the interpreter lock from the one running the FMU (in a worker) or handling the calls (in
+# this process, where the scheduler and the nannies share the client's event loop). No statistical profiler (it
+# samples the worker's threads every few milliseconds for a dashboard a local cluster here does not serve), no
+# work stealing (the calls are no Dask tasks), the event loop's health tick and the memory monitor once a second.
+# Each process's system monitor samples its CPU, memory, disk and network use twice a second into a history for
+# the dashboard; Dask keeps an hour of it, which grows with time whatever the run does: a local cluster here keeps
+# LOCAL_MONITOR_SAMPLES samples a quantity (the heartbeats need only the latest).
+LOCAL_MONITOR_SAMPLES = 10
+LOCAL_WORKER_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.scheduler.work-stealing": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.admin.system-monitor.log-length": LOCAL_MONITOR_SAMPLES,
+}
 
 
 class SerialExecutor(Executor):
@@ -312,7 +328,8 @@ def _dask(
     workers: int | None, scheduler: str | None, temp_root: str | None, fmus: tuple = (), jobs=None
 ) -> Iterator[Executor]:
     try:
-        from distributed import Client, LocalCluster  # imported lazily: dask is slow to import
+        import dask  # imported lazily: dask is slow to import
+        from distributed import Client, LocalCluster
     except ImportError:
         raise RuntimeError(
             "executor 'dask' needs Dask: install the project's dask extra (python -m pip install '.[dask]')"
@@ -322,20 +339,27 @@ def _dask(
         if scheduler:
             client = stack.enter_context(Client(scheduler))
         elif jobs is not None:
-            client = stack.enter_context(Client(stack.enter_context(jobs.open())))
+            running: list[DaskWorkers] = []  # the executor once it exists: the jobs' scaling asks it what it wants
+
+            def wanted_workers() -> int:
+                return running[0].wanted_workers() if running else 0
+
+            client = stack.enter_context(Client(stack.enter_context(jobs.open(wanted_workers))))
             jobs.wait(client)
         else:
             count = int(workers or os.cpu_count() or 1)
-            cluster = stack.enter_context(
-                LocalCluster(
-                    n_workers=count,
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=None,
-                    silence_logs=logging.ERROR,
-                    local_directory=temp_root,
+            start = {"distributed.worker.multiprocessing-method": dask_start_method()}
+            with dask.config.set(LOCAL_WORKER_CONFIG | start):
+                cluster = stack.enter_context(
+                    LocalCluster(
+                        n_workers=count,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=None,
+                        silence_logs=logging.ERROR,
+                        local_directory=temp_root,
+                    )
                 )
-            )
             client = stack.enter_context(Client(cluster))
             try:  # every worker, or none: a cluster half started would run the study at a fraction of its speed
                 client.wait_for_workers(count, timeout=LOCAL_CLUSTER_START)
@@ -344,22 +368,28 @@ def _dask(
                     f"the local Dask cluster did not start its {count} workers within "
                     f"{LOCAL_CLUSTER_START:g} s; give fewer --workers"
                 ) from None
-        from .dask_plugin import CloseFMUs, ShipFMU
+        from .dask_plugin import RunCalls, ShipFMU
 
-        client.register_plugin(CloseFMUs(), name="lattice-close-fmus")
+        client.register_plugin(RunCalls(), name="lattice-calls")
         for path in fmus:
             plugin = ShipFMU(path)
             client.register_plugin(plugin, name=plugin.plugin_name)  # raises the reason of a worker that cannot run it
+        # A scheduler this run starts (a local cluster, the jobs') runs in this process, so this process reaches
+        # every worker it reaches: calls go to the workers directly. Another scheduler's workers may be reachable
+        # only from it: calls go through it, unless Dask's direct-to-workers setting says otherwise.
+        direct = not scheduler or bool(client.direct_to_workers)
         if jobs is None:
-            executor = DaskActors(client, dask_batch_size())
+            executor = DaskWorkers(client, dask_batch_size(), direct=direct)
         else:  # workers leave with their jobs: a call waits for a worker, and runs again while workers leave
-            executor = DaskActors(
+            executor = DaskWorkers(
                 client,
                 dask_batch_size(),
+                direct=direct,
                 worker_wait=jobs.job_start,
                 attempts=JOB_ATTEMPTS,
                 planned_workers=jobs.workers,
             )
+            running.append(executor)
         try:
             yield executor
         except BaseException:
@@ -369,161 +399,182 @@ def _dask(
             executor.shutdown(wait=True)
 
 
-class DaskActors(Executor):
-    """Calls on a Dask cluster's workers through one actor per worker (``dask_plugin.TaskRunner``).
+class DaskWorkers(Executor):
+    """Calls on a Dask cluster's workers, each a request to one worker and its reply (``dask_plugin.RunCalls``).
 
-    Why actors, not Dask tasks: a search asks a few designs at a time and waits for them, so what a call costs
-    is its round trip; a Dask task goes client, scheduler, worker, scheduler, client, each hop through a batched
-    stream that waits a few milliseconds, while an actor's call goes to its worker and back. A call goes to the
-    actor with the fewest calls outstanding; a call whose worker could not be reached (it died, or left) runs
-    once more on another worker, and the actor is dropped. Workers that join get an actor at the next look
-    (every ``WORKERS_REFRESH`` s).
+    Why not Dask tasks: a search asks a few designs at a time and waits for them, so what a call costs is its
+    round trip; a Dask task goes client, scheduler, worker, scheduler, client, each hop through a batched stream
+    that waits a few milliseconds, while a call goes to its worker and back (through the scheduler only when
+    the workers may be out of the client's reach). A call goes to the worker with the fewest calls outstanding;
+    a call whose worker could not be reached (it died, or left) runs once more on another worker, and the worker
+    is dropped. Workers that join are used from the next look (every ``WORKERS_REFRESH`` s).
     """
 
     def __init__(
-        self, client, batch_size: int = 1, worker_wait: float = 0.0, attempts: int = 2, planned_workers: int = 0
+        self,
+        client,
+        batch_size: int = 1,
+        worker_wait: float = 0.0,
+        attempts: int = 2,
+        planned_workers: int = 0,
+        direct: bool = True,
     ) -> None:
-        """``worker_wait``: seconds a call waits for a worker while the cluster has none (its workers' jobs
-        left, others are queued); ``attempts``: on how many workers a call may run before its failure is
-        delivered (a worker that could not be reached counts); ``planned_workers``: the workers the cluster
-        is scaled to, which the evaluator keeps busy although some jobs have not started yet."""
+        """``direct``: calls go to the workers directly, else through the scheduler; ``worker_wait``: seconds a
+        call waits for a worker while the cluster has none (its workers' jobs left, others are queued);
+        ``attempts``: on how many workers a call may run before its failure is delivered (a worker that could
+        not be reached counts); ``planned_workers``: the workers the cluster is scaled to (its most), which the
+        evaluator keeps busy although some jobs have not started yet."""
         self._planned = int(planned_workers)
         self._client = client
         self.batch_size = int(batch_size)
         self._worker_wait = float(worker_wait)
         self._attempts = int(attempts)
+        self._direct = bool(direct)
         self._lock = threading.Lock()
-        self._actors: dict[str, Any] = {}  # worker address -> the actor there
-        self._holders: dict[str, Any] = {}  # worker address -> the future that keeps its actor alive
-        self._outstanding: dict[str, int] = {}
+        self._outstanding: dict[str, int] = {}  # worker address -> its calls outstanding
+        self._peak_calls = 0  # the most calls outstanding at once since ``wanted_workers`` last looked
         self._looked = 0.0
         self._shutdown = False
         self._refresh()
-        if not self._actors:
+        if not self._outstanding:
             raise RuntimeError("the Dask cluster has no worker to run the evaluations")
 
     @property
     def slots(self) -> int:
-        return max(1, len(self._actors), self._planned)
+        return max(1, len(self._outstanding), self._planned)
 
     def _refresh(self) -> None:
-        """An actor on every worker of the cluster, none on a worker that left. It asks the scheduler (through
-        the client's event loop), so it runs without the lock: the loop takes the lock when a call returns."""
-        from .dask_plugin import TaskRunner
-
+        """Every worker of the cluster, none that left. It asks the scheduler (through the client's event
+        loop), so it runs without the lock: the loop takes the lock when a call returns."""
         workers = set(self._client.scheduler_info(n_workers=-1)["workers"])
         with self._lock:
             self._looked = time.monotonic()
-            for address in [a for a in self._actors if a not in workers]:
-                self._drop(address)
-            joined = sorted(workers - set(self._actors))
-        for address in joined:
-            holder = self._client.submit(TaskRunner, actor=True, workers=[address], pure=False)
-            try:
-                actor = holder.result(timeout=ACTOR_START)
-            except TimeoutError:  # the worker left meanwhile: the next look drops it
-                continue
-            with self._lock:
-                self._actors[address] = actor
-                self._holders[address] = holder
+            for address in [a for a in self._outstanding if a not in workers]:
+                self._outstanding.pop(address, None)
+            for address in workers - set(self._outstanding):
                 self._outstanding[address] = 0
 
-    def _drop(self, address: str) -> None:
-        self._actors.pop(address, None)
-        self._holders.pop(address, None)
-        self._outstanding.pop(address, None)
-
-    def _take(self, avoid: str | None = None, look: bool = True) -> tuple[str, Any]:
-        """The actor with the fewest calls outstanding (not the one at ``avoid`` while there is another); with
+    def _take(self, avoid: str | None = None, look: bool = True) -> str:
+        """The worker with the fewest calls outstanding (not the one at ``avoid`` while there is another); with
         ``look``, first a look for workers that joined or left when one is due (it asks the scheduler: never
         on the client's event loop)."""
-        if look and (time.monotonic() - self._looked > WORKERS_REFRESH or not self._actors):
+        if look and (time.monotonic() - self._looked > WORKERS_REFRESH or not self._outstanding):
             self._refresh()
-        if look and not self._actors and self._worker_wait > 0:
+        if look and not self._outstanding and self._worker_wait > 0:
             self._await_worker()
         with self._lock:
-            choices = [a for a in self._actors if a != avoid] or list(self._actors)
+            choices = [a for a in self._outstanding if a != avoid] or list(self._outstanding)
             if not choices:
                 raise RuntimeError("the Dask cluster has no worker left")
-            address = min(choices, key=lambda a: self._outstanding[a])
+            address = min(choices, key=lambda a: (self._outstanding[a], a))
             self._outstanding[address] += 1
-            return address, self._actors[address]
+            self._peak_calls = max(self._peak_calls, sum(self._outstanding.values()))
+            return address
+
+    def wanted_workers(self) -> int:
+        """The workers the calls since the last look would keep busy (``CALLS_PER_WORKER`` calls each, at the
+        most calls outstanding at once since then): what a cluster of batch jobs scales to."""
+        with self._lock:
+            peak, self._peak_calls = self._peak_calls, sum(self._outstanding.values())
+        return -(-peak // CALLS_PER_WORKER)
 
     def _give_back(self, address: str, reachable: bool) -> None:
         with self._lock:
-            if address in self._outstanding:
-                self._outstanding[address] -= 1
             if not reachable:
-                self._drop(address)
+                self._outstanding.pop(address, None)
+            elif address in self._outstanding:
+                self._outstanding[address] -= 1
 
     def _await_worker(self) -> None:
         """Looks for workers until one joined, for up to ``worker_wait`` seconds (not on the event loop)."""
         deadline = time.monotonic() + self._worker_wait
-        while not self._actors and time.monotonic() < deadline and not self._shutdown:
+        while not self._outstanding and time.monotonic() < deadline and not self._shutdown:
             time.sleep(WORKERS_REFRESH)
             self._refresh()
 
-    def _call_elsewhere(self, future: Future, avoid: str, function, args: tuple, kwargs: dict, attempt: int) -> None:
+    def _call_elsewhere(self, future: Future, avoid: str, payload: bytes, attempt: int) -> None:
         """In a thread of its own: waits for a worker (the cluster may have none a while), then the call runs
         there on the event loop."""
         try:
-            address, actor = self._take(avoid=avoid)
+            address = self._take(avoid=avoid)
         except BaseException as exc:  # noqa: BLE001 - delivered through the Future
             future.set_exception(exc)
             return
-        self._client.loop.add_callback(self._call, future, address, actor, function, args, kwargs, attempt)
+        self._client.loop.add_callback(self._call, future, address, payload, attempt)
 
-    async def _call(
-        self, future: Future, address: str, actor, function, args: tuple, kwargs: dict, first_attempt: int = 1
-    ) -> None:
+    async def _call(self, future: Future, address: str, payload: bytes, first_attempt: int = 1) -> None:
         """On the client's event loop: the call, its result into ``future`` (no thread waits for it)."""
+        from distributed.protocol import pickle
+
+        from .dask_plugin import CALL_HANDLER
+
         for attempt in range(first_attempt, self._attempts + 1):
             try:
-                try:
-                    method = actor.call
-                except RuntimeError as exc:  # Dask: the worker holding the actor was lost
-                    raise ConnectionError(str(exc)) from None
-                result = await method(function, args, kwargs)
+                if self._direct:
+                    answer = await getattr(self._client.rpc(address), CALL_HANDLER)(payload=payload)
+                else:
+                    answer = await self._client.scheduler.proxy(
+                        msg={"op": CALL_HANDLER, "payload": payload}, worker=address
+                    )
+                if not isinstance(answer, bytes):  # a worker that joined has not set its handler up yet
+                    raise ConnectionError(f"Dask worker {address} cannot take calls yet")
             except OSError as exc:
                 self._give_back(address, reachable=False)
                 if attempt == self._attempts or self._shutdown:
                     future.set_exception(exc)
                     return
-                if not self._actors and self._worker_wait > 0:
+                if not self._outstanding and self._worker_wait > 0:
                     threading.Thread(
                         target=self._call_elsewhere,
                         name="lattice-dask-wait",
                         daemon=True,
-                        args=(future, address, function, args, kwargs, attempt + 1),
+                        args=(future, address, payload, attempt + 1),
                     ).start()
                     return
-                if not self._actors:
+                if not self._outstanding:
                     future.set_exception(exc)
                     return
-                address, actor = self._take(avoid=address, look=False)
+                address = self._take(avoid=address, look=False)
                 continue
             except BaseException as exc:  # noqa: BLE001 - delivered through the Future
                 self._give_back(address, reachable=True)
                 future.set_exception(exc)
                 return
             self._give_back(address, reachable=True)
-            future.set_result(result)
+            try:
+                succeeded, result = pickle.loads(answer)
+            except Exception as exc:  # noqa: BLE001 - a result this process cannot unpickle
+                future.set_exception(exc)
+                return
+            if succeeded:
+                future.set_result(result)
+            else:
+                future.set_exception(result)
             return
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
         if self._shutdown:
             raise RuntimeError("cannot submit after shutdown")
-        address, actor = self._take()
+        from distributed.protocol import pickle
+
+        payload = pickle.dumps((fn, args, kwargs))  # here, so that what cannot be pickled fails the submit
+        address = self._take()
         future: Future = Future()
         future.set_running_or_notify_cancel()
-        self._client.loop.add_callback(self._call, future, address, actor, fn, args, kwargs)
+        self._client.loop.add_callback(self._call, future, address, payload)
         return future
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         self._shutdown = True
         with self._lock:
-            for address in list(self._actors):
-                self._drop(address)
+            self._outstanding.clear()
+
+
+def dask_start_method() -> str:
+    """How a local Dask cluster starts its worker processes: ``LATTICE_START_METHOD`` when set, else ``fork`` on
+    Linux (a forked worker has the project imported already; a spawned one imports it afresh, seconds of a short
+    study) and ``spawn`` elsewhere (Dask's default; macOS and Windows have no safe fork)."""
+    return pool_start_method() or ("fork" if sys.platform.startswith("linux") else "spawn")
 
 
 def dask_batch_size() -> int:

@@ -9,7 +9,7 @@ design) through one Executor and guards them:
   so it knows at each point what the interrupted run knew there.
 - *Journal*: each finished result is appended as it arrives (time-outs and a task's own transient failures
   are not: they run again on resume).
-- *Bounded work in flight*: at most two submissions per worker at a time.
+- *Bounded work in flight*: at most ``CALLS_PER_WORKER`` submissions per worker at a time.
 - *Batches*: on an executor with a ``batch_size`` above one (Dask: each submission is a round trip to a
   worker), the designs pulled together go as ``TaskBatch`` submissions of up to ``batch_size`` designs,
   spread over the workers; each design is still cached and journalled on its own, and its time limit is its
@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Sequence
 
 from .design import DesignSpace, as_design
-from .executors import executor_batch_size, executor_slots
+from .executors import CALLS_PER_WORKER, executor_batch_size, executor_slots
 from .interruption import raise_if_requested
 from .tasks import EvaluateDesign, Task, TaskBatch, function_key, run_task
 from .types import Above, Evaluation, Order
@@ -163,8 +163,11 @@ class Evaluator:
                 flights[future] = flight
 
         def submit_batches(pending: list[_Flight]) -> None:
-            """The pulled designs as batches: as many as the workers (up to ``batch_size`` designs each)."""
-            size = min(self._batch, -(-len(pending) // self._slots))
+            """The pulled designs as batches of up to ``batch_size`` designs, as few as keep every worker busy
+            (a call costs the same whatever it carries) and of equal sizes (so that no worker is left with a
+            remainder while the others wait)."""
+            calls = self._slots * -(-len(pending) // (self._slots * self._batch))
+            size = -(-len(pending) // calls)
             for start in range(0, len(pending), size):
                 members = tuple(pending[start : start + size])
                 if len(members) == 1:
@@ -178,8 +181,8 @@ class Evaluator:
             while (
                 not exhausted
                 and not alone
-                and len(flights) < 2 * self._slots
-                and len(pending) < 2 * self._slots * self._batch
+                and len(flights) < CALLS_PER_WORKER * self._slots
+                and len(pending) < CALLS_PER_WORKER * self._slots * self._batch
             ):
                 try:
                     index, task = next(source)

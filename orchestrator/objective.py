@@ -18,6 +18,7 @@ journals, and combines their results. The outputs that can be minimised are the 
 from __future__ import annotations
 
 import atexit
+import os
 import itertools
 import math
 import time
@@ -122,6 +123,16 @@ def close_instances() -> None:
 
 
 atexit.register(close_instances)  # a process that used FMU runs directly leaves no extracted FMU behind
+
+
+def _forget_parents_instances() -> None:
+    """In a forked child (a Dask worker, a pool worker): the parent's instances are the parent's; closing one here
+    would remove the folder the parent's instance runs from, so the child opens its own."""
+    _INSTANCES.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_parents_instances)
 
 
 def missing_output(fmu_path: str | Path, names: Sequence[str]) -> str | None:

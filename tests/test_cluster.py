@@ -239,3 +239,51 @@ def test_failed_evaluations_are_counted_as_failed():
     assert failures_of(Evaluation((1, 2), 3.0, "ok")) == []
     chunk = ChunkResult(0, 24, "failed", "worker lost", (), (), False, (), 0, 0, None, None, (), 0.0, 0.0, 0.0)
     assert failures_of(chunk) == ["worker lost"] * 24
+
+
+def test_adaptive_scaling_follows_the_calls_not_the_schedulers_tasks(tmp_path):
+    """The calls are requests to the workers, never Dask tasks: the cluster scales to what they want, within
+    its bounds, and back to one job's workers when they want none."""
+    from distributed import LocalCluster
+
+    from orchestrator.cluster import adaptive_to_calls
+
+    wanted = [3]
+    with LocalCluster(
+        n_workers=1, processes=False, threads_per_worker=1, dashboard_address=None, local_directory=tmp_path
+    ) as cluster:
+        cluster.adapt(
+            Adaptive=adaptive_to_calls(),
+            minimum=1,
+            maximum=4,
+            wanted_workers=lambda: wanted[0],
+            interval="50ms",
+            wait_count=1,
+        )
+        assert workers_become(cluster, 3)
+        wanted[0] = 9
+        assert workers_become(cluster, 4)  # at most the maximum
+        wanted[0] = 0
+        assert workers_become(cluster, 1)
+
+
+def workers_become(cluster, count: int, timeout: float = 60.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if len(cluster.scheduler_info["workers"]) == count:
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def test_the_workers_wanted_are_those_the_calls_since_the_last_look_kept_busy():
+    from orchestrator.executors import make_executor
+
+    with make_executor("dask", workers=2) as executor:
+        assert executor.wanted_workers() == 0
+        calls = [executor.submit(time.sleep, 0.5) for _ in range(4)]
+        assert executor.wanted_workers() == 2  # four calls, two to a worker
+        for call in calls:
+            call.result()
+        assert executor.wanted_workers() == 2  # the peak since the last look
+        assert executor.wanted_workers() == 0

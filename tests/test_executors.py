@@ -79,6 +79,40 @@ def test_dask_local_cluster_identical_to_serial(serial_outcomes):
     assert client.status == "closed"
 
 
+def test_dask_calls_through_another_scheduler_go_through_it_and_give_the_same_results(serial_outcomes, tmp_path):
+    """A scheduler the run did not start may be the only one that reaches its workers: the calls go through
+    it, and an exception raised in a worker reaches the caller as itself."""
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None, local_directory=tmp_path) as cluster:
+        with make_executor("dask", scheduler=cluster.scheduler_address) as ex:
+            assert not ex._direct
+            assert outcomes(runs_with(ex)) == serial_outcomes
+            with pytest.raises(ZeroDivisionError):
+                ex.submit(divmod, 1, 0).result()
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork on this platform")
+def test_a_forked_child_does_not_hold_its_parents_fmu_instances(monkeypatch):
+    """A forked Dask worker that closed the parent's instances would remove the folder they run from."""
+    import multiprocessing
+
+    from orchestrator import objective
+
+    monkeypatch.setitem(objective._INSTANCES, "parent.fmu", object())
+    child = multiprocessing.get_context("fork").Process(target=_exit_with_instances_held)
+    child.start()
+    child.join(timeout=60)
+    assert child.exitcode == 0
+    assert "parent.fmu" in objective._INSTANCES
+
+
+def _exit_with_instances_held() -> None:
+    from orchestrator import objective
+
+    os._exit(len(objective._INSTANCES))
+
+
 def test_dask_calls_go_on_when_a_worker_leaves():
     """A worker that leaves the cluster takes its actor with it: the calls go to the workers that remain, and
     every evaluation still has its value."""

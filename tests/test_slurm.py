@@ -2,8 +2,9 @@
 
 The ``slurm``-marked tests run against a real SLURM (``.ci/slurm-up`` starts a one-node one, as ``.ci/run`` does
 before ``python -m pytest -m slurm``): an 11 x 8 sweep through SLURM jobs gives the process pool's certificate;
-so does one whose jobs' walltime is shorter than the sweep (their workers leave, new jobs replace them) and one
-whose job is cancelled mid-sweep (``scancel``); none simulates a design twice. Where sbatch or munge is absent,
+so does one whose jobs' walltime is shorter than the sweep (their workers leave, new jobs replace them), one
+whose job is cancelled mid-sweep (``scancel``) and one whose jobs scale between one and two with its calls; none
+simulates a design twice. Where sbatch or munge is absent,
 the tests are not run as root or the node is not up, they skip with the reason. The other tests check the
 options and their refusals without SLURM.
 """
@@ -144,6 +145,19 @@ def test_a_sweep_through_slurm_jobs_gives_the_process_pools_certificate(pool_swe
 @pytest.mark.slurm
 @pytest.mark.slow
 @needs_slurm
+def test_adaptive_jobs_scale_up_to_what_the_sweeps_calls_keep_busy(pool_sweep, tmp_path):
+    out = tmp_path / "sweep"
+    options = slurm_options(tmp_path, 1, "00:30:00")
+    options[options.index("--jobs") : options.index("--jobs") + 2] = ["--min-jobs", "1", "--max-jobs", "2"]
+    done = run_sweep(out, *options)
+    assert done.returncode == 0, done.stderr
+    assert_same_certificate(out, pool_sweep)
+    assert job_logs(out) >= 2, "the sweep's calls did not ask for the second job"
+
+
+@pytest.mark.slurm
+@pytest.mark.slow
+@needs_slurm
 def test_a_sweep_longer_than_a_jobs_walltime_ends_certified(pool_sweep, tmp_path):
     out = tmp_path / "sweep"
     # a walltime of 5 s: its workers leave after 5 s, a few tenths of a second of chunks each after their start,
@@ -260,6 +274,30 @@ def test_a_study_files_cluster_section_sets_the_cluster(tmp_path):
     study.write_text("[cluster]\njobs = 0\n")
     with pytest.raises(ValueError, match=r"\[cluster\] jobs"):
         read_study_file(study)
+
+
+def test_adaptive_job_bounds_come_in_pairs_from_the_command_line_or_the_study_file(capsys, tmp_path):
+    assert ClusterConfig(cluster="slurm", jobs=3).job_bounds == (3, 3)
+    adaptive = ClusterConfig(cluster="slurm", min_jobs=0, max_jobs=8, job_cores=2)
+    assert adaptive.adaptive and adaptive.job_bounds == (0, 8)
+    with pytest.raises(ValueError, match="--min-jobs and --max-jobs: give both"):
+        ClusterConfig(cluster="slurm", max_jobs=8)
+    with pytest.raises(ValueError, match="--min-jobs 5 and --max-jobs 4: the minimum is above the maximum"):
+        ClusterConfig(cluster="slurm", min_jobs=5, max_jobs=4)
+    out = str(tmp_path / "out")
+    slurm = ["--executor", "dask", "--cluster", "slurm", "--out", out]
+    assert "give a fixed number of jobs or the bounds" in cli_error(
+        capsys, [*slurm, "--jobs", "4", "--min-jobs", "1", "--max-jobs", "8"]
+    )
+    assert "--max-jobs must be at least 1" in cli_error(capsys, [*slurm, "--min-jobs", "0", "--max-jobs", "0"])
+    local = ["--min-jobs", "1", "--max-jobs", "2", "--out", out]
+    assert "--max-jobs, --min-jobs: only with --cluster slurm" in cli_error(capsys, local)
+    study = tmp_path / "study.toml"
+    study.write_text('[cluster]\ncluster = "slurm"\nmin-jobs = 1\nmax-jobs = 16\n')
+    from orchestrator.options import config_from
+
+    cluster = config_from(ClusterConfig, read_study_file(study).apply(run_cli.build_parser().parse_args([])))
+    assert cluster.job_bounds == (1, 16)
 
 
 def test_the_job_script_runs_the_setup_lines_and_leaves_before_the_walltime(tmp_path):

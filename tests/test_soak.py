@@ -64,3 +64,16 @@ def test_evaluator_on_a_process_pool_is_flat(fmu_path):
     result = soak.evaluator_soak(fmu_path, "process", CYCLES, workers=2)
     assert result.failures == 0
     assert result.growth.flat, result.growth
+
+
+def test_a_local_dask_clusters_system_monitors_keep_a_short_history():
+    """What grew in the Dask soak: every Dask process's system monitor history, an hour of samples by default.
+    A local cluster keeps a few, in its scheduler and in each worker."""
+    pytest.importorskip("distributed")
+    from orchestrator.executors import LOCAL_MONITOR_SAMPLES, make_executor
+
+    with make_executor("dask", workers=2) as executor:
+        client = executor._client
+        kept = client.run(lambda dask_worker: dask_worker.monitor.maxlen)
+        assert list(kept.values()) == [LOCAL_MONITOR_SAMPLES] * 2
+        assert client.run_on_scheduler(lambda dask_scheduler: dask_scheduler.monitor.maxlen) == LOCAL_MONITOR_SAMPLES
