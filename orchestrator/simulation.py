@@ -12,6 +12,7 @@ import itertools
 import math
 import numbers
 import os
+import re
 import shutil
 import tempfile
 import zipfile
@@ -185,6 +186,9 @@ def _declared_size(fmu_path: str, mtime_ns: int, size: int) -> tuple[int, int, i
                 return int(lattice.get("rows", "")), int(lattice.get("columns", "")), int(lattice.get("depth", ""))
             except ValueError:
                 return None
+        text = re.fullmatch(r"\s*rows=(\d+) columns=(\d+) depth=(\d+)\s*", holder.text or "")
+        if text:  # FMI 3 declares it as the annotation's text
+            return int(text[1]), int(text[2]), int(text[3])
     return None
 
 

@@ -318,12 +318,6 @@ def test_fmi_sim_agrees_with_fmpy(request, fmu_path, fmpy_peaks, tmp_path):
 
 
 @pytest.mark.importers
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="fmi-sim 0.7 (its fmi-schema 0.8 reader) takes an FMI 3 <Annotation> as text only and refuses the "
-    "FMU's <Lattice> element there, which FMI 3's schema allows (docs/other-tools.md)",
-)
 def test_fmi_sim_runs_the_fmi3_fmu_to_the_same_peak(request, tmp_path, fmpy_peaks):
     """fmi-sim 0.7 sets one scalar per --init-values, not an FMI 3 array, so the order goes in as the start
     value of `material` in the FMU itself (a scene parameter of build_fmu.py)."""

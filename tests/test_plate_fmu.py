@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import zipfile
+from xml.etree import ElementTree
 from pathlib import Path
 
 import numpy as np
@@ -408,6 +409,9 @@ def test_both_model_descriptions_declare_the_lattices_size(plate_fmu, plate_fmu3
 
     assert declared_lattice_size(plate_fmu) == declared_lattice_size(plate_fmu3) == (ROWS, COLS, DEPTH)
     assert declared_lattice_size(fmu_path) == (11, 11, 1)
+    with zipfile.ZipFile(plate_fmu3) as archive:  # as text: importers that read an annotation's text only load it
+        (annotation,) = ElementTree.fromstring(archive.read("modelDescription.xml")).iter("Annotation")
+    assert list(annotation) == [] and annotation.text == f"rows={ROWS} columns={COLS} depth={DEPTH}"
     silent = tmp_path / "silent.fmu"
     with zipfile.ZipFile(fmu_path) as source, zipfile.ZipFile(silent, "w") as target:
         for item in source.infolist():
