@@ -26,7 +26,7 @@ import os
 import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, TypeGuard
 
 MAX_MATERIALS = 256
 STUDY_MATERIAL_COUNT = 11  # docs/model.md §3: the study's table; a lattice wider than it has no study material to add
@@ -194,7 +194,7 @@ def study_materials(count: int = STUDY_MATERIAL_COUNT) -> MaterialTable:
     return MaterialTable(tuple(materials))
 
 
-def _given(value) -> bool:
+def _given(value: Any) -> TypeGuard[str | float | int]:
     """Whether a cell holds something (an optional column's empty cell takes the column's default)."""
     return value is not None and not (isinstance(value, str) and not value.strip())
 

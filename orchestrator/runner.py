@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from importlib.util import find_spec
 from pathlib import Path
 
-from fmu_src.materials import STUDY_MATERIAL_COUNT, load_materials
 
 from .cluster import JOB_LOGS, ClusterConfig, SlurmJobs, check_cluster
 from .executors import EXECUTORS, SerialExecutor, make_executor
@@ -30,7 +29,7 @@ from .options import NO_NUMBER, NOT_KEPT, check_options, given, integer, number,
 from .progress import Progress
 from .records import to_record
 from .runfolder import RunFolder, make_temp_root
-from .scene import narrowed_table_note, resolve, resolve_scene
+from .scene import narrowed_table_note, resolve
 from .studyfile import write_study_file
 from .steps.searches import SearchesConfig
 from .interruption import raise_if_requested
@@ -157,9 +156,10 @@ def check_bounds(run: RunConfig, case, beyond: list[str]) -> None:
 
 
 def check_confirmation(run: RunConfig, beyond: list[str]) -> None:
-    """A confirmation with nothing to confirm is refused: it would hide a mistake in the command."""
+    """A confirmation with nothing to confirm is named, not refused: the run it allows is the run asked for,
+    and the line shows a user who expected a larger run that this one is not."""
     if run.confirm_cost and not beyond:
-        raise ValueError(nothing_to_confirm())
+        print(nothing_to_confirm(), file=sys.stderr)
 
 
 def nothing_to_confirm() -> str:
@@ -168,34 +168,8 @@ def nothing_to_confirm() -> str:
     return (
         "--confirm-cost: nothing in this run is beyond a bound (an exhaustive sweep beyond "
         f"{MAX_LOCAL_DESIGNS:,} designs, more than {MAX_RUNS_PER_DESIGN} FMU runs per design, more "
-        f"than {MAX_WORKERS_PER_CORE} workers per core); leave it out"
+        f"than {MAX_WORKERS_PER_CORE} workers per core), so it changes nothing"
     )
-
-
-def could_be_beyond(run: RunConfig, case_config: CaseConfig, scene, materials, step_configs: dict) -> bool:
-    """Whether anything of this run may be beyond a bound, judged from the options and the scene alone (no FMU):
-    the workers, the --case lists' product (before duplicates are merged) and an asked sweep of a space of at
-    most the table's materials (the study's eleven without a table) over the columns."""
-    from .design import DesignSpace
-    from .exhaustive import MAX_LOCAL_DESIGNS, SWEEP_METHOD
-    from .study import parse_case_option
-
-    cores = os.cpu_count() or 1
-    if run.scheduler is None and (run.workers or cores) > MAX_WORKERS_PER_CORE * cores:
-        return True
-    runs = 1
-    for text in case_config.case:
-        runs *= len(parse_case_option(text)[1])
-    if runs > MAX_RUNS_PER_DESIGN:
-        return True
-    searches = next((c for c in step_configs.values() if isinstance(c, SearchesConfig)), SearchesConfig())
-    if SWEEP_METHOD not in searches.methods:
-        return False
-    columns = case_config.cols or scene.cols
-    own = scene.material_table()
-    count = len(materials) if materials is not None else len(own) if own is not None else STUDY_MATERIAL_COUNT
-    repeat = bool(case_config.repeat or scene.parameters.get("repeat_materials"))
-    return DesignSpace(columns, max(count, columns), repeat).size > MAX_LOCAL_DESIGNS
 
 
 def settings(case, fmu: PreparedFMU, steps) -> dict:
@@ -227,10 +201,6 @@ def run_in_folder(
     previous_tempdir = tempfile.tempdir
     tempfile.tempdir = temp_root  # this process's extractions too; removed with the run
     try:
-        if run.confirm_cost:  # a confirmation of nothing is refused before the FMU is built
-            materials = load_materials(case_config.materials) if case_config.materials else None
-            if not could_be_beyond(run, case_config, resolve_scene(case_config, materials), materials, step_configs):
-                raise ValueError(nothing_to_confirm())
         resolved = resolve(case_config)
         fmu, table = resolved.fmu, resolved.table
         note = narrowed_table_note(case_config)
