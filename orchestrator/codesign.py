@@ -533,12 +533,74 @@ class FrontDesign:
 
 @dataclass(frozen=True)
 class CoDesignFront:
-    """The front of the objectives (the peak against the stack's mass) over order and factors: the designs no
-    other design NSGA-II evaluated dominates at the search fidelity, by the first objective."""
+    """The front of the objectives (the peak against the stack's mass) over order and factors: the designs within
+    the mass budget that no other design NSGA-II evaluated within it dominates at the search fidelity, by the
+    first objective."""
 
     designs: tuple[FrontDesign, ...]
-    evaluated: tuple[tuple[float, ...], ...]  # every evaluated design's values at the search fidelity
+    evaluated: tuple[tuple[float, ...], ...]  # every evaluated design's values within the budget, search fidelity
     evaluations: int
+    mass_range: tuple[float, float]  # kg: the lightest design the factors allow, and the front's upper end
+
+
+MASS_PROFILES = ("even", "impact_side_first", "back_first")
+"""How a mass ladder's designs share their mass among the columns: every column at one scaled coordinate, or the
+columns filled to their heaviest one after the other from column 1 (the loaded face), or from the last column."""
+
+
+def mass_range(space: CoDesignSpace, order: Sequence[int], budget: float | None) -> tuple[float, float]:
+    """The stack masses ``order``'s designs span (kg): every mass factor at its range's lower end, and at its upper
+    end or the budget, whichever is lighter (without a varied mass, the order's own mass at both ends)."""
+    lightest = space.total_mass(_mass_at(space, order, 0.0, MASS_PROFILES[0]))
+    heaviest = space.total_mass(_mass_at(space, order, 1.0, MASS_PROFILES[0]))
+    return lightest, heaviest if budget is None else max(lightest, min(heaviest, float(budget)))
+
+
+def mass_ladder(
+    space: CoDesignSpace, order: Sequence[int], budget: float | None, count: int, profile: str = MASS_PROFILES[0]
+) -> list[CoDesignPoint]:
+    """``count`` designs of ``order`` whose stack masses are evenly spaced over its mass range (``mass_range``),
+    the mass shared among the columns as ``profile`` (one of ``MASS_PROFILES``) says, found by bisection (the mass
+    grows along the profile), every other property at the table's value: seeds that make NSGA-II's first
+    population span the masses."""
+    if profile not in MASS_PROFILES:
+        raise ValueError(f"profile {profile!r}: allowed values are {', '.join(MASS_PROFILES)}")
+    if MASS not in space.names or count < 1:
+        return []
+    low, high = mass_range(space, order, budget)
+    targets = [low] if count == 1 else [low + (high - low) * i / (count - 1) for i in range(count)]
+    ladder = []
+    for target in targets:
+        below, above = 0.0, 1.0
+        for _ in range(60):
+            middle = 0.5 * (below + above)
+            if space.total_mass(_mass_at(space, order, middle, profile)) <= target:
+                below = middle
+            else:
+                above = middle
+        ladder.append(_mass_at(space, order, below, profile))
+    return ladder
+
+
+def _mass_at(space: CoDesignSpace, order: Sequence[int], along: float, profile: str) -> CoDesignPoint:
+    """``order`` with its columns' masses at ``along`` (0: the lightest, 1: the heaviest) of ``profile`` and every
+    other property at its table value."""
+    order = as_design(order)
+    count = len(order)
+
+    def scaled(column: int) -> float:  # column counts from 0
+        if profile == "even":
+            return along
+        filled = column if profile == "impact_side_first" else count - 1 - column
+        return min(1.0, max(0.0, along * count - filled))
+
+    return CoDesignPoint(
+        order,
+        tuple(
+            tuple(space.factor_of(scaled(column), material, name) if name == MASS else 1.0 for name in space.names)
+            for column, material in enumerate(order)
+        ),
+    )
 
 
 def nsga2_front(
@@ -548,10 +610,17 @@ def nsga2_front(
     evaluations: int,
     seed: int = 0,
     population: int = 40,
+    mass_budget: float | None = None,
+    seeds: Sequence[CoDesignPoint] = (),
 ) -> CoDesignFront:
-    """pymoo's NSGA-II over the order's keys and the factors in [0, 1]-scaled coordinates (its first population
-    holds ``start_order`` at the table's values), every objective of ``objective``'s lattice objective minimised;
-    the front is the non-dominated set of every design it evaluated, then evaluated at full fidelity."""
+    """pymoo's NSGA-II over the order's keys and the factors in [0, 1]-scaled coordinates, every objective of
+    ``objective``'s lattice objective minimised, the stack's mass at most ``mass_budget`` (kg; None: the factors'
+    whole range) as an inequality constraint. Its first population holds ``seeds`` (e.g. the co-design's answer),
+    ``start_order`` at the table's values and, with the mass varied, about half a population of ``start_order``'s
+    designs at evenly spaced masses from the lightest to the front's upper end, the mass shared among the columns
+    in each of ``MASS_PROFILES``'s ways (``mass_ladder``), the rest random; the
+    front is the non-dominated set of every design it evaluated within the budget, then evaluated at full
+    fidelity."""
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.core.evaluator import Evaluator as PymooEvaluator
     from pymoo.core.problem import Problem
@@ -562,8 +631,19 @@ def nsga2_front(
     space = objective.space
     rng = np.random.default_rng(seed)
     first = rng.random((population, space.dimension))
-    first[0] = space.encode(space.unit_point(start_order))
-    problem = Problem(n_var=space.dimension, n_obj=objective.base.n_objectives, xl=0.0, xu=1.0)
+    seeded: list[np.ndarray] = []  # distinct rows only: pymoo drops a repeated one, shrinking the population
+    ladders = [
+        point
+        for profile in MASS_PROFILES
+        for point in mass_ladder(space, start_order, mass_budget, population // (2 * len(MASS_PROFILES)) + 1, profile)
+    ]
+    for point in [*seeds, space.unit_point(start_order), *ladders]:
+        x = space.encode(point)
+        if len(seeded) < population and all(np.max(np.abs(x - other)) > 1e-9 for other in seeded):
+            seeded.append(x)
+    first[: len(seeded)] = seeded
+    budget = math.inf if mass_budget is None else float(mass_budget)
+    problem = Problem(n_var=space.dimension, n_obj=objective.base.n_objectives, n_ieq_constr=1, xl=0.0, xu=1.0)
     algorithm = NSGA2(pop_size=population, sampling=first)
     algorithm.setup(problem, termination=("n_eval", evaluations), seed=seed, verbose=False)
     points: list[CoDesignPoint] = []
@@ -576,20 +656,26 @@ def nsga2_front(
         results = objective.evaluate(batch, evaluator, SEARCH)
         used += len(batch)
         told = []
+        excess = []
         for point, result in zip(batch, results):
+            over = space.mass_excess(point, budget) if math.isfinite(budget) else 0.0
+            excess.append([over / budget if math.isfinite(budget) else 0.0])
             if result.ok and result.value is not None:
                 own = tuple(float(v) for v in (result.values or (result.value,)))
-                points.append(point)
-                values.append(own)
+                if over == 0.0:
+                    points.append(point)
+                    values.append(own)
                 told.append(own)
             else:  # a failed design ranks behind every evaluated one
                 told.append(tuple(math.inf for _ in range(problem.n_obj)))
-        worst = np.max(np.array(values), axis=0) if values else np.ones(problem.n_obj)
+        finite = [row for row in told if not any(math.isinf(v) for v in row)]
+        worst = np.max(np.array(finite), axis=0) if finite else np.ones(problem.n_obj)
         told_matrix = np.array([[w * 2 + 1 if math.isinf(v) else v for v, w in zip(row, worst)] for row in told])
-        PymooEvaluator().eval(StaticProblem(problem, F=told_matrix), asked)
+        PymooEvaluator().eval(StaticProblem(problem, F=told_matrix, G=np.array(excess)), asked)
         algorithm.tell(infills=asked)
+    span = mass_range(space, start_order, mass_budget)
     if not values:
-        return CoDesignFront((), (), used)
+        return CoDesignFront((), (), used, span)
     mask = non_dominated(values)
     chosen = sorted((i for i in range(len(values)) if mask[i]), key=lambda i: values[i])
     unique = list({points[i]: i for i in chosen}.values())
@@ -602,7 +688,7 @@ def nsga2_front(
         )
         for i, e in zip(unique, full)
     )
-    return CoDesignFront(designs, tuple(values), used)
+    return CoDesignFront(designs, tuple(values), used, span)
 
 
 @contextlib.contextmanager
@@ -628,10 +714,13 @@ __all__ = [
     "ColumnProperties",
     "DEFAULT_RANGE",
     "FrontDesign",
+    "MASS_PROFILES",
     "Polish",
     "Scored",
     "SearchOutcome",
     "cmaes_search",
+    "mass_ladder",
+    "mass_range",
     "nsga2_front",
     "parse_vary",
     "parse_vary_range",

@@ -21,9 +21,12 @@ from fmpy import simulate_fmu
 from command_line import main, one_line
 from fmu_src.materials import FIELD_NAMES, MaterialTableError, load_materials, study_materials
 from orchestrator.codesign import (
+    MASS_PROFILES,
     CoDesignObjective,
     CoDesignSpace,
     cmaes_search,
+    mass_ladder,
+    mass_range,
     nsga2_front,
     parse_vary,
     parse_vary_range,
@@ -237,6 +240,45 @@ def test_the_front_of_peak_against_mass_is_never_dominated_by_a_design_the_run_e
         assert design.full_values is not None and design.full_values[1] == pytest.approx(design.search_values[1])
     masses = [d.search_values[1] for d in front.designs]
     assert masses == sorted(masses, reverse=True)  # by the peak, lowest first: the mass falls along the front
+    assert front.mass_range == pytest.approx((ROWS * 3 * 0.5, ROWS * 3 * 2.0))  # no budget: the factors' range
+    assert min(masses) == pytest.approx(front.mass_range[0])  # the lightest seed: nothing lighter dominates it
+
+
+def test_a_mass_ladder_spaces_its_masses_evenly_up_to_the_budget():
+    space = codesign_space(("k", "mass"))
+    assert mass_range(space, (2, 3, 1), None) == pytest.approx((ROWS * 1.5, ROWS * 6.0))
+    assert mass_range(space, (2, 3, 1), 50.0) == pytest.approx((ROWS * 1.5, 50.0))
+    for profile in MASS_PROFILES:
+        ladder = mass_ladder(space, (2, 3, 1), 50.0, 5, profile)
+        masses = [space.total_mass(point) for point in ladder]
+        np.testing.assert_allclose(masses, np.linspace(ROWS * 1.5, 50.0, 5), rtol=1e-9)
+        assert all(point.order == (2, 3, 1) and all(f[0] == 1.0 for f in point.factors) for point in ladder)
+        middle = [column[1] for column in ladder[2].factors]  # each column's mass factor
+        if profile == "even":
+            assert middle == pytest.approx([middle[0]] * 3)
+        else:  # the columns fill one after the other, from the loaded face or from the back
+            assert middle == sorted(middle, reverse=profile == "impact_side_first") and middle[0] != middle[2]
+    with pytest.raises(ValueError, match="profile 'diagonal': allowed values are even, impact_side_first"):
+        mass_ladder(space, (2, 3, 1), None, 3, "diagonal")
+    assert mass_ladder(codesign_space(("k",)), (2, 3, 1), None, 5) == []  # no mass varied: no ladder
+
+
+def test_a_front_under_a_mass_budget_keeps_to_it_and_spans_the_masses_up_to_it(armour_fmu_of_width):
+    space = codesign_space(("k", "mass"))
+    lattice = LatticeObjective(armour_fmu_of_width(3), space.space, 8.0, ("peak_backplate_force", "stack_mass"))
+    evaluator = Evaluator(SerialExecutor())
+    budget = ROWS * 4.5
+    front = nsga2_front(
+        CoDesignObjective(lattice, space), evaluator, (1, 2, 3), 100, seed=2, population=20, mass_budget=budget
+    )
+    assert front.mass_range == pytest.approx((ROWS * 1.5, budget))
+    assert front.evaluations == 100 and 0 < len(front.evaluated) <= 100
+    assert all(mass <= budget * (1 + 1e-9) for _, mass in front.evaluated)
+    on_front = [d.search_values for d in front.designs]
+    assert not np.any(dominated_by(on_front, front.evaluated))
+    masses = [d.search_values[1] for d in front.designs]
+    assert min(masses) == pytest.approx(ROWS * 1.5)
+    assert max(mass for _, mass in front.evaluated) == pytest.approx(budget)  # the heaviest seed: beyond 33 kg
 
 
 def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, capfd):
@@ -257,6 +299,8 @@ def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, 
             "sampled,mass",
             "--vary-budget",
             80,
+            "--mass-budget",
+            45,
         )
         == 0
     )
@@ -264,10 +308,8 @@ def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, 
     fronts = json.loads((out / "results.json").read_text())["steps"]["codesign"]["fronts"]
     assert "on the front of the objective against the" in (out / "report.html").read_text()
     assert fronts[0]["diagonal_rule"] == "mean" and fronts[0]["designs"]
-    assert (
-        main(*options, "--out", tmp_path / "no", "--vary", "k", "--objective", "sampled,mass", "--mass-budget", 30) == 2
-    )
-    assert "--mass-budget: not with --objective ...,mass" in one_line(capfd)
+    assert fronts[0]["mass_range"] == pytest.approx([ROWS * 1.5, 45.0])  # --mass-budget: the front's upper end
+    assert all(d["search_values"][1] <= 45.0 * (1 + 1e-9) for d in fronts[0]["designs"])
 
 
 def test_a_tables_bounds_give_each_materials_own_range(tmp_path):

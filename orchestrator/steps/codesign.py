@@ -53,7 +53,8 @@ class CoDesignConfig:
     mass_budget: float | None = option(
         None,
         "with --vary: the stack's largest total mass in kg (a heavier design is infeasible)",
-        show_default="the mass of each rule's best order at the table's values",
+        show_default="the mass of each rule's best order at the table's values; with --objective ...,mass (where "
+        "it is the front's upper end) the heaviest stack the factors allow",
         metavar="KG",
         type=number("--mass-budget", 0),
     )
@@ -111,6 +112,8 @@ class RuleFront:
     diagonal_rule: str
     designs: tuple[FrontLayer, ...]  # by the objective, lowest first
     evaluations: int  # designs NSGA-II evaluated
+    mass_range: tuple[float, float] = (0.0, 0.0)  # kg: the lightest stack the factors allow and the front's upper end
+    evaluated_masses: tuple[float, float] = (0.0, 0.0)  # kg: the lightest and heaviest design evaluated within it
 
 
 @dataclass(frozen=True)
@@ -164,8 +167,6 @@ class CoDesign(Step):
                 f"--vary: one objective, or an objective and the stack's mass (--objective sampled,mass), not "
                 f"{','.join(outputs)}"
             )
-        if len(outputs) == 2 and config.mass_budget is not None:
-            raise ValueError("--mass-budget: not with --objective ...,mass (the mass is an objective: its front)")
         space = codesign_space(context, config)
         declared = declared_parameters(model_description(context.fmu.path))
         for name in space.names:
@@ -231,13 +232,22 @@ class CoDesign(Step):
         return CoDesignResult(space.names, (space.low, space.high), tuple(answers))
 
     def fronts(self, context: StudyContext, space: CoDesignSpace) -> CoDesignResult:
-        """Under each rule, NSGA-II's front of the objective against the stack's mass, from the space's baseline
-        order at the table's values."""
+        """Under each rule, NSGA-II's front of the objective against the stack's mass, from the rule's best order
+        (the order search's answer; the space's baseline order when it has none) at the table's values and at
+        evenly spaced masses. ``--mass-budget`` is the front's upper end; without it the front spans every mass
+        the factors allow."""
         fronts = []
         for index, rule in enumerate(context.rules):
             objective = CoDesignObjective(context.objective(rule), space)
+            best = rule_best(context, rule_label(rule))
+            start = best.order if best is not None else context.case.space.baseline()
             front = nsga2_front(
-                objective, context.evaluator, context.case.space.baseline(), self.config.vary_budget, seed=index
+                objective,
+                context.evaluator,
+                start,
+                self.config.vary_budget,
+                seed=index,
+                mass_budget=space.mass_budget,
             )
             fronts.append(
                 RuleFront(
@@ -247,6 +257,12 @@ class CoDesign(Step):
                         for d in front.designs
                     ),
                     front.evaluations,
+                    front.mass_range,
+                    (
+                        (min(v[1] for v in front.evaluated), max(v[1] for v in front.evaluated))
+                        if front.evaluated
+                        else (0.0, 0.0)
+                    ),
                 )
             )
         return CoDesignResult(space.names, (space.low, space.high), (), tuple(fronts))
