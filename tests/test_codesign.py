@@ -367,3 +367,25 @@ def test_a_co_design_is_the_same_on_any_executor(armour_fmu_of_width, tmp_path):
         assert main(*options, "--executor", executor, "--out", tmp_path / executor) == 0
         answers.append(json.loads((tmp_path / executor / "results.json").read_text())["answers"][0])
     assert answers[0]["parameters"] == answers[1]["parameters"] and answers[0]["peak"] == answers[1]["peak"]
+
+
+def test_a_tables_bounds_hold_when_cols_takes_fewer_columns_than_it_has_materials(tmp_path, capfd):
+    path = tmp_path / "tight.csv"  # each k within 1 % of its value: far inside --vary-range's 0.5..2
+    path.write_text(
+        "name,k,k_diag,c,alpha,alpha_diag,k_min,k_max\n"
+        "steel,100,50,5,10,10,99,101\n"
+        "aramid,44,22,2,10,10,43.56,44.44\n"
+        "foam,8,4,0.4,10,10,7.92,8.08\n"
+        "felt,5,2,0.3,10,10,4.95,5.05\n"
+    )
+    out = tmp_path / "out"
+    options = ("--materials", path, "--cols", 3, "--vary", "k", "--vary-budget", 30, "--budget", 6, "--repeats", 1)
+    options += ("--diagonal-rule", "mean", "--no-sensitivity", "--no-progress", "--out", out)
+    assert main(*options) == 0
+    capfd.readouterr()
+    answer = json.loads((out / "results.json").read_text())["answers"][0]
+    bounds = {"steel": (99, 101), "aramid": (43.56, 44.44), "foam": (7.92, 8.08), "felt": (4.95, 5.05)}
+    assert len(answer["columns"]) == 3
+    for column in answer["columns"]:
+        low, high = bounds[column["material"]]
+        assert low <= column["values"]["k"] <= high, column
