@@ -344,6 +344,97 @@ def cmaes_search(
     return SearchOutcome(best, tuple(scored), used, stop)
 
 
+def repaired_order(choices: Sequence[int], materials: int) -> Design:
+    """Column by column, each column's chosen material (1-based); a material an earlier column holds is replaced by
+    the lowest-numbered one no column chose or holds, so the result is an arrangement of ``materials``."""
+    taken: set[int] = set()
+    chosen = set(int(c) for c in choices)
+    spare = [m for m in range(1, materials + 1) if m not in chosen]
+    order = []
+    for choice in (int(c) for c in choices):
+        if choice in taken:
+            choice = spare.pop(0)
+        taken.add(choice)
+        order.append(choice)
+    return as_design(order)
+
+
+def mixed_ga_search(
+    objective: CoDesignObjective,
+    evaluator,
+    start_order: Sequence[int],
+    budget: float,
+    evaluations: int,
+    seed: int = 0,
+    population: int = 40,
+    fidelity: str = SEARCH,
+) -> SearchOutcome:
+    """pymoo's mixed-variable GA (``MixedVariableGA``): each column's material a ``Choice`` (a repeated one repaired
+    by ``repaired_order``), each column's factors ``Real`` scaled coordinates in [0, 1] (as CMA-ES's), the mass
+    budget an inequality constraint. Its first population holds ``start_order`` at the table's values, the rest
+    random; stops before a batch would pass ``evaluations`` designs."""
+    from pymoo.core.evaluator import Evaluator as PymooEvaluator
+    from pymoo.core.mixed import MixedVariableGA, MixedVariableSampling
+    from pymoo.core.population import Population
+    from pymoo.core.problem import Problem
+    from pymoo.core.variable import Choice, Real
+    from pymoo.problems.static import StaticProblem
+
+    space = objective.space
+    materials = space.space.materials
+    per = len(space.names)
+    variables: dict[str, Choice | Real] = {}
+    for j in range(space.columns):
+        variables[f"material{j}"] = Choice(options=list(range(1, materials + 1)))
+        for name in space.names:
+            variables[f"{name}{j}"] = Real(bounds=(0.0, 1.0))
+    problem = Problem(vars=variables, n_obj=1, n_ieq_constr=1)
+
+    def point_of(x: dict) -> CoDesignPoint:
+        order = repaired_order([x[f"material{j}"] for j in range(space.columns)], materials)
+        return space.with_factors(
+            order,
+            [
+                space.factor_of(float(x[f"{name}{j}"]), order[j], name)
+                for j in range(space.columns)
+                for name in space.names
+            ],
+        )
+
+    first = MixedVariableSampling().do(problem, population, random_state=np.random.default_rng(seed)).get("X")
+    start = space.encode(space.unit_point(start_order))[space.space.key_dimension :]
+    first[0] = {
+        **{f"material{j}": int(m) for j, m in enumerate(as_design(start_order))},
+        **{f"{name}{j}": float(start[j * per + i]) for j in range(space.columns) for i, name in enumerate(space.names)},
+    }
+    algorithm = MixedVariableGA(pop_size=population, sampling=Population.new(X=first))
+    algorithm.setup(problem, termination=("n_eval", evaluations), seed=seed, verbose=False)
+    scored: list[Scored] = []
+    used = 0
+    worst = 0.0
+    while algorithm.has_next():
+        asked = algorithm.ask()
+        xs = list(asked.get("X"))
+        if not xs or used + len(xs) > evaluations:
+            break
+        points = [point_of(x) for x in xs]
+        results = objective.evaluate(points, evaluator, fidelity)
+        used += len(xs)
+        values = []
+        for point, result in zip(points, results):
+            peak = float(result.value) if result.ok and result.value is not None else None
+            worst = max(worst, peak or 0.0)
+            values.append(peak)
+            scored.append(Scored(point, peak, space.total_mass(point), space.mass_excess(point, budget) == 0))
+        told = np.array([[v if v is not None else 2.0 * worst + 1.0] for v in values])
+        excess = np.array([[space.mass_excess(p, budget) / budget] for p in points])
+        PymooEvaluator().eval(StaticProblem(problem, F=told, G=excess), asked)
+        algorithm.tell(infills=asked)
+    feasible = [s for s in scored if s.feasible and s.value is not None]
+    best = min(feasible, key=lambda s: s.value or 0.0) if feasible else None
+    return SearchOutcome(best, tuple(scored), used, f"{evaluations} evaluations" if used else "no batch")
+
+
 @dataclass(frozen=True)
 class Polish:
     """The polish of the continuous part at a fixed order: SLSQP from ``start`` to ``end`` (values at the
@@ -721,9 +812,11 @@ __all__ = [
     "cmaes_search",
     "mass_ladder",
     "mass_range",
+    "mixed_ga_search",
     "nsga2_front",
     "parse_vary",
     "parse_vary_range",
     "polish",
+    "repaired_order",
     "table_columns",
 ]

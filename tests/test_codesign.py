@@ -27,10 +27,12 @@ from orchestrator.codesign import (
     cmaes_search,
     mass_ladder,
     mass_range,
+    mixed_ga_search,
     nsga2_front,
     parse_vary,
     parse_vary_range,
     polish,
+    repaired_order,
 )
 from orchestrator.design import DesignSpace
 from orchestrator.executors import SerialExecutor
@@ -103,6 +105,11 @@ def test_repeated_materials_cannot_vary_per_column():
         (("--vary", "k", "--vary-range", "2,0.5"), "--vary-range '2,0.5': allowed values are"),
         (("--mass-budget", "30"), "--mass-budget: only with --vary"),
         (("--vary-range", "0.5,3"), "--vary-range: only with --vary"),
+        (("--codesign-method", "mixed-ga"), "--codesign-method: only with --vary"),
+        (
+            ("--vary", "k", "--codesign-method", "annealing"),
+            "invalid choice: 'annealing' (choose from 'cmaes', 'mixed-ga')",
+        ),
         (("--vary", "k", "--repeat"), "--vary: not with --repeat"),
         (("--vary", "mass", "--mass-budget", "-1"), "--mass-budget must be a finite number > 0"),
         (
@@ -153,18 +160,47 @@ def test_the_search_keeps_to_the_budget_and_the_polish_reports_its_optimality(
     assert not any(tmp_path.iterdir())
 
 
-def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak(armour_fmu_of_width, tmp_path, capfd):
+def test_a_repeated_choice_is_repaired_into_an_arrangement():
+    assert repaired_order((2, 2, 1), 3) == (2, 3, 1)
+    assert repaired_order((4, 4, 4), 5) == (4, 1, 2)
+    assert repaired_order((3, 1, 2), 3) == (3, 1, 2)
+
+
+def test_the_mixed_variable_ga_keeps_to_the_budget_and_starts_from_the_order(armour_fmu_of_width):
+    space = codesign_space(("k", "mass"))
+    objective = CoDesignObjective(LatticeObjective(armour_fmu_of_width(3), space.space, 8.0), space)
+    evaluator = Evaluator(SerialExecutor())
+    budget = 0.9 * space.budget_for((1, 2, 3))  # below the order's own mass: the start is infeasible
+    outcome = mixed_ga_search(objective, evaluator, (1, 2, 3), budget, 120, seed=3, population=20)
+    assert 0 < outcome.evaluations <= 120 and len(outcome.scored) == outcome.evaluations
+    assert outcome.scored[0].point == space.unit_point((1, 2, 3)) and not outcome.scored[0].feasible
+    assert outcome.best is not None and outcome.best.feasible
+    assert space.total_mass(outcome.best.point) <= budget * (1 + 1e-9)
+    assert all(s.feasible == (s.mass <= budget * (1 + 1e-9)) for s in outcome.scored)
+    assert all(sorted(s.point.order) == [1, 2, 3] for s in outcome.scored)
+    again = mixed_ga_search(objective, evaluator, (1, 2, 3), budget, 120, seed=3, population=20)
+    assert again.best is not None and again.best.point == outcome.best.point  # one seed, one search
+
+
+@pytest.mark.parametrize(
+    "method, searched_by", [("cmaes", "CMA-ES evaluated"), ("mixed-ga", "mixed-variable GA evaluated")]
+)
+def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak(
+    armour_fmu_of_width, tmp_path, capfd, method, searched_by
+):
     fmu = armour_fmu_of_width(3)
     out = tmp_path / "run"
     common = ("--fmu", fmu, "--cols", 3, "--diagonal-rule", "mean", "--no-progress", "--budget", 6, "--repeats", 1)
-    assert main(*common, "--out", out, "--vary", "k,c,mass", "--vary-budget", 150) == 0
+    assert main(*common, "--out", out, "--vary", "k,c,mass", "--vary-budget", 150, "--codesign-method", method) == 0
     printed = capfd.readouterr().out
     assert "  co-design: " in printed and " kg of 33.00 kg; from " in printed
     record = json.loads((out / "results.json").read_text())
     answer = record["answers"][0]
     report = (out / "report.html").read_text()
     assert "Each layer (co-design" in report and "first-order optimality: the projected gradient" in report
+    assert searched_by in report
     codesign = record["steps"]["codesign"]["answers"][0]
+    assert codesign["search_method"] == method and 0 < codesign["search_evaluations"] <= 150
     assert answer["total_mass"] <= codesign["mass_budget"] * (1 + 1e-9)
     assert codesign["mass_budget"] == pytest.approx(ROWS * 3.0)  # the order's own mass at the table's values
     assert answer["peak"] <= codesign["start_peak"]

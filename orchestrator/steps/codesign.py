@@ -1,8 +1,9 @@
 """Co-design (docs/model.md section 12): each rule's best order, its columns' properties varied with it.
 
 With ``--vary`` the order search runs as without it (at the table's values: the sweep still certifies the order
-there); then, under each rule, CMA-ES searches the order's keys and every column's factors together from that
-rule's best order, within the mass budget, and SLSQP polishes the factors at the order CMA-ES ends at. The
+there); then, under each rule, CMA-ES (or pymoo's mixed-variable GA, ``--codesign-method mixed-ga``) searches the
+order and every column's factors together from that rule's best order, within the mass budget, and SLSQP polishes
+the factors at the order the search ends at. The
 answer is the better, at full fidelity, of the polished design and the order at the table's values, so it is
 never above the order search's answer.
 """
@@ -19,6 +20,7 @@ from ..codesign import (
     ColumnProperties,
     Polish,
     cmaes_search,
+    mixed_ga_search,
     nsga2_front,
     parse_vary,
     parse_vary_range,
@@ -33,6 +35,9 @@ from .final_descent import rule_best
 from .searches import rule_label
 
 MASS_OUTPUT = "stack_mass"
+CMAES = "cmaes"
+MIXED_GA = "mixed-ga"
+CODESIGN_METHODS = (CMAES, MIXED_GA)
 
 
 @dataclass(frozen=True)
@@ -60,8 +65,14 @@ class CoDesignConfig:
     )
     vary_budget: int = option(
         2000,
-        "with --vary: designs (order and factors) CMA-ES evaluates under each rule, before the polish",
+        "with --vary: designs (order and factors) the co-design search evaluates under each rule, before the polish",
         type=integer("--vary-budget", 2, 10**7),
+    )
+    codesign_method: str = option(
+        CMAES,
+        "with --vary: the search over order and factors: cmaes (pycma over the order's random keys and the factors) "
+        "or mixed-ga (pymoo's mixed-variable GA: each column's material a choice, its factors reals)",
+        choices=CODESIGN_METHODS,
     )
 
     def __post_init__(self):
@@ -86,8 +97,9 @@ class CoDesignAnswer:
     start_order: tuple[int, ...]  # the order search's answer under the rule
     start_peak: float  # its value at full fidelity at the table's values
     search_evaluations: int
-    search_best: float | None  # CMA-ES's best feasible value at the search fidelity
+    search_best: float | None  # the search's best feasible value at the search fidelity
     search_stop: str
+    search_method: str  # --codesign-method
     polish: Polish | None
     varied: dict[str, float]  # the FMU parameters name[m] the design sets away from the table
 
@@ -196,13 +208,14 @@ class CoDesign(Step):
             budget = space.budget_for(best.order)
             start = space.unit_point(best.order)
             (start_full,) = objective.evaluate([start], context.evaluator, FULL)
-            outcome = cmaes_search(objective, context.evaluator, best.order, budget, config.vary_budget, seed=index)
+            search = mixed_ga_search if config.codesign_method == MIXED_GA else cmaes_search
+            outcome = search(objective, context.evaluator, best.order, budget, config.vary_budget, seed=index)
             found = outcome.best.point if outcome.best is not None else start
             if space.mass_excess(start, budget) > 0 and outcome.best is None:
-                continue  # the order search's answer is above the budget and CMA-ES found nothing within it
+                continue  # the order search's answer is above the budget and the search found nothing within it
             try:
                 polished: Polish | None = polish(objective, context.evaluator, found, budget, FULL)
-            except RuntimeError:  # a run of the polish failed: CMA-ES's design stands, unpolished
+            except RuntimeError:  # a run of the polish failed: the search's design stands, unpolished
                 polished = None
             end = polished.end if polished is not None else found
             candidates = [end] + ([start] if space.mass_excess(start, budget) == 0 else [])
@@ -225,6 +238,7 @@ class CoDesign(Step):
                     search_evaluations=outcome.evaluations,
                     search_best=outcome.best.value if outcome.best is not None else None,
                     search_stop=outcome.stop,
+                    search_method=config.codesign_method,
                     polish=polished,
                     varied=varied_parameters(space, chosen),
                 )
@@ -269,7 +283,8 @@ class CoDesign(Step):
 
     def cost_note(self, context: StudyContext) -> str:
         return (
-            "CMA-ES over order and factors (--vary-budget designs per rule), then the polish's finite differences; "
+            "CMA-ES or the mixed-variable GA over order and factors (--vary-budget designs per rule), then the "
+            "polish's finite differences; "
             "with --objective ...,mass NSGA-II (--vary-budget designs per rule) and its front at full fidelity"
         )
 
