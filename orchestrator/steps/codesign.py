@@ -32,6 +32,7 @@ from ..simulation import declared_parameters, model_description
 from ..study import Step, StudyContext
 from ..types import RunOutputs
 from .final_descent import rule_best
+from .pareto import Pareto
 from .searches import rule_label
 
 MASS_OUTPUT = "stack_mass"
@@ -247,14 +248,13 @@ class CoDesign(Step):
 
     def fronts(self, context: StudyContext, space: CoDesignSpace) -> CoDesignResult:
         """Under each rule, NSGA-II's front of the objective against the stack's mass, from the rule's best order
-        (the order search's answer; the space's baseline order when it has none) at the table's values and at
+        (``front_start``) at the table's values and at
         evenly spaced masses. ``--mass-budget`` is the front's upper end; without it the front spans every mass
         the factors allow."""
         fronts = []
         for index, rule in enumerate(context.rules):
             objective = CoDesignObjective(context.objective(rule), space)
-            best = rule_best(context, rule_label(rule))
-            start = best.order if best is not None else context.case.space.baseline()
+            start = front_start(context, rule_label(rule))
             front = nsga2_front(
                 objective,
                 context.evaluator,
@@ -287,6 +287,19 @@ class CoDesign(Step):
             "polish's finite differences; "
             "with --objective ...,mass NSGA-II (--vary-budget designs per rule) and its front at full fidelity"
         )
+
+
+def front_start(context: StudyContext, label: str) -> tuple[int, ...]:
+    """The order a rule's co-design front starts from: the order search's lowest value of the first objective
+    (its answer, or the end of its Pareto front on that objective), else the space's baseline order."""
+    best = rule_best(context, label)
+    if best is not None:
+        return best.order
+    pareto = context.result(Pareto)
+    front = next((f for f in pareto.fronts if f.diagonal_rule == label), None) if pareto else None
+    if front is not None and front.points:
+        return min(front.points, key=lambda p: p.values[0]).order
+    return context.case.space.baseline()
 
 
 def varied_parameters(space: CoDesignSpace, point: CoDesignPoint) -> dict[str, float]:
