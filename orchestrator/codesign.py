@@ -707,11 +707,11 @@ def nsga2_front(
     """pymoo's NSGA-II over the order's keys and the factors in [0, 1]-scaled coordinates, every objective of
     ``objective``'s lattice objective minimised, the stack's mass at most ``mass_budget`` (kg; None: the factors'
     whole range) as an inequality constraint. Its first population holds ``seeds`` (e.g. the co-design's answer),
-    ``start_order`` at the table's values and, with the mass varied, about half a population of ``start_order``'s
-    designs at evenly spaced masses from the lightest to the front's upper end, the mass shared among the columns
-    in each of ``MASS_PROFILES``'s ways (``mass_ladder``), the rest random; the
-    front is the non-dominated set of every design it evaluated within the budget, then evaluated at full
-    fidelity."""
+    ``start_order`` at the table's values and, with the mass varied, about half a population of designs of
+    ``start_order`` and of the space's baseline order at evenly spaced masses from the lightest to the front's
+    upper end, the mass shared among the columns in each of ``MASS_PROFILES``'s ways (``mass_ladder``), the rest
+    random; the front is the non-dominated set of every design it evaluated within the budget, then evaluated at
+    full fidelity."""
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.core.evaluator import Evaluator as PymooEvaluator
     from pymoo.core.problem import Problem
@@ -723,10 +723,13 @@ def nsga2_front(
     rng = np.random.default_rng(seed)
     first = rng.random((population, space.dimension))
     seeded: list[np.ndarray] = []  # distinct rows only: pymoo drops a repeated one, shrinking the population
+    orders = list(dict.fromkeys([as_design(start_order), space.space.baseline()]))
+    rungs = population // (2 * len(MASS_PROFILES) * len(orders)) + 1
     ladders = [
         point
+        for order in orders
         for profile in MASS_PROFILES
-        for point in mass_ladder(space, start_order, mass_budget, population // (2 * len(MASS_PROFILES)) + 1, profile)
+        for point in mass_ladder(space, order, mass_budget, rungs, profile)
     ]
     for point in [*seeds, space.unit_point(start_order), *ladders]:
         x = space.encode(point)
