@@ -344,6 +344,97 @@ def cmaes_search(
     return SearchOutcome(best, tuple(scored), used, stop)
 
 
+def repaired_order(choices: Sequence[int], materials: int) -> Design:
+    """Column by column, each column's chosen material (1-based); a material an earlier column holds is replaced by
+    the lowest-numbered one no column chose or holds, so the result is an arrangement of ``materials``."""
+    taken: set[int] = set()
+    chosen = set(int(c) for c in choices)
+    spare = [m for m in range(1, materials + 1) if m not in chosen]
+    order = []
+    for choice in (int(c) for c in choices):
+        if choice in taken:
+            choice = spare.pop(0)
+        taken.add(choice)
+        order.append(choice)
+    return as_design(order)
+
+
+def mixed_ga_search(
+    objective: CoDesignObjective,
+    evaluator,
+    start_order: Sequence[int],
+    budget: float,
+    evaluations: int,
+    seed: int = 0,
+    population: int = 40,
+    fidelity: str = SEARCH,
+) -> SearchOutcome:
+    """pymoo's mixed-variable GA (``MixedVariableGA``): each column's material a ``Choice`` (a repeated one repaired
+    by ``repaired_order``), each column's factors ``Real`` scaled coordinates in [0, 1] (as CMA-ES's), the mass
+    budget an inequality constraint. Its first population holds ``start_order`` at the table's values, the rest
+    random; stops before a batch would pass ``evaluations`` designs."""
+    from pymoo.core.evaluator import Evaluator as PymooEvaluator
+    from pymoo.core.mixed import MixedVariableGA, MixedVariableSampling
+    from pymoo.core.population import Population
+    from pymoo.core.problem import Problem
+    from pymoo.core.variable import Choice, Real
+    from pymoo.problems.static import StaticProblem
+
+    space = objective.space
+    materials = space.space.materials
+    per = len(space.names)
+    variables: dict[str, Choice | Real] = {}
+    for j in range(space.columns):
+        variables[f"material{j}"] = Choice(options=list(range(1, materials + 1)))
+        for name in space.names:
+            variables[f"{name}{j}"] = Real(bounds=(0.0, 1.0))
+    problem = Problem(vars=variables, n_obj=1, n_ieq_constr=1)
+
+    def point_of(x: dict) -> CoDesignPoint:
+        order = repaired_order([x[f"material{j}"] for j in range(space.columns)], materials)
+        return space.with_factors(
+            order,
+            [
+                space.factor_of(float(x[f"{name}{j}"]), order[j], name)
+                for j in range(space.columns)
+                for name in space.names
+            ],
+        )
+
+    first = MixedVariableSampling().do(problem, population, random_state=np.random.default_rng(seed)).get("X")
+    start = space.encode(space.unit_point(start_order))[space.space.key_dimension :]
+    first[0] = {
+        **{f"material{j}": int(m) for j, m in enumerate(as_design(start_order))},
+        **{f"{name}{j}": float(start[j * per + i]) for j in range(space.columns) for i, name in enumerate(space.names)},
+    }
+    algorithm = MixedVariableGA(pop_size=population, sampling=Population.new(X=first))
+    algorithm.setup(problem, termination=("n_eval", evaluations), seed=seed, verbose=False)
+    scored: list[Scored] = []
+    used = 0
+    worst = 0.0
+    while algorithm.has_next():
+        asked = algorithm.ask()
+        xs = list(asked.get("X"))
+        if not xs or used + len(xs) > evaluations:
+            break
+        points = [point_of(x) for x in xs]
+        results = objective.evaluate(points, evaluator, fidelity)
+        used += len(xs)
+        values = []
+        for point, result in zip(points, results):
+            peak = float(result.value) if result.ok and result.value is not None else None
+            worst = max(worst, peak or 0.0)
+            values.append(peak)
+            scored.append(Scored(point, peak, space.total_mass(point), space.mass_excess(point, budget) == 0))
+        told = np.array([[v if v is not None else 2.0 * worst + 1.0] for v in values])
+        excess = np.array([[space.mass_excess(p, budget) / budget] for p in points])
+        PymooEvaluator().eval(StaticProblem(problem, F=told, G=excess), asked)
+        algorithm.tell(infills=asked)
+    feasible = [s for s in scored if s.feasible and s.value is not None]
+    best = min(feasible, key=lambda s: s.value or 0.0) if feasible else None
+    return SearchOutcome(best, tuple(scored), used, f"{evaluations} evaluations" if used else "no batch")
+
+
 @dataclass(frozen=True)
 class Polish:
     """The polish of the continuous part at a fixed order: SLSQP from ``start`` to ``end`` (values at the
@@ -533,12 +624,74 @@ class FrontDesign:
 
 @dataclass(frozen=True)
 class CoDesignFront:
-    """The front of the objectives (the peak against the stack's mass) over order and factors: the designs no
-    other design NSGA-II evaluated dominates at the search fidelity, by the first objective."""
+    """The front of the objectives (the peak against the stack's mass) over order and factors: the designs within
+    the mass budget that no other design NSGA-II evaluated within it dominates at the search fidelity, by the
+    first objective."""
 
     designs: tuple[FrontDesign, ...]
-    evaluated: tuple[tuple[float, ...], ...]  # every evaluated design's values at the search fidelity
+    evaluated: tuple[tuple[float, ...], ...]  # every evaluated design's values within the budget, search fidelity
     evaluations: int
+    mass_range: tuple[float, float]  # kg: the lightest design the factors allow, and the front's upper end
+
+
+MASS_PROFILES = ("even", "impact_side_first", "back_first")
+"""How a mass ladder's designs share their mass among the columns: every column at one scaled coordinate, or the
+columns filled to their heaviest one after the other from column 1 (the loaded face), or from the last column."""
+
+
+def mass_range(space: CoDesignSpace, order: Sequence[int], budget: float | None) -> tuple[float, float]:
+    """The stack masses ``order``'s designs span (kg): every mass factor at its range's lower end, and at its upper
+    end or the budget, whichever is lighter (without a varied mass, the order's own mass at both ends)."""
+    lightest = space.total_mass(_mass_at(space, order, 0.0, MASS_PROFILES[0]))
+    heaviest = space.total_mass(_mass_at(space, order, 1.0, MASS_PROFILES[0]))
+    return lightest, heaviest if budget is None else max(lightest, min(heaviest, float(budget)))
+
+
+def mass_ladder(
+    space: CoDesignSpace, order: Sequence[int], budget: float | None, count: int, profile: str = MASS_PROFILES[0]
+) -> list[CoDesignPoint]:
+    """``count`` designs of ``order`` whose stack masses are evenly spaced over its mass range (``mass_range``),
+    the mass shared among the columns as ``profile`` (one of ``MASS_PROFILES``) says, found by bisection (the mass
+    grows along the profile), every other property at the table's value: seeds that make NSGA-II's first
+    population span the masses."""
+    if profile not in MASS_PROFILES:
+        raise ValueError(f"profile {profile!r}: allowed values are {', '.join(MASS_PROFILES)}")
+    if MASS not in space.names or count < 1:
+        return []
+    low, high = mass_range(space, order, budget)
+    targets = [low] if count == 1 else [low + (high - low) * i / (count - 1) for i in range(count)]
+    ladder = []
+    for target in targets:
+        below, above = 0.0, 1.0
+        for _ in range(60):
+            middle = 0.5 * (below + above)
+            if space.total_mass(_mass_at(space, order, middle, profile)) <= target:
+                below = middle
+            else:
+                above = middle
+        ladder.append(_mass_at(space, order, below, profile))
+    return ladder
+
+
+def _mass_at(space: CoDesignSpace, order: Sequence[int], along: float, profile: str) -> CoDesignPoint:
+    """``order`` with its columns' masses at ``along`` (0: the lightest, 1: the heaviest) of ``profile`` and every
+    other property at its table value."""
+    order = as_design(order)
+    count = len(order)
+
+    def scaled(column: int) -> float:  # column counts from 0
+        if profile == "even":
+            return along
+        filled = column if profile == "impact_side_first" else count - 1 - column
+        return min(1.0, max(0.0, along * count - filled))
+
+    return CoDesignPoint(
+        order,
+        tuple(
+            tuple(space.factor_of(scaled(column), material, name) if name == MASS else 1.0 for name in space.names)
+            for column, material in enumerate(order)
+        ),
+    )
 
 
 def nsga2_front(
@@ -548,10 +701,17 @@ def nsga2_front(
     evaluations: int,
     seed: int = 0,
     population: int = 40,
+    mass_budget: float | None = None,
+    seeds: Sequence[CoDesignPoint] = (),
 ) -> CoDesignFront:
-    """pymoo's NSGA-II over the order's keys and the factors in [0, 1]-scaled coordinates (its first population
-    holds ``start_order`` at the table's values), every objective of ``objective``'s lattice objective minimised;
-    the front is the non-dominated set of every design it evaluated, then evaluated at full fidelity."""
+    """pymoo's NSGA-II over the order's keys and the factors in [0, 1]-scaled coordinates, every objective of
+    ``objective``'s lattice objective minimised, the stack's mass at most ``mass_budget`` (kg; None: the factors'
+    whole range) as an inequality constraint. Its first population holds ``seeds`` (e.g. the co-design's answer),
+    ``start_order`` at the table's values and, with the mass varied, about half a population of designs of
+    ``start_order`` and of the space's baseline order at evenly spaced masses from the lightest to the front's
+    upper end, the mass shared among the columns in each of ``MASS_PROFILES``'s ways (``mass_ladder``), the rest
+    random; the front is the non-dominated set of every design it evaluated within the budget, then evaluated at
+    full fidelity."""
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.core.evaluator import Evaluator as PymooEvaluator
     from pymoo.core.problem import Problem
@@ -562,8 +722,22 @@ def nsga2_front(
     space = objective.space
     rng = np.random.default_rng(seed)
     first = rng.random((population, space.dimension))
-    first[0] = space.encode(space.unit_point(start_order))
-    problem = Problem(n_var=space.dimension, n_obj=objective.base.n_objectives, xl=0.0, xu=1.0)
+    seeded: list[np.ndarray] = []  # distinct rows only: pymoo drops a repeated one, shrinking the population
+    orders = list(dict.fromkeys([as_design(start_order), space.space.baseline()]))
+    rungs = population // (2 * len(MASS_PROFILES) * len(orders)) + 1
+    ladders = [
+        point
+        for order in orders
+        for profile in MASS_PROFILES
+        for point in mass_ladder(space, order, mass_budget, rungs, profile)
+    ]
+    for point in [*seeds, space.unit_point(start_order), *ladders]:
+        x = space.encode(point)
+        if len(seeded) < population and all(np.max(np.abs(x - other)) > 1e-9 for other in seeded):
+            seeded.append(x)
+    first[: len(seeded)] = seeded
+    budget = math.inf if mass_budget is None else float(mass_budget)
+    problem = Problem(n_var=space.dimension, n_obj=objective.base.n_objectives, n_ieq_constr=1, xl=0.0, xu=1.0)
     algorithm = NSGA2(pop_size=population, sampling=first)
     algorithm.setup(problem, termination=("n_eval", evaluations), seed=seed, verbose=False)
     points: list[CoDesignPoint] = []
@@ -576,20 +750,26 @@ def nsga2_front(
         results = objective.evaluate(batch, evaluator, SEARCH)
         used += len(batch)
         told = []
+        excess = []
         for point, result in zip(batch, results):
+            over = space.mass_excess(point, budget) if math.isfinite(budget) else 0.0
+            excess.append([over / budget if math.isfinite(budget) else 0.0])
             if result.ok and result.value is not None:
                 own = tuple(float(v) for v in (result.values or (result.value,)))
-                points.append(point)
-                values.append(own)
+                if over == 0.0:
+                    points.append(point)
+                    values.append(own)
                 told.append(own)
             else:  # a failed design ranks behind every evaluated one
                 told.append(tuple(math.inf for _ in range(problem.n_obj)))
-        worst = np.max(np.array(values), axis=0) if values else np.ones(problem.n_obj)
+        finite = [row for row in told if not any(math.isinf(v) for v in row)]
+        worst = np.max(np.array(finite), axis=0) if finite else np.ones(problem.n_obj)
         told_matrix = np.array([[w * 2 + 1 if math.isinf(v) else v for v, w in zip(row, worst)] for row in told])
-        PymooEvaluator().eval(StaticProblem(problem, F=told_matrix), asked)
+        PymooEvaluator().eval(StaticProblem(problem, F=told_matrix, G=np.array(excess)), asked)
         algorithm.tell(infills=asked)
+    span = mass_range(space, start_order, mass_budget)
     if not values:
-        return CoDesignFront((), (), used)
+        return CoDesignFront((), (), used, span)
     mask = non_dominated(values)
     chosen = sorted((i for i in range(len(values)) if mask[i]), key=lambda i: values[i])
     unique = list({points[i]: i for i in chosen}.values())
@@ -602,7 +782,7 @@ def nsga2_front(
         )
         for i, e in zip(unique, full)
     )
-    return CoDesignFront(designs, tuple(values), used)
+    return CoDesignFront(designs, tuple(values), used, span)
 
 
 @contextlib.contextmanager
@@ -628,13 +808,18 @@ __all__ = [
     "ColumnProperties",
     "DEFAULT_RANGE",
     "FrontDesign",
+    "MASS_PROFILES",
     "Polish",
     "Scored",
     "SearchOutcome",
     "cmaes_search",
+    "mass_ladder",
+    "mass_range",
+    "mixed_ga_search",
     "nsga2_front",
     "parse_vary",
     "parse_vary_range",
     "polish",
+    "repaired_order",
     "table_columns",
 ]

@@ -221,7 +221,8 @@ def print_answer(outcome) -> None:
         )
         print(
             f"{front.diagonal_rule} rule: {len(front.designs)} designs (order and factors) on the co-design front of "
-            f"{front.evaluations:,} NSGA-II evaluated{span}; each in results.json's steps.codesign.fronts"
+            f"{front.evaluations:,} NSGA-II evaluated within {front.mass_range[0]:.2f}..{front.mass_range[1]:.2f} kg"
+            f"{span}; each in results.json's steps.codesign.fronts"
         )
     from orchestrator.steps.pareto import BEST_DESIGN_FILE, best_design
 

@@ -21,13 +21,18 @@ from fmpy import simulate_fmu
 from command_line import main, one_line
 from fmu_src.materials import FIELD_NAMES, MaterialTableError, load_materials, study_materials
 from orchestrator.codesign import (
+    MASS_PROFILES,
     CoDesignObjective,
     CoDesignSpace,
     cmaes_search,
+    mass_ladder,
+    mass_range,
+    mixed_ga_search,
     nsga2_front,
     parse_vary,
     parse_vary_range,
     polish,
+    repaired_order,
 )
 from orchestrator.design import DesignSpace
 from orchestrator.executors import SerialExecutor
@@ -100,6 +105,11 @@ def test_repeated_materials_cannot_vary_per_column():
         (("--vary", "k", "--vary-range", "2,0.5"), "--vary-range '2,0.5': allowed values are"),
         (("--mass-budget", "30"), "--mass-budget: only with --vary"),
         (("--vary-range", "0.5,3"), "--vary-range: only with --vary"),
+        (("--codesign-method", "mixed-ga"), "--codesign-method: only with --vary"),
+        (
+            ("--vary", "k", "--codesign-method", "annealing"),
+            "invalid choice: 'annealing' (choose from 'cmaes', 'mixed-ga')",
+        ),
         (("--vary", "k", "--repeat"), "--vary: not with --repeat"),
         (("--vary", "mass", "--mass-budget", "-1"), "--mass-budget must be a finite number > 0"),
         (
@@ -150,18 +160,47 @@ def test_the_search_keeps_to_the_budget_and_the_polish_reports_its_optimality(
     assert not any(tmp_path.iterdir())
 
 
-def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak(armour_fmu_of_width, tmp_path, capfd):
+def test_a_repeated_choice_is_repaired_into_an_arrangement():
+    assert repaired_order((2, 2, 1), 3) == (2, 3, 1)
+    assert repaired_order((4, 4, 4), 5) == (4, 1, 2)
+    assert repaired_order((3, 1, 2), 3) == (3, 1, 2)
+
+
+def test_the_mixed_variable_ga_keeps_to_the_budget_and_starts_from_the_order(armour_fmu_of_width):
+    space = codesign_space(("k", "mass"))
+    objective = CoDesignObjective(LatticeObjective(armour_fmu_of_width(3), space.space, 8.0), space)
+    evaluator = Evaluator(SerialExecutor())
+    budget = 0.9 * space.budget_for((1, 2, 3))  # below the order's own mass: the start is infeasible
+    outcome = mixed_ga_search(objective, evaluator, (1, 2, 3), budget, 120, seed=3, population=20)
+    assert 0 < outcome.evaluations <= 120 and len(outcome.scored) == outcome.evaluations
+    assert outcome.scored[0].point == space.unit_point((1, 2, 3)) and not outcome.scored[0].feasible
+    assert outcome.best is not None and outcome.best.feasible
+    assert space.total_mass(outcome.best.point) <= budget * (1 + 1e-9)
+    assert all(s.feasible == (s.mass <= budget * (1 + 1e-9)) for s in outcome.scored)
+    assert all(sorted(s.point.order) == [1, 2, 3] for s in outcome.scored)
+    again = mixed_ga_search(objective, evaluator, (1, 2, 3), budget, 120, seed=3, population=20)
+    assert again.best is not None and again.best.point == outcome.best.point  # one seed, one search
+
+
+@pytest.mark.parametrize(
+    "method, searched_by", [("cmaes", "CMA-ES evaluated"), ("mixed-ga", "mixed-variable GA evaluated")]
+)
+def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak(
+    armour_fmu_of_width, tmp_path, capfd, method, searched_by
+):
     fmu = armour_fmu_of_width(3)
     out = tmp_path / "run"
     common = ("--fmu", fmu, "--cols", 3, "--diagonal-rule", "mean", "--no-progress", "--budget", 6, "--repeats", 1)
-    assert main(*common, "--out", out, "--vary", "k,c,mass", "--vary-budget", 150) == 0
+    assert main(*common, "--out", out, "--vary", "k,c,mass", "--vary-budget", 150, "--codesign-method", method) == 0
     printed = capfd.readouterr().out
     assert "  co-design: " in printed and " kg of 33.00 kg; from " in printed
     record = json.loads((out / "results.json").read_text())
     answer = record["answers"][0]
     report = (out / "report.html").read_text()
     assert "Each layer (co-design" in report and "first-order optimality: the projected gradient" in report
+    assert searched_by in report
     codesign = record["steps"]["codesign"]["answers"][0]
+    assert codesign["search_method"] == method and 0 < codesign["search_evaluations"] <= 150
     assert answer["total_mass"] <= codesign["mass_budget"] * (1 + 1e-9)
     assert codesign["mass_budget"] == pytest.approx(ROWS * 3.0)  # the order's own mass at the table's values
     assert answer["peak"] <= codesign["start_peak"]
@@ -237,6 +276,45 @@ def test_the_front_of_peak_against_mass_is_never_dominated_by_a_design_the_run_e
         assert design.full_values is not None and design.full_values[1] == pytest.approx(design.search_values[1])
     masses = [d.search_values[1] for d in front.designs]
     assert masses == sorted(masses, reverse=True)  # by the peak, lowest first: the mass falls along the front
+    assert front.mass_range == pytest.approx((ROWS * 3 * 0.5, ROWS * 3 * 2.0))  # no budget: the factors' range
+    assert min(masses) == pytest.approx(front.mass_range[0])  # the lightest seed: nothing lighter dominates it
+
+
+def test_a_mass_ladder_spaces_its_masses_evenly_up_to_the_budget():
+    space = codesign_space(("k", "mass"))
+    assert mass_range(space, (2, 3, 1), None) == pytest.approx((ROWS * 1.5, ROWS * 6.0))
+    assert mass_range(space, (2, 3, 1), 50.0) == pytest.approx((ROWS * 1.5, 50.0))
+    for profile in MASS_PROFILES:
+        ladder = mass_ladder(space, (2, 3, 1), 50.0, 5, profile)
+        masses = [space.total_mass(point) for point in ladder]
+        np.testing.assert_allclose(masses, np.linspace(ROWS * 1.5, 50.0, 5), rtol=1e-9)
+        assert all(point.order == (2, 3, 1) and all(f[0] == 1.0 for f in point.factors) for point in ladder)
+        middle = [column[1] for column in ladder[2].factors]  # each column's mass factor
+        if profile == "even":
+            assert middle == pytest.approx([middle[0]] * 3)
+        else:  # the columns fill one after the other, from the loaded face or from the back
+            assert middle == sorted(middle, reverse=profile == "impact_side_first") and middle[0] != middle[2]
+    with pytest.raises(ValueError, match="profile 'diagonal': allowed values are even, impact_side_first"):
+        mass_ladder(space, (2, 3, 1), None, 3, "diagonal")
+    assert mass_ladder(codesign_space(("k",)), (2, 3, 1), None, 5) == []  # no mass varied: no ladder
+
+
+def test_a_front_under_a_mass_budget_keeps_to_it_and_spans_the_masses_up_to_it(armour_fmu_of_width):
+    space = codesign_space(("k", "mass"))
+    lattice = LatticeObjective(armour_fmu_of_width(3), space.space, 8.0, ("peak_backplate_force", "stack_mass"))
+    evaluator = Evaluator(SerialExecutor())
+    budget = ROWS * 4.5
+    front = nsga2_front(
+        CoDesignObjective(lattice, space), evaluator, (1, 2, 3), 100, seed=2, population=20, mass_budget=budget
+    )
+    assert front.mass_range == pytest.approx((ROWS * 1.5, budget))
+    assert front.evaluations == 100 and 0 < len(front.evaluated) <= 100
+    assert all(mass <= budget * (1 + 1e-9) for _, mass in front.evaluated)
+    on_front = [d.search_values for d in front.designs]
+    assert not np.any(dominated_by(on_front, front.evaluated))
+    masses = [d.search_values[1] for d in front.designs]
+    assert min(masses) == pytest.approx(ROWS * 1.5)
+    assert max(mass for _, mass in front.evaluated) == pytest.approx(budget)  # the heaviest seed: beyond 33 kg
 
 
 def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, capfd):
@@ -257,6 +335,8 @@ def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, 
             "sampled,mass",
             "--vary-budget",
             80,
+            "--mass-budget",
+            45,
         )
         == 0
     )
@@ -264,10 +344,8 @@ def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, 
     fronts = json.loads((out / "results.json").read_text())["steps"]["codesign"]["fronts"]
     assert "on the front of the objective against the" in (out / "report.html").read_text()
     assert fronts[0]["diagonal_rule"] == "mean" and fronts[0]["designs"]
-    assert (
-        main(*options, "--out", tmp_path / "no", "--vary", "k", "--objective", "sampled,mass", "--mass-budget", 30) == 2
-    )
-    assert "--mass-budget: not with --objective ...,mass" in one_line(capfd)
+    assert fronts[0]["mass_range"] == pytest.approx([ROWS * 1.5, 45.0])  # --mass-budget: the front's upper end
+    assert all(d["search_values"][1] <= 45.0 * (1 + 1e-9) for d in fronts[0]["designs"])
 
 
 def test_a_tables_bounds_give_each_materials_own_range(tmp_path):
@@ -325,3 +403,25 @@ def test_a_co_design_is_the_same_on_any_executor(armour_fmu_of_width, tmp_path):
         assert main(*options, "--executor", executor, "--out", tmp_path / executor) == 0
         answers.append(json.loads((tmp_path / executor / "results.json").read_text())["answers"][0])
     assert answers[0]["parameters"] == answers[1]["parameters"] and answers[0]["peak"] == answers[1]["peak"]
+
+
+def test_a_tables_bounds_hold_when_cols_takes_fewer_columns_than_it_has_materials(tmp_path, capfd):
+    path = tmp_path / "tight.csv"  # each k within 1 % of its value: far inside --vary-range's 0.5..2
+    path.write_text(
+        "name,k,k_diag,c,alpha,alpha_diag,k_min,k_max\n"
+        "steel,100,50,5,10,10,99,101\n"
+        "aramid,44,22,2,10,10,43.56,44.44\n"
+        "foam,8,4,0.4,10,10,7.92,8.08\n"
+        "felt,5,2,0.3,10,10,4.95,5.05\n"
+    )
+    out = tmp_path / "out"
+    options = ("--materials", path, "--cols", 3, "--vary", "k", "--vary-budget", 30, "--budget", 6, "--repeats", 1)
+    options += ("--diagonal-rule", "mean", "--no-sensitivity", "--no-progress", "--out", out)
+    assert main(*options) == 0
+    capfd.readouterr()
+    answer = json.loads((out / "results.json").read_text())["answers"][0]
+    bounds = {"steel": (99, 101), "aramid": (43.56, 44.44), "foam": (7.92, 8.08), "felt": (4.95, 5.05)}
+    assert len(answer["columns"]) == 3
+    for column in answer["columns"]:
+        low, high = bounds[column["material"]]
+        assert low <= column["values"]["k"] <= high, column

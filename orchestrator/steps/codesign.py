@@ -1,8 +1,9 @@
 """Co-design (docs/model.md section 12): each rule's best order, its columns' properties varied with it.
 
 With ``--vary`` the order search runs as without it (at the table's values: the sweep still certifies the order
-there); then, under each rule, CMA-ES searches the order's keys and every column's factors together from that
-rule's best order, within the mass budget, and SLSQP polishes the factors at the order CMA-ES ends at. The
+there); then, under each rule, CMA-ES (or pymoo's mixed-variable GA, ``--codesign-method mixed-ga``) searches the
+order and every column's factors together from that rule's best order, within the mass budget, and SLSQP polishes
+the factors at the order the search ends at. The
 answer is the better, at full fidelity, of the polished design and the order at the table's values, so it is
 never above the order search's answer.
 """
@@ -19,6 +20,7 @@ from ..codesign import (
     ColumnProperties,
     Polish,
     cmaes_search,
+    mixed_ga_search,
     nsga2_front,
     parse_vary,
     parse_vary_range,
@@ -30,9 +32,13 @@ from ..simulation import declared_parameters, model_description
 from ..study import Step, StudyContext
 from ..types import RunOutputs
 from .final_descent import rule_best
+from .pareto import Pareto
 from .searches import rule_label
 
 MASS_OUTPUT = "stack_mass"
+CMAES = "cmaes"
+MIXED_GA = "mixed-ga"
+CODESIGN_METHODS = (CMAES, MIXED_GA)
 
 
 @dataclass(frozen=True)
@@ -53,14 +59,21 @@ class CoDesignConfig:
     mass_budget: float | None = option(
         None,
         "with --vary: the stack's largest total mass in kg (a heavier design is infeasible)",
-        show_default="the mass of each rule's best order at the table's values",
+        show_default="the mass of each rule's best order at the table's values; with --objective ...,mass (where "
+        "it is the front's upper end) the heaviest stack the factors allow",
         metavar="KG",
         type=number("--mass-budget", 0),
     )
     vary_budget: int = option(
         2000,
-        "with --vary: designs (order and factors) CMA-ES evaluates under each rule, before the polish",
+        "with --vary: designs (order and factors) the co-design search evaluates under each rule, before the polish",
         type=integer("--vary-budget", 2, 10**7),
+    )
+    codesign_method: str = option(
+        CMAES,
+        "with --vary: the search over order and factors: cmaes (pycma over the order's random keys and the factors) "
+        "or mixed-ga (pymoo's mixed-variable GA: each column's material a choice, its factors reals)",
+        choices=CODESIGN_METHODS,
     )
 
     def __post_init__(self):
@@ -85,8 +98,9 @@ class CoDesignAnswer:
     start_order: tuple[int, ...]  # the order search's answer under the rule
     start_peak: float  # its value at full fidelity at the table's values
     search_evaluations: int
-    search_best: float | None  # CMA-ES's best feasible value at the search fidelity
+    search_best: float | None  # the search's best feasible value at the search fidelity
     search_stop: str
+    search_method: str  # --codesign-method
     polish: Polish | None
     varied: dict[str, float]  # the FMU parameters name[m] the design sets away from the table
 
@@ -111,6 +125,8 @@ class RuleFront:
     diagonal_rule: str
     designs: tuple[FrontLayer, ...]  # by the objective, lowest first
     evaluations: int  # designs NSGA-II evaluated
+    mass_range: tuple[float, float] = (0.0, 0.0)  # kg: the lightest stack the factors allow and the front's upper end
+    evaluated_masses: tuple[float, float] = (0.0, 0.0)  # kg: the lightest and heaviest design evaluated within it
 
 
 @dataclass(frozen=True)
@@ -164,8 +180,6 @@ class CoDesign(Step):
                 f"--vary: one objective, or an objective and the stack's mass (--objective sampled,mass), not "
                 f"{','.join(outputs)}"
             )
-        if len(outputs) == 2 and config.mass_budget is not None:
-            raise ValueError("--mass-budget: not with --objective ...,mass (the mass is an objective: its front)")
         space = codesign_space(context, config)
         declared = declared_parameters(model_description(context.fmu.path))
         for name in space.names:
@@ -195,13 +209,14 @@ class CoDesign(Step):
             budget = space.budget_for(best.order)
             start = space.unit_point(best.order)
             (start_full,) = objective.evaluate([start], context.evaluator, FULL)
-            outcome = cmaes_search(objective, context.evaluator, best.order, budget, config.vary_budget, seed=index)
+            search = mixed_ga_search if config.codesign_method == MIXED_GA else cmaes_search
+            outcome = search(objective, context.evaluator, best.order, budget, config.vary_budget, seed=index)
             found = outcome.best.point if outcome.best is not None else start
             if space.mass_excess(start, budget) > 0 and outcome.best is None:
-                continue  # the order search's answer is above the budget and CMA-ES found nothing within it
+                continue  # the order search's answer is above the budget and the search found nothing within it
             try:
                 polished: Polish | None = polish(objective, context.evaluator, found, budget, FULL)
-            except RuntimeError:  # a run of the polish failed: CMA-ES's design stands, unpolished
+            except RuntimeError:  # a run of the polish failed: the search's design stands, unpolished
                 polished = None
             end = polished.end if polished is not None else found
             candidates = [end] + ([start] if space.mass_excess(start, budget) == 0 else [])
@@ -224,6 +239,7 @@ class CoDesign(Step):
                     search_evaluations=outcome.evaluations,
                     search_best=outcome.best.value if outcome.best is not None else None,
                     search_stop=outcome.stop,
+                    search_method=config.codesign_method,
                     polish=polished,
                     varied=varied_parameters(space, chosen),
                 )
@@ -231,13 +247,21 @@ class CoDesign(Step):
         return CoDesignResult(space.names, (space.low, space.high), tuple(answers))
 
     def fronts(self, context: StudyContext, space: CoDesignSpace) -> CoDesignResult:
-        """Under each rule, NSGA-II's front of the objective against the stack's mass, from the space's baseline
-        order at the table's values."""
+        """Under each rule, NSGA-II's front of the objective against the stack's mass, from the rule's best order
+        (``front_start``) at the table's values and at
+        evenly spaced masses. ``--mass-budget`` is the front's upper end; without it the front spans every mass
+        the factors allow."""
         fronts = []
         for index, rule in enumerate(context.rules):
             objective = CoDesignObjective(context.objective(rule), space)
+            start = front_start(context, rule_label(rule))
             front = nsga2_front(
-                objective, context.evaluator, context.case.space.baseline(), self.config.vary_budget, seed=index
+                objective,
+                context.evaluator,
+                start,
+                self.config.vary_budget,
+                seed=index,
+                mass_budget=space.mass_budget,
             )
             fronts.append(
                 RuleFront(
@@ -247,15 +271,35 @@ class CoDesign(Step):
                         for d in front.designs
                     ),
                     front.evaluations,
+                    front.mass_range,
+                    (
+                        (min(v[1] for v in front.evaluated), max(v[1] for v in front.evaluated))
+                        if front.evaluated
+                        else (0.0, 0.0)
+                    ),
                 )
             )
         return CoDesignResult(space.names, (space.low, space.high), (), tuple(fronts))
 
     def cost_note(self, context: StudyContext) -> str:
         return (
-            "CMA-ES over order and factors (--vary-budget designs per rule), then the polish's finite differences; "
+            "CMA-ES or the mixed-variable GA over order and factors (--vary-budget designs per rule), then the "
+            "polish's finite differences; "
             "with --objective ...,mass NSGA-II (--vary-budget designs per rule) and its front at full fidelity"
         )
+
+
+def front_start(context: StudyContext, label: str) -> tuple[int, ...]:
+    """The order a rule's co-design front starts from: the order search's lowest value of the first objective
+    (its answer, or the end of its Pareto front on that objective), else the space's baseline order."""
+    best = rule_best(context, label)
+    if best is not None:
+        return best.order
+    pareto = context.result(Pareto)
+    front = next((f for f in pareto.fronts if f.diagonal_rule == label), None) if pareto else None
+    if front is not None and front.points:
+        return min(front.points, key=lambda p: p.values[0]).order
+    return context.case.space.baseline()
 
 
 def varied_parameters(space: CoDesignSpace, point: CoDesignPoint) -> dict[str, float]:
