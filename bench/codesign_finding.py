@@ -35,7 +35,7 @@ from .measurements import ROOT, Page, Run, Table, write_page
 VARIED = "k,c,mass"
 AGREEMENT = 1e-6  # FMPy's run of the answer's start values against its reported peak
 DAMPING_EXPONENTS = (0.5, 2.0)  # beside the study's linear dampers (n = 1, the mean rule's run)
-FRONT_MASS_BUDGET = 180.0  # kg: the front's upper end, the issue's 60-180 kg (the lower end is the factors' own)
+FRONT_MASS_BUDGET = 180.0  # kg: the front's upper end, about half again the study's stack
 FRONT_ROWS_SHOWN = 14
 SENSITIVITIES_SHOWN = 8  # the layers' properties that move the mean rule's peak most, at its answer
 
