@@ -40,21 +40,12 @@ FRONT_ROWS_SHOWN = 14
 SENSITIVITIES_SHOWN = 8  # the layers' properties that move the mean rule's peak most, at its answer
 
 
-def run_study(fmu: Path, out: Path, options: list[str]) -> tuple[float, dict, str]:
-    """``orchestrator/run.py`` with ``options`` in a fresh process: its wall seconds, results.json and console."""
-    words = [sys.executable, str(ROOT / "orchestrator" / "run.py"), "--fmu", str(fmu), "--out", str(out)]
-    words += ["--no-progress", *options]
-    start = time.perf_counter()
-    done = subprocess.run(words, cwd=ROOT, capture_output=True, text=True, check=False, env=dict(os.environ))
-    seconds = time.perf_counter() - start
-    if done.returncode != 0:
-        raise SystemExit(f"{' '.join(words[1:])}: exit {done.returncode}: {done.stderr.strip()[-500:]}")
-    return seconds, json.loads((out / "results.json").read_text()), done.stdout
-
-
-def run_damping(out: Path, options: list[str]) -> tuple[float, dict, str]:
-    """The order search on a table of its own: its FMU is built (or reused) by the run, as a user's is."""
+def run_study(fmu: Path | None, out: Path, options: list[str]) -> tuple[float, dict, str]:
+    """``orchestrator/run.py`` with ``options`` in a fresh process: its wall seconds, results.json and console.
+    Without ``fmu`` the run builds (or reuses) the FMU its options ask for, as a user's run does."""
     words = [sys.executable, str(ROOT / "orchestrator" / "run.py"), "--out", str(out), "--no-progress", *options]
+    if fmu is not None:
+        words[2:2] = ["--fmu", str(fmu)]
     start = time.perf_counter()
     done = subprocess.run(words, cwd=ROOT, capture_output=True, text=True, check=False, env=dict(os.environ))
     seconds = time.perf_counter() - start
@@ -181,7 +172,7 @@ def main(argv=None) -> int:
                 table,
             )
             options = ["--materials", str(table), "--diagonal-rule", "mean", "--no-sensitivity", *searches]
-            seconds, record, _ = run_damping(Path(folder) / f"n{exponent:g}", options)
+            seconds, record, _ = run_study(None, Path(folder) / f"n{exponent:g}", options)
             answer = record["answers"][0]
             damping_rows.append(
                 (

@@ -89,20 +89,26 @@ def frontier(label: str, options: str, fmu, columns: int, budget: int, designs: 
     (screening,) = objective.tasks(SEARCH)
     limit = screening_threshold(incumbent, SCREENING_ERROR)
     start = space.size // 2
-    fastest = None
     with make_executor("serial") as executor:
         Evaluator(executor).evaluate([(screening, space.unrank(start))])  # this process opens the FMU first
-        for _ in range(repeats):
-            chunk = Evaluator(executor).run(
-                [ScreenChunk(screening, space, start, start + designs, 20, SCREENING_ERROR, limit)]
-            )[0]
-            if not chunk.ok:
-                raise SystemExit(f"{label}: the chunk failed: {chunk.message}")
-            if fastest is None or chunk.cpu_seconds < fastest.cpu_seconds:
-                fastest = chunk
+        fastest = fastest_chunk(executor, screening, space, start, designs, limit, repeats, label)
     close_instances()
-    assert fastest is not None
     return Frontier(label, options, space.size, incumbent, limit, fastest)
+
+
+def fastest_chunk(executor, function, space, start: int, designs: int, limit, repeats: int, label: str):
+    """The fastest (least CPU) of ``repeats`` runs of one chunk of ``designs`` from rank ``start``."""
+    fastest = None
+    for _ in range(repeats):
+        chunk = Evaluator(executor).run(
+            [ScreenChunk(function, space, start, start + designs, 20, SCREENING_ERROR, limit)]
+        )[0]
+        if not chunk.ok:
+            raise SystemExit(f"{label}: the chunk failed: {chunk.message}")
+        if fastest is None or chunk.cpu_seconds < fastest.cpu_seconds:
+            fastest = chunk
+    assert fastest is not None
+    return fastest
 
 
 def clock(hours: float) -> str:
@@ -139,16 +145,9 @@ def chunk_rates(columns: int, designs: int, repeats: int) -> dict:
                 ("limit", screening, limit),
             )
             for name, function, chunk_limit in variants:
-                best = None
-                for _ in range(repeats):
-                    chunk = Evaluator(executor).run(
-                        [ScreenChunk(function, space, start, start + designs, 20, SCREENING_ERROR, chunk_limit)]
-                    )[0]
-                    if not chunk.ok:
-                        raise SystemExit(f"11 x {columns}: the chunk failed: {chunk.message}")
-                    if best is None or chunk.cpu_seconds < best.cpu_seconds:
-                        best = chunk
-                out[name] = best
+                out[name] = fastest_chunk(
+                    executor, function, space, start, designs, chunk_limit, repeats, f"11 x {columns}"
+                )
         close_instances()
     return out
 

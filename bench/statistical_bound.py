@@ -225,6 +225,26 @@ def annealed(fmu, columns: int, rule: str, budget: int, workers: int) -> float:
     return float(searched.best_value)
 
 
+def quote_rows(fmu, columns: int, label: str, args, seed: int) -> list[tuple]:
+    """Under each rule: the bound from ``args.quote_designs`` random designs beside an annealing run's best."""
+    rows = []
+    for index, rule in enumerate(RULES):
+        start = time.perf_counter()
+        values = random_pool(fmu, columns, rule, args.quote_designs, args.workers, seed=seed + index)
+        bound = tail_bound(values, args.confidence)
+        answer = annealed(fmu, columns, rule, args.quote_search, args.workers)
+        rows.append(
+            quote_row(
+                f"{label}, {rule}",
+                DesignSpace.permutations(columns),
+                bound,
+                answer,
+                time.perf_counter() - start,
+            )
+        )
+    return rows
+
+
 def quote_row(label: str, space: DesignSpace, bound: TailBound, answer: float, seconds: float) -> tuple:
     lower = f"{bound.lower:.2f}" if bound.bounded else "unbounded"
     if not bound.bounded:
@@ -303,35 +323,9 @@ def main(argv=None) -> int:
 
     quotes = []
     with twelve_column_lattice() as fmu:
-        for index, rule in enumerate(RULES):
-            start = time.perf_counter()
-            values = random_pool(fmu, 12, rule, args.quote_designs, args.workers, seed=1200 + index)
-            bound = tail_bound(values, args.confidence)
-            answer = annealed(fmu, 12, rule, args.quote_search, args.workers)
-            quotes.append(
-                quote_row(
-                    f"11 x 12 lattice, 12 materials, {rule}",
-                    DesignSpace.permutations(12),
-                    bound,
-                    answer,
-                    time.perf_counter() - start,
-                )
-            )
+        quotes += quote_rows(fmu, 12, "11 x 12 lattice, 12 materials", args, seed=1200)
     with lattice_fmu(scene=PLATE_SCENE) as fmu:
-        for index, rule in enumerate(RULES):
-            start = time.perf_counter()
-            values = random_pool(fmu, 11, rule, args.quote_designs, args.workers, seed=1100 + index)
-            bound = tail_bound(values, args.confidence)
-            answer = annealed(fmu, 11, rule, args.quote_search, args.workers)
-            quotes.append(
-                quote_row(
-                    f"11 x 11 x 11 plate, {rule}",
-                    DesignSpace.permutations(11),
-                    bound,
-                    answer,
-                    time.perf_counter() - start,
-                )
-            )
+        quotes += quote_rows(fmu, 11, "11 x 11 x 11 plate", args, seed=1100)
 
     coverages = [r.held / r.samplings for r in rows]
     plug_ins = [r.plug_in_held / r.samplings for r in rows]
