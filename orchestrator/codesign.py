@@ -617,6 +617,55 @@ def minimax_stationarity(
     )
 
 
+def scaled_parameter_names(space: CoDesignSpace, order: Sequence[int]) -> tuple[str, ...]:
+    """The FMU parameter each scaled factor coordinate of ``order`` sets, in the coordinates' order (column by
+    column, property by property): ``("k[3]", "c[3]", "mass[3]", ...)``."""
+    return tuple(f"{name}[{material}]" for material in as_design(order) for name in space.names)
+
+
+def scaled_gradients(space: CoDesignSpace, point: CoDesignPoint, found: TraceJacobian) -> np.ndarray:
+    """``found``'s derivatives per FMU parameter as d F_s / d z per scaled factor coordinate (one row per sample):
+    each parameter is its table value times exp(z log_span) of its range, so d parameter / d z = parameter *
+    log_span."""
+    names = scaled_parameter_names(space, point.order)
+    if tuple(found.names) != names:
+        raise ValueError(f"the trace's jacobian has columns {found.names}; the polish needs {names}")
+    parameters = space.parameters(point)
+    spans = [space.log_span(material, name) for material in point.order for name in space.names]
+    chain = np.array([parameters[name] * span for name, span in zip(names, spans)])
+    return np.asarray(found.jacobian, dtype=float) * chain[None, :]
+
+
+@dataclass(frozen=True)
+class FirstOrder:
+    """The minimax problem's first-order measure at a point: over its active samples, and the peak's alone."""
+
+    stationarity: Stationarity  # over the active samples
+    smooth: Stationarity  # the peak's sample alone: the smooth measure, which a tie of samples keeps large
+    active: tuple[int, ...]  # the active samples' indices, highest value first
+
+
+def first_order_measure(
+    values: np.ndarray,
+    gradients: np.ndarray,
+    z: np.ndarray,
+    constraint_gradient: np.ndarray | None = None,
+    active_tolerance: float = ACTIVE_TOLERANCE,
+) -> FirstOrder:
+    """``minimax_stationarity`` of max_s F_s at ``z`` over the samples within ``active_tolerance`` of the peak
+    (relative), the gradients (d F_s / d z, one row per sample) relative to the peak's value."""
+    values = np.asarray(values, dtype=float)
+    peak = float(np.max(values))
+    ranked = np.argsort(-values, kind="stable")
+    active = tuple(int(s) for s in ranked if values[s] >= peak - active_tolerance * abs(peak))
+    relative = np.asarray(gradients, dtype=float) / (abs(peak) or 1.0)
+    return FirstOrder(
+        minimax_stationarity(relative[list(active)], z, constraint_gradient),
+        minimax_stationarity(relative[list(active[:1])], z, constraint_gradient),
+        active,
+    )
+
+
 @dataclass(frozen=True)
 class Polish:
     """The polish of the continuous part at a fixed order: SLSQP on the epigraph of the sampled peak (min t with
@@ -681,7 +730,7 @@ def polish(
     z0 = space.encode(start)[space.space.key_dimension :]
     materials = [order[i // per] for i in range(len(z0))]
     properties = [space.names[i % per] for i in range(len(z0))]
-    parameter_names = tuple(f"{name}[{m}]" for m, name in zip(materials, properties))
+    parameter_names = scaled_parameter_names(space, order)
     spans = np.array([space.log_span(m, name) for m, name in zip(materials, properties)])
     simulated = evaluator.state().simulated
 
@@ -704,11 +753,7 @@ def polish(
         if key not in gradients:
             point = point_of(z)
             found = jacobian(objective, evaluator, point, parameter_names, fidelity, relative_step)
-            if tuple(found.names) != parameter_names:
-                raise ValueError(f"the polish's jacobian gave columns {found.names}, not {parameter_names}")
-            parameters = space.parameters(point)
-            values = np.array([parameters[name] for name in parameter_names])
-            gradients[key] = np.asarray(found.jacobian, dtype=float) * (values * spans)[None, :]
+            gradients[key] = scaled_gradients(space, point, found)
         return gradients[key]
 
     mass_indices = [i for i, name in enumerate(properties) if name == MASS]
@@ -751,19 +796,12 @@ def polish(
                 repaired[i] = max(0.0, repaired[i] + math.log(ratio) / spans[i]) if ratio > 0 else 0.0
         return repaired
 
-    def measured(z: np.ndarray) -> tuple[Stationarity, list[int], bool]:
-        """The minimax measure at ``z``, its active samples (highest first) and whether the budget binds."""
-        values = trace(z)
-        peak = float(np.max(values))
-        ranked = np.argsort(-values, kind="stable")
-        active_samples = [int(s) for s in ranked if values[s] >= peak - ACTIVE_TOLERANCE * abs(peak)]
-        binding = bool(mass_indices) and mass_slack(z) <= 1e-6
-        normal = -mass_slack_gradient(z) if binding else None
-        return (
-            minimax_stationarity(gradient(z)[active_samples] / (abs(peak) or 1.0), z, normal),
-            active_samples,
-            binding,
-        )
+    def measured(z: np.ndarray) -> FirstOrder:
+        """The minimax measure at ``z`` (the budget's gradient where it binds)."""
+        return first_order_measure(trace(z), gradient(z), z, -mass_slack_gradient(z) if binding(z) else None)
+
+    def binding(z: np.ndarray) -> bool:
+        return bool(mass_indices) and mass_slack(z) <= 1e-6
 
     start_value = float(np.max(trace(z0)))
     scale = abs(start_value) or 1.0
@@ -783,7 +821,7 @@ def polish(
     last = np.append(np.zeros(count), 1.0)
     steps = 0
     rounds = 0
-    met = measured(z0)[0].residual <= tolerance
+    met = measured(z0).stationarity.residual <= tolerance
     message = "its start meets the first-order conditions" if met else ""
     stopped = [False]
     while not met and rounds < POLISH_ROUNDS:
@@ -802,7 +840,7 @@ def polish(
             """Each iterate, onto the budget, may be the best; SLSQP stops at a stationary one (measured where
             SLSQP's own gradients were taken)."""
             iterate = np.clip(np.asarray(intermediate_result.x[:-1], dtype=float), 0.0, 1.0)
-            if keep_if_better(iterate) and measured(iterate)[0].residual <= STOP_FRACTION * tolerance:
+            if keep_if_better(iterate) and measured(iterate).stationarity.residual <= STOP_FRACTION * tolerance:
                 stopped[0] = True
                 raise StopIteration
 
@@ -831,19 +869,15 @@ def polish(
         message = "stopped where the first-order conditions hold" if stopped[0] else str(result.message)
         keep_if_better(result.x[:-1])
         ended = trace(best)
-        met = measured(best)[0].residual <= tolerance
+        met = measured(best).stationarity.residual <= tolerance
         outside = np.delete(ended, chosen)
         if not outside.size or float(np.max(outside)) <= float(np.max(ended[chosen])):
             break  # the peak is among the constraints: SLSQP saw the whole maximum
 
     z = best
     peak = float(np.max(trace(z)))
-    measure, active_samples, binding = measured(z)
-    smooth = minimax_stationarity(
-        gradient(z)[active_samples[:1]] / (abs(peak) or 1.0),
-        z,
-        -mass_slack_gradient(z) if binding else None,
-    )
+    final = measured(z)
+    measure, active_samples = final.stationarity, list(final.active)
     times = sampled_traces(objective, evaluator, order, [space.parameters(point_of(z))], fidelity)[0][0]
     weighted = np.asarray(measure.sample_multipliers) @ gradient(z)[active_samples] / spans
     return Polish(
@@ -852,13 +886,13 @@ def polish(
         start_value=start_value,
         end_value=peak,
         kkt_residual=measure.residual,
-        smooth_residual=smooth.residual,
+        smooth_residual=final.smooth.residual,
         tolerance=tolerance,
         active_tolerance=ACTIVE_TOLERANCE,
         active_times=tuple(float(times[s]) for s in active_samples),
         sample_multipliers=measure.sample_multipliers,
         multiplier=measure.mass_multiplier * (abs(peak) or 1.0),
-        active=binding,
+        active=binding(z),
         iterations=steps,
         rounds=rounds,
         evaluations=evaluator.state().simulated - simulated,
@@ -1064,6 +1098,7 @@ __all__ = [
     "CoDesignSpace",
     "ColumnProperties",
     "DEFAULT_RANGE",
+    "FirstOrder",
     "FrontDesign",
     "MASS_PROFILES",
     "Polish",
@@ -1073,6 +1108,7 @@ __all__ = [
     "SearchOutcome",
     "cmaes_search",
     "finite_difference_jacobian",
+    "first_order_measure",
     "mass_ladder",
     "mass_range",
     "minimax_refusal",
@@ -1084,5 +1120,7 @@ __all__ = [
     "polish",
     "repaired_order",
     "sampled_traces",
+    "scaled_gradients",
+    "scaled_parameter_names",
     "table_columns",
 ]
