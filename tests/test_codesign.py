@@ -45,7 +45,7 @@ from orchestrator.codesign import (
 from orchestrator.design import DesignSpace
 from orchestrator.executors import SerialExecutor
 from orchestrator.loop import Evaluator
-from orchestrator.objective import FULL, SEARCH, LatticeObjective
+from orchestrator.objective import FULL, SEARCH, SEARCH_RTOL, LatticeObjective
 from orchestrator.search.pareto import dominated_by
 from orchestrator.ssp import read_design_parameters
 
@@ -267,7 +267,9 @@ def test_on_an_11_x_2_lattice_a_grid_of_the_factors_confirms_the_co_design_to_it
     found = min((outcome.best.value, outcome.best.point), (polished.end_value, polished.end), key=lambda p: p[0])
     value, point = found
     assert point.order == best_order
-    assert best - spread <= value <= best * (1 + 1e-9)
+    # the polish's value is its recorded trace's maximum over the whole horizon, the grid's the search's run over its
+    # shorter one: the same samples, integrated by one solver to the search's tolerance along two paths
+    assert best - spread <= value <= best * (1 + SEARCH_RTOL)
     scaled = space.encode(point)[space.space.key_dimension :]
     assert np.all(np.abs(scaled - ticks[list(best_cell)]) <= 1.0 / (GRID - 1) + 1e-9), (scaled, best_cell)
 
