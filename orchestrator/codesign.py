@@ -439,7 +439,9 @@ def mixed_ga_search(
 TRACE_OUTPUT = "backplate_force"
 SAMPLE_INTERVAL = "peak_sample_interval"
 SAMPLED_PEAK = "peak_backplate_force"
-RELATIVE_STEP = 1e-3  # a parameter's forward difference, relative to its value
+# a parameter's forward difference, relative to its value: between the truncation error of a larger step and the
+# solver's noise divided by a smaller one at full fidelity (python -m bench.codesign_polish)
+RELATIVE_STEP = 1e-4
 CANDIDATE_BAND = 0.2  # relative: the samples this close below the peak are the epigraph's constraints
 ACTIVE_TOLERANCE = 1e-3  # relative: the samples this close below the peak are active in the first-order measure
 POLISH_ROUNDS = 4  # SLSQP runs at most: another from the best point when a sample outside the constraints peaks
@@ -1123,4 +1125,5 @@ __all__ = [
     "scaled_gradients",
     "scaled_parameter_names",
     "table_columns",
+    "trace_runs",
 ]
