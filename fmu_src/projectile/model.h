@@ -5,7 +5,8 @@
  *     delta = x_p - x_front,  delta' = v_p - v_front,
  *     F_c = max(k_c delta^n (1 + lambda delta'), 0) for delta > 0, else 0;   mass x_p'' = -F_c
  *
- * It implements the model API (common/model_api.h) in model.c; its variables are fmu_src/projectile/
+ * It implements the model API (common/model_api.h) in model.c, on the code every component shares
+ * (common/component_model.c); its variables are fmu_src/projectile/
  * variables.py's table (model_variables.h, generated).
  *
  * Co-Simulation: over a communication step [t0, t0 + H] the face is extrapolated from the inputs,
