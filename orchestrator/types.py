@@ -139,6 +139,14 @@ class Evaluation:
         return self.limit if self.censored else None
 
     @property
+    def censored_limit(self) -> float:
+        """The limit a censored evaluation's value is above, where only those are compared; ValueError for any
+        other."""
+        if self.lower_bound is None:
+            raise ValueError(f"the evaluation of {self.order} is {self.status}: it is not censored at a limit")
+        return self.lower_bound
+
+    @property
     def ok_value(self) -> float:
         """The value of an evaluation that is ok, where only those are compared; ValueError for any other."""
         if self.value is None:
