@@ -157,7 +157,11 @@ def model_variables(interface: Interface, arrays: bool = True) -> tuple[list[dic
     <ModelStructure>'s elements (Output, ContinuousStateDerivative in the order of the continuous states,
     InitialUnknown, EventIndicator) with their value references and, for an Output, the value references of the
     inputs it depends on directly (space-separated; None: no attribute)."""
-    variables, outputs, initial_unknowns, derivatives, indicators = [], [], [], [], []
+    variables: list[dict] = []
+    outputs: list[tuple[int, str]] = []  # an output's value reference, those of the inputs it depends on
+    derivatives: list[tuple[int, int]] = []  # a derivative's state offset, its value reference
+    initial_unknowns: list[int] = []
+    indicators: list[int] = []
     state_offsets = interface.state_offsets()
     declared = declared_variables(interface, arrays)
     first_reference: dict[str, int] = {}  # the FMI 3 value reference of each variable's first entry
@@ -176,8 +180,11 @@ def model_variables(interface: Interface, arrays: bool = True) -> tuple[list[dic
             variability = "continuous" if variable.type == REAL else "discrete"
             attributes += [("causality", variable.causality), ("variability", variability), ("initial", "calculated")]
         if variable.role == DERIVATIVE:
-            attributes.append(("derivative", str(first_reference[variable.derivative_of] + entry.element)))
-            derivatives.append((state_offsets[variable.derivative_of] + entry.element, vr))
+            state = variable.derivative_of
+            if state is None:
+                raise ValueError(f"variable {variable.name}: a derivative must name its state (derivative_of)")
+            attributes.append(("derivative", str(first_reference[state] + entry.element)))
+            derivatives.append((state_offsets[state] + entry.element, vr))
         attributes.append(("description", variable.description))
         if variable.unit and variable.type == REAL:  # FMI 3 integers have no unit
             attributes.append(("declaredType", variable.unit))
@@ -196,7 +203,8 @@ def model_variables(interface: Interface, arrays: bool = True) -> tuple[list[dic
                 (
                     vr,
                     " ".join(
-                        str(first_reference[name]) for name in sorted(variable.depends_on, key=first_reference.get)
+                        str(first_reference[name])
+                        for name in sorted(variable.depends_on, key=first_reference.__getitem__)
                     ),
                 )
             )
@@ -219,12 +227,10 @@ def model_variables(interface: Interface, arrays: bool = True) -> tuple[list[dic
             "dimensions": [],
         }
     )
-    structure = (
-        [("Output", vr, dependencies) for vr, dependencies in outputs]
-        + [("ContinuousStateDerivative", vr, None) for _, vr in sorted(derivatives)]
-        + [("InitialUnknown", vr, None) for vr in initial_unknowns]
-        + [("EventIndicator", vr, None) for vr in indicators]
-    )
+    structure: list[tuple[str, int, str | None]] = [("Output", vr, dependencies) for vr, dependencies in outputs]
+    structure += [("ContinuousStateDerivative", vr, None) for _, vr in sorted(derivatives)]
+    structure += [("InitialUnknown", vr, None) for vr in initial_unknowns]
+    structure += [("EventIndicator", vr, None) for vr in indicators]
     return variables, structure
 
 

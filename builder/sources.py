@@ -19,6 +19,10 @@ DEFAULT_MODEL_DIR = FMU_SOURCE_DIR / "lattice"
 # The glue shared by every model: the instance bookkeeping, then each FMI version's API and its headers.
 COMMON_SOURCES = ("common/instance.c",)
 COMMON_HEADERS = ("common/instance.h", "common/model_api.h", "common/refused_calls.h", "common/state_masks.h")
+# What every component model of the armour system (fmu_src/projectile/, fmu_src/hull/) shares beside the glue: the
+# model API functions that do not depend on its physics (common/component_model.h says why not in instance.c).
+COMPONENT_SOURCES = ("common/component_model.c",)
+COMPONENT_HEADERS = ("common/component_model.h",)
 GLUE_SOURCES = {2: ("fmi2/fmi2_glue.c",), 3: ("fmi3/fmi3_glue.c",)}
 GLUE_HEADERS = {
     2: ("include/fmi2Functions.h", "include/fmi2FunctionTypes.h", "include/fmi2TypesPlatform.h"),
@@ -28,18 +32,20 @@ GLUE_HEADERS = {
 
 @dataclass(frozen=True)
 class SourceTree:
-    """The files of one FMU's binary: the glue of `fmi_version` and the model folder's *.c and *.h."""
+    """The files of one FMU's binary: the glue of `fmi_version`, with `component` the code every component model
+    shares, and the model folder's *.c and *.h."""
 
     model_dir: Path = DEFAULT_MODEL_DIR
     fmi_version: int = 2
+    component: bool = False
 
     def sources(self) -> list[Path]:
-        glue = [FMU_SOURCE_DIR / name for name in GLUE_SOURCES[self.fmi_version] + COMMON_SOURCES]
-        return glue + sorted(Path(self.model_dir).glob("*.c"))
+        shared = GLUE_SOURCES[self.fmi_version] + COMMON_SOURCES + (COMPONENT_SOURCES if self.component else ())
+        return [FMU_SOURCE_DIR / name for name in shared] + sorted(Path(self.model_dir).glob("*.c"))
 
     def headers(self) -> list[Path]:
-        glue = [FMU_SOURCE_DIR / name for name in GLUE_HEADERS[self.fmi_version] + COMMON_HEADERS]
-        return glue + sorted(Path(self.model_dir).glob("*.h"))
+        shared = GLUE_HEADERS[self.fmi_version] + COMMON_HEADERS + (COMPONENT_HEADERS if self.component else ())
+        return [FMU_SOURCE_DIR / name for name in shared] + sorted(Path(self.model_dir).glob("*.h"))
 
     def files(self) -> list[Path]:
         """Sources then headers; their names are unique, so they can sit side by side in the FMU's sources/."""

@@ -258,8 +258,9 @@ class ResilientProcessPool(Executor):
         def forget(done: Future) -> None:
             with lock:
                 done_token = live.pop(done, None)
-                tokens.discard(done_token)
-                starts.pop(done_token, None)
+                if done_token is not None:
+                    tokens.discard(done_token)
+                    starts.pop(done_token, None)
 
         future.add_done_callback(forget)
         return future
@@ -302,7 +303,7 @@ def _executor(
             executor.shutdown()
     elif kind == "process":
         own_root = temp_root is None  # the workers' extracted FMUs go here; a killed worker cannot remove its own
-        root = tempfile.mkdtemp(prefix="lattice-workers-") if own_root else temp_root
+        root = tempfile.mkdtemp(prefix="lattice-workers-") if temp_root is None else temp_root
         pool = ResilientProcessPool(int(workers or os.cpu_count() or 1), root)
         try:
             yield pool
@@ -316,12 +317,12 @@ def _executor(
                 shutil.rmtree(root, ignore_errors=True)
     else:
         own_root = temp_root is None and not scheduler and cluster is None
-        root = tempfile.mkdtemp(prefix="lattice-workers-") if own_root else temp_root
+        owned = tempfile.mkdtemp(prefix="lattice-workers-") if own_root else None
         try:
-            yield from _dask(workers, scheduler, root, fmus, cluster)
+            yield from _dask(workers, scheduler, owned or temp_root, fmus, cluster)
         finally:
-            if own_root:
-                shutil.rmtree(root, ignore_errors=True)
+            if owned is not None:
+                shutil.rmtree(owned, ignore_errors=True)
 
 
 def _dask(

@@ -30,7 +30,7 @@ from typing import Any, Callable, ClassVar
 
 from .design import DesignSpace
 from .tasks import function_key
-from .types import Order, safe_call
+from .types import LimitedObjective, Order, safe_call
 
 SWEEP_METHOD = "exhaustive"  # the --method name that asks for the sweep (the study's Exhaustive step)
 MAX_LOCAL_DESIGNS = math.factorial(10)
@@ -147,9 +147,10 @@ def evaluate_chunk(
     histogram: dict[int, int] = {}
     values: list[float | None] = []
     chunk_best = math.inf
-    limited = hasattr(objective, "with_limit") and objectives == 1 and not all_values  # a table needs every value
-    current_limit = limit if limited else None
-    evaluate = objective.with_limit(current_limit) if limited and current_limit is not None else objective
+    # a table needs every value
+    limited = objective if isinstance(objective, LimitedObjective) and objectives == 1 and not all_values else None
+    current_limit = limit if limited is not None else None
+    evaluate = limited.with_limit(current_limit) if limited is not None and current_limit is not None else objective
     for rank, order in enumerate(space.designs(start, stop), start=start):
         evaluation = safe_call(evaluate, order)
         evaluated_seconds += evaluation.seconds
@@ -161,7 +162,7 @@ def evaluate_chunk(
             if all_values:
                 values.append(None)
             continue
-        value = float(evaluation.value)
+        value = float(evaluation.ok_value)
         if all_values:
             values.append(value)
         index = histogram_bin(value)
@@ -180,9 +181,9 @@ def evaluate_chunk(
             bound = screening_threshold(chunk_best, screening_error)
             if len(good) > 2 * MAX_KEPT_PER_CHUNK:
                 good = [g for g in good if g[0] <= bound]
-            if limited and (current_limit is None or bound < current_limit):
+            if limited is not None and (current_limit is None or bound < current_limit):
                 current_limit = bound
-                evaluate = objective.with_limit(current_limit)
+                evaluate = limited.with_limit(current_limit)
     if objectives > 1:
         mask = not_strongly_dominated([v for v, _ in vectors], screening_error)
         kept = sorted((v, r) for (v, r), k in zip(vectors, mask) if k)

@@ -342,11 +342,13 @@ class Evaluator:
     def _expire(self, flights: dict[Future, _Flight]) -> list[_Flight]:
         """The tasks past their time limit, taken out of ``flights``; on a process pool (a hung process is
         stopped only by ending it) the pool is replaced and the others in flight run again."""
-        now = time.monotonic()
+        if self.time_limit is None:
+            return []  # no limit: nothing expires
+        now, limit = time.monotonic(), self.time_limit
         expired = []
         for future, flight in list(flights.items()):
             started = self._started_at(flight)
-            if started is not None and now - started >= self.time_limit * flight.tasks:
+            if started is not None and now - started >= limit * flight.tasks:
                 self.timeouts += flight.tasks
                 future.cancel()
                 del flights[future]
@@ -378,11 +380,11 @@ class Evaluator:
                 finished, _ = wait([future], timeout=self._wait_timeout({future: flight}))
                 if finished:
                     break
-                started = self._started_at(flight)
-                if started is not None and time.monotonic() - started >= self.time_limit:
+                started, limit = self._started_at(flight), self.time_limit
+                if started is not None and limit is not None and time.monotonic() - started >= limit:
                     self.timeouts += 1
                     self._renew()
-                    return flight.task.failure(self._timeout_message(), self.time_limit), False
+                    return flight.task.failure(self._timeout_message(), limit), False
             return future.result(), True
         except BrokenProcessPool as exc:
             self._renew()
@@ -439,8 +441,8 @@ class SearchRun:
         curve: list[float | None] = []
         best: float | None = None
         for evaluation in self.evaluations:
-            if evaluation.ok and (best is None or evaluation.value < best):
-                best = evaluation.value
+            if evaluation.ok and (best is None or evaluation.ok_value < best):
+                best = evaluation.ok_value
             curve.append(best)
         return curve
 
@@ -448,7 +450,7 @@ class SearchRun:
 def _censored_below(evaluation: Evaluation, limit: float | None) -> bool:
     """Censored at a lower limit than the one now asked (or asked with none): what is known no longer
     answers the search, so the design is evaluated again."""
-    return evaluation.censored and (limit is None or limit > evaluation.lower_bound)
+    return evaluation.censored and (limit is None or limit > evaluation.censored_limit)
 
 
 def told_value(evaluation: Evaluation, objectives: int = 1):
@@ -457,7 +459,7 @@ def told_value(evaluation: Evaluation, objectives: int = 1):
     if evaluation.ok:
         return tuple(evaluation.values) if objectives > 1 else evaluation.value
     if evaluation.censored:
-        return Above(evaluation.lower_bound)
+        return Above(evaluation.censored_limit)
     return None
 
 

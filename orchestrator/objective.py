@@ -24,12 +24,22 @@ import math
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, ClassVar, Sequence
+from typing import Any, Callable, ClassVar, Mapping, Sequence
 
 from .design import DesignSpace, as_design
 from .tasks import EvaluateDesign, function_key
 from .simulation import LatticeFMU, SimulationError, SimulationResult, declared_outputs, model_description
-from .types import OK, CaseValue, Evaluation, Order, RunOutputs, UnknownOutput, censored, failed
+from .types import (
+    OK,
+    CaseValue,
+    Evaluation,
+    LimitedObjective,
+    Order,
+    RunOutputs,
+    UnknownOutput,
+    censored,
+    failed,
+)
 
 SEARCH = "search"
 FULL = "full"
@@ -217,6 +227,8 @@ class FMURun:
         try:
             result = self._simulate(order, horizon)
             if result.stopped_early:
+                if self.force_limit is None:
+                    raise ValueError("the FMU stopped the run early, and this run asked for no force limit")
                 return censored(
                     order,
                     self.force_limit,
@@ -296,6 +308,8 @@ class RecordRun:
         except (SimulationError, ValueError) as exc:
             return self.failure(str(exc), time.perf_counter() - start)
         trajectory = result.trajectory
+        if trajectory is None:
+            return self.failure("the FMU recorded no trajectory", time.perf_counter() - start)
         return Trajectory(
             self.order,
             OK,
@@ -357,16 +371,21 @@ class Objective:
         evaluator's cache is always preferred to a censored one."""
         if fidelity not in FIDELITIES:
             raise ValueError(f"fidelity {fidelity!r}: allowed values are {', '.join(FIDELITIES)}")
-        orders = [as_design(o) for o in orders]
+        designs = [as_design(o) for o in orders]
         tasks = self.tasks(fidelity)
         per_design = len(tasks)
         used_limits = limits if self.supports_limits and fidelity == SEARCH else None
         items = []
-        for index, order in enumerate(orders):
+        for index, order in enumerate(designs):
             limit = used_limits[index] if used_limits is not None else None
             for task in tasks:
                 exact = EvaluateDesign(task, order)
-                if limit is not None and math.isfinite(limit) and evaluator.cached(exact) is None:
+                if (
+                    limit is not None
+                    and math.isfinite(limit)
+                    and isinstance(task, LimitedObjective)  # the tasks of an objective that supports limits
+                    and evaluator.cached(exact) is None
+                ):
                     items.append(EvaluateDesign(task.with_limit(limit), order))
                 else:
                     items.append(exact)
@@ -378,7 +397,7 @@ class Objective:
                 progress(reported[0])
 
         results = evaluator.run(items, progress=ticks if progress is not None else None)
-        return [self.combine(order, results[i * per_design : (i + 1) * per_design]) for i, order in enumerate(orders)]
+        return [self.combine(order, results[i * per_design : (i + 1) * per_design]) for i, order in enumerate(designs)]
 
 
 class CallableObjective(Objective):
@@ -467,11 +486,17 @@ class LatticeObjective(Objective):
             raise ValueError(f"objective {refusal}")
         normal(self, "parameters", {k: v for k, v in (self.parameters or {}).items() if v is not None})
         normal(self, "cases", tuple(dict(case) for case in (self.cases or ({},))) or ({},))
-        normal(self, "search_horizon", min(self.search_horizon or self.horizon, self.horizon))
+        normal(self, "search_horizon", self.search_fidelity_horizon)
 
     @property
     def n_objectives(self) -> int:
         return len(self.outputs)
+
+    @property
+    def search_fidelity_horizon(self) -> float:
+        """The search fidelity's horizon: ``search_horizon`` as __post_init__ made it (None: the full horizon; never
+        past it)."""
+        return min(self.search_horizon or self.horizon, self.horizon)
 
     @property
     def supports_limits(self) -> bool:
@@ -524,7 +549,7 @@ class LatticeObjective(Objective):
                 runs.append(
                     FMURun(
                         self.fmu_path,
-                        self.search_horizon,
+                        self.search_fidelity_horizon,
                         parameters,
                         self.outputs,
                         fallback_horizon=self.horizon,
@@ -548,7 +573,7 @@ class LatticeObjective(Objective):
             return failed(order, f"case {case}: {bad.message}", seconds, cases=cases)
         above = next((e for e in evaluations if e.censored), None)
         if above is not None:  # one case above the limit: the worst of the cases is above it too
-            return censored(order, above.lower_bound, above.stopped_at, seconds, cases=cases)
+            return censored(order, above.censored_limit, above.stopped_at, seconds, cases=cases)
         columns = [e.values or (e.ok_value,) for e in evaluations]
         if self.aggregate == "worst":
             values = tuple(max(column[i] for column in columns) for i in range(self.n_objectives))
@@ -579,13 +604,13 @@ class LatticeObjective(Objective):
             cases=self.cases if self.cases != ({},) else (),
             aggregate=self.aggregate if self.cases != ({},) else None,
             horizon=self.horizon,
-            search_horizon=self.search_horizon,
+            search_horizon=self.search_fidelity_horizon,
             search_rtol=self.search_rtol,
             search_solver=SEARCH_SOLVER,
         )
 
 
-def expand_cases(case_lists: dict[str, Sequence[Any]]) -> list[dict]:
+def expand_cases(case_lists: Mapping[str, Sequence[Any]]) -> list[dict]:
     """The product of ``{"F_total": [600, 1200], ...}``: every combination, one dict each."""
     if not case_lists:
         return [{}]

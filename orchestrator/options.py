@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-from typing import Any, Callable
+from typing import Any, Callable, ClassVar, NoReturn
 
 _GIVEN = "_options_given"
 EXIT_USAGE = 2  # a command line that cannot run, as argparse exits
@@ -21,7 +21,7 @@ KEPT, NO_NUMBER, NOT_KEPT = "kept", "no number", "not kept"  # how a study file 
 class Parser(argparse.ArgumentParser):
     """argparse's parser, with errors in one line (argparse's own words, without the usage block), exit 2."""
 
-    def error(self, message: str):
+    def error(self, message: str) -> NoReturn:
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
 
 
@@ -165,18 +165,20 @@ def _check_value(flag: str, meta: dict, value: Any) -> None:
 
 
 # ---------------------------------------------------------------------------------------------- value types
-def number(
-    flag: str,
-    low: float | None = None,
-    high: float | None = None,
-    *,
-    low_inclusive: bool = False,
-    allow_zero: bool = False,
-) -> Callable[[str], float]:
+@dataclasses.dataclass(frozen=True)
+class Number:
     """An argparse type: a finite number in (low, high] ([low, high] with ``low_inclusive``), or 0 when
-    ``allow_zero`` (meaning: none)."""
+    ``allow_zero`` (meaning: none). ``expects`` names it in a study file's refusal."""
 
-    def parse(text: str) -> float:
+    flag: str
+    low: float | None = None
+    high: float | None = None
+    low_inclusive: bool = False
+    allow_zero: bool = False
+    expects: ClassVar[str] = "a number"
+
+    def __call__(self, text: str) -> float:
+        flag, low, high, low_inclusive, allow_zero = self.flag, self.low, self.high, self.low_inclusive, self.allow_zero
         try:
             value = float(text)
         except ValueError:
@@ -198,23 +200,42 @@ def number(
             )
         return value
 
-    parse.expects = "a number"
-    return parse
 
+@dataclasses.dataclass(frozen=True)
+class Integer:
+    """An argparse type: an integer in [low, high]. ``expects`` names it in a study file's refusal."""
 
-def integer(flag: str, low: int, high: int | None = None) -> Callable[[str], int]:
-    def parse(text: str) -> int:
+    flag: str
+    low: int
+    high: int | None = None
+    expects: ClassVar[str] = "an integer"
+
+    def __call__(self, text: str) -> int:
         try:
             value = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{flag} must be an integer, got {text!r}") from None
-        if value < low or (high is not None and value > high):
-            upper = f" and at most {high}" if high is not None else ""
-            raise argparse.ArgumentTypeError(f"{flag} must be at least {low}{upper}, got {value}")
+            raise argparse.ArgumentTypeError(f"{self.flag} must be an integer, got {text!r}") from None
+        if value < self.low or (self.high is not None and value > self.high):
+            upper = f" and at most {self.high}" if self.high is not None else ""
+            raise argparse.ArgumentTypeError(f"{self.flag} must be at least {self.low}{upper}, got {value}")
         return value
 
-    parse.expects = "an integer"
-    return parse
+
+def number(
+    flag: str,
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    low_inclusive: bool = False,
+    allow_zero: bool = False,
+) -> Number:
+    """The argparse type of a number option (see Number)."""
+    return Number(flag, low, high, low_inclusive, allow_zero)
+
+
+def integer(flag: str, low: int, high: int | None = None) -> Integer:
+    """The argparse type of an integer option (see Integer)."""
+    return Integer(flag, low, high)
 
 
 __all__ = [

@@ -24,13 +24,14 @@ if __name__ == "__main__":  # run as `python orchestrator/run.py`: import from t
     sys.path[0] = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 import argparse  # noqa: E402
+import dataclasses  # noqa: E402
 
 from orchestrator.interruption import Interrupted, requested, terminate_on_sigterm  # noqa: E402
 
 EXIT_OK, EXIT_USAGE, EXIT_NO_RESULT = 0, 2, 3
 
 
-def build_parser():
+def build_parser() -> argparse.ArgumentParser:
     from orchestrator.cluster import ClusterConfig
     from orchestrator.options import Parser, add_options
     from orchestrator.runner import RunConfig
@@ -40,7 +41,7 @@ def build_parser():
     parser = Parser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     add_options(parser, CaseConfig, "the case")
     for step in STEPS:
-        if step.Config.__dataclass_fields__:
+        if dataclasses.fields(step.Config):
             add_options(parser, step.Config, step.title.lower())
     add_options(parser, RunConfig, "the run")
     add_options(
@@ -81,7 +82,7 @@ def main(argv=None) -> int:
         run = config_from(RunConfig, args)
         case = config_from(CaseConfig, args)
         cluster = config_from(ClusterConfig, args)
-        configs = {step: config_from(step.Config, args) for step in STEPS if step.Config.__dataclass_fields__}
+        configs = {step: config_from(step.Config, args) for step in STEPS if dataclasses.fields(step.Config)}
     except ValueError as exc:
         parser.error(str(exc))
     interrupted = (

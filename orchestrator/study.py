@@ -97,9 +97,10 @@ class SearchFidelity:
 def search_fidelity(mode: str, scene: Scene | None = None) -> SearchFidelity:
     """The searches' horizon and tolerance under ``mode`` (pulse or projectile): ``scene``'s own where it gives
     them for that mode (its load_mode's default), else those of the mode's scene (LOAD_MODE_SCENES)."""
-    own = scene is not None and scene.parameter_values().get("load_mode", 0) == enumeration_values("load_mode")[mode]
-    carrier = scene if own else Scene.load(LOAD_MODE_SCENES[mode])
     reference = Scene.load(LOAD_MODE_SCENES[mode])
+    carrier = reference
+    if scene is not None and scene.parameter_values().get("load_mode", 0) == enumeration_values("load_mode")[mode]:
+        carrier = scene
     return SearchFidelity(
         carrier.search_horizon or reference.search_horizon or SEARCH_HORIZON,
         carrier.search_rtol or reference.search_rtol or SEARCH_RTOL,
@@ -310,12 +311,12 @@ class Case:
         if rule is not None and rule != self.rule_default:
             parameters["diagonal_rule"] = rule
         return LatticeObjective(
-            fmu.path,
+            str(fmu.path),
             self.space,
             self.horizon,
             self.outputs,
             parameters,
-            self.cases,
+            tuple(self.cases),
             self.aggregate,
             self.search_horizon,
             self.search_rtol,
@@ -648,7 +649,7 @@ class StudyContext:
     executor_kind: str = "serial"
     confirm_cost: bool = False  # work beyond a stated bound was confirmed (--confirm-cost)
     beyond_bounds: list[str] = field(default_factory=list)  # what in this run is beyond a stated bound
-    results: dict[type, Any] = field(default_factory=dict)
+    results: dict[type[Step], Any] = field(default_factory=dict)
     _objectives: dict = field(default_factory=dict)
 
     def objective(self, rule: str | None) -> LatticeObjective:
@@ -665,7 +666,7 @@ class StudyContext:
         """The result of the step of that type, or None when it did not run."""
         return self.results.get(step_type)
 
-    def config(self, step_type: type):
+    def config(self, step_type: type[Step]):
         step = next((s for s in self.steps if isinstance(s, step_type)), None)
         return step.config if step is not None else step_type.Config()
 
@@ -695,7 +696,7 @@ class StudyResult:
     case: CaseDescription
     fmu_path: str
     fmu_sha256: str
-    results: dict[type, Any]  # step class -> its result, in the order the steps ran
+    results: dict[type[Step], Any]  # step class -> its result, in the order the steps ran
     evaluator: EvaluatorState
     wall_seconds: float
     run_id: str

@@ -12,7 +12,7 @@ import math
 import numbers
 import time
 from dataclasses import dataclass, replace
-from typing import Any, Callable, ClassVar
+from typing import Any, Callable, ClassVar, Protocol, runtime_checkable
 
 from .design import Design, as_design
 
@@ -139,6 +139,14 @@ class Evaluation:
         return self.limit if self.censored else None
 
     @property
+    def censored_limit(self) -> float:
+        """The limit a censored evaluation's value is above, where only those are compared; ValueError for any
+        other."""
+        if self.lower_bound is None:
+            raise ValueError(f"the evaluation of {self.order} is {self.status}: it is not censored at a limit")
+        return self.lower_bound
+
+    @property
     def ok_value(self) -> float:
         """The value of an evaluation that is ok, where only those are compared; ValueError for any other."""
         if self.value is None:
@@ -211,6 +219,16 @@ def check_evaluation(result: Any, order: Any) -> Evaluation:
     return result
 
 
+@runtime_checkable
+class LimitedObjective(Protocol):
+    """A ``design -> Evaluation`` function that can stop a run once its value passes a limit (objective.FMURun):
+    ``with_limit(limit)`` is the same function with that limit (None: none)."""
+
+    def __call__(self, order: Order) -> Evaluation: ...
+
+    def with_limit(self, limit: float | None) -> LimitedObjective: ...
+
+
 def safe_call(objective: Callable[[Order], Any], order: Any) -> Evaluation:
     """Call the objective; never raise.
 
@@ -241,6 +259,7 @@ __all__ = [
     "CaseValue",
     "Evaluation",
     "FAILED",
+    "LimitedObjective",
     "NamedOutputs",
     "OK",
     "Order",

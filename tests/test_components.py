@@ -3,7 +3,10 @@ from their own variable tables (docs/model.md section 11)."""
 
 from __future__ import annotations
 
+import math
+import struct
 import zipfile
+import zlib
 
 import numpy as np
 import pytest
@@ -37,12 +40,17 @@ def test_every_component_fmu_is_valid(component_fmus, model, version):
 
 @pytest.mark.parametrize("model", COMPONENT_MODELS)
 def test_a_component_is_a_model_folder_of_the_shared_glue(component_fmus, model):
-    """The model folder holds the model and its table; the FMU's glue is the lattice's, file for file."""
+    """The model folder holds the model and its table; the FMU's glue is the lattice's, file for file, and the
+    code every component shares (common/component_model.c) is in it, which the lattice's FMU is built without."""
     assert {p.name for p in model_dir(model).glob("*.[ch]")} == {"model.c", "model.h"}
+    lattice = {path.name for path in SourceTree(fmi_version=2).files()}
+    assert "component_model.c" not in lattice
     with zipfile.ZipFile(component_fmus[model, 2]) as archive:
-        for path in SourceTree(fmi_version=2).files():
-            if path.parent.name != "lattice":
+        for path in SourceTree(model_dir(model), 2, component=True).files():
+            if path.parent.name != model:
+                assert path.name in lattice or path.parent.name == "common", path
                 assert archive.read(f"sources/{path.name}") == path.read_bytes(), path.name
+        assert "sources/component_model.c" in archive.namelist()
 
 
 @pytest.mark.parametrize("version", [2, 3])
@@ -238,7 +246,7 @@ def test_the_projectile_s_lost_energy_is_its_work_on_the_face(component_fmus):
     assert result["face_work"][-1] == pytest.approx(lost, rel=1e-6)
 
 
-def _slave(fmu, folder, name):
+def _slave(fmu, folder, name, logging=False):
     from fmpy import extract
     from fmpy.fmi2 import FMU2Slave
 
@@ -249,11 +257,55 @@ def _slave(fmu, folder, name):
         modelIdentifier=description.coSimulation.modelIdentifier,
         instanceName=name,
     )
-    slave.instantiate()
+    slave.instantiate(loggingOn=logging)  # fmpy prints what the FMU logs
     slave.setupExperiment(startTime=0.0)
     slave.enterInitializationMode()
     slave.exitInitializationMode()
     return slave, {v.name: v.valueReference for v in description.modelVariables}
+
+
+HEADER_SIZE, CHECKSUM_AT = 64, 8  # common/instance.c: SavedHeader, and the CRC-32 of the bytes after it
+
+
+def _with_value(data: bytes, offset: int, value: float) -> bytes:
+    """`data` with the double at `offset` replaced and the checksum recomputed, as a crafted state would be."""
+    crafted = bytearray(data)
+    crafted[offset : offset + 8] = struct.pack("<d", value)
+    crafted[CHECKSUM_AT : CHECKSUM_AT + 4] = struct.pack("<I", zlib.crc32(bytes(crafted[CHECKSUM_AT + 4 :])))
+    return bytes(crafted)
+
+
+@pytest.mark.parametrize("model", COMPONENT_MODELS)
+def test_a_component_refuses_a_crafted_state_and_restores_its_own(component_fmus, tmp_path, capsys, model):
+    """The shared checks (common/component_model.c) refuse a value that is not finite and a parameter out of its
+    range; the hull's own driver check a non-finite input slope; the intact state restores."""
+    from fmpy.fmi1 import FMICallException
+
+    slave, refs = _slave(component_fmus[model, 2], tmp_path, model, logging=True)
+    slave.doStep(0.0, 1e-3)
+    state = slave.getFMUstate()
+    data = bytes(slave.serializeFMUstate(state))
+    slave.freeFMUstate(state)
+    count = len(refs)
+    parameter = "m" if model == "hull" else "projectile_mass"
+    output = "x" if model == "hull" else "projectile_position"
+    crafted = {
+        "is not finite": _with_value(data, HEADER_SIZE + 8 * refs[output], math.nan),
+        f"{parameter} = -1 is not allowed": _with_value(data, HEADER_SIZE + 8 * refs[parameter], -1.0),
+    }
+    if model == "hull":  # struct Model: the core's values, time and two flags, then the input slope
+        crafted["input slope is not finite"] = _with_value(data, HEADER_SIZE + 8 * count + 16, math.inf)
+    for reason, state_bytes in crafted.items():
+        capsys.readouterr()
+        with pytest.raises(FMICallException):
+            slave.deSerializeFMUstate(state_bytes)
+        assert reason in capsys.readouterr().out
+    restored = slave.deSerializeFMUstate(data)
+    slave.setFMUstate(restored)
+    slave.freeFMUstate(restored)
+    slave.doStep(1e-3, 1e-3)
+    slave.terminate()
+    slave.freeInstance()
 
 
 def test_the_hull_extrapolates_its_input_with_the_derivative_a_master_sets(component_fmus, tmp_path):

@@ -5,8 +5,9 @@
  *     delta = x_p - x_front,  delta' = v_p - v_front,
  *     F_c = max(k_c delta^n (1 + lambda delta'), 0) for delta > 0, else 0;   mass x_p'' = -F_c
  *
- * It implements the model API (common/model_api.h) in model.c; its variables are fmu_src/projectile/
- * variables.py's table (model_variables.h, generated).
+ * It implements the model API (common/model_api.h) in model.c, on the code every component shares
+ * (common/component_model.c); its variables are fmu_src/projectile/variables.py's table (model_variables.h,
+ * generated).
  *
  * Co-Simulation: over a communication step [t0, t0 + H] the face is extrapolated from the inputs,
  * x_f = x_front + s tau + a tau^2 / 2 and v_f = v_front + a tau (tau = t - t0; s = v_front, or the derivative of

@@ -259,12 +259,19 @@ class Annealing(Search):
         that a window of censored moves is flagged as too low, rounding whatever)."""
         if not self.options["use_limits"] or not math.isfinite(threshold):
             return None
-        if len(self.window_uphill) < int(self.options["window"]):
+        if self.t0 is not None and len(self.window_uphill) < int(self.options["window"]):
             poor_low = float(self.options["poor_low"])
             if not poor_low > 0:
                 return None
             threshold = max(threshold, self.current_value[c] + self.t0 * math.log(2.0 / poor_low))
         return threshold if math.isfinite(threshold) else None
+
+    def _started_design(self, c: int) -> Design:
+        """Chain c's current design, once it has started; ValueError before."""
+        design = self.current[c]
+        if design is None:
+            raise ValueError(f"sa: chain {c} has no current design before its start is told")
+        return design
 
     # -- protocol ---------------------------------------------------------
     def _ask(self) -> list[Design]:
@@ -293,7 +300,7 @@ class Annealing(Search):
                     free=True,
                     calibrating=temperature is None,
                 ):
-                    current = self.current[c]
+                    current = self._started_design(c)  # the move if _step accepted it
                     continue
                 self.reevaluations += order in self.memo  # known only above a bound below the threshold
                 self._proposals.append(Proposal(order, "move", u))

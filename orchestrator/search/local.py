@@ -79,9 +79,15 @@ class Descent:
         self.space = self.space or DesignSpace.permutations(len(design))
         self._set_current(self.space.check(design, "descent: start"), value)
 
+    def _started_space(self) -> DesignSpace:
+        """The descent's space: the one given, else the start design's permutations once started."""
+        if self.space is None:
+            raise RuntimeError("Descent: no design space before start")
+        return self.space
+
     def _set_current(self, design: Design, value: float) -> None:
         self.current, self.current_value = design, float(value)
-        queue = self.space.neighbour_list(design)
+        queue = self._started_space().neighbour_list(design)
         self.rng.shuffle(queue)
         self._queue = queue
 
@@ -105,7 +111,7 @@ class Descent:
                     return []
                 kicked = self.home
                 for _ in range(self.kick):
-                    kicked = self.space.random_move(self.rng, kicked)
+                    kicked = self._started_space().random_move(self.rng, kicked)
                 self.kicks += 1
                 tries += 1
                 if kicked in memo and kicked not in above:  # a censored one: asked for its value
@@ -207,7 +213,8 @@ class LocalSearch(Search):
         return self.descent.finished
 
     def _state(self) -> dict:
+        current = self.descent.current  # set once started: a finished descent has started
         return {
             "descent": self.descent.state(),
-            "local_optimum": list(self.descent.current) if self.descent.finished else None,
+            "local_optimum": list(current) if self.descent.finished and current is not None else None,
         }

@@ -34,7 +34,6 @@ class Polished(Search):
         self.switch_at = None if budget is None or not polish else int(budget) - round(float(polish) * int(budget))
         self.descent: Descent | None = None
         self.polish_started_at: int | None = None
-        self._polishing_batch = False
 
     def _ask(self) -> list[Design]:
         if (
@@ -46,21 +45,21 @@ class Polished(Search):
             self.descent = Descent(self.rng, batch=int(self.options["polish_batch"] or 4), space=self.space)
             self.descent.start(self.best_order, self.best_value)
             self.polish_started_at = len(self.memo)
-        self._polishing_batch = self.descent is not None
+        # once the descent is made, every batch is the descent's (limits and _tell follow the same choice)
         self._asked = (
-            self.descent.propose(self.memo, self.censored_above) if self._polishing_batch else self.inner.ask()
+            self.descent.propose(self.memo, self.censored_above) if self.descent is not None else self.inner.ask()
         )
         return self._asked
 
     def limits(self) -> list[float | None] | None:
-        return self.descent.limits(self._asked) if self._polishing_batch else self.inner.limits()
+        return self.descent.limits(self._asked) if self.descent is not None else self.inner.limits()
 
     def tell(self, designs, values) -> None:
         self._told = list(values)  # the inner search is told what was told (Above stays Above), not +inf
         super().tell(designs, values)
 
     def _tell(self, designs: list[Design], values: list[float]) -> None:
-        if self._polishing_batch:
+        if self.descent is not None:
             self.descent.update(designs, values)
         else:
             self.inner.tell(designs, self._told)

@@ -4,6 +4,7 @@ search fidelity against the full one."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import overload
 
 from ..objective import FULL, SEARCH
 from ..study import Step, StudyContext
@@ -35,6 +36,10 @@ class AccuracyResult:
     by_horizon: tuple[HorizonValue, ...]
 
 
+@overload
+def relative_difference(value: float, reference: float) -> float: ...
+@overload
+def relative_difference(value: float | None, reference: float | None) -> float | None: ...
 def relative_difference(value: float | None, reference: float | None) -> float | None:
     """|value / reference - 1| (the absolute difference where the reference is 0: no load, no peak)."""
     if value is None or reference is None:

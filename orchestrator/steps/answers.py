@@ -288,6 +288,7 @@ class Answers(Step):
             sweep = swept.for_rule(label) if swept else None
             runner = self.runner_up(context, rule, best, sweep)
             search = objective.evaluate([best.order], context.evaluator, SEARCH)[0]
+            peak = best.ok_value  # rule_best's is ok
             evidence = Evidence(
                 reaching,
                 len(runs),
@@ -324,7 +325,7 @@ class Answers(Step):
                     order=best.order,
                     materials=tuple(context.case.materials.name_of(m) for m in best.order),
                     objective=context.case.outputs[0],
-                    peak=best.value,
+                    peak=peak,
                     peak_other_rule=other_values[0] if len(other_values) == 1 else None,
                     values_by_rule=values,
                     energy_by_rule=energy,
@@ -332,8 +333,8 @@ class Answers(Step):
                     evidence=evidence,
                     design_file=design_file(index, label),
                     runner_up=runner.order if runner else None,
-                    runner_up_peak=runner.value if runner else None,
-                    search_relative_error=abs(search.value / best.value - 1) if search.ok and best.value else None,
+                    runner_up_peak=runner.ok_value if runner else None,
+                    search_relative_error=abs(search.ok_value / peak - 1) if search.ok and peak else None,
                     roles=roles,
                     equivalence=equivalence(context, best, runner, sweep),
                     parameters=start_values_for(context, best.order, rule),
@@ -483,7 +484,7 @@ def equivalence(context: StudyContext, best: Evaluation, runner: Evaluation | No
         and certificate.optimum.order == best.order
     ):
         integration = max(integration, certificate.integration_error)
-    return Equivalence(runner.value - best.value, sampling, integration, runner.outputs)
+    return Equivalence(runner.ok_value - best.ok_value, sampling, integration, runner.outputs)
 
 
 def settlement(context: StudyContext, rule, runs) -> Settlement | None:

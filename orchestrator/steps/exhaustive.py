@@ -469,21 +469,20 @@ class Exhaustive(Step):
                 else "no design was verified at full fidelity"
             )
 
-        def verified(e: Evaluation | None) -> Verified | None:
-            if e is None:
-                return None
+        def verified(e: Evaluation) -> Verified:
             other = second.get(e.order)
-            return Verified(e.order, e.value, screened.get(e.order), other.value if other and other.ok else None)
+            return Verified(e.order, e.ok_value, screened.get(e.order), other.value if other and other.ok else None)
 
-        optimum = verified(ok[0] if ok else None)
-        runner_up = verified(ok[1] if len(ok) > 1 else None)
+        optimum = verified(ok[0]) if ok else None
+        runner_up = verified(ok[1]) if len(ok) > 1 else None
         gap = integration = None
         if optimum and runner_up:
-            gap = runner_up.full - optimum.full
+            optimum_full, runner_up_full = ok[0].ok_value, ok[1].ok_value
+            gap = runner_up_full - optimum_full
             if optimum.second is None or runner_up.second is None:
                 reasons.append("the second integrator failed on the optimum or the runner-up")
             else:
-                integration = max(abs(optimum.full - optimum.second), abs(runner_up.full - runner_up.second))
+                integration = max(abs(optimum_full - optimum.second), abs(runner_up_full - runner_up.second))
                 if not gap > 2 * integration:
                     reasons.append(
                         f"the gap to the runner-up ({gap:.3g}) is not larger than twice the integration "

@@ -95,8 +95,8 @@ def check_local_optimum(
         complete
         and own.ok
         and len(good) + len(above) == len(every)
-        and all(e.value >= own.value for e in good)
-        and all(e.lower_bound >= own.value for e in above)
+        and all(e.ok_value >= own.ok_value for e in good)
+        and all(e.censored_limit >= own.ok_value for e in above)
     )
     curve = [v for v in run.best_so_far() if v is not None]
     improvements = sum(1 for a, b in zip(curve, curve[1:]) if b < a)

@@ -71,7 +71,7 @@ class Starts(Step):
                         answer=answer.order,
                         answer_value=answer.peak,
                         improvement=improvement,
-                        improvement_percent=None if value in (None, 0) else 100.0 * improvement / value,
+                        improvement_percent=None if improvement is None or not value else 100.0 * improvement / value,
                     )
                 )
         return StartsResult(designs, tuple(comparisons))
@@ -80,7 +80,7 @@ class Starts(Step):
 def comparison_line(comparison: StartComparison, unit: str) -> str:
     """The comparison in the words of the first screen."""
     start = f"starting design {list(comparison.order)}"
-    if comparison.value is None:
+    if comparison.value is None or comparison.improvement is None:  # both None together
         return f"{start}: its evaluation failed ({comparison.message}) under the {comparison.diagonal_rule} rule"
     if comparison.answer == comparison.order:
         return (

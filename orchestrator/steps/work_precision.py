@@ -9,6 +9,7 @@ from pathlib import Path
 from ..charts import legend_below, plt, save
 from ..objective import FULL
 from ..study import Step, StudyContext
+from ..types import Evaluation
 from .accuracy import Accuracy, relative_difference
 from .answers import Answers
 
@@ -81,10 +82,10 @@ class WorkPrecision(Step):
         )
 
     @staticmethod
-    def point(family: str, label: str, evaluation, reference: float) -> SolverPoint:
+    def point(family: str, label: str, evaluation: Evaluation, reference: float) -> SolverPoint:
         if not evaluation.ok:
             return SolverPoint(family, label, evaluation.seconds, None, "failed", evaluation.message)
-        error = relative_difference(evaluation.value, reference)
+        error = relative_difference(evaluation.ok_value, reference)
         return SolverPoint(family, label, evaluation.seconds, error, "ok" if error <= TARGET else "inaccurate")
 
     def chart(self, study, path):
