@@ -14,17 +14,20 @@ from dataclasses import dataclass
 
 from ..codesign import (
     DEFAULT_RANGE,
+    FRONT_BUDGETS,
     CoDesignObjective,
     CoDesignPoint,
     CoDesignSpace,
     ColumnProperties,
+    FrontSeed,
     Polish,
     cmaes_search,
     mixed_ga_search,
-    nsga2_front,
     parse_vary,
     parse_vary_range,
     polish,
+    seed_budgets,
+    seeded_front,
 )
 from ..objective import FULL
 from ..options import check_options, given, integer, number, option
@@ -68,6 +71,14 @@ class CoDesignConfig:
         2000,
         "with --vary: designs (order and factors) the co-design search evaluates under each rule, before the polish",
         type=integer("--vary-budget", 2, 10**7),
+    )
+    front_budgets: int = option(
+        FRONT_BUDGETS,
+        "with --vary and --objective ...,mass: the mass budgets, evenly spaced over the front's masses up to its "
+        "upper end, within each of which CMA-ES (then the polish) seeds the front before NSGA-II; the seeds share "
+        "half of --vary-budget evenly (0: NSGA-II alone)",
+        metavar="N",
+        type=integer("--front-budgets", 0, 100),
     )
     codesign_method: str = option(
         CMAES,
@@ -127,6 +138,7 @@ class RuleFront:
     evaluations: int  # designs NSGA-II evaluated
     mass_range: tuple[float, float] = (0.0, 0.0)  # kg: the lightest stack the factors allow and the front's upper end
     evaluated_masses: tuple[float, float] = (0.0, 0.0)  # kg: the lightest and heaviest design evaluated within it
+    seeds: tuple[FrontSeed, ...] = ()  # the CMA-ES runs within each --front-budgets budget that seeded NSGA-II
 
 
 @dataclass(frozen=True)
@@ -172,6 +184,8 @@ class CoDesign(Step):
             if stray:
                 raise ValueError(f"--{stray[0].replace('_', '-')}: only with --vary (co-design)")
             return
+        if "front_budgets" in given(config) and len(context.case.outputs) != 2:
+            raise ValueError("--front-budgets: only with --objective ...,mass (the co-design front)")
         if context.case.space.kind == "repetition":
             raise ValueError("--vary: not with --repeat (a material in several columns has one value of each property)")
         outputs = context.case.outputs
@@ -248,20 +262,29 @@ class CoDesign(Step):
 
     def fronts(self, context: StudyContext, space: CoDesignSpace) -> CoDesignResult:
         """Under each rule, NSGA-II's front of the objective against the stack's mass, from the rule's best order
-        (``front_start``) at the table's values and at
-        evenly spaced masses. ``--mass-budget`` is the front's upper end; without it the front spans every mass
-        the factors allow."""
+        (``front_start``) at the table's values, at evenly spaced masses and CMA-ES's polished answers within
+        ``--front-budgets`` budgets spread over the masses (``seeded_front``). ``--mass-budget`` is the front's
+        upper end; without it the front spans every mass the factors allow."""
         fronts = []
         for index, rule in enumerate(context.rules):
             objective = CoDesignObjective(context.objective(rule), space)
             start = front_start(context, rule_label(rule))
-            front = nsga2_front(
+
+            def polished(point: CoDesignPoint, budget: float, objective=objective) -> CoDesignPoint | None:
+                try:
+                    return polish(objective, context.evaluator, point, budget, FULL).end
+                except RuntimeError:  # a run of the polish failed: CMA-ES's design seeds the front
+                    return None
+
+            front = seeded_front(
                 objective,
                 context.evaluator,
                 start,
                 self.config.vary_budget,
+                seed_budgets(space, start, space.mass_budget, self.config.front_budgets),
                 seed=index,
                 mass_budget=space.mass_budget,
+                refine=polished,
             )
             fronts.append(
                 RuleFront(
@@ -277,6 +300,7 @@ class CoDesign(Step):
                         if front.evaluated
                         else (0.0, 0.0)
                     ),
+                    front.seeds,
                 )
             )
         return CoDesignResult(space.names, (space.low, space.high), (), tuple(fronts))
