@@ -820,8 +820,10 @@ def nsga2_front(
     return CoDesignFront(designs, tuple(values), used, span)
 
 
-FRONT_BUDGETS = 5
-"""The mass budgets within which CMA-ES seeds the front by default (``seed_budgets``)."""
+FRONT_BUDGETS = 1
+"""The mass budgets within which CMA-ES seeds the front by default (``seed_budgets``): the upper end alone, since at
+the default --vary-budget more budgets leave each CMA-ES run too few designs to lower the front
+(python -m bench.codesign_finding compares the counts)."""
 SEED_SHARE = 0.5
 """The share of the front's evaluations (--vary-budget) its CMA-ES seeds take, split evenly among their mass
 budgets; NSGA-II evaluates the rest."""

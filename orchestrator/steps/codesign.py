@@ -75,8 +75,8 @@ class CoDesignConfig:
     front_budgets: int = option(
         FRONT_BUDGETS,
         "with --vary and --objective ...,mass: the mass budgets, evenly spaced over the front's masses up to its "
-        "upper end, within each of which CMA-ES (then the polish) seeds the front before NSGA-II; the seeds share "
-        "half of --vary-budget evenly (0: NSGA-II alone)",
+        "upper end (one: the upper end), within each of which CMA-ES (then the polish) seeds the front before "
+        "NSGA-II; the seeds share half of --vary-budget evenly (0: NSGA-II alone)",
         metavar="N",
         type=integer("--front-budgets", 0, 100),
     )
