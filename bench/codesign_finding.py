@@ -311,8 +311,9 @@ def main(argv=None) -> int:
             tuple(count_rows),
             caption=(
                 "How many mass budgets to seed the front within, at a fixed --vary-budget "
-                f"(`python orchestrator/run.py {' '.join(front_options(0, 400 if args.quick else 2000, searches))}` "
-                "with --front-budgets N): each budget's CMA-ES gets a smaller part of half of it; the area the front "
+                f"(`python orchestrator/run.py {' '.join(front_options(0, 400 if args.quick else 2000, searches))}`"
+                ", --front-budgets N in place of 0): each budget's CMA-ES gets a smaller part of half of it; the "
+                "area the front "
                 "dominates (pymoo's hypervolume, the order search's answer's peak and the upper end as reference) "
                 "measures the whole front"
             ),
