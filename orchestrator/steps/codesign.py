@@ -309,7 +309,8 @@ class CoDesign(Step):
         return (
             "CMA-ES or the mixed-variable GA over order and factors (--vary-budget designs per rule), then the "
             "polish's finite differences; "
-            "with --objective ...,mass NSGA-II (--vary-budget designs per rule) and its front at full fidelity"
+            "with --objective ...,mass CMA-ES within each --front-budgets budget and NSGA-II (--vary-budget designs "
+            "per rule between them), each CMA-ES answer's polish, and the front at full fidelity"
         )
 
 
