@@ -7,11 +7,15 @@ Each line is the study's command line, run as a user runs it (``python orchestra
 a fresh process, timed from start to exit): under each diagonal rule the order search at the table's values, then
 CMA-ES over the order and every column's k, c and mass factors (0.5..2) within the order's own mass (121 kg), then
 SLSQP on the epigraph of the sampled peak over the factors; under the mean rule, NSGA-II's front of the peak against
-the stack's mass from the lightest stack the factors allow (60.5 kg) to ``--mass-budget 180`` kg, beside the order
-search's answer, and the layers' properties that move the answer's peak most (the polish's sensitivities); pymoo's
-mixed-variable GA (``--codesign-method mixed-ga``) in CMA-ES's place under the mean rule, at the same
-``--vary-budget``; and the order search alone with every damper at exponent n = 0.5 and 2 beside the study's n = 1.
-Each answer's start values are typed into FMPy's ``simulate_fmu`` and must give its peak (1e-6).
+the stack's mass from the lightest stack the factors allow (60.5 kg) to ``--mass-budget 180`` kg, seeded with CMA-
+ES's polished answers within ``--front-budgets`` budgets spread over those masses (each seed on as many designs as
+the stand-alone co-design's default ``--vary-budget``), beside the order search's answer; the stand-alone co-design
+at 180 kg on as many designs, and whether it dominates any design of the front; the front at the default ``--vary-
+budget`` seeded within 0, 1, 3, 5 and 8 budgets (the area it dominates, its lowest peak); the layers' properties
+that move the answer's peak most (the polish's sensitivities); pymoo's mixed-variable GA (``--codesign-method mixed-
+ga``) in CMA-ES's place under the mean rule, at the same ``--vary-budget``; and the order search alone with every
+damper at exponent n = 0.5 and 2 beside the study's n = 1. Each answer's start values are typed into FMPy's
+``simulate_fmu`` and must give its peak (1e-6).
 """
 
 from __future__ import annotations
@@ -28,6 +32,8 @@ from pathlib import Path
 from fmpy import simulate_fmu
 
 from fmu_src.materials import MaterialTable, study_materials, write_materials_csv
+from orchestrator.codesign import FRONT_BUDGETS as DEFAULT_FRONT_BUDGETS
+from orchestrator.codesign import SEED_SHARE
 
 from .common import add_fmu_option, lattice_fmu, order_text, percent
 from .measurements import ROOT, Page, Run, Table, write_page
@@ -37,6 +43,10 @@ AGREEMENT = 1e-6  # FMPy's run of the answer's start values against its reported
 DAMPING_EXPONENTS = (0.5, 2.0)  # beside the study's linear dampers (n = 1, the mean rule's run)
 FRONT_MASS_BUDGET = 180.0  # kg: the front's upper end, about half again the study's stack
 FRONT_ROWS_SHOWN = 14
+FRONT_BUDGETS = (0, 1, 3, 5, 8)  # --front-budgets compared at the default --vary-budget
+SEEDED_BUDGETS = 5  # the front's --front-budgets, each budget's CMA-ES on CMAES_DESIGNS
+CMAES_DESIGNS = 2000  # each seed's CMA-ES designs in the front run: the stand-alone co-design's default --vary-budget
+QUICK_CMAES_DESIGNS = 200
 SENSITIVITIES_SHOWN = 8  # the layers' properties that move the mean rule's peak most, at its answer
 
 
@@ -59,6 +69,30 @@ def fmpy_peak(fmu: Path, parameters: dict, horizon: float) -> float:
     return float(result["peak_backplate_force"][-1])
 
 
+def dominates(a: list[float], b: list[float]) -> bool:
+    """``a`` no worse than ``b`` in every objective and better in one (both minimised)."""
+    return all(x <= y for x, y in zip(a, b)) and any(x < y for x, y in zip(a, b))
+
+
+def dominated_area(points: list[list[float]], reference: tuple[float, float]) -> float:
+    """The area (N kg) of the peak-mass plane the front's points dominate below ``reference``: pymoo's
+    hypervolume."""
+    import numpy as np
+    from pymoo.indicators.hv import HV
+
+    inside = [p for p in points if p[0] < reference[0] and p[1] < reference[1]]
+    return float(HV(ref_point=np.array(reference))(np.array(inside))) if inside else 0.0
+
+
+def front_options(budgets: int, vary_budget: int, searches: list[str]) -> list[str]:
+    options = ["--vary", VARIED, "--objective", "sampled,mass", "--mass-budget", f"{FRONT_MASS_BUDGET:g}"]
+    return (
+        options
+        + ["--diagonal-rule", "mean", "--front-budgets", str(budgets), "--vary-budget", str(vary_budget)]
+        + (searches)
+    )
+
+
 def polish_text(polish: dict | None) -> str:
     if polish is None:
         return "none (a run of the polish failed)"
@@ -72,7 +106,10 @@ def polish_text(polish: dict | None) -> str:
 
 def main(argv=None) -> int:
     run = Run.start(__file__, argv)
-    parser = run.parser(__doc__, quick="--vary-budget 400 --budget 60 --repeats 1 for the order search")
+    parser = run.parser(
+        __doc__,
+        quick="--vary-budget 400 --budget 60 --repeats 1 for the order search, the front's seeds 200 designs each",
+    )
     add_fmu_option(parser)
     args = parser.parse_args(argv)
     searches = ["--budget", "60", "--repeats", "1"] if args.quick else []
@@ -80,6 +117,7 @@ def main(argv=None) -> int:
     rows = []
     sensitivity_rows: list[tuple] = []
     starts: dict[str, tuple[list, float, float]] = {}  # by rule: the order search's answer, its peak and mass
+    standalone: list[tuple[str, float, float, float]] = []  # the mean rule's co-designs: options, peak, mass, budget
     with lattice_fmu(args.fmu) as fmu, tempfile.TemporaryDirectory(prefix="bench_codesign_") as folder:
         for rule, method in (("mean", "cmaes"), ("receiver", "cmaes"), ("mean", "mixed-ga")):
             options = ["--vary", VARIED, "--diagonal-rule", rule, *searches, *vary_budget]
@@ -93,6 +131,8 @@ def main(argv=None) -> int:
                 raise SystemExit(f"{rule}: the answer reports {answer['peak']!r} N, FMPy gives {again!r} N")
             polish = codesign["polish"]
             starts.setdefault(rule, (codesign["start_order"], codesign["start_peak"], codesign["mass_budget"]))
+            if rule == "mean" and method == "cmaes":
+                standalone.append((" ".join(options), answer["peak"], answer["total_mass"], codesign["mass_budget"]))
             if rule == "mean" and method == "cmaes" and polish is not None:
                 names = record["steps"]["codesign"]["names"]
                 ranked = sorted(
@@ -121,8 +161,9 @@ def main(argv=None) -> int:
                     f"{seconds:.0f}",
                 )
             )
-        options = ["--vary", VARIED, "--objective", "sampled,mass", "--mass-budget", f"{FRONT_MASS_BUDGET:g}"]
-        options += ["--diagonal-rule", "mean", *searches, *vary_budget]
+        designs_each = QUICK_CMAES_DESIGNS if args.quick else CMAES_DESIGNS
+        seed_count = SEEDED_BUDGETS
+        options = front_options(seed_count, int(designs_each * seed_count / SEED_SHARE), searches)
         seconds, record, _ = run_study(fmu, Path(folder) / "front", options)
         front = record["steps"]["codesign"]["fronts"][0]
         shown = [d for d in front["designs"] if d["full_values"] is not None]
@@ -154,13 +195,126 @@ def main(argv=None) -> int:
             + ((f"{mass:.2f}", f"{peak:.2f}", f"{order_text(order)}: the order search's answer, the table's values"),),
             caption=(
                 f"`python orchestrator/run.py {' '.join(options)}` ({seconds:.0f} s): {len(shown)} designs on the "
-                f"front of {front['evaluations']:,} NSGA-II evaluated within {lightest:.1f}..{upper:.1f} kg (the "
+                f"front of {front['evaluations']:,} NSGA-II and {sum(s['evaluations'] for s in front['seeds']):,} "
+                f"CMA-ES (its seeds, below) evaluated within {lightest:.1f}..{upper:.1f} kg (the "
                 "lightest stack the factors allow, --mass-budget the upper end), every "
-                f"{step}th shown and the lightest (full fidelity); NSGA-II evaluated designs up to "
+                f"{step}th shown and the lightest (full fidelity); the searches evaluated designs up to "
                 f"{heaviest_evaluated:.1f} kg and none heavier than the front's {heaviest_on_front:.1f} kg lowers "
                 "the peak further; the last row is the order search's answer under the mean rule, which "
                 f"{len(dominating)} of the front's "
                 f"designs dominate (no heavier, no higher peak){at_study_text}"
+            ),
+        )
+        seeds = front["seeds"]
+        seed_table = Table(
+            (
+                "mass budget (kg)",
+                "CMA-ES designs",
+                "CMA-ES's best (N, search fidelity)",
+                "the seed (N, search fidelity)",
+                "its mass (kg)",
+                "the front's best within the budget (N, full fidelity)",
+            ),
+            tuple(
+                (
+                    f"{s['budget']:.2f}",
+                    f"{s['evaluations']:,}",
+                    f"{s['search_best']:.2f}" if s["search_best"] is not None else "none within it",
+                    (f"{s['values'][0]:.2f}" + (" (polished)" if s["polished"] else "")) if s["values"] else "-",
+                    f"{s['values'][1]:.2f}" if s["values"] else "-",
+                    min(
+                        (
+                            f"{d['full_values'][0]:.2f}"
+                            for d in shown
+                            if d["full_values"][1] <= s["budget"] * (1 + 1e-9)
+                        ),
+                        key=float,
+                        default="-",
+                    ),
+                )
+                for s in seeds
+            ),
+            caption=(
+                f"What seeded the front above: before NSGA-II, CMA-ES from the order search's answer, then the polish "
+                f"(SLSQP at full fidelity), within each of --front-budgets {seed_count} mass budgets spread evenly "
+                f"over {lightest:.1f}..{upper:.1f} kg, each on {designs_each:,} designs (half of --vary-budget "
+                f"shared among them; NSGA-II evaluated the other half); every design CMA-ES evaluated is among the "
+                "front's candidates and each seed is in NSGA-II's first population"
+            ),
+        )
+        heavy_options = ["--vary", VARIED, "--diagonal-rule", "mean", "--mass-budget", f"{FRONT_MASS_BUDGET:g}"]
+        heavy_options += [*searches, "--vary-budget", str(designs_each)]
+        heavy_seconds, heavy_record, _ = run_study(fmu, Path(folder) / "heavy", heavy_options)
+        heavy = heavy_record["answers"][0]
+        standalone.append((" ".join(heavy_options), heavy["peak"], heavy["total_mass"], FRONT_MASS_BUDGET))
+        check_rows = []
+        for words, sa_peak, sa_mass, sa_budget in standalone:
+            beaten = [d for d in shown if dominates([sa_peak, sa_mass], d["full_values"])]
+            as_good = [d for d in shown if d["full_values"][0] <= sa_peak and d["full_values"][1] <= sa_mass]
+            check_rows.append(
+                (
+                    f"`python orchestrator/run.py {words}`",
+                    f"{sa_budget:.2f}",
+                    f"{sa_peak:.2f} at {sa_mass:.2f} kg",
+                    f"{len(beaten)}",
+                    (
+                        f"yes: {min(d['full_values'][0] for d in as_good):.2f} N at or below {sa_mass:.2f} kg"
+                        if as_good
+                        else "no"
+                    ),
+                )
+            )
+        check_table = Table(
+            (
+                "stand-alone co-design (mean rule)",
+                "its mass budget (kg)",
+                "its answer (N, full fidelity)",
+                "front designs it dominates",
+                "the front holds a design as good (no higher peak, no heavier)",
+            ),
+            tuple(check_rows),
+            caption=(
+                "The front against the stand-alone co-design (CMA-ES then the polish, no front) at the study's mass "
+                f"(the first row of the first table) and at the front's upper end ({heavy_seconds:.0f} s, on as many "
+                "CMA-ES designs as each of the front's seeds), full fidelity both"
+            ),
+        )
+        reference = (peak, upper)
+        count_rows = []
+        for count in FRONT_BUDGETS:
+            count_options = front_options(count, 400 if args.quick else 2000, searches)
+            count_seconds, count_record, _ = run_study(fmu, Path(folder) / f"budgets{count}", count_options)
+            count_front = count_record["steps"]["codesign"]["fronts"][0]
+            points = [d["full_values"] for d in count_front["designs"] if d["full_values"] is not None]
+            best_point = min(points)
+            light = [p for p in points if p[1] <= mass * (1 + 1e-9)]
+            count_rows.append(
+                (
+                    f"{count}" + (" (the default)" if count == DEFAULT_FRONT_BUDGETS else ""),
+                    f"{sum(s['evaluations'] for s in count_front['seeds']):,} + {count_front['evaluations']:,}",
+                    f"{dominated_area(points, reference):,.0f}",
+                    f"{best_point[0]:.2f} at {best_point[1]:.2f} kg",
+                    f"{min(light)[0]:.2f}" if light else "-",
+                    f"{count_seconds:.0f}",
+                )
+            )
+        count_table = Table(
+            (
+                "--front-budgets",
+                "designs: CMA-ES + NSGA-II",
+                f"area dominated below {reference[0]:.0f} N and {reference[1]:.0f} kg (N kg)",
+                "the front's lowest peak (full fidelity)",
+                f"its best at or below {mass:.0f} kg (N)",
+                "wall s",
+            ),
+            tuple(count_rows),
+            caption=(
+                "How many mass budgets to seed the front within, at a fixed --vary-budget "
+                f"(`python orchestrator/run.py {' '.join(front_options(0, 400 if args.quick else 2000, searches))}`"
+                ", --front-budgets N in place of 0): each budget's CMA-ES gets a smaller part of half of it; the "
+                "area the front "
+                "dominates (pymoo's hypervolume, the order search's answer's peak and the upper end as reference) "
+                "measures the whole front"
             ),
         )
         damping_rows = [(1.0, order_text(order), f"{peak:.2f}", "the mean rule's run above")]
@@ -226,6 +380,9 @@ def main(argv=None) -> int:
                 tuple(rows),
             ),
             front_table,
+            seed_table,
+            check_table,
+            count_table,
             damping_table,
             Table(
                 ("column", "material", "property", "d peak / d ln(factor) (N)"),

@@ -272,6 +272,7 @@ class Scored:
     value: float | None
     mass: float
     feasible: bool
+    values: tuple[float, ...] = ()  # every objective's value (the first is ``value``); () when the run failed
 
 
 @dataclass(frozen=True)
@@ -293,13 +294,14 @@ def cmaes_search(
     seed: int = 0,
     sigma0: float = 0.2,
     fidelity: str = SEARCH,
+    start: CoDesignPoint | None = None,
 ) -> SearchOutcome:
     """CMA-ES (pycma) over the order's keys and the factors together, in [0, 1]-scaled coordinates, from
-    ``start_order`` at the table's values; the mass budget is pycma's augmented-Lagrangian constraint
-    (``cma.ConstrainedFitnessAL``). Stops when pycma does or before a population would pass ``evaluations``
-    points (the cache's repeats count too)."""
+    ``start`` (default: ``start_order`` at the table's values); the mass budget is pycma's augmented-Lagrangian
+    constraint (``cma.ConstrainedFitnessAL``). Stops when pycma does or before a population would pass
+    ``evaluations`` points (the cache's repeats count too)."""
     space = objective.space
-    x0 = space.encode(space.unit_point(start_order))
+    x0 = space.encode(start if start is not None else space.unit_point(start_order))
     values: dict[tuple[float, ...], float] = {}
     scored: list[Scored] = []
     worst = [0.0]
@@ -331,7 +333,13 @@ def cmaes_search(
                 worst[0] = max(worst[0], float(peak))
             values[tuple(x)] = float(peak) if peak is not None else 2.0 * worst[0] + 1.0
             scored.append(
-                Scored(point, None if peak is None else float(peak), mass, space.mass_excess(point, budget) == 0)
+                Scored(
+                    point,
+                    None if peak is None else float(peak),
+                    mass,
+                    space.mass_excess(point, budget) == 0,
+                    tuple(float(v) for v in (result.values or (peak,))) if peak is not None else (),
+                )
             )
         with _quiet():
             strategy.tell(xs, [fitness(x) for x in xs])
@@ -928,8 +936,24 @@ class CoDesignFront:
 
     designs: tuple[FrontDesign, ...]
     evaluated: tuple[tuple[float, ...], ...]  # every evaluated design's values within the budget, search fidelity
-    evaluations: int
+    evaluations: int  # designs NSGA-II evaluated
     mass_range: tuple[float, float]  # kg: the lightest design the factors allow, and the front's upper end
+    seeds: tuple["FrontSeed", ...] = ()  # the CMA-ES runs that seeded NSGA-II's first population (seeded_front)
+
+
+@dataclass(frozen=True)
+class FrontSeed:
+    """CMA-ES's answer within one mass budget, put into NSGA-II's first population and the front's candidates: its
+    design (the polish's end where a polish ran and lowered it), values at the search fidelity (None: nothing
+    within the budget had a value)."""
+
+    budget: float  # kg
+    evaluations: int  # designs CMA-ES evaluated (the polish's runs not counted)
+    stop: str
+    search_best: float | None  # CMA-ES's best feasible value, search fidelity
+    point: CoDesignPoint | None
+    values: tuple[float, ...] | None  # the seed's values at the search fidelity, every objective
+    polished: bool  # the seed is the polish's end
 
 
 MASS_PROFILES = ("even", "impact_side_first", "back_first")
@@ -958,17 +982,22 @@ def mass_ladder(
         return []
     low, high = mass_range(space, order, budget)
     targets = [low] if count == 1 else [low + (high - low) * i / (count - 1) for i in range(count)]
-    ladder = []
-    for target in targets:
-        below, above = 0.0, 1.0
-        for _ in range(60):
-            middle = 0.5 * (below + above)
-            if space.total_mass(_mass_at(space, order, middle, profile)) <= target:
-                below = middle
-            else:
-                above = middle
-        ladder.append(_mass_at(space, order, below, profile))
-    return ladder
+    return [point_of_mass(space, order, target, profile) for target in targets]
+
+
+def point_of_mass(
+    space: CoDesignSpace, order: Sequence[int], target: float, profile: str = MASS_PROFILES[0]
+) -> CoDesignPoint:
+    """The design of ``order`` along ``profile`` whose stack mass is ``target`` kg (the heaviest not above it; the
+    lightest stack when ``target`` is lighter), found by bisection, every other property at the table's value."""
+    below, above = 0.0, 1.0
+    for _ in range(60):
+        middle = 0.5 * (below + above)
+        if space.total_mass(_mass_at(space, order, middle, profile)) <= target:
+            below = middle
+        else:
+            above = middle
+    return _mass_at(space, order, below, profile)
 
 
 def _mass_at(space: CoDesignSpace, order: Sequence[int], along: float, profile: str) -> CoDesignPoint:
@@ -1001,6 +1030,7 @@ def nsga2_front(
     population: int = 40,
     mass_budget: float | None = None,
     seeds: Sequence[CoDesignPoint] = (),
+    evaluated: Sequence[tuple[CoDesignPoint, tuple[float, ...]]] = (),
 ) -> CoDesignFront:
     """pymoo's NSGA-II over the order's keys and the factors in [0, 1]-scaled coordinates, every objective of
     ``objective``'s lattice objective minimised, the stack's mass at most ``mass_budget`` (kg; None: the factors'
@@ -1008,8 +1038,9 @@ def nsga2_front(
     ``start_order`` at the table's values and, with the mass varied, about half a population of designs of
     ``start_order`` and of the space's baseline order at evenly spaced masses from the lightest to the front's
     upper end, the mass shared among the columns in each of ``MASS_PROFILES``'s ways (``mass_ladder``), the rest
-    random; the front is the non-dominated set of every design it evaluated within the budget, then evaluated at
-    full fidelity."""
+    random; the front is the non-dominated set of every design it evaluated within the budget and of
+    ``evaluated`` (designs evaluated before it at the search fidelity, with every objective's value; those above
+    the budget left out), then evaluated at full fidelity."""
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.core.evaluator import Evaluator as PymooEvaluator
     from pymoo.core.problem import Problem
@@ -1040,6 +1071,10 @@ def nsga2_front(
     algorithm.setup(problem, termination=("n_eval", evaluations), seed=seed, verbose=False)
     points: list[CoDesignPoint] = []
     values: list[tuple[float, ...]] = []
+    for point, own in evaluated:
+        if not math.isfinite(budget) or space.mass_excess(point, budget) == 0.0:
+            points.append(point)
+            values.append(tuple(float(v) for v in own))
     used = 0
     while algorithm.has_next() and used < evaluations:
         asked = algorithm.ask()
@@ -1083,6 +1118,101 @@ def nsga2_front(
     return CoDesignFront(designs, tuple(values), used, span)
 
 
+FRONT_BUDGETS = 1
+"""The mass budgets within which CMA-ES seeds the front by default (``seed_budgets``): the upper end alone, since at
+the default --vary-budget more budgets leave each CMA-ES run too few designs to lower the front
+(python -m bench.codesign_finding compares the counts)."""
+SEED_SHARE = 0.5
+"""The share of the front's evaluations (--vary-budget) its CMA-ES seeds take, split evenly among their mass
+budgets; NSGA-II evaluates the rest."""
+
+
+def seed_budgets(
+    space: CoDesignSpace, order: Sequence[int], mass_budget: float | None, count: int
+) -> tuple[float, ...]:
+    """``count`` mass budgets (kg) evenly spaced over the front's mass range (``mass_range``) above its lightest
+    stack, its upper end the last (the lightest stack, where only the lightest masses fit, is the mass ladders'
+    rung); one budget, the upper end, when the masses do not vary."""
+    if count < 1:
+        return ()
+    low, high = mass_range(space, order, mass_budget)
+    if high - low <= MASS_TOLERANCE * high:
+        return (high,)
+    return tuple(low + (high - low) * i / count for i in range(1, count + 1))
+
+
+Refine = Callable[[CoDesignPoint, float], "CoDesignPoint | None"]
+"""A local search from CMA-ES's answer within a budget (kg), e.g. the polish; None where it gives nothing."""
+
+
+def seeded_front(
+    objective: CoDesignObjective,
+    evaluator,
+    start_order: Sequence[int],
+    evaluations: int,
+    budgets: Sequence[float],
+    seed: int = 0,
+    population: int = 40,
+    mass_budget: float | None = None,
+    refine: Refine | None = None,
+) -> CoDesignFront:
+    """NSGA-II's front (``nsga2_front``) seeded with CMA-ES's answers within each of ``budgets``: CMA-ES
+    (``cmaes_search``) runs within each budget on an even part of ``SEED_SHARE`` of ``evaluations``, its best
+    design (``refine``'s, where that is lower at the search fidelity) goes into NSGA-II's first population, and
+    every design CMA-ES evaluated joins the front's candidates at the search fidelity, so the front is never above
+    CMA-ES's answer at its mass; NSGA-II evaluates the rest of ``evaluations``. Each run starts from
+    ``start_order`` at the table's values where that is within its budget, else from ``start_order``'s design of
+    the budget's mass (``point_of_mass``), and draws from a seed of its own: ``seed`` for the heaviest budget (the
+    co-design's own search there), ``seed`` + 1, + 2 ... for the lighter ones, so runs whose budget never binds
+    do not repeat each other."""
+    share = int(evaluations * SEED_SHARE) // len(budgets) if budgets else 0
+    space = objective.space
+    unit = space.unit_point(start_order)
+    runs: list[FrontSeed] = []
+    candidates: list[tuple[CoDesignPoint, tuple[float, ...]]] = []
+    used = 0
+    heaviest_first = sorted(budgets, reverse=True)
+    for budget in budgets if share >= 2 else ():
+        start = unit if space.mass_excess(unit, budget) == 0 else point_of_mass(space, start_order, budget)
+        outcome = cmaes_search(
+            objective,
+            evaluator,
+            start_order,
+            budget,
+            share,
+            seed=seed + heaviest_first.index(budget),
+            start=start,
+        )
+        used += outcome.evaluations
+        candidates += [(s.point, s.values) for s in outcome.scored if s.values]
+        best = outcome.best
+        point, values, polished = (best.point, best.values, False) if best is not None else (None, None, False)
+        if best is not None and refine is not None:
+            refined = refine(best.point, budget)
+            if refined is not None and refined != best.point and objective.space.mass_excess(refined, budget) == 0:
+                (again,) = objective.evaluate([refined], evaluator, SEARCH)
+                if again.ok and again.value is not None:
+                    own = tuple(float(v) for v in (again.values or (again.value,)))
+                    candidates.append((refined, own))
+                    if own[0] < best.values[0]:
+                        point, values, polished = refined, own, True
+        runs.append(
+            FrontSeed(budget, outcome.evaluations, outcome.stop, best.value if best else None, point, values, polished)
+        )
+    front = nsga2_front(
+        objective,
+        evaluator,
+        start_order,
+        max(evaluations - used, 1),
+        seed=seed,
+        population=population,
+        mass_budget=mass_budget,
+        seeds=[run.point for run in runs if run.point is not None],
+        evaluated=candidates,
+    )
+    return CoDesignFront(front.designs, front.evaluated, front.evaluations, front.mass_range, tuple(runs))
+
+
 @contextlib.contextmanager
 def _quiet():
     """pycma's console notes and warnings stay out of the run's output, and its augmented Lagrangian makes no log
@@ -1106,9 +1236,13 @@ __all__ = [
     "ColumnProperties",
     "DEFAULT_RANGE",
     "FirstOrder",
+    "FRONT_BUDGETS",
     "FrontDesign",
+    "FrontSeed",
     "MASS_PROFILES",
     "Polish",
+    "Refine",
+    "SEED_SHARE",
     "Scored",
     "Stationarity",
     "TraceJacobian",
@@ -1124,11 +1258,14 @@ __all__ = [
     "nsga2_front",
     "parse_vary",
     "parse_vary_range",
+    "point_of_mass",
     "polish",
     "repaired_order",
     "sampled_traces",
     "scaled_gradients",
     "scaled_parameter_names",
+    "seed_budgets",
+    "seeded_front",
     "table_columns",
     "trace_runs",
 ]

@@ -225,6 +225,17 @@ def print_answer(outcome) -> None:
             f"{front.evaluations:,} NSGA-II evaluated within {front.mass_range[0]:.2f}..{front.mass_range[1]:.2f} kg"
             f"{span}; each in results.json's steps.codesign.fronts"
         )
+        if front.seeds:
+            print(
+                f"  seeded by CMA-ES (then the polish) within {len(front.seeds)} mass budgets, "
+                f"{sum(s.evaluations for s in front.seeds):,} designs: "
+                + "; ".join(
+                    f"{s.budget:.2f} kg: "
+                    + (f"{s.values[0]:.2f} {unit} at {s.values[1]:.2f} kg" if s.values else "none within it")
+                    for s in front.seeds
+                )
+                + " (search fidelity)"
+            )
     from orchestrator.steps.pareto import BEST_DESIGN_FILE, best_design
 
     best = best_design(study)

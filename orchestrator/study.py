@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from fmu_src.core import MAX_COLS
-from fmu_src.materials import STUDY_MATERIAL_COUNT, MaterialTable
+from fmu_src.materials import BOUND_SUFFIXES, STUDY_MATERIAL_COUNT, MaterialTable
 from fmu_src.variables import WHOLE_FACE, LoadedFace, enumeration_values, loaded_face
 from scenes import DEFAULT_SCENE, PROJECTILE_SCENE, Scene
 
@@ -341,7 +341,7 @@ class Case:
             space=self.space.describe(),
             design_kind=self.space.kind,
             design_count=self.space.size,
-            materials=tuple(self.materials.rows()),
+            materials=table_rows(self.materials),
             rules=self.rules,
             objective=objective,
             load=shown,
@@ -353,6 +353,17 @@ class Case:
             rule_default=self.rule_default,
             rule_codes=dict(rule_parameter.items) if rule_parameter else {},
         )
+
+
+def table_rows(table: MaterialTable) -> tuple[dict[str, Any], ...]:
+    """The table's rows as results.json states them: each material's properties and the bounds its row gives
+    (``k_min``, ``mass_max`` ...: a co-design's factor ranges), so ``MaterialTable.from_rows`` reads back the same
+    table."""
+    rows = table.rows()
+    for row, bounds in zip(rows, table.bounds or ((),) * len(rows)):
+        for name, *ends in bounds:
+            row.update({f"{name}{suffix}": end for suffix, end in zip(BOUND_SUFFIXES, ends) if end is not None})
+    return tuple(rows)
 
 
 @dataclass(frozen=True)
@@ -774,4 +785,5 @@ __all__ = [
     "resolve_case",
     "run_study",
     "search_fidelity",
+    "table_rows",
 ]

@@ -13,16 +13,19 @@ import itertools
 import json
 import math
 import re
+from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
 from command_line import main, one_line
-from fmu_src.materials import FIELD_NAMES, MaterialTableError, load_materials, study_materials
+from fmu_src.materials import FIELD_NAMES, MaterialTable, MaterialTableError, load_materials, study_materials
 from orchestrator.codesign import (
     MASS_PROFILES,
+    SEED_SHARE,
     CoDesignObjective,
+    CoDesignPoint,
     CoDesignSpace,
     TraceJacobian,
     cmaes_search,
@@ -36,11 +39,14 @@ from orchestrator.codesign import (
     nsga2_front,
     parse_vary,
     parse_vary_range,
+    point_of_mass,
     polish,
     repaired_order,
     sampled_traces,
     scaled_gradients,
     scaled_parameter_names,
+    seed_budgets,
+    seeded_front,
 )
 from orchestrator.design import DesignSpace
 from orchestrator.executors import SerialExecutor
@@ -114,6 +120,8 @@ def test_repeated_materials_cannot_vary_per_column():
         (("--mass-budget", "30"), "--mass-budget: only with --vary"),
         (("--vary-range", "0.5,3"), "--vary-range: only with --vary"),
         (("--codesign-method", "mixed-ga"), "--codesign-method: only with --vary"),
+        (("--vary", "k", "--front-budgets", "3"), "--front-budgets: only with --objective ...,mass"),
+        (("--vary", "k,mass", "--objective", "sampled,mass", "--front-budgets", "-1"), "--front-budgets"),
         (
             ("--vary", "k", "--codesign-method", "annealing"),
             "invalid choice: 'annealing' (choose from 'cmaes', 'mixed-ga')",
@@ -328,6 +336,82 @@ def test_a_front_under_a_mass_budget_keeps_to_it_and_spans_the_masses_up_to_it(a
     assert max(mass for _, mass in front.evaluated) == pytest.approx(budget)  # the heaviest seed: beyond 33 kg
 
 
+@dataclass(frozen=True)
+class RecordingObjective(CoDesignObjective):
+    """The co-design objective, keeping each batch of points it is asked to evaluate."""
+
+    batches: list = field(default_factory=list, compare=False)
+
+    def evaluate(self, points, evaluator, fidelity=SEARCH):
+        self.batches.append((fidelity, list(points)))
+        return super().evaluate(points, evaluator, fidelity)
+
+
+def same_point(space: CoDesignSpace, a: CoDesignPoint, b: CoDesignPoint) -> bool:
+    return a.order == b.order and np.allclose(space.encode(a), space.encode(b), rtol=0, atol=1e-9)
+
+
+def test_cma_es_answers_within_each_budget_seed_the_front_and_none_lies_above_it(armour_fmu_of_width):
+    space = codesign_space(("k", "mass"))
+    lattice = LatticeObjective(armour_fmu_of_width(3), space.space, 8.0, ("peak_backplate_force", "stack_mass"))
+    objective = RecordingObjective(lattice, space)
+    evaluator = Evaluator(SerialExecutor())
+    mass_budget = ROWS * 4.5
+    budgets = seed_budgets(space, (1, 2, 3), mass_budget, 3)
+    assert budgets == pytest.approx((ROWS * 2.5, ROWS * 3.5, mass_budget))  # above the lightest, 16.5 kg
+
+    def refine(point, budget):
+        return polish(objective, evaluator, point, budget, SEARCH, iterations=3).end
+
+    evaluations, population = 240, 20
+    front = seeded_front(
+        objective, evaluator, (1, 2, 3), evaluations, budgets, seed=4, population=population,
+        mass_budget=mass_budget, refine=refine,
+    )  # fmt: skip
+    assert [s.budget for s in front.seeds] == pytest.approx(budgets)
+    share = int(evaluations * SEED_SHARE) // len(budgets)
+    assert all(0 < s.evaluations <= share for s in front.seeds)
+    unit = space.unit_point((1, 2, 3))
+    for run, seed in zip(front.seeds, (6, 5, 4)):  # the heaviest budget's run draws from the front's own seed
+        # each seed is CMA-ES's answer within its budget (the polish's where lower), from the order at the table's
+        # values where that is within it, else from the order's design of the budget's mass
+        start = unit if space.total_mass(unit) <= run.budget else point_of_mass(space, (1, 2, 3), run.budget)
+        alone = cmaes_search(
+            CoDesignObjective(lattice, space), evaluator, (1, 2, 3), run.budget, share, seed=seed, start=start
+        )
+        assert alone.best is not None and run.search_best == alone.best.value
+        assert run.point is not None and run.values is not None and space.mass_excess(run.point, run.budget) == 0
+        assert run.values[0] <= alone.best.value
+        assert run.polished == (run.values[0] < alone.best.value)
+    # NSGA-II's first population (its first batch, after CMA-ES's and the polish's) holds every seed
+    nsga2_batches = [points for fidelity, points in objective.batches if len(points) == population]
+    assert nsga2_batches, "NSGA-II evaluated no population"
+    first = nsga2_batches[0]
+    for run in front.seeds:
+        assert any(same_point(space, run.point, p) for p in first), run
+    # the front: never dominated by a design evaluated, CMA-ES's included; one at least as good as each seed
+    cmaes_designs = sum(s.evaluations for s in front.seeds)
+    assert len(front.evaluated) > front.evaluations and front.evaluations + cmaes_designs <= evaluations + population
+    on_front = [d.search_values for d in front.designs]
+    assert not np.any(dominated_by(on_front, front.evaluated))
+    for run in front.seeds:
+        assert any(v[0] <= run.values[0] and v[1] <= run.values[1] * (1 + 1e-12) for v in on_front), run
+
+
+def test_a_design_of_a_given_mass_weighs_it():
+    space = codesign_space(("k", "mass"))
+    for profile in MASS_PROFILES:
+        point = point_of_mass(space, (2, 3, 1), 40.0, profile)
+        assert space.total_mass(point) == pytest.approx(40.0, rel=1e-9) and point.order == (2, 3, 1)
+    assert space.total_mass(point_of_mass(space, (2, 3, 1), 1.0)) == pytest.approx(ROWS * 1.5)  # the lightest
+
+
+def test_without_varied_masses_the_front_is_seeded_within_one_budget():
+    space = codesign_space(("k",))
+    assert seed_budgets(space, (2, 3, 1), None, 4) == pytest.approx((ROWS * 3.0,))
+    assert seed_budgets(codesign_space(("k", "mass")), (2, 3, 1), None, 0) == ()
+
+
 def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, capfd):
     out = tmp_path / "front"
     options = ("--fmu", armour_fmu_of_width(3), "--cols", 3, "--diagonal-rule", "mean", "--no-progress")
@@ -348,12 +432,20 @@ def test_the_co_design_front_is_a_run_of_its_own(armour_fmu_of_width, tmp_path, 
             80,
             "--mass-budget",
             45,
+            "--front-budgets",
+            2,
         )
         == 0
     )
-    assert "designs (order and factors) on the co-design front" in capfd.readouterr().out
+    printed = capfd.readouterr().out
+    assert "designs (order and factors) on the co-design front" in printed
+    assert "seeded by CMA-ES (then the polish) within 2 mass budgets" in printed
     fronts = json.loads((out / "results.json").read_text())["steps"]["codesign"]["fronts"]
-    assert "on the front of the objective against the" in (out / "report.html").read_text()
+    report = (out / "report.html").read_text()
+    assert "on the front of the objective against the" in report and "What seeded the front" in report
+    seeds = fronts[0]["seeds"]
+    assert [s["budget"] for s in seeds] == pytest.approx([(ROWS * 1.5 + 45.0) / 2, 45.0])
+    assert all(s["evaluations"] <= 20 and s["values"][1] <= s["budget"] * (1 + 1e-9) for s in seeds)
     assert fronts[0]["diagonal_rule"] == "mean" and fronts[0]["designs"]
     assert fronts[0]["mass_range"] == pytest.approx([ROWS * 1.5, 45.0])  # --mass-budget: the front's upper end
     assert all(d["search_values"][1] <= 45.0 * (1 + 1e-9) for d in fronts[0]["designs"])
@@ -430,12 +522,24 @@ def test_a_tables_bounds_hold_when_cols_takes_fewer_columns_than_it_has_material
     options += ("--diagonal-rule", "mean", "--no-sensitivity", "--no-progress", "--out", out)
     assert main(*options) == 0
     capfd.readouterr()
-    answer = json.loads((out / "results.json").read_text())["answers"][0]
+    record = json.loads((out / "results.json").read_text())
+    answer = record["answers"][0]
     bounds = {"steel": (99, 101), "aramid": (43.56, 44.44), "foam": (7.92, 8.08), "felt": (4.95, 5.05)}
     assert len(answer["columns"]) == 3
     for column in answer["columns"]:
         low, high = bounds[column["material"]]
         assert low <= column["values"]["k"] <= high, column
+    # results.json's table carries the bounds: read back, it is the table, and its materials' factor ranges
+    rows = record["case"]["materials"]
+    assert rows[0]["k_min"] == 99 and rows[0]["k_max"] == 101 and "mass_min" not in rows[0]
+    again = tmp_path / "again.json"
+    again.write_text(json.dumps({"materials": rows}))
+    table = load_materials(path)
+    for read in (MaterialTable.from_rows(rows), load_materials(again)):
+        assert read == table and read.bounds
+        first = CoDesignSpace(DesignSpace(3, 4), table, ("k",))
+        second = CoDesignSpace(DesignSpace(3, 4), read, ("k",))
+        assert [first.factor_range(m, "k") for m in range(1, 5)] == [second.factor_range(m, "k") for m in range(1, 5)]
 
 
 # ------------------------------------------------------------------------------- the polish as a minimax problem
@@ -568,3 +672,9 @@ def test_a_co_design_of_the_continuous_peak_says_why_it_has_no_polish(armour_fmu
         "The polish did not run (the objective peak_backplate_force_continuous is not the sampled peak"
         in (out / "report.html").read_text()
     )
+
+
+def test_a_table_without_bounds_is_stated_as_its_rows():
+    from orchestrator.study import table_rows
+
+    assert list(table_rows(TABLE)) == TABLE.rows()

@@ -14,19 +14,22 @@ from dataclasses import dataclass
 
 from ..codesign import (
     DEFAULT_RANGE,
+    FRONT_BUDGETS,
     CoDesignObjective,
     CoDesignPoint,
     CoDesignSpace,
     ColumnProperties,
+    FrontSeed,
     Polish,
     cmaes_search,
     finite_difference_jacobian,
     minimax_refusal,
     mixed_ga_search,
-    nsga2_front,
     parse_vary,
     parse_vary_range,
     polish,
+    seed_budgets,
+    seeded_front,
 )
 from ..objective import FULL
 from ..options import check_options, given, integer, number, option
@@ -70,6 +73,14 @@ class CoDesignConfig:
         2000,
         "with --vary: designs (order and factors) the co-design search evaluates under each rule, before the polish",
         type=integer("--vary-budget", 2, 10**7),
+    )
+    front_budgets: int = option(
+        FRONT_BUDGETS,
+        "with --vary and --objective ...,mass: the mass budgets, evenly spaced over the front's masses up to its "
+        "upper end (one: the upper end), within each of which CMA-ES (then the polish) seeds the front before "
+        "NSGA-II; the seeds share half of --vary-budget evenly (0: NSGA-II alone)",
+        metavar="N",
+        type=integer("--front-budgets", 0, 100),
     )
     codesign_method: str = option(
         CMAES,
@@ -130,6 +141,7 @@ class RuleFront:
     evaluations: int  # designs NSGA-II evaluated
     mass_range: tuple[float, float] = (0.0, 0.0)  # kg: the lightest stack the factors allow and the front's upper end
     evaluated_masses: tuple[float, float] = (0.0, 0.0)  # kg: the lightest and heaviest design evaluated within it
+    seeds: tuple[FrontSeed, ...] = ()  # the CMA-ES runs within each --front-budgets budget that seeded NSGA-II
 
 
 @dataclass(frozen=True)
@@ -175,6 +187,8 @@ class CoDesign(Step):
             if stray:
                 raise ValueError(f"--{stray[0].replace('_', '-')}: only with --vary (co-design)")
             return
+        if "front_budgets" in given(config) and len(context.case.outputs) != 2:
+            raise ValueError("--front-budgets: only with --objective ...,mass (the co-design front)")
         if context.case.space.kind == "repetition":
             raise ValueError("--vary: not with --repeat (a material in several columns has one value of each property)")
         outputs = context.case.outputs
@@ -257,20 +271,31 @@ class CoDesign(Step):
 
     def fronts(self, context: StudyContext, space: CoDesignSpace) -> CoDesignResult:
         """Under each rule, NSGA-II's front of the objective against the stack's mass, from the rule's best order
-        (``front_start``) at the table's values and at
-        evenly spaced masses. ``--mass-budget`` is the front's upper end; without it the front spans every mass
-        the factors allow."""
+        (``front_start``) at the table's values, at evenly spaced masses and CMA-ES's polished answers within
+        ``--front-budgets`` budgets spread over the masses (``seeded_front``). ``--mass-budget`` is the front's
+        upper end; without it the front spans every mass the factors allow."""
         fronts = []
         for index, rule in enumerate(context.rules):
             objective = CoDesignObjective(context.objective(rule), space)
             start = front_start(context, rule_label(rule))
-            front = nsga2_front(
+
+            def polished(point: CoDesignPoint, budget: float, objective=objective) -> CoDesignPoint | None:
+                if minimax_refusal(objective) is not None:  # no epigraph polish for this objective: CMA-ES's stands
+                    return None
+                try:
+                    return polish(objective, context.evaluator, point, budget, FULL).end
+                except RuntimeError:  # a run of the polish failed: CMA-ES's design seeds the front
+                    return None
+
+            front = seeded_front(
                 objective,
                 context.evaluator,
                 start,
                 self.config.vary_budget,
+                seed_budgets(space, start, space.mass_budget, self.config.front_budgets),
                 seed=index,
                 mass_budget=space.mass_budget,
+                refine=polished,
             )
             fronts.append(
                 RuleFront(
@@ -286,6 +311,7 @@ class CoDesign(Step):
                         if front.evaluated
                         else (0.0, 0.0)
                     ),
+                    front.seeds,
                 )
             )
         return CoDesignResult(space.names, (space.low, space.high), (), tuple(fronts))
@@ -294,7 +320,8 @@ class CoDesign(Step):
         return (
             "CMA-ES or the mixed-variable GA over order and factors (--vary-budget designs per rule), then the "
             "polish's recorded runs (a forward difference per varied property and column at each SLSQP iterate); "
-            "with --objective ...,mass NSGA-II (--vary-budget designs per rule) and its front at full fidelity"
+            "with --objective ...,mass CMA-ES within each --front-budgets budget and NSGA-II (--vary-budget designs "
+            "per rule between them), each CMA-ES answer's polish, and the front at full fidelity"
         )
 
 
