@@ -22,16 +22,17 @@ import io
 import math
 import warnings
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Any, Callable, Sequence
 
 import cma
 import numpy as np
-from scipy.optimize import minimize
+from scipy.optimize import minimize, nnls
 
 from fmu_src.materials import FIELD_NAMES, MaterialTable
 
 from .design import Design, DesignSpace, REPETITION, as_design
-from .objective import FULL, SEARCH, LatticeObjective
+from .objective import FULL, SEARCH, LatticeObjective, RecordRun, missing_output
+from .simulation import declared_parameters, model_description
 from .tasks import EvaluateDesign
 from .types import Evaluation
 
@@ -435,39 +436,270 @@ def mixed_ga_search(
     return SearchOutcome(best, tuple(scored), used, f"{evaluations} evaluations" if used else "no batch")
 
 
+TRACE_OUTPUT = "backplate_force"
+SAMPLE_INTERVAL = "peak_sample_interval"
+SAMPLED_PEAK = "peak_backplate_force"
+RELATIVE_STEP = 1e-3  # a parameter's forward difference, relative to its value
+CANDIDATE_BAND = 0.2  # relative: the samples this close below the peak are the epigraph's constraints
+ACTIVE_TOLERANCE = 1e-3  # relative: the samples this close below the peak are active in the first-order measure
+POLISH_ROUNDS = 4  # SLSQP runs at most: another from the best point when a sample outside the constraints peaks
+STOP_FRACTION = 0.1  # SLSQP stops at an iterate whose first-order measure is this fraction of the tolerance
+BOUND_TOLERANCE = 1e-9  # a scaled coordinate this close to 0 or 1 sits on its bound
+
+
+@dataclass(frozen=True)
+class TraceJacobian:
+    """The sampled backplate-force trace of one point and its derivatives with respect to FMU parameters."""
+
+    times: tuple[float, ...]  # s, the sample times
+    values: np.ndarray  # (S,) N, backplate force at each sample
+    jacobian: np.ndarray  # (S, P) N per unit of each parameter, columns in `names` order
+    names: tuple[str, ...]  # FMU parameter names, e.g. ("k[3]", "c[3]", "mass[3]", ...)
+    evaluations: int  # FMU runs it took
+
+
+TraceJacobianSource = Callable[["CoDesignObjective", Any, CoDesignPoint, tuple[str, ...], str, float], TraceJacobian]
+"""``(objective, evaluator, point, names, fidelity, relative_step) -> TraceJacobian``: where the polish's
+gradients come from."""
+
+
+def minimax_refusal(objective: CoDesignObjective) -> str | None:
+    """Why the objective's value is not a maximum over the samples of the backplate-force trace (so the epigraph
+    polish does not apply), or None: the sampled peak of one load case, or the worst over several."""
+    base = objective.base
+    if base.outputs[0] != SAMPLED_PEAK:
+        return f"the objective {base.outputs[0]} is not the sampled peak ({SAMPLED_PEAK})"
+    if len(base.cases) > 1 and base.aggregate != "worst":
+        return f"the {base.aggregate} over load cases is not a maximum over samples (the worst over them is)"
+    return missing_output(base.fmu_path, (TRACE_OUTPUT,))
+
+
+def trace_runs(
+    objective: CoDesignObjective, order: Sequence[int], parameters: dict[str, float], fidelity: str
+) -> list[RecordRun]:
+    """The runs recording the backplate force at each sample of the peak, one per load case, with ``fidelity``'s
+    settings and ``parameters`` set, over the whole horizon the value is a maximum over."""
+    refusal = minimax_refusal(objective)
+    if refusal is not None:
+        raise ValueError(f"the polish's trace: {refusal}")
+    runs = []
+    for task in objective.base.tasks(fidelity):
+        settings = {**dict(task.parameters), **parameters}
+        interval = settings.get(SAMPLE_INTERVAL)
+        if interval is None:
+            interval = declared_parameters(model_description(task.fmu_path))[SAMPLE_INTERVAL].start
+        runs.append(
+            RecordRun(
+                task.fmu_path,
+                as_design(order),
+                task.fallback_horizon or task.horizon,
+                float(interval),
+                tuple(sorted(settings.items())),
+                (TRACE_OUTPUT,),
+                task.fmu_sha256,
+            )
+        )
+    return runs
+
+
+def sampled_traces(
+    objective: CoDesignObjective,
+    evaluator,
+    order: Sequence[int],
+    parameter_sets: Sequence[dict[str, float]],
+    fidelity: str,
+) -> list[tuple[tuple[float, ...], np.ndarray]]:
+    """Each parameter set's sample times and backplate force at them (the load cases' traces one after the
+    other), through ``evaluator`` (cached and journalled like every run)."""
+    runs = [trace_runs(objective, order, parameters, fidelity) for parameters in parameter_sets]
+    results = evaluator.run([run for per_set in runs for run in per_set])
+    traces = []
+    index = 0
+    for per_set in runs:
+        recorded = results[index : index + len(per_set)]
+        index += len(per_set)
+        for trajectory in recorded:
+            if not trajectory.ok:
+                raise RuntimeError(f"the polish's recorded run of {list(order)} failed: {trajectory.message}")
+        times = tuple(t for trajectory in recorded for t in trajectory.time)
+        values = np.concatenate([np.asarray(trajectory.values[TRACE_OUTPUT], dtype=float) for trajectory in recorded])
+        traces.append((times, values))
+    return traces
+
+
+def _at_upper_end(space: CoDesignSpace, point: CoDesignPoint, name: str, relative_step: float) -> bool:
+    """Would a forward step of ``relative_step`` take the FMU parameter ``name`` (``property[material]``) past
+    its column's factor range (the range the CoDesign step checks against the FMU's declared ones)?"""
+    prop, _, rest = name.partition("[")
+    material = int(rest.rstrip("]")) if rest.rstrip("]").isdigit() else 0
+    if prop not in space.names or material not in point.order:
+        return False
+    factor = point.factors[point.order.index(material)][space.names.index(prop)]
+    return factor * (1.0 + relative_step) > space.factor_range(material, prop)[1]
+
+
+def finite_difference_jacobian(
+    objective: CoDesignObjective,
+    evaluator,
+    point: CoDesignPoint,
+    names: tuple[str, ...],
+    fidelity: str,
+    relative_step: float = RELATIVE_STEP,
+) -> TraceJacobian:
+    """Forward differences of the point's sampled trace per FMU parameter of ``names``, each moved by
+    ``relative_step`` of its value (backwards where that would leave its factor range): one recorded run per
+    parameter and load case beyond the point's own."""
+    if not (math.isfinite(relative_step) and 0 < relative_step < 1):
+        raise ValueError(f"relative_step must be a number in (0, 1), got {relative_step!r}")
+    space = objective.space
+    base = space.parameters(point)
+    unknown = next((name for name in names if name not in base), None)
+    if unknown is not None:
+        raise ValueError(f"finite_difference_jacobian: {unknown!r} is not set by the point; allowed: {', '.join(base)}")
+    moved = []
+    steps = []
+    for name in names:
+        sign = -1.0 if _at_upper_end(space, point, name, relative_step) else 1.0
+        shifted = base[name] + sign * relative_step * (abs(base[name]) or 1.0)
+        moved.append({**base, name: shifted})
+        steps.append(shifted - base[name])  # the step the run took, after rounding
+    (times, values), *others = sampled_traces(objective, evaluator, point.order, [base, *moved], fidelity)
+    jacobian = (
+        np.column_stack([(other - values) / step for (_, other), step in zip(others, steps)])
+        if names
+        else np.zeros((len(values), 0))
+    )
+    runs = len(objective.base.tasks(fidelity)) * (1 + len(names))
+    return TraceJacobian(times, values, jacobian, tuple(names), runs)
+
+
+@dataclass(frozen=True)
+class Stationarity:
+    """First-order optimality of min over z of max_s F_s(z) at a point: the residual of least length of the
+    projected ``sum_s lambda_s grad F_s + mu grad mass`` and the multipliers giving it."""
+
+    residual: float  # its largest component
+    sample_multipliers: tuple[float, ...]  # lambda_s >= 0, summing to 1, one per sample given
+    mass_multiplier: float  # mu >= 0 (0 without the constraint)
+
+
+def minimax_stationarity(
+    gradients: np.ndarray, z: np.ndarray, constraint_gradient: np.ndarray | None = None
+) -> Stationarity:
+    """The KKT conditions of the epigraph problem (Clarke stationarity of the maximum) at ``z`` in [0, 1]^n:
+    min over lambda >= 0 with sum 1 and mu >= 0 of the length of the projected ``gradients.T @ lambda + mu *
+    constraint_gradient`` (``gradients``: one row per active sample; the constraint's gradient where it binds,
+    pointing out of the feasible side); a component at a bound counts only when it points into the box (the
+    bound's own multiplier takes the rest). scipy's NNLS, the sum of lambda a heavily weighted row."""
+    gradients = np.atleast_2d(np.asarray(gradients, dtype=float))
+    z = np.asarray(z, dtype=float)
+    samples, n = gradients.shape
+    lower = z <= BOUND_TOLERANCE
+    upper = z >= 1.0 - BOUND_TOLERANCE
+    blocks = [gradients.T]
+    if constraint_gradient is not None:
+        blocks.append(np.asarray(constraint_gradient, dtype=float).reshape(n, 1))
+    identity = np.eye(n)
+    blocks += [-identity[:, lower], identity[:, upper]]
+    matrix = np.hstack(blocks)
+    weight = 1e3 * max(1.0, float(np.max(np.abs(matrix))) if matrix.size else 1.0)
+    row = np.zeros(matrix.shape[1])
+    row[:samples] = weight
+    solution, _ = nnls(np.vstack([matrix, row]), np.append(np.zeros(n), weight), maxiter=50 * matrix.shape[1])
+    weights = solution[:samples] / np.sum(solution[:samples])
+    mass_multiplier = float(solution[samples]) if constraint_gradient is not None else 0.0
+    combined = gradients.T @ weights
+    if constraint_gradient is not None:
+        combined = combined + mass_multiplier * np.asarray(constraint_gradient, dtype=float)
+    projected = np.where(lower, np.minimum(combined, 0.0), np.where(upper, np.maximum(combined, 0.0), combined))
+    return Stationarity(
+        float(np.max(np.abs(projected))) if n else 0.0, tuple(float(w) for w in weights), mass_multiplier
+    )
+
+
+def scaled_parameter_names(space: CoDesignSpace, order: Sequence[int]) -> tuple[str, ...]:
+    """The FMU parameter each scaled factor coordinate of ``order`` sets, in the coordinates' order (column by
+    column, property by property): ``("k[3]", "c[3]", "mass[3]", ...)``."""
+    return tuple(f"{name}[{material}]" for material in as_design(order) for name in space.names)
+
+
+def scaled_gradients(space: CoDesignSpace, point: CoDesignPoint, found: TraceJacobian) -> np.ndarray:
+    """``found``'s derivatives per FMU parameter as d F_s / d z per scaled factor coordinate (one row per sample):
+    each parameter is its table value times exp(z log_span) of its range, so d parameter / d z = parameter *
+    log_span."""
+    names = scaled_parameter_names(space, point.order)
+    if tuple(found.names) != names:
+        raise ValueError(f"the trace's jacobian has columns {found.names}; the polish needs {names}")
+    parameters = space.parameters(point)
+    spans = [space.log_span(material, name) for material in point.order for name in space.names]
+    chain = np.array([parameters[name] * span for name, span in zip(names, spans)])
+    return np.asarray(found.jacobian, dtype=float) * chain[None, :]
+
+
+@dataclass(frozen=True)
+class FirstOrder:
+    """The minimax problem's first-order measure at a point: over its active samples, and the peak's alone."""
+
+    stationarity: Stationarity  # over the active samples
+    smooth: Stationarity  # the peak's sample alone: the smooth measure, which a tie of samples keeps large
+    active: tuple[int, ...]  # the active samples' indices, highest value first
+
+
+def first_order_measure(
+    values: np.ndarray,
+    gradients: np.ndarray,
+    z: np.ndarray,
+    constraint_gradient: np.ndarray | None = None,
+    active_tolerance: float = ACTIVE_TOLERANCE,
+) -> FirstOrder:
+    """``minimax_stationarity`` of max_s F_s at ``z`` over the samples within ``active_tolerance`` of the peak
+    (relative), the gradients (d F_s / d z, one row per sample) relative to the peak's value."""
+    values = np.asarray(values, dtype=float)
+    peak = float(np.max(values))
+    ranked = np.argsort(-values, kind="stable")
+    active = tuple(int(s) for s in ranked if values[s] >= peak - active_tolerance * abs(peak))
+    relative = np.asarray(gradients, dtype=float) / (abs(peak) or 1.0)
+    return FirstOrder(
+        minimax_stationarity(relative[list(active)], z, constraint_gradient),
+        minimax_stationarity(relative[list(active[:1])], z, constraint_gradient),
+        active,
+    )
+
+
 @dataclass(frozen=True)
 class Polish:
-    """The polish of the continuous part at a fixed order: SLSQP from ``start`` to ``end`` (values at the
-    fidelity it ran at), its first-order optimality and the tolerance it was asked to meet."""
+    """The polish of the continuous part at a fixed order: SLSQP on the epigraph of the sampled peak (min t with
+    every sample near the peak at most t) from ``start`` to ``end`` (values at the fidelity it ran at), the
+    first-order optimality of that minimax problem at the end and the tolerance it was asked to meet."""
 
     start: CoDesignPoint
     end: CoDesignPoint
     start_value: float
     end_value: float
-    kkt_residual: float  # the largest component of the projected gradient of the Lagrangian, per unit of scaled x
-    # the steepest descent, relative to the value per unit of scaled x, of a step along an axis either way that
-    # stays feasible (0: none descends): first-order optimality where the value has a kink and no gradient
-    descent: float
+    # the minimax problem's first-order measure (``minimax_stationarity``) over the active samples: the largest
+    # component of the projected sum_s lambda_s grad F_s + mu grad mass, relative to the value, per unit of scaled x
+    kkt_residual: float
+    # the same with the peak's sample alone: the smooth measure, which a tie of samples keeps large
+    smooth_residual: float
     tolerance: float
-    multiplier: float  # the mass constraint's Lagrange multiplier at the end (N per unit of scaled constraint)
+    active_tolerance: float  # relative: a sample this close below the peak is active
+    active_times: tuple[float, ...]  # s: the active samples' times, highest force first
+    sample_multipliers: tuple[float, ...]  # each active sample's lambda_s (summing to 1)
+    multiplier: float  # the mass constraint's mu at the end (N per unit of the constraint relative to the budget)
     active: bool  # the mass constraint binds at the end
-    iterations: int
-    evaluations: int
+    iterations: int  # SLSQP's, over its rounds
+    rounds: int  # SLSQP runs: another when a sample outside the constraints became the peak
+    evaluations: int  # FMU runs it simulated (the evaluator's cache hits not counted)
     message: str
-    # at the end, d value / d ln(factor) per column and varied property (forward differences): how much a
-    # relative change of each layer's property moves the value
+    # at the end, d value / d ln(factor) per column and varied property: the multiplier-weighted gradient of the
+    # active samples (the subgradient the first-order conditions pick), how much a relative change of each
+    # layer's property moves the value
     sensitivities: tuple[tuple[float, ...], ...] = ()
 
     @property
     def converged(self) -> bool:
-        """The smooth first-order conditions hold: the projected gradient of the Lagrangian within tolerance."""
+        """The first-order conditions of the minimax problem hold within the tolerance."""
         return self.kkt_residual <= self.tolerance
-
-    @property
-    def no_descent(self) -> bool:
-        """No feasible step along an axis, either way, descends faster than the tolerance: a necessary first-order
-        condition that holds at a kink too (the sampled peak switching samples)."""
-        return self.descent <= self.tolerance
 
 
 def polish(
@@ -476,138 +708,197 @@ def polish(
     start: CoDesignPoint,
     budget: float,
     fidelity: str,
-    step: float = 1e-3,
     tolerance: float = 1e-2,
     iterations: int = 30,
+    jacobian: TraceJacobianSource = finite_difference_jacobian,
+    relative_step: float = RELATIVE_STEP,
 ) -> Polish:
-    """SLSQP on the factors of ``start``'s order (scaled coordinates in [0, 1], the mass budget an inequality
-    with its exact gradient, the value's gradient by forward differences of ``step``), then its first-order
-    optimality at the end: the projected gradient of the Lagrangian (a bound's component counts only when it
-    points into the box), relative to the value, and the mass constraint's multiplier from least squares; and,
-    since the sampled peak has kinks where no gradient exists, the steepest descent of a feasible step of ``step``
-    along each axis, both ways."""
+    """SLSQP on ``(z, t)``, the factors of ``start``'s order in scaled coordinates z in [0, 1] and the epigraph's
+    t: minimise t with F_s(z) <= t for each sample s of the backplate-force trace within ``CANDIDATE_BAND`` of the
+    peak (those whose values can take the maximum over a step; the rest stay out of the QP, and when one of them
+    peaks at the end SLSQP runs again from the best point with the samples re-chosen), the mass budget an
+    inequality with its exact gradient. The samples' gradients come from ``jacobian`` (d F_s / d parameter,
+    chained to z: d parameter / d z = parameter * log_span). At the end, the first-order optimality of the minimax
+    problem (``minimax_stationarity`` over the samples within ``ACTIVE_TOLERANCE`` of the peak) against
+    ``tolerance``."""
+    refusal = minimax_refusal(objective)
+    if refusal is not None:
+        raise ValueError(f"the polish: {refusal}")
     space = objective.space
     order = start.order
-    keys = space.space.key_dimension
-    z0 = space.encode(start)[keys:]
-    cache: dict[tuple[float, ...], float] = {}
-    counted = [0]
+    per = len(space.names)
+    z0 = space.encode(start)[space.space.key_dimension :]
+    materials = [order[i // per] for i in range(len(z0))]
+    properties = [space.names[i % per] for i in range(len(z0))]
+    parameter_names = scaled_parameter_names(space, order)
+    spans = np.array([space.log_span(m, name) for m, name in zip(materials, properties)])
+    simulated = evaluator.state().simulated
 
-    def points_of(zs: Sequence[np.ndarray]) -> list[CoDesignPoint]:
-        per = len(space.names)
-        return [
-            space.with_factors(
-                order, [space.factor_of(v, order[i // per], space.names[i % per]) for i, v in enumerate(z)]
-            )
-            for z in zs
-        ]
+    def point_of(z: np.ndarray) -> CoDesignPoint:
+        return space.with_factors(order, [space.factor_of(v, m, name) for v, m, name in zip(z, materials, properties)])
 
-    def values_of(zs: Sequence[np.ndarray]) -> list[float]:
-        todo = [z for z in zs if tuple(z) not in cache]
-        if todo:
-            results = objective.evaluate(points_of(todo), evaluator, fidelity)
-            counted[0] += len(todo)
-            for z, result in zip(todo, results):
-                if not result.ok or result.value is None:
-                    raise RuntimeError(f"the polish's run of {list(order)} failed: {result.message}")
-                cache[tuple(z)] = float(result.value)
-        return [cache[tuple(z)] for z in zs]
+    traces: dict[tuple[float, ...], np.ndarray] = {}
+    gradients: dict[tuple[float, ...], np.ndarray] = {}
 
-    def differences(z: np.ndarray) -> tuple[float, np.ndarray]:
-        z = np.asarray(z, dtype=float)
-        shifted = []
-        for i in range(len(z)):
-            moved = z.copy()
-            moved[i] = z[i] + step if z[i] + step <= 1.0 else z[i] - step
-            shifted.append(moved)
-        value, *others = values_of([z] + shifted)
-        gradient = np.array([(o - value) / (s[i] - z[i]) for i, (o, s) in enumerate(zip(others, shifted))])
-        return value, gradient
+    def trace(z: np.ndarray) -> np.ndarray:
+        key = tuple(float(v) for v in z)
+        if key not in traces:
+            ((_, values),) = sampled_traces(objective, evaluator, order, [space.parameters(point_of(z))], fidelity)
+            traces[key] = values
+        return traces[key]
 
-    scale = [1.0]
+    def gradient(z: np.ndarray) -> np.ndarray:
+        """d F_s / d z, one row per sample."""
+        key = tuple(float(v) for v in z)
+        if key not in gradients:
+            point = point_of(z)
+            found = jacobian(objective, evaluator, point, parameter_names, fidelity, relative_step)
+            gradients[key] = scaled_gradients(space, point, found)
+        return gradients[key]
 
-    def fun(z):
-        return differences(z)[0] / scale[0]
+    mass_indices = [i for i, name in enumerate(properties) if name == MASS]
 
-    def jac(z):
-        return differences(z)[1] / scale[0]
+    def mass_slack(z: np.ndarray) -> float:  # >= 0 within the budget, relative to it
+        return (budget - space.total_mass(point_of(np.asarray(z)))) / budget
 
-    mass_names = [i for i, name in enumerate(space.names) if name == MASS]
-
-    def mass_slack(z) -> float:  # >= 0 within the budget, relative to it
-        return (budget - space.total_mass(points_of([np.asarray(z)])[0])) / budget
-
-    def mass_slack_gradient(z) -> np.ndarray:
+    def mass_slack_gradient(z: np.ndarray) -> np.ndarray:
         gradient = np.zeros(len(z))
-        per = len(space.names)
-        for column in range(1, space.columns + 1):
-            for i in mass_names:
-                index = (column - 1) * per + i
-                base = getattr(space.table.materials[order[column - 1] - 1], MASS)
-                factor = space.factor_of(z[index], order[column - 1], MASS)
-                gradient[index] = (
-                    -space.masses_per_column * base * factor * space.log_span(order[column - 1], MASS) / budget
-                )
+        for index in mass_indices:
+            material = materials[index]
+            base = getattr(space.table.materials[material - 1], MASS)
+            factor = space.factor_of(z[index], material, MASS)
+            gradient[index] = -space.masses_per_column * base * factor * spans[index] / budget
         return gradient
 
-    start_value = values_of([z0])[0]
-    scale[0] = abs(start_value) or 1.0
-    constraints = [{"type": "ineq", "fun": mass_slack, "jac": mass_slack_gradient}] if mass_names else []
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        result = minimize(
-            fun,
-            z0,
-            jac=jac,
-            method="SLSQP",
-            bounds=[(0.0, 1.0)] * len(z0),
-            constraints=constraints,
-            options={"maxiter": iterations, "ftol": 1e-9},
-        )
-    z = np.clip(np.asarray(result.x, dtype=float), 0.0, 1.0)
-    if mass_slack(z) < -MASS_TOLERANCE or values_of([z])[0] > start_value:
-        z = z0  # SLSQP ended outside the budget or above its start: the start stands
-    value, gradient = differences(z)
-    gradient = gradient / scale[0]
-    slack = mass_slack(z) if mass_names else math.inf
-    active = bool(mass_names) and slack <= 1e-6
-    multiplier = 0.0
-    if active:
-        normal = mass_slack_gradient(z)
-        free = (z > 1e-9) & (z < 1 - 1e-9)
-        if np.any(free) and float(normal[free] @ normal[free]) > 0:
-            multiplier = max(0.0, float(gradient[free] @ normal[free] / (normal[free] @ normal[free])))
-    moves = []  # one step each way along each axis that stays in the box and the budget
-    for i in range(len(z)):
-        for target in (z[i] + step, z[i] - step):
-            moved = z.copy()
-            moved[i] = target
-            if 0.0 <= target <= 1.0 and (not mass_names or mass_slack(moved) >= -MASS_TOLERANCE):
-                moves.append(moved)
-    slopes = [(v - value) / step / scale[0] for v in values_of(moves)]
-    lagrangian = gradient - multiplier * (mass_slack_gradient(z) if active else 0.0)
-    projected = np.where(
-        z <= 1e-9, np.minimum(lagrangian, 0.0), np.where(z >= 1 - 1e-9, np.maximum(lagrangian, 0.0), lagrangian)
-    )
+    def feasible(z: np.ndarray) -> bool:
+        return not mass_indices or mass_slack(z) >= -MASS_TOLERANCE
+
+    def within_budget(z: np.ndarray) -> np.ndarray:
+        """``z`` with its mass factors scaled down together onto the budget where it lies above it (SLSQP meets a
+        constraint to its own tolerance only): those strictly inside their range (a factor on a bound stays on it,
+        as the first-order conditions see it), else every one above its lower end; the stack's mass is linear in
+        them, so the scaling is exact but for a factor it takes to its lower end, which the next pass leaves out."""
+        repaired = np.array(z, dtype=float)
+        for _ in range(len(mass_indices)):
+            excess = space.total_mass(point_of(repaired)) - budget
+            if excess <= MASS_TOLERANCE * budget:
+                break
+            free = [i for i in mass_indices if BOUND_TOLERANCE < repaired[i] < 1.0 - BOUND_TOLERANCE] or [
+                i for i in mass_indices if repaired[i] > 0.0
+            ]
+            if not free:
+                break
+            held = math.fsum(
+                space.masses_per_column * space.value(point_of(repaired), i // per + 1, MASS) for i in free
+            )
+            ratio = max(held - excess, 0.0) / held
+            for i in free:
+                repaired[i] = max(0.0, repaired[i] + math.log(ratio) / spans[i]) if ratio > 0 else 0.0
+        return repaired
+
+    def measured(z: np.ndarray) -> FirstOrder:
+        """The minimax measure at ``z`` (the budget's gradient where it binds)."""
+        return first_order_measure(trace(z), gradient(z), z, -mass_slack_gradient(z) if binding(z) else None)
+
+    def binding(z: np.ndarray) -> bool:
+        return bool(mass_indices) and mass_slack(z) <= 1e-6
+
+    start_value = float(np.max(trace(z0)))
+    scale = abs(start_value) or 1.0
+    best, best_value = z0, start_value
+
+    def keep_if_better(z: np.ndarray) -> bool:
+        """Keeps ``z`` (onto the budget) as the best point when it is within the budget and lowers the value."""
+        nonlocal best, best_value
+        repaired = within_budget(np.clip(np.asarray(z, dtype=float), 0.0, 1.0))
+        value = float(np.max(trace(repaired)))
+        if feasible(repaired) and value < best_value:
+            best, best_value = repaired, value
+            return True
+        return False
+
+    count = len(z0)
+    last = np.append(np.zeros(count), 1.0)
+    steps = 0
+    rounds = 0
+    met = measured(z0).stationarity.residual <= tolerance
+    message = "its start meets the first-order conditions" if met else ""
+    stopped = [False]
+    while not met and rounds < POLISH_ROUNDS:
+        rounds += 1
+        values = trace(best)
+        peak = float(np.max(values))
+        chosen = np.flatnonzero(values >= peak - CANDIDATE_BAND * abs(peak))
+
+        def below_peak(x: np.ndarray, chosen=chosen) -> np.ndarray:  # t - F_s(z) >= 0, relative to the start
+            return x[-1] - trace(x[:-1])[chosen] / scale
+
+        def below_peak_gradient(x: np.ndarray, chosen=chosen) -> np.ndarray:
+            return np.hstack([-gradient(x[:-1])[chosen] / scale, np.ones((len(chosen), 1))])
+
+        def stop_when_met(intermediate_result) -> None:
+            """Each iterate, onto the budget, may be the best; SLSQP stops at a stationary one (measured where
+            SLSQP's own gradients were taken)."""
+            iterate = np.clip(np.asarray(intermediate_result.x[:-1], dtype=float), 0.0, 1.0)
+            if keep_if_better(iterate) and measured(iterate).stationarity.residual <= STOP_FRACTION * tolerance:
+                stopped[0] = True
+                raise StopIteration
+
+        constraints = [{"type": "ineq", "fun": below_peak, "jac": below_peak_gradient}]
+        if mass_indices:
+            constraints.append(
+                {
+                    "type": "ineq",
+                    "fun": lambda x: mass_slack(x[:-1]),
+                    "jac": lambda x: np.append(mass_slack_gradient(x[:-1]), 0.0),
+                }
+            )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            result = minimize(
+                lambda x: x[-1],
+                np.append(best, peak / scale),
+                jac=lambda x: last,
+                method="SLSQP",
+                bounds=[(0.0, 1.0)] * count + [(None, None)],
+                constraints=constraints,
+                callback=stop_when_met,
+                options={"maxiter": iterations, "ftol": 1e-9},
+            )
+        steps += int(getattr(result, "nit", 0))
+        message = "stopped where the first-order conditions hold" if stopped[0] else str(result.message)
+        keep_if_better(result.x[:-1])
+        ended = trace(best)
+        met = measured(best).stationarity.residual <= tolerance
+        outside = np.delete(ended, chosen)
+        if not outside.size or float(np.max(outside)) <= float(np.max(ended[chosen])):
+            break  # the peak is among the constraints: SLSQP saw the whole maximum
+
+    z = best
+    peak = float(np.max(trace(z)))
+    final = measured(z)
+    measure, active_samples = final.stationarity, list(final.active)
+    times = sampled_traces(objective, evaluator, order, [space.parameters(point_of(z))], fidelity)[0][0]
+    weighted = np.asarray(measure.sample_multipliers) @ gradient(z)[active_samples] / spans
     return Polish(
         start=start,
-        end=points_of([z])[0],
+        end=point_of(z),
         start_value=start_value,
-        end_value=value,
-        kkt_residual=float(np.max(np.abs(projected))) if len(projected) else 0.0,
-        descent=max([0.0] + [-slope for slope in slopes]),
+        end_value=peak,
+        kkt_residual=measure.residual,
+        smooth_residual=final.smooth.residual,
         tolerance=tolerance,
-        multiplier=multiplier * scale[0],
-        active=active,
-        iterations=int(getattr(result, "nit", 0)),
-        evaluations=counted[0],
-        message=str(result.message),
+        active_tolerance=ACTIVE_TOLERANCE,
+        active_times=tuple(float(times[s]) for s in active_samples),
+        sample_multipliers=measure.sample_multipliers,
+        multiplier=measure.mass_multiplier * (abs(peak) or 1.0),
+        active=binding(z),
+        iterations=steps,
+        rounds=rounds,
+        evaluations=evaluator.state().simulated - simulated,
+        message=message,
         sensitivities=tuple(
-            tuple(
-                float(gradient[column * len(space.names) + i] * scale[0] / space.log_span(order[column], name))
-                for i, name in enumerate(space.names)
-            )
-            for column in range(space.columns)
+            tuple(float(weighted[column * per + i]) for i in range(per)) for column in range(space.columns)
         ),
     )
 
@@ -807,19 +1098,29 @@ __all__ = [
     "CoDesignSpace",
     "ColumnProperties",
     "DEFAULT_RANGE",
+    "FirstOrder",
     "FrontDesign",
     "MASS_PROFILES",
     "Polish",
     "Scored",
+    "Stationarity",
+    "TraceJacobian",
     "SearchOutcome",
     "cmaes_search",
+    "finite_difference_jacobian",
+    "first_order_measure",
     "mass_ladder",
     "mass_range",
+    "minimax_refusal",
+    "minimax_stationarity",
     "mixed_ga_search",
     "nsga2_front",
     "parse_vary",
     "parse_vary_range",
     "polish",
     "repaired_order",
+    "sampled_traces",
+    "scaled_gradients",
+    "scaled_parameter_names",
     "table_columns",
 ]

@@ -258,9 +258,9 @@ def codesign_line(study, rule: str, unit: str) -> str:
     optimality = (
         ""
         if polish is None
-        else f"; polish: projected gradient {polish.kkt_residual:.2g}, steepest feasible descent along an axis "
-        f"{polish.descent:.2g} (tolerance {polish.tolerance:g}: {'met' if polish.converged else 'NOT met'}, "
-        f"{'met' if polish.no_descent else 'NOT met'}) after {polish.iterations} SLSQP iterations"
+        else f"; polish: minimax first-order residual {polish.kkt_residual:.2g} over {len(polish.active_times)} "
+        f"active samples (tolerance {polish.tolerance:g}: {'met' if polish.converged else 'NOT met'}) after "
+        f"{polish.iterations} SLSQP iterations"
     )
     return (
         f"co-design: {found.total_mass:.2f} kg of {found.mass_budget:.2f} kg; from {list(found.start_order)} at "

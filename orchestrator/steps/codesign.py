@@ -3,7 +3,7 @@
 With ``--vary`` the order search runs as without it (at the table's values: the sweep still certifies the order
 there); then, under each rule, CMA-ES (or pymoo's mixed-variable GA, ``--codesign-method mixed-ga``) searches the
 order and every column's factors together from that rule's best order, within the mass budget, and SLSQP polishes
-the factors at the order the search ends at. The
+the factors at the order the search ends at, on the epigraph of the sampled peak (``codesign.polish``). The
 answer is the better, at full fidelity, of the polished design and the order at the table's values, so it is
 never above the order search's answer.
 """
@@ -20,6 +20,8 @@ from ..codesign import (
     ColumnProperties,
     Polish,
     cmaes_search,
+    finite_difference_jacobian,
+    minimax_refusal,
     mixed_ga_search,
     nsga2_front,
     parse_vary,
@@ -103,6 +105,7 @@ class CoDesignAnswer:
     search_method: str  # --codesign-method
     polish: Polish | None
     varied: dict[str, float]  # the FMU parameters name[m] the design sets away from the table
+    polish_note: str = ""  # why there is no polish: the objective is no maximum over samples, or a run failed
 
     @property
     def improvement(self) -> float:
@@ -214,10 +217,15 @@ class CoDesign(Step):
             found = outcome.best.point if outcome.best is not None else start
             if space.mass_excess(start, budget) > 0 and outcome.best is None:
                 continue  # the order search's answer is above the budget and the search found nothing within it
-            try:
-                polished: Polish | None = polish(objective, context.evaluator, found, budget, FULL)
-            except RuntimeError:  # a run of the polish failed: the search's design stands, unpolished
-                polished = None
+            polished: Polish | None = None
+            polish_note = minimax_refusal(objective) or ""
+            if not polish_note:
+                try:
+                    polished = polish(
+                        objective, context.evaluator, found, budget, FULL, jacobian=finite_difference_jacobian
+                    )
+                except RuntimeError as exc:  # a run of the polish failed: the search's design stands, unpolished
+                    polish_note = str(exc)
             end = polished.end if polished is not None else found
             candidates = [end] + ([start] if space.mass_excess(start, budget) == 0 else [])
             evaluations = objective.evaluate(candidates, context.evaluator, FULL)
@@ -241,6 +249,7 @@ class CoDesign(Step):
                     search_stop=outcome.stop,
                     search_method=config.codesign_method,
                     polish=polished,
+                    polish_note=polish_note,
                     varied=varied_parameters(space, chosen),
                 )
             )
@@ -284,7 +293,7 @@ class CoDesign(Step):
     def cost_note(self, context: StudyContext) -> str:
         return (
             "CMA-ES or the mixed-variable GA over order and factors (--vary-budget designs per rule), then the "
-            "polish's finite differences; "
+            "the polish's recorded runs (a forward difference per varied property and column at each SLSQP iterate); "
             "with --objective ...,mass NSGA-II (--vary-budget designs per rule) and its front at full fidelity"
         )
 
