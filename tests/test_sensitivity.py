@@ -19,6 +19,12 @@ from fmpy import simulate_fmu
 from builder import build
 from fmu_src.materials import FIELD_NAMES, MaterialTable, study_materials
 from fmu_src.variables import seed_name
+from orchestrator.codesign import CoDesignObjective, CoDesignSpace, finite_difference_jacobian, scaled_parameter_names
+from orchestrator.design import DesignSpace
+from orchestrator.executors import SerialExecutor
+from orchestrator.loop import Evaluator
+from orchestrator.objective import FULL, LatticeObjective
+from orchestrator.sensitivity import directional_jacobian
 from orchestrator.simulation import LatticeFMU, SimulationError
 
 MASSES = (0.5, 2.0, 1.0, 3.0)
@@ -198,3 +204,37 @@ def test_model_exchange_refuses_a_seed_in_one_line(unequal_fmu):
         )
     refusals = [m for m in messages if "d_k[2]" in m]
     assert refusals and "Model Exchange" in refusals[0] and "\n" not in refusals[0]
+
+
+# ------------------------------------------------------------------------ the co-design's source of gradients
+
+
+def test_the_directional_jacobian_is_the_finite_differences_one_for_a_run_less(armour_fmu_of_width):
+    """orchestrator.sensitivity.directional_jacobian against codesign.finite_difference_jacobian at a point off the
+    table's values on the 11 x 3 lattice, both at a tight tolerance: the same trace, the same derivatives to the
+    differences' error (forward steps of 1e-5 of each parameter: at 1e-3 they err by a tenth near the sample where
+    a mass meets the plate, where the trace bends hardest), one run per parameter instead of one more."""
+    space = CoDesignSpace(DesignSpace.permutations(3), study_materials(3), ("k", "c", "mass"), 0.5, 2.0, 11)
+    lattice = LatticeObjective(armour_fmu_of_width(3), space.space, 2.0, parameters={"rtol": 1e-12, "atol": 1e-14})
+    objective = CoDesignObjective(lattice, space)
+    evaluator = Evaluator(SerialExecutor())
+    point = space.with_factors((2, 3, 1), [0.8, 1.3, 1.1, 1.2, 0.7, 0.9, 1.0, 1.1, 1.4])
+    names = scaled_parameter_names(space, point.order)
+    directional = directional_jacobian(objective, evaluator, point, names, FULL)
+    differences = finite_difference_jacobian(objective, evaluator, point, names, FULL, 1e-5)
+    assert directional.names == differences.names == names and directional.times == differences.times
+    assert np.array_equal(directional.values, differences.values)  # a seed leaves the run's own trace as it is
+    for column, name in enumerate(names):
+        scale = float(np.max(np.abs(differences.jacobian[:, column])))
+        error = float(np.max(np.abs(directional.jacobian[:, column] - differences.jacobian[:, column])))
+        assert scale > 0.0 and error <= 1e-3 * scale, name
+    assert directional.evaluations == len(names) and differences.evaluations == len(names) + 1
+
+
+def test_the_directional_jacobian_refuses_a_name_that_is_no_property_in_one_line(armour_fmu_of_width):
+    space = CoDesignSpace(DesignSpace.permutations(3), study_materials(3), ("k",), 0.5, 2.0, 11)
+    objective = CoDesignObjective(LatticeObjective(armour_fmu_of_width(3), space.space, 1.0), space)
+    for name in ("F_total", "k", "k[x]", "stiffness[1]"):
+        with pytest.raises(ValueError) as refusal:
+            directional_jacobian(objective, Evaluator(SerialExecutor()), space.unit_point((1, 2, 3)), (name,), FULL)
+        assert repr(name) in str(refusal.value) and "\n" not in str(refusal.value)
