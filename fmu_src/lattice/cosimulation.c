@@ -555,42 +555,42 @@ static double locate_switch(Model *m, int k) {
 }
 
 /* The sensitivity's jump where backplate modes switched at the current time (before: the modes until then). A
- * switch at the time tau where indicator g (ux - gap - x_back for the contact, vx - v_back for the damper) crosses 0
- * moves with epsilon by dtau = -(dg . s) / (dg/dt), and the rate that changes there moves with it: s gains
- * (f_before - f_after) dtau (f the right-hand side under the modes before and after). Only a contact that begins
- * approaching changes a rate (by the damper's force); the others switch a force that is 0 there. Each mass's
- * wall force is its own, so each switching mass's jump is that of its own velocity. The solver's derivative at
- * the state, which its next step starts from, is corrected for the new s. */
+ * switch at the time tau where indicator g crosses 0 moves with epsilon by dtau = -(dg . s) / (dg/dt), and the
+ * rate that changes there moves with it: s gains (f_before - f_after) dtau. Each mass's wall force is its own, so
+ * each switching mass's jump is that of its own velocity, and at the switch it is known in closed form: the
+ * wall's spring force k_w p is 0 there (p = 0 is the contact's switch), and so is the damper's c_w (vx - v_back)
+ * at the damper's switch; only a contact that begins or ends approaching changes the force, by the damper's
+ * c_w (vx - v_back), where g = ux - gap - x_back has dg/dt = vx - v_back too: the jump is -+ c_w s_ux / m, the
+ * two vanishing factors cancelled rather than divided (a grazing contact, vx - v_back near 0, would otherwise
+ * divide rounding by it). The solver's derivative at the state, which its next step starts from, is corrected
+ * for the new s. */
 static void sensitivity_jump(Model *m, const signed char *before) {
     CoSimulation *cs = &m->cs;
     Solver *s = &cs->solver;
     const int block = s->block, vx_base = solver_vx_base(m);
+    const double damper = m->params.c_wall / m->params.column[LATTICE_COLS - 1].mass;
     double *y = cs->work; /* the solver's state, its first row (solver_state) */
-    double *sensitivity = y + block, *rate_before = cs->whole_state, *rate_after = cs->sensitivity_rate;
-    double *end_derivative;
-    signed char after[N_FACE_MASSES];
-    int i;
-    memcpy(after, m->wall_mode, sizeof(after));
-    model_ports_at(m, s->t);
-    memcpy(m->wall_mode, before, sizeof(after));
-    layout_rhs(m, &m->params, s->phase, y, rate_before);
-    memcpy(m->wall_mode, after, sizeof(after));
-    layout_rhs(m, &m->params, s->phase, y, rate_after);
-    cs->sensitivity_evaluations += 2;
+    double *sensitivity = y + block, *end_derivative;
+    int i, jumped = 0;
     for (i = 0; i < solver_faces(m); i++) {
-        const int f = (i / cs->solver_rows) * LATTICE_ROWS + i % cs->solver_rows;
-        const int mass = LAST_COLUMN_MASS(i), vx = vx_base + mass;
-        const int contact_switched = (before[f] != WALL_FREE) != (after[f] != WALL_FREE);
-        const double g_rate = contact_switched ? y[vx] - m->params.back_velocity : rate_before[vx] - m->back_velocity_rate;
-        const double g_moved = contact_switched ? sensitivity[mass] : sensitivity[vx];
-        if (before[f] == after[f] || g_rate == 0.0) continue; /* a grazing switch: no derivative to take */
-        sensitivity[vx] += (rate_before[vx] - rate_after[vx]) * (-g_moved / g_rate);
+        const int f = (i / cs->solver_rows) * LATTICE_ROWS + i % cs->solver_rows, mass = LAST_COLUMN_MASS(i);
+        const int contact_switched = (before[f] != WALL_FREE) != (m->wall_mode[f] != WALL_FREE);
+        if (!contact_switched) continue; /* the damper's switch, or none: no force changes */
+        if (m->wall_mode[f] == WALL_APPROACHING) {
+            sensitivity[vx_base + mass] -= damper * sensitivity[mass];
+            jumped = 1;
+        } else if (before[f] == WALL_APPROACHING) {
+            sensitivity[vx_base + mass] += damper * sensitivity[mass];
+            jumped = 1;
+        }
     }
     end_derivative = solver_end_derivative(s, cs->work);
-    if (end_derivative) { /* its state part stays the solver's own (the nominal run's steps) */
-        layout_rhs(m, &m->params, s->phase, y, rate_before); /* the rate under the modes now */
+    if (jumped && end_derivative) { /* its state part stays the solver's own (the nominal run's steps) */
+        double *rate = cs->whole_state; /* scratch */
+        model_ports_at(m, s->t);
+        layout_rhs(m, &m->params, s->phase, y, rate); /* the rate under the modes now */
         cs->sensitivity_evaluations++;
-        sensitivity_rate(m, s->phase, y, rate_before, end_derivative + block);
+        sensitivity_rate(m, s->phase, y, rate, end_derivative + block);
     }
 }
 
