@@ -238,3 +238,16 @@ def test_the_directional_jacobian_refuses_a_name_that_is_no_property_in_one_line
         with pytest.raises(ValueError) as refusal:
             directional_jacobian(objective, Evaluator(SerialExecutor()), space.unit_point((1, 2, 3)), (name,), FULL)
         assert repr(name) in str(refusal.value) and "\n" not in str(refusal.value)
+
+
+def test_fmi3_takes_the_seeds_as_arrays_and_gives_fmi2s_derivative(fmu_path, fmu3_path):
+    """FMI 3 declares each seed as an array of M, as it declares the property (fmpy sets it as a list): the same
+    model code as FMI 2's indexed scalars, so the same derivative trace."""
+    seeds = [0.0] * 11
+    seeds[4] = 1.0
+    common = dict(stop_time=HORIZON, output_interval=STEP, output=["backplate_force_derivative"])
+    fmi3 = simulate_fmu(str(fmu3_path), start_values={"d_mass": seeds}, **common)
+    fmi2 = simulate_fmu(str(fmu_path), start_values={"d_mass[5]": 1.0}, **common)
+    derivative = np.asarray(fmi2["backplate_force_derivative"])
+    assert float(np.max(np.abs(derivative))) > 0.0
+    np.testing.assert_allclose(fmi3["backplate_force_derivative"], derivative, rtol=1e-12, atol=1e-12)
