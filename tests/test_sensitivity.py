@@ -14,7 +14,8 @@ import dataclasses
 
 import numpy as np
 import pytest
-from fmpy import simulate_fmu
+from fmpy import extract, read_model_description, simulate_fmu
+from fmpy.fmi2 import FMU2Slave
 
 from builder import build
 from fmu_src.materials import FIELD_NAMES, MaterialTable, study_materials
@@ -252,3 +253,40 @@ def test_fmi3_takes_the_seeds_as_arrays_and_gives_fmi2s_derivative(fmu_path, fmu
     derivative = np.asarray(fmi2["backplate_force_derivative"])
     assert float(np.max(np.abs(derivative))) > 0.0
     np.testing.assert_allclose(fmi3["backplate_force_derivative"], derivative, rtol=1e-12, atol=1e-12)
+
+
+def test_a_seeded_run_saved_and_restored_goes_on_as_it_would_have(unequal_fmu, tmp_path):
+    """An FMU state of a seeded run holds its sensitivity (a second block of the solver's state and its moved
+    parameters): restored, or serialised and read back, it is accepted and goes on bit for bit as the run did."""
+    description = read_model_description(str(unequal_fmu))
+    vr = {v.name: v.valueReference for v in description.modelVariables}
+    slave = FMU2Slave(
+        guid=description.guid,
+        unzipDirectory=extract(str(unequal_fmu), str(tmp_path / "unzipped")),
+        modelIdentifier=description.coSimulation.modelIdentifier,
+    )
+    outputs = [vr[name] for name in ("backplate_force_derivative", "peak_backplate_force_derivative")]
+    slave.instantiate()
+    try:
+        slave.setupExperiment(startTime=0.0, stopTime=HORIZON)
+        slave.enterInitializationMode()
+        slave.setInteger([vr[f"material[{j}]"] for j in range(1, COLS + 1)], list(ORDER))
+        slave.setReal([vr["d_c[2]"], vr["d_mass[4]"]], [1.0, -0.5])
+        slave.exitInitializationMode()
+        slave.doStep(0.0, 0.3)
+        state = slave.getFMUstate()
+        serialized = slave.serializeFMUstate(state)
+        slave.doStep(0.3, 0.3)
+        straight = slave.getReal(outputs)
+        assert straight[1] != 0.0
+        slave.setFMUstate(state)
+        slave.doStep(0.3, 0.3)
+        assert slave.getReal(outputs) == straight
+        restored = slave.deSerializeFMUstate(serialized)
+        slave.setFMUstate(restored)
+        slave.doStep(0.3, 0.3)
+        assert slave.getReal(outputs) == straight
+        slave.freeFMUstate(state)
+        slave.freeFMUstate(restored)
+    finally:
+        slave.freeInstance()
