@@ -439,8 +439,14 @@ def mixed_ga_search(
 TRACE_OUTPUT = "backplate_force"
 SAMPLE_INTERVAL = "peak_sample_interval"
 SAMPLED_PEAK = "peak_backplate_force"
-RELATIVE_STEP = 1e-3  # a parameter's forward difference, relative to its value
-CANDIDATE_BAND = 0.2  # relative: the samples this close below the peak are the epigraph's constraints
+# a parameter's forward difference, relative to its value: between the truncation error of a larger step and the
+# solver's noise divided by a smaller one at full fidelity (python -m bench.codesign_polish)
+RELATIVE_STEP = 1e-4
+# relative: the samples this close below the peak are the epigraph's constraints. A band, not the top K: how many
+# samples compete for the peak follows the pulse's shape; wide, so that one outside rarely reaches the peak within a
+# round of SLSQP (one that does starts another round, up to POLISH_ROUNDS), while the samples far below, which
+# cannot decide the maximum, stay out of the QP
+CANDIDATE_BAND = 0.2
 ACTIVE_TOLERANCE = 1e-3  # relative: the samples this close below the peak are active in the first-order measure
 POLISH_ROUNDS = 4  # SLSQP runs at most: another from the best point when a sample outside the constraints peaks
 STOP_FRACTION = 0.1  # SLSQP stops at an iterate whose first-order measure is this fraction of the tolerance
@@ -458,7 +464,7 @@ class TraceJacobian:
     evaluations: int  # FMU runs it took
 
 
-TraceJacobianSource = Callable[["CoDesignObjective", Any, CoDesignPoint, tuple[str, ...], str, float], TraceJacobian]
+TraceJacobianSource = Callable[[CoDesignObjective, Any, CoDesignPoint, tuple[str, ...], str, float], TraceJacobian]
 """``(objective, evaluator, point, names, fidelity, relative_step) -> TraceJacobian``: where the polish's
 gradients come from."""
 
@@ -715,11 +721,12 @@ def polish(
 ) -> Polish:
     """SLSQP on ``(z, t)``, the factors of ``start``'s order in scaled coordinates z in [0, 1] and the epigraph's
     t: minimise t with F_s(z) <= t for each sample s of the backplate-force trace within ``CANDIDATE_BAND`` of the
-    peak (those whose values can take the maximum over a step; the rest stay out of the QP, and when one of them
-    peaks at the end SLSQP runs again from the best point with the samples re-chosen), the mass budget an
-    inequality with its exact gradient. The samples' gradients come from ``jacobian`` (d F_s / d parameter,
-    chained to z: d parameter / d z = parameter * log_span). At the end, the first-order optimality of the minimax
-    problem (``minimax_stationarity`` over the samples within ``ACTIVE_TOLERANCE`` of the peak) against
+    peak, the mass budget an inequality with its exact gradient. The samples' gradients come from ``jacobian``
+    (d F_s / d parameter, chained to z: d parameter / d z = parameter * log_span). Each iterate, scaled onto the
+    budget where SLSQP left it a hair above, is kept when it lowers the peak; SLSQP stops at an iterate whose
+    first-order measure is ``STOP_FRACTION`` of ``tolerance``, or at its own end, and runs again from the best
+    point with the samples chosen afresh when one outside them peaks there. At the end, the first-order optimality
+    of the minimax problem (``first_order_measure``: the samples within ``ACTIVE_TOLERANCE`` of the peak) against
     ``tolerance``."""
     refusal = minimax_refusal(objective)
     if refusal is not None:
@@ -1123,4 +1130,5 @@ __all__ = [
     "scaled_gradients",
     "scaled_parameter_names",
     "table_columns",
+    "trace_runs",
 ]

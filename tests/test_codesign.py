@@ -554,3 +554,17 @@ def test_at_the_studys_co_design_answer_under_the_mean_rule_the_polish_converges
     assert polished["kkt_residual"] <= polished["tolerance"] == 0.01
     assert polished["end_value"] <= polished["start_value"] and codesign["peak"] <= polished["end_value"] + 1e-9
     assert sum(polished["sample_multipliers"]) == pytest.approx(1.0)
+
+
+def test_a_co_design_of_the_continuous_peak_says_why_it_has_no_polish(armour_fmu_of_width, tmp_path, capfd):
+    out = tmp_path / "continuous"
+    options = ("--fmu", armour_fmu_of_width(3), "--cols", 3, "--diagonal-rule", "mean", "--objective", "continuous")
+    options += ("--vary", "k", "--vary-budget", 30, "--budget", 6, "--repeats", 1, "--no-sensitivity")
+    assert main(*options, "--no-progress", "--out", out) == 0
+    capfd.readouterr()
+    codesign = json.loads((out / "results.json").read_text())["steps"]["codesign"]["answers"][0]
+    assert codesign["polish"] is None and "is not the sampled peak" in codesign["polish_note"]
+    assert (
+        "The polish did not run (the objective peak_backplate_force_continuous is not the sampled peak"
+        in (out / "report.html").read_text()
+    )

@@ -293,7 +293,7 @@ class CoDesign(Step):
     def cost_note(self, context: StudyContext) -> str:
         return (
             "CMA-ES or the mixed-variable GA over order and factors (--vary-budget designs per rule), then the "
-            "the polish's recorded runs (a forward difference per varied property and column at each SLSQP iterate); "
+            "polish's recorded runs (a forward difference per varied property and column at each SLSQP iterate); "
             "with --objective ...,mass NSGA-II (--vary-budget designs per rule) and its front at full fidelity"
         )
 
