@@ -15,7 +15,8 @@ import dataclasses
 import numpy as np
 import pytest
 from fmpy import extract, read_model_description, simulate_fmu
-from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Model, FMU2Slave
 
 from builder import build
 from fmu_src.materials import FIELD_NAMES, MaterialTable, study_materials
@@ -26,7 +27,7 @@ from orchestrator.executors import SerialExecutor
 from orchestrator.loop import Evaluator
 from orchestrator.objective import FULL, LatticeObjective
 from orchestrator.sensitivity import directional_jacobian
-from orchestrator.simulation import LatticeFMU, SimulationError
+from orchestrator.simulation import _CALLBACKS, _MESSAGES, LatticeFMU, SimulationError
 
 MASSES = (0.5, 2.0, 1.0, 3.0)
 TABLE = MaterialTable(
@@ -192,17 +193,27 @@ def test_a_seed_that_is_not_finite_is_refused_naming_it(unequal, value):
     assert name in message and "a finite number" in message and "\n" not in message
 
 
-def test_model_exchange_refuses_a_seed_in_one_line(unequal_fmu):
-    messages = []
-    with pytest.raises(Exception):
-        simulate_fmu(
-            str(unequal_fmu),
-            fmi_type="ModelExchange",
-            stop_time=0.1,
-            start_values={f"{seed_name('k')}[2]": 1.0},
-            logger=lambda *args: messages.append(args[-1].decode() if isinstance(args[-1], bytes) else str(args[-1])),
-            debug_logging=False,
-        )
+def test_model_exchange_refuses_a_seed_in_one_line(unequal_fmu, tmp_path):
+    description = read_model_description(str(unequal_fmu))
+    vr = {v.name: v.valueReference for v in description.modelVariables}
+    messages: list[str] = []
+    _MESSAGES["seeded"] = messages
+    model = FMU2Model(
+        guid=description.guid,
+        unzipDirectory=extract(str(unequal_fmu), str(tmp_path / "unzipped")),
+        modelIdentifier=description.modelExchange.modelIdentifier,
+        instanceName="seeded",
+    )
+    model.instantiate(callbacks=_CALLBACKS, loggingOn=True)
+    try:
+        model.setupExperiment(startTime=0.0)
+        model.enterInitializationMode()
+        model.setReal([vr["d_k[2]"]], [1.0])
+        with pytest.raises(FMICallException):
+            model.exitInitializationMode()
+    finally:
+        model.freeInstance()
+        _MESSAGES.pop("seeded", None)
     refusals = [m for m in messages if "d_k[2]" in m]
     assert refusals and "Model Exchange" in refusals[0] and "\n" not in refusals[0]
 
