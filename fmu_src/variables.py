@@ -742,7 +742,58 @@ def all_variables(rows: int, cols: int, materials: MaterialTable | None = None, 
             "Rejected solver steps so far (Model Exchange: the importer does not tell the FMU, stays 0)",
         ),
     ]
-    return variables + continuous_time_variables(rows, cols, depth)
+    return variables + continuous_time_variables(rows, cols, depth) + sensitivity_variables(count)
+
+
+# The seeds' names: the sensitivity seed of material property ``name`` is ``d_<name>`` (d_k, d_mass, ...).
+SEED_PREFIX = "d_"
+
+
+def seed_name(field_name: str) -> str:
+    """The sensitivity seed parameter of material table column ``field_name`` (``k`` -> ``d_k``)."""
+    return SEED_PREFIX + field_name
+
+
+def sensitivity_variables(materials: int) -> list[Variable]:
+    """The forward sensitivity along a parameter direction (Co-Simulation): a seed per material property and
+    material, and the derivatives of the backplate force and of its sampled peak along the seeded direction.
+
+    Last in the table, so that they leave every other variable's value reference as it is. FMI's own
+    fmi2/3GetDirectionalDerivative give partial derivatives of outputs with respect to states and inputs at one
+    instant, not how a whole run answers a change of its parameters: the FMU offers that as these variables."""
+    seeds = [
+        Variable(
+            seed_name(column.name),
+            REAL,
+            "parameter",
+            f"Co-Simulation's forward sensitivity: the seed of {column.name} of each material, its part in the "
+            f"direction d every parameter p moves along (p + epsilon d); all seeds 0 (the default) = no sensitivity",
+            start=0.0,
+            unit=column.unit,
+            size=materials,
+        )
+        for column in MATERIAL_FIELDS
+    ]
+    return seeds + [
+        Variable(
+            "backplate_force_derivative",
+            REAL,
+            "output",
+            "d backplate_force / d epsilon along the seeded direction (Co-Simulation; 0 without a seed and under "
+            "Model Exchange)",
+            unit="N",
+            depends_on=BACK_PORT,
+        ),
+        Variable(
+            "peak_backplate_force_derivative",
+            REAL,
+            "output",
+            "d peak_backplate_force / d epsilon along the seeded direction: the derivative at the sample that "
+            "holds the sampled peak (Co-Simulation; 0 without a seed and under Model Exchange)",
+            unit="N",
+            depends_on=BACK_PORT,
+        ),
+    ]
 
 
 def continuous_time_variables(rows: int, cols: int, depth: int = 1) -> list[Variable]:

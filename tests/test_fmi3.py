@@ -20,7 +20,7 @@ from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback
 from fmpy.validation import validate_fmu
 
 from fmu_src.published import SEQUENTIAL_ORDER as PUBLISHED_SEQUENTIAL, STUDY_BEST_ORDER as PUBLISHED_BEST
-from fmu_src.variables import TABLE_PARAMETERS
+from fmu_src.variables import TABLE_PARAMETERS, seed_name
 from orchestrator.simulation import LatticeFMU
 
 HORIZON, STEP = 8.0, 0.01
@@ -100,7 +100,11 @@ def test_model_description_comes_from_the_same_table_as_fmi2(fmu_path, fmu3_path
 
     # FMI 2's names and order (its Enumeration aliases aside), each parameter array's elements as one array,
     # time last
-    arrays = {"material": 11, **{name: 11 for name in TABLE_PARAMETERS}}
+    arrays = {
+        "material": 11,
+        **{name: 11 for name in TABLE_PARAMETERS},
+        **{seed_name(name): 11 for name in TABLE_PARAMETERS},  # the sensitivity's seeds, arrays as the properties
+    }
     expected = []
     for name, variable in fmi2.items():
         base = name.partition("[")[0]

@@ -53,6 +53,7 @@ struct Model {
     int contact_on; /* projectile mode: the body touches the face (frozen between events) */
     /* the peaks and the last contact over the points each interface shows (the one sampler) */
     double peak_sampled, max_compression;
+    double peak_sampled_derivative; /* Co-Simulation's sensitivity: d peak_sampled / d epsilon at its sample */
     double transmitted_impulse;            /* the trapezoidal integral of the sampled force so far */
     double last_sample_time, last_sample_force;
     int samples_taken;
@@ -134,6 +135,17 @@ double model_compression_of_columns(const Model *m, const double *ux_first, cons
 /* The backplate force from the column-C masses' ux and vx, f = k*rows + i over `rows` rows of `slices` slices:
  * all of them, or the part of a mirror-symmetric lattice (lattice_backplate_force_mirrored's counts). */
 double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows, int slices);
+
+/* The forward sensitivity's seeds (d_k[m], ...: the direction d every material property p moves along, p + epsilon
+ * d). model_sensitivity_seed: 1 and the first seed that is not 0, named as FMI 2 names it (d_k[2]) with its value,
+ * or 0 when every seed is 0 (no sensitivity). model_sensitivity_delta: the step delta of the difference quotient,
+ * such that delta |d| is at most SENSITIVITY_STEP times |p| (times 1 where p is 0) for
+ * every seeded property of every material. model_sensitivity_params: the params with each column's properties
+ * at p + delta d. */
+#define SENSITIVITY_STEP 1e-6 /* the quotient's largest move of a parameter, relative to it */
+int model_sensitivity_seed(const Model *m, char *name, size_t size, double *value);
+double model_sensitivity_delta(const Model *m);
+void model_sensitivity_params(const Model *m, double delta, LatticeParams *out);
 
 /* The one output updater: every output from output_state, the continuous peak and its time, the last contact
  * and the counters given by the interface. */

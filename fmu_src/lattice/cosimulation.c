@@ -60,9 +60,9 @@ static int solver_positions(const Model *m) {
 static int solver_vx_base(const Model *m) { return solver_positions(m) + m->cs.solver_projectile; }
 static int solver_quadrature_base(const Model *m) { return 2 * solver_positions(m) + 2 * m->cs.solver_projectile; }
 
-/* Projectile mode's right-hand side: the lattice's part of y in the lattice's own layout, its rate with the
- * contact force on the face, and the body's. */
-static void projectile_rhs(Model *m, int phase, const double *y, double *dydt) {
+/* Projectile mode's right-hand side under params (the model's, or the sensitivity's moved ones): the lattice's
+ * part of y in the lattice's own layout, its rate with the contact force on the face, and the body's. */
+static void projectile_rhs(Model *m, LatticeParams *params, int phase, const double *y, double *dydt) {
     CoSimulation *cs = &m->cs;
     const int positions = solver_positions(m);
     const size_t block = (size_t)positions * sizeof(double);
@@ -72,17 +72,17 @@ static void projectile_rhs(Model *m, int phase, const double *y, double *dydt) {
     memcpy(lattice + positions, y + positions + 1, block);
     memcpy(lattice + 2 * positions, y + 2 * positions + 2, LATTICE_N_QUADRATURES * sizeof(double));
     if (cs->solver_along_x) {
-        lattice_front_port_along_x(&m->params, solver_mirrored(m), lattice, &x_front, &v_front);
+        lattice_front_port_along_x(params, solver_mirrored(m), lattice, &x_front, &v_front);
     } else {
-        lattice_front_port(&m->params, lattice, &x_front, &v_front);
+        lattice_front_port(params, lattice, &x_front, &v_front);
     }
     force = model_contact_force(m, m->contact_on, y[positions] - x_front, y[2 * positions + 1] - v_front,
                                 &dissipation);
-    m->params.front_force = force;
+    params->front_force = force;
     if (cs->solver_along_x) {
-        lattice_rhs_along_x(&m->params, solver_mirrored(m), phase, m->wall_mode, lattice, rate);
+        lattice_rhs_along_x(params, solver_mirrored(m), phase, m->wall_mode, lattice, rate);
     } else {
-        lattice_rhs(&m->params, phase, m->wall_mode, lattice, rate);
+        lattice_rhs(params, phase, m->wall_mode, lattice, rate);
     }
     memcpy(dydt, rate, block);
     dydt[positions] = y[2 * positions + 1];
@@ -92,18 +92,55 @@ static void projectile_rhs(Model *m, int phase, const double *y, double *dydt) {
     dydt[2 * positions + 2 + 1] += dissipation; /* D */
 }
 
+/* The contract's derivatives of the solver's layout (the whole lattice's, or its reduced one) under params and the
+ * model's discrete states. */
+static void layout_rhs(Model *m, LatticeParams *params, int phase, const double *y, double *dydt) {
+    if (m->cs.solver_projectile) {
+        projectile_rhs(m, params, phase, y, dydt);
+    } else if (m->cs.solver_along_x) {
+        lattice_rhs_along_x(params, solver_mirrored(m), phase, m->wall_mode, y, dydt);
+    } else { /* the whole lattice's state, without the body's (at rest outside projectile mode) */
+        lattice_rhs(params, phase, m->wall_mode, y, dydt);
+    }
+}
+
+/* The sensitivity block's rate (cosimulation.h) from the state block y, its sensitivity s = y + block and the
+ * state's rate: the positions' rates are the velocities' sensitivities themselves, the velocities' the forward
+ * difference quotient (f(y + delta s, p + delta d) - f(y, p)) / delta under the same backplate modes; the energy
+ * integrals carry no sensitivity.
+ *
+ * Why this way (CVODES's default without a sensitivity right-hand side, its sensitivities outside the error
+ * control as CVodeSetSensErrCon has it by default): it needs nothing of the force law but the right-hand side, the
+ * nominal state takes the very steps of a run without a seed (its outputs are that run's, bit for bit), and s is
+ * integrated by the same method with the same steps: the derivative of the discrete run itself, to the quotient's
+ * error. The step delta (sensitivity_delta) moves no parameter by more than SENSITIVITY_STEP of itself: small
+ * against the force law's curvature, large against the rounding of f; the state moves by delta s alike. */
+static void sensitivity_rate(Model *m, int phase, const double *y, const double *rate, double *sensitivity_rate) {
+    CoSimulation *cs = &m->cs;
+    const int block = cs->solver.block, positions = solver_vx_base(m), quadratures = solver_quadrature_base(m);
+    const double *s = y + block;
+    double *moved = cs->sensitivity_state, *moved_rate = cs->sensitivity_rate;
+    LatticeParams *params = &cs->sensitivity_params;
+    const double delta = cs->sensitivity_delta;
+    int i;
+    for (i = 0; i < block; i++) moved[i] = y[i] + delta * s[i];
+    params->front_force = m->params.front_force; /* the ports at this time (projectile mode: its contact's own) */
+    params->back_position = m->params.back_position;
+    params->back_velocity = m->params.back_velocity;
+    layout_rhs(m, params, phase, moved, moved_rate);
+    cs->sensitivity_evaluations++;
+    for (i = 0; i < positions; i++) sensitivity_rate[i] = s[positions + i];
+    for (i = positions; i < quadratures; i++) sensitivity_rate[i] = (moved_rate[i] - rate[i]) / delta;
+    for (i = quadratures; i < block; i++) sensitivity_rate[i] = 0.0;
+}
+
 /* The solver's right-hand side at time t: the contract's derivatives of the whole lattice, or of its reduced
- * layout, with the ports' values at t. */
+ * layout, with the ports' values at t (and the sensitivity block's, when seeded). */
 static void solver_rhs(void *context, int phase, double t, const double *y, double *dydt) {
     Model *m = (Model *)context;
     model_ports_at(m, t);
-    if (m->cs.solver_projectile) {
-        projectile_rhs(m, phase, y, dydt);
-    } else if (m->cs.solver_along_x) {
-        lattice_rhs_along_x(&m->params, solver_mirrored(m), phase, m->wall_mode, y, dydt);
-    } else { /* the whole lattice's state, without the body's (at rest outside projectile mode) */
-        lattice_rhs(&m->params, phase, m->wall_mode, y, dydt);
-    }
+    layout_rhs(m, &m->params, phase, y, dydt);
+    if (m->cs.sensitivity_on) sensitivity_rate(m, phase, y, dydt, dydt + m->cs.solver.block);
 }
 
 /* The smallest state that carries this lattice's solution (use_symmetry; lattice.h): without the y and z
@@ -204,6 +241,32 @@ static double backplate_force_of(Model *m, double t, int hermite) {
 }
 
 static double backplate_force_at(Model *m, double t) { return backplate_force_of(m, t, 0); }
+
+/* d backplate force / d epsilon at time t of the last step: k_w dux + c_w dvx (the damper while approaching)
+ * over the column-C masses in contact, each as often as it stands in the whole lattice. */
+static double backplate_force_derivative_at(Model *m, double t) {
+    double ux[N_FACE_MASSES], vx[N_FACE_MASSES], dux[N_FACE_MASSES], dvx[N_FACE_MASSES], sum = 0.0;
+    const int vx_base = solver_vx_base(m), block = m->cs.solver.block;
+    int f;
+    if (!m->params.has_backplate) return 0.0;
+    for (f = 0; f < solver_faces(m); f++) {
+        const int mass = LAST_COLUMN_MASS(f);
+        ux[f] = state_component(m, mass, t);
+        vx[f] = state_component(m, vx_base + mass, t);
+        dux[f] = state_component(m, block + mass, t);
+        dvx[f] = state_component(m, block + vx_base + mass, t);
+    }
+    model_ports_at(m, t); /* after the looks, as backplate_force_of */
+    for (f = 0; f < solver_faces(m); f++) {
+        const double penetration = ux[f] - m->params.backplate_gap - m->params.back_position;
+        if (penetration > 0.0) {
+            const double approach = vx[f] - m->params.back_velocity;
+            const double rate = m->params.k_wall * dux[f] + (approach > 0.0 ? m->params.c_wall * dvx[f] : 0.0);
+            sum += solver_face_count(m, f) * rate;
+        }
+    }
+    return sum;
+}
 
 /* The compression of the lattice at time t of the last step (its first and last columns). */
 static double compression_at(Model *m, double t, int hermite) {
@@ -345,6 +408,9 @@ static void process_step(Model *m, double t_target) {
         if (sample_time > sample_limit || cs->limit_exceeded) break;
         /* a step without contact has no backplate force: 0 throughout */
         force = cs->step_contact_free ? 0.0 : backplate_force_at(m, sample_time);
+        if (cs->sensitivity_on && force > m->peak_sampled) { /* the sample that will hold the peak */
+            m->peak_sampled_derivative = cs->step_contact_free ? 0.0 : backplate_force_derivative_at(m, sample_time);
+        }
         model_take_sample(m, sample_time, force, sample_compression(m, sample_time));
         cs->next_sample++;
         if (limit > 0.0 && m->peak_sampled > limit) {
@@ -372,7 +438,7 @@ static void process_step(Model *m, double t_target) {
 /* The outputs at t_target inside the last step: the whole lattice's state there, and the continuous peak
  * with the part of the last step up to t_target (the step may reach past it). */
 static void update_outputs(Model *m, double t_target) {
-    const CoSimulation *cs = &m->cs;
+    CoSimulation *cs = &m->cs;
     const Solver *s = &cs->solver;
     double peak = m->peak_continuous, peak_time = m->peak_continuous_time;
     int i;
@@ -390,8 +456,9 @@ static void update_outputs(Model *m, double t_target) {
         }
     }
     model_ports_at(m, t_target);
-    model_update_outputs(m, peak, peak_time, fmin(m->last_contact_time, t_target), s->rhs_evaluations,
-                         s->steps_accepted, s->steps_rejected);
+    model_update_outputs(m, peak, peak_time, fmin(m->last_contact_time, t_target),
+                         s->rhs_evaluations + cs->sensitivity_evaluations, s->steps_accepted, s->steps_rejected);
+    m->real[VR_BACKPLATE_FORCE_DERIVATIVE] = cs->sensitivity_on ? backplate_force_derivative_at(m, t_target) : 0.0;
 }
 
 /* No column-C mass in contact with the backplate (always so without one). */
@@ -487,6 +554,46 @@ static double locate_switch(Model *m, int k) {
     return high;
 }
 
+/* The sensitivity's jump where backplate modes switched at the current time (before: the modes until then). A
+ * switch at the time tau where indicator g crosses 0 moves with epsilon by dtau = -(dg . s) / (dg/dt), and the
+ * rate that changes there moves with it: s gains (f_before - f_after) dtau. Each mass's wall force is its own, so
+ * each switching mass's jump is that of its own velocity, and at the switch it is known in closed form: the
+ * wall's spring force k_w p is 0 there (p = 0 is the contact's switch), and so is the damper's c_w (vx - v_back)
+ * at the damper's switch; only a contact that begins or ends approaching changes the force, by the damper's
+ * c_w (vx - v_back), where g = ux - gap - x_back has dg/dt = vx - v_back too: the jump is -+ c_w s_ux / m, the
+ * two vanishing factors cancelled rather than divided (a grazing contact, vx - v_back near 0, would otherwise
+ * divide rounding by it). The solver's derivative at the state, which its next step starts from, is corrected
+ * for the new s. */
+static void sensitivity_jump(Model *m, const signed char *before) {
+    CoSimulation *cs = &m->cs;
+    Solver *s = &cs->solver;
+    const int block = s->block, vx_base = solver_vx_base(m);
+    const double damper = m->params.c_wall / m->params.column[LATTICE_COLS - 1].mass;
+    double *y = cs->work; /* the solver's state, its first row (solver_state) */
+    double *sensitivity = y + block, *end_derivative;
+    int i, jumped = 0;
+    for (i = 0; i < solver_faces(m); i++) {
+        const int f = (i / cs->solver_rows) * LATTICE_ROWS + i % cs->solver_rows, mass = LAST_COLUMN_MASS(i);
+        const int contact_switched = (before[f] != WALL_FREE) != (m->wall_mode[f] != WALL_FREE);
+        if (!contact_switched) continue; /* the damper's switch, or none: no force changes */
+        if (m->wall_mode[f] == WALL_APPROACHING) {
+            sensitivity[vx_base + mass] -= damper * sensitivity[mass];
+            jumped = 1;
+        } else if (before[f] == WALL_APPROACHING) {
+            sensitivity[vx_base + mass] += damper * sensitivity[mass];
+            jumped = 1;
+        }
+    }
+    end_derivative = solver_end_derivative(s, cs->work);
+    if (jumped && end_derivative) { /* its state part stays the solver's own (the nominal run's steps) */
+        double *rate = cs->whole_state; /* scratch */
+        model_ports_at(m, s->t);
+        layout_rhs(m, &m->params, s->phase, y, rate); /* the rate under the modes now */
+        cs->sensitivity_evaluations++;
+        sensitivity_rate(m, s->phase, y, rate, end_derivative + block);
+    }
+}
+
 /* The backplate's switches (contact on/off, damping on/off) and the projectile's contact inside the last step:
  * the step is cut back to the earliest one and the modes are switched there, so no step integrates across a
  * discontinuity. */
@@ -533,7 +640,12 @@ static int handle_events(Model *m) {
         solver_truncate(s, m->cs.work, solver_rhs, m, cut_time);
         cut = 1;
     }
-    wall_modes_of_state(m, m->wall_mode);
+    {
+        signed char before[N_FACE_MASSES];
+        memcpy(before, m->wall_mode, sizeof(before));
+        wall_modes_of_state(m, m->wall_mode);
+        if (m->cs.sensitivity_on) sensitivity_jump(m, before);
+    }
     if (m->cs.solver_projectile && contact_at(m, s->t) != m->contact_on) {
         m->contact_on = !m->contact_on;
         s->end_derivative_valid = 0; /* the contact force changes there */
@@ -545,23 +657,34 @@ void model_driver_initialize(Model *m) {
     CoSimulation *cs = &m->cs;
     double *start = cs->lattice_state; /* scratch: the start state in the solver's layout */
     int i;
+    char seed[64];
+    double seed_value;
     solver_layout(m, &cs->solver_rows, &cs->solver_slices, &cs->solver_along_x, &cs->solver_projectile);
     memset(start, 0, sizeof(cs->lattice_state));
     for (i = 0; i < N_STATE; i++) {
         const int component = solver_component_of(m, i);
         if (component >= 0) start[component] = m->output_state[i];
     }
-    solver_init(&cs->solver, cs->work, PARAM_SOLVER(m), solver_quadrature_base(m) + LATTICE_N_QUADRATURES,
-                solver_vx_base(m), PARAM_RTOL(m), PARAM_ATOL(m), PARAM_FIXED_STEP(m), m->load_on, start);
-    if (solver_mirrored(m) || cs->solver_along_x) {
+    cs->sensitivity_on = model_sensitivity_seed(m, seed, sizeof(seed), &seed_value);
+    cs->sensitivity_evaluations = 0;
+    if (cs->sensitivity_on) {
+        cs->sensitivity_delta = model_sensitivity_delta(m);
+        model_sensitivity_params(m, cs->sensitivity_delta, &cs->sensitivity_params);
+    }
+    {
+        const int block = solver_quadrature_base(m) + LATTICE_N_QUADRATURES, blocks = cs->sensitivity_on ? 2 : 1;
+        solver_init(&cs->solver, cs->work, PARAM_SOLVER(m), blocks * block, solver_vx_base(m), blocks, PARAM_RTOL(m),
+                    PARAM_ATOL(m), PARAM_FIXED_STEP(m), m->load_on, start);
+    }
+    if (solver_mirrored(m) || cs->solver_along_x || cs->sensitivity_on) {
         /* each mass of a mirrored part stands for itself and its mirror images (1, 2 or 4 of them: in y, in z):
          * the error norms weight it so, and take their mean over the whole state (the y and z components, left
-         * out, are 0 and err by 0), so the steps are the whole lattice's */
+         * out, are 0 and err by 0), so the steps are the whole lattice's; the sensitivity block weighs 0 */
         double *weight = cs->whole_state; /* scratch until the first step */
         const int masses = solver_masses(m);
         int component;
         const int positions = solver_positions(m), projectile = cs->solver_projectile;
-        for (component = 0; component < cs->solver.n; component++) {
+        for (component = 0; component < cs->solver.block; component++) {
             /* the lattice's component: the velocities sit one further on behind the body's position */
             const int lattice = projectile && component > positions ? component - 1 : component;
             const int body = projectile && (component == positions || component == 2 * positions + 1);
@@ -753,12 +876,36 @@ int model_driver_check(const Model *m, char *message, size_t message_size) {
     if (!m->initialized) return 0; /* the solver is set up at initialisation */
     solver_layout(m, &rows, &slices, &along_x, &projectile);
     {
+        char seed[64];
+        double seed_value;
+        const int seeded = model_sensitivity_seed(m, seed, sizeof(seed), &seed_value);
+        LatticeParams moved;
+        if (cs->sensitivity_on != seeded) {
+            snprintf(message, message_size, "the state is corrupt: its sensitivity flag %d is not its seeds' %d",
+                     cs->sensitivity_on, seeded);
+            return -1;
+        }
+        if (seeded) {
+            const LatticeParams *held = &cs->sensitivity_params;
+            model_sensitivity_params(m, cs->sensitivity_delta, &moved);
+            if (cs->sensitivity_delta != model_sensitivity_delta(m) ||
+                memcmp(moved.column, held->column, sizeof(moved.column)) != 0 || held->rows != moved.rows ||
+                held->cols != moved.cols || held->depth != moved.depth || held->load_patch != moved.load_patch ||
+                held->load_mode != moved.load_mode || held->spring_law != moved.spring_law ||
+                held->diagonal_rule != moved.diagonal_rule || held->has_backplate != moved.has_backplate) {
+                snprintf(message, message_size, "the state is corrupt: its sensitivity's parameters are not its seeds'");
+                return -1;
+            }
+        }
+    }
+    {
         const int positions = (along_x ? 1 : N_COMPONENTS) * rows * LATTICE_COLS * slices + projectile;
-        const int size = 2 * positions + LATTICE_N_QUADRATURES;
+        const int block = 2 * positions + LATTICE_N_QUADRATURES, size = (cs->sensitivity_on ? 2 : 1) * block;
         const int norm_size = N_STATE - (projectile ? 0 : N_PROJECTILE_STATES);
-        const int reduced = rows != LATTICE_ROWS || slices != LATTICE_DEPTH || along_x;
+        const int reduced = rows != LATTICE_ROWS || slices != LATTICE_DEPTH || along_x || cs->sensitivity_on;
         if (cs->solver_rows != rows || cs->solver_slices != slices || cs->solver_along_x != along_x ||
-            cs->solver_projectile != projectile || s->n != size || s->n_second_order != positions ||
+            cs->solver_projectile != projectile || s->n != size || s->block != block ||
+            s->n_second_order != positions ||
             m->params.rows != LATTICE_ROWS || m->params.cols != LATTICE_COLS || m->params.depth != LATTICE_DEPTH ||
             s->weighted != reduced || s->norm_size != (double)norm_size) {
             snprintf(message, message_size,

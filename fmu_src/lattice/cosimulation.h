@@ -50,7 +50,17 @@ typedef struct {
     int stalled_steps;           /* consecutive steps cut back to (almost) nothing by backplate switches */
     double whole_state[N_STATE]; /* scratch: the solver's state as the whole lattice's */
     double lattice_state[N_STATE], lattice_rate[N_STATE]; /* scratch: projectile mode's lattice part and its rate */
-    double work[SOLVER_WORKSPACE_SIZE(N_STATE)];
+    /* The forward sensitivity along the seeded direction (sensitivity_on: some seed d_<property>[m] is not 0):
+     * the solver's state is two blocks, the state y in the layout above and its derivative s = dy/d epsilon in
+     * the same layout, where every parameter p moves as p + epsilon d. s' is the difference quotient of the
+     * right-hand side along (s, d) under the same backplate modes (sensitivity_params: p + delta d), s jumps where
+     * a backplate switch moves with epsilon, and s takes the nominal's steps. */
+    int sensitivity_on;
+    double sensitivity_delta;
+    LatticeParams sensitivity_params;
+    double sensitivity_state[N_STATE], sensitivity_rate[N_STATE]; /* scratch: y + delta s and its rate */
+    long sensitivity_evaluations; /* right-hand sides of the perturbed state (rhs_evaluations counts them too) */
+    double work[SOLVER_WORKSPACE_SIZE(2 * N_STATE)]; /* room for the two blocks */
 } CoSimulation;
 
 #endif

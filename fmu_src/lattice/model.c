@@ -342,6 +342,52 @@ static void build_params(const Model *m, LatticeParams *p) {
     take_inputs(m, p);
 }
 
+/* The material properties a seed moves: the field of ColumnConstants and the parameters' names (PARAM_D_<NAME>
+ * is the seed of PARAM_<NAME>). */
+#define SEEDED_PROPERTIES(X)                                                                                 \
+    X(k, K) X(k_diag, K_DIAG) X(c, C) X(alpha, ALPHA) X(alpha_diag, ALPHA_DIAG) X(mass, MASS)                 \
+    X(damping_exponent, DAMPING_EXPONENT)
+
+int model_sensitivity_seed(const Model *m, char *name, size_t size, double *value) {
+    int material;
+    for (material = 0; material < LATTICE_MATERIALS; material++) {
+#define FIRST_SEED(field, NAME)                                                    \
+    if (PARAM_D_##NAME(m, material) != 0.0) {                                      \
+        snprintf(name, size, "d_" #field "[%d]", material + 1);                    \
+        *value = PARAM_D_##NAME(m, material);                                      \
+        return 1;                                                                  \
+    }
+        SEEDED_PROPERTIES(FIRST_SEED)
+#undef FIRST_SEED
+    }
+    return 0;
+}
+
+/* |d| / |p|, or |d| where p is 0: how far a step along the seed moves the property, relative to its size. */
+static double seed_ratio(double seed, double value) { return fabs(seed) / (value != 0.0 ? fabs(value) : 1.0); }
+
+double model_sensitivity_delta(const Model *m) {
+    double largest = 0.0;
+    int material;
+    for (material = 0; material < LATTICE_MATERIALS; material++) {
+#define LARGEST_RATIO(field, NAME) largest = fmax(largest, seed_ratio(PARAM_D_##NAME(m, material), PARAM_##NAME(m, material)));
+        SEEDED_PROPERTIES(LARGEST_RATIO)
+#undef LARGEST_RATIO
+    }
+    return SENSITIVITY_STEP / fmax(largest, 1e-300);
+}
+
+void model_sensitivity_params(const Model *m, double delta, LatticeParams *out) {
+    int j;
+    *out = m->params;
+    for (j = 0; j < LATTICE_COLS; j++) {
+        const int material = PARAM_MATERIAL(m, j) - 1;
+#define PERTURB(field, NAME) out->column[j].field += delta * PARAM_D_##NAME(m, material);
+        SEEDED_PROPERTIES(PERTURB)
+#undef PERTURB
+    }
+}
+
 double model_backplate_force_of_column(const Model *m, const double *ux, const double *vx, int rows, int slices) {
     if (rows == LATTICE_ROWS && slices == LATTICE_DEPTH) {
         return lattice_backplate_force_from_column(&m->params, ux, vx, 1);
@@ -408,6 +454,7 @@ void model_update_outputs(Model *m, double peak_continuous, double peak_time, do
     double kinetic, potential;
     int i;
     m->real[VR_PEAK_BACKPLATE_FORCE] = m->peak_sampled;
+    m->real[VR_PEAK_BACKPLATE_FORCE_DERIVATIVE] = m->peak_sampled_derivative;
     m->real[VR_MAX_COMPRESSION] = m->max_compression;
     m->real[VR_TRANSMITTED_IMPULSE] = m->transmitted_impulse;
     m->real[VR_PEAK_BACKPLATE_FORCE_CONTINUOUS] = peak_continuous;
@@ -582,8 +629,17 @@ static void update_exchange_outputs(Model *m) {
 }
 
 int model_exchange_begin(Model *m, char *message, size_t message_size) {
+    char seed[64];
+    double value;
     if (!m->initialized || m->exchange) {
         snprintf(message, message_size, "Model Exchange begins once, right after initialisation");
+        return -1;
+    }
+    if (model_sensitivity_seed(m, seed, sizeof(seed), &value)) {
+        snprintf(message, message_size,
+                 "parameter %s = %g is not allowed under Model Exchange: allowed 0 (the forward sensitivity is "
+                 "Co-Simulation's: Model Exchange's state count is fixed)",
+                 seed, value);
         return -1;
     }
     /* output_state holds the start state; the co-simulation bookkeeping of initialisation starts afresh */

@@ -170,24 +170,30 @@ static void evaluate(Solver *s, OdeFunction f, void *context, double t, const do
     s->rhs_evaluations++;
 }
 
-void solver_init(Solver *s, double *work, int method, int n, int n_second_order, double rtol, double atol,
-                 double fixed_step, int phase, const double *y0) {
+void solver_init(Solver *s, double *work, int method, int n, int n_second_order, int blocks, double rtol,
+                 double atol, double fixed_step, int phase, const double *y0) {
     memset(s, 0, sizeof(*s));
     s->method = method;
     s->n = n;
     s->n_second_order = n_second_order;
+    s->block = n / blocks;
     s->rtol = rtol;
     s->atol = atol;
     s->fixed_step = fixed_step;
     s->phase = phase;
     s->norm_size = n;
     memset(work, 0, SOLVER_WORKSPACE_SIZE(n) * sizeof(double));
-    memcpy(row(work, n, ROW_Y), y0, (size_t)n * sizeof(double));
-    memcpy(row(work, n, ROW_Y_OLD), y0, (size_t)n * sizeof(double));
+    memcpy(row(work, n, ROW_Y), y0, (size_t)s->block * sizeof(double));
+    memcpy(row(work, n, ROW_Y_OLD), y0, (size_t)s->block * sizeof(double));
+}
+
+double *solver_end_derivative(Solver *s, double *work) {
+    return s->end_derivative_valid ? row(work, s->n, ROW_K + STAGE_END) : NULL;
 }
 
 void solver_set_norm_weights(Solver *s, double *work, const double *weight, double norm_size) {
-    memcpy(row(work, s->n, ROW_WEIGHT), weight, (size_t)s->n * sizeof(double));
+    memset(row(work, s->n, ROW_WEIGHT), 0, (size_t)s->n * sizeof(double));
+    memcpy(row(work, s->n, ROW_WEIGHT), weight, (size_t)s->block * sizeof(double));
     s->weighted = 1;
     s->norm_size = norm_size;
 }
@@ -540,13 +546,13 @@ static int fsal_pair_step(Solver *s, double *work, OdeFunction f, void *context,
 static int nystrom_step(Solver *s, double *work, OdeFunction f, void *context, double t_limit, char *message,
                         size_t message_size) {
     const NystromPair *pair = &FINE_RKN5;
-    const int n = s->n, m = s->n_second_order, rest = n - m;
+    const int n = s->n, block = s->block, m = s->n_second_order, rest = block - m;
     const double *y = row(work, n, ROW_Y);
     double *y_new = row(work, n, ROW_SCRATCH), *error = row(work, n, ROW_DENSE);
     double *stage_state = row(work, n, ROW_DENSE + 1);
     const double error_exponent = -1.0 / (4 + 1);
     double h_abs = s->h_next;
-    int rejected = 0, stage, j;
+    int rejected = 0, stage, j, offset;
 
     if (h_abs <= 0.0) h_abs = initial_step(s, work, f, context, t_limit - s->t, 4);
 
@@ -564,42 +570,46 @@ static int nystrom_step(Solver *s, double *work, OdeFunction f, void *context, d
             const int last = stage == NYSTROM_STAGES - 1; /* the seventh stage is at y_new itself */
             const double *a = last ? pair->b : pair->a[stage], *abar = last ? pair->bp : pair->abar[stage];
             double *out = last ? y_new : stage_state;
-            /* x part: x + c h v + h^2 sum a A */
-            rows[0] = y + m;
-            weights[0] = (last ? 1.0 : pair->c[stage]) * h;
-            used = 1;
-            for (j = 0; j < stage && j < NYSTROM_STAGES - 1; j++) {
-                if (a[j] == 0.0) continue;
-                rows[used] = accelerations[j];
-                weights[used++] = h * h * a[j];
+            for (offset = 0; offset < n; offset += block) { /* each block a second-order system of its own */
+                /* x part: x + c h v + h^2 sum a A */
+                rows[0] = y + offset + m;
+                weights[0] = (last ? 1.0 : pair->c[stage]) * h;
+                used = 1;
+                for (j = 0; j < stage && j < NYSTROM_STAGES - 1; j++) {
+                    if (a[j] == 0.0) continue;
+                    rows[used] = accelerations[j] + offset;
+                    weights[used++] = h * h * a[j];
+                }
+                combine_rows(out + offset, y + offset, rows, weights, used, m);
+                /* v and q part: [v, q] + h sum abar [A, G] */
+                used = 0;
+                for (j = 0; j < stage && j < NYSTROM_STAGES - 1; j++) {
+                    if (abar[j] == 0.0) continue;
+                    rows[used] = accelerations[j] + offset;
+                    weights[used++] = h * abar[j];
+                }
+                combine_rows(out + offset + m, y + offset + m, rows, weights, used, rest);
             }
-            combine_rows(out, y, rows, weights, used, m);
-            /* v and q part: [v, q] + h sum abar [A, G] */
-            used = 0;
-            for (j = 0; j < stage && j < NYSTROM_STAGES - 1; j++) {
-                if (abar[j] == 0.0) continue;
-                rows[used] = accelerations[j];
-                weights[used++] = h * abar[j];
-            }
-            combine_rows(out + m, y + m, rows, weights, used, rest);
             evaluate(s, f, context, s->t + (last ? 1.0 : pair->c[stage]) * h, out,
                      row(work, n, last ? ROW_K + STAGE_END : ROW_K + stage));
         }
         /* the error estimate */
-        used = 0;
-        for (j = 0; j < NYSTROM_STAGES; j++) {
-            if (pair->btilde[j] == 0.0) continue;
-            rows[used] = accelerations[j];
-            weights[used++] = h * h * pair->btilde[j];
+        for (offset = 0; offset < n; offset += block) {
+            used = 0;
+            for (j = 0; j < NYSTROM_STAGES; j++) {
+                if (pair->btilde[j] == 0.0) continue;
+                rows[used] = accelerations[j] + offset;
+                weights[used++] = h * h * pair->btilde[j];
+            }
+            combine_rows(error + offset, NULL, rows, weights, used, m);
+            used = 0;
+            for (j = 0; j < NYSTROM_STAGES; j++) {
+                if (pair->bptilde[j] == 0.0) continue;
+                rows[used] = accelerations[j] + offset;
+                weights[used++] = h * pair->bptilde[j];
+            }
+            combine_rows(error + offset + m, NULL, rows, weights, used, rest);
         }
-        combine_rows(error, NULL, rows, weights, used, m);
-        used = 0;
-        for (j = 0; j < NYSTROM_STAGES; j++) {
-            if (pair->bptilde[j] == 0.0) continue;
-            rows[used] = accelerations[j];
-            weights[used++] = h * pair->bptilde[j];
-        }
-        combine_rows(error + m, NULL, rows, weights, used, rest);
         if (step_accepted(s, error_norm_of(s, work, y, y_new, error), error_exponent, y_new, &h_abs, &rejected)) {
             accept(s, work, h);
             return 0;
@@ -627,9 +637,12 @@ static int fixed_step(Solver *s, double *work, OdeFunction f, void *context, dou
         evaluate(s, f, context, s->t + h, stage_state, k4);
         for (i = 0; i < n; i++) y_new[i] = y[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
     } else {
-        /* velocities first with the old forces, then positions with the new velocities */
-        for (i = m; i < n; i++) y_new[i] = y[i] + h * k1[i];
-        for (i = 0; i < m; i++) y_new[i] = y[i] + h * y_new[m + i];
+        /* velocities first with the old forces, then positions with the new velocities (each block) */
+        int offset;
+        for (offset = 0; offset < n; offset += s->block) {
+            for (i = offset + m; i < offset + s->block; i++) y_new[i] = y[i] + h * k1[i];
+            for (i = offset; i < offset + m; i++) y_new[i] = y[i] + h * y_new[m + i];
+        }
     }
     if (!all_finite(y_new, n)) {
         snprintf(message, message_size,
@@ -643,7 +656,10 @@ static int fixed_step(Solver *s, double *work, OdeFunction f, void *context, dou
         /* the work integrals by the trapezoidal rule: the positions moved with the new velocities, so
          * work taken with the old ones alone would lag the kinetic energy by a whole step */
         const double *k_end = row(work, n, ROW_K + STAGE_END);
-        for (i = 2 * m; i < n; i++) y_new[i] = y[i] + 0.5 * h * (k1[i] + k_end[i]);
+        int offset;
+        for (offset = 0; offset < n; offset += s->block) {
+            for (i = offset + 2 * m; i < offset + s->block; i++) y_new[i] = y[i] + 0.5 * h * (k1[i] + k_end[i]);
+        }
     }
     accept(s, work, h);
     return 0;
@@ -710,18 +726,20 @@ void solver_prepare_dense(Solver *s, double *work, OdeFunction f, void *context)
     if (s->method == SOLVER_RKN5) {
         /* x: the quintic Hermite's top coefficients (c3, c4, c5 of x0 + h v0 s + h^2 A0 s^2 / 2 + ...) in the
          * first m entries of the first three rows; q: the cubic Hermite in the entries past 2m */
-        const int m = s->n_second_order;
-        int i;
-        for (i = 0; i < m; i++) {
-            const double v0 = y_old[m + i], v1 = y[m + i], a0 = f_old[m + i], a1 = f_new[m + i];
-            const double r0 = (y[i] - y_old[i]) - h * v0 - 0.5 * h * h * a0;
-            const double r1 = h * (v1 - v0) - h * h * a0, r2 = h * h * (a1 - a0);
-            dense[0][i] = 10.0 * r0 - 4.0 * r1 + 0.5 * r2;
-            dense[1][i] = -15.0 * r0 + 7.0 * r1 - r2;
-            dense[2][i] = 6.0 * r0 - 3.0 * r1 + 0.5 * r2;
+        const int m = s->n_second_order, block = s->block;
+        int i, o;
+        for (o = 0; o < n; o += block) { /* each block: its positions, then its rest past 2m */
+            for (i = o; i < o + m; i++) {
+                const double v0 = y_old[m + i], v1 = y[m + i], a0 = f_old[m + i], a1 = f_new[m + i];
+                const double r0 = (y[i] - y_old[i]) - h * v0 - 0.5 * h * h * a0;
+                const double r1 = h * (v1 - v0) - h * h * a0, r2 = h * h * (a1 - a0);
+                dense[0][i] = 10.0 * r0 - 4.0 * r1 + 0.5 * r2;
+                dense[1][i] = -15.0 * r0 + 7.0 * r1 - r2;
+                dense[2][i] = 6.0 * r0 - 3.0 * r1 + 0.5 * r2;
+            }
+            hermite_coefficients(y_old + o + 2 * m, y + o + 2 * m, f_old + o + 2 * m, f_new + o + 2 * m, h,
+                                 block - 2 * m, dense[0] + o + 2 * m, dense[1] + o + 2 * m, dense[2] + o + 2 * m);
         }
-        hermite_coefficients(y_old + 2 * m, y + 2 * m, f_old + 2 * m, f_new + 2 * m, h, n - 2 * m, dense[0] + 2 * m,
-                             dense[1] + 2 * m, dense[2] + 2 * m);
         s->dense_power = DENSE_NYSTROM;
         return;
     }
@@ -769,16 +787,18 @@ double solver_interpolate(const Solver *s, const double *work, int component, do
     int r;
     if (t == s->t) return work[(size_t)ROW_Y * n + i];
     if (s->dense_power == DENSE_NYSTROM) {
-        const size_t m = (size_t)s->n_second_order, position = i < m ? i : i - m;
+        /* within its block (at offset): position or rate of position `position`, or past 2m the rest */
+        const size_t block = (size_t)s->block, offset = i / block * block, local = i - offset;
+        const size_t m = (size_t)s->n_second_order, position = offset + (local < m ? local : local - m);
         const double *coefficients = work + (size_t)ROW_DENSE * n + position; /* c3, c4, c5 of the position */
         const double h = s->h_last, v0 = work[(size_t)ROW_Y_OLD * n + m + position];
         const double a0 = work[(size_t)ROW_K * n + m + position];
         const double c3 = coefficients[0], c4 = coefficients[n], c5 = coefficients[2 * n];
-        if (i >= 2 * m) {
+        if (local >= 2 * m) {
             value = (((dense[2 * n] * x + dense[n]) * x1 + dense[0]) * x);
             return work[(size_t)ROW_Y_OLD * n + i] + value;
         }
-        if (i < m) {
+        if (local < m) {
             return work[(size_t)ROW_Y_OLD * n + i] +
                    x * (h * v0 + x * (0.5 * h * h * a0 + x * (c3 + x * (c4 + x * c5))));
         }

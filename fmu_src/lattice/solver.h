@@ -39,6 +39,8 @@ typedef struct {
     int method;         /* enum Solver */
     int n;              /* state size */
     int n_second_order; /* y[0..m) are positions whose rates are y[m..2m) (semi-implicit Euler needs it) */
+    int block; /* n, or n / 2 for a state of two blocks laid out alike (a forward sensitivity after its state):
+                  the positions and their rates above are those of each block */
     double rtol, atol, fixed_step;
     int phase;
     double t;            /* time of the current state */
@@ -56,14 +58,24 @@ typedef struct {
 /* The state at s->t (the first row of the workspace). */
 const double *solver_state(const double *work);
 
-void solver_init(Solver *s, double *work, int method, int n, int n_second_order, double rtol, double atol,
-                 double fixed_step, int phase, const double *y0);
+/* blocks: 1, or 2 for a state of two blocks of n / 2 each, [positions, rates, rest] both (the Nystrom pair and
+ * semi-implicit Euler take each block as the second-order system it is; the others see n components). */
+void solver_init(Solver *s, double *work, int method, int n, int n_second_order, int blocks, double rtol,
+                 double atol, double fixed_step, int phase, const double *y0);
+/* y0 is the first block's start; a second block starts at 0. */
 
 /* Weights of the components in the error norms, a root mean square over norm_size components: how a reduced
  * state (the upper half of a mirror-symmetric lattice, a lattice without its y components) keeps the step-size
  * control of the whole one, each of its components standing for weight[i] of the whole state's and the
- * components it leaves out (known to be 0, so without error) still counted in norm_size. Before the first step. */
+ * components it leaves out (known to be 0, so without error) still counted in norm_size. weight holds the first
+ * block's; a second block weighs 0 (outside the error control: it takes the first block's steps). Before the
+ * first step. */
 void solver_set_norm_weights(Solver *s, double *work, const double *weight, double norm_size);
+
+/* The derivative f(y) at the current state that the next step will take as its first stage, or NULL when it
+ * will evaluate it afresh: a caller that changed a part of the state (the sensitivity block at an event)
+ * corrects that part of it. */
+double *solver_end_derivative(Solver *s, double *work);
 
 /* Changes the phase at the current time (the right-hand side changes there). */
 void solver_set_phase(Solver *s, int phase);
