@@ -146,11 +146,22 @@ class MaterialTable:
         return masses_per_column * math.fsum(self.materials[number - 1].mass for number in order)
 
     def sha256(self) -> str:
-        """A fingerprint of the table's names and values (exact float bits), for journals and file names. A
-        column with a default that every row leaves at it is not part of it, so a table keeps its fingerprint
-        whether or not its file spells such a column out."""
+        """A fingerprint of the table's names, values (exact float bits) and co-design bounds, for journals and
+        file names. A column with a default that every row leaves at it is not part of it, nor are bounds no row
+        gives, so a table keeps its fingerprint whether or not its file spells such a column out."""
         names = [f.name for f in FIELDS if f.required or any(getattr(m, f.name) != f.default for m in self.materials)]
-        text = json.dumps([[m.name] + [float(getattr(m, f)).hex() for f in names] for m in self.materials])
+        rows: list[list] = [[m.name] + [float(getattr(m, f)).hex() for f in names] for m in self.materials]
+        if self.bounds:
+            rows.append(
+                [
+                    [
+                        [name, None if low is None else low.hex(), None if high is None else high.hex()]
+                        for name, low, high in row
+                    ]
+                    for row in self.bounds
+                ]
+            )
+        text = json.dumps(rows)
         return hashlib.sha256(text.encode()).hexdigest()
 
     @classmethod

@@ -37,6 +37,21 @@ def test_a_csv_table_round_trips_exactly(tmp_path):
     assert again.sha256() == table.sha256()
 
 
+def test_a_tables_fingerprint_names_its_bounds_and_only_when_a_row_gives_them():
+    """A study file's recorded fingerprint notices a changed co-design bound; a table without bounds keeps the
+    fingerprint it has always had."""
+    rows = [
+        {"name": "foam", "k": 20.0, "k_diag": 10.0, "c": 1.0, "alpha": 8.0, "alpha_diag": 8.0},
+        {"name": "steel", "k": 900.0, "k_diag": 450.0, "c": 9.0, "alpha": 12.0, "alpha_diag": 11.0},
+    ]
+    plain = MaterialTable.from_rows(rows)
+    bounded = MaterialTable.from_rows([{**rows[0], "k_min": 10.0, "k_max": 40.0}, rows[1]])
+    wider = MaterialTable.from_rows([{**rows[0], "k_min": 10.0, "k_max": 41.0}, rows[1]])
+    assert plain.materials == bounded.materials == wider.materials
+    assert len({plain.sha256(), bounded.sha256(), wider.sha256()}) == 3
+    assert MaterialTable.from_rows([dict(row) for row in rows]).sha256() == plain.sha256()
+
+
 def test_toml_and_json_give_the_same_table(tmp_path):
     rows = [
         {"name": "foam", "k": 20.0, "k_diag": 10.0, "c": 1.0, "alpha": 8.0, "alpha_diag": 8.0},
