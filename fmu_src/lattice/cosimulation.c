@@ -245,7 +245,9 @@ static double backplate_force_at(Model *m, double t) { return backplate_force_of
 /* d backplate force / d epsilon at time t of the last step: k_w dux + c_w dvx (the damper while approaching)
  * over the column-C masses in contact, each as often as it stands in the whole lattice. */
 static double backplate_force_derivative_at(Model *m, double t) {
-    double ux[N_FACE_MASSES], vx[N_FACE_MASSES], dux[N_FACE_MASSES], dvx[N_FACE_MASSES], sum = 0.0;
+    /* zeroed: the compiler cannot see that the second loop reads only what the first wrote */
+    double ux[N_FACE_MASSES] = {0.0}, vx[N_FACE_MASSES] = {0.0};
+    double dux[N_FACE_MASSES] = {0.0}, dvx[N_FACE_MASSES] = {0.0}, sum = 0.0;
     const int vx_base = solver_vx_base(m), block = m->cs.solver.block;
     int f;
     if (!m->params.has_backplate) return 0.0;
