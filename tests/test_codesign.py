@@ -10,6 +10,7 @@ its peak.
 from __future__ import annotations
 
 import itertools
+import html
 import json
 import math
 import re
@@ -216,6 +217,9 @@ def test_a_co_design_answer_carries_its_columns_and_mass_and_fmpy_gives_its_peak
     report = (out / "report.html").read_text()
     assert "Each layer (co-design" in report and "first-order optimality of the minimax problem" in report
     assert searched_by in report
+    search = "pymoo's mixed-variable GA" if method == "mixed-ga" else "CMA-ES"
+    found = f"found by co-design: {search} over the order and the factors together, then SLSQP on the epigraph"
+    assert found in printed and found in html.unescape(report)  # credited to the search that ran
     codesign = record["steps"]["codesign"]["answers"][0]
     assert codesign["search_method"] == method and 0 < codesign["search_evaluations"] <= 150
     assert answer["total_mass"] <= codesign["mass_budget"] * (1 + 1e-9)

@@ -37,7 +37,7 @@ FOUND_BY_SWEEP = "this run's exhaustive sweep"
 FOUND_BY_DESCENT = "the final descent from the runs' best"
 FOUND_BY_KNOWN = "the recorded known optimum, evaluated among the finalists"
 FOUND_BY_FINALISTS = "the finalists at full fidelity"
-FOUND_BY_CODESIGN = "co-design: CMA-ES over the order and the factors together, then SLSQP on the factors"
+FOUND_BY_CODESIGN = "co-design:"  # how a co-design answer was found begins so (its step says the rest)
 STUDY_MODEL_ROLE = "the study's model: reproduces its published numbers"
 
 
@@ -91,13 +91,20 @@ class Evidence:
         """Fewer than half the runs reached the answer (and nothing else settles it)."""
         return self.runs > 0 and 2 * self.runs_reaching < self.runs and self.status != CERTIFIED
 
+    @property
+    def co_designed(self) -> bool:
+        """The answer is a co-design's: no search or sweep of the orders reached its design."""
+        return self.found_by.startswith(FOUND_BY_CODESIGN)
+
     def origin(self) -> str:
         """Where the answer came from and how many runs reached it on their own, in one phrase (the console's
         and the report's): a count of runs is never read as the answer's only source."""
+        if self.found_by.startswith(
+            FOUND_BY_CODESIGN
+        ):  # no search, nor the sweep of orders, reaches a design of its own
+            return f"found by {self.found_by}"
         if self.swept and not self.runs:
             return "every design swept"
-        if self.found_by == FOUND_BY_CODESIGN:  # no search run of the order alone reaches a design of its own
-            return f"found by {self.found_by}"
         only = "only " if self.few_runs else ""
         if self.found_by == FOUND_BY_RUNS:
             return f"{only}{self.runs_reaching} of {self.runs} runs reached it"
@@ -421,7 +428,7 @@ def with_codesign(answer: Answer, found, context: StudyContext, rule) -> Answer:
                 f"co-design within {found.mass_budget:.6g} kg; the order search's answer "
                 f"{list(found.start_order)} at the table's values: {found.start_peak:.4f}"
             ),
-            found_by=FOUND_BY_CODESIGN,
+            found_by=found.found_by,
             runs_reaching=0,
             local_optimum=None,
             local_unchecked="the order's neighbours are checked at the table's values, not at the co-design's",

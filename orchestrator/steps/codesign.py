@@ -122,6 +122,19 @@ class CoDesignAnswer:
     def improvement(self) -> float:
         return self.start_peak - self.peak
 
+    @property
+    def found_by(self) -> str:
+        """How the design was found, in one phrase (the answer's evidence): the search that ran and what the polish
+        did, so an answer is never credited to a method that did not run."""
+        search = "pymoo's mixed-variable GA" if self.search_method == MIXED_GA else "CMA-ES"
+        if self.polish is None:
+            return f"co-design: {search} over the order and the factors together, not polished"
+        met = "met" if self.polish.converged else "not met"
+        return (
+            f"co-design: {search} over the order and the factors together, then SLSQP on the epigraph of the sampled "
+            f"peak (first-order conditions {met})"
+        )
+
 
 @dataclass(frozen=True)
 class FrontLayer:
