@@ -16,6 +16,7 @@ OUT.partial/journal.jsonl for --resume.
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 
@@ -236,11 +237,18 @@ def print_answer(outcome) -> None:
                 )
                 + " (search fidelity)"
             )
+        for choice in front.chosen:
+            peak, mass = (choice.design.full_values or (math.nan, math.nan))[:2]
+            print(
+                f"  {choice.label}: {list(choice.design.point.order)} with tailored layers, "
+                f"{peak:.2f} {unit} at {mass:.2f} kg ({choice.design_file})"
+            )
     from orchestrator.steps.pareto import BEST_DESIGN_FILE, best_design
 
     best = best_design(study)
     if best is not None:
-        print(f"{BEST_DESIGN_FILE}: the knee of the {best.diagonal_rule} rule's front, {list(best.order)}")
+        among = " among the orders at the table's values" if codesign is not None and codesign.fronts else ""
+        print(f"{BEST_DESIGN_FILE}: the knee of the {best.diagonal_rule} rule's front{among}, {list(best.order)}")
     exported = study.result(OptunaExport)
     if exported is not None and exported.error is None:
         print(

@@ -638,6 +638,11 @@ class Step:
         """(file name, design, diagonal rule) of each design file the report writes for this step."""
         return []
 
+    def design_parameters(self, study: "StudyResult") -> dict[str, dict[str, float]]:
+        """The material properties (FMU parameters ``k[3]`` ...) each of ``design_files`` sets away from the
+        table, by file name: a co-design's layers."""
+        return {}
+
     def verdict(self, result: Any, study: "StudyResult") -> Verdict:
         """What this step's ``result`` (None: the step did not run) says of the study's answer."""
         return SILENT

@@ -20,6 +20,7 @@ from builder.rendering import add_templates
 
 from ..records import to_record
 from ..steps.answers import Answers
+from ..steps.codesign import CoDesign
 from ..steps.exhaustive import Exhaustive
 from ..steps.pareto import BEST_DESIGN_FILE, Pareto, best_design
 from ..steps.searches import Searches, draw_convergence
@@ -187,7 +188,7 @@ def write_design_files(study: StudyResult, out: Path, steps, materials) -> dict[
         if study.result(type(step)) is None:
             continue
         for name, order, rule in step.design_files(study):
-            own = varied.get(name, {}) if isinstance(step, Answers) else {}
+            own = varied.get(name, {}) if isinstance(step, Answers) else step.design_parameters(study).get(name, {})
             write_design_file(study, out, name, order, rule, materials, refused, own)
     return refused
 
@@ -299,6 +300,7 @@ def write_report(study: StudyResult, out: str | Path, steps, materials=None) -> 
         certificates=certificates,
         known=known,
         pareto=study.result(Pareto),
+        codesign=study.result(CoDesign),
         starts=study.result(Starts),
         best_design=best_design(study),
         best_design_file=BEST_DESIGN_FILE,

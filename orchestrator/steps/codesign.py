@@ -10,7 +10,10 @@ never above the order search's answer.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
 
 from ..codesign import (
     DEFAULT_RANGE,
@@ -37,7 +40,7 @@ from ..simulation import declared_parameters, model_description
 from ..study import Step, StudyContext
 from ..types import RunOutputs
 from .final_descent import rule_best
-from .pareto import Pareto
+from .pareto import Pareto, knee
 from .searches import rule_label
 
 MASS_OUTPUT = "stack_mass"
@@ -145,6 +148,20 @@ class FrontLayer:
     columns: tuple[ColumnProperties, ...]
     search_values: tuple[float, ...]
     full_values: tuple[float, ...] | None
+    varied: dict[str, float] = field(default_factory=dict)  # the FMU parameters it sets away from the table
+
+
+@dataclass(frozen=True)
+class FrontChoice:
+    """A design of a co-design front to look at first (its lowest peak, its knee, its lightest), with the design
+    file that sets its order and its layers' properties."""
+
+    label: str
+    design: FrontLayer
+    design_file: str
+
+
+FRONT_CHOICES = (("lowest peak", "lowest_peak"), ("the knee", "knee"), ("lightest", "lightest"))
 
 
 @dataclass(frozen=True)
@@ -155,6 +172,27 @@ class RuleFront:
     mass_range: tuple[float, float] = (0.0, 0.0)  # kg: the lightest stack the factors allow and the front's upper end
     evaluated_masses: tuple[float, float] = (0.0, 0.0)  # kg: the lightest and heaviest design evaluated within it
     seeds: tuple[FrontSeed, ...] = ()  # the CMA-ES runs within each --front-budgets budget that seeded NSGA-II
+    chosen: tuple[FrontChoice, ...] = ()  # at full fidelity: the designs the report's first screen shows
+
+
+def front_choices(label: str, designs: Sequence[FrontLayer]) -> tuple[FrontChoice, ...]:
+    """The front's lowest peak, its knee (``pareto.knee``: where more mass stops buying much less force) and its
+    lightest design, by their full-fidelity values (a design chosen twice is listed once, under its first name)."""
+    valued = [d for d in designs if d.full_values is not None]
+    if not valued:
+        return ()
+    values = np.array([d.full_values for d in valued])
+    picks = {
+        "lowest_peak": int(np.argmin(values[:, 0])),
+        "knee": knee(values[:, :2]),
+        "lightest": int(np.argmin(values[:, 1])),
+    }
+    chosen: dict[int, FrontChoice] = {}
+    for name, slug in FRONT_CHOICES:
+        index = picks[slug]
+        if index not in chosen:
+            chosen[index] = FrontChoice(name, valued[index], f"design_codesign_{label}_{slug}.ssp")
+    return tuple(chosen.values())
 
 
 @dataclass(frozen=True)
@@ -310,13 +348,20 @@ class CoDesign(Step):
                 mass_budget=space.mass_budget,
                 refine=polished,
             )
+            layers = tuple(
+                FrontLayer(
+                    d.point,
+                    space.columns_of(d.point),
+                    d.search_values,
+                    d.full_values,
+                    varied_parameters(space, d.point),
+                )
+                for d in front.designs
+            )
             fronts.append(
                 RuleFront(
                     rule_label(rule),
-                    tuple(
-                        FrontLayer(d.point, space.columns_of(d.point), d.search_values, d.full_values)
-                        for d in front.designs
-                    ),
+                    layers,
                     front.evaluations,
                     front.mass_range,
                     (
@@ -325,9 +370,22 @@ class CoDesign(Step):
                         else (0.0, 0.0)
                     ),
                     front.seeds,
+                    front_choices(rule_label(rule), layers),
                 )
             )
         return CoDesignResult(space.names, (space.low, space.high), (), tuple(fronts))
+
+    def design_files(self, study):
+        result = study.result(type(self))
+        return [
+            (c.design_file, c.design.point.order, f.diagonal_rule)
+            for f in (result.fronts if result else ())
+            for c in f.chosen
+        ]
+
+    def design_parameters(self, study) -> dict[str, dict[str, float]]:
+        result = study.result(type(self))
+        return {c.design_file: dict(c.design.varied) for f in (result.fronts if result else ()) for c in f.chosen}
 
     def cost_note(self, context: StudyContext) -> str:
         return (
@@ -363,4 +421,13 @@ def varied_parameters(space: CoDesignSpace, point: CoDesignPoint) -> dict[str, f
     return varied
 
 
-__all__ = ["CoDesign", "CoDesignAnswer", "CoDesignConfig", "CoDesignResult", "FrontLayer", "RuleFront"]
+__all__ = [
+    "CoDesign",
+    "CoDesignAnswer",
+    "CoDesignConfig",
+    "CoDesignResult",
+    "FrontChoice",
+    "FrontLayer",
+    "RuleFront",
+    "front_choices",
+]
