@@ -20,7 +20,7 @@ from ..objective import FULL, SEARCH
 from ..plate_picture import draw_plate_answers
 from ..study import PROJECTILE, Step, StudyContext, Verdict
 from ..types import Evaluation, Order, RunOutputs
-from .codesign import CoDesign
+from .codesign import FOUND_BY_CODESIGN, CoDesign
 from .final_descent import FinalDescent, rule_best
 from .exhaustive import FULL_ERROR, Exhaustive, SweepCost, objective_covered, sweep_cost
 from .finalists import Finalists, best_of, finalist_orders
@@ -37,7 +37,6 @@ FOUND_BY_SWEEP = "this run's exhaustive sweep"
 FOUND_BY_DESCENT = "the final descent from the runs' best"
 FOUND_BY_KNOWN = "the recorded known optimum, evaluated among the finalists"
 FOUND_BY_FINALISTS = "the finalists at full fidelity"
-FOUND_BY_CODESIGN = "co-design:"  # how a co-design answer was found begins so (its step says the rest)
 STUDY_MODEL_ROLE = "the study's model: reproduces its published numbers"
 
 

@@ -10,7 +10,7 @@ never above the order search's answer.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -44,6 +44,7 @@ from .pareto import Pareto, knee
 from .searches import rule_label
 
 MASS_OUTPUT = "stack_mass"
+FOUND_BY_CODESIGN = "co-design:"  # how a co-design answer was found begins so (Evidence.found_by)
 CMAES = "cmaes"
 MIXED_GA = "mixed-ga"
 CODESIGN_METHODS = (CMAES, MIXED_GA)
@@ -131,11 +132,11 @@ class CoDesignAnswer:
         did, so an answer is never credited to a method that did not run."""
         search = "pymoo's mixed-variable GA" if self.search_method == MIXED_GA else "CMA-ES"
         if self.polish is None:
-            return f"co-design: {search} over the order and the factors together, not polished"
+            return f"{FOUND_BY_CODESIGN} {search} over the order and the factors together, not polished"
         met = "met" if self.polish.converged else "not met"
         return (
-            f"co-design: {search} over the order and the factors together, then SLSQP on the epigraph of the sampled "
-            f"peak (first-order conditions {met})"
+            f"{FOUND_BY_CODESIGN} {search} over the order and the factors together, then SLSQP on the epigraph of "
+            f"the sampled peak (first-order conditions {met})"
         )
 
 
@@ -148,7 +149,6 @@ class FrontLayer:
     columns: tuple[ColumnProperties, ...]
     search_values: tuple[float, ...]
     full_values: tuple[float, ...] | None
-    varied: dict[str, float] = field(default_factory=dict)  # the FMU parameters it sets away from the table
 
 
 @dataclass(frozen=True)
@@ -159,6 +159,7 @@ class FrontChoice:
     label: str
     design: FrontLayer
     design_file: str
+    varied: dict[str, float]  # the FMU parameters the design sets away from the table (its design file's)
 
 
 FRONT_CHOICES = (("lowest peak", "lowest_peak"), ("the knee", "knee"), ("lightest", "lightest"))
@@ -175,7 +176,7 @@ class RuleFront:
     chosen: tuple[FrontChoice, ...] = ()  # at full fidelity: the designs the report's first screen shows
 
 
-def front_choices(label: str, designs: Sequence[FrontLayer]) -> tuple[FrontChoice, ...]:
+def front_choices(space: CoDesignSpace, label: str, designs: Sequence[FrontLayer]) -> tuple[FrontChoice, ...]:
     """The front's lowest peak, its knee (``pareto.knee``: where more mass stops buying much less force) and its
     lightest design, by their full-fidelity values (a design chosen twice is listed once, under its first name)."""
     valued = [d for d in designs if d.full_values is not None]
@@ -191,7 +192,10 @@ def front_choices(label: str, designs: Sequence[FrontLayer]) -> tuple[FrontChoic
     for name, slug in FRONT_CHOICES:
         index = picks[slug]
         if index not in chosen:
-            chosen[index] = FrontChoice(name, valued[index], f"design_codesign_{label}_{slug}.ssp")
+            design = valued[index]
+            chosen[index] = FrontChoice(
+                name, design, f"design_codesign_{label}_{slug}.ssp", varied_parameters(space, design.point)
+            )
     return tuple(chosen.values())
 
 
@@ -349,14 +353,7 @@ class CoDesign(Step):
                 refine=polished,
             )
             layers = tuple(
-                FrontLayer(
-                    d.point,
-                    space.columns_of(d.point),
-                    d.search_values,
-                    d.full_values,
-                    varied_parameters(space, d.point),
-                )
-                for d in front.designs
+                FrontLayer(d.point, space.columns_of(d.point), d.search_values, d.full_values) for d in front.designs
             )
             fronts.append(
                 RuleFront(
@@ -370,7 +367,7 @@ class CoDesign(Step):
                         else (0.0, 0.0)
                     ),
                     front.seeds,
-                    front_choices(rule_label(rule), layers),
+                    front_choices(space, rule_label(rule), layers),
                 )
             )
         return CoDesignResult(space.names, (space.low, space.high), (), tuple(fronts))
@@ -385,7 +382,7 @@ class CoDesign(Step):
 
     def design_parameters(self, study) -> dict[str, dict[str, float]]:
         result = study.result(type(self))
-        return {c.design_file: dict(c.design.varied) for f in (result.fronts if result else ()) for c in f.chosen}
+        return {c.design_file: dict(c.varied) for f in (result.fronts if result else ()) for c in f.chosen}
 
     def cost_note(self, context: StudyContext) -> str:
         return (
